@@ -1,0 +1,33 @@
+# The two commands a user needs: `make demo` and `make test`.
+# Both set up whatever is missing first: Debian's ngspice, a virtual environment, the package.
+VENV    ?= .venv
+PY      := $(VENV)/bin/python
+STAMP   := $(VENV)/.installed
+DEBS    := ngspice libngspice0 libngspice0-dev
+SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+DEMO_OUT ?= demo-output
+
+.PHONY: demo test setup system-deps netlists bench clean
+
+demo: setup
+	$(VENV)/bin/creepcomp demo --out $(DEMO_OUT)
+
+test: setup
+	$(PY) -m pytest -q
+
+setup: system-deps $(STAMP)
+
+system-deps:
+	@dpkg -s $(DEBS) >/dev/null 2>&1 || { \
+	  echo "installing $(DEBS) from Debian"; \
+	  $(SUDO) apt-get update -q && \
+	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -q $(DEBS); }
+
+$(STAMP): pyproject.toml
+	python3 -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e '.[test]'
+	touch $(STAMP)
+
+clean:
+	rm -rf $(VENV) $(DEMO_OUT) .pytest_cache .hypothesis

@@ -1,0 +1,40 @@
+"""The ``creepcomp`` command: a thin Typer layer over the Python API (``cli.md``).
+
+Each subcommand lives in its own module and registers itself on :data:`app`.
+Errors in the user's input become one line on stderr and exit status 2.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import typer
+from typer.exceptions import Abort, Exit, TyperException
+
+from ..errors import CreepcompError
+from .common import app, fail
+
+# Subcommand modules register themselves on import.
+from . import size as _size  # noqa: E402,F401
+from . import demo as _demo  # noqa: E402,F401
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the console script; returns the exit status."""
+    command = typer.main.get_command(app)
+    try:
+        command.main(args=argv, prog_name="creepcomp", standalone_mode=False)
+    except TyperException as exc:
+        return fail(exc.format_message(), getattr(exc, "exit_code", 2) or 2)
+    except CreepcompError as exc:
+        return fail(str(exc))
+    except Exit as exc:
+        return exc.exit_code
+    except (Abort, KeyboardInterrupt):
+        return fail("interrupted", 130)
+    return 0
+
+
+def run() -> None:
+    """Console-script wrapper: exits with :func:`main`'s status."""
+    sys.exit(main())

@@ -1,0 +1,66 @@
+"""Shared pieces of the command line: the Typer app, the consoles, value parsing, output."""
+
+from __future__ import annotations
+
+import sys
+
+import typer
+from rich.console import Console
+
+from ..errors import InputError
+from ..files import to_json
+from ..units import parse_quantity
+
+app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
+                  help="Remove creep from elastomer-based sensors: size RC correction networks, "
+                       "correct signals digitally, fit and diagnose creep models.")
+console = Console(highlight=False)
+err_console = Console(stderr=True, highlight=False)
+
+
+def fail(message: str, status: int = 2) -> int:
+    """Print one error line on stderr and return the exit status."""
+    err_console.print(f"creepcomp: error: {message}", markup=False, highlight=False, soft_wrap=True)
+    return status
+
+
+def quantity(text: str | None, kind: str, option: str, allow_none: bool = False,
+             positive: bool = False, non_negative: bool = False) -> float | None:
+    """Parse an option value with units; ``none``/``inf`` give None where allowed."""
+    if text is None:
+        return None
+    if allow_none and str(text).strip().lower() in ("none", "inf", "infinite", "open"):
+        return None
+    value = parse_quantity(text, kind, option)
+    if positive and not value > 0:
+        raise InputError(f"{option} = '{text}': must be positive")
+    if non_negative and value < 0:
+        raise InputError(f"{option} = '{text}': must not be negative")
+    return value
+
+
+def value_range(text: str, kind: str, option: str) -> tuple[float, float]:
+    """Parse ``LOW:HIGH`` (e.g. ``1u:100u``) into an ordered, positive pair."""
+    parts = str(text).split(":")
+    if len(parts) != 2:
+        raise InputError(f"{option} = '{text}': expected LOW:HIGH, e.g. 1u:100u")
+    low = quantity(parts[0], kind, option, positive=True)
+    high = quantity(parts[1], kind, option, positive=True)
+    if low > high:
+        raise InputError(f"{option} = '{text}': LOW is above HIGH")
+    return low, high
+
+
+def print_json(obj) -> None:
+    """Print one JSON object on stdout."""
+    sys.stdout.write(to_json(obj) + "\n")
+
+
+def pct(x: float | None, digits: int = 3) -> str:
+    """A fraction as percent, e.g. ``0.0849 %``; tiny values in scientific notation."""
+    if x is None:
+        return "n/a"
+    v = 100.0 * x
+    if v != 0 and abs(v) < 1e-4:
+        return f"{v:.2e} %"
+    return f"{v:.{digits}g} %"

@@ -1,0 +1,48 @@
+"""The demo: the main job on the bundled default sensor (the paper's accelerometer).
+
+Each step prints what it found and writes its files into the output folder; later work adds
+steps to :data:`STEPS`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Callable
+
+from rich.console import Console
+
+from .data import default_sensor
+from .files import write_design
+from .report import plot_design_comparison
+from .sizing import size
+
+
+def step_sizing(out: Path, console: Console) -> None:
+    """Size the default sensor by the paper's rule and exactly; snap; compare; write designs."""
+    model = default_sensor()
+    from .cli.size import render_sizing  # presentation lives with the CLI
+
+    reports = {rule: size(model, rule=rule) for rule in ("paper", "exact")}
+    for rule, report in reports.items():
+        render_sizing(report, title=f"Default sensor, {rule} rule")
+        path = write_design(out / f"design-{rule}.json", report.design_dict())
+        console.print(f"design written to {path}\n")
+    plot = plot_design_comparison(model, {
+        "uncorrected": None,
+        "paper rule, ideal": reports["paper"].ideal,
+        "paper rule, E24/E6": reports["paper"].chosen,
+        "exact rule, E24/E6": reports["exact"].chosen,
+        "exact rule, nearest values": reports["exact"].nearest,
+    }, out / "sizing.png")
+    console.print(f"plot written to {plot}\n")
+
+
+STEPS: list[Callable[[Path, Console], None]] = [step_sizing]
+
+
+def run_demo(out: Path, console: Console) -> None:
+    """Run every demo step, writing into ``out``."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    for step in STEPS:
+        step(out, console)

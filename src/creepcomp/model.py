@@ -1,0 +1,173 @@
+"""The creep model: Prony terms ``G(s) = 1 + sum_k beta_k / (1 + s tau_k)`` (physics.md, section 1)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+import control
+import numpy as np
+
+from .errors import InputError
+from .lti import LagExpansion
+
+
+def _check_number(value, name: str) -> float:
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} = {value!r} is not a number") from None
+    if not math.isfinite(x):
+        raise InputError(f"{name} = {value!r} is not a finite number")
+    return x
+
+
+@dataclass(frozen=True)
+class CreepModel:
+    """Linear creep of a sensor: raw signal = ``offset + gain * G(s) [load]``.
+
+    Parameters
+    ----------
+    beta : tuple of float
+        Relative creep amplitude of each term (may be negative: overshooting sensors).
+    tau : tuple of float
+        Retardation time of each term in seconds.
+    gain : float
+        Instantaneous signal per unit load (signal units / load units).
+    offset : float
+        Signal at zero load.
+    extensions : mapping
+        Fitted extensions of the model (see ``diagnosis.md``), kept as given.
+    """
+
+    beta: tuple[float, ...]
+    tau: tuple[float, ...]
+    gain: float = 1.0
+    offset: float = 0.0
+    extensions: Mapping[str, Any] = field(default_factory=dict, compare=False)
+
+    def __post_init__(self):
+        beta = self.beta if isinstance(self.beta, (list, tuple, np.ndarray)) else [self.beta]
+        tau = self.tau if isinstance(self.tau, (list, tuple, np.ndarray)) else [self.tau]
+        single = len(beta) == 1
+        names = (lambda k: ("beta0", "tau")) if single else (lambda k: (f"beta[{k}]", f"tau[{k}]"))
+        if len(beta) == 0:
+            raise InputError("a creep model needs at least one term (beta and tau)")
+        if len(beta) != len(tau):
+            raise InputError(f"beta has {len(beta)} entries and tau has {len(tau)}: one of each per term")
+        b = tuple(_check_number(x, names(k)[0]) for k, x in enumerate(beta))
+        t = tuple(_check_number(x, names(k)[1]) for k, x in enumerate(tau))
+        for k, (bk, tk) in enumerate(zip(b, t)):
+            if bk == 0:
+                raise InputError(f"{names(k)[0]} = 0: a creep term needs a non-zero amplitude "
+                                 "(with no creep there is nothing to correct)")
+            if tk <= 0:
+                raise InputError(f"{names(k)[1]} = {tk:g} s: retardation times must be positive")
+        if 1.0 + sum(b) <= 0:
+            raise InputError(f"beta0 = {sum(b):g}: creep of -100 % or less would reverse the "
+                             "signal; beta0 must be greater than -1")
+        object.__setattr__(self, "beta", b)
+        object.__setattr__(self, "tau", t)
+        object.__setattr__(self, "gain", _check_number(self.gain, "gain"))
+        object.__setattr__(self, "offset", _check_number(self.offset, "offset"))
+        if self.gain == 0:
+            raise InputError("gain = 0: the sensor would not respond to load")
+
+    @classmethod
+    def voigt(cls, beta0: float, tau: float) -> "CreepModel":
+        """The paper's one-term (Voigt) model."""
+        return cls(beta=(beta0,), tau=(tau,))
+
+    @property
+    def beta0(self) -> float:
+        """Total creep at infinite time relative to the instantaneous signal."""
+        return float(sum(self.beta))
+
+    @property
+    def n_terms(self) -> int:
+        """Number of Prony terms."""
+        return len(self.beta)
+
+    @property
+    def sign(self) -> int:
+        """+1 when all terms creep up, -1 when all overshoot, 0 for mixed signs."""
+        if all(b > 0 for b in self.beta):
+            return 1
+        if all(b < 0 for b in self.beta):
+            return -1
+        return 0
+
+    def lag_expansion(self) -> LagExpansion:
+        """``G(s)`` as a sum of lags: direct gain 1, gains ``beta``, time constants ``tau``."""
+        return LagExpansion(1.0, self.beta, self.tau)
+
+    def transfer_function(self) -> control.TransferFunction:
+        """``G(s)`` as a python-control transfer function (signal per unit instantaneous signal)."""
+        return self.lag_expansion().transfer_function()
+
+    def state_space(self) -> control.StateSpace:
+        """``G(s)`` as a diagonal python-control state-space system."""
+        return self.lag_expansion().state_space()
+
+    def zeros(self) -> np.ndarray:
+        """Zeros of ``G(s)`` (the poles of the ideal correction ``1/G``), in rad/s."""
+        return np.sort_complex(control.zeros(self.transfer_function().minreal()))
+
+    def response(self, time, load, hold: str = "linear", initial="relaxed") -> np.ndarray:
+        """Raw sensor signal for a load history, ``offset + gain * G(s)[load]``.
+
+        Parameters
+        ----------
+        time : array_like
+            Strictly increasing sample times (s), uniform or irregular.
+        load : array_like
+            Load at those times.
+        hold : {"linear", "zero"}
+            Load ramps linearly between samples, or is held from one sample to the next
+            (a step at a sample time then shows no creep at that instant).
+        initial : {"relaxed", "settled"} or array_like
+            ``relaxed``: unloaded before ``time[0]``; ``settled``: held at ``load[0]`` long
+            enough for creep to saturate; or the creep states ``c_k`` in load units.
+
+        Returns
+        -------
+        numpy.ndarray
+        """
+        creep = self.lag_expansion().simulate(time, load, hold=hold, initial=initial)
+        return self.offset + self.gain * creep
+
+    def with_terms(self, beta, tau) -> "CreepModel":
+        """A copy with other Prony terms and the same gain, offset and extensions."""
+        return CreepModel(tuple(beta), tuple(tau), self.gain, self.offset, dict(self.extensions))
+
+    def to_dict(self) -> dict:
+        """Model-file form: ``beta``, ``tau``, ``gain``, ``offset`` and any extensions."""
+        out = {"beta": list(self.beta), "tau": list(self.tau), "gain": self.gain, "offset": self.offset}
+        if self.extensions:
+            out["extensions"] = dict(self.extensions)
+        return out
+
+    @classmethod
+    def from_dict(cls, data: Mapping, where: str = "model") -> "CreepModel":
+        """Read a model-file object (or a design file's ``creep`` block).
+
+        Raises
+        ------
+        InputError
+            Naming ``where`` and the field that is wrong.
+        """
+        if not isinstance(data, Mapping):
+            raise InputError(f"{where}: expected a JSON object with 'beta' and 'tau'")
+        missing = [k for k in ("beta", "tau") if k not in data]
+        if missing:
+            raise InputError(f"{where}: missing {' and '.join(repr(m) for m in missing)} "
+                             f"(found keys: {', '.join(map(str, data)) or 'none'})")
+        beta, tau = data["beta"], data["tau"]
+        if not isinstance(beta, list) or not isinstance(tau, list):
+            raise InputError(f"{where}: 'beta' and 'tau' must be lists, one entry per creep term")
+        try:
+            return cls(tuple(beta), tuple(tau), data.get("gain", 1.0), data.get("offset", 0.0),
+                       dict(data.get("extensions", {}) or {}))
+        except InputError as exc:
+            raise InputError(f"{where}: {exc}") from None

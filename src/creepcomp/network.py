@@ -1,0 +1,302 @@
+"""The correction network: its parts, and its transfer function ``H(s)``.
+
+Topology (physics.md, section 3, generalised): from the sensor (a voltage source behind
+``source_resistance``) a series chain of cells, each a resistor ``R`` in parallel with a
+capacitor ``C`` (``C = 0`` is a plain resistor), to the output; from the output to ground
+``R2`` (optional), the next stage's ``load_resistance`` (optional) and shunt branches, each
+a resistor in series with a capacitor (the lag network for overshooting sensors).
+
+``H(s)`` is written once, as the state-space model of that circuit
+(:func:`state_matrices`); its transfer function, its sum-of-lags form and every simulation
+derive from it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Mapping
+
+import control
+import numpy as np
+
+from .errors import InputError
+from .lti import LagExpansion
+from .model import CreepModel
+
+
+@dataclass(frozen=True)
+class Cell:
+    """Series cell: resistor ``R`` (ohm) in parallel with capacitor ``C`` (farad, 0 = none)."""
+
+    R: float
+    C: float
+
+    def __post_init__(self):
+        object.__setattr__(self, "R", float(self.R))
+        object.__setattr__(self, "C", float(self.C))
+
+
+@dataclass(frozen=True)
+class Branch:
+    """Shunt branch from output to ground: resistor ``R`` (ohm) in series with ``C`` (farad)."""
+
+    R: float
+    C: float
+
+    def __post_init__(self):
+        object.__setattr__(self, "R", float(self.R))
+        object.__setattr__(self, "C", float(self.C))
+
+
+def _positive(value, name: str, allow_zero: bool = False, allow_none: bool = False):
+    if value is None and allow_none:
+        return None
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} = {value!r} is not a number") from None
+    if math.isnan(x) or (x == 0 and not allow_zero) or x < 0:
+        need = "zero or positive" if allow_zero else "positive"
+        raise InputError(f"{name} = {value!r}: must be {need}")
+    if math.isinf(x):
+        if allow_none:
+            return None
+        raise InputError(f"{name} = {value!r}: must be finite")
+    return x
+
+
+@dataclass(frozen=True)
+class Network:
+    """A passive RC correction network between a sensor and the next stage.
+
+    Parameters
+    ----------
+    cells : tuple of Cell
+        Series chain from input to output.
+    R2 : float or None
+        Resistor from output to ground (ohm); None when there is none.
+    shunt : tuple of Branch
+        Series R-C branches from output to ground.
+    source_resistance : float
+        Output resistance of the sensor (ohm).
+    load_resistance : float or None
+        Input resistance of the next stage (ohm); None is infinite.
+    """
+
+    cells: tuple[Cell, ...]
+    R2: float | None
+    shunt: tuple[Branch, ...] = ()
+    source_resistance: float = 0.0
+    load_resistance: float | None = None
+
+    def __post_init__(self):
+        cells = tuple(c if isinstance(c, Cell) else Cell(**c) for c in self.cells)
+        shunt = tuple(b if isinstance(b, Branch) else Branch(**b) for b in self.shunt)
+        for k, c in enumerate(cells):
+            _positive(c.R, f"cells[{k}].R")
+            _positive(c.C, f"cells[{k}].C", allow_zero=True)
+        for j, b in enumerate(shunt):
+            _positive(b.R, f"shunt[{j}].R")
+            _positive(b.C, f"shunt[{j}].C")
+        object.__setattr__(self, "cells", cells)
+        object.__setattr__(self, "shunt", shunt)
+        object.__setattr__(self, "R2", _positive(self.R2, "R2", allow_none=True))
+        object.__setattr__(self, "source_resistance",
+                           _positive(self.source_resistance, "source_resistance", allow_zero=True))
+        object.__setattr__(self, "load_resistance",
+                           _positive(self.load_resistance, "load_resistance", allow_none=True))
+
+    # --- parts -----------------------------------------------------------------------
+    def parts(self) -> list[tuple[str, str, float]]:
+        """The parts as ``(label, kind, value)``, kind ``"R"`` or ``"C"``, in circuit order."""
+        out = []
+        many = len(self.cells) > 1
+        for k, c in enumerate(self.cells, 1):
+            suffix = f".{k}" if many else ""
+            out.append((f"R1{suffix}", "R", c.R))
+            if c.C > 0:
+                out.append((f"C1{suffix}", "C", c.C))
+        if self.R2 is not None:
+            out.append(("R2", "R", self.R2))
+        for j, b in enumerate(self.shunt, 1):
+            suffix = f".{j}" if len(self.shunt) > 1 else ""
+            out.append((f"R3{suffix}", "R", b.R))
+            out.append((f"C3{suffix}", "C", b.C))
+        return out
+
+    def with_parts(self, values) -> "Network":
+        """A copy with part values replaced, given in the order of :meth:`parts`."""
+        values = list(values)
+        it = iter(values)
+        cells = []
+        for c in self.cells:
+            R = next(it)
+            C = next(it) if c.C > 0 else 0.0
+            cells.append(Cell(R, C))
+        R2 = next(it) if self.R2 is not None else None
+        shunt = [Branch(next(it), next(it)) for _ in self.shunt]
+        return replace(self, cells=tuple(cells), R2=R2, shunt=tuple(shunt))
+
+    @property
+    def topology(self) -> str:
+        """``"lead"`` (Foster chain and R2) or ``"lag"`` (series R and shunt branches)."""
+        return "lag" if self.shunt else "lead"
+
+    # --- H(s) --------------------------------------------------------------------------
+    def state_space(self) -> control.StateSpace:
+        """State-space model of ``H(s)``; states are the capacitor voltages."""
+        A, B, C, D, _ = state_matrices(*self.as_arrays())
+        return control.ss(A[0], B[0][:, None], C[0][None, :], [[D[0]]])
+
+    def transfer_function(self) -> control.TransferFunction:
+        """``H(s)`` as a python-control transfer function."""
+        return self.lag_expansion().transfer_function()
+
+    def lag_expansion(self) -> LagExpansion:
+        """``H(s) = D + sum_i r_i / (1 + s p_i)`` (RC networks have real, simple poles)."""
+        d, r, p = modal_form(*state_matrices(*self.as_arrays()))
+        return LagExpansion(float(d[0]), tuple(r[0]), tuple(p[0]))
+
+    def as_arrays(self):
+        """Part values as batch-of-one arrays for :func:`state_matrices`."""
+        cells_R = np.array([[c.R for c in self.cells]])
+        cells_C = np.array([[c.C for c in self.cells]])
+        shunt_R = np.array([[b.R for b in self.shunt]]).reshape(1, -1)
+        shunt_C = np.array([[b.C for b in self.shunt]]).reshape(1, -1)
+        R2 = np.array([np.inf if self.R2 is None else self.R2])
+        return cells_R, cells_C, R2, shunt_R, shunt_C, self.source_resistance, self.load_resistance
+
+    # --- files -------------------------------------------------------------------------
+    def to_dict(self) -> dict:
+        """Design-file keys of the network (``cells``, ``R2``, resistances, ``shunt``)."""
+        out = {"cells": [{"R": c.R, "C": c.C} for c in self.cells], "R2": self.R2,
+               "source_resistance": self.source_resistance,
+               "load_resistance": self.load_resistance}
+        if self.shunt:
+            out["shunt"] = [{"R": b.R, "C": b.C} for b in self.shunt]
+        return out
+
+    @classmethod
+    def from_dict(cls, data: Mapping, where: str = "design") -> "Network":
+        """Read the network keys of a design file.
+
+        Raises
+        ------
+        InputError
+            Naming ``where`` and the key that is wrong.
+        """
+        if not isinstance(data, Mapping):
+            raise InputError(f"{where}: expected a JSON object")
+        for key in ("cells", "R2"):
+            if key not in data:
+                raise InputError(f"{where}: missing '{key}' (found keys: {', '.join(map(str, data))})")
+        cells = data["cells"]
+        if not isinstance(cells, list) or not cells:
+            raise InputError(f"{where}: 'cells' must be a non-empty list of {{\"R\": ..., \"C\": ...}}")
+        try:
+            parsed = []
+            for k, c in enumerate(cells):
+                if not isinstance(c, Mapping) or "R" not in c or "C" not in c:
+                    raise InputError(f"cells[{k}] must be an object with 'R' and 'C'")
+                parsed.append(Cell(_positive(c["R"], f"cells[{k}].R"),
+                                   _positive(c["C"], f"cells[{k}].C", allow_zero=True)))
+            shunt = []
+            for j, b in enumerate(data.get("shunt", []) or []):
+                if not isinstance(b, Mapping) or "R" not in b or "C" not in b:
+                    raise InputError(f"shunt[{j}] must be an object with 'R' and 'C'")
+                shunt.append(Branch(b["R"], b["C"]))
+            return cls(tuple(parsed), data["R2"], tuple(shunt),
+                       data.get("source_resistance", 0.0) or 0.0, data.get("load_resistance"))
+        except InputError as exc:
+            raise InputError(f"{where}: {exc}") from None
+
+
+def state_matrices(cells_R, cells_C, R2, shunt_R, shunt_C, source_resistance=0.0,
+                   load_resistance=None):
+    """State-space matrices of a batch of networks of one topology.
+
+    Parameters
+    ----------
+    cells_R, cells_C : array_like, shape (B, K)
+        Series cells; ``C = 0`` marks a plain resistor (the same cells in every network).
+    R2 : array_like, shape (B,)
+        Output-to-ground resistor, ``inf`` for none.
+    shunt_R, shunt_C : array_like, shape (B, J)
+        Shunt R-C branches.
+    source_resistance : float or array_like, shape (B,)
+        Sensor output resistance.
+    load_resistance : float, array_like of shape (B,), or None
+        Next stage's input resistance (None or ``inf``: none).
+
+    Returns
+    -------
+    A : (B, n, n), B : (B, n), C : (B, n), D : (B,), caps : (B, n)
+        With states the capacitor voltages (cells first, then shunt branches);
+        ``caps`` are the capacitances, which make ``A`` symmetrisable.
+    """
+    cells_R = np.atleast_2d(np.asarray(cells_R, float))
+    cells_C = np.atleast_2d(np.asarray(cells_C, float))
+    shunt_R = np.asarray(shunt_R, float).reshape(cells_R.shape[0], -1)
+    shunt_C = np.asarray(shunt_C, float).reshape(cells_R.shape[0], -1)
+    nb = cells_R.shape[0]
+    R2 = np.broadcast_to(np.asarray(R2, float), (nb,))
+    RL = np.broadcast_to(np.asarray(np.inf if load_resistance is None else load_resistance, float), (nb,))
+    dynamic = cells_C[0] > 0
+    Rs = np.broadcast_to(np.asarray(source_resistance, float), (nb,)) + cells_R[:, ~dynamic].sum(axis=1)
+    Rk, Ck = cells_R[:, dynamic], cells_C[:, dynamic]
+    K, J = Rk.shape[1], shunt_R.shape[1]
+    g = 1.0 / shunt_R                                                   # (B,J)
+    G0 = 1.0 / R2 + 1.0 / RL                                            # (B,)
+    Gt = G0 + g.sum(axis=1)
+    # v_out = a.x + b u;  series current i = Gt v_out - g.w
+    denom = 1.0 + Rs * Gt
+    a = np.concatenate([-np.ones((nb, K)), Rs[:, None] * g], axis=1) / denom[:, None]
+    b = 1.0 / denom
+    i_x = Gt[:, None] * a - np.concatenate([np.zeros((nb, K)), g], axis=1)
+    i_u = Gt * b
+    n = K + J
+    A = np.zeros((nb, n, n))
+    Bv = np.zeros((nb, n))
+    A[:, :K, :] = i_x[:, None, :] / Ck[:, :, None]
+    A[:, np.arange(K), np.arange(K)] -= 1.0 / (Rk * Ck)
+    Bv[:, :K] = i_u[:, None] / Ck
+    if J:
+        gc = g / shunt_C                                                # (B,J)
+        A[:, K:, :] = gc[:, :, None] * a[:, None, :]
+        A[:, K + np.arange(J), K + np.arange(J)] -= gc
+        Bv[:, K:] = gc * b[:, None]
+    caps = np.concatenate([Ck, shunt_C], axis=1)
+    return A, Bv, a, b, caps
+
+
+def modal_form(A, B, C, D, caps):
+    """Sum-of-lags form ``D + sum r_i / (1 + s p_i)`` of a batch of RC networks.
+
+    ``diag(sqrt(caps)) A diag(1/sqrt(caps))`` is symmetric for an RC network, so the
+    decomposition uses a symmetric eigensolver: real poles, orthogonal modes, no loss of
+    accuracy when time constants are close.
+
+    Returns
+    -------
+    direct : (B,), gains : (B, n), taus : (B, n)
+    """
+    s = np.sqrt(caps)
+    M = A * s[:, :, None] / s[:, None, :]
+    asym = np.abs(M - np.swapaxes(M, 1, 2)).max(initial=0.0)
+    scale = np.abs(M).max(initial=1.0)
+    if asym > 1e-9 * scale:
+        raise AssertionError(f"network matrix not symmetrisable (asymmetry {asym:.3g})")
+    lam, V = np.linalg.eigh(0.5 * (M + np.swapaxes(M, 1, 2)))
+    if np.any(lam >= 0):
+        raise InputError("the network has a pole at or right of zero: check its parts")
+    left = np.einsum("bn,bnm->bm", C / s, V)                            # C S^-1 V
+    right = np.einsum("bnm,bn->bm", V, B * s)                           # V^T S B
+    taus = -1.0 / lam
+    return np.asarray(D, float), left * right * taus, taus
+
+
+def parallel(*resistances: float | None) -> float | None:
+    """Parallel combination; None stands for an open circuit."""
+    conductance = sum(1.0 / r for r in resistances if r is not None)
+    return None if conductance == 0 else 1.0 / conductance

@@ -1,0 +1,138 @@
+"""Engineering notation at the edges: parse ``4.7k``, ``10u``, ``45s``, ``3%``; format back.
+
+SI prefixes follow IEC usage (``M`` is mega, ``m`` is milli); ``meg`` is accepted as mega
+for SPICE habits. RKM notation (``4k7``, ``2M2``, ``4R7``) is accepted for resistances.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from decimal import Decimal
+
+from .errors import InputError
+
+# prefix -> power of ten (decimal arithmetic keeps "2.7%" and "4.7u" exact to the last digit)
+PREFIXES = {
+    "p": -12, "n": -9, "u": -6, "µ": -6, "μ": -6, "m": -3,
+    "k": 3, "K": 3, "meg": 6, "Meg": 6, "MEG": 6, "M": 6, "G": 9, "T": 12,
+}
+
+# unit kind -> accepted unit spellings (after the prefix), lower-cased
+UNITS = {
+    "ohm": ("", "ohm", "ohms", "ω", "r"),  # compared lower-cased: "Ω" -> "ω"
+    "farad": ("", "f"),
+    "second": ("", "s", "sec"),
+    "fraction": ("",),
+    "hertz": ("", "hz"),
+    "number": ("",),
+}
+
+TIME_UNITS = {"ms": 1e-3, "min": 60.0, "h": 3600.0, "hour": 3600.0, "d": 86400.0, "day": 86400.0}
+
+_NUMBER = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
+_RKM = re.compile(r"^(\d+)([pnuµμmkKMGRr])(\d+)(ohm|ohms|Ω)?$")
+
+
+def parse_quantity(text: str | float | int, kind: str = "number", name: str = "value") -> float:
+    """Parse a number with optional SI prefix and unit.
+
+    Parameters
+    ----------
+    text : str or float
+        What the user wrote, e.g. ``"4.7k"``, ``"10uF"``, ``"45s"``, ``"2min"``, ``"3%"``.
+    kind : str
+        One of ``ohm``, ``farad``, ``second``, ``fraction``, ``hertz``, ``number``.
+    name : str
+        The option or field name, used in the error message.
+
+    Returns
+    -------
+    float
+        The value in SI units (fractions for ``%`` and ``ppm``).
+
+    Raises
+    ------
+    InputError
+        When the text is not a number in the expected unit, or is NaN or infinite.
+    """
+    if isinstance(text, (int, float)) and not isinstance(text, bool):
+        value = float(text)
+        return _finite(value, name, text)
+    raw = str(text).strip()
+    s = raw.replace(" ", "")
+    if not s:
+        raise InputError(f"{name}: empty value")
+    if s.lower() in ("nan", "inf", "+inf", "-inf", "infinity"):
+        raise InputError(f"{name}: '{raw}' is not a finite number")
+    if kind == "ohm":
+        m = _RKM.match(s)
+        if m:
+            power = 0 if m.group(2) in "Rr" else PREFIXES[m.group(2)]
+            return float(Decimal(f"{m.group(1)}.{m.group(3)}").scaleb(power))
+    m = re.match(rf"^({_NUMBER})(.*)$", s)
+    if not m:
+        raise InputError(f"{name}: cannot read '{raw}' as a number")
+    number = Decimal(m.group(1))
+    rest = m.group(2)
+    if kind in ("fraction", "number") and rest == "%":
+        return _finite(float(number.scaleb(-2)), name, raw)
+    if kind in ("fraction", "number") and rest.lower() == "ppm":
+        return _finite(float(number.scaleb(-6)), name, raw)
+    if kind == "second" and rest in TIME_UNITS:
+        return _finite(float(number) * TIME_UNITS[rest], name, raw)
+    units = UNITS.get(kind, ("",))
+    for prefix in sorted(PREFIXES, key=len, reverse=True):
+        if rest.startswith(prefix) and rest[len(prefix):].lower() in units:
+            return _finite(float(number.scaleb(PREFIXES[prefix])), name, raw)
+    if rest.lower() in units:
+        return _finite(float(number), name, raw)
+    expected = {"ohm": "ohm, e.g. 4.7k, 4k7, 150M", "farad": "farad, e.g. 10u, 4.7uF",
+                "second": "seconds, e.g. 45, 45s, 2min", "fraction": "a fraction, e.g. 0.03 or 3%",
+                "hertz": "hertz, e.g. 10, 1k"}.get(kind, "a plain number")
+    raise InputError(f"{name}: cannot read '{raw}': expected {expected}")
+
+
+def _finite(value: float, name: str, raw) -> float:
+    if not math.isfinite(value):
+        raise InputError(f"{name}: '{raw}' is not a finite number")
+    return value
+
+
+_FORMAT_PREFIXES = [(1e12, "T"), (1e9, "G"), (1e6, "M"), (1e3, "k"), (1.0, ""),
+                    (1e-3, "m"), (1e-6, "µ"), (1e-9, "n"), (1e-12, "p")]
+
+
+def format_quantity(value: float | None, unit: str = "", digits: int = 4) -> str:
+    """Format a value with an SI prefix, e.g. ``format_quantity(4.7e6, "Ω") == "4.7 MΩ"``.
+
+    Parameters
+    ----------
+    value : float or None
+        The value in SI units; None and infinity print as ``none`` / ``∞``.
+    unit : str
+        Unit symbol appended after the prefix.
+    digits : int
+        Significant digits.
+
+    Returns
+    -------
+    str
+    """
+    if value is None:
+        return "none"
+    if math.isinf(value):
+        return f"∞ {unit}".strip()
+    if value == 0:
+        return f"0 {unit}".strip()
+    mag = abs(value)
+    for scale, prefix in _FORMAT_PREFIXES:
+        if mag >= scale * 0.9999999:
+            break
+    text = f"{value / scale:.{digits}g}"
+    return f"{text} {prefix}{unit}".strip()
+
+
+def format_fraction(value: float, digits: int = 3) -> str:
+    """Format a dimensionless fraction in scientific notation with its percent, e.g. ``8.49e-04 (0.0849 %)``."""
+    return f"{value:.{digits - 1}e} ({value * 100:.{digits}g} %)"

@@ -1,0 +1,113 @@
+import control
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from creepcomp.lti import LagExpansion, cascade_step, lag_states
+
+
+def test_step_hold_zero_and_linear_are_exact_for_a_step():
+    t = np.array([0.0, 0.3, 1.0, 2.5, 7.0, 30.0])
+    u = np.ones_like(t)
+    for hold in ("zero", "linear"):
+        c = lag_states(t, u, [2.0], hold=hold)[:, 0]
+        # relaxed start: the input jumped to 1 at t[0]
+        np.testing.assert_allclose(c, -np.expm1(-t / 2.0), rtol=0, atol=1e-15)
+
+
+def test_ramp_is_exact_with_linear_hold_on_irregular_times():
+    rng = np.random.default_rng(1)
+    t = np.cumsum(rng.uniform(0.01, 3.0, 300))
+    t -= t[0]
+    u = 0.7 * t
+    c = lag_states(t, u, [5.0], hold="linear")[:, 0]
+    exact = 0.7 * (t - 5.0 * -np.expm1(-t / 5.0))
+    np.testing.assert_allclose(c, exact, rtol=0, atol=1e-12 * t.max())
+
+
+def test_zero_hold_treats_samples_as_held():
+    t = np.array([0.0, 1.0, 2.0, 3.0])
+    u = np.array([0.0, 1.0, 1.0, 1.0])
+    c = lag_states(t, u, [1.0], hold="zero")[:, 0]
+    np.testing.assert_allclose(c, [0, 0, 1 - np.exp(-1), 1 - np.exp(-2)], atol=1e-15)
+
+
+def test_uniform_matches_python_control_foh():
+    t = np.linspace(0, 200, 2001)
+    u = np.sin(t / 7.0) + (t > 50)
+    lag = LagExpansion(1.0, (0.03, -0.01), (45.0, 5.0))
+    y = lag.simulate(t, u)
+    ref = control.forced_response(lag.state_space(), t, u).outputs
+    np.testing.assert_allclose(y, ref, atol=1e-12)
+
+
+@given(st.integers(0, 2**31), st.sampled_from(["linear", "zero"]))
+def test_inserting_points_on_the_held_input_changes_nothing(seed, hold):
+    """Exactness: states at the original times do not depend on extra samples taken on the
+    input's own interpolant (linear ramp or held value)."""
+    rng = np.random.default_rng(seed)
+    t = np.cumsum(rng.uniform(0.01, 20.0, 60))
+    u = rng.normal(size=t.size)
+    taus = rng.uniform(0.3, 300, 3)
+    extra_t = rng.uniform(t[0], t[-1], 200)
+    idx = np.searchsorted(t, extra_t) - 1
+    if hold == "linear":
+        extra_u = np.interp(extra_t, t, u)
+    else:
+        extra_u = u[idx]
+    both_t = np.concatenate([t, extra_t])
+    both_u = np.concatenate([u, extra_u])
+    order = np.argsort(both_t, kind="stable")
+    both_t, both_u = both_t[order], both_u[order]
+    keep = np.concatenate([[True], np.diff(both_t) > 0])
+    both_t, both_u = both_t[keep], both_u[keep]
+    dense = lag_states(both_t, both_u, taus, hold=hold)
+    sparse = lag_states(t, u, taus, hold=hold)
+    np.testing.assert_allclose(dense[np.searchsorted(both_t, t)], sparse, atol=1e-11)
+
+
+def test_irregular_scan_is_exact_against_per_step_recursion():
+    rng = np.random.default_rng(7)
+    dt = rng.uniform(0.001, 2.0, 5000)
+    dt[100] = 1e4                       # a long gap
+    t = np.concatenate([[0], np.cumsum(dt)])
+    u = rng.normal(size=t.size)
+    taus = np.array([0.05, 3.0, 400.0])
+    got = lag_states(t, u, taus, hold="linear", initial="settled")
+    c = np.full(3, u[0])
+    for n in range(len(dt)):
+        x = dt[n] / taus
+        e = np.exp(-x)
+        g = -np.expm1(-x) / x
+        c = e * c + (g - e) * u[n] + (1 - g) * u[n + 1]
+        np.testing.assert_allclose(got[n + 1], c, rtol=1e-9, atol=1e-12)
+
+
+def test_no_overflow_at_t_over_tau_a_million():
+    t = np.linspace(0, 1e6 * 20.0, 200_001)
+    t[1:] += np.random.default_rng(3).uniform(-1, 1, t.size - 1)   # irregular
+    t.sort()
+    u = np.ones_like(t)
+    c = lag_states(t, u, [20.0])[:, 0]
+    assert np.all(np.isfinite(c))
+    np.testing.assert_allclose(c[-1000:], 1.0, atol=1e-12)
+
+
+def test_cascade_step_handles_coincident_poles():
+    g = LagExpansion(1.0, (0.03,), (45.0,))
+    h = LagExpansion(1.0, (-0.03 / 1.06,), (45.0,))   # pole exactly on the creep's
+    t = np.linspace(0, 900, 901)
+    y = cascade_step(g, h, t)
+    ref = control.step_response(control.series(g.state_space(), h.state_space()), t).outputs
+    np.testing.assert_allclose(y, ref, atol=1e-13)
+
+
+def test_lag_expansion_gains_and_forms_agree():
+    lag = LagExpansion(0.9, (0.05, 0.02), (3.0, 40.0))
+    assert lag.dc_gain == pytest.approx(0.97)
+    w = np.logspace(-4, 2, 50)
+    fr = lag.frequency_response(w)
+    tf = lag.transfer_function()
+    np.testing.assert_allclose(fr, tf(1j * w), rtol=1e-12)
+    np.testing.assert_allclose(lag.step(np.array([0.0, 1e9])), [0.9, 0.97], atol=1e-15)
