@@ -160,7 +160,7 @@ def is_uniform(time) -> bool:
     return len(dt) == 0 or float(np.ptp(dt)) <= UNIFORM_RTOL * float(np.mean(dt))
 
 
-def lag_states(time, u, taus, hold: str = "linear", initial="relaxed") -> np.ndarray:
+def lag_states(time, u, taus, hold: str = "linear", initial="relaxed", u_before=None) -> np.ndarray:
     """States ``c_k`` of first-order lags ``tau_k c_k' = u - c_k`` at the sample times.
 
     Exact for the chosen hold; O(N) per lag; never overflows, whatever ``t / tau``.
@@ -170,13 +170,16 @@ def lag_states(time, u, taus, hold: str = "linear", initial="relaxed") -> np.nda
     time : array_like
         Strictly increasing times (s).
     u : array_like
-        Input samples.
+        Input samples (for a step at a sample time: the value after the step).
     taus : array_like
         Time constants (s).
     hold : {"linear", "zero"}
         Interpolation of the input between samples.
     initial : {"relaxed", "settled"} or array_like
         States at ``time[0]`` (see :meth:`LagExpansion.simulate`).
+    u_before : array_like, optional
+        Input just before each sample time, where it differs from ``u`` (a step exactly at
+        a sample, with linear hold). Default: ``u``.
 
     Returns
     -------
@@ -188,6 +191,7 @@ def lag_states(time, u, taus, hold: str = "linear", initial="relaxed") -> np.nda
     taus = np.atleast_1d(np.asarray(taus, dtype=float))
     if t.ndim != 1 or u.shape != t.shape:
         raise InputError(f"time and input must be 1-D of equal length (got {t.shape} and {u.shape})")
+    ub = u if u_before is None else np.asarray(u_before, dtype=float)
     n, k = len(t), len(taus)
     out = np.empty((n, k))
     if n == 0:
@@ -203,11 +207,11 @@ def lag_states(time, u, taus, hold: str = "linear", initial="relaxed") -> np.nda
         step = float(np.mean(dt))
         for j, tau in enumerate(taus):
             e, b0, b1 = (float(c) for c in lag_coefficients(step, tau, hold))
-            zi = [b0 * u[0] + e * c0[j]]
-            out[1:, j], _ = signal.lfilter([b1, b0], [1.0, -e], u[1:], zi=zi)
+            drive = b0 * u[:-1] + b1 * ub[1:]
+            out[1:, j], _ = signal.lfilter([1.0], [1.0, -e], drive, zi=[e * c0[j]])
         return out
     e, b0, b1 = lag_coefficients(dt[:, None], taus[None, :], hold)
-    drive = b0 * u[:-1, None] + b1 * u[1:, None]
+    drive = b0 * u[:-1, None] + b1 * ub[1:, None]
     _scan(t, taus, e, drive, c0, out)
     return out
 

@@ -1,0 +1,87 @@
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from creepcomp.errors import InputError
+from creepcomp.records import Record, parse_columns, parse_record, read_record, write_record
+
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "rheojax"
+
+
+def test_reads_metadata_case_insensitive_columns_and_optional_ones():
+    text = ("# units.load: g\n# design: net.json\nTime,LOAD,Signal,temperature,corrected,extra\n"
+            "10.0,0,0.1,25,0.1,x\n10.5,1,1.1,25.1,1.0,y\n12.0,1,1.2,25.2,1.0,z\n")
+    r = parse_record(text, "r.csv")
+    assert len(r) == 3 and r.time[0] == 10.0 and r.unit("load") == "g"
+    assert r.temperature is not None and r.corrected is not None
+    assert r.design_path() == Path("net.json")
+    assert r.design_path("other.json") == Path("other.json")
+    assert not r.is_uniform
+
+
+@pytest.mark.parametrize("text,needle", [
+    ("time,load\n0,1\n", "missing required column 'signal'; columns found: time, load"),
+    ("time,load,signal\n0,1,2\n1,x,3\n", "line 3, column 'load': 'x' is not a number"),
+    ("time,load,signal\n0,1,2\n1,inf,3\n", "line 3, column 'load': 'inf' is not a finite"),
+    ("time,load,signal\n0,1,2\n1,1,nan\n", "line 3, column 'signal': 'nan'"),
+    ("time,load,signal\n0,1,2\n0,1,3\n", "line 3, column 'time': 0 repeats"),
+    ("time,load,signal\n0,1,2\n2,1,2\n1,1,3\n", "line 4, column 'time': 1 is earlier"),
+    ("time,load,signal\n", "no data rows"),
+    ("# only: comments\n", "no header"),
+])
+def test_bad_records_name_file_line_and_column(text, needle):
+    with pytest.raises(InputError, match="bad.csv") as info:
+        parse_record(text, "bad.csv")
+    assert needle in str(info.value)
+
+
+def test_corrected_without_design_is_reported():
+    r = parse_record("time,load,signal,corrected\n0,0,0,0\n1,1,1,1\n", "r.csv")
+    with pytest.raises(InputError, match="names no design"):
+        r.design_path()
+
+
+def test_too_short_records_are_reported():
+    r = parse_record("time,load,signal\n0,0,0\n1,1,1\n", "r.csv")
+    with pytest.raises(InputError, match="2 samples is too few for fitting"):
+        r.require(10, what="fitting")
+    with pytest.raises(InputError, match="spans 1 s, shorter than the 450 s"):
+        r.require(2, duration=450.0, what="a 45 s retardation time")
+
+
+def test_column_mapping_and_constant_load_for_rheojax_creep():
+    cols = parse_columns("time=Time,signal=Creep Compliance,load=1")
+    with pytest.raises(InputError, match="line 6480, column 'time': 1000 repeats"):
+        read_record(SHARED / "creep_ps130_data.csv", cols)
+    r = read_record(SHARED / "creep_ps130_data.csv", cols, duplicate_times="mean")
+    assert int(r.metadata["merged_duplicate_times"]) + len(r) == 28799
+    assert np.all(r.load == 1.0) and r.signal[0] == pytest.approx(3.32e-6)
+
+
+def test_instrument_export_with_preamble_and_units_row():
+    r = read_record(SHARED / "creep_experiment.txt",
+                    parse_columns("time=Step time,signal=Strain,load=Stress"))
+    assert len(r) == 483
+    assert r.time[-1] == pytest.approx(2.90037807 * 60, rel=1e-6)      # minutes -> seconds
+    assert r.unit("load") == "MPa" and r.unit("signal") == "%"
+
+
+@pytest.mark.parametrize("text,needle", [
+    ("time=a,signal", "not NAME=COLUMN"), ("speed=a", "not a record column"), ("time=", "no column"),
+])
+def test_bad_column_mapping(text, needle):
+    with pytest.raises(InputError, match=needle):
+        parse_columns(text)
+
+
+def test_write_and_read_back_exactly(tmp_path):
+    rng = np.random.default_rng(0)
+    t = np.cumsum(rng.uniform(0.01, 1, 50))
+    r = Record(t, rng.normal(size=50), rng.normal(size=50), metadata={"units.load": "N"})
+    p = write_record(tmp_path / "o.csv", r, extra={"compensated": r.signal * 2})
+    back = read_record(p)
+    np.testing.assert_array_equal(back.time, r.time)
+    np.testing.assert_array_equal(back.signal, r.signal)
+    assert back.unit("load") == "N"
+    assert "compensated" in p.read_text().splitlines()[1]
