@@ -59,3 +59,19 @@ def test_parts_round_trip():
 def test_bad_network_data_is_named(data, match):
     with pytest.raises(InputError, match=match):
         Network.from_dict(data)
+
+
+def test_capacitor_leakage_and_absorption_follow_the_impedance():
+    r, c, r_leak, r_da, c_da, r2 = 3e6, 15e-6, 1e9, 2e7, 3e-7, 1e8
+    net = Network((Cell(r, c, leakage=r_leak, absorption_R=r_da, absorption_C=c_da),), r2)
+    w = np.logspace(-5, 1, 40)
+    s = 1j * w
+    y_cell = 1 / r + s * c + 1 / r_leak + s * c_da / (1 + s * r_da * c_da)
+    expected = r2 / (r2 + 1 / y_cell)
+    np.testing.assert_allclose(net.lag_expansion().frequency_response(w), expected, rtol=1e-9)
+    assert len(net.lag_expansion().taus) == 2
+    back = Network.from_dict(net.to_dict())
+    assert back == net and back.cells[0].ideal() == Cell(r, c)
+    assert [p[0] for p in net.parts()] == ["R1", "C1", "R2"]
+    with pytest.raises(InputError, match="both absorption_R and absorption_C"):
+        Cell(r, c, absorption_R=1e6)

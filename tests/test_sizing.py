@@ -103,3 +103,13 @@ def test_search_is_never_worse_than_nearest_at_the_same_capacitor(beta0, tau):
                    for _, kind, v in rep.nearest.parts() if kind == "R")
     assume(in_range)        # otherwise the nearest values are not allowed parts
     assert rep.chosen_quality.residual_creep_peak <= rep.nearest_quality.residual_creep_peak + 1e-15
+
+
+def test_warnings_name_impedance_and_capacitor_technology():
+    model = CreepModel.voigt(0.03, 45.0)
+    high = size(model, resistor_series=None, capacitor_series=None, capacitance=1e-6)
+    text = " ".join(high.warnings)
+    assert "high impedance" in text and "bias current" in text and "10 GΩ path" in text
+    big = size(model, resistor_series=None, capacitor_series=None, capacitance=470e-6)
+    assert any("outside what film capacitors offer" in w for w in big.warnings)
+    assert not any("high impedance" in w for w in big.warnings)

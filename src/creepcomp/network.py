@@ -27,14 +27,39 @@ from .model import CreepModel
 
 @dataclass(frozen=True)
 class Cell:
-    """Series cell: resistor ``R`` (ohm) in parallel with capacitor ``C`` (farad, 0 = none)."""
+    """Series cell: resistor ``R`` (ohm) in parallel with capacitor ``C`` (farad, 0 = none).
+
+    The capacitor's own imperfections are optional: ``leakage``, a resistance across it
+    (ohm), and dielectric absorption, a series ``absorption_R``-``absorption_C`` branch
+    across it.
+    """
 
     R: float
     C: float
+    leakage: float | None = None
+    absorption_R: float | None = None
+    absorption_C: float | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "R", float(self.R))
         object.__setattr__(self, "C", float(self.C))
+        for name in ("leakage", "absorption_R", "absorption_C"):
+            value = getattr(self, name)
+            if value is not None:
+                object.__setattr__(self, name, float(value))
+        if (self.absorption_R is None) != (self.absorption_C is None):
+            raise InputError("dielectric absorption needs both absorption_R and absorption_C")
+        if (self.leakage is not None or self.absorption_C is not None) and not self.C > 0:
+            raise InputError("leakage and absorption belong to a capacitor: the cell has C = 0")
+
+    @property
+    def has_absorption(self) -> bool:
+        """True when the capacitor carries a dielectric-absorption branch."""
+        return self.absorption_C is not None
+
+    def ideal(self) -> "Cell":
+        """The same R and C without the capacitor's imperfections."""
+        return Cell(self.R, self.C)
 
 
 @dataclass(frozen=True)
@@ -96,6 +121,9 @@ class Network:
         for k, c in enumerate(cells):
             _positive(c.R, f"cells[{k}].R")
             _positive(c.C, f"cells[{k}].C", allow_zero=True)
+            _positive(c.leakage, f"cells[{k}].leakage", allow_none=True)
+            _positive(c.absorption_R, f"cells[{k}].absorption_R", allow_none=True)
+            _positive(c.absorption_C, f"cells[{k}].absorption_C", allow_none=True)
         for j, b in enumerate(shunt):
             _positive(b.R, f"shunt[{j}].R")
             _positive(b.C, f"shunt[{j}].C")
@@ -133,7 +161,7 @@ class Network:
         for c in self.cells:
             R = next(it)
             C = next(it) if c.C > 0 else 0.0
-            cells.append(Cell(R, C))
+            cells.append(replace(c, R=R, C=C))
         R2 = next(it) if self.R2 is not None else None
         shunt = [Branch(next(it), next(it)) for _ in self.shunt]
         return replace(self, cells=tuple(cells), R2=R2, shunt=tuple(shunt))
@@ -165,12 +193,20 @@ class Network:
         shunt_R = np.array([[b.R for b in self.shunt]]).reshape(1, -1)
         shunt_C = np.array([[b.C for b in self.shunt]]).reshape(1, -1)
         R2 = np.array([np.inf if self.R2 is None else self.R2])
-        return cells_R, cells_C, R2, shunt_R, shunt_C, self.source_resistance, self.load_resistance
+        return (cells_R, cells_C, R2, shunt_R, shunt_C, self.source_resistance, self.load_resistance,
+                *self.imperfection_arrays())
+
+    def imperfection_arrays(self):
+        """Capacitor leakage and absorption of the cells as batch-of-one arrays (inf / 0: none)."""
+        leak = np.array([[np.inf if c.leakage is None else c.leakage for c in self.cells]])
+        r_da = np.array([[np.inf if c.absorption_R is None else c.absorption_R for c in self.cells]])
+        c_da = np.array([[0.0 if c.absorption_C is None else c.absorption_C for c in self.cells]])
+        return leak, r_da, c_da
 
     # --- files -------------------------------------------------------------------------
     def to_dict(self) -> dict:
         """Design-file keys of the network (``cells``, ``R2``, resistances, ``shunt``)."""
-        out = {"cells": [{"R": c.R, "C": c.C} for c in self.cells], "R2": self.R2,
+        out = {"cells": [_cell_dict(c) for c in self.cells], "R2": self.R2,
                "source_resistance": self.source_resistance,
                "load_resistance": self.load_resistance}
         if self.shunt:
@@ -200,7 +236,9 @@ class Network:
                 if not isinstance(c, Mapping) or "R" not in c or "C" not in c:
                     raise InputError(f"cells[{k}] must be an object with 'R' and 'C'")
                 parsed.append(Cell(_positive(c["R"], f"cells[{k}].R"),
-                                   _positive(c["C"], f"cells[{k}].C", allow_zero=True)))
+                                   _positive(c["C"], f"cells[{k}].C", allow_zero=True),
+                                   *(_positive(c.get(key), f"cells[{k}].{key}", allow_none=True)
+                                     for key in ("leakage", "absorption_R", "absorption_C"))))
             shunt = []
             for j, b in enumerate(data.get("shunt", []) or []):
                 if not isinstance(b, Mapping) or "R" not in b or "C" not in b:
@@ -212,8 +250,16 @@ class Network:
             raise InputError(f"{where}: {exc}") from None
 
 
+def _cell_dict(cell: Cell) -> dict:
+    out = {"R": cell.R, "C": cell.C}
+    for key in ("leakage", "absorption_R", "absorption_C"):
+        if getattr(cell, key) is not None:
+            out[key] = getattr(cell, key)
+    return out
+
+
 def state_matrices(cells_R, cells_C, R2, shunt_R, shunt_C, source_resistance=0.0,
-                   load_resistance=None):
+                   load_resistance=None, cells_leakage=None, absorption_R=None, absorption_C=None):
     """State-space matrices of a batch of networks of one topology.
 
     Parameters
@@ -228,12 +274,17 @@ def state_matrices(cells_R, cells_C, R2, shunt_R, shunt_C, source_resistance=0.0
         Sensor output resistance.
     load_resistance : float, array_like of shape (B,), or None
         Next stage's input resistance (None or ``inf``: none).
+    cells_leakage : array_like, shape (B, K), optional
+        Resistance across each cell's capacitor (``inf``: none).
+    absorption_R, absorption_C : array_like, shape (B, K), optional
+        Dielectric-absorption branch across each cell's capacitor (``C = 0``: none; which
+        cells have one is read from the first network of the batch).
 
     Returns
     -------
     A : (B, n, n), B : (B, n), C : (B, n), D : (B,), caps : (B, n)
-        With states the capacitor voltages (cells first, then shunt branches);
-        ``caps`` are the capacitances, which make ``A`` symmetrisable.
+        With states the capacitor voltages (cells, then shunt branches, then absorption
+        branches); ``caps`` are the capacitances, which make ``A`` symmetrisable.
     """
     cells_R = np.atleast_2d(np.asarray(cells_R, float))
     cells_C = np.atleast_2d(np.asarray(cells_C, float))
@@ -245,6 +296,9 @@ def state_matrices(cells_R, cells_C, R2, shunt_R, shunt_C, source_resistance=0.0
     dynamic = cells_C[0] > 0
     Rs = np.broadcast_to(np.asarray(source_resistance, float), (nb,)) + cells_R[:, ~dynamic].sum(axis=1)
     Rk, Ck = cells_R[:, dynamic], cells_C[:, dynamic]
+    if cells_leakage is not None:
+        leak = np.broadcast_to(np.asarray(cells_leakage, float), cells_R.shape)[:, dynamic]
+        Rk = 1.0 / (1.0 / Rk + 1.0 / leak)
     K, J = Rk.shape[1], shunt_R.shape[1]
     g = 1.0 / shunt_R                                                   # (B,J)
     G0 = 1.0 / R2 + 1.0 / RL                                            # (B,)
@@ -267,7 +321,31 @@ def state_matrices(cells_R, cells_C, R2, shunt_R, shunt_C, source_resistance=0.0
         A[:, K + np.arange(J), K + np.arange(J)] -= gc
         Bv[:, K:] = gc * b[:, None]
     caps = np.concatenate([Ck, shunt_C], axis=1)
+    if absorption_C is not None:
+        c_da_all = np.broadcast_to(np.asarray(absorption_C, float), cells_R.shape)[:, dynamic]
+        r_da_all = np.broadcast_to(np.asarray(absorption_R, float), cells_R.shape)[:, dynamic]
+        which = np.flatnonzero(c_da_all[0] > 0)
+        if which.size:
+            A, Bv, a, caps = _add_absorption(A, Bv, a, caps, Ck, which,
+                                             r_da_all[:, which], c_da_all[:, which])
     return A, Bv, a, b, caps
+
+
+def _add_absorption(A, Bv, a, caps, Ck, which, r_da, c_da):
+    """Append one state per absorption branch (voltage on its capacitor) to a network."""
+    nb, n, _ = A.shape
+    m = len(which)
+    A2 = np.zeros((nb, n + m, n + m))
+    A2[:, :n, :n] = A
+    idx = n + np.arange(m)
+    g = 1.0 / r_da                                                      # (B,m)
+    A2[:, which, which] -= g / Ck[:, which]
+    A2[:, which, idx] += g / Ck[:, which]
+    A2[:, idx, which] = g / c_da
+    A2[:, idx, idx] = -g / c_da
+    Bv2 = np.concatenate([Bv, np.zeros((nb, m))], axis=1)
+    a2 = np.concatenate([a, np.zeros((nb, m))], axis=1)
+    return A2, Bv2, a2, np.concatenate([caps, c_da], axis=1)
 
 
 def modal_form(A, B, C, D, caps):

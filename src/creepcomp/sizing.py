@@ -422,7 +422,8 @@ def _arrays_from_values(template: Network, values: np.ndarray):
     return (np.stack(cells_R, axis=1), np.stack(cells_C, axis=1), R2,
             np.stack(shunt_R, axis=1) if shunt_R else np.zeros((nb, 0)),
             np.stack(shunt_C, axis=1) if shunt_C else np.zeros((nb, 0)),
-            template.source_resistance, template.load_resistance)
+            template.source_resistance, template.load_resistance,
+            *template.imperfection_arrays())
 
 
 def output_resistance(network: Network) -> float:
