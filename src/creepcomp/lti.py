@@ -255,31 +255,46 @@ def cascade_step_arrays(d1, a1, tau1, d2, a2, tau2, t):
         Gains and time constants of the first system.
     a2, tau2 : array_like, shape (B, K2) or (K2,)
         Gains and time constants of the second system.
-    t : array_like, shape (T,)
-        Times, >= 0.
+    t : array_like, shape (T,) or (B, T)
+        Times, >= 0 (one grid for all, or one per system).
 
     Returns
     -------
     numpy.ndarray
         Shape (B, T), or (T,) when all inputs are unbatched.
     """
-    batched = np.ndim(d1) > 0 or np.ndim(d2) > 0 or np.ndim(a1) > 1 or np.ndim(a2) > 1
+    batched = (np.ndim(d1) > 0 or np.ndim(d2) > 0 or np.ndim(a1) > 1 or np.ndim(a2) > 1
+               or np.ndim(t) > 1)
     d1 = np.atleast_1d(np.asarray(d1, float))[:, None]                  # (B,1)
     d2 = np.atleast_1d(np.asarray(d2, float))[:, None]
     a1, tau1 = np.atleast_2d(a1), np.atleast_2d(tau1)                   # (B,K1)
     a2, tau2 = np.atleast_2d(a2), np.atleast_2d(tau2)                   # (B,K2)
-    t = np.asarray(t, float)[None, :]                                    # (1,T)
+    t = np.atleast_2d(np.asarray(t, float))                             # (1,T) or (B,T)
     dc1 = d1 + a1.sum(axis=1, keepdims=True)                            # (B,1)
-    # second system's step response
-    step2 = d2 + np.sum(a2[:, :, None] * -np.expm1(-t[:, None, :] / tau2[:, :, None]), axis=1)
-    # second system's response to exp(-t / tau1_k): d2 e^{-t/tau1} + sum_i a2_i phi(t; tau2_i, tau1_k)
+    decay1 = np.exp(-t[:, None, :] / tau1[:, :, None])                  # (B,K1,T)
+    decay2 = np.exp(-t[:, None, :] / tau2[:, :, None])                  # (B,K2,T)
+    step2 = d2 + np.sum(a2[:, :, None] * (1.0 - decay2), axis=1)
+    # second system's lags driven by exp(-t/tau1_k): phi_ik = (t/p_i) e^{-t/slow} E(t/fast - t/slow)
     r1 = 1.0 / tau1[:, :, None, None]                                   # (B,K1,1,1)
     r2 = 1.0 / tau2[:, None, :, None]                                   # (B,1,K2,1)
-    tt = t[:, None, None, :]                                            # (1,1,1,T)
-    slow = np.minimum(r1, r2)
-    gap = np.abs(r1 - r2)
-    phi = tt * r2 * np.exp(-slow * tt) * special.exprel(-gap * tt)      # (B,K1,K2,T)
-    decay1 = np.exp(-t[:, None, :] * (1.0 / tau1)[:, :, None])          # (B,K1,T)
+    e1, e2 = decay1[:, :, None, :], decay2[:, None, :, :]
+    tt = t[:, None, None, :]
+    x = np.abs(r1 - r2) * tt
+    e_slow = np.where(r1 <= r2, e1, e2)
+    e_fast = np.where(r1 <= r2, e2, e1)
+    phi = tt * r2 * _one_minus_exp_over(x, e_slow, e_fast)             # (B,K1,K2,T)
     resp = d2[:, :, None] * decay1 + np.sum(a2[:, None, :, None] * phi, axis=2)
     y = dc1 * step2 - np.sum(a1[:, :, None] * resp, axis=1)
     return y if batched else y[0]
+
+
+def _one_minus_exp_over(x, e_slow, e_fast):
+    """``e_slow * (1 - exp(-x)) / x`` with ``exp(-x) = e_fast / e_slow``, stable for small x.
+
+    Reuses the exponentials already computed: no new transcendental per point.
+    """
+    small = x < 1e-2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        direct = (e_slow - e_fast) / np.where(small, 1.0, x)
+    series = e_slow * (1 - x / 2 * (1 - x / 3 * (1 - x / 4 * (1 - x / 5 * (1 - x / 6)))))
+    return np.where(small, series, direct)
