@@ -25,6 +25,7 @@ UNITS = {
     "second": ("", "s", "sec"),
     "fraction": ("",),
     "hertz": ("", "hz"),
+    "volt": ("", "v"),
     "number": ("",),
 }
 
@@ -42,7 +43,7 @@ def parse_quantity(text: str | float | int, kind: str = "number", name: str = "v
     text : str or float
         What the user wrote, e.g. ``"4.7k"``, ``"10uF"``, ``"45s"``, ``"2min"``, ``"3%"``.
     kind : str
-        One of ``ohm``, ``farad``, ``second``, ``fraction``, ``hertz``, ``number``.
+        One of ``ohm``, ``farad``, ``second``, ``fraction``, ``hertz``, ``volt``, ``number``.
     name : str
         The option or field name, used in the error message.
 
@@ -89,7 +90,7 @@ def parse_quantity(text: str | float | int, kind: str = "number", name: str = "v
         return _finite(float(number), name, raw)
     expected = {"ohm": "ohm, e.g. 4.7k, 4k7, 150M", "farad": "farad, e.g. 10u, 4.7uF",
                 "second": "seconds, e.g. 45, 45s, 2min", "fraction": "a fraction, e.g. 0.03 or 3%",
-                "hertz": "hertz, e.g. 10, 1k"}.get(kind, "a plain number")
+                "hertz": "hertz, e.g. 10, 1k", "volt": "volts, e.g. 100u, 100uV, 1V"}.get(kind, "a plain number")
     raise InputError(f"{name}: cannot read '{raw}': expected {expected}")
 
 

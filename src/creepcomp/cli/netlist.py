@@ -1,0 +1,143 @@
+"""``creepcomp netlist``: an ngspice netlist of a design driven by synthetic creep or a record."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from .. import spice
+from ..errors import InputError
+from ..files import Design, read_design
+from ..programs import LoadProgram
+from ..records import Record, parse_columns, read_record
+from ..units import format_quantity
+from .common import app, console, print_json, quantity
+
+PROGRAM_HELP = ("step: one load step; staircase: loading and unloading steps (the paper's "
+                "fig. 2); sweep: triangular sweep between -FS and +FS (its fig. 6).")
+
+
+@dataclass(frozen=True)
+class Drive:
+    """What the command line asked to drive the design with.
+
+    Attributes
+    ----------
+    design : Design
+    name : str
+        ``step``, ``staircase``, ``sweep`` or ``record``.
+    program : LoadProgram or None
+        The synthetic load program (None for a record).
+    record : Record or None
+    duration : float or None
+        Simulated time asked for (s).
+    points : int
+    signal : float
+        Instantaneous signal at full scale (V).
+    """
+
+    design: Design
+    name: str
+    program: LoadProgram | None
+    record: Record | None
+    duration: float | None
+    points: int
+    signal: float
+
+
+def read_drive(design_path: Path, program: str, record: Path | None, columns: str | None,
+               duration: str | None, points: int, signal: str) -> Drive:
+    """Check and read the options shared by ``netlist`` and ``simulate``."""
+    design = read_design(design_path)
+    name = program.strip().lower()
+    if name not in spice.PROGRAMS:
+        raise InputError(f"--program '{program}': choose one of {', '.join(spice.PROGRAMS)}")
+    if columns and record is None:
+        raise InputError("--columns maps a record's columns: give --record FILE too")
+    if points < 10:
+        raise InputError(f"--points {points}: use at least 10")
+    duration_s = quantity(duration, "second", "--duration", positive=True)
+    signal_v = quantity(signal, "volt", "--signal", positive=True)
+    if record is not None:
+        if duration is not None:
+            raise InputError("--duration does not apply to a record: it runs for the record's length")
+        rec = read_record(record, parse_columns(columns))
+        rec.require(n_samples=2, what="driving a netlist")
+        return Drive(design, "record", None, rec, None, points, signal_v)
+    prog = spice.synthetic_program(design.model, name, design.network)
+    return Drive(design, name, prog, None, duration_s, points, signal_v)
+
+
+def drive_deck(drive: Drive, data_file: str = "record-signal.txt") -> tuple[spice.Deck, str | None]:
+    """The netlist of a drive, and the text of its data file (for a record)."""
+    net, model = drive.design.network, drive.design.model
+    if drive.record is not None:
+        rec = drive.record
+        source = Path(rec.source).name
+        deck = spice.record_deck(net, rec.time, rec.signal, data_file,
+                                 title=f"creepcomp: design driven by the record {source}",
+                                 name=rec.source)
+        return deck, spice.record_data(rec.time, rec.signal)
+    duration = drive.duration or spice.default_duration(drive.program, model, net)
+    deck = spice.program_deck(net, model, drive.program, duration, drive.points, drive.signal,
+                              title=f"creepcomp: design driven by synthetic creep, {drive.program.name}")
+    return deck, None
+
+
+@app.command("netlist")
+def netlist_command(
+    design: Path = typer.Argument(..., metavar="DESIGN", help="Design file (creepcomp size -o)."),
+    output: Optional[Path] = typer.Option(None, "-o", "--output", metavar="FILE.cir",
+                                          help="Write the netlist here (default: print it)."),
+    program: str = typer.Option("step", "--program", metavar="step|staircase|sweep",
+                                help=PROGRAM_HELP),
+    record: Optional[Path] = typer.Option(None, "--record", metavar="FILE.csv",
+                                          help="Drive the network with a measured record's signal "
+                                               "(read by an XSPICE file source from a data file "
+                                               "written beside the netlist)."),
+    columns: Optional[str] = typer.Option(None, "--columns", metavar="MAP",
+                                          help="Column mapping of the record, e.g. time=tR,signal=Ri."),
+    duration: Optional[str] = typer.Option(None, "--duration", metavar="TIME",
+                                           help="Simulated time (default: the program's, and 20 "
+                                                "time constants after a final step)."),
+    points: int = typer.Option(spice.DEFAULT_POINTS, "--points", metavar="N",
+                               help="Output time points; ngspice steps at most half their spacing."),
+    signal: str = typer.Option("100u", "--signal", metavar="VOLT",
+                               help="Instantaneous sensor signal at full scale, e.g. 100u or 1V."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+) -> None:
+    """Write an ngspice netlist of the design, driven by synthetic creep or a measured record.
+
+    The netlist runs on its own: ngspice -b FILE.cir prints the residual creep it measures.
+    """
+    drive = read_drive(design, program, record, columns, duration, points, signal)
+    if drive.record is not None and output is None:
+        raise InputError("--record needs -o FILE.cir: its data file is written beside the netlist")
+    data_name = f"{output.stem}-signal.txt" if output is not None else "record-signal.txt"
+    deck, data = drive_deck(drive, data_name)
+    text = deck.text()
+    if output is None:
+        if as_json:
+            print_json({"netlist": text, "bytes": len(text.encode())})
+        else:
+            console.print(text, markup=False, highlight=False, end="", soft_wrap=True)
+        return
+    spice.write_deck(output, deck, data)
+    info = {"netlist": str(output), "bytes": output.stat().st_size,
+            "lines": text.count("\n"), "run": f"ngspice -b {output}"}
+    if deck.data_file is not None:
+        data_path = output.parent / deck.data_file
+        info.update({"data_file": str(data_path), "data_bytes": data_path.stat().st_size,
+                     "samples": len(drive.record)})
+    if as_json:
+        print_json(info)
+        return
+    console.print(f"netlist written to {output} ({info['lines']} lines, "
+                  f"{format_quantity(info['bytes'], 'B')})")
+    if deck.data_file is not None:
+        console.print(f"signal data written to {info['data_file']} ({info['samples']} samples, "
+                      f"{format_quantity(info['data_bytes'], 'B')}), read by an XSPICE filesource")
+    console.print(f"run it with: ngspice -b {output}")

@@ -1,0 +1,128 @@
+"""``creepcomp simulate``: a design in python-control and in ngspice, their agreement and the
+residual creep."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+from rich.table import Table
+
+from .. import spice
+from ..units import format_quantity
+from .common import app, console, err_console, pct, print_json
+from .netlist import PROGRAM_HELP, read_drive
+
+
+def _sci(x: float | None) -> str:
+    return "n/a" if x is None else f"{x:.3g}"
+
+
+def _peak(comparison: spice.Comparison, which: str) -> str:
+    e = comparison.residual(which)
+    if e is None:
+        return "n/a"
+    k = int(abs(e).argmax())
+    return f"{pct(abs(float(e[k])))} at {comparison.reference.time[k]:.4g} s"
+
+
+def render_comparison(c: spice.Comparison, title: str | None = None) -> None:
+    """Print a comparison as a table, with the ngspice run and its agreement."""
+    d = c.to_dict()
+    console.print(f"[bold]{title or 'creepcomp simulate'}[/bold]: {c.drive}; "
+                  f"{format_quantity(d['duration'], 's')}, {d['points']} time points, "
+                  f"full scale {format_quantity(c.full_scale, 'V')}, H(inf) = {c.hf_gain:.6g}")
+    table = Table(title_justify="left")
+    table.add_column("")
+    table.add_column("python-control", justify="right")
+    table.add_column("ngspice", justify="right")
+    synthetic = c.reference.instantaneous is not None
+    spice_ok = c.spice is not None
+    if synthetic:
+        ref = d["python_control"]
+        ng = d["ngspice"]
+        table.add_row("residual creep, peak (of full scale)", _peak(c, "reference"),
+                      _peak(c, "spice") if spice_ok else "not run")
+        table.add_row("residual creep, final", pct(ref["residual_creep_final"]),
+                      pct(ng.get("residual_creep_final")) if spice_ok else "not run")
+    else:
+        table.add_row("output range", format_quantity(float(c.reference.output.ptp()), "V"),
+                      format_quantity(float(c.spice.output.ptp()), "V") if spice_ok else "not run")
+    console.print(table)
+    if spice_ok:
+        line = f"agreement, largest |ngspice - python-control|: {_sci(c.agreement_max_abs)} of full scale"
+        if synthetic:
+            line += (f" (corrected output {_sci(c.agreement_output)}, "
+                     f"sensor {_sci(c.agreement_sensor)})")
+        console.print(line)
+        console.print(f"ngspice {c.ngspice_version} (shared library via PySpice): "
+                      f"{c.ngspice_points} time points in {c.ngspice_seconds * 1e3:.1f} ms; "
+                      f"netlist {d['netlist_bytes']} bytes")
+    else:
+        console.print(f"ngspice not run: {c.unavailable}")
+    console.print(f"python-control: {c.reference_method}")
+
+
+@app.command("simulate")
+def simulate_command(
+    design: Path = typer.Argument(..., metavar="DESIGN", help="Design file (creepcomp size -o)."),
+    program: str = typer.Option("step", "--program", metavar="step|staircase|sweep",
+                                help=PROGRAM_HELP),
+    record: Optional[Path] = typer.Option(None, "--record", metavar="FILE.csv",
+                                          help="Drive the network with a measured record's signal."),
+    columns: Optional[str] = typer.Option(None, "--columns", metavar="MAP",
+                                          help="Column mapping of the record, e.g. time=tR,signal=Ri."),
+    duration: Optional[str] = typer.Option(None, "--duration", metavar="TIME",
+                                           help="Simulated time (default: the program's, and 20 "
+                                                "time constants after a final step)."),
+    points: int = typer.Option(spice.DEFAULT_POINTS, "--points", metavar="N",
+                               help="Time points compared (uniform within each program segment)."),
+    signal: str = typer.Option("100u", "--signal", metavar="VOLT",
+                               help="Instantaneous sensor signal at full scale, e.g. 100u or 1V."),
+    plot: Optional[Path] = typer.Option(None, "--plot", metavar="FILE.png",
+                                        help="Where to save the plot (default: "
+                                             "DESIGN-PROGRAM.png in the current folder)."),
+    no_plot: bool = typer.Option(False, "--no-plot", help="Do not save a plot."),
+    netlist: Optional[Path] = typer.Option(None, "--netlist", metavar="FILE.cir",
+                                           help="Also write the netlist that ran."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+) -> None:
+    """Simulate the design with python-control and with ngspice on the same time points.
+
+    Reports their agreement (fraction of full scale: the step, for a step program), the
+    residual creep, and ngspice's run time; saves a plot of the creeping input, the
+    corrected output from both simulators, and the residual creep.
+    """
+    drive = read_drive(design, program, record, columns, duration, points, signal)
+    net, model = drive.design.network, drive.design.model
+    if drive.record is not None:
+        rec = drive.record
+        comparison = spice.simulate_record(net, rec.time, rec.signal, name=f"record {rec.source}")
+    else:
+        comparison = spice.simulate(net, model, drive.program, drive.duration, drive.points,
+                                    drive.signal)
+    if comparison.unavailable:
+        err_console.print(f"creepcomp: note: {comparison.unavailable}; showing the python-control "
+                          "result only", markup=False, highlight=False, soft_wrap=True)
+    plot_path = None
+    if not no_plot:
+        plot_path = plot or Path(f"{design.stem}-{drive.name}.png")
+        spice.plot_comparison(comparison, plot_path)
+    if netlist is not None:
+        from .netlist import drive_deck
+
+        deck, data = drive_deck(drive, f"{netlist.stem}-signal.txt")
+        spice.write_deck(netlist, deck, data)
+    if as_json:
+        out = comparison.to_dict()
+        out["design"] = str(design)
+        out["plot"] = None if plot_path is None else str(plot_path)
+        out["netlist"] = None if netlist is None else str(netlist)
+        print_json(out)
+        return
+    render_comparison(comparison)
+    if plot_path is not None:
+        console.print(f"plot written to {plot_path}")
+    if netlist is not None:
+        console.print(f"netlist written to {netlist}; run it with: ngspice -b {netlist}")
