@@ -15,6 +15,7 @@ from .data import default_sensor
 from .files import write_design
 from .report import plot_design_comparison
 from .sizing import size
+from .spice import demo_step as step_ngspice
 
 
 def step_sizing(out: Path, console: Console) -> None:
@@ -37,7 +38,7 @@ def step_sizing(out: Path, console: Console) -> None:
     console.print(f"plot written to {plot}\n")
 
 
-STEPS: list[Callable[[Path, Console], None]] = [step_sizing]
+STEPS: list[Callable[[Path, Console], None]] = [step_sizing, step_ngspice]
 
 
 def run_demo(out: Path, console: Console) -> None:

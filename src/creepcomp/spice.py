@@ -53,8 +53,9 @@ MAX_STEP_FRACTION = 0.5
 #: ngspice's largest time step while a record drives the netlist, as a fraction of the
 #: median sample interval (ngspice does not step on the samples: the finer, the closer).
 RECORD_MAX_STEP_FRACTION = 0.5
-#: A load step becomes a ramp this long, relative to the fastest time constant of the
-#: sensor and network (SPICE sources cannot jump; python-control simulates the same ramp).
+#: A load step becomes a ramp about this long (the power of ten below), relative to the
+#: fastest time constant of sensor and network (SPICE sources cannot jump; python-control
+#: simulates the same ramp).
 RISE_FRACTION = 1e-6
 #: ngspice's relative tolerance (default 1e-3) and its truncation-error factor (default 7).
 RELTOL = 1e-7
@@ -97,6 +98,13 @@ def fastest_time_constant(model: CreepModel, network: Network | None = None) -> 
     return float(min(taus))
 
 
+def round_up(x: float, digits: int = 2) -> float:
+    """``x`` rounded up to ``digits`` significant digits (durations that read well and do
+    not move with the last bits of an eigenvalue)."""
+    scale = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
+    return float(round(math.ceil(x / scale - 1e-9) * scale, 12))
+
+
 def synthetic_program(model: CreepModel, name: str = "step",
                       network: Network | None = None) -> LoadProgram:
     """A named test program sized to the sensor's time scales.
@@ -119,7 +127,8 @@ def synthetic_program(model: CreepModel, name: str = "step",
     if name == "step":
         return _programs.step(1.0, at=0.0, name="load step")
     if name == "staircase":
-        return _programs.staircase((1.0, 2.0, 3.0, 2.0, 1.0, 0.0), hold=HOLD_TIME_CONSTANTS * slow,
+        return _programs.staircase((1.0, 2.0, 3.0, 2.0, 1.0, 0.0),
+                                   hold=round_up(HOLD_TIME_CONSTANTS * slow),
                                    name="staircase of loading and unloading steps")
     if name == "sweep":
         period = default_sweep_period(model)
@@ -133,7 +142,7 @@ def default_duration(program: LoadProgram, model: CreepModel,
     """How long to simulate: the program's end, or ``20 tau_max`` after it when the
     program ends in a step (so the creep after the step settles)."""
     ends_in_step = len(program.times) >= 2 and program.times[-1] == program.times[-2]
-    settle = STEP_TIME_CONSTANTS * slowest_time_constant(model, network) if ends_in_step else 0.0
+    settle = round_up(STEP_TIME_CONSTANTS * slowest_time_constant(model, network)) if ends_in_step else 0.0
     return float(program.end + settle) if program.end + settle > 0 else settle
 
 
@@ -315,16 +324,16 @@ def _source_resistance_lines(out: _Lines, network: Network, emf_node: str) -> st
 
 
 def _options(full_scale: float, network: Network) -> tuple[tuple[str, str], ...]:
-    """Tolerances scaled to the signal level and the network's impedance."""
+    """Tolerances scaled to the signal level and the network: VNTOL a fraction
+    :data:`VOLTAGE_TOLERANCE` of full scale, ABSTOL the current it drives through the
+    smallest resistor, CHGTOL the charge it puts on the largest capacitor."""
     vntol = VOLTAGE_TOLERANCE * full_scale
     resistors = [v for _, kind, v in network.parts() if kind == "R"]
-    resistors += [network.source_resistance or 0.0] + [c.leakage or 0.0 for c in network.cells]
-    abstol = vntol / max(resistors)
-    caps = [v for _, kind, v in network.parts() if kind == "C"] or [1e-12]
-    chgtol = vntol * min(caps)
+    resistors += [network.source_resistance or math.inf]
+    capacitors = [v for _, kind, v in network.parts() if kind == "C"] or [1e-12]
     return (("reltol", spice_number(RELTOL)), ("trtol", spice_number(TRTOL)),
-            ("vntol", spice_number(vntol)),
-            ("abstol", spice_number(abstol)), ("chgtol", spice_number(chgtol)))
+            ("vntol", spice_number(vntol)), ("abstol", spice_number(vntol / min(resistors))),
+            ("chgtol", spice_number(vntol * max(capacitors))))
 
 
 def program_deck(network: Network, model: CreepModel, program: LoadProgram, duration: float,
@@ -452,7 +461,8 @@ def record_data(time, signal) -> str:
 
 
 def _rise(model: CreepModel, network: Network) -> float:
-    return RISE_FRACTION * fastest_time_constant(model, network)
+    """Ramp time of a step: a power of ten near ``RISE_FRACTION`` of the fastest time constant."""
+    return 10.0 ** math.floor(math.log10(RISE_FRACTION * fastest_time_constant(model, network)))
 
 
 def spice_program(program: LoadProgram, model: CreepModel, network: Network) -> LoadProgram:
@@ -1157,14 +1167,20 @@ def plot_comparison(comparison: Comparison, path: str | Path) -> Path:
 
 
 def demo_step(out: Path, console) -> None:
-    """Demo: the default sensor's designs checked in ngspice against python-control."""
+    """Demo: ngspice checks the default design (and the paper's rule) against python-control."""
     from .cli.simulate import render_comparison
+    from .files import read_design
 
+    designs = []
+    sized = Path(out) / "design-exact.json"
+    if sized.exists():
+        designs.append(("design-exact", read_design(sized),
+                        "the default design (exact rule, E24/E6 parts)"))
     for stem in ("default-paper", "default-exact"):
         design, description = reference_designs()[stem]
+        designs.append((stem, design, description))
+    for stem, design, description in designs:
         comparison = simulate(design.network, design.model, "step")
-        render_comparison(comparison, title=f"ngspice check: {description}")
+        render_comparison(comparison, title=f"ngspice check, {description}")
         plot = plot_comparison(comparison, Path(out) / f"ngspice-{stem}.png")
         console.print(f"plot written to {plot}\n")
-        if comparison.unavailable:
-            break
