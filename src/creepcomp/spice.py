@@ -983,7 +983,8 @@ def simulate(network: Network, model: CreepModel, program: LoadProgram | str = "
         spice = waveforms_from_run(run, deck, times, edges)
         seconds, version, n_points = run.seconds, engine.version, len(run.time)
     return Comparison(program.name, signal, hf, reference, spice,
-                      "python-control forced_response (uniform steps between breakpoints)",
+                      "python-control forced_response, uniform steps between the program's "
+                      "breakpoints (exact for its piecewise-linear input)",
                       seconds, version, n_points, unavailable, deck)
 
 
@@ -1013,7 +1014,8 @@ def simulate_record(network: Network, time, signal, engine: Ngspice | None = Non
     lag = network.lag_expansion()
     hf = lag.direct
     deck = record_deck(network, rel, s, name=name)
-    method = "exact discretisation of H(s), signal linear between samples"
+    method = ("exact discretisation of H(s) from its state-space model, signal linear "
+              "between samples, at ngspice's time points")
     try:
         engine = engine or ngspice()
     except NgspiceUnavailable as exc:

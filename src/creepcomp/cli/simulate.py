@@ -24,6 +24,8 @@ def _peak(comparison: spice.Comparison, which: str) -> str:
     if e is None:
         return "n/a"
     k = int(abs(e).argmax())
+    if abs(e[k]) < 1e-12:
+        return pct(abs(float(e[k])))
     return f"{pct(abs(float(e[k])))} at {comparison.reference.time[k]:.4g} s"
 
 
@@ -61,7 +63,7 @@ def render_comparison(c: spice.Comparison, title: str | None = None) -> None:
                       f"netlist {d['netlist_bytes']} bytes")
     else:
         console.print(f"ngspice not run: {c.unavailable}")
-    console.print(f"python-control: {c.reference_method}")
+    console.print(f"reference: {c.reference_method}")
 
 
 @app.command("simulate")
