@@ -71,9 +71,6 @@ SWEEP_CYCLES = 3
 PROGRAMS = ("step", "staircase", "sweep")
 INSTALL_HINT = "sudo apt-get install ngspice libngspice0-dev (or: make setup)"
 
-_log = logging.getLogger(__name__)
-
-
 class NgspiceUnavailable(CreepcompError):
     """ngspice's shared library cannot be loaded; the message names the install command."""
 
@@ -143,7 +140,7 @@ def default_duration(program: LoadProgram, model: CreepModel,
     program ends in a step (so the creep after the step settles)."""
     ends_in_step = len(program.times) >= 2 and program.times[-1] == program.times[-2]
     settle = round_up(STEP_TIME_CONSTANTS * slowest_time_constant(model, network)) if ends_in_step else 0.0
-    return float(program.end + settle) if program.end + settle > 0 else settle
+    return float(program.end + settle)
 
 
 def ramped(program: LoadProgram, rise: float) -> LoadProgram:
@@ -572,7 +569,7 @@ class Ngspice:
         NgspiceError
             With ngspice's own error lines.
         """
-        from PySpice.Spice.NgSpice.Shared import NgSpiceCommandError
+        from PySpice.Spice.NgSpice.Shared import NgSpiceCircuitError, NgSpiceCommandError
 
         text = deck.text(standalone=False) if isinstance(deck, Deck) else deck
         shared = self._shared
@@ -581,7 +578,10 @@ class Ngspice:
             notes: list[str] = []
             try:
                 shared.destroy()
-                shared.load_circuit(text)
+                try:
+                    shared.load_circuit(text)
+                except NgSpiceCircuitError:
+                    pass                     # ngspice's own lines say why, just below
                 notes += _check(shared.stdout, shared.stderr, "loading the netlist")
                 try:
                     shared.run()
@@ -968,7 +968,8 @@ def simulate(network: Network, model: CreepModel, program: LoadProgram | str = "
         program = synthetic_program(model, program, network)
     if duration is None:
         duration = default_duration(program, model, network)
-    times = transient_times(spice_program(program, model, network), duration, points)
+    as_simulated = spice_program(program, model, network)
+    times = transient_times(as_simulated, duration, points)
     reference = reference_transient(network, model, program, times, signal)
     deck = program_deck(network, model, program, duration, points, signal)
     hf = network.lag_expansion().direct
@@ -979,8 +980,7 @@ def simulate(network: Network, model: CreepModel, program: LoadProgram | str = "
         unavailable = str(exc)
     else:
         run = engine.run(deck)
-        edges = program_breakpoints(spice_program(program, model, network), duration)
-        spice = waveforms_from_run(run, deck, times, edges)
+        spice = waveforms_from_run(run, deck, times, program_breakpoints(as_simulated, duration))
         seconds, version, n_points = run.seconds, engine.version, len(run.time)
     return Comparison(program.name, signal, hf, reference, spice,
                       "python-control forced_response, uniform steps between the program's "
