@@ -97,6 +97,10 @@ def test_simulate_a_record(run_cli, tmp_path):
     d = json.loads(out)
     assert d["agreement_max_abs"] < 2e-6 and d["residual_creep_peak"] is None
     assert d["plot"] is None
+    status, out, err = run_cli("simulate", PAPER, "--record", path, "--plot", tmp_path / "r.png")
+    assert status == 0, err
+    assert "output at the end" in out and "of full scale" in out
+    assert (tmp_path / "r.png").exists()
 
 
 def test_simulate_without_ngspice_still_gives_python_control(run_cli, monkeypatch, tmp_path):

@@ -16,7 +16,7 @@ from creepcomp.data import default_sensor
 from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 from creepcomp.network import Branch, Cell, Network
-from creepcomp.programs import LoadProgram, from_samples, staircase, step
+from creepcomp.programs import LoadProgram, staircase, step
 from creepcomp.quality import predict
 from creepcomp.sizing import ideal_network
 
@@ -52,10 +52,10 @@ def test_steps_become_short_ramps_normalised_and_rounded_as_printed():
     assert max(prog.loads) == 1.0 and prog.loads[1] == 0.5
     assert np.all(np.diff(prog.times) > 0)                         # no repeated time left
     assert prog.times[1] == pytest.approx(1e-5)                    # 1e-6 of ~45 s, power of ten
-    assert all(spice.spice_number(t) == repr(t) or float(spice.spice_number(t)) == t
-               for t in prog.times)
+    assert all(float(spice.spice_number(t)) == t for t in prog.times + prog.loads)
+    assert spice.ramped(step(1.0, at=5.0), 0.1).times == (5.0, 5.1)
     with pytest.raises(InputError, match="does not fit"):
-        spice.ramped(step(1.0), 1.0).times and spice.ramped(LoadProgram((0, 0, 1e-3), (0, 1, 1)), 1.0)
+        spice.ramped(LoadProgram((0, 0, 1e-3), (0, 1, 1)), 1.0)
     with pytest.raises(InputError, match="zero throughout"):
         spice.spice_program(LoadProgram((0, 1), (0, 0)), model, net)
     with pytest.raises(InputError, match="starts at"):

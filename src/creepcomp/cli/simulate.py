@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Optional
 
+import numpy as np
 import typer
 from rich.table import Table
 
@@ -49,8 +50,12 @@ def render_comparison(c: spice.Comparison, title: str | None = None) -> None:
         table.add_row("residual creep, final", pct(ref["residual_creep_final"]),
                       pct(ng.get("residual_creep_final")) if spice_ok else "not run")
     else:
-        table.add_row("output range", format_quantity(float(c.reference.output.ptp()), "V"),
-                      format_quantity(float(c.spice.output.ptp()), "V") if spice_ok else "not run")
+        def volts(w, f):
+            return format_quantity(float(f(w.output)), "V") if w is not None else "not run"
+
+        table.add_row("output range", volts(c.reference, np.ptp), volts(c.spice, np.ptp))
+        table.add_row("output at the end", volts(c.reference, lambda y: y[-1]),
+                      volts(c.spice, lambda y: y[-1]))
     console.print(table)
     if spice_ok:
         line = f"agreement, largest |ngspice - python-control|: {_sci(c.agreement_max_abs)} of full scale"
