@@ -291,8 +291,10 @@ def _network_lines(out: _Lines, network: Network, input_node: str) -> None:
         if cell.C > 0:
             out.add("C", f"1{suffix}", node, nxt, n(cell.C))
         if cell.leakage is not None:
+            out.comment(f"leakage of C1{suffix}")
             out.add("R", f"leak{suffix or '_1'}", node, nxt, n(cell.leakage))
         if cell.has_absorption:
+            out.comment(f"dielectric absorption of C1{suffix}: a series R-C across it")
             mid = f"da{k}"
             out.add("R", f"da{suffix or '_1'}", node, mid, n(cell.absorption_R))
             out.add("C", f"da{suffix or '_1'}", mid, nxt, n(cell.absorption_C))
