@@ -28,18 +28,18 @@ def test_scenario_outcomes_exact_methods_and_the_paper_as_printed():
     record = step_record(paper_model(), hold_time=100.0, rate=2.0)
     results = {o.label: o for o in outcomes(record)}
     assert results["raw signal"].error.peak_fraction > 0.02
-    for label in ("subtractive, exact", "supplemental, exact", "paper eq. 9 (subtractive)"):
+    for label in ("subtractive, --hold zero", "supplemental, --hold zero", "paper eq. 9"):
         assert results[label].error.peak_fraction < 1e-12
-    lagging = results["paper eq. 13 (supplemental, as printed)"].error
+    lagging = results["paper eq. 13 (as printed)"].error
     # a one-sample lag at each step of 1 (FS 3): beta0 / ((1 + beta0) * 3)
     assert lagging.peak_fraction == pytest.approx(0.03 / (1.03 * 3), rel=2e-2)
 
     sweep = sweep_record(paper_model(), cycles=3, quarter_points=100)
     results = {o.label: o for o in outcomes(sweep, literal=False)}
     assert results["raw signal"].hysteresis > 0.01
-    assert results["subtractive, exact"].hysteresis < 1e-12
-    assert results["supplemental, exact"].hysteresis < 1e-12
-    held = results["subtractive, exact for held loads"].hysteresis
+    assert results["subtractive, --hold linear"].hysteresis < 1e-12
+    assert results["supplemental, --hold linear"].hysteresis < 1e-12
+    held = results["subtractive, --hold zero"].hysteresis
     assert 1e-5 < held < 1e-3          # treating a ramp as steps costs about beta dt / tau
 
 

@@ -154,24 +154,22 @@ class Outcome:
 def outcomes(record: SyntheticRecord, literal: bool = True) -> list[Outcome]:
     """The raw signal and every correction of a record, judged against the load.
 
-    Production correctors (exact, :func:`creepcomp.digital.compensate`) with the hold that
-    matches the record, and for ramping loads also with the paper's held-load assumption;
-    with ``literal``, the paper's printed eqs. 9 and 13 (O(N^2)).
+    Production correctors (:func:`creepcomp.digital.compensate`) with the hold that matches the
+    record (exact), and for ramping loads also with the paper's held-load assumption
+    (``--hold zero``); with ``literal``, the paper's printed eqs. 9 and 13 (O(N^2)).
     """
     model, t, x = record.model, record.time, record.signal
     runs = [("raw signal", "subtractive", x)]
-    for method in ("subtractive", "supplemental"):
-        runs.append((f"{method}, exact", method,
-                     compensate(t, x, model, method, hold=record.hold)))
-    if record.hold != "zero":
+    holds = [record.hold] + (["zero"] if record.hold != "zero" else [])
+    for hold in holds:
         for method in ("subtractive", "supplemental"):
-            runs.append((f"{method}, exact for held loads", method,
-                         compensate(t, x, model, method, hold="zero")))
+            runs.append((f"{method}, --hold {hold}", method,
+                         compensate(t, x, model, method, hold=hold)))
     if literal:
         raw = x - model.offset
-        runs.append(("paper eq. 9 (subtractive)", "subtractive",
+        runs.append(("paper eq. 9", "subtractive",
                      model.offset + paper_methods.subtractive(t, raw, model.beta, model.tau)))
-        runs.append(("paper eq. 13 (supplemental, as printed)", "supplemental",
+        runs.append(("paper eq. 13 (as printed)", "supplemental",
                      model.offset + paper_methods.supplemental(t, raw, model.beta, model.tau)))
     result = []
     for label, method, values in runs:
@@ -275,6 +273,9 @@ def demo_step(out, console) -> None:
                 row.append(_percent(r.hysteresis))
             table.add_row(*row)
         console.print(table)
+        if record.hold == "linear":
+            console.print("the load ramps between samples: --hold linear is exact; --hold zero "
+                          "(the paper's held loads) treats the ramp as steps")
         path = plot(record, results, out / f"{name}.png")
         console.print(f"plot written to {path}")
     write_model(out / "paper-model.json", model)
