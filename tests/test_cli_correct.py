@@ -121,3 +121,12 @@ def test_bad_record_is_named_with_its_line(run_cli, files):
     bad.write_text("time,load,signal\n0,0,0\n1,1,nan\n")
     status, _, err = run_cli("correct", bad, "--model", model)
     assert status == 2 and "line 3" in err and "signal" in err
+
+
+def test_model_extensions_are_said_to_be_unused(run_cli, files):
+    tmp, record, _, _, _ = files
+    model = tmp / "extended.json"
+    model.write_text(json.dumps({**MODEL.to_dict(), "extensions": {"viscous_flow": {"rate": 1e-6}}}))
+    status, stdout, err = run_cli("correct", record, "--model", model, "--json")
+    assert status == 0, err
+    assert any("viscous_flow" in note and "not used" in note for note in json.loads(stdout)["notes"])

@@ -354,7 +354,8 @@ def compensate(time, signal, model: CreepModel, method: str = "subtractive", ini
     signal : array_like
         Raw sensor signal at those times.
     model : CreepModel
-        The sensor's creep; creep acts on ``signal - offset``.
+        The sensor's creep; creep acts on ``signal - offset``. Its Prony terms, gain and
+        offset are used; fitted ``extensions`` are not.
     method : {"subtractive", "supplemental"}
         Instantaneous estimate ``offset + gain * load``, or saturated estimate
         ``offset + (1 + beta0) * gain * load``.

@@ -61,7 +61,7 @@ def correct_command(
     after = creep_error(record.time, compensated, record.load, model, method)
     dt = uniform_interval(record.time)
     unit = record.unit("signal")
-    notes = _notes(record, start, method)
+    notes = _notes(record, start, method, model)
     formula = "offset + gain * load" if method == "subtractive" else "offset + gain * (1 + beta0) * load"
     result = {
         "record": str(record_path), "samples": len(record), "uniform": dt is not None,
@@ -98,8 +98,11 @@ def _starts_loaded(record) -> bool:
     return largest > 0 and abs(float(record.load[0])) > LOADED_START * largest
 
 
-def _notes(record, start: str, method: str) -> list[str]:
+def _notes(record, start: str, method: str, model) -> list[str]:
     notes = []
+    if model.extensions:
+        notes.append(f"the model's extensions ({', '.join(map(str, model.extensions))}) are not used: "
+                     "the digital correction inverts the Prony terms (beta, tau), gain and offset")
     if _starts_loaded(record):
         load0 = f"{record.load[0]:.4g} {record.unit('load')}".strip()
         if start == "relaxed":
@@ -129,7 +132,7 @@ def _render(path, record, model, result, before, after, dt, unit, notes) -> None
                   f"{result['method']} method, {result['initial']} start, {HOLD_TEXT[result['hold']]}",
                   soft_wrap=True)
     console.print(f"model: {describe_model(model)}; gain {model.gain:.6g}, offset "
-                  f"{_value(model.offset, unit)}")
+                  f"{_value(model.offset, unit)}", soft_wrap=True)
     console.print(f"reference: {result['reference']} "
                   f"({'instantaneous' if result['method'] == 'subtractive' else 'saturated'} signal); "
                   f"full scale {_value(after.full_scale, unit)}")
