@@ -14,6 +14,7 @@ from rich.console import Console
 from .data import default_sensor
 from .files import write_design
 from .report import plot_design_comparison
+from .scenarios import demo_step as step_digital_correction
 from .sizing import size
 
 
@@ -37,7 +38,7 @@ def step_sizing(out: Path, console: Console) -> None:
     console.print(f"plot written to {plot}\n")
 
 
-STEPS: list[Callable[[Path, Console], None]] = [step_sizing]
+STEPS: list[Callable[[Path, Console], None]] = [step_sizing, step_digital_correction]
 
 
 def run_demo(out: Path, console: Console) -> None:
