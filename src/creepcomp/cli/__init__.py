@@ -17,6 +17,7 @@ from .common import app, fail
 # Subcommand modules register themselves on import.
 from . import size as _size  # noqa: E402,F401
 from . import demo as _demo  # noqa: E402,F401
+from . import mc as _mc  # noqa: E402,F401
 
 
 def main(argv: list[str] | None = None) -> int:
