@@ -18,6 +18,7 @@ from .common import app, fail
 from . import size as _size  # noqa: E402,F401
 from . import demo as _demo  # noqa: E402,F401
 from . import correct as _correct  # noqa: E402,F401
+from . import mc as _mc  # noqa: E402,F401
 
 
 def main(argv: list[str] | None = None) -> int:
