@@ -35,3 +35,7 @@ netlists: setup
 
 clean:
 	rm -rf $(VENV) $(DEMO_OUT) .pytest_cache .hypothesis
+
+.PHONY: bench-digital
+bench-digital: setup
+	$(PY) benchmarks/digital_throughput.py

@@ -14,6 +14,7 @@ from rich.console import Console
 from .data import default_sensor
 from .files import write_design
 from .report import plot_design_comparison
+from .scenarios import demo_step as step_digital_correction
 from .sizing import size
 from .spice import demo_step as step_ngspice
 
@@ -38,7 +39,30 @@ def step_sizing(out: Path, console: Console) -> None:
     console.print(f"plot written to {plot}\n")
 
 
-STEPS: list[Callable[[Path, Console], None]] = [step_sizing, step_ngspice]
+def step_tolerances(out: Path, console: Console) -> None:
+    """Monte Carlo of the default exact design: E24 1 % resistors, 5 % polyester capacitor,
+    then a 1 % polypropylene one; yield against OIML R60 class C3 creep (0.0245 % of FS)."""
+    from . import montecarlo as mc
+    from .cli.mc import render
+    from .files import Design
+    from .report import tolerance_report_html
+
+    model = default_sensor()
+    design = Design(model, size(model).chosen)
+    limit = 0.000245
+    for name, spec in (("polyester-5pct", mc.ToleranceSpec(capacitor=mc.Tolerance(0.05), dielectric="polyester")),
+                       ("polypropylene-1pct", mc.ToleranceSpec(capacitor=mc.Tolerance(0.01),
+                                                               dielectric="polypropylene"))):
+        console.print(f"[bold]Tolerances of the default exact design, {name.replace('-', ' ').replace('pct', ' %')} "
+                      "capacitor, E24 1 % resistors[/bold]")
+        report = mc.analyse(design, spec, 200_000, seed=1, limit=limit, sensitivity_samples=20_000)
+        render(report)
+        path = tolerance_report_html(report, out / f"tolerances-{name}.html")
+        console.print(f"report written to {path}\n")
+
+
+STEPS: list[Callable[[Path, Console], None]] = [step_sizing, step_ngspice, step_tolerances,
+                                                 step_digital_correction]
 
 
 def run_demo(out: Path, console: Console) -> None:

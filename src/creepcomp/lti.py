@@ -298,3 +298,45 @@ def _one_minus_exp_over(x, e_slow, e_fast):
         direct = (e_slow - e_fast) / np.where(small, 1.0, x)
     series = e_slow * (1 - x / 2 * (1 - x / 3 * (1 - x / 4 * (1 - x / 5 * (1 - x / 6)))))
     return np.where(small, series, direct)
+
+
+def triangle_lag_gap(q, half_period, x, decays=None):
+    """Down-minus-up gap of one lag ``1 / (1 + s q)`` in a ±1 triangular sweep, periodic
+    steady state, at fraction ``x`` of the rising half period (load ``-1 + 2 x``).
+
+    Closed form: with slope ``s = 2 / h`` the lag error on each branch relaxes to ``-+ s q``;
+    periodicity fixes its value at the turning points to ``+- s q tanh(h / 2q)``.
+    ``decays`` may pass ``(exp(-t/q), exp(-(h-t)/q))`` when the caller has them.
+    """
+    h = half_period
+    slope = 2.0 / h
+    if decays is None:
+        t = x * h
+        decays = (np.exp(-t / q), np.exp(-(h - t) / q))
+    return slope * q * (2.0 - (1.0 + np.tanh(h / (2.0 * q))) * (decays[0] + decays[1]))
+
+
+def cascade_lags(d1, a1, tau1, d2, a2, tau2, separation: float = 1e-9):
+    """Sum-of-lags form of the cascade ``second(s) * first(s)``, batched.
+
+    ``1/((1+sp)(1+st)) = (p/(1+sp) - t/(1+st)) / (p - t)``; time constants that coincide
+    to within ``separation`` (relative) are moved apart by that much, which costs about
+    ``1e-16 / separation`` of relative precision: fast, and enough for tolerance analysis.
+    Use :func:`cascade_step_arrays` where full precision near coincidence matters.
+
+    Returns
+    -------
+    direct : (B,), gains : (B, K1 + K2), taus : (B, K1 + K2)
+    """
+    d1 = np.atleast_1d(np.asarray(d1, float))
+    d2 = np.atleast_1d(np.asarray(d2, float))
+    a1, t1 = np.atleast_2d(a1), np.atleast_2d(np.asarray(tau1, float))
+    a2, t2 = np.atleast_2d(a2), np.atleast_2d(np.asarray(tau2, float))
+    close = np.any(np.abs(t2[:, None, :] - t1[:, :, None]) < separation * t1[:, :, None], axis=1)
+    t2 = np.where(close, t2 * (1.0 + 2.0 * separation), t2)
+    p = t2[:, None, :]                                                  # (B,1,K2)
+    t = t1[:, :, None]                                                  # (B,K1,1)
+    w = a1[:, :, None] * a2[:, None, :] / (p - t)                       # (B,K1,K2)
+    gains1 = d2[:, None] * a1 - np.sum(w * t, axis=2)
+    gains2 = d1[:, None] * a2 + np.sum(w * p, axis=1)
+    return d1 * d2, np.concatenate([gains1, gains2], axis=1), np.concatenate([t1, t2], axis=1)

@@ -196,6 +196,23 @@ class Network:
         return (cells_R, cells_C, R2, shunt_R, shunt_C, self.source_resistance, self.load_resistance,
                 *self.imperfection_arrays())
 
+    def batch_arrays(self, values) -> tuple:
+        """Arrays for :func:`state_matrices` of many copies of this network with other part
+        values, given as rows in :meth:`parts` order (imperfections kept as they are)."""
+        values = np.atleast_2d(np.asarray(values, dtype=float))
+        nb = len(values)
+        cols = iter(values.T)
+        cells_R, cells_C = [], []
+        for c in self.cells:
+            cells_R.append(next(cols))
+            cells_C.append(next(cols) if c.C > 0 else np.zeros(nb))
+        R2 = next(cols) if self.R2 is not None else np.full(nb, np.inf)
+        shunt = [(next(cols), next(cols)) for _ in self.shunt]
+        shunt_R = np.stack([r for r, _ in shunt], axis=1) if shunt else np.zeros((nb, 0))
+        shunt_C = np.stack([c for _, c in shunt], axis=1) if shunt else np.zeros((nb, 0))
+        return (np.stack(cells_R, axis=1), np.stack(cells_C, axis=1), R2, shunt_R, shunt_C,
+                self.source_resistance, self.load_resistance, *self.imperfection_arrays())
+
     def imperfection_arrays(self):
         """Capacitor leakage and absorption of the cells as batch-of-one arrays (inf / 0: none)."""
         leak = np.array([[np.inf if c.leakage is None else c.leakage for c in self.cells]])

@@ -390,40 +390,10 @@ def _screen(model: CreepModel, template: Network, values: np.ndarray,
     out = np.empty(len(values))
     for start in range(0, len(values), batch):
         chunk = values[start:start + batch]
-        arrays = _arrays_from_values(template, chunk)
+        arrays = template.batch_arrays(chunk)
         d, r, p = modal_form(*state_matrices(*arrays))
         out[start:start + batch] = screening_deviation(model, d, r, p, reference)
     return out
-
-
-def _arrays_from_values(template: Network, values: np.ndarray):
-    """Batch arrays for :func:`state_matrices` from part values in :meth:`Network.parts` order."""
-    nb = len(values)
-    col = 0
-    cells_R, cells_C = [], []
-    for c in template.cells:
-        cells_R.append(values[:, col])
-        col += 1
-        if c.C > 0:
-            cells_C.append(values[:, col])
-            col += 1
-        else:
-            cells_C.append(np.zeros(nb))
-    if template.R2 is not None:
-        R2 = values[:, col]
-        col += 1
-    else:
-        R2 = np.full(nb, np.inf)
-    shunt_R, shunt_C = [], []
-    for _ in template.shunt:
-        shunt_R.append(values[:, col])
-        shunt_C.append(values[:, col + 1])
-        col += 2
-    return (np.stack(cells_R, axis=1), np.stack(cells_C, axis=1), R2,
-            np.stack(shunt_R, axis=1) if shunt_R else np.zeros((nb, 0)),
-            np.stack(shunt_C, axis=1) if shunt_C else np.zeros((nb, 0)),
-            template.source_resistance, template.load_resistance,
-            *template.imperfection_arrays())
 
 
 def output_resistance(network: Network) -> float:

@@ -17,6 +17,8 @@ from .common import app, fail
 # Subcommand modules register themselves on import.
 from . import size as _size  # noqa: E402,F401
 from . import demo as _demo  # noqa: E402,F401
+from . import correct as _correct  # noqa: E402,F401
+from . import mc as _mc  # noqa: E402,F401
 from . import netlist as _netlist  # noqa: E402,F401
 from . import simulate as _simulate  # noqa: E402,F401
 

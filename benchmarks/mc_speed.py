@@ -1,0 +1,54 @@
+"""Speed of the tolerance Monte Carlo engine: 10^6 samples of the default design.
+
+Run: .venv/bin/python benchmarks/mc_speed.py [--n 1000000] [--repeats 3]
+Prints the median wall time over repeats (all cores), per-sample time, and, when ngspice is
+available, the ratio against the median time of one ngspice transient of the same design.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import time
+
+from creepcomp import montecarlo as mc
+from creepcomp.data import default_sensor
+from creepcomp.files import Design
+from creepcomp.sizing import size
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--n", type=int, default=1_000_000)
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+    model = default_sensor()
+    design = Design(model, size(model).chosen)
+    print(f"default design: {design.network.parts()}, {os.cpu_count()} cores, load {os.getloadavg()[0]:.2f}")
+    per_sample = {}
+    for label, spec in (("E24 1 % resistors, 5 % capacitor", mc.ToleranceSpec()),
+                        ("same, polyester dielectric (absorption, leakage)", mc.ToleranceSpec(dielectric="polyester"))):
+        times = []
+        for r in range(args.repeats):
+            start = time.perf_counter()
+            result = mc.run(design, spec, args.n, seed=r)
+            times.append(time.perf_counter() - start)
+        med = statistics.median(times)
+        per_sample[label] = med / args.n
+        print(f"{label}: {args.n} samples in {med:.2f} s (median of {args.repeats}; "
+              f"{[round(t, 2) for t in times]}), {1e6 * med / args.n:.2f} µs per sample; "
+              f"p99 peak residual creep {100 * result.percentiles()['p99']:.4f} %")
+    try:
+        from creepcomp import spice
+    except ImportError:
+        print("ngspice comparison: creepcomp.spice not available")
+        return
+    transient = spice.benchmark_transient(design, repeats=7)
+    for label, t in per_sample.items():
+        print(f"{label}: {transient / t:,.0f}x faster per sample than one ngspice transient "
+              f"({1e3 * transient:.1f} ms)")
+
+
+if __name__ == "__main__":
+    main()

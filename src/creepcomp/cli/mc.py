@@ -1,0 +1,155 @@
+"""``creepcomp mc``: tolerance Monte Carlo, worst case and sensitivity of a design."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from .. import montecarlo as mc
+from ..errors import InputError
+from ..files import read_design
+from ..report import tolerance_report_html
+from .common import app, console, err_console, pct, print_json, quantity, value_range
+
+
+def _tolerance(text: str, option: str, distribution: str) -> mc.Tolerance:
+    return mc.Tolerance(quantity(text, "fraction", option, non_negative=True), distribution)
+
+
+def _part_tolerances(items: list[str], distribution: str) -> dict:
+    out = {}
+    for item in items or []:
+        if "=" not in item:
+            raise InputError(f"--tol '{item}': expected PART=TOL, e.g. C1=1%")
+        label, tol = (s.strip() for s in item.split("=", 1))
+        out[label] = _tolerance(tol, f"--tol {label}", distribution)
+    return out
+
+
+@app.command("mc")
+def mc_command(
+    design_file: Path = typer.Argument(..., metavar="DESIGN", help="Design file (creepcomp size -o)."),
+    n: int = typer.Option(100_000, "--n", help="Number of Monte Carlo samples."),
+    seed: int = typer.Option(0, "--seed", help="Random seed (same seed, same numbers)."),
+    res_tol: str = typer.Option("1%", "--res-tol", metavar="TOL", help="Resistor tolerance."),
+    cap_tol: Optional[str] = typer.Option(None, "--cap-tol", metavar="TOL",
+                                          help="Capacitor tolerance (default 5 %, or the dielectric's tightest)."),
+    tol: Optional[List[str]] = typer.Option(None, "--tol", metavar="PART=TOL",
+                                            help="Tolerance of one part, e.g. C1=1% (repeatable)."),
+    distribution: str = typer.Option("normal", "--dist", metavar="normal|uniform",
+                                     help="normal: TOL is 3 sigma; uniform: ±TOL."),
+    dielectric: Optional[str] = typer.Option(None, "--dielectric",
+                                             metavar="polypropylene|polyester|x7r",
+                                             help="Capacitor technology: absorption and leakage."),
+    temperature: float = typer.Option(25.0, "--temperature", help="Temperature for leakage (°C)."),
+    source_range: Optional[str] = typer.Option(None, "--source-resistance-range", metavar="LOW:HIGH",
+                                               help="Sensor output resistance range (uniform)."),
+    load_range: Optional[str] = typer.Option(None, "--load-resistance-range", metavar="LOW:HIGH",
+                                             help="Next stage's input resistance range (log-uniform)."),
+    beta_spread: Optional[str] = typer.Option(None, "--beta-spread", metavar="TOL",
+                                              help="Sensor-to-sensor spread of each beta."),
+    tau_spread: Optional[str] = typer.Option(None, "--tau-spread", metavar="TOL",
+                                             help="Sensor-to-sensor spread of each tau."),
+    spec: Optional[str] = typer.Option(None, "--spec", metavar="LIMIT",
+                                       help="Specification limit for the yield, e.g. 0.0245% (OIML R60 C3)."),
+    metric: str = typer.Option("peak", "--metric", metavar="peak|final|hysteresis",
+                               help="What --spec, the worst case and the sensitivity are about."),
+    sweep_period: Optional[str] = typer.Option(None, "--sweep-period", metavar="TIME",
+                                               help="Hysteresis sweep period."),
+    worst: bool = typer.Option(True, "--worst-case/--no-worst-case", help="Search the worst case."),
+    sensitivity_n: int = typer.Option(20_000, "--sensitivity-n",
+                                      help="Samples for the part-alone and tighter-part runs (0: skip)."),
+    report: Optional[Path] = typer.Option(None, "--report", metavar="FILE.html",
+                                          help="Write the HTML report."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+) -> None:
+    """Tolerance Monte Carlo, worst case and sensitivity of a design's residual creep."""
+    design = read_design(design_file)
+    if distribution not in ("normal", "uniform"):
+        raise InputError(f"--dist '{distribution}': use normal or uniform")
+    if dielectric is not None and dielectric.lower() not in mc.DIELECTRICS:
+        raise InputError(f"--dielectric '{dielectric}': choose one of {', '.join(mc.DIELECTRICS)}")
+    dielectric = dielectric.lower() if dielectric else None
+    if cap_tol is None:
+        cap = mc.Tolerance(min(mc.DIELECTRICS[dielectric].tolerances) if dielectric else 0.05, distribution)
+    else:
+        cap = _tolerance(cap_tol, "--cap-tol", distribution)
+    tspec = mc.ToleranceSpec(
+        resistor=_tolerance(res_tol, "--res-tol", distribution), capacitor=cap,
+        parts=_part_tolerances(tol, distribution), dielectric=dielectric, temperature=temperature,
+        source_resistance=_range(source_range, "--source-resistance-range", allow_zero=True),
+        load_resistance=_range(load_range, "--load-resistance-range"),
+        beta=_tolerance(beta_spread, "--beta-spread", distribution) if beta_spread else None,
+        tau=_tolerance(tau_spread, "--tau-spread", distribution) if tau_spread else None,
+    )
+    limit = quantity(spec, "fraction", "--spec", positive=True)
+    period = quantity(sweep_period, "second", "--sweep-period", positive=True)
+    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+                  TimeElapsedColumn(), console=err_console, transient=True,
+                  disable=as_json or not err_console.is_terminal) as bar:
+        tasks = {}
+
+        def progress(stage, done, total):
+            if stage not in tasks:
+                tasks[stage] = bar.add_task(stage, total=total)
+            bar.update(tasks[stage], completed=done)
+
+        result = mc.analyse(design, tspec, n, seed, metric, limit, period, worst, sensitivity_n, progress)
+    if report is not None:
+        tolerance_report_html(result, report)
+    if as_json:
+        out = result.to_dict()
+        if report is not None:
+            out["report"] = str(report)
+        print_json(out)
+        return
+    render(result)
+    if report is not None:
+        console.print(f"report written to {report}")
+
+
+def _range(text, option, allow_zero=False):
+    if text is None:
+        return None
+    if allow_zero and text.strip().startswith("0:"):
+        return 0.0, quantity(text.split(":", 1)[1], "ohm", option, positive=True)
+    return value_range(text, "ohm", option)
+
+
+def render(report: mc.ToleranceReport) -> None:
+    """Print a tolerance report as tables."""
+    r = report.result
+    names = {"peak": "residual creep, peak", "final": "residual creep, final (abs)", "hysteresis": "hysteresis"}
+    console.print(f"[bold]creepcomp mc[/bold]: {r.n} samples, seed {r.seed}, {r.seconds:.2f} s "
+                  f"({1e6 * r.seconds / r.n:.2f} µs per sample)")
+    table = Table(title="Distribution (% of FS)", title_justify="left")
+    for col in ("", "nominal", "p50", "p95", "p99", "max"):
+        table.add_column(col, justify="right" if col else "left")
+    for m in ("peak", "final", "hysteresis"):
+        table.add_row(names[m], pct(report.nominal.get(m)[0]), *[pct(v) for v in r.percentiles(m).values()])
+    console.print(table)
+    if report.limit is not None:
+        y, se = r.yield_against(report.limit, report.metric)
+        console.print(f"yield against {names[report.metric]} ≤ {pct(report.limit)}: "
+                      f"[bold]{100 * y:.2f} %[/bold] (± {100 * se:.2f} %)")
+    if report.worst is not None:
+        w = report.worst
+        at = ", ".join(f"{k} = {v:.4g}" for k, v in w.at.items())
+        console.print(f"worst case of {names[w.metric]}: [bold]{pct(w.value)}[/bold] at {at} ({w.method})")
+    if report.sensitivities:
+        sens = Table(title="Sensitivity", title_justify="left")
+        sens.add_column("factor")
+        sens.add_column("share of the spread", justify="right")
+        sens.add_column("p99 when only it varies", justify="right")
+        for s in report.sensitivities:
+            sens.add_row(s.factor, f"{100 * s.share:.1f} %", pct(s.p99_alone))
+        console.print(sens)
+        console.print(f"dominant: {report.sensitivities[0].factor}")
+    for t in report.tightenings:
+        part = f"{t.factor} at {100 * t.tolerance_to:.3g} %" + (f" {t.dielectric}" if t.dielectric else "")
+        console.print(f"{part} (now {100 * t.tolerance_from:.3g} %): p99 from {pct(t.p99_from)} to "
+                      f"{pct(t.p99_to)} ({report.sensitivity_samples} samples each)")

@@ -1,0 +1,149 @@
+import json
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from creepcomp import montecarlo as mc
+from creepcomp.errors import InputError
+from creepcomp.files import Design, write_design
+from creepcomp.lti import cascade_lags, cascade_step_arrays
+from creepcomp.model import CreepModel
+from creepcomp.network import Cell, Network
+from creepcomp.quality import predict
+from creepcomp.sizing import ideal_network
+
+MODEL = CreepModel.voigt(0.03, 45.0)
+DESIGN = Design(MODEL, Network((Cell(3e6, 15e-6),), 1e8))
+PERIOD = 2 * np.pi * 45.0
+
+
+@given(st.integers(0, 2**31), st.sampled_from([None, "polyester", "x7r"]))
+@settings(max_examples=12)
+def test_engine_matches_python_control_sample_by_sample(seed, dielectric):
+    spec = mc.ToleranceSpec(capacitor=mc.Tolerance(0.1), dielectric=dielectric, beta=mc.Tolerance(0.1),
+                            tau=mc.Tolerance(0.1), source_resistance=(0, 1e5), load_resistance=(1e8, 1e11))
+    box = mc.factors(DESIGN, spec)
+    values = mc.draw(box, 3, seed)
+    got = mc.evaluate(DESIGN, values, PERIOD, dielectric)
+    insulation = mc.DIELECTRICS[dielectric].insulation_time(25.0) if dielectric else None
+    for i in range(3):
+        c = values["C1"][i]
+        extra = {}
+        if dielectric:
+            c_da = values["C1.absorption"][i] * c
+            extra = dict(leakage=insulation / c, absorption_R=values["C1.absorption_tau"][i] / c_da,
+                         absorption_C=c_da)
+        net = Network((Cell(values["R1"][i], c, **extra),), values["R2"][i], (),
+                      values["source_resistance"][i], values["load_resistance"][i])
+        model = MODEL.with_terms([values["beta[0]"][i]], [values["tau[0]"][i]])
+        q = predict(model, net, PERIOD)
+        assert got.peak[i] == pytest.approx(q.residual_creep_peak, rel=1e-4, abs=1e-12)
+        assert got.final[i] == pytest.approx(q.residual_creep_final, rel=1e-8, abs=1e-13)
+        assert got.hysteresis[i] == pytest.approx(q.hysteresis, rel=1e-4, abs=1e-12)
+
+
+def test_cascade_lags_step_equals_the_stable_closed_form():
+    net = ideal_network(MODEL, "paper", 10e-6)           # coincident poles: the hard case
+    h = net.lag_expansion()
+    g = MODEL.lag_expansion()
+    D, R, q = cascade_lags(1.0, [g.gains], [g.taus], h.direct, [h.gains], [h.taus])
+    t = np.linspace(0, 900, 301)
+    fast = D[0] + np.sum(R[0][:, None] * -np.expm1(-t[None, :] / q[0][:, None]), axis=0)
+    stable = cascade_step_arrays(1.0, g.gains, g.taus, h.direct, h.gains, h.taus, t)
+    np.testing.assert_allclose(fast, stable, atol=1e-9)
+
+
+def test_same_seed_same_numbers_and_workers_do_not_matter():
+    spec = mc.ToleranceSpec(dielectric="polyester")
+    a = mc.run(DESIGN, spec, 30_000, seed=7, chunk=7_000, workers=1)
+    b = mc.run(DESIGN, spec, 30_000, seed=7, chunk=10_000, workers=2)
+    np.testing.assert_array_equal(a.metrics.peak, b.metrics.peak)
+    assert a.percentiles() == b.percentiles()
+
+
+def test_different_seeds_agree_within_sampling_error():
+    spec = mc.ToleranceSpec()
+    n = 40_000
+    runs = [mc.run(DESIGN, spec, n, seed=s, workers=1) for s in (1, 2)]
+    for q in (50, 95, 99):
+        vals = [np.percentile(r.metrics.peak, q) for r in runs]
+        # standard error of a quantile: sqrt(p(1-p)/n) / density, density from the sample
+        p = q / 100
+        v = runs[0].metrics.peak
+        width = np.percentile(v, min(q + 1, 99.9)) - np.percentile(v, q - 1)
+        density = (min(q + 1, 99.9) - (q - 1)) / 100 / width
+        se = np.sqrt(p * (1 - p) / n) / density
+        assert abs(vals[0] - vals[1]) < 5 * np.sqrt(2) * se
+        assert vals[0] != vals[1]
+
+
+def test_worst_case_bounds_every_sample_and_finds_the_corner():
+    spec = mc.ToleranceSpec(resistor=mc.Tolerance(0.0), capacitor=mc.Tolerance(0.05, "uniform"))
+    wc = mc.worst_case(DESIGN, spec)
+    corners = mc.evaluate(DESIGN, {"C1": np.array([15e-6 * 0.95, 15e-6 * 1.05])}, PERIOD).peak
+    assert wc.value == pytest.approx(corners.max(), rel=1e-9)
+    spec = mc.ToleranceSpec(dielectric="polyester", beta=mc.Tolerance(0.05))
+    wc = mc.worst_case(DESIGN, spec)
+    sampled = mc.run(DESIGN, spec, 20_000, seed=3, workers=1).metrics.peak
+    assert wc.value >= sampled.max()
+
+
+def test_capacitor_dominates_with_polyester_and_a_tighter_one_helps():
+    spec = mc.ToleranceSpec(resistor=mc.Tolerance(0.01), capacitor=mc.Tolerance(0.05), dielectric="polyester")
+    rep = mc.analyse(DESIGN, spec, 40_000, seed=1, limit=0.000245, sensitivity_samples=5_000, workers=1)
+    assert rep.sensitivities[0].factor == "C1"
+    c1 = next(t for t in rep.tightenings if t.factor == "C1")
+    assert c1.p99_to < c1.p99_from and c1.dielectric == "polypropylene"
+    better = mc.analyse(DESIGN, mc.ToleranceSpec(capacitor=mc.Tolerance(0.01), dielectric="polypropylene"),
+                        40_000, seed=1, limit=0.000245, sensitivity_samples=0, worst=False, workers=1)
+    assert better.result.yield_against(0.000245)[0] > rep.result.yield_against(0.000245)[0]
+
+
+def test_first_order_index_finds_the_driver():
+    rng = np.random.default_rng(0)
+    x1, x2 = rng.normal(size=(2, 50_000))
+    y = 3 * x1 + 0.5 * x2 ** 2
+    assert mc.first_order_index(x1, y) == pytest.approx(9 / (9 + 0.5), abs=0.02)
+    assert mc.first_order_index(x2, y) == pytest.approx(0.5 / (9 + 0.5), abs=0.02)
+    assert mc.first_order_index(rng.normal(size=50_000), y) < 0.005
+
+
+@pytest.mark.parametrize("kwargs,match", [
+    (dict(dielectric="paper"), "dielectric 'paper'"),
+    (dict(load_resistance=(0, 1e9)), "positive"),
+    (dict(parts={"C9": mc.Tolerance(0.01)}), "no part named C9"),
+])
+def test_bad_specs(kwargs, match):
+    with pytest.raises(InputError, match=match):
+        mc.factors(DESIGN, mc.ToleranceSpec(**kwargs))
+
+
+def test_cli_mc_json_contract_and_report(run_cli, tmp_path):
+    design = write_design(tmp_path / "d.json", DESIGN)
+    report = tmp_path / "r.html"
+    status, out, err = run_cli("mc", design, "--n", "20000", "--seed", "3", "--dielectric", "polyester",
+                               "--cap-tol", "5%", "--spec", "0.0245%", "--sensitivity-n", "2000",
+                               "--report", report, "--json")
+    assert status == 0, err
+    data = json.loads(out)
+    assert data["n"] == 20000 and data["seconds"] > 0
+    assert set(data["residual_creep_peak"]) == {"p50", "p95", "p99", "max"}
+    assert 0 < data["spec"]["yield"] < 1 and data["sensitivity"][0]["factor"] == "C1"
+    assert data["worst_case"]["value"] >= data["residual_creep_peak"]["max"]
+    html = report.read_text()
+    assert html.count("data:image/png;base64,") == 2 and "Yield" in html
+    status, out, err = run_cli("mc", design, "--n", "5000", "--tol", "C1=1%", "--sensitivity-n", "0",
+                               "--no-worst-case")
+    assert status == 0 and "yield against" not in out and "Distribution" in out
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["--n", "0"], "--n 0"), (["--dielectric", "mica"], "--dielectric"), (["--tol", "C1"], "PART=TOL"),
+    (["--res-tol", "-1%"], "--res-tol"), (["--dist", "cauchy"], "--dist"), (["--metric", "x"], "metric 'x'"),
+])
+def test_cli_mc_bad_input(run_cli, tmp_path, args, needle):
+    design = write_design(tmp_path / "d.json", DESIGN)
+    status, out, err = run_cli("mc", design, *args)
+    assert status == 2 and needle in err and len(err.strip().splitlines()) == 1
