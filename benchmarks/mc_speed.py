@@ -39,12 +39,8 @@ def main() -> None:
         print(f"{label}: {args.n} samples in {med:.2f} s (median of {args.repeats}; "
               f"{[round(t, 2) for t in times]}), {1e6 * med / args.n:.2f} µs per sample; "
               f"p99 peak residual creep {100 * result.percentiles()['p99']:.4f} %")
-    try:
-        from creepcomp import spice
-    except ImportError:
-        print("ngspice comparison: creepcomp.spice not available")
-        return
-    transient = spice.benchmark_transient(design, repeats=7)
+    from creepcomp import spice
+    transient, _ = spice.time_transient(design.network, model)
     for label, t in per_sample.items():
         print(f"{label}: {transient / t:,.0f}x faster per sample than one ngspice transient "
               f"({1e3 * transient:.1f} ms)")

@@ -49,10 +49,7 @@ def main() -> None:
     program = spice.synthetic_program(model, "step", net)
     duration = spice.default_duration(program, model, net)
     deck = spice.program_deck(net, model, program, duration)
-    engine.run(deck)                                       # warm up (library already loaded)
-    runs = [engine.run(deck) for _ in range(args.repeats)]
-    inner = statistics.median(r.seconds for r in runs)
-    points = len(runs[0].time)
+    inner, points = spice.time_transient(net, model, args.repeats, engine)
     full, _ = median_seconds(lambda: spice.simulate(net, model, "step", engine=engine), 7)
 
     with tempfile.TemporaryDirectory() as tmp:

@@ -147,3 +147,14 @@ def test_cli_mc_bad_input(run_cli, tmp_path, args, needle):
     design = write_design(tmp_path / "d.json", DESIGN)
     status, out, err = run_cli("mc", design, *args)
     assert status == 2 and needle in err and len(err.strip().splitlines()) == 1
+
+
+def test_ngspice_spot_check_agrees_with_the_engine():
+    spec = mc.ToleranceSpec(dielectric="polyester", beta=mc.Tolerance(0.05), load_resistance=(1e9, 1e11))
+    result = mc.run(DESIGN, spec, 1000, seed=5, workers=1)
+    check = mc.spot_check(result, n=5, points=200)
+    assert check["n"] == 5 and check["agreement_max_abs"] < 1e-6
+    one = mc.variant(DESIGN, result.values, 2, "polyester")
+    assert one.network.cells[0].has_absorption and one.network.load_resistance == result.values["load_resistance"][2]
+    assert mc.evaluate(DESIGN, {k: v[2:3] for k, v in result.values.items()}, PERIOD, "polyester").peak[0] == \
+        pytest.approx(predict(one.model, one.network, PERIOD).residual_creep_peak, rel=1e-4)

@@ -26,10 +26,10 @@ from typing import Callable, Mapping
 import numpy as np
 from scipy import optimize
 
-from .errors import InputError
+from .errors import CreepcompError, InputError
 from .files import Design
 from .lti import cascade_lags, triangle_lag_gap
-from .network import Network, modal_form, state_matrices
+from .network import Branch, Cell, Network, modal_form, state_matrices
 from .quality import default_sweep_period
 
 
@@ -64,6 +64,11 @@ DIELECTRICS: dict[str, Dielectric] = {
 #: assumption: absorption has a spread of time constants; the standard soak-and-recover test
 #: (minutes) probes seconds to a quarter of an hour.
 ABSORPTION_TAU_RANGE = (1.0, 1000.0)
+
+#: The spot-check's step response spans this many of the slowest time constants, and is
+#: compared from this many of the fastest on (ngspice's step is a short ramp).
+SPOT_CHECK_SPAN = 12.0
+SPOT_CHECK_SETTLE = 1e-3
 
 #: Standard tolerances that "a tighter part" steps to.
 RESISTOR_TOLERANCES = (0.05, 0.01, 0.001)
@@ -220,7 +225,7 @@ class Metrics:
 
 
 #: Times of the step-response grid, as multiples of each sample's slowest time constant.
-STEP_GRID = np.geomspace(1e-3, 30.0, 40)
+STEP_GRID = np.geomspace(1e-3, 30.0, 28)
 #: Positions along the first half of the rising sweep branch (the gap is symmetric).
 SWEEP_GRID = np.linspace(0.0, 0.5, 17)
 
@@ -249,8 +254,28 @@ def evaluate(design: Design, values: Mapping[str, np.ndarray], sweep_period: flo
     -------
     Metrics
     """
-    net, model = design.network, design.model
     n = len(next(iter(values.values()))) if values else (n or 1)
+    rel, q = _cascade(design, values, dielectric, temperature, n)
+    final = rel.sum(axis=1)
+    peak = np.maximum(_step_peak(rel, q), np.abs(final))
+    hysteresis = _sweep_peak(rel, q, sweep_period)
+    return Metrics(peak, final, hysteresis)
+
+
+def _cascade(design: Design, values: Mapping[str, np.ndarray], dielectric: str | None,
+             temperature: float, n: int):
+    """Residual-creep form of the corrected sensor of every variant: ``H G / (H G)(inf) - 1
+    = sum_m rel_m (1 - 1/(1 + s q_m))``, as arrays ``rel`` and ``q`` of shape (n, M)."""
+    arrays, beta, tau = variant_arrays(design, values, dielectric, temperature, n)
+    d, r, p = modal_form(*state_matrices(*arrays))
+    D, R, q = cascade_lags(np.ones(n), beta, tau, d, r, p)
+    return R / D[:, None], q
+
+
+def variant_arrays(design: Design, values: Mapping[str, np.ndarray], dielectric: str | None,
+                   temperature: float, n: int):
+    """Network arrays (for :func:`network.state_matrices`) and creep terms of variants."""
+    net, model = design.network, design.model
     parts = net.parts()
     matrix = np.column_stack([values.get(label, np.full(n, v)) for label, _, v in parts])
     arrays = list(net.batch_arrays(matrix))
@@ -262,13 +287,62 @@ def evaluate(design: Design, values: Mapping[str, np.ndarray], sweep_period: flo
         arrays[7:10] = _imperfections(net, parts, matrix, values, DIELECTRICS[dielectric], temperature)
     beta = np.column_stack([values.get(f"beta[{k}]", np.full(n, b)) for k, b in enumerate(model.beta)])
     tau = np.column_stack([values.get(f"tau[{k}]", np.full(n, t)) for k, t in enumerate(model.tau)])
-    d, r, p = modal_form(*state_matrices(*arrays))
-    D, R, q = cascade_lags(np.ones(n), beta, tau, d, r, p)
-    rel = R / D[:, None]
-    final = rel.sum(axis=1)
-    peak = np.maximum(_step_peak(rel, q), np.abs(final))
-    hysteresis = _sweep_peak(rel, q, sweep_period)
-    return Metrics(peak, final, hysteresis)
+    return arrays, beta, tau
+
+
+def variant(design: Design, values: Mapping[str, np.ndarray], i: int, dielectric: str | None = None,
+            temperature: float = 25.0) -> Design:
+    """Sample ``i`` of drawn values as a design of its own (network and creep model)."""
+    one = {k: v[i:i + 1] for k, v in values.items()}
+    arrays, beta, tau = variant_arrays(design, one, dielectric, temperature, 1)
+    cells_R, cells_C, R2, shunt_R, shunt_C, rs, rl, leak, r_da, c_da = (
+        a[0] if np.ndim(a) else a for a in arrays)
+    cells = tuple(Cell(float(r), float(c), None if not np.isfinite(lk) else float(lk),
+                       None if cd <= 0 else float(rd), None if cd <= 0 else float(cd))
+                  for r, c, lk, rd, cd in zip(cells_R, cells_C, leak, r_da, c_da))
+    shunt = tuple(Branch(float(r), float(c)) for r, c in zip(shunt_R, shunt_C))
+    network = Network(cells, None if not np.isfinite(R2) else float(R2), shunt, float(rs),
+                      None if rl is None or not np.isfinite(rl) else float(rl))
+    return Design(design.model.with_terms(beta[0], tau[0]), network)
+
+
+def spot_check(result: "MonteCarloResult", n: int = 200, points: int = 400) -> dict:
+    """Run the first ``n`` samples of a Monte Carlo through ngspice (a load step) and compare
+    their residual creep with the engine's at the same times.
+
+    Returns
+    -------
+    dict
+        ``n``, ``agreement_max_abs`` (largest difference, fraction of the step), ``seconds``
+        and ``seconds_per_transient``; or ``error`` when ngspice cannot run.
+    """
+    from . import spice
+
+    n = min(n, result.n)
+    design, spec = result.design, result.spec
+    program = spice.synthetic_program(design.model, "step")
+    start = _time.perf_counter()
+    worst, transient = 0.0, 0.0
+    try:
+        engine = spice.ngspice()
+        for i in range(n):
+            sample = variant(design, result.values, i, spec.dielectric, spec.temperature)
+            duration = SPOT_CHECK_SPAN * spice.slowest_time_constant(sample.model, sample.network)
+            times = spice.transient_times(program, duration, points)
+            t0 = _time.perf_counter()
+            wave = spice.run_transient(sample.network, sample.model, program, times, engine=engine)
+            transient += _time.perf_counter() - t0
+            late = times > SPOT_CHECK_SETTLE * spice.fastest_time_constant(sample.model, sample.network)
+            ideal = sample.network.lag_expansion().hf_gain * spice.DEFAULT_SIGNAL
+            e_spice = wave.output[late] / ideal - 1.0
+            rel, q = _cascade(design, {k: v[i:i + 1] for k, v in result.values.items()},
+                              spec.dielectric, spec.temperature, 1)
+            e_engine = _step_residual(rel, q, times[late][None, :])[0]
+            worst = max(worst, float(np.max(np.abs(e_spice - e_engine))))
+    except CreepcompError as exc:
+        return {"n": 0, "error": str(exc)}
+    return {"n": n, "agreement_max_abs": worst, "seconds": _time.perf_counter() - start,
+            "seconds_per_transient": transient / n if n else None}
 
 
 def _step_residual(rel, q, t):
@@ -670,7 +744,7 @@ class ToleranceReport:
 def analyse(design: Design, spec: ToleranceSpec, n: int, seed: int = 0, metric: str = "peak",
             limit: float | None = None, sweep_period: float | None = None, worst: bool = True,
             sensitivity_samples: int = 20_000, progress: Callable[[str, int, int], None] | None = None,
-            workers: int | None = None) -> ToleranceReport:
+            workers: int | None = None, spot_check_samples: int = 0) -> ToleranceReport:
     """Monte Carlo, nominal, worst case, sensitivity and tighter-part figures of a design.
 
     Parameters
@@ -695,6 +769,8 @@ def analyse(design: Design, spec: ToleranceSpec, n: int, seed: int = 0, metric: 
         ``progress(stage, done, total)``.
     workers : int, optional
         Processes for the main run.
+    spot_check_samples : int
+        Samples to run through ngspice and compare (0: none).
 
     Returns
     -------
@@ -715,4 +791,11 @@ def analyse(design: Design, spec: ToleranceSpec, n: int, seed: int = 0, metric: 
         tight = tighter_parts(design, spec, sensitivity_samples, seed, metric, period)
         if progress:
             progress("sensitivity", 1, 1)
-    return ToleranceReport(result, metric, limit, nominal, wc, sens, tight, sensitivity_samples)
+    spot = None
+    if spot_check_samples:
+        if progress:
+            progress("ngspice spot-check", 0, 1)
+        spot = spot_check(result, spot_check_samples)
+        if progress:
+            progress("ngspice spot-check", 1, 1)
+    return ToleranceReport(result, metric, limit, nominal, wc, sens, tight, sensitivity_samples, spot)

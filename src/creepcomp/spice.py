@@ -24,6 +24,7 @@ import contextlib
 import ctypes.util
 import logging
 import math
+import statistics
 import os
 import tempfile
 import threading
@@ -753,6 +754,21 @@ def waveforms_from_run(run: SpiceRun, deck: Deck, times, edges) -> Waveforms:
                      _interpolate(run.time, v["output"], t, edges),
                      _interpolate(run.time, v["instantaneous"], t, edges)
                      if "instantaneous" in v else None)
+
+
+def time_transient(network: Network, model: CreepModel, repeats: int = 21,
+                   engine: Ngspice | None = None) -> tuple[float, int]:
+    """Median time of one ngspice transient of a design (a load step over its default
+    duration; load the netlist, run, read back), and ngspice's number of time points.
+
+    The yardstick the Monte Carlo engine is measured against.
+    """
+    engine = engine or ngspice()
+    program = synthetic_program(model, "step", network)
+    deck = program_deck(network, model, program, default_duration(program, model, network))
+    engine.run(deck)                                      # warm-up
+    runs = [engine.run(deck) for _ in range(repeats)]
+    return statistics.median(r.seconds for r in runs), len(runs[0].time)
 
 
 def run_batch(networks, model: CreepModel, program: LoadProgram, times,

@@ -63,6 +63,8 @@ def mc_command(
     worst: bool = typer.Option(True, "--worst-case/--no-worst-case", help="Search the worst case."),
     sensitivity_n: int = typer.Option(20_000, "--sensitivity-n",
                                       help="Samples for the part-alone and tighter-part runs (0: skip)."),
+    spot_check: int = typer.Option(20, "--spot-check", metavar="N",
+                                   help="Run the first N samples through ngspice and compare (0: skip)."),
     report: Optional[Path] = typer.Option(None, "--report", metavar="FILE.html",
                                           help="Write the HTML report."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
@@ -98,7 +100,8 @@ def mc_command(
                 tasks[stage] = bar.add_task(stage, total=total)
             bar.update(tasks[stage], completed=done)
 
-        result = mc.analyse(design, tspec, n, seed, metric, limit, period, worst, sensitivity_n, progress)
+        result = mc.analyse(design, tspec, n, seed, metric, limit, period, worst, sensitivity_n, progress,
+                            spot_check_samples=spot_check)
     if report is not None:
         tolerance_report_html(result, report)
     if as_json:
@@ -149,6 +152,14 @@ def render(report: mc.ToleranceReport) -> None:
             sens.add_row(s.factor, f"{100 * s.share:.1f} %", pct(s.p99_alone))
         console.print(sens)
         console.print(f"dominant: {report.sensitivities[0].factor}")
+    sc = report.spot_check
+    if sc is not None and "error" in sc:
+        err_console.print(f"note: no ngspice spot-check: {sc['error']}", markup=False)
+    elif sc is not None:
+        console.print(f"ngspice spot-check: {sc['n']} samples agree with the engine to "
+                      f"{sc['agreement_max_abs']:.2e} of the step ({1e3 * sc['seconds_per_transient']:.1f} ms "
+                      f"per ngspice transient, {1e6 * r.seconds / r.n:.2f} µs per engine sample: "
+                      f"{sc['seconds_per_transient'] / (r.seconds / r.n):,.0f}x)")
     for t in report.tightenings:
         part = f"{t.factor} at {100 * t.tolerance_to:.3g} %" + (f" {t.dielectric}" if t.dielectric else "")
         console.print(f"{part} (now {100 * t.tolerance_from:.3g} %): p99 from {pct(t.p99_from)} to "
