@@ -489,7 +489,7 @@ class MonteCarloResult:
 
 
 def run(design: Design, spec: ToleranceSpec, n: int, seed: int = 0,
-        sweep_period: float | None = None, chunk: int = 100_000,
+        sweep_period: float | None = None, chunk: int = 20_000,
         progress: Callable[[int], None] | None = None, workers: int | None = None) -> MonteCarloResult:
     """Monte Carlo of a design's residual creep and hysteresis.
 
