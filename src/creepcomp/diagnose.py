@@ -20,16 +20,16 @@ the gain.
 from __future__ import annotations
 
 import time as _time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from . import effects as effects_pkg
 from .effects import Effect, compensate
 from .errors import InputError
-from .fit import (BIC_STRONG, HELDOUT_Z, Applied, Data, Evidence, Fit, Noise, Structure,
-                  autocorrelation, compare, fit_noise, fit_structure, heldout, ljung_box,
-                  model_file_dict, one_term_starts, prepare, rows_for, whiten, with_noise)
+from .fit import (BIC_STRONG, HELDOUT_Z, SLOW_NOISE_RATIO, Applied, Data, Evidence, Fit, Structure,
+                  autocorrelation, compare, fit_structure, halves, heldout, ljung_box,
+                  model_file_dict, one_term_starts, prepare, rows_for, slow_noise_ratio, whiten)
 from .lti import lag_states
 from .records import Record
 
@@ -224,29 +224,13 @@ def _catch_all(data: Data, current: Fit) -> Fit | None:
         return None
 
 
-def step_noise(data: Data, current: Fit) -> Noise:
-    """The noise model for one step of the search: AR(p) of the residual of the richest
-    model at hand (the catch-all on top of ``current``), so that structure the current
-    model misses is not taken for coloured noise (the full-model error of stepwise
-    regression)."""
-    wide = _catch_all(data, current)
-    resid = wide.residual if wide is not None else current.residual
-    return fit_noise(resid, rows_for(data))
-
-
-def _refit(data: Data, fit: Fit, noise: Noise) -> Fit:
-    """The fit weighed with another noise model (with held-out prediction)."""
-    fit = with_noise(fit, noise)
-    return fit if fit.heldout is not None else heldout(data, fit)
-
-
 def _polish(data: Data, current: Fit, candidate: Fit) -> Fit:
     """``current`` refitted from the candidate's values of the parameters they share, kept
     when that fits better: an improvement must come from the candidate's own parameters,
     not from a better optimum of the shared ones."""
     shared = {p.name: candidate.values[p.name] for p in current.params if p.name in candidate.values}
     try:
-        alt = fit_structure(data, current.structure, [shared], noise=current.noise, n_refine=1)
+        alt = fit_structure(data, current.structure, [shared], n_refine=1)
     except (InputError, np.linalg.LinAlgError, ValueError):
         return current
     return heldout(data, alt) if alt.bic < current.bic - 1e-6 else current
@@ -310,14 +294,11 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
     t_start = _time.perf_counter()
     data = prepare(record, initial=initial, load_step_at=load_step_at)
     pool = effects_pkg.sensor_effects() if candidates is None else [effects_pkg.get(c) for c in candidates]
-    current = fit_structure(data, Structure(1), one_term_starts(data))
+    current = heldout(data, fit_structure(data, Structure(1), one_term_starts(data)))
     base = None
     findings: list[Finding] = []
     trials: list[Trial] = []
-    for step in range(1, max_effects + 2):
-        current = _refit(data, current, step_noise(data, current))
-        if step > max_effects:
-            break
+    for step in range(1, max_effects + 1):
         fitted = _candidates(data, current, pool, step, trials)
         if fitted and fitted[0][0] <= -BIC_STRONG:
             polished = _polish(data, current, fitted[0][2])
@@ -328,29 +309,42 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
             base = current
         accepted, wide = None, None
         for delta_bic, effect, f in fitted:
-            if accepted is not None or delta_bic > -BIC_STRONG:
+            simpler = accepted is not None and f.n_params < accepted[1].n_params
+            if delta_bic > -BIC_STRONG or (accepted is not None and not simpler):
                 trials.append(Trial(step, effect.name, delta_bic, None,
-                                    "weaker than the accepted one" if accepted else
-                                    "not supported (BIC)"))
+                                    "not supported (BIC)" if delta_bic > -BIC_STRONG else
+                                    "weaker than the accepted one"))
                 continue
             f = heldout(data, f)
-            ev = compare(data, current, f)
+            ev = _evidence(data, current, f)
             if not ev.supported:
                 trials.append(Trial(step, effect.name, delta_bic, ev, "not supported (held-out)"))
                 continue
-            wide = wide or _generic(data, current)
-            if wide is not None and wide[1].supported and wide[0].bic < f.bic \
-                    and wide[0].heldout.rms < f.heldout.rms:
-                trials.append(Trial(step, effect.name, delta_bic, ev,
-                                    "the generic extension explains more"))
-                break
-            accepted = (effect, f, ev)
+            if accepted is not None:
+                # parsimony: the richer one must predict held-out data better than this simpler one
+                if compare(data, f, accepted[1]).supported_heldout:
+                    trials.append(Trial(step, effect.name, delta_bic, ev,
+                                        f"supported, but {accepted[0].name} predicts better"))
+                    continue
+                trials[accepted[3]] = Trial(step, accepted[0].name, trials[accepted[3]].delta_bic,
+                                            accepted[2], f"supported, but not better on held-out "
+                                                         f"data than the simpler {effect.name}")
+            else:
+                wide = _generic(data, current)
+                if wide is not None and wide[1].supported and wide[0].bic < f.bic \
+                        and wide[0].heldout.rms < f.heldout.rms:
+                    trials.append(Trial(step, effect.name, delta_bic, ev,
+                                        "the generic extension explains more"))
+                    break
+            accepted = (effect, f, ev, len(trials))
             trials.append(Trial(step, effect.name, delta_bic, ev, "accepted"))
         if accepted is None:
             break
-        effect, f, ev = accepted
+        effect, f, ev, _ = accepted
         findings.append(_finding(effect, _applied_of(f, effect), f, ev, current))
         current = f
+    if base is None:
+        base = current
     generic = _generic(data, current)
     catch = None
     if generic is not None:
@@ -379,6 +373,25 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
                      _time.perf_counter() - t_start, extended_model, baseline_model, corr)
 
 
+def _evidence(data: Data, current: Fit, rich: Fit, refine: bool = True,
+              always_halves: bool = False) -> Evidence:
+    """Evidence for ``rich`` over ``current``: BIC and held-out blocks; and when the richer
+    model's residual holds slow noise (drift that spans held-out blocks,
+    :func:`~creepcomp.fit.slow_noise_ratio`), also the prediction of each half of the record
+    from the other: drift that a slow extension follows between interleaved blocks is not
+    predictable across halves, structure driven by the load is. The weaker of the two
+    held-out results is reported. ``always_halves``: test across halves in any case (the
+    catch-all, whose many slow terms follow drift easily)."""
+    ev = compare(data, current, rich)
+    if ev.supported and (always_halves or slow_noise_ratio(rich.residual) > SLOW_NOISE_RATIO):
+        across = compare(data, replace(current, heldout=halves(data, current)),
+                         replace(rich, heldout=halves(data, rich, refine=refine)))
+        if not across.supported_heldout:
+            ev = replace(ev, heldout_z=min(ev.heldout_z, across.heldout_z),
+                         heldout_rms_ratio=min(ev.heldout_rms_ratio, across.heldout_rms_ratio))
+    return ev
+
+
 def _generic(data: Data, current: Fit) -> tuple[Fit, Evidence] | None:
     """The catch-all on top of ``current`` with its evidence (held out only when BIC
     supports it)."""
@@ -388,7 +401,7 @@ def _generic(data: Data, current: Fit) -> tuple[Fit, Evidence] | None:
     if wide.bic - current.bic > -BIC_STRONG:
         return wide, Evidence(wide.bic - current.bic, float("nan"), float("nan"))
     wide = heldout(data, wide, refine=False)
-    return wide, compare(data, current, wide)
+    return wide, _evidence(data, current, wide, refine=False, always_halves=True)
 
 
 def circuit_residual(record: Record, network) -> dict:

@@ -92,12 +92,14 @@ class Synthetic:
 # --------------------------------------------------------------------------------------------
 
 def make_program(kind: str, duration: float, rng: np.random.Generator, full_scale: float = 1.0,
-                 start_loaded: bool = False, tau: float = 45.0, start: float = 0.0) -> LoadProgram:
+                 start_loaded: bool = False, tau: float = 45.0, start: float = 0.0,
+                 unload: bool = False) -> LoadProgram:
     """A random load program of a kind: ``step``, ``staircase``, ``sweep``, ``mixture`` or
     ``random``, spanning ``duration`` from ``start``.
 
     With ``start_loaded`` the load is already at a level when the program starts (and has been
-    for a random time, so creep is part-way), otherwise it starts at zero.
+    for a random time, so creep is part-way), otherwise it starts at zero. ``unload``: a
+    ``step`` program always unloads again (otherwise it does so in 60 % of the cases).
     """
     fs = full_scale
     t_end = start + duration
@@ -123,7 +125,7 @@ def make_program(kind: str, duration: float, rng: np.random.Generator, full_scal
     if kind == "step":
         level = rng.choice([-1, 1]) * rng.uniform(0.5, 1.0) * fs
         jump(level, t)
-        if rng.uniform() < 0.6:
+        if unload or rng.uniform() < 0.6:
             off = t + rng.uniform(0.4, 0.6) * (t_end - t)
             hold(level, off)
             jump(0.0, off)
@@ -214,13 +216,17 @@ def temperature_profile(t_first: float, t_last: float, rng: np.random.Generator)
 
 
 def _fine_grid(program: LoadProgram, t_samples: np.ndarray, spacing: float, delay: float):
-    t_lo = min(program.start, t_samples[0] - max(delay, 0.0)) - 1e-9
+    """Sample times, delayed sample times and breakpoints exactly, filled in with a uniform grid
+    (uniform points next to an exact one are dropped, never the exact one)."""
+    t_lo = min(program.start, t_samples[0] - max(delay, 0.0))
     t_hi = t_samples[-1]
-    uniform = np.arange(t_lo, t_hi + spacing, spacing)
     bt = np.array(program.times)
-    pts = np.concatenate([uniform, bt[(bt >= t_lo) & (bt <= t_hi)], t_samples, t_samples - delay])
-    grid = np.unique(pts[(pts >= t_lo) & (pts <= t_hi)])
-    return grid[np.concatenate([[True], np.diff(grid) > 1e-9])]
+    exact = np.unique(np.concatenate([bt[(bt >= t_lo) & (bt <= t_hi)], t_samples,
+                                      (t_samples - delay)[t_samples - delay >= t_lo]]))
+    uniform = np.arange(t_lo, t_hi, spacing)
+    idx = np.clip(np.searchsorted(exact, uniform), 1, len(exact) - 1)
+    near = np.minimum(np.abs(uniform - exact[idx]), np.abs(uniform - exact[idx - 1]))
+    return np.unique(np.concatenate([exact, uniform[near > 1e-3 * spacing]]))
 
 
 def simulate_signal(spec: Spec, program: LoadProgram, t_samples: np.ndarray,
@@ -333,7 +339,7 @@ def generate(spec: Spec) -> Synthetic:
     """
     rng = np.random.default_rng(spec.seed)
     program = make_program(spec.program, spec.duration, rng, spec.full_scale, spec.start_loaded,
-                           max(spec.tau), spec.start)
+                           max(spec.tau), spec.start, unload="asymmetric_recovery" in spec.hidden)
     t = sample_times(spec.duration, spec.rate, rng, spec.jitter, spec.gaps, spec.start)
     needs_temp = spec.temperature or any(k.startswith("thermal") for k in spec.hidden)
     temp_fn, temp_mean = temperature_profile(t[0], t[-1], rng)
@@ -348,8 +354,7 @@ def generate(spec: Spec) -> Synthetic:
         signal = np.round(signal / spec.noise.lsb) * spec.noise.lsb
     load = program.sample(t)
     metadata = {"units.load": "N", "units.signal": "V", "synth.seed": str(spec.seed),
-                "synth.program": spec.program,
-                "synth.hidden": ", ".join(sorted(hidden)) or "none"}
+                "synth.program": spec.program}
     temperature = temp_fn(t) if needs_temp else None
     record = Record(t, load, signal, temperature=temperature, metadata=metadata,
                     source=f"synthetic record (seed {spec.seed})")
@@ -381,13 +386,11 @@ def random_hidden(effect: str | None, rng: np.random.Generator, tau: float, rate
     if effect is None:
         return {}
     if effect == "extra_retardation":
-        if rng.uniform() < 0.5:
-            t2 = tau * rng.uniform(4.0, 12.0)
-            t2 = min(t2, duration / 3.0)
-        else:
-            t2 = tau / rng.uniform(4.0, 12.0)
-            t2 = max(t2, 8.0 / rate)
-        return {"extra_retardation": {"tau": float(t2), "beta": float(beta * rng.uniform(0.3, 1.0))}}
+        slow = tau * rng.uniform(4.0, 12.0)
+        fast = tau / rng.uniform(4.0, 12.0)
+        t2 = slow if (rng.uniform() < 0.5 and slow <= duration / 3.0) or fast < 10.0 / rate else fast
+        t2 = min(t2, duration / 3.0)
+        return {"extra_retardation": {"tau": float(t2), "beta": float(beta * rng.uniform(0.4, 1.0))}}
     if effect == "viscous_flow":
         # flow that adds 0.5 ... 3 times the creep over the record
         return {"viscous_flow": {"rate": float(beta * rng.uniform(0.5, 3.0) / duration)}}
@@ -420,7 +423,8 @@ def random_hidden(effect: str | None, rng: np.random.Generator, tau: float, rate
 def random_spec(effect: str | None, seed: int, rate: tuple = (2.0, 50.0),
                 duration: tuple = (900.0, 3600.0), noise: tuple = (2e-4, 2e-3),
                 irregular: float = 0.3, coloured: float = 0.3, drift: float = 0.2,
-                start_loaded: float = 0.2, forms: bool = True, programs=None) -> Spec:
+                start_loaded: float = 0.2, forms: bool = True, programs=None,
+                max_samples: int | None = None, colour_scale: float = 1.0) -> Spec:
     """A randomised :class:`Spec` hiding ``effect`` (None: a clean record).
 
     Parameters
@@ -434,29 +438,42 @@ def random_spec(effect: str | None, seed: int, rate: tuple = (2.0, 50.0),
     noise : (low, high)
         White-noise range, relative to the full-scale signal, log-uniform.
     irregular, coloured, drift, start_loaded : float
-        Probabilities of jittered/gappy sampling, coloured noise, random-walk drift, and a
-        record that starts loaded.
+        Probabilities of jittered/gappy sampling, coloured noise (0.3-1 times the white noise,
+        correlation time 2-20 samples), random-walk drift (0.2-1 times the white noise after
+        an hour), and a record that starts loaded.
     forms : bool
         Also use effect forms other than the fitted ones.
     programs : sequence of str, optional
         Programs to draw from (default: those that let the effect show).
+    max_samples : int, optional
+        Shorten the record to at most this many samples (the retardation time scales with
+        it): small records for fast tests.
+    colour_scale : float
+        Multiplies the coloured noise and the drift (the wide benchmark uses 2).
     """
+    if effect is not None and effect not in EFFECTS:
+        raise InputError(f"unknown effect '{effect}' (known: {', '.join(EFFECTS)})")
     rng = np.random.default_rng(seed)
     r = float(np.exp(rng.uniform(np.log(rate[0]), np.log(rate[1]))))
     dur = float(rng.uniform(*duration))
-    tau = float(np.exp(rng.uniform(np.log(20.0), np.log(min(120.0, dur / 10)))))
+    if max_samples is not None:
+        dur = min(dur, max_samples / r)
+    tau = float(np.exp(rng.uniform(np.log(min(20.0, dur / 40)), np.log(min(120.0, dur / 8)))))
     beta = float(rng.uniform(0.01, 0.06))
     gain = float(rng.uniform(0.2, 5.0) * rng.choice([-1, 1], p=[0.2, 0.8]))
     fs = float(rng.choice([1.0, 2.0, 9.81, 50.0]))
     white = float(np.exp(rng.uniform(np.log(noise[0]), np.log(noise[1])))) * abs(gain) * fs
     n = Noise(white=white,
-              coloured=white * rng.uniform(0.5, 2.0) if rng.uniform() < coloured else 0.0,
+              coloured=white * rng.uniform(0.3, 1.0) * colour_scale if rng.uniform() < coloured else 0.0,
               correlation_time=float(rng.uniform(2.0, 20.0) / r),
-              drift=white * rng.uniform(0.5, 2.0) if rng.uniform() < drift else 0.0,
+              drift=white * rng.uniform(0.2, 1.0) * colour_scale if rng.uniform() < drift else 0.0,
               lsb=white * rng.uniform(0.1, 1.0) if rng.uniform() < 0.3 else 0.0)
-    choices = programs or PROGRAMS_FOR[effect]
+    choices = list(programs or PROGRAMS_FOR[effect])
     irregular_now = rng.uniform() < irregular
     hidden = random_hidden(effect, rng, tau, r, dur, beta, forms, abs(gain) * fs)
+    if effect == "extra_retardation" and hidden[effect]["tau"] < tau and len(choices) > 1:
+        # a fast further term shows after load steps, hardly in a slow sweep
+        choices = [c for c in choices if c != "sweep"]
     return Spec(hidden=hidden, beta=(beta,), tau=(tau,), gain=gain,
                 offset=float(rng.normal(0, 0.1) * abs(gain) * fs), rate=r, duration=dur,
                 program=str(rng.choice(list(choices))), full_scale=fs,
@@ -470,6 +487,21 @@ def random_spec(effect: str | None, seed: int, rate: tuple = (2.0, 50.0),
 def random_record(effect: str | None, seed: int, **ranges) -> Synthetic:
     """:func:`generate` of :func:`random_spec`."""
     return generate(random_spec(effect, seed, **ranges))
+
+
+#: The bundled demo record (``data/hidden_effect.csv``): a force sensor (V per N) on a
+#: staircase of loading and unloading steps whose recovery is slower than its creep.
+DEMO_SPEC = Spec(hidden={"asymmetric_recovery": {"tau_recovery": 150.0}}, beta=(0.03,), tau=(45.0,),
+                 gain=0.05, offset=0.002, rate=2.0, duration=1500.0, program="staircase",
+                 full_scale=10.0, noise=Noise(white=2e-4), seed=2008)
+
+
+def demo_record() -> Synthetic:
+    """The record bundled as ``data/hidden_effect.csv`` (see :data:`DEMO_SPEC`)."""
+    syn = generate(DEMO_SPEC)
+    meta = dict(syn.record.metadata)
+    meta.update({"description": "synthetic force sensor with a hidden effect (creepcomp.synth.DEMO_SPEC)"})
+    return Synthetic(replace(syn.record, metadata=meta, source="hidden_effect.csv"), syn.spec, syn.program)
 
 
 def reported_truth(synthetic: Synthetic) -> dict:

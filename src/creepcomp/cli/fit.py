@@ -66,6 +66,8 @@ def fit_command(
     terms: str = typer.Option("auto", "--terms", metavar="auto|K",
                               help="Number of creep terms: chosen by evidence, or fixed."),
     max_terms: int = typer.Option(8, "--max-terms", min=1, max=20, help="Most terms tried with --terms auto."),
+    flow: bool = typer.Option(False, "--flow", help="Add viscous flow (a dashpot in series, Burgers "
+                                                   "model) to every model: creep that never saturates."),
     initial: str = typer.Option("free", "--initial", metavar="free|relaxed|settled",
                                 help="Creep state at the first sample: fitted, zero, or settled."),
     load_step_at: Optional[str] = typer.Option(None, "--load-step-at", metavar="TIME",
@@ -89,7 +91,7 @@ def fit_command(
         if not 1 <= fixed <= 20:
             raise InputError(f"--terms {fixed}: use 1 to 20")
     data = prepare(record, initial=init, load_step_at=step)
-    result = fit_prony(data, max_terms=max_terms, n_terms=fixed)
+    result = fit_prony(data, max_terms=max_terms, n_terms=fixed, flow=flow)
     model = result.to_dict()
     if output is not None:
         write_json(output, model)
@@ -141,6 +143,9 @@ def render_fit(record: Record, result: PronyResult, fixed: int | None) -> None:
     for k, t in enumerate(terms):
         t2.add_row(f"beta[{k}]", pct(t["beta"], 4), pct(t["beta_sigma"], 2))
         t2.add_row(f"tau[{k}]", format_quantity(t["tau"], "s"), format_quantity(t["tau_sigma"], "s", 2))
+    if fit.structure.has("viscous_flow"):
+        rate = fit.estimate(lambda v: v["viscous_flow.flow"] / v["gain"])
+        t2.add_row("viscous flow rate (1/s, of the instantaneous signal)", f"{rate[0]:.4g}", f"{rate[1]:.2g}")
     console.print(t2)
     scale = data.signal_scale
     console.print(f"residual RMS {fit.residual_rms:.4g} {su} ({pct(fit.residual_rms / scale)} of the signal's "

@@ -89,8 +89,7 @@ class Effect:
         return [{}]
 
     def fit_on(self, data: Data, base: Fit, refine: str = "all", start: dict | None = None) -> Fit:
-        """Fit the base model extended by this effect, with the base's noise model (so that
-        the two likelihoods compare).
+        """Fit the base model extended by this effect (its likelihood with its own AR noise).
 
         ``refine``: ``all`` (every nonlinear parameter refined together), ``own`` (the
         base's held, the effect's own refined: a quick screening) or ``none`` (the best
@@ -105,7 +104,7 @@ class Effect:
             s = dict(known)
             s.update({self._key(applied, k): v for k, v in own.items()})
             starts.append(s)
-        return fit_structure(data, structure, starts, noise=base.noise,
+        return fit_structure(data, structure, starts,
                              n_refine=2 if refine == "own" else 1, refine=refine != "none",
                              frozen=known if refine == "own" else None, with_cov=refine == "all")
 

@@ -29,7 +29,7 @@ class ExtraRetardation(Effect):
         structure = self.extend(base.structure, applied)
         known = {p.name: base.values[p.name] for p in base.params}
         starts = [start] if start is not None else extra_term_starts(data, base, structure)
-        return fit_structure(data, structure, starts, noise=base.noise,
+        return fit_structure(data, structure, starts,
                              n_refine=2 if refine == "all" else 1,
                              refine=refine != "none", frozen=known if refine == "own" else None,
                              with_cov=refine == "all")
