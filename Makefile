@@ -31,3 +31,7 @@ $(STAMP): pyproject.toml
 
 clean:
 	rm -rf $(VENV) $(DEMO_OUT) .pytest_cache .hypothesis
+
+.PHONY: bench-digital
+bench-digital: setup
+	$(PY) benchmarks/digital_throughput.py

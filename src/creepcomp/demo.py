@@ -14,6 +14,7 @@ from rich.console import Console
 from .data import default_sensor
 from .files import write_design
 from .report import plot_design_comparison
+from .scenarios import demo_step as step_digital_correction
 from .sizing import size
 
 
@@ -54,7 +55,7 @@ def step_diagnosis(out: Path, console: Console) -> None:
     console.print()
 
 
-STEPS: list[Callable[[Path, Console], None]] = [step_sizing, step_diagnosis]
+STEPS: list[Callable[[Path, Console], None]] = [step_sizing, step_digital_correction, step_diagnosis]
 
 
 def run_demo(out: Path, console: Console) -> None:

@@ -195,11 +195,34 @@ def sweep_hysteresis(model: CreepModel, network: Network | None = None,
     phi = linalg.expm(np.asarray(sys.A) * period)
     x0 = np.linalg.solve(np.eye(sys.nstates) - phi, gamma)
     y = np.atleast_1d(control.forced_response(sys, t, load, X0=x0).outputs) / ideal
+    load, y_up, y_down = sweep_branches(y, m)
+    return float(np.abs(y_down - y_up).max()), load, y_up, y_down
+
+
+def sweep_branches(y, quarter_points: int):
+    """Up and down branches of one period of the triangular sweep, at equal loads.
+
+    Parameters
+    ----------
+    y : array_like
+        Output over one period ``0 -> +FS -> -FS -> 0``, sampled at ``4 * quarter_points + 1``
+        equally spaced times (both ends included).
+    quarter_points : int
+        Samples per quarter period.
+
+    Returns
+    -------
+    load, y_up, y_down : numpy.ndarray
+        Load (fraction of FS, -1 to 1) and the rising and falling branches there.
+    """
+    y = np.asarray(y)
+    m = int(quarter_points)
+    if y.shape != (4 * m + 1,):
+        raise ValueError(f"one sweep period needs {4 * m + 1} samples, got {y.shape}")
     levels = np.arange(-m, m + 1)
     up = np.where(levels >= 0, levels, 4 * m + levels)        # rising: -FS -> 0 -> +FS
     down = 2 * m - levels                                      # falling: +FS -> -FS
-    gap = np.abs(y[down] - y[up])
-    return float(gap.max()), levels / m, y[up], y[down]
+    return levels / m, y[up], y[down]
 
 
 def step_peak(model: CreepModel, network: Network | None = None) -> tuple[float, float, float]:

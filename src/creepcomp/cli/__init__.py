@@ -17,6 +17,7 @@ from .common import app, fail
 # Subcommand modules register themselves on import.
 from . import size as _size  # noqa: E402,F401
 from . import demo as _demo  # noqa: E402,F401
+from . import correct as _correct  # noqa: E402,F401
 from . import fit as _fit  # noqa: E402,F401
 from . import diagnose as _diagnose  # noqa: E402,F401
 

@@ -1,0 +1,152 @@
+"""``creepcomp correct``: digital creep correction of a record (subtractive / supplemental)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+import typer
+from rich.table import Table
+
+from ..digital import (compensate, creep_error, default_initial, reference,
+                       saturation_factor, uniform_interval)
+from ..digital_plots import plot_correction
+from ..errors import InputError
+from ..files import read_model
+from ..records import parse_columns, read_record, write_record
+from ..units import format_quantity
+from .common import app, console, pct, print_json
+from .size import describe_model
+
+#: A record "starts loaded" when its first load is above this fraction of its largest load.
+LOADED_START = 1e-3
+
+HOLD_TEXT = {"zero": "load held between samples", "linear": "load ramping linearly between samples"}
+
+
+@app.command("correct")
+def correct_command(
+    record_path: Path = typer.Argument(..., metavar="RECORD", help="Record CSV (time, load, signal)."),
+    model_file: Optional[Path] = typer.Option(None, "--model", metavar="FILE",
+                                              help="Model file (beta, tau; gain, offset)."),
+    method: str = typer.Option("subtractive", "--method", metavar="subtractive|supplemental",
+                               help="subtractive: the instantaneous signal; supplemental: the "
+                                    "saturated signal, (1 + beta0) times it."),
+    initial: Optional[str] = typer.Option(None, "--initial", metavar="relaxed|settled",
+                                          help="Creep at the first sample: none (unloaded before) "
+                                               "or saturated. Default: relaxed for subtractive, "
+                                               "settled for supplemental."),
+    hold: str = typer.Option("zero", "--hold", metavar="zero|linear",
+                             help="Load held between samples (the paper's case) or ramping."),
+    columns: Optional[str] = typer.Option(None, "--columns", metavar="MAP",
+                                          help="Column mapping, e.g. time=tR,load=P,signal=Ri."),
+    output: Optional[Path] = typer.Option(None, "-o", "--output", metavar="out.csv",
+                                          help="Write the record's columns plus 'compensated'."),
+    plot: Optional[Path] = typer.Option(None, "--plot", metavar="FILE.png",
+                                        help="Plot raw, compensated and reference, and the errors."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+) -> None:
+    """Remove creep from a record sample by sample, and report the creep error left."""
+    if model_file is None:
+        raise InputError("give the sensor's creep model: --model FILE (a JSON object with 'beta' "
+                         "and 'tau' lists, as written by creepcomp fit)")
+    method = method.strip().lower()
+    hold = hold.strip().lower()
+    model = read_model(model_file)
+    record = read_record(record_path, columns=parse_columns(columns))
+    start = default_initial(method) if initial is None else initial.strip().lower()
+    compensated = compensate(record.time, record.signal, model, method, initial=start, hold=hold)
+    before = creep_error(record.time, record.signal, record.load, model, method)
+    after = creep_error(record.time, compensated, record.load, model, method)
+    dt = uniform_interval(record.time)
+    unit = record.unit("signal")
+    notes = _notes(record, start, method, model)
+    formula = "offset + gain * load" if method == "subtractive" else "offset + gain * (1 + beta0) * load"
+    result = {
+        "record": str(record_path), "samples": len(record), "uniform": dt is not None,
+        "sample_interval": dt, "method": method, "initial": start, "hold": hold,
+        "model": model.to_dict(), "reference": formula,
+        "saturation_factor": saturation_factor(model, method),
+        "units": {"signal": unit, "load": record.unit("load")},
+        "creep_error": {"before": before.to_dict(), "after": after.to_dict()},
+        "reduction": (before.peak / after.peak) if after.peak > 0 else None,
+        "starts_loaded": _starts_loaded(record), "notes": notes,
+        "output": None if output is None else str(output), "plot": None if plot is None else str(plot),
+    }
+    if output is not None:
+        write_record(output, record, extra={"compensated": compensated}, metadata={
+            "compensated.method": method, "compensated.initial": start, "compensated.hold": hold,
+            "compensated.model": str(model_file)})
+    if plot is not None:
+        plot_correction(record.time, record.signal, compensated,
+                        reference(record.load, model, method), plot,
+                        title=f"{record_path.name}: {method} correction", signal_unit=unit,
+                        full_scale=after.full_scale or None)
+    if as_json:
+        print_json(result)
+        return
+    _render(record_path, record, model, result, before, after, dt, unit, notes)
+    if output is not None:
+        console.print(f"corrected record written to {output}", soft_wrap=True)
+    if plot is not None:
+        console.print(f"plot written to {plot}", soft_wrap=True)
+
+
+def _starts_loaded(record) -> bool:
+    largest = float(np.max(np.abs(record.load)))
+    return largest > 0 and abs(float(record.load[0])) > LOADED_START * largest
+
+
+def _notes(record, start: str, method: str, model) -> list[str]:
+    notes = []
+    if model.extensions:
+        notes.append(f"the model's extensions ({', '.join(map(str, model.extensions))}) are not used: "
+                     "the digital correction inverts the Prony terms (beta, tau), gain and offset")
+    if _starts_loaded(record):
+        load0 = f"{record.load[0]:.4g} {record.unit('load')}".strip()
+        if start == "relaxed":
+            notes.append(f"the record starts loaded (load {load0} at t = {record.time[0]:.4g} s); a "
+                         "relaxed start assumes the sensor was unloaded before the first sample "
+                         "(as when a creep test starts at its load step). If it had been held at "
+                         "this load until its creep settled, use --initial settled.")
+        else:
+            notes.append(f"the record starts loaded (load {load0} at t = {record.time[0]:.4g} s); a "
+                         "settled start assumes its creep had saturated at that level. If the load "
+                         "was applied just before, use --initial relaxed.")
+    if float(np.max(np.abs(record.load))) == 0:
+        notes.append("the load is zero throughout: errors cannot be given as a fraction of full scale")
+    return notes
+
+
+def _value(value: float, unit: str) -> str:
+    """A signal value with its unit (SI prefix), or a plain number when the unit is unknown."""
+    return format_quantity(value, unit) if unit else f"{value:.4g}"
+
+
+def _render(path, record, model, result, before, after, dt, unit, notes) -> None:
+    sampling = (f"uniform, every {format_quantity(dt, 's')}" if dt is not None else
+                f"irregular, steps {format_quantity(float(np.min(np.diff(record.time))), 's')} to "
+                f"{format_quantity(float(np.max(np.diff(record.time))), 's')}") if len(record) > 1 else "1 sample"
+    console.print(f"[bold]creepcomp correct[/bold]: {path}, {len(record)} samples ({sampling}); "
+                  f"{result['method']} method, {result['initial']} start, {HOLD_TEXT[result['hold']]}",
+                  soft_wrap=True)
+    console.print(f"model: {describe_model(model)}; gain {model.gain:.6g}, offset "
+                  f"{_value(model.offset, unit)}", soft_wrap=True)
+    console.print(f"reference: {result['reference']} "
+                  f"({'instantaneous' if result['method'] == 'subtractive' else 'saturated'} signal); "
+                  f"full scale {_value(after.full_scale, unit)}")
+    table = Table(title="Creep error against the load reference", title_justify="left")
+    table.add_column("")
+    table.add_column("raw signal", justify="right")
+    table.add_column("compensated", justify="right")
+    table.add_row("peak", _value(before.peak, unit), _value(after.peak, unit))
+    table.add_row("peak (of full scale)", pct(before.peak_fraction), pct(after.peak_fraction))
+    table.add_row("  at", format_quantity(before.peak_time, "s"), format_quantity(after.peak_time, "s"))
+    table.add_row("RMS", _value(before.rms, unit), _value(after.rms, unit))
+    table.add_row("RMS (of full scale)", pct(before.rms_fraction), pct(after.rms_fraction))
+    console.print(table)
+    if result["reduction"] is not None:
+        console.print(f"peak creep error reduced {result['reduction']:.3g}-fold")
+    for note in notes:
+        console.print(f"[yellow]note:[/yellow] {note}")

@@ -1,0 +1,132 @@
+import json
+
+import numpy as np
+import pytest
+
+from creepcomp.files import write_model
+from creepcomp.model import CreepModel
+from creepcomp.records import Record, read_record, write_record
+
+MODEL = CreepModel((0.01, 0.02), (8.0, 60.0), gain=0.5, offset=0.02)
+
+
+@pytest.fixture
+def files(tmp_path):
+    t = np.arange(0, 600.0, 0.5)
+    load = np.select([t < 30, t < 250, t < 400], [0.0, 2.0, 3.0], 1.0)
+    signal = MODEL.response(t, load, hold="zero")
+    record = write_record(tmp_path / "rec.csv", Record(t, load, signal, temperature=np.full(len(t), 23.0),
+                                                       metadata={"units.signal": "V", "units.load": "g"}))
+    model = write_model(tmp_path / "model.json", MODEL)
+    return tmp_path, record, model, t, load
+
+
+def test_correct_writes_the_record_plus_compensated_and_reports_the_error(run_cli, files):
+    tmp, record, model, t, load = files
+    out = tmp / "out.csv"
+    status, stdout, err = run_cli("correct", record, "--model", model, "--method", "subtractive",
+                                  "-o", out)
+    assert status == 0, err
+    assert "Creep error against the load reference" in stdout and "% " in stdout and "mV" in stdout
+    assert f"corrected record written to {out}" in stdout
+    header = [line for line in out.read_text().splitlines() if not line.startswith("#")][0]
+    assert header == "time,load,signal,temperature,compensated"
+    back = read_record(out)
+    assert back.metadata["compensated.method"] == "subtractive"
+    assert back.metadata["units.signal"] == "V"
+    np.testing.assert_array_equal(back.signal, read_record(record).signal)
+    compensated = _column(out, "compensated")
+    np.testing.assert_allclose(compensated, MODEL.offset + MODEL.gain * load, rtol=0, atol=1e-13)
+
+
+def _column(path, name):
+    lines = [line for line in path.read_text().splitlines() if not line.startswith("#")]
+    index = lines[0].split(",").index(name)
+    return np.array([float(line.split(",")[index]) for line in lines[1:]])
+
+
+@pytest.mark.parametrize("method,factor", [("subtractive", 1.0), ("supplemental", 1.03)])
+def test_json_report(run_cli, files, method, factor):
+    _, record, model, t, load = files
+    status, stdout, err = run_cli("correct", record, "--model", model, "--method", method, "--json")
+    assert status == 0, err
+    data = json.loads(stdout)
+    assert data["method"] == method and data["hold"] == "zero" and data["uniform"] is True
+    assert data["sample_interval"] == pytest.approx(0.5)
+    assert data["saturation_factor"] == pytest.approx(factor)
+    before, after = data["creep_error"]["before"], data["creep_error"]["after"]
+    assert after["full_scale"] == pytest.approx(MODEL.gain * factor * 3.0)
+    assert before["peak_fraction"] > 5e-3 and after["peak_fraction"] < 1e-12
+    assert data["reduction"] > 1e9
+    assert data["starts_loaded"] is False and data["notes"] == []
+
+
+def test_a_record_that_starts_loaded_gets_a_note_and_settled_start_fixes_it(run_cli, tmp_path):
+    t = np.arange(0, 400.0, 1.0)
+    load = np.where(t < 200, 1.0, 0.5)
+    signal = MODEL.response(t, load, hold="zero", initial="settled")
+    record = write_record(tmp_path / "loaded.csv", Record(t, load, signal))
+    model = write_model(tmp_path / "m.json", MODEL)
+    status, stdout, _ = run_cli("correct", record, "--model", model, "--json")
+    data = json.loads(stdout)
+    assert data["starts_loaded"] and "--initial settled" in data["notes"][0]
+    assert data["creep_error"]["after"]["peak_fraction"] > 1e-3
+    status, stdout, _ = run_cli("correct", record, "--model", model)
+    assert "starts loaded" in stdout and "--initial settled" in stdout
+    status, stdout, _ = run_cli("correct", record, "--model", model, "--initial", "settled", "--json")
+    data = json.loads(stdout)
+    assert data["initial"] == "settled" and data["creep_error"]["after"]["peak_fraction"] < 1e-12
+
+
+def test_irregular_record_column_mapping_linear_hold_and_plot(run_cli, tmp_path):
+    rng = np.random.default_rng(0)
+    t = np.cumsum(rng.uniform(0.1, 3.0, 500))
+    load = np.clip(np.sin(t / 50.0) * 2, -1.5, 1.5)
+    signal = MODEL.response(t, load, hold="linear")
+    path = tmp_path / "export.csv"
+    lines = ["tR;P;Ri;other"] + [f"{float(a)!r};{float(b)!r};{float(c)!r};7" for a, b, c in zip(t, load, signal)]
+    path.write_text("\n".join(lines) + "\n")
+    model = write_model(tmp_path / "m.json", MODEL)
+    plot = tmp_path / "c.png"
+    status, stdout, err = run_cli("correct", path, "--model", model, "--columns",
+                                  "time=tR,load=P,signal=Ri", "--hold", "linear", "--plot", plot, "--json")
+    assert status == 0, err
+    data = json.loads(stdout)
+    assert data["uniform"] is False and data["sample_interval"] is None
+    assert data["creep_error"]["after"]["peak_fraction"] < 1e-12
+    assert plot.stat().st_size > 10_000
+    status, stdout, _ = run_cli("correct", path, "--model", model, "--columns", "time=tR,load=P,signal=Ri")
+    assert "irregular" in stdout and status == 0
+
+
+@pytest.mark.parametrize("args,needle", [
+    ([], "--model FILE"),
+    (["--model", "MODEL", "--method", "additive"], "method 'additive'"),
+    (["--model", "MODEL", "--initial", "warm"], "initial state 'warm'"),
+    (["--model", "MODEL", "--hold", "cubic"], "hold 'cubic'"),
+    (["--model", "missing.json"], "no such file"),
+    (["--model", "MODEL", "--columns", "time"], "--columns"),
+])
+def test_bad_options_give_one_line_and_status_2(run_cli, files, args, needle):
+    tmp, record, model, _, _ = files
+    args = [str(model) if a == "MODEL" else (str(tmp / a) if a.endswith(".json") else a) for a in args]
+    status, stdout, err = run_cli("correct", record, *args)
+    assert status == 2
+    assert needle in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+def test_bad_record_is_named_with_its_line(run_cli, files):
+    tmp, _, model, _, _ = files
+    bad = tmp / "bad.csv"
+    bad.write_text("time,load,signal\n0,0,0\n1,1,nan\n")
+    status, _, err = run_cli("correct", bad, "--model", model)
+    assert status == 2 and "line 3" in err and "signal" in err
+
+
+def test_model_extensions_are_said_to_be_unused(run_cli, files):
+    tmp, record, _, _, _ = files
+    model = tmp / "extended.json"
+    model.write_text(json.dumps({**MODEL.to_dict(), "extensions": {"viscous_flow": {"rate": 1e-6}}}))
+    status, stdout, err = run_cli("correct", record, "--model", model, "--json")
+    assert status == 0, err
+    assert any("viscous_flow" in note and "not used" in note for note in json.loads(stdout)["notes"])
