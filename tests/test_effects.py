@@ -110,6 +110,6 @@ def test_extension_written_by_a_fit_reads_back(tmp_path):
     write_json(tmp_path / "m.json", model.to_dict())
     back = read_model(tmp_path / "m.json")
     t = syn.record.time
-    decay = fit.values["d[0]"] * np.exp(-(t - t[0]) / fit.values["tau[0]"])
+    decay = fit.values["a[0]"] * fit.values["c0[0]"] * np.exp(-(t - t[0]) / fit.values["tau[0]"])
     np.testing.assert_allclose(simulate(back, t, syn.record.load) + decay, fit.prediction,
                                atol=1e-9 * np.ptp(fit.prediction))

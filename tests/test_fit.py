@@ -136,3 +136,12 @@ def test_varying_lag_states_switching_time_constant_is_exact():
     c5 = 1 - np.exp(-5 / 2.0)
     exact = np.where(t <= 5, 1 - np.exp(-t / 2.0), 1 - (1 - c5) * np.exp(-(t - 5) / 10.0))
     np.testing.assert_allclose(c, exact, atol=1e-12)
+
+
+def test_varying_lag_states_never_overflow_when_lags_alternate_fast_and_slow():
+    t = np.arange(0, 1000, 0.1)
+    u = np.sin(t / 10)
+    fast_slow = np.where((np.arange(t.size - 1) // 500) % 2 == 0, 0.01, 1000.0)
+    taus = np.column_stack([fast_slow, 1000.0 - fast_slow + 0.02])
+    c = varying_lag_states(t, u, taus)
+    assert np.all(np.isfinite(c)) and np.max(np.abs(c)) <= 1.0

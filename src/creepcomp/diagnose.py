@@ -1,20 +1,34 @@
 """Diagnosis (``diagnosis.md``): what the simulation gets wrong, the cause, the extended model,
 the gain.
 
-1. The baseline (the paper's model: one creep term, gain, offset) is fitted; its residual is
-   shown against time and load, with its autocorrelation and noise model.
-2. Every candidate effect of :mod:`creepcomp.effects` is fitted on top of the current model.
-   The best by BIC is accepted when the evidence is strong on both counts: BIC lower by at
-   least :data:`~creepcomp.fit.BIC_STRONG` (AR noise likelihood) and held-out blocks predicted
-   better by at least :data:`~creepcomp.fit.HELDOUT_Z` standard deviations. Effects are added
-   one at a time while that holds.
+1. The baseline (the paper's model: one creep term, gain, offset; free initial creep state
+   unless told otherwise) is fitted; its residual is shown against time and load, with its
+   autocorrelation and noise model.
+2. Every candidate effect of :mod:`creepcomp.effects` is fitted on top of the current model
+   (a quick fit of its own parameters, then all parameters together for the most promising).
+   A candidate is *supported* when the evidence is strong on both counts:
+
+   - BIC lower by at least :data:`~creepcomp.fit.BIC_STRONG` (a penalty of log n per
+     parameter), and
+   - data held out of the fit (interleaved blocks, refitted without them, simulated from the
+     load) predicted better, by at least :data:`~creepcomp.fit.HELDOUT_Z` standard
+     deviations of a spread computed from the noise spectrum; when the residual holds slow
+     noise (drift), each half of the record must also be predicted from the other.
+
+   Of the supported candidates the best by BIC is accepted, unless one with fewer parameters
+   that explains at least half as much (in BIC) is also supported and the richer one does not
+   predict held-out data better than it (parsimony), or unless the catch-all below predicts held-out data clearly better than it
+   (then the structure is not what the candidate says). Effects are added one at a time
+   while a candidate is supported.
 3. A catch-all extension (generic load-, rate-, direction- and temperature-driven terms) is
-   then tried on top: if the evidence supports it, structure remains that no named effect
-   explains, and the answer includes ``unexplained``. With no finding the answer is ``none``:
-   the baseline explains the data to its noise (which may be coloured: that is reported as
-   the noise model, not as a cause).
-4. The gain: held-out residual RMS and the error of the creep-corrected signal against the
-   load, baseline model / extended model.
+   tried on top: if the evidence supports it, structure remains that no named effect
+   explains, and the answer includes ``unexplained``; it is ordered with the named findings
+   by how much each improves the held-out prediction. With no finding the answer is
+   ``none``: the baseline explains the data to its noise (coloured noise is reported as the
+   noise model, not as a cause).
+4. The gain: held-out residual RMS, and the error of the creep-corrected signal (digital
+   correction, :func:`creepcomp.effects.compensate`) against the load, baseline model /
+   extended model.
 """
 
 from __future__ import annotations
@@ -29,7 +43,8 @@ from .effects import Effect, compensate
 from .errors import InputError
 from .fit import (BIC_STRONG, HELDOUT_Z, SLOW_NOISE_RATIO, Applied, Data, Evidence, Fit, Structure,
                   autocorrelation, compare, fit_structure, halves, heldout, ljung_box,
-                  model_file_dict, one_term_starts, prepare, rows_for, slow_noise_ratio, whiten)
+                  Problem, model_file_dict, one_term_starts, prepare, rows_for, slow_noise_ratio,
+                  tau_grid, whiten)
 from .lti import lag_states
 from .records import Record
 
@@ -241,6 +256,26 @@ def _polish(data: Data, current: Fit, candidate: Fit) -> Fit:
 REFINED = 3
 
 
+def _restart_taus(data: Data, fit: Fit) -> Fit:
+    """The fit refined again from the best of a log grid of values for each retardation time
+    (the others and the effects' parameters held), when one fits better than where it is: the
+    effect may have moved the optimum of the time constants far from the baseline's."""
+    values = {p.name: fit.values[p.name] for p in fit.params}
+    problem = Problem(data, fit.structure)
+    here = problem.cost(values)
+    best, best_cost = None, here
+    for k in range(fit.structure.n_terms):
+        for tau in tau_grid(data, per_decade=3):
+            trial = dict(values, **{f"tau[{k}]": float(tau)})
+            c = problem.cost(trial)
+            if c < best_cost:
+                best, best_cost = trial, c
+    if best is None or best_cost > 0.999 * here:
+        return fit
+    alt = fit_structure(data, fit.structure, [best], n_refine=1)
+    return alt if alt.bic < fit.bic else fit
+
+
 def _candidates(data: Data, current: Fit, pool, step: int, trials: list) -> list:
     """Every applicable candidate fitted on top of ``current``: a quick fit of its own
     parameters first (the current model's held); then all parameters together for the
@@ -309,13 +344,15 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
             base = current
         accepted, wide = None, None
         for delta_bic, effect, f in fitted:
-            simpler = accepted is not None and f.n_params < accepted[1].n_params
+            # a simpler alternative to the accepted one, if it explains at least half as much
+            simpler = (accepted is not None and f.n_params < accepted[1].n_params
+                       and delta_bic <= 0.5 * (accepted[1].bic - current.bic))
             if delta_bic > -BIC_STRONG or (accepted is not None and not simpler):
                 trials.append(Trial(step, effect.name, delta_bic, None,
                                     "not supported (BIC)" if delta_bic > -BIC_STRONG else
                                     "weaker than the accepted one"))
                 continue
-            f = heldout(data, f)
+            f = heldout(data, _restart_taus(data, f))
             ev = _evidence(data, current, f)
             if not ev.supported:
                 trials.append(Trial(step, effect.name, delta_bic, ev, "not supported (held-out)"))
@@ -332,9 +369,9 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
             else:
                 wide = _generic(data, current)
                 if wide is not None and wide[1].supported and wide[0].bic < f.bic \
-                        and wide[0].heldout.rms < f.heldout.rms:
+                        and _evidence(data, f, wide[0], refine=False, always_halves=True).supported_heldout:
                     trials.append(Trial(step, effect.name, delta_bic, ev,
-                                        "the generic extension explains more"))
+                                        "the generic extension predicts clearly better"))
                     break
             accepted = (effect, f, ev, len(trials))
             trials.append(Trial(step, effect.name, delta_bic, ev, "accepted"))

@@ -1,24 +1,26 @@
-"""Creep models from measured records: Prony terms by variable projection, an honest noise
-model, prediction of held-out data, and the choice of the number of terms by evidence.
+"""Creep models from measured records: Prony terms by variable projection, a noise model,
+prediction of held-out data, and the choice of the number of terms by evidence.
 
 The model of a record is
 
-    signal = offset + gain * (s + sum_k beta_k c_k) + sum_k d_k exp(-(t - t0) / tau_k) + ...
+    signal = offset + gain * (s + sum_k beta_k c_k) + ...
 
-with ``s`` the load as the sensor sees it, ``c_k`` the load through a first-order lag of time
-constant ``tau_k`` (:func:`creepcomp.lti.lag_states`, exact for any sampling) and ``d_k`` the
-free decay of an unknown initial creep state (a record that starts loaded or creeping).
-For fixed time constants the signal is *linear* in offset, gain, ``gain * beta_k`` and
-``d_k``, so only the time constants (and an effect's own nonlinear parameters, see
-:mod:`creepcomp.effects`) are searched: on a log grid with non-negative least squares for
+with ``s`` the load as the sensor sees it and ``c_k`` the load through a first-order lag of
+time constant ``tau_k`` (:func:`creepcomp.lti.lag_states`, exact for any sampling), started
+from an initial state that is fitted (a record may start loaded or creeping: ``c0[k]``,
+bounded by the loads a sensor sees) or known. For fixed time constants and initial states
+the signal is *linear* in offset, gain and ``gain * beta_k``, so only the time constants, the
+initial states (and an effect's own nonlinear parameters, see :mod:`creepcomp.effects`) are
+searched: on a log grid with non-negative least squares for
 starting values, then by ``scipy.optimize.least_squares`` with the linear part projected out
 (variable projection).
 
-Noise is modelled honestly: real residuals are correlated, so the likelihood is that of an
-autoregressive process AR(p) on the sample sequence (p = 0 ... 5 chosen by BIC, its memory
-broken at gaps in the sampling), i.e. generalised least squares with prewhitening. Models are
-compared by BIC on that likelihood and by prediction of contiguous blocks of data held out of
-the fit (the model is fitted on the rest and simulated from the load everywhere).
+Parameters are estimated by least squares. Models are compared by BIC (Gaussian likelihood,
+log n per parameter) *and* by prediction of held-out data: interleaved blocks are left out in
+turn, the model is refitted on the rest and simulated from the load over them; the spread of
+the held-out improvement is computed from the noise spectrum, so that coloured noise does not
+pass for structure. Uncertainties come from the Jacobian with the residual's AR(p) noise
+model (sandwich covariance; p = 0 ... 5 chosen by BIC, its memory broken at gaps).
 """
 
 from __future__ import annotations
@@ -40,7 +42,8 @@ GAP_FACTOR = 5.0
 #: Largest order of the autoregressive noise model.
 MAX_AR_ORDER = 5
 #: BIC difference that counts as strong evidence (Kass & Raftery 1995: 2 ln B > 10 is
-#: "very strong"; a Bayes factor above ~150).
+#: "very strong"; a Bayes factor above ~150). With white-noise likelihoods this is a
+#: parsimony filter more than a test: coloured noise inflates it, the held-out test decides.
 BIC_STRONG = 10.0
 #: Held-out improvement needed, in standard deviations of its noise (one-sided 0.13 % for
 #: noise whose memory is shorter than a block; slow noise that spans blocks makes the test
@@ -138,15 +141,16 @@ class Data:
             low = min(low, 0.5 * (self.t0 - self.load_step_at) or low)
         return low, 3.0 * self.span
 
-    def lag_initial(self, h: np.ndarray, taus: np.ndarray):
-        """Initial states of lags of the input ``h`` (free decays are separate columns)."""
+    def lag_initial(self, h: np.ndarray, taus: np.ndarray, values: dict | None = None):
+        """Initial states of lags of the input ``h``: zero, settled at ``h[0]``, after the
+        known load step, or (``free``) ``h[0]`` plus each term's fitted offset ``c0[k]``."""
         if self.initial == "relaxed":
             return "relaxed"
-        if self.initial in ("free", "settled"):
-            # free: settled at the first load plus fitted free decays (the same span of
-            # signals as relaxed plus decays for linear creep, and a better guess of which
-            # way state-dependent creep runs at the start)
+        if self.initial == "settled":
             return "settled"
+        if self.initial == "free":
+            values = values or {}
+            return h[0] + np.array([values.get(f"c0[{k}]", 0.0) for k in range(len(taus))])
         return h[0] * -np.expm1(-(self.t0 - self.load_step_at) / np.asarray(taus, float))
 
     def with_signal(self, signal) -> "Data":
@@ -217,6 +221,7 @@ class Param:
     upper: float
     log: bool = False
     scale: float = 1.0
+    default: float = 0.0
 
     def to_search(self, value: float) -> float:
         """Natural value to search coordinate."""
@@ -278,6 +283,12 @@ class Structure:
         """The nonlinear parameters: time constants, then each effect's own."""
         lo, hi = data.tau_limits()
         out = [Param(f"tau[{k}]", lo / 10.0, hi * 10.0, log=True) for k in range(self.n_terms)]
+        if data.initial == "free":
+            # each term's creep state at the first sample, relative to the first load: within
+            # the loads a sensor sees (a free decay amplitude alone could follow any slow trend)
+            scale = data.load_scale
+            out += [Param(f"c0[{k}]", -2.0 * scale, 2.0 * scale, scale=scale)
+                    for k in range(self.n_terms)]
         for a in self.effects:
             out += [replace(p, name=f"{a.name}.{p.name}") for p in a.effect.nonlinear_params(data, a)]
         return out
@@ -305,11 +316,48 @@ class Basis:
     lags: np.ndarray             # (N, K)
 
 
-def basis(data: Data, structure: Structure, values: dict, cache: dict | None = None) -> Basis:
-    """Evaluate the model's linear basis for given nonlinear parameter values.
+#: Samples per segment when lags whose time constant depends on their own state are solved.
+_SEGMENT = 4096
 
-    ``cache`` (a dict kept between calls on the same record and structure) lets lags whose
-    time constants depend on their own state start from the last call's modes."""
+
+def _state_dependent_lags(data: Data, h, taus, init, factor, effects, values):
+    """Lags whose time constants depend on their own state (modes such as creep and recovery),
+    solved segment by segment: within a segment the modes are found by fixed-point iteration
+    (modes from states, states from modes; the causal solution is its only fixed point), and
+    the segment's last state starts the next one. Short segments hold few mode switches, so
+    the iteration converges in a few rounds whatever the whole record holds."""
+    t = data.time
+    n, k = len(t), len(taus)
+    out = np.empty((n, k))
+    modes = np.ones((n - 1, k))
+    c = np.full(k, h[0]) if isinstance(init, str) and init == "settled" else (
+        np.zeros(k) if isinstance(init, str) else np.asarray(init, float))
+    out[0] = c
+    start = 0
+    while start < n - 1:
+        end = min(start + _SEGMENT, n - 1)
+        seg_t, seg_h = t[start:end + 1], h[start:end + 1]
+        base = factor[start:end]
+        seg = varying_lag_states(seg_t, seg_h, taus[None, :] * base, hold=data.hold, initial=c)
+        current = None
+        for _ in range(_MODE_ITERATIONS):
+            new = np.ones_like(base)
+            for a in effects:
+                new = new * a.effect.tau_factor(data, seg_h, seg, taus, a.own(values), a)
+            if current is not None and np.array_equal(new, current):
+                break
+            current = new
+            seg = varying_lag_states(seg_t, seg_h, taus[None, :] * base * current, hold=data.hold,
+                                     initial=c)
+        out[start:end + 1] = seg
+        modes[start:end] = current
+        c = seg[-1]
+        start = end
+    return out, factor * modes
+
+
+def basis(data: Data, structure: Structure, values: dict, cache: dict | None = None) -> Basis:
+    """Evaluate the model's linear basis for given nonlinear parameter values."""
     t = data.time
     effects = structure.effects
     x = data.load
@@ -322,35 +370,20 @@ def basis(data: Data, structure: Structure, values: dict, cache: dict | None = N
     for a in effects:
         h = a.effect.creep_input(data, h, a.own(values), a)
     taus = taus_of(values, structure.n_terms)
-    init = data.lag_initial(h, taus)
-    own_start = {}          # term -> initial state fitted by a state-dependent effect
-    if data.initial == "free":
-        for a in effects:
-            own_start.update(a.effect.initial_states(data, h, taus, a.own(values), a))
-        if own_start:
-            init = np.full(len(taus), h[0])
-            for k, c0 in own_start.items():
-                init[k] = c0
+    init = data.lag_initial(h, taus, values)
     lags = lag_states(t, h, taus, hold=data.hold, initial=init)
     dynamic = [a for a in effects if a.effect.changes_lags]
     factor = None
     if dynamic:
-        state_dependent = any(a.effect.state_dependent for a in dynamic)
-        if state_dependent and cache is not None and cache.get("shape") == (len(t) - 1, len(taus)):
-            factor = cache["factor"]       # the last evaluation's modes: usually still right
+        static = [a for a in dynamic if not a.effect.state_dependent]
+        factor = np.ones((len(t) - 1, len(taus)))
+        for a in static:
+            factor = factor * a.effect.tau_factor(data, h, lags, taus, a.own(values), a)
+        states = [a for a in dynamic if a.effect.state_dependent]
+        if states:
+            lags, factor = _state_dependent_lags(data, h, taus, init, factor, states, values)
+        else:
             lags = varying_lag_states(t, h, taus[None, :] * factor, hold=data.hold, initial=init)
-        for _ in range(_MODE_ITERATIONS):
-            new = np.ones((len(t) - 1, len(taus)))
-            for a in dynamic:
-                new = new * a.effect.tau_factor(data, h, lags, taus, a.own(values), a)
-            if factor is not None and np.array_equal(new, factor):
-                break
-            factor = new
-            lags = varying_lag_states(t, h, taus[None, :] * factor, hold=data.hold, initial=init)
-            if not state_dependent:
-                break
-        if state_dependent and cache is not None:
-            cache["factor"], cache["shape"] = factor, factor.shape
     cols, names = [], []
     if not data.fixed_offset:
         cols.append(np.ones_like(t))
@@ -360,17 +393,6 @@ def basis(data: Data, structure: Structure, values: dict, cache: dict | None = N
     for k in range(len(taus)):
         cols.append(lags[:, k])
         names.append(f"a[{k}]")
-    if data.initial == "free":
-        if factor is None:
-            decays = np.exp(-(t - t[0])[:, None] / taus[None, :])
-        else:       # free decay along the time constants the lags ran with
-            decays = np.exp(-np.concatenate([np.zeros((1, len(taus))),
-                                             np.cumsum(np.diff(t)[:, None] / (taus[None, :] * factor),
-                                                       axis=0)]))
-        for k in range(len(taus)):
-            if k not in own_start:
-                cols.append(decays[:, k])
-                names.append(f"d[{k}]")
     for a in effects:
         for name, col in a.effect.columns(data, s, h, lags, a.own(values), a).items():
             cols.append(col)
@@ -404,9 +426,6 @@ class Noise:
         return {"model": f"AR({self.order})", "phi": list(self.phi),
                 "innovation_sigma": self.sigma,
                 "memory_s": self.correlation_samples() * dt}
-
-
-WHITE = Noise()
 
 
 def rows_for(data: Data, mask: np.ndarray | None = None, order: int = MAX_AR_ORDER) -> np.ndarray:
@@ -481,7 +500,8 @@ class Fit:
     structure : Structure
     values : dict
         Natural values of every parameter, nonlinear (``tau[k]``, ``effect.param``) and
-        linear (``offset``, ``gain``, ``a[k]`` = gain * beta_k, ``d[k]``, effect columns).
+        linear (``offset``, ``gain``, ``a[k]`` = gain * beta_k, effect columns); ``c0[k]`` is
+        the initial creep state of term k relative to the first load (free initial state).
     noise : Noise
         Noise model of the residual.
     prediction, residual : numpy.ndarray
@@ -635,9 +655,9 @@ class Problem:
         self.y = data.signal[self.rows]
         self.fixed = dict(fixed or {})
         self.anchor = dict(anchor or {})
-        self.cache: dict = {}
         # the optimiser's tolerances are partly absolute: work on a residual of order one
         self.scale = data.signal_scale
+        self.cache: dict = {}
 
     def values(self, x: np.ndarray) -> dict:
         """Natural values of the nonlinear parameters at search point ``x``."""
@@ -647,7 +667,7 @@ class Problem:
 
     def start_vector(self, values: dict) -> np.ndarray:
         """Search point of a start value dictionary (clipped inside the bounds)."""
-        return np.array([p.to_search(p.clip(values[p.name])) for p in self.params])
+        return np.array([p.to_search(p.clip(values.get(p.name, p.default))) for p in self.params])
 
     def project(self, x: np.ndarray):
         """Basis, linear coefficients and residual (on the fitted rows) at ``x``."""
@@ -659,7 +679,7 @@ class Problem:
         coef = known.copy()
         prior = None
         if self.anchor:
-            prior = np.array([self.anchor.get(n, 0.0) for n in b.names])[~held]
+            prior = np.array([float(self.anchor.get(n, 0.0)) for n in b.names])[~held]
         coef[~held] = _solve(a[:, ~held], target, prior)
         return b, coef, self.y - a @ coef
 
@@ -870,6 +890,45 @@ def block_index(data: Data, blocks: int = BLOCKS) -> np.ndarray:
     return np.minimum(np.arange(data.n) * blocks // data.n, blocks - 1)
 
 
+#: A nonlinear parameter whose variance would grow more than this factor without the held-out
+#: data is kept at the full fit's value in that fold (the rest of the record does not
+#: determine it: e.g. a recovery time when all unloading is held out).
+UNDETERMINED_VARIANCE_RATIO = 10.0
+
+
+def sensitivity(data: Data, fit: Fit) -> np.ndarray:
+    """Derivatives of the fitted signal by every nonlinear parameter (search coordinates, by
+    central differences) and by the linear coefficients (the basis), all samples."""
+    values = fit.values
+    b = basis(data, fit.structure, values)
+    coef = np.array([values[n] for n in b.names])
+    cols = []
+    for p in fit.params:
+        x = p.to_search(values[p.name])
+        h = 1e-6 * max(1.0, abs(x))
+        plus = dict(values, **{p.name: p.from_search(x + h)})
+        minus = dict(values, **{p.name: p.from_search(x - h)})
+        cols.append((basis(data, fit.structure, plus).columns @ coef
+                     - basis(data, fit.structure, minus).columns @ coef) / (2 * h))
+    return np.column_stack(cols + [b.columns])
+
+
+def _undetermined(jac: np.ndarray, keep: np.ndarray, names: list, values: dict) -> dict | None:
+    """The nonlinear parameters (first columns of ``jac``) that the kept samples leave
+    undetermined, with their values."""
+    def variances(rows):
+        j = jac[rows]
+        norms = np.sqrt(np.sum(j ** 2, axis=0))
+        norms[norms == 0] = 1.0
+        inv = linalg.pinvh((j / norms).T @ (j / norms))
+        return np.diag(inv)[:len(names)] / norms[:len(names)] ** 2
+    full = variances(slice(None))
+    part = variances(keep)
+    out = {n: values[n] for n, vf, vp in zip(names, full, part)
+           if not vp <= UNDETERMINED_VARIANCE_RATIO * vf}
+    return out or None
+
+
 def halves(data: Data, fit: Fit, refine: bool = True) -> HeldOut:
     """Held-out prediction across the record's two halves: fitted on one half, simulated over
     the other. Slow noise (drift) that interleaved blocks would let a slow extension
@@ -884,26 +943,29 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
     for each of ``folds`` folds its (interleaved) blocks are left out, the model is refitted on the rest
     (from the fit's own values, same noise model) and simulated from the load over them.
 
-    The free decays of the initial creep state are a nuisance that data after the start cannot
-    pin down: they keep the full fit's values. Other directions the remaining data leave
-    undetermined (gain against offset when the rest has one load level) keep the full fit's
-    values weakly (:data:`ANCHOR_WEIGHT`), so that a held-out error measures what the model
-    predicts, not an extrapolation of what nothing constrained.
+    Directions the remaining data leave undetermined keep the full fit's values: linear ones
+    weakly (gain against offset when the rest has one load level, :data:`ANCHOR_WEIGHT`),
+    nonlinear ones whose variance the rest of the record would multiply by more than
+    :data:`UNDETERMINED_VARIANCE_RATIO` (the initial creep state once the start is held out,
+    a recovery time when the rest has no unloading). A held-out error then measures what the
+    model predicts, not an extrapolation of what nothing constrained.
     """
     blocks = block_index(data) if blocks is None else blocks
     fold = blocks % folds
     resid = np.empty(data.n)
     start = {p.name: fit.values[p.name] for p in fit.params}
-    fixed = {n: v for n, v in fit.values.items() if n.startswith("d[")}
-    anchor = {n: v for n, v in fit.values.items() if n not in start and n not in fixed}
+    fixed = None
+    anchor = {n: v for n, v in fit.values.items() if n not in start}
+    jac = sensitivity(data, fit) if refine and start else None
     for b in range(folds):
         inside = fold == b
         if not inside.any():
             continue
+        frozen = _undetermined(jac, ~inside, list(start), start) if jac is not None else None
         try:  # (refit from the fit's own values, same noise model)
             f = fit_structure(data, fit.structure, [start], noise=fit.noise, mask=~inside,
-                              max_nfev=3, with_cov=False,
-                              fixed=fixed, anchor=anchor, refine=refine)
+                              max_nfev=3, with_cov=False, fixed=fixed, anchor=anchor,
+                              refine=refine, frozen=frozen)
             resid[inside] = f.residual[inside]
         except InputError:
             resid[inside] = fit.residual[inside]

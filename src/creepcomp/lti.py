@@ -332,9 +332,12 @@ def varying_lag_states(time, u, taus, hold: str = "linear", initial="relaxed") -
         raise InputError("time constants must be positive")
     e, b0, b1 = lag_coefficients(dt[:, None], taus, hold)
     drive = b0 * u[:-1, None] + b1 * u[1:, None]
+    rates = dt[:, None] / taus
     decay = np.zeros((n, k))
-    np.cumsum(dt[:, None] / taus, axis=0, out=decay[1:])
-    block = np.floor(decay.max(axis=1) / _BLOCK_DECAY).astype(np.int64)
+    np.cumsum(rates, axis=0, out=decay[1:])
+    # blocks of bounded decay for every lag at once: the decay of the fastest lag at each step
+    bound = np.concatenate([[0.0], np.cumsum(rates.max(axis=1))])
+    block = np.floor(bound / _BLOCK_DECAY).astype(np.int64)
     starts = np.flatnonzero(np.diff(block, prepend=block[0] - 1))
     ends = np.append(starts[1:], n)
     c = c0

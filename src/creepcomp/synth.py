@@ -93,13 +93,15 @@ class Synthetic:
 
 def make_program(kind: str, duration: float, rng: np.random.Generator, full_scale: float = 1.0,
                  start_loaded: bool = False, tau: float = 45.0, start: float = 0.0,
-                 unload: bool = False) -> LoadProgram:
+                 unload: bool = False, one_sided: bool = False) -> LoadProgram:
     """A random load program of a kind: ``step``, ``staircase``, ``sweep``, ``mixture`` or
     ``random``, spanning ``duration`` from ``start``.
 
     With ``start_loaded`` the load is already at a level when the program starts (and has been
     for a random time, so creep is part-way), otherwise it starts at zero. ``unload``: a
     ``step`` program always unloads again (otherwise it does so in 60 % of the cases).
+    ``one_sided``: sweeps from 0 to full scale (otherwise half of them are -FS ... +FS, under
+    which flow and other odd effects average out).
     """
     fs = full_scale
     t_end = start + duration
@@ -142,7 +144,7 @@ def make_program(kind: str, duration: float, rng: np.random.Generator, full_scal
             jump(level, t + k * step)
     elif kind == "sweep":
         period = rng.uniform(0.5, 6.0) * tau
-        low = -fs if rng.uniform() < 0.5 else 0.0
+        low = -fs if rng.uniform() < 0.5 and not one_sided else 0.0
         tt = t
         hold(loads[-1], tt)
         phase_up = True
@@ -339,7 +341,8 @@ def generate(spec: Spec) -> Synthetic:
     """
     rng = np.random.default_rng(spec.seed)
     program = make_program(spec.program, spec.duration, rng, spec.full_scale, spec.start_loaded,
-                           max(spec.tau), spec.start, unload="asymmetric_recovery" in spec.hidden)
+                           max(spec.tau), spec.start, unload="asymmetric_recovery" in spec.hidden,
+                           one_sided="viscous_flow" in spec.hidden)
     t = sample_times(spec.duration, spec.rate, rng, spec.jitter, spec.gaps, spec.start)
     needs_temp = spec.temperature or any(k.startswith("thermal") for k in spec.hidden)
     temp_fn, temp_mean = temperature_profile(t[0], t[-1], rng)

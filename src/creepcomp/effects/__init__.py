@@ -126,13 +126,11 @@ class Effect:
         return h
 
     def tau_factor(self, data: Data, h, lags, taus, p: dict, applied: Applied):
-        """Factor on each term's time constant over each sample step, shape (N-1, K)."""
-        return 1.0
+        """Factor on each term's time constant over each sample step, shape (N-1, K).
 
-    def initial_states(self, data: Data, h, taus, p: dict, applied: Applied) -> dict:
-        """Initial states of terms whose start the effect fits itself (term -> state), for a
-        record with a free initial state; those terms get no free-decay column."""
-        return {}
+        A ``state_dependent`` effect is called on segments of the record (``h`` and ``lags``
+        of a segment, ``data`` the whole record) and must use only what it is given."""
+        return 1.0
 
     def columns(self, data: Data, s, h, lags, p: dict, applied: Applied) -> dict:
         """Extra columns of the linear part, by name (their coefficients are fitted)."""
@@ -254,16 +252,14 @@ def simulate(model: CreepModel, time, load, temperature=None, initial: str = "re
     return b.columns @ np.array([values[n] for n in b.names])
 
 
-def _linear_inverse(time, residual, gain: float, betas, taus, initial: str) -> np.ndarray:
-    """Load-unit increment that the linear creep model maps to ``residual`` (the digital
-    subtractive correction of :mod:`creepcomp.digital`)."""
-    try:
-        from ..digital import compensate as digital_compensate
-    except ImportError:                 # TEMPORARY until issue-digital is merged
-        return np.asarray(residual, float) / gain
+def _linear_inverse(time, residual, gain: float, betas, taus, initial: str, hold: str) -> np.ndarray:
+    """Load-unit increment that the linear creep model maps to ``residual``: the digital
+    subtractive correction (:func:`creepcomp.digital.compensate`)."""
+    from ..digital import compensate as digital_compensate
+
     lin = CreepModel(tuple(betas), tuple(taus), gain, 0.0)
     return np.asarray(digital_compensate(time, residual, lin, method="subtractive",
-                                         initial=initial), float) / gain
+                                         initial=initial, hold=hold), float) / gain
 
 
 def compensate(time, signal, model: CreepModel, temperature=None, initial: str = "relaxed",
@@ -294,7 +290,7 @@ def compensate(time, signal, model: CreepModel, temperature=None, initial: str =
     scale = max(float(np.max(np.abs(y - model.offset))) / abs(model.gain), 1e-300)
     for _ in range(max_iterations):
         sim = simulate(model, t, load, temperature, initial, hold)
-        delta = _linear_inverse(t, y - sim, model.gain, betas, taus, initial)
+        delta = _linear_inverse(t, y - sim, model.gain, betas, taus, initial, hold)
         for a in reversed(structure.effects):
             delta = a.effect.precondition(data, delta, load, values, a)
         load = load + delta

@@ -4,9 +4,7 @@ One creep term (the largest) relaxes with ``tau`` while its state grows in magni
 the load (creep under loading) and with ``tau_recovery`` while it shrinks (recovery after
 unloading): over each sample step the term is recovering when
 ``sign(c) * (h - c) < 0``. The mode depends on the state, so the lag is solved by iteration
-(:func:`creepcomp.lti.varying_lag_states`). For a record that may start loaded or creeping,
-the term's initial state is a parameter (``initial``, relative to the first load): the free
-decay that stands for it in linear creep does not hold for a state-dependent lag.
+(:func:`creepcomp.lti.varying_lag_states`).
 """
 
 from __future__ import annotations
@@ -29,19 +27,11 @@ class AsymmetricRecovery(Effect):
 
     def nonlinear_params(self, data, applied):
         lo, hi = data.tau_limits()
-        out = [Param("tau_recovery", lo / 10.0, hi * 10.0, log=True)]
-        if data.initial == "free":
-            scale = data.load_scale
-            out.append(Param("initial", -3.0 * scale, 3.0 * scale, scale=scale))
-        return out
+        return [Param("tau_recovery", lo / 10.0, hi * 10.0, log=True)]
 
     def starts(self, data, base, applied):
         tau = base.taus[applied.setting("term")]
-        extra = {"initial": 0.0} if data.initial == "free" else {}
-        return [{"tau_recovery": tau * f, **extra} for f in (0.25, 0.5, 2.0, 4.0)]
-
-    def initial_states(self, data, h, taus, p, applied):
-        return {applied.setting("term"): h[0] + p["initial"]}
+        return [{"tau_recovery": tau * f} for f in (0.25, 0.5, 2.0, 4.0)]
 
     def tau_factor(self, data, h, lags, taus, p, applied):
         k = applied.setting("term")

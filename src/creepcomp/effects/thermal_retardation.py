@@ -3,7 +3,10 @@
 Model: every term's time constant is ``tau_k exp(-kappa (T - T_ref))`` over each sample step
 (T at the step's middle; ``tau_k`` is the value at the reference temperature, the record's
 mean): ``kappa`` > 0 means faster creep when warmer (an Arrhenius law linearised around
-``T_ref``: ``kappa = E_a / (R T_ref^2)``).
+``T_ref``: ``kappa = E_a / (R T_ref^2)``). ``kappa`` is kept >= 0: retardation in polymers
+always speeds up with temperature (Arrhenius and WLF shift factors), and a negative value
+would only be another effect (e.g. recovery slower than creep) seen through a temperature
+history that happens to differ between loading and unloading.
 """
 
 from __future__ import annotations
@@ -25,10 +28,11 @@ class ThermalRetardation(Effect):
         return (("reference_temperature", float(np.mean(data.temperature))),)
 
     def nonlinear_params(self, data, applied):
-        return [Param("kappa", -0.5, 0.5, scale=0.01)]
+        # retardation times of polymers shorten with temperature (Arrhenius, WLF): kappa >= 0
+        return [Param("kappa", 0.0, 0.5, scale=0.01)]
 
     def starts(self, data, base, applied):
-        return [{"kappa": k} for k in (-0.05, -0.015, 0.015, 0.05)]
+        return [{"kappa": k} for k in (0.005, 0.02, 0.06, 0.15)]
 
     def tau_factor(self, data, h, lags, taus, p, applied):
         temp = 0.5 * (data.temperature[:-1] + data.temperature[1:])
