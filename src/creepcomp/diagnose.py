@@ -304,6 +304,10 @@ def _candidates(data: Data, current: Fit, pool, step: int, trials: list) -> list
                     f = full
             except (InputError, np.linalg.LinAlgError, ValueError):
                 pass
+        reason = effect.unphysical(f, _applied_of(f, effect))
+        if reason:
+            trials.append(Trial(step, effect.name, f.bic - current.bic, None, f"unphysical: {reason}"))
+            continue
         fitted.append((f.bic - current.bic, effect, f))
     return sorted(fitted, key=lambda x: x[0])
 

@@ -134,11 +134,12 @@ class Data:
         return float(np.ptp(self.signal)) or float(np.max(np.abs(self.signal))) or 1.0
 
     def tau_limits(self) -> tuple[float, float]:
-        """Retardation times the record can resolve: from about the finest sampling step to a
-        few times the record's length (s)."""
-        low = 0.5 * self.dt_small
+        """Retardation times the record can resolve: from two sampling steps (a faster lag
+        cannot be told from the instantaneous response; after a known load step, down to half
+        the time to the first sample) to a few times the record's length (s)."""
+        low = 2.0 * self.dt_median
         if self.load_step_at is not None:
-            low = min(low, 0.5 * (self.t0 - self.load_step_at) or low)
+            low = min(low, 0.5 * (self.t0 - self.load_step_at) or low, 2.0 * self.dt_small)
         return low, 3.0 * self.span
 
     def lag_initial(self, h: np.ndarray, taus: np.ndarray, values: dict | None = None):
@@ -282,7 +283,7 @@ class Structure:
     def params(self, data: Data) -> list[Param]:
         """The nonlinear parameters: time constants, then each effect's own."""
         lo, hi = data.tau_limits()
-        out = [Param(f"tau[{k}]", lo / 10.0, hi * 10.0, log=True) for k in range(self.n_terms)]
+        out = [Param(f"tau[{k}]", lo, hi * 10.0, log=True) for k in range(self.n_terms)]
         if data.initial == "free":
             # each term's creep state at the first sample, relative to the first load: within
             # the loads a sensor sees (a free decay amplitude alone could follow any slow trend)

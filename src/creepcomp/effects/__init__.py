@@ -137,6 +137,10 @@ class Effect:
         return {}
 
     # -- results -------------------------------------------------------------------------------
+    def unphysical(self, fit: Fit, applied: Applied) -> str | None:
+        """Why the fitted parameters cannot be this effect (then it is not named), or None."""
+        return None
+
     def report(self, fit: Fit, applied: Applied) -> dict:
         """Reported parameters: name -> (value, standard deviation)."""
         return {}

@@ -27,7 +27,7 @@ class AsymmetricRecovery(Effect):
 
     def nonlinear_params(self, data, applied):
         lo, hi = data.tau_limits()
-        return [Param("tau_recovery", lo / 10.0, hi * 10.0, log=True)]
+        return [Param("tau_recovery", lo, hi * 10.0, log=True)]
 
     def starts(self, data, base, applied):
         tau = base.taus[applied.setting("term")]
@@ -37,7 +37,10 @@ class AsymmetricRecovery(Effect):
         k = applied.setting("term")
         c = lags[:-1, k]
         target = 0.5 * (h[:-1] + h[1:])
-        recovering = np.sign(c) * (target - c) < 0
+        # a state at its target is in neither mode: a small dead band keeps rounding from
+        # flipping modes (and the fixed-point iteration from never settling)
+        band = 1e-9 * max(float(np.max(np.abs(h))), 1e-300)
+        recovering = np.sign(c) * (target - c) < -band
         factor = np.ones((len(h) - 1, len(taus)))
         factor[recovering, k] = p["tau_recovery"] / taus[k]
         return factor

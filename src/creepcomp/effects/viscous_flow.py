@@ -34,6 +34,10 @@ class ViscousFlow(Effect):
     def columns(self, data, s, h, lags, p, applied):
         return {"flow": integral(data, s)}
 
+    def unphysical(self, fit: Fit, applied: Applied) -> str | None:
+        rate = fit.values["viscous_flow.flow"] / fit.gain
+        return None if rate > 0 else f"rate = {rate:.3g} /s: a dashpot only adds creep (rate > 0)"
+
     def report(self, fit: Fit, applied: Applied) -> dict:
         return {"rate": fit.estimate(lambda v: v["viscous_flow.flow"] / v["gain"])}
 
