@@ -39,3 +39,9 @@ clean:
 .PHONY: bench-digital
 bench-digital: setup
 	$(PY) benchmarks/digital_throughput.py
+
+.PHONY: bench-diagnose
+bench-diagnose: setup
+	$(PY) benchmarks/diagnose_timing.py
+	$(PY) benchmarks/rheojax_fit.py
+	$(PY) benchmarks/diagnose_confusion.py --per-effect 20 --clean 40

@@ -62,8 +62,25 @@ def step_tolerances(out: Path, console: Console) -> None:
         console.print(f"report written to {path}\n")
 
 
+def step_diagnosis(out: Path, console: Console) -> None:
+    """Diagnose the bundled record that hides an effect; write the HTML report and models."""
+    from .cli.diagnose import render_diagnosis
+    from .data import path
+    from .diagnose import diagnose
+    from .diagnose_report import write_report
+    from .records import read_record
+
+    record = read_record(path("hidden_effect.csv"))
+    result = diagnose(record)
+    render_diagnosis(record, result)
+    units = {c: record.unit(c) for c in ("signal", "load")}
+    for label, p in write_report(result, out / "diagnosis", units).items():
+        console.print(f"{label.replace('_', ' ')} written to {p}")
+    console.print()
+
+
 STEPS: list[Callable[[Path, Console], None]] = [step_sizing, step_ngspice, step_tolerances,
-                                                 step_digital_correction]
+                                                 step_digital_correction, step_diagnosis]
 
 
 def run_demo(out: Path, console: Console) -> None:

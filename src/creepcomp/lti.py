@@ -340,3 +340,70 @@ def cascade_lags(d1, a1, tau1, d2, a2, tau2, separation: float = 1e-9):
     gains1 = d2[:, None] * a1 - np.sum(w * t, axis=2)
     gains2 = d1[:, None] * a2 + np.sum(w * p, axis=1)
     return d1 * d2, np.concatenate([gains1, gains2], axis=1), np.concatenate([t1, t2], axis=1)
+
+
+def varying_lag_states(time, u, taus, hold: str = "linear", initial="relaxed") -> np.ndarray:
+    """States of first-order lags whose time constant changes from one sample step to the next.
+
+    ``tau_k(t) c_k' = u - c_k`` with ``tau_k`` constant over each step ``[t[n], t[n+1]]``
+    (e.g. a retardation time that follows temperature, or that differs between creep and
+    recovery). Each step is discretised exactly as in :func:`lag_states`; the recursion is
+    solved in vectorised blocks of bounded decay, so it never overflows.
+
+    Parameters
+    ----------
+    time : array_like, shape (N,)
+        Strictly increasing times (s).
+    u : array_like, shape (N,)
+        Input samples.
+    taus : array_like, shape (N-1, K)
+        Time constant of each lag over each step (s), positive.
+    hold : {"linear", "zero"}
+        Interpolation of the input between samples.
+    initial : {"relaxed", "settled"} or array_like
+        States at ``time[0]``.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(N, K)``.
+    """
+    t = np.asarray(time, dtype=float)
+    u = np.asarray(u, dtype=float)
+    taus = np.asarray(taus, dtype=float)
+    n = len(t)
+    if taus.ndim != 2 or taus.shape[0] != max(n - 1, 0):
+        raise InputError(f"varying time constants need shape (N-1, K); got {taus.shape} for N = {n}")
+    k = taus.shape[1]
+    out = np.empty((n, k))
+    if n == 0:
+        return out
+    c0 = _initial_states(initial, u[0] if n else 0.0, k)
+    out[0] = c0
+    if n == 1 or k == 0:
+        return out
+    dt = np.diff(t)
+    if not np.all(dt > 0):
+        raise InputError("time must be strictly increasing")
+    if not np.all(taus > 0):
+        raise InputError("time constants must be positive")
+    e, b0, b1 = lag_coefficients(dt[:, None], taus, hold)
+    drive = b0 * u[:-1, None] + b1 * u[1:, None]
+    rates = dt[:, None] / taus
+    decay = np.zeros((n, k))
+    np.cumsum(rates, axis=0, out=decay[1:])
+    # blocks of bounded decay for every lag at once: the decay of the fastest lag at each step
+    bound = np.concatenate([[0.0], np.cumsum(rates.max(axis=1))])
+    block = np.floor(bound / _BLOCK_DECAY).astype(np.int64)
+    starts = np.flatnonzero(np.diff(block, prepend=block[0] - 1))
+    ends = np.append(starts[1:], n)
+    c = c0
+    for i0, i1 in zip(starts, ends):
+        if i0 > 0:
+            c = e[i0 - 1] * out[i0 - 1] + drive[i0 - 1]
+        out[i0] = c
+        if i1 - i0 > 1:
+            growth = np.exp(decay[i0 + 1:i1] - decay[i0])     # <= exp(500) within a block
+            acc = np.cumsum(drive[i0:i1 - 1] * growth, axis=0)
+            out[i0 + 1:i1] = (c + acc) / growth
+    return out

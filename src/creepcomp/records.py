@@ -365,10 +365,11 @@ def _row_is_numeric(row, index) -> bool:
 
 
 def write_record(path: str | Path, record: Record, extra: Mapping[str, np.ndarray] | None = None,
-                 metadata: Mapping[str, str] | None = None) -> Path:
+                 metadata: Mapping[str, str] | None = None, digits: int = 17) -> Path:
     """Write a record (plus extra columns) as CSV with its metadata lines.
 
-    Numbers are written with 17 significant digits, so reading back gives the same floats.
+    Numbers are written with ``digits`` significant digits (17: reading back gives the same
+    floats).
     """
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
@@ -385,5 +386,5 @@ def write_record(path: str | Path, record: Record, extra: Mapping[str, np.ndarra
             fh.write(f"# {key}: {value}\n")
         fh.write(",".join(cols) + "\n")
         data = np.column_stack(list(cols.values()))
-        np.savetxt(fh, data, delimiter=",", fmt="%.17g")
+        np.savetxt(fh, data, delimiter=",", fmt=f"%.{int(digits)}g")
     return p

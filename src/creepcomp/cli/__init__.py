@@ -21,6 +21,8 @@ from . import correct as _correct  # noqa: E402,F401
 from . import mc as _mc  # noqa: E402,F401
 from . import netlist as _netlist  # noqa: E402,F401
 from . import simulate as _simulate  # noqa: E402,F401
+from . import fit as _fit  # noqa: E402,F401
+from . import diagnose as _diagnose  # noqa: E402,F401
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,0 +1,137 @@
+"""``creepcomp diagnose``: what the simulation gets wrong, the cause, the extended model, the gain."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+import typer
+from rich.table import Table
+
+from ..diagnose import Diagnosis, circuit_residual, diagnose
+from ..errors import InputError
+from ..files import read_design
+from ..fit import BIC_STRONG, HELDOUT_Z
+from ..units import format_quantity
+from .common import app, console, pct, print_json
+from .fit import COLUMNS_HELP, INITIAL_TEXT, describe_record, load_record, record_options
+
+
+@app.command("diagnose")
+def diagnose_command(
+    record_path: Path = typer.Argument(..., metavar="RECORD", help="Measured record (CSV, data-format.md)."),
+    design: Optional[Path] = typer.Option(None, "--design", metavar="FILE",
+                                          help="Design file of the network that produced 'corrected' "
+                                               "(overrides the record's '# design:' line)."),
+    columns: Optional[str] = typer.Option(None, "--columns", metavar="MAP", help=COLUMNS_HELP),
+    delimiter: Optional[str] = typer.Option(None, "--delimiter", metavar="CHAR",
+                                            help="Field delimiter (default: detected; 'tab' for tabs)."),
+    duplicate_times: str = typer.Option("error", "--duplicate-times", metavar="error|mean",
+                                        help="Repeated time stamps: an error, or average the rows."),
+    initial: str = typer.Option("free", "--initial", metavar="free|relaxed|settled",
+                                help="Creep state at the first sample: fitted, zero, or settled."),
+    load_step_at: Optional[str] = typer.Option(None, "--load-step-at", metavar="TIME",
+                                               help="Time of a single load step before the first "
+                                                    "sample (creep tests), e.g. 0."),
+    effects: Optional[str] = typer.Option(None, "--effects", metavar="LIST",
+                                          help="Candidate effects to try, comma-separated (default: all)."),
+    output: Optional[Path] = typer.Option(None, "-o", "--output", metavar="DIR",
+                                          help="Write report.html, diagnosis.json and the extended "
+                                               "model.json into DIR."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object (diagnosis.md)."),
+) -> None:
+    """Fit the paper's model, find what it misses by evidence, extend it, measure the gain."""
+    record = load_record(record_path, columns, delimiter, duplicate_times)
+    init, step = record_options(initial, load_step_at)
+    circuit = None
+    if record.corrected is not None or design is not None:
+        if record.corrected is None:
+            raise InputError(f"{record.source}: --design was given but the record has no "
+                             "'corrected' column")
+        nominal = read_design(record.design_path(design))
+        circuit = circuit_residual(record, nominal.network)
+    candidates = [c.strip() for c in effects.split(",") if c.strip()] if effects else None
+    result = diagnose(record, initial=init, load_step_at=step, candidates=candidates)
+    units = {c: record.unit(c) for c in ("signal", "load")}
+    paths = {}
+    if output is not None:
+        from ..diagnose_report import write_report
+
+        paths = write_report(result, output, units, circuit=circuit)
+    if as_json:
+        out = result.to_dict()
+        if circuit is not None:
+            out["circuit"] = {k: v for k, v in circuit.items() if not isinstance(v, np.ndarray)}
+        if paths:
+            out["files"] = {k: str(v) for k, v in paths.items()}
+        print_json(out)
+        return
+    render_diagnosis(record, result, circuit)
+    for label, path in paths.items():
+        console.print(f"{label.replace('_', ' ')} written to {path}")
+
+
+def render_diagnosis(record, d: Diagnosis, circuit: dict | None = None) -> None:
+    """Print a diagnosis as tables."""
+    su = record.unit("signal")
+    console.print(f"[bold]creepcomp diagnose[/bold]: {describe_record(record, d.data)}")
+    console.print(INITIAL_TEXT[d.data.initial].format(step=d.data.load_step_at))
+    b = d.residual_summary(d.baseline)
+    console.print(f"baseline (the paper's model, 1 creep term): residual RMS {b['residual_rms']:.4g} {su} "
+                  f"({pct(b['residual_rms_relative'])} of the signal's range), held out "
+                  f"{b['heldout_residual_rms']:.4g} {su}; noise {b['noise']['model']}, residual lag-1 "
+                  f"autocorrelation {b['residual_lag1_autocorrelation']:.3f}")
+    if circuit is not None:
+        console.print(f"network (nominal design) driven by the measured signal vs measured corrected: "
+                      f"residual RMS {circuit['residual_rms']:.4g} {su} (circuit-side effects are not "
+                      "diagnosed yet)")
+    console.print(f"[bold]cause: {d.cause}[/bold]")
+    if d.findings:
+        t = Table(title="Findings (most important first)", title_justify="left")
+        for col in ("effect", "parameters (± 1 sigma)", "ΔBIC", "held-out RMS ratio", "held-out z"):
+            t.add_column(col, justify="right" if col.startswith(("Δ", "held")) else "left")
+        for f in d.findings:
+            params = "; ".join(f"{k} = {_value(k, v)} ± {_value(k, f.uncertainty.get(k, float('nan')))}"
+                               for k, v in f.parameters.items()) or "-"
+            t.add_row(f.effect, params, f"{f.evidence.delta_bic:.1f}", f"{f.evidence.heldout_rms_ratio:.3g}",
+                      f"{f.evidence.heldout_z:.1f}")
+        console.print(t)
+    else:
+        console.print("no effect is supported by the evidence: the baseline explains the record to "
+                      "its noise")
+    t = Table(title=f"Candidates (accepted: ΔBIC <= -{BIC_STRONG:g} and held-out z >= {HELDOUT_Z:g})",
+              title_justify="left")
+    for col in ("step", "effect", "ΔBIC", "held-out z", "outcome"):
+        t.add_column(col, justify="right" if col in ("step", "ΔBIC", "held-out z") else "left")
+    for tr in d.trials:
+        t.add_row(str(tr.step), tr.effect, "-" if tr.delta_bic is None else f"{tr.delta_bic:.1f}",
+                  f"{tr.evidence.heldout_z:.1f}" if tr.evidence else "-", tr.outcome)
+    console.print(t)
+    e = d.residual_summary(d.extended)
+    g = d.gain
+    t = Table(title="Gain", title_justify="left")
+    for col in ("", "baseline", "extended", "ratio"):
+        t.add_column(col, justify="right")
+    t.add_row(f"held-out residual RMS ({su or 'signal units'})", f"{b['heldout_residual_rms']:.4g}",
+              f"{e['heldout_residual_rms']:.4g}", _ratio(g.get("heldout_rms_ratio")))
+    if g.get("correction_error_ratio") is not None:
+        t.add_row("creep-corrected signal vs load, RMS error", f"{g['correction_error_baseline']:.4g}",
+                  f"{g['correction_error_extended']:.4g}", _ratio(g["correction_error_ratio"]))
+    console.print(t)
+
+
+def _ratio(x) -> str:
+    return "-" if x is None else f"{x:.3g}"
+
+
+def _value(name: str, v: float) -> str:
+    if v is None or not np.isfinite(v):
+        return "n/a"
+    if name.startswith("tau") or name == "delay":
+        return format_quantity(v, "s")
+    if name == "beta":
+        return pct(v)
+    if name == "rate":
+        return f"{v:.4g} /s"
+    return f"{v:.4g}"

@@ -1,0 +1,60 @@
+"""``extra_retardation``: a further exponential creep term (paper eq. 8), faster or slower."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+
+from ..fit import Applied, Data, Fit, Structure, extra_term_starts, fit_structure
+from . import Effect
+
+
+class ExtraRetardation(Effect):
+    name = "extra_retardation"
+    parameters = ("tau", "beta")
+    repeatable = True
+    summary = "a further exponential creep term (Prony term), faster or slower than the others"
+
+    def settings(self, data: Data, base: Fit) -> tuple:
+        return (("term", base.structure.n_terms), ("base_taus", tuple(float(t) for t in base.taus)))
+
+    def extend(self, structure: Structure, applied: Applied) -> Structure:
+        grown = Structure(structure.n_terms + 1, structure.effects)
+        return grown.with_effect(applied)
+
+    def fit_on(self, data: Data, base: Fit, refine: str = "all", start: dict | None = None) -> Fit:
+        applied = Applied(self, self.settings(data, base))
+        structure = self.extend(base.structure, applied)
+        known = {p.name: base.values[p.name] for p in base.params}
+        starts = [start] if start is not None else extra_term_starts(data, base, structure)
+        return fit_structure(data, structure, starts,
+                             n_refine=2 if refine == "all" else 1,
+                             refine=refine != "none", frozen=known if refine == "own" else None,
+                             with_cov=refine == "all")
+
+    def added_term(self, fit: Fit, applied: Applied) -> int:
+        """The term the base did not have: the one left over when the others are matched to
+        the base's time constants (closest in log tau)."""
+        base = np.log(np.array(applied.setting("base_taus")))
+        new = np.log(fit.taus[: applied.setting("term") + 1])
+        best, best_cost = len(new) - 1, math.inf
+        for left_out in range(len(new)):
+            rest = [k for k in range(len(new)) if k != left_out]
+            cost = min(sum(abs(new[r] - base[b]) for r, b in zip(rest, perm))
+                       for perm in itertools.permutations(range(len(base))))
+            if cost < best_cost:
+                best, best_cost = left_out, cost
+        return best
+
+    def report(self, fit: Fit, applied: Applied) -> dict:
+        k = self.added_term(fit, applied)
+        return {"tau": fit.estimate(lambda v: v[f"tau[{k}]"]),
+                "beta": fit.estimate(lambda v: v[f"a[{k}]"] / v["gain"])}
+
+    def restore(self, entry, model, data):
+        return Applied(self, ()), {}
+
+
+EFFECT = ExtraRetardation()

@@ -1,0 +1,115 @@
+import numpy as np
+import pytest
+
+from creepcomp import effects, programs, synth
+from creepcomp.effects import compensate, simulate
+from creepcomp.errors import InputError
+from creepcomp.model import CreepModel
+
+VOCABULARY = ("extra_retardation", "viscous_flow", "nonlinear_creep", "asymmetric_recovery",
+              "thermal_drift", "thermal_retardation", "static_nonlinearity", "time_offset")
+
+
+def test_registry_holds_the_sensor_vocabulary():
+    names = [e.name for e in effects.sensor_effects()]
+    assert names[:8] == list(VOCABULARY)
+    for e in effects.sensor_effects():
+        assert e.side == "sensor" and e.summary
+    with pytest.raises(InputError, match="unknown effect"):
+        effects.get("gremlins")
+
+
+def _staircase(t):
+    prog = programs.staircase([1.0, 2.0, 0.5, 2.0, 0.0], hold=160.0, start=20.0)
+    return prog, prog.sample(t)
+
+
+EXTENSIONS = {
+    "viscous_flow": {"rate": 2e-5},
+    "nonlinear_creep": {"growth": 0.8, "load_scale": 2.0},
+    "asymmetric_recovery": {"tau": 40.0, "tau_recovery": 120.0},
+    "thermal_drift": {"coefficient": 0.003, "reference_temperature": 25.0},
+    "thermal_retardation": {"kappa": 0.05, "reference_temperature": 25.0},
+    "static_nonlinearity": {"a2": 0.02, "a3": -0.01, "load_scale": 2.0},
+    "time_offset": {"delay": 0.7},
+}
+
+
+@pytest.mark.parametrize("name", sorted(EXTENSIONS))
+def test_extended_model_simulation_matches_the_independent_generator(name):
+    """The effect's simulation (sample-level, exact lags) against synth's fine-grid one."""
+    entry = EXTENSIONS[name]
+    t = np.arange(0, 820, 0.25)
+    prog, u = _staircase(t)
+    temp = 25.0 + 3.0 * np.sin(2 * np.pi * t / 500.0) if name.startswith("thermal") else None
+    model = CreepModel((0.04,), (40.0,), gain=1.5, offset=0.2, extensions={name: entry})
+    got = simulate(model, t, u, temp)
+    hidden = {"viscous_flow": {"rate": 2e-5}, "nonlinear_creep": {"growth": 0.8},
+              "asymmetric_recovery": {"tau_recovery": 120.0},
+              "thermal_drift": {"coefficient": 0.003, "reference_temperature": 25.0},
+              "static_nonlinearity": {"a2": 0.02, "a3": -0.01},
+              "time_offset": {"delay": 0.7}}.get(name)
+    if name == "thermal_retardation":       # synth uses Arrhenius: match kappa at 25 C
+        kappa = 0.05
+        hidden = {"activation": kappa * (298.15 ** 2), "reference_temperature": 25.0}
+    spec = synth.Spec(hidden={name: hidden}, beta=(0.04,), tau=(40.0,), gain=1.5, offset=0.2,
+                      rate=4.0, full_scale=2.0)
+    ref = synth.simulate_signal(spec, prog, t, (lambda x: 25.0 + 3.0 * np.sin(2 * np.pi * x / 500.0))
+                                if temp is not None else None)
+    # away from the steps (where the sampled load cannot say when, within a sample step, the
+    # load changed) the two agree to the discretisation error of a few samples' creep
+    steps = np.array(prog.times)[np.flatnonzero(np.diff(prog.times) == 0)]
+    away = np.all(np.abs(t[:, None] - 0.7 - steps[None, :]) > 1.0, axis=1)
+    tol = 3e-4 if name != "thermal_retardation" else 3e-3    # linearised vs Arrhenius law
+    assert np.max(np.abs(got - ref)[away]) < tol * np.ptp(ref)
+    assert np.mean(away) > 0.95
+
+
+def test_simulation_without_extensions_is_the_creep_model():
+    t = np.arange(0, 600, 0.5)
+    _, u = _staircase(t)
+    model = CreepModel((0.03, 0.01), (30.0, 200.0), gain=2.0, offset=-0.1)
+    np.testing.assert_allclose(simulate(model, t, u), model.response(t, u), atol=1e-12)
+
+
+@pytest.mark.parametrize("name", sorted(EXTENSIONS) + [None])
+def test_compensation_inverts_the_extended_model(name):
+    """Correction with the extended model returns offset + gain * load."""
+    t = np.arange(0, 820, 0.25)
+    _, u = _staircase(t)
+    temp = 25.0 + 3.0 * np.sin(2 * np.pi * t / 500.0)
+    ext = {name: EXTENSIONS[name]} if name else {}
+    model = CreepModel((0.04,), (40.0,), gain=1.5, offset=0.2, extensions=ext)
+    y = simulate(model, t, u, temp)
+    comp = compensate(t, y, model, temp)
+    err = comp - (0.2 + 1.5 * u)
+    if name == "time_offset":            # the first samples precede the delayed signal
+        err = err[t > 2.0]
+    assert np.sqrt(np.mean(err ** 2)) < 1e-3 * 1.5 * 2.0
+
+
+def test_missing_temperature_for_a_thermal_extension_is_an_error():
+    model = CreepModel((0.04,), (40.0,), extensions={"thermal_drift": EXTENSIONS["thermal_drift"]})
+    with pytest.raises(InputError, match="temperature"):
+        simulate(model, np.arange(10.0), np.ones(10))
+
+
+def test_extension_written_by_a_fit_reads_back(tmp_path):
+    from creepcomp.files import read_model, write_json
+    from creepcomp.fit import Structure, fit_structure, one_term_starts, prepare
+
+    syn = synth.generate(synth.Spec(hidden={"viscous_flow": {"rate": 3e-5}}, duration=1200, rate=4,
+                                    program="staircase", seed=3))
+    data = prepare(syn.record)
+    base = fit_structure(data, Structure(1), one_term_starts(data))
+    fit = effects.get("viscous_flow").fit_on(data, base)
+    applied = fit.structure.effects[0]
+    entry = applied.effect.extension(fit, applied)
+    assert entry["rate"] == pytest.approx(3e-5, rel=0.1)
+    model = fit.creep_model({"viscous_flow": entry})
+    write_json(tmp_path / "m.json", model.to_dict())
+    back = read_model(tmp_path / "m.json")
+    t = syn.record.time
+    decay = fit.values["a[0]"] * fit.values["c0[0]"] * np.exp(-(t - t[0]) / fit.values["tau[0]"])
+    np.testing.assert_allclose(simulate(back, t, syn.record.load) + decay, fit.prediction,
+                               atol=1e-9 * np.ptp(fit.prediction))

@@ -1,0 +1,84 @@
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from creepcomp import synth
+from creepcomp.errors import InputError
+from creepcomp.model import CreepModel
+
+
+def test_same_seed_same_record_other_seed_other_record():
+    a = synth.random_record("viscous_flow", 11, max_samples=3000)
+    b = synth.random_record("viscous_flow", 11, max_samples=3000)
+    c = synth.random_record("viscous_flow", 12, max_samples=3000)
+    np.testing.assert_array_equal(a.record.signal, b.record.signal)
+    assert a.hidden == b.hidden
+    assert len(a.record) != len(c.record) or not np.array_equal(a.record.signal, c.record.signal)
+
+
+@settings(max_examples=30)
+@given(st.sampled_from(synth.PROGRAMS), st.integers(0, 2**31 - 1), st.booleans())
+def test_programs_change_the_load_within_the_record(kind, seed, loaded):
+    rng = np.random.default_rng(seed)
+    prog = synth.make_program(kind, 1800.0, rng, 2.0, loaded, 45.0)
+    t = np.linspace(0, 1800, 2000)
+    u = prog.sample(t)
+    assert np.ptp(u) > 0.1                      # the record sees the load change
+    assert np.max(np.abs(u)) <= 2.0 + 1e-12
+    if loaded:
+        assert u[0] != 0
+
+
+def test_clean_record_is_the_creep_model_plus_noise():
+    spec = synth.Spec(beta=(0.03,), tau=(45.0,), gain=2.0, offset=0.5, rate=5.0, duration=900,
+                      program="staircase", noise=synth.Noise(white=1e-3), seed=4)
+    syn = synth.generate(spec)
+    r = syn.record
+    model = CreepModel((0.03,), (45.0,), gain=2.0, offset=0.5)
+    exact = model.offset + model.gain * syn.program.response(model.lag_expansion(), r.time)
+    resid = r.signal - exact
+    assert np.std(resid) == pytest.approx(1e-3, rel=0.1)
+    assert abs(np.mean(resid)) < 2e-4
+
+
+def test_irregular_sampling_and_gaps():
+    spec = synth.Spec(rate=10.0, duration=1200, jitter=0.3, gaps=2, seed=5)
+    t = synth.generate(spec).record.time
+    dt = np.diff(t)
+    assert np.all(dt > 0)
+    assert dt.max() > 5.0                       # a gap of several seconds
+    assert np.std(dt[dt < 1.0]) > 0.01          # jittered
+
+
+def test_noise_colour_and_drift():
+    rng = np.random.default_rng(0)
+    t = np.arange(0, 3600, 0.1)
+    e = synth._noise(t, synth.Noise(white=0.0, coloured=1.0, correlation_time=2.0), rng)
+    r1 = np.corrcoef(e[:-1], e[1:])[0, 1]
+    assert r1 == pytest.approx(np.exp(-0.1 / 2.0), abs=0.01)
+    d = synth._noise(t, synth.Noise(white=0.0, drift=1.0), rng)
+    assert 0.2 < abs(d[-1] - d[0]) < 5.0        # about one unit after an hour
+
+
+def test_thermal_effects_bring_a_temperature_column():
+    syn = synth.generate(synth.Spec(hidden={"thermal_drift": {"coefficient": 0.01}}, duration=600, seed=1))
+    assert syn.record.temperature is not None
+    assert np.ptp(syn.record.temperature) > 1.0
+    assert "reference_temperature" in syn.hidden["thermal_drift"]
+
+
+def test_random_spec_respects_its_ranges():
+    for seed in range(20):
+        spec = synth.random_spec("time_offset", seed, rate=(2, 50), max_samples=4000)
+        assert 2 <= spec.rate <= 50
+        assert spec.duration * spec.rate <= 4000 + 1
+        assert spec.program in synth.PROGRAMS_FOR["time_offset"]
+        assert spec.hidden["time_offset"]["delay"] >= 2.0 / spec.rate
+
+
+def test_unknown_names_are_refused():
+    with pytest.raises(InputError, match="unknown effect"):
+        synth.random_spec("gremlins", 0)
+    with pytest.raises(InputError, match="load program"):
+        synth.make_program("zigzag", 100.0, np.random.default_rng(0))
