@@ -79,8 +79,31 @@ def step_diagnosis(out: Path, console: Console) -> None:
     console.print()
 
 
+def step_circuit_diagnosis(out: Path, console: Console) -> None:
+    """Diagnose the bundled record of a built network with a hidden fault: what the simulated
+    network gets wrong, the as-built network (design file, checked in ngspice) and the fix."""
+    from .cli.diagnose import render_circuit
+    from .data import path
+    from .diagnose import diagnose
+    from .diagnose_circuit import diagnose_circuit
+    from .diagnose_report import write_report
+    from .files import read_design
+    from .records import read_record
+
+    record = read_record(path("built_network.csv"))
+    console.print("[bold]Diagnosis of a built network[/bold] (data/built_network.csv: signal and measured "
+                  "corrected output; its nominal design data/built_network.design.json)")
+    circuit = diagnose_circuit(record, read_design(record.design_path()))
+    render_circuit(circuit, record.unit("signal"))
+    units = {c: record.unit(c) for c in ("signal", "load")}
+    for label, p in write_report(diagnose(record), out / "circuit-diagnosis", units, circuit=circuit).items():
+        console.print(f"{label.replace('_', ' ')} written to {p}")
+    console.print()
+
+
 STEPS: list[Callable[[Path, Console], None]] = [step_sizing, step_ngspice, step_tolerances,
-                                                 step_digital_correction, step_diagnosis]
+                                                 step_digital_correction, step_diagnosis,
+                                                 step_circuit_diagnosis]
 
 
 def run_demo(out: Path, console: Console) -> None:

@@ -14,7 +14,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .files import to_json, write_json  # noqa: E402
+from .files import to_json, write_design, write_json  # noqa: E402
 from .fit import Data, Fit, autocorrelation  # noqa: E402
 
 _MAX_POINTS = 20000
@@ -73,8 +73,8 @@ def _png(fig) -> str:
     return base64.b64encode(buf.getvalue()).decode("ascii")
 
 
-def diagnosis_figures(diagnosis, units: dict, circuit: dict | None = None) -> list[tuple[str, str]]:
-    """(title, base64 PNG) of each plot of a diagnosis (and of the circuit side, if given)."""
+def diagnosis_figures(diagnosis, units: dict) -> list[tuple[str, str]]:
+    """(title, base64 PNG) of each plot of a diagnosis."""
     d = diagnosis
     data, base, ext = d.data, d.baseline, d.extended
     ylabel, loadlabel, su = _labels(data, units)
@@ -165,17 +165,6 @@ def diagnosis_figures(diagnosis, units: dict, circuit: dict | None = None) -> li
         ax.grid(True, alpha=0.3)
         fig.tight_layout()
         figs.append(("Creep-corrected signal minus the load scaled to it: before and after", _png(fig)))
-    if circuit is not None:
-        fig, ax = plt.subplots(figsize=(11, 4))
-        ax.plot(t, circuit["residual"][idx], lw=0.8, color="C4",
-                label=f"measured corrected - simulated network output, RMS {circuit['residual_rms']:.3g}")
-        ax.axhline(0, color="0.3", lw=0.8)
-        ax.set_xlabel(xlabel)
-        ax.set_ylabel(rlabel)
-        ax.legend(fontsize=8)
-        ax.grid(True, alpha=0.3)
-        fig.tight_layout()
-        figs.append(("Circuit side: nominal network driven by the measured signal", _png(fig)))
     return figs
 
 
@@ -190,8 +179,9 @@ def _fmt(x) -> str:
 
 
 def render_html(diagnosis, units: dict, title: str = "creepcomp diagnose",
-                circuit: dict | None = None) -> str:
-    """The report as one self-contained HTML page."""
+                circuit=None) -> str:
+    """The report as one self-contained HTML page (with the circuit side's section when a
+    :class:`~creepcomp.diagnose_circuit.CircuitDiagnosis` is given)."""
     d = diagnosis
     result = d.to_dict()
     rows = []
@@ -220,7 +210,13 @@ def render_html(diagnosis, units: dict, title: str = "creepcomp diagnose",
     noise = (f"baseline noise {b['noise']['model']}, memory {_fmt(b['noise']['memory_s'])} s; "
              f"extended {e['noise']['model']}, memory {_fmt(e['noise']['memory_s'])} s")
     figs = "".join(f"<h3>{html.escape(title_)}</h3><img src='data:image/png;base64,{png}'/>"
-                   for title_, png in diagnosis_figures(d, units, circuit))
+                   for title_, png in diagnosis_figures(d, units))
+    if circuit is not None:
+        from .diagnose_circuit_report import circuit_html
+
+        circuit_section = circuit_html(circuit, units)
+    else:
+        circuit_section = ""
     rec = result["record"]
     catch = result["catch_all"]
     catch_text = ("not fitted" if not catch else
@@ -235,7 +231,8 @@ td:first-child,th:first-child{{text-align:left}}img{{max-width:100%}}pre{{backgr
 <p>Record <code>{html.escape(rec['source'])}</code>: {rec['n_samples']} samples over {_fmt(rec['duration_s'])} s,
 median step {_fmt(rec['sample_step_s'])} s ({'uniform' if rec['uniform'] else 'irregular'});
 initial creep state: {html.escape(rec['initial_state'])}; temperature column: {'yes' if rec['temperature'] else 'no'}.</p>
-<h2>Cause: {html.escape(d.cause)}</h2>
+{circuit_section}
+<h2>Sensor side: cause {html.escape(d.cause)}</h2>
 {findings}
 <p>Decision rule: an effect is added when BIC drops by at least {-result['decision_rule']['delta_bic_at_most']:g}
 (likelihood with AR noise) and data held out of the fit are predicted better by at least
@@ -259,16 +256,22 @@ extension (catch-all) would. Catch-all on top of the final model: {catch_text}.<
 """
 
 
-def write_report(diagnosis, out_dir, units: dict | None = None,
-                 circuit: dict | None = None) -> dict[str, Path]:
+def write_report(diagnosis, out_dir, units: dict | None = None, circuit=None) -> dict[str, Path]:
     """Write ``report.html``, ``diagnosis.json``, ``model.json`` (extended) and
-    ``baseline-model.json`` into ``out_dir``."""
+    ``baseline-model.json`` into ``out_dir``; with the circuit side also
+    ``as-built-design.json`` (the as-built network as a design file)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = {"report": out / "report.html", "diagnosis": out / "diagnosis.json",
              "model": out / "model.json", "baseline_model": out / "baseline-model.json"}
     paths["report"].write_text(render_html(diagnosis, units or {}, circuit=circuit), encoding="utf-8")
-    write_json(paths["diagnosis"], diagnosis.to_dict())
+    if circuit is not None:
+        from .diagnose_circuit import combine
+
+        paths["as_built_design"] = write_design(out / "as-built-design.json", circuit.as_built)
+        write_json(paths["diagnosis"], combine(diagnosis.to_dict(), circuit))
+    else:
+        write_json(paths["diagnosis"], diagnosis.to_dict())
     write_json(paths["model"], diagnosis.extended_model)
     write_json(paths["baseline_model"], diagnosis.baseline_model)
     return paths

@@ -1054,6 +1054,34 @@ def simulate_record(network: Network, time, signal, engine: Ngspice | None = Non
                       len(run.time), None, deck)
 
 
+def at_sample_times(points, values, times) -> np.ndarray:
+    """An ngspice waveform read at a record's sample times.
+
+    ngspice's own time points do not fall on the samples, where the (linear between
+    samples) drive has its kinks: interpolating across a kink would mix both sides. Each
+    sample's value is extrapolated from the last two ngspice points at or before it, which
+    lie between it and the previous sample when ngspice steps at most half a sample
+    interval (:data:`RECORD_MAX_STEP_FRACTION`): the waveform is smooth there.
+
+    Parameters
+    ----------
+    points, values : array_like
+        ngspice's time points (s, increasing) and the waveform there.
+    times : array_like
+        Sample times on the same clock.
+
+    Returns
+    -------
+    numpy.ndarray
+    """
+    tp, yp, ts = (np.asarray(a, float) for a in (points, values, times))
+    tol = 1e-9 * max(float(np.max(np.abs(ts))), 1e-300)
+    j = np.clip(np.searchsorted(tp, ts + tol, side="right") - 1, 1, len(tp) - 1)
+    t1, y1, t0, y0 = tp[j], yp[j], tp[j - 1], yp[j - 1]
+    slope = (y1 - y0) / (t1 - t0)
+    return np.where(np.abs(t1 - ts) <= tol, y1, y1 + slope * (ts - t1))
+
+
 # ------------------------------------------------------------------------------------------
 # Reference netlists, plots, demo
 # ------------------------------------------------------------------------------------------

@@ -10,14 +10,19 @@ and given noise of several kinds. Everything random takes a seed.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .circuit import CIRCUIT_EFFECTS, apply_fault, capacitor_cells
 from .errors import InputError
-from .lti import lag_states, varying_lag_states
+from .files import Design
+from .lti import LagExpansion, cascade_lags, lag_states, varying_lag_states
+from .model import CreepModel
 from .programs import LoadProgram
 from .records import Record
+from .sizing import size
 
 #: Hidden effects the generator can put in a record.
 EFFECTS = ("extra_retardation", "viscous_flow", "nonlinear_creep", "asymmetric_recovery",
@@ -524,3 +529,162 @@ def reported_truth(synthetic: Synthetic) -> dict:
         else:
             out[name] = {}
     return out
+
+
+# --------------------------------------------------------------------------------------------
+# The circuit side: records of a built network with a hidden fault
+# --------------------------------------------------------------------------------------------
+# The sensor creeps (one Prony term); the design is the exact network for it, snapped to
+# E24/E6 parts; the network as built carries a hidden circuit fault. Both channels are
+# simulated exactly for the load program, then sampled, with independent measurement noise.
+
+
+@dataclass(frozen=True)
+class CircuitSpec:
+    """Everything that defines a synthetic record of a built network."""
+
+    hidden: dict = field(default_factory=dict)
+    beta: tuple = (0.03,)
+    tau: tuple = (45.0,)
+    gain: float = 1.0
+    offset: float = 0.0
+    corrected_offset: float = 0.0
+    rate: float = 10.0
+    duration: float = 1800.0
+    program: str = "staircase"
+    jitter: float = 0.0
+    noise: Noise = Noise(white=1e-4)
+    corrected_noise: Noise = Noise(white=1e-4)
+    drive: str = "continuous"
+    seed: int = 0
+    """``drive``: ``continuous``, the network sees the sensor's continuous signal (measurement
+    noise on both channels is the ADC's); ``samples``, it is driven by the sampled, noisy
+    signal taken linear between samples, as a simulator would drive a netlist with a record."""
+
+
+@dataclass(frozen=True)
+class CircuitSynthetic:
+    """A synthetic record, the nominal design and the network as really built."""
+
+    record: Record
+    design: Design
+    built: object
+    spec: CircuitSpec
+
+
+def generate_circuit(spec: CircuitSpec) -> CircuitSynthetic:
+    """Simulate a record with ``signal`` and ``corrected`` from a :class:`CircuitSpec`."""
+    rng = np.random.default_rng(spec.seed)
+    model = CreepModel(spec.beta, spec.tau)
+    design = Design(model, size(model).chosen, {"rule": "exact"})
+    built = design.network
+    for effect, params in spec.hidden.items():
+        params = dict(params)
+        built = apply_fault(built, effect, params, params.pop("cell", None))
+    program = make_program(spec.program, spec.duration, rng, 1.0, False, max(spec.tau), 0.0, unload=True)
+    t = sample_times(spec.duration, spec.rate, rng, spec.jitter, 0, 0.0)
+    g = model.lag_expansion()
+    h = built.lag_expansion()
+    D, R, q = cascade_lags(1.0, [g.gains], [g.taus], h.direct, [h.gains], [h.taus])
+    cascade = LagExpansion(float(D[0]), tuple(R[0]), tuple(q[0]))
+    signal = spec.offset + spec.gain * program.response(g, t) + _noise(t, spec.noise, rng)
+    if spec.drive == "continuous":
+        out = h.dc_gain * spec.offset + spec.gain * program.response(cascade, t)
+    else:
+        out = h.simulate(t, signal, initial="settled")
+    corrected = spec.corrected_offset + out + _noise(t, spec.corrected_noise, rng)
+    record = Record(t, program.sample(t), signal, corrected=corrected,
+                    metadata={"units.load": "N", "units.signal": "V", "synth.seed": str(spec.seed),
+                              "synth.program": spec.program},
+                    source=f"synthetic built network (seed {spec.seed})")
+    return CircuitSynthetic(record, design, built, spec)
+
+
+def random_fault(effect: str | None, rng: np.random.Generator, design: Design) -> dict:
+    """A random fault of a kind, large enough to matter at the record's noise (see
+    :func:`random_circuit_spec`), with its physical parameters; a capacitor's fault names
+    its ``cell`` (a random one of the network's capacitors)."""
+    if effect is None:
+        return {}
+    net = design.network
+    k = int(rng.choice(capacitor_cells(net)))
+    cell = net.cells[k]
+    level = net.R2 if net.R2 is not None else sum(c.R for c in net.cells)
+    if effect == "capacitor_value":
+        sign = rng.choice([-1.0, 1.0])
+        return {"C": cell.C * (1.0 + sign * rng.uniform(0.05, 0.25)), "cell": k}
+    if effect == "source_impedance":
+        return {"R": level * math.exp(rng.uniform(math.log(0.01), math.log(0.2)))}
+    if effect == "load_impedance":
+        return {"R": level * math.exp(rng.uniform(math.log(1.5), math.log(30.0)))}
+    if effect == "dielectric_absorption":
+        # film capacitors absorb 0.05-0.25 % (physics.md): a fault is a dielectric that
+        # absorbs more, as ceramic X7R does (0.6-2.5 %). Its memory is slow: from 0.7 to 7
+        # times the cell's own R C (absorption much faster than that only adds capacitance,
+        # and is told apart from a larger capacitor by nothing in the output)
+        return {"fraction": math.exp(rng.uniform(math.log(0.005), math.log(0.03))),
+                "tau": cell.R * cell.C * math.exp(rng.uniform(math.log(0.7), math.log(7.0))), "cell": k}
+    if effect == "capacitor_leakage":
+        return {"R": cell.R * math.exp(rng.uniform(math.log(5.0), math.log(100.0))), "cell": k}
+    raise ValueError(f"unknown circuit effect {effect}")
+
+
+def random_circuit_spec(effect: str | None, seed: int, rate: tuple = (2.0, 50.0),
+                        duration: tuple = (600.0, 3600.0)) -> CircuitSpec:
+    """A randomised record: sensor creep (one term, or two and a two-cell network in 30 % of
+    the records), sampling ``rate`` (Hz, log-uniform), ``duration`` (s), any load program,
+    white noise 1e-5 to 3e-4 of the step on the signal and within a factor e of it on
+    ``corrected``, measuring offsets, either way of driving the network, and the fault."""
+    rng = np.random.default_rng(seed)
+    tau = (float(math.exp(rng.uniform(math.log(15.0), math.log(150.0)))),)
+    beta = (float(rng.uniform(0.01, 0.05)),)
+    if rng.uniform() < 0.3:  # a two-term sensor and its two-cell Foster network
+        tau += (tau[0] * float(rng.uniform(5.0, 20.0)),)
+        beta += (float(rng.uniform(0.005, 0.03)),)
+    model = CreepModel(beta, tau)
+    design = Design(model, size(model).chosen)
+    hidden = {effect: random_fault(effect, rng, design)} if effect else {}
+    gain = float(math.exp(rng.uniform(math.log(1e-4), math.log(1.0))))
+    level = float(math.exp(rng.uniform(math.log(1e-5), math.log(3e-4))))
+    return CircuitSpec(hidden=hidden, beta=beta, tau=tau, gain=gain,
+                       offset=float(rng.normal(0, 0.05)) * gain,
+                       corrected_offset=float(rng.normal(0, 0.01)) * gain,
+                       rate=float(math.exp(rng.uniform(*np.log(rate)))),
+                       duration=float(rng.uniform(*duration)),
+                       program=str(rng.choice(PROGRAMS)), jitter=float(rng.choice([0.0, 0.2])),
+                       noise=Noise(white=level * gain),
+                       corrected_noise=Noise(white=level * gain * math.exp(rng.uniform(-1.0, 1.0))),
+                       drive=str(rng.choice(["continuous", "samples"])), seed=seed)
+
+
+
+
+#: The demo's built network: the default sensor (3 %, 45 s) read at 5 Hz for 30 minutes
+#: through a staircase, its network built with a capacitor 12 % below its nominal value.
+DEMO_CIRCUIT_SPEC = CircuitSpec(hidden={"capacitor_value": {"C": 0.88 * 15e-6}}, beta=(0.03,), tau=(45.0,),
+                                gain=1e-4, offset=2e-6, corrected_offset=-1e-6, rate=5.0, duration=1800.0,
+                                program="staircase", noise=Noise(white=2e-9), corrected_noise=Noise(white=2e-9),
+                                seed=2009)
+
+
+def demo_circuit_record() -> CircuitSynthetic:
+    """The record bundled as ``data/built_network.csv`` with its nominal design
+    ``data/built_network.design.json`` (see :data:`DEMO_CIRCUIT_SPEC`)."""
+    syn = generate_circuit(DEMO_CIRCUIT_SPEC)
+    meta = dict(syn.record.metadata)
+    meta.update({"design": "built_network.design.json",
+                 "description": "synthetic sensor and its built correction network with a hidden fault "
+                                "(creepcomp.synth.DEMO_CIRCUIT_SPEC)"})
+    record = replace(syn.record, metadata=meta, source="built_network.csv")
+    return CircuitSynthetic(record, syn.design, syn.built, syn.spec)
+
+
+def write_demo_circuit(folder) -> tuple:
+    """Write the demo's built-network record and its nominal design into ``folder``."""
+    from .files import write_design
+    from .records import write_record
+
+    syn = demo_circuit_record()
+    folder = Path(folder)
+    return (write_record(folder / "built_network.csv", syn.record, digits=10),
+            write_design(folder / "built_network.design.json", syn.design))

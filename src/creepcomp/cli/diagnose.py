@@ -9,12 +9,13 @@ import numpy as np
 import typer
 from rich.table import Table
 
-from ..diagnose import Diagnosis, circuit_residual, diagnose
+from ..diagnose import Diagnosis, diagnose
+from ..diagnose_circuit import CircuitDiagnosis, combine, diagnose_circuit
 from ..errors import InputError
 from ..files import read_design
 from ..fit import BIC_STRONG, HELDOUT_Z
 from ..units import format_quantity
-from .common import app, console, pct, print_json
+from .common import app, console, err_console, pct, print_json
 from .fit import COLUMNS_HELP, INITIAL_TEXT, describe_record, load_record, record_options
 
 
@@ -23,7 +24,8 @@ def diagnose_command(
     record_path: Path = typer.Argument(..., metavar="RECORD", help="Measured record (CSV, data-format.md)."),
     design: Optional[Path] = typer.Option(None, "--design", metavar="FILE",
                                           help="Design file of the network that produced 'corrected' "
-                                               "(overrides the record's '# design:' line)."),
+                                               "(overrides the record's '# design:' line): the circuit "
+                                               "side is diagnosed too."),
     columns: Optional[str] = typer.Option(None, "--columns", metavar="MAP", help=COLUMNS_HELP),
     delimiter: Optional[str] = typer.Option(None, "--delimiter", metavar="CHAR",
                                             help="Field delimiter (default: detected; 'tab' for tabs)."),
@@ -38,7 +40,10 @@ def diagnose_command(
                                           help="Candidate effects to try, comma-separated (default: all)."),
     output: Optional[Path] = typer.Option(None, "-o", "--output", metavar="DIR",
                                           help="Write report.html, diagnosis.json and the extended "
-                                               "model.json into DIR."),
+                                               "model.json (and with a design, as-built-design.json) "
+                                               "into DIR."),
+    spice_check: bool = typer.Option(True, "--spice-check/--no-spice-check",
+                                     help="Run the as-built network in ngspice on the record."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object (diagnosis.md)."),
 ) -> None:
     """Fit the paper's model, find what it misses by evidence, extend it, measure the gain."""
@@ -50,9 +55,11 @@ def diagnose_command(
             raise InputError(f"{record.source}: --design was given but the record has no "
                              "'corrected' column")
         nominal = read_design(record.design_path(design))
-        circuit = circuit_residual(record, nominal.network)
+        with err_console.status("diagnosing the circuit side"):
+            circuit = diagnose_circuit(record, nominal, spice_check=spice_check)
     candidates = [c.strip() for c in effects.split(",") if c.strip()] if effects else None
-    result = diagnose(record, initial=init, load_step_at=step, candidates=candidates)
+    with err_console.status("diagnosing the sensor side"):
+        result = diagnose(record, initial=init, load_step_at=step, candidates=candidates)
     units = {c: record.unit(c) for c in ("signal", "load")}
     paths = {}
     if output is not None:
@@ -60,19 +67,19 @@ def diagnose_command(
 
         paths = write_report(result, output, units, circuit=circuit)
     if as_json:
-        out = result.to_dict()
-        if circuit is not None:
-            out["circuit"] = {k: v for k, v in circuit.items() if not isinstance(v, np.ndarray)}
+        out = result.to_dict() if circuit is None else combine(result.to_dict(), circuit)
         if paths:
             out["files"] = {k: str(v) for k, v in paths.items()}
         print_json(out)
         return
-    render_diagnosis(record, result, circuit)
+    render_diagnosis(record, result)
+    if circuit is not None:
+        render_circuit(circuit, record.unit("signal"))
     for label, path in paths.items():
         console.print(f"{label.replace('_', ' ')} written to {path}")
 
 
-def render_diagnosis(record, d: Diagnosis, circuit: dict | None = None) -> None:
+def render_diagnosis(record, d: Diagnosis) -> None:
     """Print a diagnosis as tables."""
     su = record.unit("signal")
     console.print(f"[bold]creepcomp diagnose[/bold]: {describe_record(record, d.data)}")
@@ -82,10 +89,6 @@ def render_diagnosis(record, d: Diagnosis, circuit: dict | None = None) -> None:
                   f"({pct(b['residual_rms_relative'])} of the signal's range), held out "
                   f"{b['heldout_residual_rms']:.4g} {su}; noise {b['noise']['model']}, residual lag-1 "
                   f"autocorrelation {b['residual_lag1_autocorrelation']:.3f}")
-    if circuit is not None:
-        console.print(f"network (nominal design) driven by the measured signal vs measured corrected: "
-                      f"residual RMS {circuit['residual_rms']:.4g} {su} (circuit-side effects are not "
-                      "diagnosed yet)")
     console.print(f"[bold]cause: {d.cause}[/bold]")
     if d.findings:
         t = Table(title="Findings (most important first)", title_justify="left")
@@ -119,6 +122,63 @@ def render_diagnosis(record, d: Diagnosis, circuit: dict | None = None) -> None:
         t.add_row("creep-corrected signal vs load, RMS error", f"{g['correction_error_baseline']:.4g}",
                   f"{g['correction_error_extended']:.4g}", _ratio(g["correction_error_ratio"]))
     console.print(t)
+
+
+def render_circuit(cd: CircuitDiagnosis, su: str) -> None:
+    """Print the circuit side of a diagnosis as tables."""
+    from ..diagnose_circuit_report import _element, elements, quantity
+
+    b, e = cd.baseline, cd.extended
+    console.print(f"\n[bold]circuit side[/bold]: the nominal network driven by the measured signal against "
+                  f"the measured corrected: residual RMS {b.rms:.4g} {su} ({pct(b.rms / cd.data.scale)} of its "
+                  f"range), held out {b.heldout.rms:.4g} {su}")
+    console.print(f"[bold]circuit cause: {cd.cause}[/bold]")
+    if cd.findings:
+        t = Table(title="Circuit findings (most important first)", title_justify="left")
+        for col in ("effect", "part", "parameters (± 1 sigma)", "ΔBIC", "held-out RMS ratio", "held-out z"):
+            t.add_column(col, justify="right" if col.startswith(("Δ", "held")) else "left")
+        for f in cd.findings:
+            params = "; ".join(f"{k} = {quantity(k, v)} ± {quantity(k, f.uncertainty.get(k))}"
+                               for k, v in f.parameters.items())
+            t.add_row(f.effect, f.part or "-", params, f"{f.evidence.delta_bic:.1f}",
+                      f"{f.evidence.heldout_rms_ratio:.3g}", f"{f.evidence.heldout_z:.1f}")
+        console.print(t)
+        design, built = elements(b.network), elements(e.network)
+        t = Table(title="As-built network", title_justify="left")
+        for col in ("element", "design", "as built"):
+            t.add_column(col, justify="left" if col == "element" else "right")
+        for label in design:
+            if design[label][1] is not None or built[label][1] is not None:
+                t.add_row(label, _element(*design[label]), _element(*built[label]))
+        console.print(t)
+    else:
+        console.print("no circuit effect is supported by the evidence: the nominal network explains the "
+                      "measured output to its noise")
+    rc = cd.residual_creep
+    console.print(f"peak residual creep of a load step: design {pct(rc['nominal'])}, as built {pct(rc['as_built'])}")
+    if cd.fixes:
+        t = Table(title="Fix: single-part changes, best first", title_justify="left")
+        for col in ("part", "as built", "replace by", "peak residual creep", "note"):
+            t.add_column(col, justify="left" if col in ("part", "note") else "right")
+        for f in cd.fixes:
+            unit = "F" if f.part.startswith("C") else "Ω"
+            t.add_row(f.part, format_quantity(f.value_from, unit), f"{format_quantity(f.value_to, unit)} ({f.series})",
+                      pct(f.residual_creep_peak), f.note)
+        console.print(t)
+    g = cd.gain
+    if e is not b:
+        console.print(f"gain: held-out residual RMS {b.heldout.rms:.4g} -> {e.heldout.rms:.4g} {su} "
+                      f"(ratio {_ratio(g['heldout_rms_ratio'])}); simulated output error RMS "
+                      f"{g['correction_error_baseline']:.4g} -> {g['correction_error_extended']:.4g} {su} "
+                      f"(ratio {_ratio(g['correction_error_ratio'])})")
+    check = cd.spice_check
+    if check is not None:
+        if "error" in check:
+            console.print(f"ngspice check of the as-built network: not run ({check['error']})")
+        else:
+            console.print(f"ngspice, as-built network on the measured signal: RMS difference from the measured "
+                          f"corrected {check['rms_ngspice_vs_measured']:.4g} {su}, {check['ratio']:.3f} x the "
+                          f"fit's residual RMS ({check['ngspice_seconds']:.2f} s)")
 
 
 def _ratio(x) -> str:

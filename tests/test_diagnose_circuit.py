@@ -1,0 +1,151 @@
+"""Diagnosis of a built network (circuit side): hidden faults are named, their parts and
+values recovered, clean networks come back ``none``; the as-built network, its ngspice check,
+the fix and the command line."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from creepcomp import spice, synth
+from creepcomp.circuit import CIRCUIT_EFFECTS
+from creepcomp.data import path as data_path
+from creepcomp.diagnose_circuit import combine, diagnose_circuit
+from creepcomp.files import read_design
+from creepcomp.records import read_record
+
+SHORT = {"rate": (2.0, 8.0), "duration": (600.0, 1500.0)}
+
+
+def _diagnose(effect, seed, **kw):
+    spec = synth.random_circuit_spec(effect, seed, **SHORT)
+    syn = synth.generate_circuit(spec)
+    return spec, syn, diagnose_circuit(syn.record, syn.design, **kw)
+
+
+@pytest.mark.parametrize("effect", CIRCUIT_EFFECTS)
+def test_hidden_fault_is_named_with_its_part_and_value(effect):
+    seed = 7 + CIRCUIT_EFFECTS.index(effect)
+    spec, syn, d = _diagnose(effect, seed, spice_check=False)
+    assert d.cause == effect, (spec, [f.to_dict() for f in d.findings])
+    truth = dict(spec.hidden[effect])
+    cell = truth.pop("cell", None)
+    found = d.findings[0]
+    for name, value in truth.items():
+        # within 10 %, or within three of its own (relative) standard deviations when the
+        # record determines it less well than that (absorption on a short record)
+        relative_sigma = found.uncertainty[name] / found.parameters[name]
+        assert relative_sigma < 0.5, (name, relative_sigma)
+        assert abs(np.log(found.parameters[name] / value)) <= max(0.1, 3 * relative_sigma), (name, relative_sigma)
+    if cell is not None:
+        cells = syn.design.network.cells
+        assert found.part == ("C1" if len(cells) == 1 else f"C1.{cell + 1}")
+    assert d.gain["heldout_rms_ratio"] > 1.0
+    assert d.residual_creep["nominal"] != d.residual_creep["as_built"]
+
+
+@pytest.mark.parametrize("seed", [3, 4])
+def test_clean_network_is_none(seed):
+    _, _, d = _diagnose(None, seed, spice_check=False)
+    assert d.cause == "none", [f.to_dict() for f in d.findings]
+    assert d.fixes == ()
+    assert d.extended is d.baseline
+
+
+def test_two_cell_network_names_the_right_capacitor():
+    for seed in range(100):
+        spec = synth.random_circuit_spec("capacitor_value", seed, **SHORT)
+        if len(spec.tau) == 2 and spec.hidden["capacitor_value"]["cell"] == 0:
+            break
+    syn = synth.generate_circuit(spec)
+    d = diagnose_circuit(syn.record, syn.design, spice_check=False)
+    assert d.cause == "capacitor_value"
+    assert d.findings[0].part == "C1.1"
+    assert d.findings[0].parameters["C"] == pytest.approx(spec.hidden["capacitor_value"]["C"], rel=0.1)
+
+
+@pytest.fixture(scope="module")
+def bundled():
+    """The bundled built-network record diagnosed (with the ngspice check)."""
+    record = read_record(data_path("built_network.csv"))
+    return diagnose_circuit(record, read_design(record.design_path()))
+
+
+def test_as_built_network_in_ngspice_matches_the_measured_output(bundled, tmp_path):
+    d = bundled
+    assert d.cause == "capacitor_value"
+    assert d.findings[0].parameters["C"] == pytest.approx(synth.DEMO_CIRCUIT_SPEC.hidden["capacitor_value"]["C"],
+                                                          rel=0.01)
+    check = d.spice_check
+    # ngspice's as-built output differs from the measured one by the noise alone
+    assert check["ratio"] == pytest.approx(1.0, abs=0.05)
+    # the as-built design file reads back as the same network
+    from creepcomp.files import write_design
+
+    back = read_design(write_design(tmp_path / "as-built.json", d.as_built))
+    assert back.network == d.extended.network
+    # the fix: a new capacitor of the nominal value restores the design's residual creep
+    fix = d.fixes[0]
+    assert fix.part == "C1" and fix.value_to == pytest.approx(15e-6)
+    assert fix.residual_creep_peak < 0.01 * d.residual_creep["as_built"]
+
+
+def test_at_sample_times_reads_ngspice_points_without_crossing_kinks():
+    # a waveform with kinks at the sample times, known in closed form
+    samples = np.arange(0.0, 10.0, 1.0)
+    points = np.sort(np.concatenate([samples[:1], samples[:-1] + 0.3, samples[:-1] + 0.7]))
+    def kinked(t):
+        return np.where(t % 2 < 1, t % 1, 1 - t % 1)
+
+    got = spice.at_sample_times(points, kinked(points), samples[1:])
+    assert np.allclose(got, kinked(samples[1:] - 1e-12), atol=1e-9)
+    assert not np.allclose(np.interp(samples[1:], points, kinked(points)), got, atol=1e-3)
+
+
+def test_combine_lets_the_side_with_a_cause_lead(bundled):
+    d = bundled
+    sensor_none = {"cause": "none", "findings": [], "baseline": {"residual_rms": 1.0},
+                   "extended": {"residual_rms": 1.0}, "gain": {}}
+    out = combine(sensor_none, d)
+    assert out["cause"] == "capacitor_value" and out["side"] == "circuit"
+    assert out["findings"][0]["side"] == "circuit" and out["findings"][0]["part"] == "C1"
+    clean = replace(d, findings=())
+    sensor = dict(sensor_none, cause="extra_retardation",
+                  findings=[{"effect": "extra_retardation", "parameters": {"tau": 1.0, "beta": 0.01}}])
+    out = combine(sensor, clean)
+    assert out["cause"] == "extra_retardation" and out["side"] == "sensor"
+    assert out["findings"][0]["side"] == "sensor"
+
+
+def test_cli_diagnose_with_corrected_names_the_circuit_fault(run_cli, tmp_path):
+    status, out, err = run_cli("diagnose", data_path("built_network.csv"), "--json", "--no-spice-check",
+                               "-o", tmp_path / "d")
+    assert status == 0, err
+    result = json.loads(out)
+    for key in ("cause", "findings", "baseline", "extended", "gain"):
+        assert key in result
+    assert result["cause"] == "capacitor_value"
+    assert result["findings"][0]["side"] == "circuit"
+    assert result["gain"]["heldout_rms_ratio"] > 5
+    assert result["circuit"]["fixes"][0]["part"] == "C1"
+    as_built = read_design(tmp_path / "d" / "as-built-design.json")
+    assert as_built.network.cells[0].C == pytest.approx(result["findings"][0]["parameters"]["C"])
+    html = (tmp_path / "d" / "report.html").read_text()
+    assert "Circuit side: cause capacitor_value" in html and html.count("<img") >= 4
+
+
+def test_cli_design_without_corrected_is_one_line_exit_2(run_cli, tmp_path):
+    record = tmp_path / "r.csv"
+    record.write_text("time,load,signal\n" + "".join(f"{i},{i % 2},{0.01 * i}\n" for i in range(50)))
+    status, out, err = run_cli("diagnose", record, "--design", data_path("built_network.design.json"))
+    assert status == 2
+    assert len(err.strip().splitlines()) == 1 and "corrected" in err and "Traceback" not in err
+
+
+def test_bundled_built_network_record_is_current(tmp_path):
+    written = synth.write_demo_circuit(tmp_path)
+    for p in written:
+        assert p.read_text() == data_path(p.name).read_text(), f"regenerate data/{p.name}"
