@@ -220,29 +220,35 @@ def network_of(data: CircuitData, applied: tuple, values: dict) -> Network:
 
 
 def _columns(data: CircuitData, network: Network, generic_tau: float | None):
-    """Simulated output, the linear columns of a model, their names, and the prior spread
-    of each coefficient (infinite: free)."""
+    """Simulated output, the linear columns of a model (one per column of a Fortran-ordered
+    array), their names, and the prior spread of each coefficient (infinite: free)."""
     lag = network.lag_expansion()
     t, u = data.time, data.signal
     sim = lag.direct * u + lag_states(t, u, lag.taus, hold="linear", initial="settled") @ np.array(lag.gains)
-    cols = [np.ones_like(t)] + [np.exp(-(t - t[0]) / p) for p in lag.taus]
-    names = ["offset"] + [f"decay[{i}]" for i in range(len(lag.taus))]
-    spread = [np.inf] * len(cols)
+    m = 1 + len(lag.taus) * (1 + len(data.breaks)) + (generic_tau is not None)
+    cols = np.zeros((data.n, m), order="F")
+    names, spread = ["offset"], [np.inf]
+    cols[:, 0] = 1.0
+    j = 1
+    for i, p in enumerate(lag.taus):
+        cols[:, j] = np.exp(-(t - t[0]) / p)
+        names.append(f"decay[{i}]")
+        spread.append(np.inf)
+        j += 1
     for k in data.breaks:
         since = t[k:] - t[k]
         for i, (g, p) in enumerate(zip(lag.gains, lag.taus)):
-            col = np.zeros_like(t)
-            col[k:] = np.exp(-since / p)
-            cols.append(col)
+            cols[k:, j] = np.exp(-since / p)
             names.append(f"break[{k}][{i}]")
             # a step anywhere in the interval moves the lag's state by at most
             # jump * interval / tau: its output by that times the lag's gain
             spread.append(abs(u[k] - u[k - 1]) * abs(g) * (t[k] - t[k - 1]) / p)
+            j += 1
     if generic_tau is not None:
-        cols.append(lag_states(t, u, [generic_tau], hold="linear", initial="settled")[:, 0] - u)
+        cols[:, j] = lag_states(t, u, [generic_tau], hold="linear", initial="settled")[:, 0] - u
         names.append("generic.gain")
         spread.append(np.inf)
-    return sim, np.column_stack(cols), names, np.array(spread)
+    return sim, cols, names, np.array(spread)
 
 
 def _solve(data: CircuitData, applied, params, x, generic: bool, mask=None):
@@ -250,26 +256,27 @@ def _solve(data: CircuitData, applied, params, x, generic: bool, mask=None):
     net = network_of(data, applied, values)
     sim, cols, names, spread = _columns(data, net, values.get("generic.tau") if generic else None)
     target = data.corrected - sim
-    rows = slice(None) if mask is None else mask
-    scale = np.sqrt(np.sum(cols[rows] ** 2, axis=0))
+    a, b = (cols, target) if mask is None else (cols[mask], target[mask])
+    gram = a.T @ a
+    scale = np.sqrt(np.diag(gram))
+    total = scale if mask is None else np.sqrt(np.einsum("ij,ij->j", cols, cols))
     # a decay that has died out before the samples of the fit begin is not determined by
     # them (a held-out first block): it predicts nothing rather than an arbitrary amount
-    used = scale > 1e-6 * np.sqrt(np.sum(cols ** 2, axis=0))
-    a = cols[rows][:, used] / scale[used]
-    b = target[rows]
-    # coefficients with a prior spread (input breaks) are held to it: a Gaussian prior as
-    # extra rows noise / spread * coefficient = 0, so they absorb what a step between two
-    # samples can do and not more (nor smooth the signal's noise for another term)
+    used = scale > 1e-6 * total
+    s = scale[used]
+    g = gram[np.ix_(used, used)] / np.outer(s, s)
+    # coefficients with a prior spread (input breaks) are held to it (a Gaussian prior:
+    # ridge terms (noise / spread)^2), so they absorb what a step between two samples can
+    # do and not more (nor smooth the signal's noise for another term)
     bounded = np.isfinite(spread[used])
-    if bounded.any():
-        prior = np.zeros((int(bounded.sum()), a.shape[1]))
-        idx = np.flatnonzero(bounded)
-        prior[np.arange(len(idx)), idx] = data.noise / (np.maximum(spread[used][idx], 1e-300) * scale[used][idx])
-        a = np.vstack([a, prior])
-        b = np.concatenate([b, np.zeros(len(idx))])
+    g[bounded, bounded] += (data.noise / (np.maximum(spread[used][bounded], 1e-300) * s[bounded])) ** 2
+    rhs = (a.T @ b)[used] / s
+    try:
+        part = np.linalg.solve(g, rhs)
+    except np.linalg.LinAlgError:
+        part = np.linalg.lstsq(g, rhs, rcond=None)[0]
     coef = np.zeros(cols.shape[1])
-    part, *_ = np.linalg.lstsq(a, b, rcond=None)
-    coef[used] = part / scale[used]
+    coef[used] = part / s
     residual = target - cols @ coef
     values.update(dict(zip(names, coef)))
     return residual, values, net
