@@ -32,7 +32,7 @@ from . import effects as effects_pkg
 from .circuit import FixOption, suggest_fixes
 from .errors import InputError
 from .files import Design
-from .fit import (BIC_STRONG, FOLDS, GAP_FACTOR, HELDOUT_Z, Evidence, HeldOut, Param, autocorrelation,
+from .fit import (BIC_STRONG, FOLDS, GAP_FACTOR, HELDOUT_Z, Applied, Evidence, HeldOut, Param, autocorrelation,
                   block_index, compare, fit_noise, ljung_box, rows_for, whiten)
 from .lti import lag_states
 from .network import Network
@@ -146,29 +146,6 @@ def input_breaks(signal: np.ndarray, gaps: np.ndarray) -> np.ndarray:
 # --------------------------------------------------------------------------------------------
 
 @dataclass(frozen=True)
-class Applied:
-    """A circuit effect applied to the network, with its fixed settings (which cell)."""
-
-    effect: object
-    settings: tuple = ()
-
-    @property
-    def name(self) -> str:
-        """The effect's identifier."""
-        return self.effect.name
-
-    @property
-    def key(self) -> str:
-        """Unique name of this application (effect and its settings)."""
-        return self.name + "".join(f"[{v}]" for _, v in self.settings)
-
-    def own(self, values: dict) -> dict:
-        """This application's parameter values, without the prefix."""
-        prefix = self.key + "."
-        return {k[len(prefix):]: v for k, v in values.items() if k.startswith(prefix)}
-
-
-@dataclass(frozen=True)
 class CircuitFit:
     """A model of the measured output fitted to a record.
 
@@ -177,7 +154,7 @@ class CircuitFit:
     applied : tuple of Applied
         Effects applied to the nominal network, in order (empty: the nominal network).
     params : list of Param
-        Nonlinear parameters (prefixed by the application's key).
+        Nonlinear parameters (prefixed by the effect's name).
     values : dict
         Their values, and the linear coefficients.
     network : Network
@@ -303,7 +280,7 @@ def fit_model(data: CircuitData, applied: tuple, starts: list[dict], generic: bo
     -------
     CircuitFit
     """
-    params = [replace(p, name=f"{a.key}.{p.name}") for a in applied
+    params = [replace(p, name=f"{a.name}.{p.name}") for a in applied
               for p in a.effect.network_params(data, dict(a.settings))]
     if generic:
         lo, hi = generic_tau_range(data)
@@ -528,12 +505,10 @@ def circuit_effects() -> list:
 
 def _candidates(data: CircuitData, current: CircuitFit) -> list[Applied]:
     out = []
-    taken = {a.key for a in current.applied}
+    taken = {a.name for a in current.applied}
     for effect in circuit_effects():
-        for settings in effect.network_settings(data.design.network):
-            a = Applied(effect, settings)
-            if a.key not in taken and a.name not in {x.name for x in current.applied}:
-                out.append(a)
+        if effect.name not in taken:
+            out.extend(Applied(effect, settings) for settings in effect.network_settings(data.design.network))
     return out
 
 
@@ -542,7 +517,7 @@ def _fit_with(data: CircuitData, current: CircuitFit, applied: Applied) -> Circu
     starts = []
     for own in applied.effect.network_starts(data, dict(applied.settings)):
         s = dict(known)
-        s.update({f"{applied.key}.{k}": v for k, v in own.items()})
+        s.update({f"{applied.name}.{k}": v for k, v in own.items()})
         starts.append(s)
     return fit_model(data, current.applied + (applied,), starts)
 
@@ -628,10 +603,10 @@ def uncertainty(data: CircuitData, fit: CircuitFit, applied: Applied) -> dict:
         return {}
     out = {}
     for i, p in enumerate(fit.params):
-        if p.name.startswith(applied.key + "."):
+        if p.name.startswith(applied.name + "."):
             sd = math.sqrt(max(cov[i, i], 0.0))
             value = fit.values[p.name]
-            out[p.name[len(applied.key) + 1:]] = abs(value) * sd if p.log else p.scale * sd
+            out[p.name[len(applied.name) + 1:]] = abs(value) * sd if p.log else p.scale * sd
     return out
 
 

@@ -641,8 +641,11 @@ def random_circuit_spec(effect: str | None, seed: int, rate: tuple = (2.0, 50.0)
     if rng.uniform() < 0.3:  # a two-term sensor and its two-cell Foster network
         tau += (tau[0] * float(rng.uniform(5.0, 20.0)),)
         beta += (float(rng.uniform(0.005, 0.03)),)
-    model = CreepModel(beta, tau)
-    design = Design(model, size(model).chosen)
+    try:
+        design = Design(CreepModel(beta, tau), size(CreepModel(beta, tau)).chosen)
+    except InputError:  # the slow term needs parts beyond the E-series ranges: one term
+        beta, tau = beta[:1], tau[:1]
+        design = Design(CreepModel(beta, tau), size(CreepModel(beta, tau)).chosen)
     hidden = {effect: random_fault(effect, rng, design)} if effect else {}
     gain = float(math.exp(rng.uniform(math.log(1e-4), math.log(1.0))))
     level = float(math.exp(rng.uniform(math.log(1e-5), math.log(3e-4))))
