@@ -70,7 +70,8 @@ def run_one(args):
             "findings": [f.effect for f in d.findings], "errors": errors, "part_ok": part_ok,
             "cells": len(cells), "gain": d.gain,
             "seconds": seconds, "n": len(syn.record), "program": spec.program, "rate": spec.rate,
-            "drive": spec.drive}
+            "drive": spec.drive, "output_noise": ("drift" if spec.corrected_noise.drift > 0 else
+                                                  "coloured" if spec.corrected_noise.coloured > 0 else "white")}
 
 
 def main(argv=None):
@@ -93,7 +94,7 @@ def main(argv=None):
             results.append(r)
             print(f"  {r['effect']:22s} seed {r['seed']:6d}: {r['cause']:22s} "
                   f"{','.join(r['findings'][1:]) or '':30s} {r['seconds']:5.1f} s "
-                  f"({r['n']} samples, {r['program']}, {r['rate']:.1f} Hz, {r['drive']}, {r['cells']} cell"
+                  f"({r['n']} samples, {r['program']}, {r['rate']:.1f} Hz, {r['drive']}, {r['output_noise']}, {r['cells']} cell"
                   f"{'s' if r['cells'] > 1 else ''}) {' '.join(f'{k} {100 * v:.1f} %' for k, v in r['errors'].items())}",
                   flush=True)
     report(results, effects, time.perf_counter() - t0)
@@ -116,6 +117,12 @@ def report(results, effects, wall):
         named = sum(x["cause"] == r for x in sub) / len(sub)
         print(f"{r:22s}" + "".join(f"{n:12d}" for n in counts) + f"{len(sub) - sum(counts):8d}"
               f"{100 * named:7.0f}%")
+    print("\nNamed correctly by the output's noise (all rows)")
+    for kind in ("white", "coloured", "drift"):
+        sub = [x for x in results if x["output_noise"] == kind]
+        if sub:
+            ok = sum(x["cause"] == x["effect"] for x in sub)
+            print(f"  {kind:10s} {ok} of {len(sub)} ({100 * ok / len(sub):.0f} %)")
     print("\nParameter recovery (records where the fault was found; within 10 % / median error)")
     for e in effects:
         names = sorted({k for x in results if x["effect"] == e for k in x["errors"]})

@@ -26,14 +26,14 @@ import time as _time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy import optimize
+from scipy import ndimage, optimize
 
 from . import effects as effects_pkg
 from .circuit import FixOption, suggest_fixes
 from .errors import InputError
 from .files import Design
-from .fit import (BIC_STRONG, FOLDS, GAP_FACTOR, HELDOUT_Z, Applied, Evidence, HeldOut, Param, autocorrelation,
-                  block_index, compare, fit_noise, ljung_box, rows_for, whiten)
+from .fit import (BIC_STRONG, FOLDS, GAP_FACTOR, HELDOUT_Z, SLOW_NOISE_RATIO, Applied, Evidence, HeldOut, Param,
+                  autocorrelation, block_index, compare, fit_noise, ljung_box, rows_for, slow_noise_ratio, whiten)
 from .lti import lag_states
 from .network import Network
 from .quality import step_peak
@@ -41,6 +41,9 @@ from .records import Record
 
 #: Most circuit effects added one after the other.
 MAX_EFFECTS = 3
+#: Degree of the polynomial in time that every model carries for the drift of the output's
+#: measuring chain.
+DRIFT_DEGREE = 1
 
 
 @dataclass(frozen=True)
@@ -126,15 +129,15 @@ def input_breaks(signal: np.ndarray, gaps: np.ndarray) -> np.ndarray:
     the next sample then differ from the simulated ones by an unknown amount that decays at
     the network's own poles. So do they after a gap. Such samples are found as changes of
     the signal far above its noise (estimated from second differences, which a ramp does not
-    move) and four times larger than a neighbouring change (a step, the start or end of a
-    fast transition; not the samples of a steady ramp or sweep).
+    move) and four times the local median change (of the 11 around it): a step, also one
+    spread over a few samples; not the samples of a ramp or sweep, nor its turning points,
+    whose kinks the straight line between samples misses only to second order.
     """
     du = np.diff(signal)
     noise = noise_level(signal)
     size = np.abs(du)
-    before = np.concatenate([[np.inf], size[:-1]])
-    after = np.concatenate([size[1:], [np.inf]])
-    jump = (size > 10.0 * noise) & (size > 4.0 * np.minimum(before, after)) & (size > 0)
+    local = ndimage.median_filter(size, size=11, mode="nearest")
+    jump = (size > 10.0 * noise) & (size > 4.0 * local) & (size > 0)
     k = np.flatnonzero(jump)
     if len(k) > MAX_BREAKS:
         k = np.sort(k[np.argsort(size[k])[-MAX_BREAKS:]])
@@ -162,7 +165,7 @@ class CircuitFit:
     residual : numpy.ndarray
         Measured minus modelled output.
     bic : float
-        White-noise BIC (``n ln(RSS/n) + k ln n``).
+        BIC under AR noise (``n ln(RSS/n) + k ln n`` of the prewhitened residual).
     heldout : HeldOut or None
     generic : tuple or None
         ``(gain, tau)`` of the generic extra lag (the catch-all), if applied.
@@ -202,15 +205,25 @@ def _columns(data: CircuitData, network: Network, generic_tau: float | None):
     lag = network.lag_expansion()
     t, u = data.time, data.signal
     sim = lag.direct * u + lag_states(t, u, lag.taus, hold="linear", initial="settled") @ np.array(lag.gains)
-    m = 1 + len(lag.taus) * (1 + len(data.breaks)) + (generic_tau is not None)
+    m = 1 + DRIFT_DEGREE + len(lag.taus) * (1 + len(data.breaks)) + (generic_tau is not None)
     cols = np.zeros((data.n, m), order="F")
     names, spread = ["offset"], [np.inf]
     cols[:, 0] = 1.0
-    j = 1
-    for i, p in enumerate(lag.taus):
+    # slow drift of the output's measuring chain: a Legendre polynomial over the record, in
+    # every model, so that no network effect is credited with it
+    x = 2.0 * (t - t[0]) / max(t[-1] - t[0], 1e-300) - 1.0
+    for d in range(1, DRIFT_DEGREE + 1):
+        cols[:, d] = np.polynomial.legendre.legval(x, [0.0] * d + [1.0])
+        names.append(f"drift[{d}]")
+        spread.append(np.inf)
+    j = 1 + DRIFT_DEGREE
+    # a lag's state before the record is unknown but within the input's excursions: its
+    # decay moves the output by at most the lag's gain times their span
+    span = 2.0 * max(float(np.ptp(u)), float(np.max(np.abs(u))))
+    for i, (g, p) in enumerate(zip(lag.gains, lag.taus)):
         cols[:, j] = np.exp(-(t - t[0]) / p)
         names.append(f"decay[{i}]")
-        spread.append(np.inf)
+        spread.append(abs(g) * span)
         j += 1
     for k in data.breaks:
         since = t[k:] - t[k]
@@ -242,9 +255,9 @@ def _solve(data: CircuitData, applied, params, x, generic: bool, mask=None):
     used = scale > 1e-6 * total
     s = scale[used]
     g = gram[np.ix_(used, used)] / np.outer(s, s)
-    # coefficients with a prior spread (input breaks) are held to it (a Gaussian prior:
-    # ridge terms (noise / spread)^2), so they absorb what a step between two samples can
-    # do and not more (nor smooth the signal's noise for another term)
+    # coefficients with a prior spread (decays) are held to it (a Gaussian prior: ridge
+    # terms (noise / spread)^2): they absorb what an unknown initial state or a step between
+    # two samples can do and not more (nor drift, nor the signal's noise for another term)
     bounded = np.isfinite(spread[used])
     g[bounded, bounded] += (data.noise / (np.maximum(spread[used][bounded], 1e-300) * s[bounded])) ** 2
     rhs = (a.T @ b)[used] / s
@@ -364,19 +377,25 @@ def _gauss_newton_step(residuals, x0: np.ndarray, lower: np.ndarray, upper: np.n
 
 
 def _finish(data, applied, params, values, net, residual, rows, generic) -> CircuitFit:
-    n = int(np.sum(rows))
-    k = len(params) + sum(1 for key in values if key == "offset" or key.startswith(("decay[", "break["))
-                          or key == "generic.gain")
-    rss = float(np.sum(residual[rows] ** 2))
-    bic = n * math.log(rss / n + 1e-300) + k * math.log(n)
+    """The fit with its BIC under AR noise (the noise of ``corrected`` need not be white:
+    its order is chosen by BIC too). The decays of the initial state and of input breaks are
+    held by their priors and not counted as free parameters (every model has them)."""
+    k = len(params) + sum(1 for key in values if key in ("offset", "generic.gain") or key.startswith("drift["))
+    ar_rows = rows_for(data, rows)
+    noise = fit_noise(residual, ar_rows)
+    n = len(ar_rows)
+    rss = float(np.sum(whiten(residual, ar_rows, noise) ** 2))
+    bic = n * math.log(rss / n + 1e-300) + (k + len(noise.phi)) * math.log(n)
     gen = (values.get("generic.gain"), values.get("generic.tau")) if generic else None
     return CircuitFit(applied, params, values, net, residual, bic, None, gen)
 
 
-def with_heldout(data: CircuitData, fit: CircuitFit, folds: int = FOLDS) -> CircuitFit:
+def with_heldout(data: CircuitData, fit: CircuitFit, folds: int = FOLDS,
+                 blocks: np.ndarray | None = None) -> CircuitFit:
     """The fit with its held-out prediction: interleaved blocks left out in turn, the model
-    refitted on the rest (from the fit's own values) and used to predict them."""
-    blocks = block_index(data)
+    refitted on the rest (from the fit's own values) and used to predict them; ``blocks``
+    (with ``folds = 2``): other blocks, e.g. the record's two halves."""
+    blocks = block_index(data) if blocks is None else blocks
     fold = blocks % folds
     resid = np.empty(data.n)
     start = {p.name: fit.values[p.name] for p in fit.params}
@@ -387,6 +406,28 @@ def with_heldout(data: CircuitData, fit: CircuitFit, folds: int = FOLDS) -> Circ
         f = fit_model(data, fit.applied, [start], fit.generic is not None, mask=~inside, refit=True)
         resid[inside] = f.residual[inside]
     return replace(fit, heldout=HeldOut(resid, blocks))
+
+
+def halves(data: CircuitData, fit: CircuitFit) -> HeldOut:
+    """Held-out prediction of each half of the record from the other."""
+    return with_heldout(data, fit, 2, np.minimum(np.arange(data.n) * 2 // data.n, 1)).heldout
+
+
+def evidence(data: CircuitData, current: CircuitFit, rich: CircuitFit, always_halves: bool = False) -> Evidence:
+    """Evidence for ``rich`` over ``current`` (both with held-out predictions), as on the
+    sensor side: BIC and interleaved held-out blocks; when the richer model's residual holds
+    slow noise (drift of the measuring chain, :func:`~creepcomp.fit.slow_noise_ratio`), also
+    each half predicted from the other, which drift that a slow extension (absorption,
+    leakage) follows between interleaved blocks does not allow. The weaker held-out result
+    counts. ``always_halves``: in any case (the catch-all)."""
+    ev = compare(None, current, rich)
+    if ev.supported and (always_halves or slow_noise_ratio(rich.residual) > SLOW_NOISE_RATIO):
+        across = compare(None, replace(current, heldout=halves(data, current)),
+                         replace(rich, heldout=halves(data, rich)))
+        if not across.supported_heldout:
+            ev = replace(ev, heldout_z=min(ev.heldout_z, across.heldout_z),
+                         heldout_rms_ratio=min(ev.heldout_rms_ratio, across.heldout_rms_ratio))
+    return ev
 
 
 # --------------------------------------------------------------------------------------------
@@ -551,12 +592,13 @@ def diagnose_circuit(record: Record, design: Design, spice_check: bool = True,
         for applied in _candidates(data, current):
             fit = _fit_with(data, current, applied)
             fit = with_heldout(data, fit)
-            tried.append((applied, fit, compare(None, current, fit)))
-        supported = [t for t in tried if t[2].supported]
-        best = min(supported, key=lambda t: t[2].delta_bic) if supported else None
-        for applied, fit, ev in tried:
-            outcome = "accepted" if best is not None and applied is best[0] else (
-                "supported, not the best" if ev.supported else "rejected")
+            tried.append((applied, fit, evidence(data, current, fit), at_bound(fit, applied)))
+        supported = [t for t in tried if t[2].supported and not t[3]]
+        best = min(supported, key=lambda t: t[2].delta_bic)[:3] if supported else None
+        for applied, fit, ev, edge in tried:
+            outcome = ("accepted" if best is not None and applied is best[0] else
+                       f"rejected: {edge} at the edge of its range (not resolved by the record)" if edge
+                       else "supported, not the best" if ev.supported else "rejected")
             trials.append(CircuitTrial(step, applied.name, _part(applied, design), ev, outcome))
         if best is None:
             break
@@ -568,7 +610,7 @@ def diagnose_circuit(record: Record, design: Design, spice_check: bool = True,
     catch = fit_model(data, current.applied, [{p.name: current.values[p.name] for p in current.params}],
                       generic=True)
     catch = with_heldout(data, catch)
-    catch_ev = compare(None, current, catch)
+    catch_ev = evidence(data, current, catch, always_halves=True)
     if catch_ev.supported:
         findings.append(CircuitFinding("unexplained", {"tau": catch.generic[1], "gain": catch.generic[0]},
                                        catch_ev))
@@ -577,6 +619,17 @@ def diagnose_circuit(record: Record, design: Design, spice_check: bool = True,
     check = _spice_check(data, current) if spice_check else None
     return CircuitDiagnosis(data, baseline, current, tuple(findings), tuple(trials), catch_ev, fixes,
                             _time.perf_counter() - start, check)
+
+
+def at_bound(fit: CircuitFit, applied: Applied) -> str | None:
+    """The first parameter of an applied effect that sits at a bound of its range (e.g. an
+    absorption as slow as the record: not told apart from drift), or None."""
+    for p in fit.params:
+        if p.name.startswith(applied.name + "."):
+            x, (lo, hi) = p.to_search(fit.values[p.name]), p.bounds()
+            if min(x - lo, hi - x) < 1e-3 * (hi - lo):
+                return p.name[len(applied.name) + 1:]
+    return None
 
 
 def uncertainty(data: CircuitData, fit: CircuitFit, applied: Applied) -> dict:

@@ -600,10 +600,11 @@ def generate_circuit(spec: CircuitSpec) -> CircuitSynthetic:
     return CircuitSynthetic(record, design, built, spec)
 
 
-def random_fault(effect: str | None, rng: np.random.Generator, design: Design) -> dict:
+def random_fault(effect: str | None, rng: np.random.Generator, design: Design, duration: float) -> dict:
     """A random fault of a kind, large enough to matter at the record's noise (see
     :func:`random_circuit_spec`), with its physical parameters; a capacitor's fault names
-    its ``cell`` (a random one of the network's capacitors)."""
+    its ``cell`` (a random one of the network's capacitors). An absorption's time constant
+    is at most half the record's ``duration`` (s), so the record shows it."""
     if effect is None:
         return {}
     net = design.network
@@ -623,7 +624,8 @@ def random_fault(effect: str | None, rng: np.random.Generator, design: Design) -
         # times the cell's own R C (absorption much faster than that only adds capacitance,
         # and is told apart from a larger capacitor by nothing in the output)
         return {"fraction": math.exp(rng.uniform(math.log(0.005), math.log(0.03))),
-                "tau": cell.R * cell.C * math.exp(rng.uniform(math.log(0.7), math.log(7.0))), "cell": k}
+                "tau": min(cell.R * cell.C * math.exp(rng.uniform(math.log(0.7), math.log(7.0))), duration / 2),
+                "cell": k}
     if effect == "capacitor_leakage":
         return {"R": cell.R * math.exp(rng.uniform(math.log(5.0), math.log(100.0))), "cell": k}
     raise ValueError(f"unknown circuit effect {effect}")
@@ -634,7 +636,9 @@ def random_circuit_spec(effect: str | None, seed: int, rate: tuple = (2.0, 50.0)
     """A randomised record: sensor creep (one term, or two and a two-cell network in 30 % of
     the records), sampling ``rate`` (Hz, log-uniform), ``duration`` (s), any load program,
     white noise 1e-5 to 3e-4 of the step on the signal and within a factor e of it on
-    ``corrected``, measuring offsets, either way of driving the network, and the fault."""
+    ``corrected`` (plus, each in a third of the records, coloured noise of 0.5-2 times that
+    level with a correlation time of 0.5-20 s, and a random-walk drift of 1-10 times it per
+    hour), measuring offsets, either way of driving the network, and the fault."""
     rng = np.random.default_rng(seed)
     tau = (float(math.exp(rng.uniform(math.log(15.0), math.log(150.0)))),)
     beta = (float(rng.uniform(0.01, 0.05)),)
@@ -646,17 +650,23 @@ def random_circuit_spec(effect: str | None, seed: int, rate: tuple = (2.0, 50.0)
     except InputError:  # the slow term needs parts beyond the E-series ranges: one term
         beta, tau = beta[:1], tau[:1]
         design = Design(CreepModel(beta, tau), size(CreepModel(beta, tau)).chosen)
-    hidden = {effect: random_fault(effect, rng, design)} if effect else {}
+    record_duration = float(rng.uniform(*duration))
+    hidden = {effect: random_fault(effect, rng, design, record_duration)} if effect else {}
     gain = float(math.exp(rng.uniform(math.log(1e-4), math.log(1.0))))
     level = float(math.exp(rng.uniform(math.log(1e-5), math.log(3e-4))))
+    out_level = level * math.exp(rng.uniform(-1.0, 1.0))
+    # the output's measuring chain: coloured noise in a third of the records, drift in a third
+    coloured = out_level * rng.uniform(0.5, 2.0) if rng.uniform() < 1 / 3 else 0.0
+    drift = out_level * rng.uniform(1.0, 10.0) if rng.uniform() < 1 / 3 else 0.0
+    out_noise = Noise(white=out_level * gain, coloured=coloured * gain,
+                      correlation_time=float(rng.uniform(0.5, 20.0)), drift=drift * gain)
     return CircuitSpec(hidden=hidden, beta=beta, tau=tau, gain=gain,
                        offset=float(rng.normal(0, 0.05)) * gain,
                        corrected_offset=float(rng.normal(0, 0.01)) * gain,
                        rate=float(math.exp(rng.uniform(*np.log(rate)))),
-                       duration=float(rng.uniform(*duration)),
+                       duration=record_duration,
                        program=str(rng.choice(PROGRAMS)), jitter=float(rng.choice([0.0, 0.2])),
-                       noise=Noise(white=level * gain),
-                       corrected_noise=Noise(white=level * gain * math.exp(rng.uniform(-1.0, 1.0))),
+                       noise=Noise(white=level * gain), corrected_noise=out_noise,
                        drive=str(rng.choice(["continuous", "samples"])), seed=seed)
 
 

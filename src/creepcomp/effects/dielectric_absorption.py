@@ -15,9 +15,11 @@ class DielectricAbsorption(NetworkEffect):
     summary = "the capacitor's dielectric absorbs charge (a slow memory term)"
 
     def network_params(self, data, settings):
-        """``fraction`` 1e-5 to 0.3 of C; ``tau`` from two sampling steps to 3 record lengths."""
-        return [log_param("fraction", 1e-5, 0.3, 1e-3),
-                log_param("tau", 2.0 * data.dt_median, 3.0 * data.duration, 30.0)]
+        """``fraction`` 1e-5 to 0.1 of C (ceramics absorb a few %, electrolytics up to about
+        10 %); ``tau`` from two sampling steps to the record's length (a slower memory is not
+        told apart from drift of the measuring chain)."""
+        return [log_param("fraction", 1e-5, 0.1, 1e-3),
+                log_param("tau", 2.0 * data.dt_median, data.duration, 30.0)]
 
     def network_starts(self, data, settings):
         """A grid of absorption time constants across the record's time scales."""
