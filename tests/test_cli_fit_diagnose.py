@@ -9,7 +9,7 @@ from creepcomp.data import path as data_path
 from creepcomp.files import read_model
 from creepcomp.records import Record, write_record
 
-SHARED = Path("/work/shared/data/rheojax")
+SHARED = Path(__file__).resolve().parent / "data" / "rheojax"
 
 
 @pytest.fixture(scope="module")

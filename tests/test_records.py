@@ -6,7 +6,7 @@ import pytest
 from creepcomp.errors import InputError
 from creepcomp.records import Record, parse_columns, parse_record, read_record, write_record
 
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "rheojax"
+SHARED = Path(__file__).resolve().parent / "data" / "rheojax"
 
 
 def test_reads_metadata_case_insensitive_columns_and_optional_ones():

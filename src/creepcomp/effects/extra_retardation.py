@@ -18,7 +18,8 @@ class ExtraRetardation(Effect):
     summary = "a further exponential creep term (Prony term), faster or slower than the others"
 
     def settings(self, data: Data, base: Fit) -> tuple:
-        return (("term", base.structure.n_terms), ("base_taus", tuple(float(t) for t in base.taus)))
+        return (("term", base.structure.n_terms), ("base_taus", tuple(float(t) for t in base.taus)),
+                ("longest", data.tau_limits()[1]))
 
     def extend(self, structure: Structure, applied: Applied) -> Structure:
         grown = Structure(structure.n_terms + 1, structure.effects)
@@ -47,6 +48,17 @@ class ExtraRetardation(Effect):
             if cost < best_cost:
                 best, best_cost = left_out, cost
         return best
+
+    def unphysical(self, fit: Fit, applied: Applied) -> str | None:
+        k = self.added_term(fit, applied)
+        tau, beta = fit.values[f"tau[{k}]"], fit.values[f"a[{k}]"] / fit.gain
+        if beta <= 0:
+            return f"beta = {beta:.3g}: a Voigt element only adds creep (beta > 0)"
+        longest = applied.setting("longest")
+        if tau > longest:
+            # its free initial state then decays as a ramp in time: drift, not creep
+            return f"tau = {tau:.3g} s: longer than the record can resolve ({longest:.3g} s)"
+        return None
 
     def report(self, fit: Fit, applied: Applied) -> dict:
         k = self.added_term(fit, applied)
