@@ -16,6 +16,10 @@ Usage::
 
     python benchmarks/diagnose_confusion.py [--per-effect 20] [--clean 40] [--seed 0]
                                             [--wide] [--jobs 1] [--json out.json]
+    python benchmarks/diagnose_confusion.py --report out.json   # summary of a (partial) run
+
+Records are run round-robin over clean and each effect, and ``--json`` is rewritten after
+each one, so an interrupted run still gives a balanced partial summary.
 
 ``--wide`` widens the generator beyond what the tests use (1-100 Hz, noise 0.01-0.5 % of full
 scale, 10 min - 2 h, coloured noise and drift in half the records and twice as strong).
@@ -70,11 +74,23 @@ def main(argv=None):
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--json", default=None)
     ap.add_argument("--effects", default=None, help="comma-separated subset")
+    ap.add_argument("--report", default=None, metavar="JSON", help="only summarise a saved run")
     args = ap.parse_args(argv)
     effects = args.effects.split(",") if args.effects else EFFECTS
-    tasks = [(None, args.seed + 100000 + i, args.wide) for i in range(args.clean)]
+    if args.report:
+        with open(args.report) as fh:
+            results = json.load(fh)
+        report(results, [e for e in effects if any(x["effect"] == e for x in results)],
+               sum(x["seconds"] for x in results), args)
+        return
+    queues = [[(None, args.seed + 100000 + i, args.wide) for i in range(args.clean)]]
     for k, e in enumerate(effects):
-        tasks += [(e, args.seed + 1000 * (k + 1) + i, args.wide) for i in range(args.per_effect)]
+        queues.append([(e, args.seed + 1000 * (k + 1) + i, args.wide) for i in range(args.per_effect)])
+    # round-robin, two clean records per round (twice as many of them)
+    tasks = []
+    for i in range(max(map(len, queues))):
+        tasks += [q[j] for q in queues for j in ((2 * i, 2 * i + 1) if q is queues[0] else (i,))
+                  if j < len(q)]
     t0 = time.perf_counter()
     if args.jobs > 1:
         with ProcessPoolExecutor(args.jobs) as pool:
@@ -83,6 +99,9 @@ def main(argv=None):
         results = []
         for task in tasks:
             results.append(run_one(task))
+            if args.json:
+                with open(args.json, "w") as fh:
+                    json.dump(results, fh, default=float)
             r = results[-1]
             print(f"  {r['effect']:20s} seed {r['seed']:6d}: {r['cause']:20s} "
                   f"{','.join(r['findings'][1:]) or '':30s} {r['seconds']:5.1f} s "
