@@ -1,8 +1,8 @@
 """Fit the rheojax polystyrene creep record (130 C) with the number of terms the evidence asks
 for, with and without viscous flow, and diagnose it.
 
-Data: ``../shared/data/rheojax/creep_ps130_data.csv`` (imewei/rheojax, commit b79e79e7, MIT
-licence), read in place: tab-separated ``Time`` and ``Creep Compliance`` after a stress step at
+Data: ``tests/data/rheojax/creep_ps130_data.csv`` (imewei/rheojax, commit b79e79e7, MIT
+licence, shipped with it): tab-separated ``Time`` and ``Creep Compliance`` after a stress step at
 t = 0; 13,542 rows share a rounded time stamp and are averaged (``duplicate_times="mean"``).
 
 Usage::
@@ -20,7 +20,7 @@ from creepcomp.diagnose import diagnose
 from creepcomp.fit import fit_prony, prepare, term_table
 from creepcomp.records import parse_columns, read_record
 
-DEFAULT = Path(__file__).resolve().parents[3] / "shared" / "data" / "rheojax" / "creep_ps130_data.csv"
+DEFAULT = Path(__file__).resolve().parents[1] / "tests" / "data" / "rheojax" / "creep_ps130_data.csv"
 
 
 def main(argv=None):

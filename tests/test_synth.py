@@ -1,3 +1,5 @@
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -82,3 +84,12 @@ def test_unknown_names_are_refused():
         synth.random_spec("gremlins", 0)
     with pytest.raises(InputError, match="load program"):
         synth.make_program("zigzag", 100.0, np.random.default_rng(0))
+
+
+def test_a_hidden_effect_is_kept_detectable_by_scaling_the_noise():
+    faint = synth.Spec(hidden={"extra_retardation": {"tau": 200.0, "beta": 1e-4}}, tau=(20.0,), rate=2.0,
+                       duration=1200.0, noise=synth.Noise(white=1e-2), seed=3, detectable_z=10.0)
+    assert synth.generate(faint).spec.noise.white < 1e-3
+    clear = replace(faint, hidden={"extra_retardation": {"tau": 200.0, "beta": 0.02}},
+                    noise=synth.Noise(white=1e-4))
+    assert synth.generate(clear).spec.noise.white == 1e-4

@@ -159,6 +159,10 @@ class Data:
         return replace(self, signal=np.asarray(signal, float))
 
 
+#: Relative spread below which a load counts as constant.
+CONSTANT_LOAD_TOLERANCE = 1e-6
+
+
 def prepare(record: Record, initial: str = "free", load_step_at: float | None = None,
             hold: str = "linear", min_samples: int = 20) -> Data:
     """Check a record and prepare it for fitting.
@@ -188,7 +192,9 @@ def prepare(record: Record, initial: str = "free", load_step_at: float | None = 
     if not np.any(load != 0):
         raise InputError(f"{record.source}: the load is zero throughout: nothing to fit the "
                          "signal against")
-    constant = float(np.ptp(load)) == 0.0
+    # constant to within an export's rounding (instrument files write a set stress as e.g.
+    # 0.0005 and 0.00050000001362507)
+    constant = float(np.ptp(load)) <= CONSTANT_LOAD_TOLERANCE * float(np.max(np.abs(load)))
     if load_step_at is not None:
         if load_step_at > record.time[0]:
             raise InputError(f"--load-step-at {load_step_at:g} s: must not be after the first "

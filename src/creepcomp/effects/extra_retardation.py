@@ -18,7 +18,8 @@ class ExtraRetardation(Effect):
     summary = "a further exponential creep term (Prony term), faster or slower than the others"
 
     def settings(self, data: Data, base: Fit) -> tuple:
-        return (("term", base.structure.n_terms), ("base_taus", tuple(float(t) for t in base.taus)))
+        return (("term", base.structure.n_terms), ("base_taus", tuple(float(t) for t in base.taus)),
+                ("base_betas", tuple(float(b) for b in base.betas)), ("longest", data.tau_limits()[1]))
 
     def extend(self, structure: Structure, applied: Applied) -> Structure:
         grown = Structure(structure.n_terms + 1, structure.effects)
@@ -36,17 +37,31 @@ class ExtraRetardation(Effect):
 
     def added_term(self, fit: Fit, applied: Applied) -> int:
         """The term the base did not have: the one left over when the others are matched to
-        the base's time constants (closest in log tau)."""
-        base = np.log(np.array(applied.setting("base_taus")))
-        new = np.log(fit.taus[: applied.setting("term") + 1])
-        best, best_cost = len(new) - 1, math.inf
-        for left_out in range(len(new)):
-            rest = [k for k in range(len(new)) if k != left_out]
-            cost = min(sum(abs(new[r] - base[b]) for r, b in zip(rest, perm))
+        the base's terms (closest in log tau plus log beta: a base term fitted where two
+        terms are has a time between theirs, and most of the larger one's amplitude)."""
+        n = applied.setting("term") + 1
+        base = np.column_stack([np.log(applied.setting("base_taus")),
+                                np.log(np.abs(applied.setting("base_betas")) + 1e-300)])
+        new = np.column_stack([np.log(fit.taus[:n]), np.log(np.abs(fit.betas[:n]) + 1e-300)])
+        best, best_cost = n - 1, math.inf
+        for left_out in range(n):
+            rest = [k for k in range(n) if k != left_out]
+            cost = min(sum(np.abs(new[r] - base[b]).sum() for r, b in zip(rest, perm))
                        for perm in itertools.permutations(range(len(base))))
             if cost < best_cost:
                 best, best_cost = left_out, cost
         return best
+
+    def unphysical(self, fit: Fit, applied: Applied) -> str | None:
+        k = self.added_term(fit, applied)
+        tau, beta = fit.values[f"tau[{k}]"], fit.values[f"a[{k}]"] / fit.gain
+        if beta <= 0:
+            return f"beta = {beta:.3g}: a Voigt element only adds creep (beta > 0)"
+        longest = applied.setting("longest")
+        if tau > longest:
+            # its free initial state then decays as a ramp in time: drift, not creep
+            return f"tau = {tau:.3g} s: longer than the record can resolve ({longest:.3g} s)"
+        return None
 
     def report(self, fit: Fit, applied: Applied) -> dict:
         k = self.added_term(fit, applied)
