@@ -18,6 +18,7 @@ Usage::
 
     python benchmarks/diagnose_circuit_confusion.py [--per-effect 20] [--clean 40] [--seed 0]
                                                     [--jobs 1] [--json out.json]
+    python benchmarks/diagnose_circuit_confusion.py --report out.jsonl   # summary of a saved run
 """
 
 from __future__ import annotations
@@ -80,18 +81,31 @@ def main(argv=None):
     ap.add_argument("--clean", type=int, default=40)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--jobs", type=int, default=1)
-    ap.add_argument("--json", default=None)
+    ap.add_argument("--json", default=None, help="write the results to this file (and, as they come, "
+                                                "one line each to the same name + 'l')")
     ap.add_argument("--effects", default=None, help="comma-separated subset")
+    ap.add_argument("--report", default=None, help="only print the summary of a saved run (JSON lines)")
     args = ap.parse_args(argv)
+    if args.report:
+        with open(args.report) as fh:
+            results = [json.loads(line) for line in fh if line.strip()]
+        report(results, [e for e in EFFECTS if any(x["effect"] == e for x in results)], float("nan"))
+        return
     effects = args.effects.split(",") if args.effects else EFFECTS
-    tasks = [(None, args.seed + 200000 + i) for i in range(args.clean)]
+    per_row = {None: [args.seed + 200000 + i for i in range(args.clean)]}
     for k, e in enumerate(effects):
-        tasks += [(e, args.seed + 20000 + 1000 * (k + 1) + i) for i in range(args.per_effect)]
+        per_row[e] = [args.seed + 20000 + 1000 * (k + 1) + i for i in range(args.per_effect)]
+    # round robin over the rows, so that a run stopped early is still balanced
+    tasks = [(e, seeds[i]) for i in range(max(map(len, per_row.values())))
+             for e, seeds in per_row.items() if i < len(seeds)]
     t0 = time.perf_counter()
     results = []
     with ProcessPoolExecutor(args.jobs) as pool:
         for r in (pool.map(run_one, tasks) if args.jobs > 1 else map(run_one, tasks)):
             results.append(r)
+            if args.json:
+                with open(args.json + "l", "a") as fh:
+                    fh.write(json.dumps(r, default=float) + "\n")
             print(f"  {r['effect']:22s} seed {r['seed']:6d}: {r['cause']:22s} "
                   f"{','.join(r['findings'][1:]) or '':30s} {r['seconds']:5.1f} s "
                   f"({r['n']} samples, {r['program']}, {r['rate']:.1f} Hz, {r['drive']}, {r['output_noise']}, {r['cells']} cell"
@@ -130,11 +144,11 @@ def report(results, effects, wall):
             errs = [x["errors"][name] for x in results if x["effect"] == e and name in x["errors"]]
             print(f"  {e:22s} {name:3s} {100 * np.mean(np.array(errs) <= 0.1):5.0f} % within 10 % "
                   f"(n = {len(errs)}), median error {100 * np.median(errs):.2g} %")
-        parts = [x["part_ok"] for x in results if x["effect"] == e and x["part_ok"] is not None]
-        if parts:
-            print(f"  {e:22s} the right capacitor in {sum(parts)} of {len(parts)} (two-cell networks: "
-                  f"{sum(p for x, p in ((x, x['part_ok']) for x in results if x['effect'] == e and x['part_ok'] is not None) if x['cells'] > 1)}"
-                  f" of {sum(1 for x in results if x['effect'] == e and x['part_ok'] is not None and x['cells'] > 1)})")
+        located = [x for x in results if x["effect"] == e and x["part_ok"] is not None]
+        if located:
+            two = [x for x in located if x["cells"] > 1]
+            print(f"  {e:22s} the right capacitor in {sum(x['part_ok'] for x in located)} of {len(located)} "
+                  f"(two-cell networks: {sum(x['part_ok'] for x in two)} of {len(two)})")
     print("\nGain on each fault's records (medians, nominal network / as built)")
     print(f"  {'effect':22s} {'held-out RMS ratio':>20s} {'output error ratio':>20s}")
     for e in rows:
