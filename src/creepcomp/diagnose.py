@@ -445,16 +445,6 @@ def _generic(data: Data, current: Fit) -> tuple[Fit, Evidence] | None:
     return wide, _evidence(data, current, wide, refine=False, always_halves=True)
 
 
-def circuit_residual(record: Record, network) -> dict:
-    """The nominal network driven by the measured ``signal`` against the measured
-    ``corrected``: what the circuit simulation gets wrong (circuit-side effects are a later
-    issue). The network starts settled at the first signal value."""
-    record.require(columns=("corrected",), what="the circuit side of diagnose")
-    sim = network.lag_expansion().simulate(record.time, record.signal, initial="settled")
-    resid = record.corrected - sim
-    return {"simulated": sim, "residual": resid, "residual_rms": float(np.sqrt(np.mean(resid ** 2)))}
-
-
 def correction_errors(data: Data, base: Fit, extended: Fit, extensions: dict) -> dict:
     """Creep-corrected signal with the baseline and with the extended model, and the RMS of
     each one's error against the load scaled to it (least-squares gain and offset).
