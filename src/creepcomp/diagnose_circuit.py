@@ -11,12 +11,14 @@ blocks predicted better by :data:`~creepcomp.fit.HELDOUT_Z` standard deviations)
 extra lag tried on top says whether structure remains that no named effect explains
 (``unexplained``); with no finding the answer is ``none``.
 
-Every model of the measured output is ``corrected = H[signal] + offset + sum_i c_i
-exp(-(t - t0) / p_i)``: the (as-built) network driven by the signal from its settled state
-at the first sample, the measuring chain's offset, and free decays at the network's own poles
-for a record that starts while the network is still settling. The extension is the as-built
-network: written as a design file, checked in ngspice on the same record, and the fix is the
-single part change that leaves the least residual creep.
+Every model of the measured output is ``corrected = H[signal] + offset + drift (t) +
+decays``: the (as-built) network driven by the signal from its settled state at the first
+sample, the measuring chain's offset and linear drift, and decays at the network's own poles
+from its unknown initial state and from *input breaks* (a load step lands between two
+samples, where the signal is not the straight line simulated) — each decay held by a prior
+as wide as physics allows. The extension is the as-built network: written as a design file,
+checked in ngspice on the same record, and the fix is the single part change that leaves the
+least residual creep.
 """
 
 from __future__ import annotations
