@@ -153,3 +153,13 @@ def test_bundled_built_network_record_is_current(tmp_path):
     written = synth.write_demo_circuit(tmp_path)
     for p in written:
         assert p.read_text() == data_path(p.name).read_text(), f"regenerate data/{p.name}"
+
+
+def test_cli_effects_option_splits_between_the_sides(run_cli):
+    status, out, err = run_cli("diagnose", data_path("built_network.csv"), "--json", "--no-spice-check",
+                               "--effects", "capacitor_value,viscous_flow")
+    assert status == 0, err
+    result = json.loads(out)
+    assert {t["effect"] for t in result["circuit"]["tried"]} == {"capacitor_value"}
+    assert {t["effect"] for t in result["sensor"]["tried"]} == {"viscous_flow"}
+    assert result["cause"] == "capacitor_value"

@@ -546,10 +546,10 @@ def circuit_effects() -> list:
     return [e for e in effects_pkg.REGISTRY.values() if e.side == "circuit"]
 
 
-def _candidates(data: CircuitData, current: CircuitFit) -> list[Applied]:
+def _candidates(data: CircuitData, current: CircuitFit, pool: list) -> list[Applied]:
     out = []
     taken = {a.name for a in current.applied}
-    for effect in circuit_effects():
+    for effect in pool:
         if effect.name not in taken:
             out.extend(Applied(effect, settings) for settings in effect.network_settings(data.design.network))
     return out
@@ -566,7 +566,8 @@ def _fit_with(data: CircuitData, current: CircuitFit, applied: Applied) -> Circu
 
 
 def diagnose_circuit(record: Record, design: Design, spice_check: bool = True,
-                     resistor_series: str = "E24", capacitor_series: str = "E6") -> CircuitDiagnosis:
+                     resistor_series: str = "E24", capacitor_series: str = "E6",
+                     candidates: list[str] | None = None) -> CircuitDiagnosis:
     """What the simulated network gets wrong against the measured output, and why.
 
     Parameters
@@ -579,19 +580,22 @@ def diagnose_circuit(record: Record, design: Design, spice_check: bool = True,
         Run the as-built network through ngspice on the same record.
     resistor_series, capacitor_series : str
         E-series of the fix.
+    candidates : list of str, optional
+        Circuit effects to try (default: all).
 
     Returns
     -------
     CircuitDiagnosis
     """
     start = _time.perf_counter()
+    pool = circuit_effects() if candidates is None else [effects_pkg.get(c) for c in candidates]
     data = prepare(record, design)
     baseline = with_heldout(data, fit_model(data, (), [{}]))
     current = baseline
     findings, trials = [], []
     for step in range(1, MAX_EFFECTS + 1):
         tried = []
-        for applied in _candidates(data, current):
+        for applied in _candidates(data, current, pool):
             fit = _fit_with(data, current, applied)
             fit = with_heldout(data, fit)
             tried.append((applied, fit, evidence(data, current, fit), at_bound(fit, applied)))

@@ -49,6 +49,7 @@ def diagnose_command(
     """Fit the paper's model, find what it misses by evidence, extend it, measure the gain."""
     record = load_record(record_path, columns, delimiter, duplicate_times)
     init, step = record_options(initial, load_step_at)
+    sensor_candidates, circuit_candidates = split_candidates(effects)
     circuit = None
     if record.corrected is not None or design is not None:
         if record.corrected is None:
@@ -56,10 +57,9 @@ def diagnose_command(
                              "'corrected' column")
         nominal = read_design(record.design_path(design))
         with err_console.status("diagnosing the circuit side"):
-            circuit = diagnose_circuit(record, nominal, spice_check=spice_check)
-    candidates = [c.strip() for c in effects.split(",") if c.strip()] if effects else None
+            circuit = diagnose_circuit(record, nominal, spice_check=spice_check, candidates=circuit_candidates)
     with err_console.status("diagnosing the sensor side"):
-        result = diagnose(record, initial=init, load_step_at=step, candidates=candidates)
+        result = diagnose(record, initial=init, load_step_at=step, candidates=sensor_candidates)
     units = {c: record.unit(c) for c in ("signal", "load")}
     paths = {}
     if output is not None:
@@ -77,6 +77,17 @@ def diagnose_command(
         render_circuit(circuit, record.unit("signal"))
     for label, path in paths.items():
         console.print(f"{label.replace('_', ' ')} written to {path}")
+
+
+def split_candidates(text: str | None) -> tuple[list | None, list | None]:
+    """``--effects``: the sensor-side and the circuit-side names (None: all of that side)."""
+    if not text:
+        return None, None
+    from .. import effects as effects_pkg
+
+    names = [c.strip() for c in text.split(",") if c.strip()]
+    chosen = [effects_pkg.get(n) for n in names]
+    return ([e.name for e in chosen if e.side != "circuit"], [e.name for e in chosen if e.side == "circuit"])
 
 
 def render_diagnosis(record, d: Diagnosis) -> None:
