@@ -600,9 +600,11 @@ class CircuitSpec:
     corrected_noise: Noise = Noise(white=1e-4)
     drive: str = "continuous"
     seed: int = 0
+    detectable_z: float = 0.0
     """``drive``: ``continuous``, the network sees the sensor's continuous signal (measurement
     noise on both channels is the ADC's); ``samples``, it is driven by the sampled, noisy
-    signal taken linear between samples, as a simulator would drive a netlist with a record."""
+    signal taken linear between samples, as a simulator would drive a netlist with a record.
+    ``detectable_z``: see :func:`generate_circuit` (0: noise as given)."""
 
 
 @dataclass(frozen=True)
@@ -616,7 +618,10 @@ class CircuitSynthetic:
 
 
 def generate_circuit(spec: CircuitSpec) -> CircuitSynthetic:
-    """Simulate a record with ``signal`` and ``corrected`` from a :class:`CircuitSpec`."""
+    """Simulate a record with ``signal`` and ``corrected`` from a :class:`CircuitSpec`.
+
+    With ``spec.detectable_z`` the noise of both channels is scaled down where the fault
+    would not stand out of it (see :func:`circuit_detectability`)."""
     rng = np.random.default_rng(spec.seed)
     model = CreepModel(spec.beta, spec.tau)
     design = Design(model, size(model).chosen, {"rule": "exact"})
@@ -627,20 +632,55 @@ def generate_circuit(spec: CircuitSpec) -> CircuitSynthetic:
     program = make_program(spec.program, spec.duration, rng, 1.0, False, max(spec.tau), 0.0, unload=True)
     t = sample_times(spec.duration, spec.rate, rng, spec.jitter, 0, 0.0)
     g = model.lag_expansion()
-    h = built.lag_expansion()
-    D, R, q = cascade_lags(1.0, [g.gains], [g.taus], h.direct, [h.gains], [h.taus])
-    cascade = LagExpansion(float(D[0]), tuple(R[0]), tuple(q[0]))
-    signal = spec.offset + spec.gain * program.response(g, t) + _noise(t, spec.noise, rng)
-    if spec.drive == "continuous":
-        out = h.dc_gain * spec.offset + spec.gain * program.response(cascade, t)
-    else:
-        out = h.simulate(t, signal, initial="settled")
-    corrected = spec.corrected_offset + out + _noise(t, spec.corrected_noise, rng)
+    clean = spec.offset + spec.gain * program.response(g, t)
+    signal_noise = _noise(t, spec.noise, rng)
+    output_noise = _noise(t, spec.corrected_noise, rng)
+
+    def output(network, signal):
+        if spec.drive != "continuous":
+            return network.lag_expansion().simulate(t, signal, initial="settled")
+        h = network.lag_expansion()
+        D, R, q = cascade_lags(1.0, [g.gains], [g.taus], h.direct, [h.gains], [h.taus])
+        return h.dc_gain * spec.offset + spec.gain * program.response(LagExpansion(float(D[0]), tuple(R[0]),
+                                                                                   tuple(q[0])), t)
+
+    if spec.hidden and spec.detectable_z > 0:
+        nominal = design.network.lag_expansion()
+        # what the model's residual holds: the output's noise, and for a network that saw the
+        # clean signal, the signal's noise through the simulated network
+        residual_noise = output_noise - (nominal.simulate(t, signal_noise)
+                                         if spec.drive == "continuous" else 0.0)
+        z = circuit_detectability(t, output(built, clean) - output(design.network, clean), nominal.taus,
+                                  residual_noise)
+        if z < spec.detectable_z:
+            f = z / spec.detectable_z
+            signal_noise, output_noise = signal_noise * f, output_noise * f
+            spec = replace(spec, noise=_scaled(spec.noise, f), corrected_noise=_scaled(spec.corrected_noise, f))
+    signal = clean + signal_noise
+    corrected = spec.corrected_offset + output(built, signal) + output_noise
     record = Record(t, program.sample(t), signal, corrected=corrected,
                     metadata={"units.load": "N", "units.signal": "V", "synth.seed": str(spec.seed),
                               "synth.program": spec.program},
                     source=f"synthetic built network (seed {spec.seed})")
     return CircuitSynthetic(record, design, built, spec)
+
+
+def _scaled(noise: Noise, f: float) -> Noise:
+    return replace(noise, white=noise.white * f, coloured=noise.coloured * f, drift=noise.drift * f,
+                   lsb=noise.lsb * f)
+
+
+def circuit_detectability(t: np.ndarray, signature: np.ndarray, taus, noise: np.ndarray) -> float:
+    """How far a circuit fault stands out of the noise: the held-out ``z`` (see
+    :func:`creepcomp.fit.compare`) that the part of its signature (output as built minus
+    output as designed, noise-free) that every model absorbs anyway (offset, linear drift,
+    decays at the network's poles) leaves would give with the fault's parameters known."""
+    x = t - t[0]
+    directions = np.column_stack([np.ones_like(t), x] + [np.exp(-x / p) for p in taus])
+    coef, *_ = np.linalg.lstsq(directions, signature, rcond=None)
+    rest = signature - directions @ coef
+    spread = math.sqrt(max(spectral_variance(rest, noise), 0.0))
+    return float(np.sum(rest ** 2) / (2.0 * spread)) if spread > 0 else math.inf
 
 
 def random_fault(effect: str | None, rng: np.random.Generator, design: Design, duration: float) -> dict:
@@ -710,7 +750,8 @@ def random_circuit_spec(effect: str | None, seed: int, rate: tuple = (2.0, 50.0)
                        duration=record_duration,
                        program=str(rng.choice(PROGRAMS)), jitter=float(rng.choice([0.0, 0.2])),
                        noise=Noise(white=level * gain), corrected_noise=out_noise,
-                       drive=str(rng.choice(["continuous", "samples"])), seed=seed)
+                       drive=str(rng.choice(["continuous", "samples"])), seed=seed,
+                       detectable_z=DETECTABLE_Z)
 
 
 
