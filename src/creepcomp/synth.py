@@ -672,9 +672,10 @@ def _scaled(noise: Noise, f: float) -> Noise:
 
 def circuit_detectability(t: np.ndarray, signature: np.ndarray, taus, noise: np.ndarray) -> float:
     """How far a circuit fault stands out of the noise: the held-out ``z`` (see
-    :func:`creepcomp.fit.compare`) that the part of its signature (output as built minus
-    output as designed, noise-free) that every model absorbs anyway (offset, linear drift,
-    decays at the network's poles) leaves would give with the fault's parameters known."""
+    :func:`creepcomp.fit.compare`) that its signature (output as built minus output as
+    designed, noise-free) would give with the fault's parameters known, once what the model
+    absorbs anyway is removed (offset, decays at the network's poles, and to be safe a linear
+    trend)."""
     x = t - t[0]
     directions = np.column_stack([np.ones_like(t), x] + [np.exp(-x / p) for p in taus])
     coef, *_ = np.linalg.lstsq(directions, signature, rcond=None)
