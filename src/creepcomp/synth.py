@@ -359,7 +359,12 @@ def detectability(spec: Spec, program: LoadProgram, t: np.ndarray, temperature_f
     directions = np.column_stack([np.ones_like(t), u, lag, (lag_up - lag) / 0.01,
                                   np.exp(-(t - t[0]) / tau)])
     coef, *_ = np.linalg.lstsq(directions, signature, rcond=None)
-    rest = signature - directions @ coef
+    return _heldout_z(signature - directions @ coef, noise)
+
+
+def _heldout_z(rest: np.ndarray, noise: np.ndarray) -> float:
+    """Held-out ``z`` of a signature with every parameter known: its energy over twice the
+    spread of its product with the noise (spectrum from ``noise``)."""
     spread = math.sqrt(max(spectral_variance(rest, noise), 0.0))
     return float(np.sum(rest ** 2) / (2.0 * spread)) if spread > 0 else math.inf
 
@@ -393,9 +398,7 @@ def generate(spec: Spec) -> Synthetic:
             # the same noise realisation, scaled (every component is linear in its size)
             f = z / spec.detectable_z
             noise = noise * f
-            spec = replace(spec, noise=replace(spec.noise, white=spec.noise.white * f,
-                                               coloured=spec.noise.coloured * f,
-                                               drift=spec.noise.drift * f, lsb=spec.noise.lsb * f))
+            spec = replace(spec, noise=_scaled(spec.noise, f))
     signal = clean + noise
     if spec.noise.lsb > 0:
         signal = np.round(signal / spec.noise.lsb) * spec.noise.lsb
@@ -666,6 +669,7 @@ def generate_circuit(spec: CircuitSpec) -> CircuitSynthetic:
 
 
 def _scaled(noise: Noise, f: float) -> Noise:
+    """The noise with every component scaled by ``f``."""
     return replace(noise, white=noise.white * f, coloured=noise.coloured * f, drift=noise.drift * f,
                    lsb=noise.lsb * f)
 
@@ -679,9 +683,7 @@ def circuit_detectability(t: np.ndarray, signature: np.ndarray, taus, noise: np.
     x = t - t[0]
     directions = np.column_stack([np.ones_like(t), x] + [np.exp(-x / p) for p in taus])
     coef, *_ = np.linalg.lstsq(directions, signature, rcond=None)
-    rest = signature - directions @ coef
-    spread = math.sqrt(max(spectral_variance(rest, noise), 0.0))
-    return float(np.sum(rest ** 2) / (2.0 * spread)) if spread > 0 else math.inf
+    return _heldout_z(signature - directions @ coef, noise)
 
 
 def random_fault(effect: str | None, rng: np.random.Generator, design: Design, duration: float) -> dict:
