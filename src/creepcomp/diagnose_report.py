@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import base64
 import html
-import io
 import json
 from pathlib import Path
 
@@ -16,6 +14,7 @@ import numpy as np  # noqa: E402
 
 from .files import to_json, write_design, write_json  # noqa: E402
 from .fit import Data, Fit, autocorrelation  # noqa: E402
+from .report import png_base64, save_figure  # noqa: E402
 
 _MAX_POINTS = 20000
 
@@ -59,18 +58,11 @@ def plot_fit(data: Data, fit: Fit, path, record=None) -> Path:
     for a in (ax, axr):
         a.grid(True, alpha=0.3)
     fig.tight_layout()
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=100)
-    plt.close(fig)
-    return out
+    return save_figure(fig, path, dpi=100)
 
 
 def _png(fig) -> str:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=90)
-    plt.close(fig)
-    return base64.b64encode(buf.getvalue()).decode("ascii")
+    return png_base64(fig, dpi=90)
 
 
 def diagnosis_figures(diagnosis, units: dict) -> list[tuple[str, str]]:

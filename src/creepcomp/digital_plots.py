@@ -11,18 +11,15 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from .quality import sweep_branches  # noqa: E402
+from .report import save_figure  # noqa: E402
 
 #: Smallest error drawn on log axes (exact corrections sit at rounding level).
 ERROR_FLOOR = 1e-16
 
 
 def _save(fig, path) -> Path:
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return save_figure(fig, path)
 
 
 def plot_correction(time, signal, compensated, reference, path, title: str = "",

@@ -54,11 +54,7 @@ def plot_design_comparison(model: CreepModel, designs: dict[str, Network | None]
     for ax in (ax_step, ax_loop):
         ax.grid(True, alpha=0.3)
     fig.tight_layout()
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return save_figure(fig, path)
 
 
 def finite_or_none(x: float) -> float | None:
@@ -66,15 +62,29 @@ def finite_or_none(x: float) -> float | None:
     return float(x) if np.isfinite(x) else None
 
 
-def figure_data_uri(fig) -> str:
-    """A matplotlib figure as an inline PNG ``data:`` URI (the figure is closed)."""
+def save_figure(fig, path, dpi: int = 110) -> Path:
+    """Save a matplotlib figure to ``path`` (folders made as needed) and close it."""
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=dpi)
+    plt.close(fig)
+    return out
+
+
+def png_base64(fig, dpi: int = 100) -> str:
+    """A matplotlib figure as base64 PNG text (the figure is closed)."""
     import base64
     import io
 
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=100)
+    fig.savefig(buf, format="png", dpi=dpi)
     plt.close(fig)
-    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+    return base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def figure_data_uri(fig) -> str:
+    """A matplotlib figure as an inline PNG ``data:`` URI (the figure is closed)."""
+    return "data:image/png;base64," + png_base64(fig)
 
 
 def html_page(title: str, sections: list[tuple[str, str]]) -> str:

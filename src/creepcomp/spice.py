@@ -1207,11 +1207,9 @@ def plot_comparison(comparison: Comparison, path: str | Path) -> Path:
     for a in axes:
         a.grid(True, alpha=0.3)
     fig.tight_layout()
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    from .report import save_figure
+
+    return save_figure(fig, path)
 
 
 def demo_step(out: Path, console) -> None:
