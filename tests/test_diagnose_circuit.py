@@ -13,7 +13,10 @@ import pytest
 from creepcomp import spice, synth
 from creepcomp.circuit import CIRCUIT_EFFECTS
 from creepcomp.data import path as data_path
-from creepcomp.diagnose_circuit import combine, diagnose_circuit
+from creepcomp import effects
+from creepcomp.diagnose_circuit import (choose, combine, diagnose_circuit, evidence, fit_model, halves, prepare,
+                                        with_heldout)
+from creepcomp.fit import Applied
 from creepcomp.files import read_design
 from creepcomp.records import read_record
 
@@ -163,3 +166,40 @@ def test_cli_effects_option_splits_between_the_sides(run_cli):
     assert {t["effect"] for t in result["circuit"]["tried"]} == {"capacitor_value"}
     assert {t["effect"] for t in result["sensor"]["tried"]} == {"viscous_flow"}
     assert result["cause"] == "capacitor_value"
+
+
+def test_halves_do_not_extrapolate_a_decay_from_its_tail():
+    # a clean network whose output drifts: the first half predicted from the second is
+    # about as good as the fit (a decay of the initial state, determined by its tail in the
+    # other half alone, predicts nothing rather than the drift there times a large factor)
+    spec = synth.random_circuit_spec(None, 200011)
+    assert spec.corrected_noise.drift > 0
+    syn = synth.generate_circuit(spec)
+    data = prepare(syn.record, syn.design)
+    fit = fit_model(data, (), [{}])
+    assert halves(data, fit).rms < 1.2 * fit.rms
+
+
+def test_a_candidate_that_predicts_better_beats_a_lower_bic():
+    # a load resistance, the network driven by the continuous signal, the output drifting;
+    # the source resistance is handed a far lower BIC than it has: the record's held-out
+    # blocks and halves still choose the load
+    spec = synth.random_circuit_spec("load_impedance", 23006)
+    assert spec.drive == "continuous" and spec.corrected_noise.drift > 0
+    syn = synth.generate_circuit(spec)
+    data = prepare(syn.record, syn.design)
+    baseline = with_heldout(data, fit_model(data, (), [{}]))
+    tried = []
+    for name in ("source_impedance", "load_impedance"):
+        applied = Applied(effects.get(name), ())
+        fit = with_heldout(data, fit_model(data, (applied,), [{}]))
+        ev = evidence(data, baseline, fit)
+        assert ev.supported
+        tried.append((applied, fit, replace(ev, delta_bic=-1e6) if name == "source_impedance" else ev, None))
+    (applied, fit, _), overrode = choose(data, tried)
+    assert applied.name == "load_impedance" and overrode == "source_impedance"
+    assert fit.values["load_impedance.R"] == pytest.approx(spec.hidden["load_impedance"]["R"], rel=0.1)
+    # and the lower BIC stands when it also predicts better
+    (applied, _, _), overrode = choose(data, [tried[1], tried[0][:2] + (replace(tried[0][2], delta_bic=0.0), None)])
+    assert applied.name == "load_impedance" and overrode is None
+

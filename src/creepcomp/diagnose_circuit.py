@@ -7,7 +7,8 @@ with ``corrected``. The circuit-side effects of :mod:`creepcomp.effects` are ext
 the network with physical parameters; each is fitted on top of the current model and kept
 while the evidence supports it, by the same rules as the sensor side
 (:class:`creepcomp.fit.Evidence`: BIC lower by :data:`~creepcomp.fit.BIC_STRONG` and held-out
-blocks predicted better by :data:`~creepcomp.fit.HELDOUT_Z` standard deviations). A generic
+blocks predicted better by :data:`~creepcomp.fit.HELDOUT_Z` standard deviations); of several
+supported, the lowest BIC unless another predicts held-out data better (:func:`choose`). A generic
 extra lag tried on top says whether structure remains that no named effect explains
 (``unexplained``); with no finding the answer is ``none``.
 
@@ -31,7 +32,7 @@ import numpy as np
 from scipy import ndimage, optimize
 
 from . import effects as effects_pkg
-from .circuit import FixOption, suggest_fixes
+from .circuit import FixOption, capacitor_cells, suggest_fixes
 from .errors import InputError
 from .files import Design
 from .fit import (BIC_STRONG, FOLDS, GAP_FACTOR, HELDOUT_Z, SLOW_NOISE_RATIO, Applied, Evidence, HeldOut, Param,
@@ -113,6 +114,9 @@ def prepare(record: Record, design: Design, min_samples: int = 20) -> CircuitDat
 
 #: Most input breaks given their own decay (the largest jumps).
 MAX_BREAKS = 100
+#: Smallest share of a linear column's norm in the samples of a fit for the fit to determine
+#: it (10 % of its energy): a held-out prediction extrapolates it by a factor 3 at most.
+USED_SHARE = math.sqrt(0.1)
 
 
 def noise_level(x: np.ndarray) -> float:
@@ -253,9 +257,11 @@ def _solve(data: CircuitData, applied, params, x, generic: bool, mask=None):
     gram = a.T @ a
     scale = np.sqrt(np.diag(gram))
     total = scale if mask is None else np.sqrt(np.einsum("ij,ij->j", cols, cols))
-    # a decay that has died out before the samples of the fit begin is not determined by
-    # them (a held-out first block): it predicts nothing rather than an arbitrary amount
-    used = scale > 1e-6 * total
+    # a decay mostly outside the samples of the fit (one that has died out before they
+    # begin, or lies in a held-out block) is not determined by them: extrapolated from its
+    # tail it would predict the held-out samples by noise and drift times a large factor, so
+    # it predicts nothing there
+    used = scale > USED_SHARE * total
     s = scale[used]
     g = gram[np.ix_(used, used)] / np.outer(s, s)
     # coefficients with a prior spread (decays) are held to it (a Gaussian prior: ridge
@@ -273,6 +279,20 @@ def _solve(data: CircuitData, applied, params, x, generic: bool, mask=None):
     residual = target - cols @ coef
     values.update(dict(zip(names, coef)))
     return residual, values, net
+
+
+def residual_at(data: CircuitData, effect: str, values: dict, cell: int | None = None) -> np.ndarray:
+    """Residual of the nominal network with one circuit effect at ``values`` (natural units;
+    ``cell``: its capacitor, by default the largest), the linear terms (offset, decays) solved
+    as in every fit."""
+    found = effects_pkg.get(effect)
+    cells = data.design.network.cells
+    if found.per_capacitor and cell is None:
+        cell = max(capacitor_cells(data.design.network), key=lambda k: cells[k].C)
+    applied = Applied(found, (("cell", cell),) if found.per_capacitor else ())
+    params = [replace(p, name=f"{effect}.{p.name}") for p in found.network_params(data, dict(applied.settings))]
+    x = [p.to_search(values[p.name[len(effect) + 1:]]) for p in params]
+    return _solve(data, (applied,), params, x, False)[0]
 
 
 def fit_model(data: CircuitData, applied: tuple, starts: list[dict], generic: bool = False,
@@ -601,9 +621,10 @@ def diagnose_circuit(record: Record, design: Design, spice_check: bool = True,
             fit = with_heldout(data, fit)
             tried.append((applied, fit, evidence(data, current, fit), at_bound(fit, applied)))
         supported = [t for t in tried if t[2].supported and not t[3]]
-        best = min(supported, key=lambda t: t[2].delta_bic)[:3] if supported else None
+        best, overrode = choose(data, supported) if supported else (None, None)
         for applied, fit, ev, edge in tried:
-            outcome = ("accepted" if best is not None and applied is best[0] else
+            outcome = ((f"accepted: predicts held-out data better than {overrode} (lower BIC)" if overrode
+                        else "accepted") if best is not None and applied is best[0] else
                        f"rejected: {edge} at the edge of its range (not resolved by the record)" if edge
                        else "supported, not the best" if ev.supported else "rejected")
             trials.append(CircuitTrial(step, applied.name, _part(applied, design), ev, outcome))
@@ -626,6 +647,34 @@ def diagnose_circuit(record: Record, design: Design, spice_check: bool = True,
     check = _spice_check(data, current) if spice_check else None
     return CircuitDiagnosis(data, baseline, current, tuple(findings), tuple(trials), catch_ev, fixes,
                             _time.perf_counter() - start, check)
+
+
+def choose(data: CircuitData, supported: list) -> tuple:
+    """The supported candidate to keep, and the name of the one with the lowest BIC if that
+    is not it (else None).
+
+    The lowest BIC wins unless another candidate predicts the held-out data better: in both
+    the interleaved blocks and the halves, by :data:`~creepcomp.fit.HELDOUT_Z` in one of
+    them. BIC under AR noise weighs the fast part of the residual; there the sensor's
+    measurement noise in ``signal``, which the network never saw, can be partly explained
+    by an effect that lowers the network's high-frequency gain (a source resistance for a
+    load resistance) while the record's slow part says otherwise.
+    """
+    ranked = sorted(supported, key=lambda t: t[2].delta_bic)
+    best = ranked[0]
+    for rival in ranked[1:]:
+        if _predicts_better(data, best[1], rival[1]):
+            best = rival
+    return best[:3], (ranked[0][0].name if best is not ranked[0] else None)
+
+
+def _predicts_better(data: CircuitData, fit: CircuitFit, rival: CircuitFit) -> bool:
+    """True when ``rival`` predicts held-out data better than ``fit`` (see :func:`choose`)."""
+    inter = compare(None, fit, rival)
+    if not inter.heldout_z > 0:
+        return False
+    across = compare(None, replace(fit, heldout=halves(data, fit)), replace(rival, heldout=halves(data, rival)))
+    return across.heldout_z > 0 and max(inter.heldout_z, across.heldout_z) >= HELDOUT_Z
 
 
 def at_bound(fit: CircuitFit, applied: Applied) -> str | None:
