@@ -7,6 +7,8 @@ sample rate 2-50 Hz, load program, duration, noise on each channel, jitter, how 
 was driven) and diagnosed against the nominal design. Printed:
 
 - the confusion matrix (hidden effect against the cause named),
+- how many records of each fault had their noise scaled down by the generator's rules
+  (the fault detectable, told apart from the other faults, its parts determined),
 - parameter recovery (fraction within 10 % and median relative error): ``C`` of
   ``capacitor_value``, ``R`` of the impedances and of the leakage, and for dielectric
   absorption the branch's ``C`` (fraction of the capacitor) and ``R`` (its time constant over C),
@@ -71,8 +73,9 @@ def run_one(args):
             "findings": [f.effect for f in d.findings], "errors": errors, "part_ok": part_ok,
             "cells": len(cells), "gain": d.gain,
             "seconds": seconds, "n": len(syn.record), "program": spec.program, "rate": spec.rate,
-            "drive": spec.drive, "output_noise": ("drift" if spec.corrected_noise.drift > 0 else
-                                                  "coloured" if spec.corrected_noise.coloured > 0 else "white")}
+            "drive": spec.drive, "noise_factor": syn.noise_factor,
+            "output_noise": ("drift" if spec.corrected_noise.drift > 0 else
+                             "coloured" if spec.corrected_noise.coloured > 0 else "white")}
 
 
 def main(argv=None):
@@ -137,6 +140,19 @@ def report(results, effects, wall):
         if sub:
             ok = sum(x["cause"] == x["effect"] for x in sub)
             print(f"  {kind:10s} {ok} of {len(sub)} ({100 * ok / len(sub):.0f} %)")
+    faulty = [x for x in results if x["effect"] != "none" and x.get("noise_factor")]
+    if faulty:
+        print("\nNoise as drawn, or scaled down so that the fault is detectable (z >= "
+              f"{synth.DETECTABLE_Z:g}), distinct (z >= {synth.DISTINCT_Z:g}) and its parts determined to "
+              f"{100 * synth.PRECISE_TO:g} % (1 sigma): records scaled by each rule, median factor")
+        for e in effects:
+            sub = [x["noise_factor"] for x in faulty if x["effect"] == e]
+            text = []
+            for rule in ("detectability", "distinctness", "precision"):
+                f = [n[rule] for n in sub if n.get(rule, 1.0) < 1.0]
+                text.append(f"{rule} {len(f)}" + (f" (x{np.median(f):.2g})" if f else ""))
+            scaled = sum(min(n.values()) < 1.0 for n in sub)
+            print(f"  {e:22s} {scaled:3d} of {len(sub)} scaled; " + ", ".join(text))
     print("\nParameter recovery (records where the fault was found; within 10 % / median error)")
     for e in effects:
         names = sorted({k for x in results if x["effect"] == e for k in x["errors"]})

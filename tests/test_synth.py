@@ -6,6 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from creepcomp import synth
+from creepcomp.diagnose_circuit import diagnose_circuit, prepare, residual_at
 from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 
@@ -93,3 +94,43 @@ def test_a_hidden_effect_is_kept_detectable_by_scaling_the_noise():
     clear = replace(faint, hidden={"extra_retardation": {"tau": 200.0, "beta": 0.02}},
                     noise=synth.Noise(white=1e-4))
     assert synth.generate(clear).spec.noise.white == 1e-4
+
+
+def test_a_circuit_fault_is_kept_detectable_distinct_and_measurable():
+    base = synth.CircuitSpec(hidden={"dielectric_absorption": {"fraction": 0.01, "tau": 60.0, "cell": 0}},
+                             rate=4.0, duration=1200.0, noise=synth.Noise(white=1e-3),
+                             corrected_noise=synth.Noise(white=1e-3), seed=4)
+    assert synth.generate_circuit(base).noise_factor == {}
+    for rule in ("detectable_z", "distinct_z", "precise_to"):
+        syn = synth.generate_circuit(replace(base, **{rule: {"precise_to": 0.03}.get(rule, 10.0)}))
+        (name, factor), = syn.noise_factor.items()
+        assert 0 < factor < 1, (rule, factor)
+        assert syn.spec.corrected_noise.white == pytest.approx(1e-3 * factor)
+    both = synth.generate_circuit(replace(base, detectable_z=10.0, distinct_z=5.0, precise_to=0.03))
+    assert both.spec.noise.white == pytest.approx(1e-3 * min(both.noise_factor.values()))
+    # absorption is hard to tell apart and to measure: it asks for less noise than detection
+    assert both.noise_factor["precision"] < both.noise_factor["detectability"]
+
+
+def test_precision_of_a_fault_agrees_with_the_fits_own_uncertainty():
+    spec = synth.CircuitSpec(hidden={"capacitor_value": {"C": 14e-6}}, rate=4.0, duration=900.0, seed=2,
+                             corrected_noise=synth.Noise(white=2e-4), drive="samples")
+    syn = synth.generate_circuit(spec)
+    data = prepare(syn.record, syn.design)
+
+    def residual(part, h):
+        return residual_at(data, "capacitor_value", synth.scaled_part("capacitor_value", {"C": 14e-6}, part, h))
+
+    noise = np.random.default_rng(0).normal(0, 2e-4, data.n)
+    one = synth.circuit_precision(residual, ("C",), noise)["C"]
+    assert synth.circuit_precision(residual, ("C",), 2 * noise)["C"] == pytest.approx(2 * one, rel=1e-9)
+    # the same spread from the diagnosis's fit (its Jacobian at the optimum, residual variance)
+    d = diagnose_circuit(syn.record, syn.design, spice_check=False, candidates=["capacitor_value"])
+    found = d.findings[0]
+    assert found.uncertainty["C"] / found.parameters["C"] == pytest.approx(one, rel=0.2)
+    assert synth.fault_parts("dielectric_absorption") == ("C", "R")
+    branch = synth.scaled_part("dielectric_absorption", {"fraction": 0.01, "tau": 50.0}, "C", np.log(2))
+    assert branch == pytest.approx({"fraction": 0.02, "tau": 100.0})   # R = tau / C unchanged
+    # source, load, leakage and absorption at three time constants: not a capacitor's value
+    others = synth.alternative_faults(syn.design.network, "capacitor_value", 900.0)
+    assert len(others) == 6 and all(n.cells[0].C == syn.design.network.cells[0].C for n in others)

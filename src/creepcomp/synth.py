@@ -36,6 +36,12 @@ PROGRAMS = ("step", "staircase", "sweep", "mixture", "random")
 #: in held-out z with every parameter known; diagnose asks for 3 with them fitted), the
 #: record's noise is scaled down until it does.
 DETECTABLE_Z = 10.0
+#: Held-out ``z`` that the part of a benchmark record's circuit fault no other circuit fault
+#: mimics must reach at least (:func:`alternative_faults`): the fault can be told apart.
+DISTINCT_Z = 5.0
+#: Relative 1-sigma uncertainty to which a benchmark record of a built network determines its
+#: fault's parts (C, R) at most: "within 10 %" is then three standard deviations.
+PRECISE_TO = 0.03
 
 
 @dataclass(frozen=True)
@@ -604,10 +610,13 @@ class CircuitSpec:
     drive: str = "continuous"
     seed: int = 0
     detectable_z: float = 0.0
+    distinct_z: float = 0.0
+    precise_to: float = 0.0
     """``drive``: ``continuous``, the network sees the sensor's continuous signal (measurement
     noise on both channels is the ADC's); ``samples``, it is driven by the sampled, noisy
     signal taken linear between samples, as a simulator would drive a netlist with a record.
-    ``detectable_z``: see :func:`generate_circuit` (0: noise as given)."""
+    ``detectable_z``, ``distinct_z``, ``precise_to``: see :func:`generate_circuit` (0: noise
+    as given)."""
 
 
 @dataclass(frozen=True)
@@ -618,13 +627,20 @@ class CircuitSynthetic:
     design: Design
     built: object
     spec: CircuitSpec
+    noise_factor: dict = field(default_factory=dict)
+    """``noise_factor``: what each rule of :func:`generate_circuit` asked the noise to be
+    multiplied by (1: left as drawn)."""
 
 
 def generate_circuit(spec: CircuitSpec) -> CircuitSynthetic:
     """Simulate a record with ``signal`` and ``corrected`` from a :class:`CircuitSpec`.
 
     With ``spec.detectable_z`` the noise of both channels is scaled down where the fault
-    would not stand out of it (see :func:`circuit_detectability`)."""
+    would not stand out of it (see :func:`circuit_detectability`); with ``spec.distinct_z``
+    where the part of its signature that no other circuit fault mimics (to first order, see
+    :func:`alternative_faults`) would not stand out that far; with ``spec.precise_to``
+    also where the record would not determine the fault's parts (``C``, ``R``) to that
+    relative 1-sigma uncertainty (see :func:`circuit_precision`)."""
     rng = np.random.default_rng(spec.seed)
     model = CreepModel(spec.beta, spec.tau)
     design = Design(model, size(model).chosen, {"rule": "exact"})
@@ -647,25 +663,62 @@ def generate_circuit(spec: CircuitSpec) -> CircuitSynthetic:
         return h.dc_gain * spec.offset + spec.gain * program.response(LagExpansion(float(D[0]), tuple(R[0]),
                                                                                    tuple(q[0])), t)
 
-    if spec.hidden and spec.detectable_z > 0:
+    def record(signal_noise, output_noise):
+        signal = clean + signal_noise
+        corrected = spec.corrected_offset + output(built, signal) + output_noise
+        return Record(t, program.sample(t), signal, corrected=corrected,
+                      metadata={"units.load": "N", "units.signal": "V", "synth.seed": str(spec.seed),
+                                "synth.program": spec.program},
+                      source=f"synthetic built network (seed {spec.seed})")
+
+    factors = {}
+    if spec.hidden and (spec.detectable_z > 0 or spec.distinct_z > 0 or spec.precise_to > 0):
         nominal = design.network.lag_expansion()
         # what the model's residual holds: the output's noise, and for a network that saw the
         # clean signal, the signal's noise through the simulated network
         residual_noise = output_noise - (nominal.simulate(t, signal_noise)
                                          if spec.drive == "continuous" else 0.0)
-        z = circuit_detectability(t, output(built, clean) - output(design.network, clean), nominal.taus,
-                                  residual_noise)
-        if z < spec.detectable_z:
-            f = z / spec.detectable_z
+        nominal_out = output(design.network, clean)
+        signature = output(built, clean) - nominal_out
+        (effect, params), = spec.hidden.items()
+        if spec.detectable_z > 0:
+            z = circuit_detectability(t, signature, nominal.taus, residual_noise)
+            factors["detectability"] = min(1.0, z / spec.detectable_z)
+        if spec.distinct_z > 0:
+            z = min(circuit_detectability(t, signature, nominal.taus, residual_noise,
+                                          [output(net, clean) - nominal_out])
+                    for net in alternative_faults(design.network, effect, spec.duration))
+            factors["distinctness"] = min(1.0, z / spec.distinct_z)
+        if spec.precise_to > 0:
+            factors["precision"] = _precision_factor(spec, design, effect, params,
+                                                     lambda f: record(signal_noise * f, output_noise * f),
+                                                     residual_noise)
+        f = min(factors.values())
+        if f < 1.0:
             signal_noise, output_noise = signal_noise * f, output_noise * f
             spec = replace(spec, noise=_scaled(spec.noise, f), corrected_noise=_scaled(spec.corrected_noise, f))
-    signal = clean + signal_noise
-    corrected = spec.corrected_offset + output(built, signal) + output_noise
-    record = Record(t, program.sample(t), signal, corrected=corrected,
-                    metadata={"units.load": "N", "units.signal": "V", "synth.seed": str(spec.seed),
-                              "synth.program": spec.program},
-                    source=f"synthetic built network (seed {spec.seed})")
-    return CircuitSynthetic(record, design, built, spec)
+    return CircuitSynthetic(record(signal_noise, output_noise), design, built, spec, factors)
+
+
+def _precision_factor(spec: CircuitSpec, design: Design, effect: str, params: dict, record_with, noise) -> float:
+    """Factor on the noise for which the record determines the fault's parts to
+    ``spec.precise_to`` (see :func:`circuit_precision`; ``record_with(f)``: the record with
+    its noise times ``f``). The priors of the diagnosis's decays are relative to the noise, so
+    the factor is found in a few steps."""
+    from .diagnose_circuit import prepare, residual_at
+
+    fault = dict(params)
+    cell = fault.pop("cell", None)
+    f = 1.0
+    for _ in range(4):
+        data = prepare(record_with(f), design)
+        sd = circuit_precision(lambda part, h: residual_at(data, effect, scaled_part(effect, fault, part, h), cell),
+                               fault_parts(effect), noise * f)
+        worst = max(sd.values())
+        if worst <= 1.05 * spec.precise_to:
+            break
+        f *= spec.precise_to / worst
+    return f
 
 
 def _scaled(noise: Noise, f: float) -> Noise:
@@ -674,16 +727,77 @@ def _scaled(noise: Noise, f: float) -> Noise:
                    lsb=noise.lsb * f)
 
 
-def circuit_detectability(t: np.ndarray, signature: np.ndarray, taus, noise: np.ndarray) -> float:
+def circuit_detectability(t: np.ndarray, signature: np.ndarray, taus, noise: np.ndarray,
+                          also: list | None = None) -> float:
     """How far a circuit fault stands out of the noise: the held-out ``z`` (see
     :func:`creepcomp.fit.compare`) that its signature (output as built minus output as
     designed, noise-free) would give with the fault's parameters known, once what the model
     absorbs anyway is removed (offset, decays at the network's poles, and to be safe a linear
-    trend)."""
+    trend) and the directions ``also`` (e.g. another fault's signature)."""
     x = t - t[0]
-    directions = np.column_stack([np.ones_like(t), x] + [np.exp(-x / p) for p in taus])
+    directions = np.column_stack([np.ones_like(t), x] + [np.exp(-x / p) for p in taus] + list(also or []))
     coef, *_ = np.linalg.lstsq(directions, signature, rcond=None)
     return _heldout_z(signature - directions @ coef, noise)
+
+
+def alternative_faults(network, effect: str, duration: float, size: float = 1e-3) -> list:
+    """Small faults of every other circuit kind (each capacitor where it applies): each one's
+    signature is what that effect would explain of a fault's signature to first order.
+    An absorption stands for the family of its time constants by three of them (0.7, 2.2 and
+    7 times the cell's R C, at most half the ``duration``, s), as in :func:`random_fault`."""
+    level = network.R2 if network.R2 is not None else sum(c.R for c in network.cells)
+    out = []
+    for other in CIRCUIT_EFFECTS:
+        if other == effect:
+            continue
+        if other == "source_impedance":
+            out.append(apply_fault(network, other, {"R": size * level}))
+        elif other == "load_impedance":
+            out.append(apply_fault(network, other, {"R": level / size}))
+        for k in capacitor_cells(network) if other not in ("source_impedance", "load_impedance") else ():
+            cell = network.cells[k]
+            if other == "capacitor_value":
+                out.append(apply_fault(network, other, {"C": cell.C * (1.0 + size)}, k))
+            elif other == "capacitor_leakage":
+                out.append(apply_fault(network, other, {"R": cell.R / size}, k))
+            elif other == "dielectric_absorption":
+                out.extend(apply_fault(network, other, {"fraction": size,
+                                                        "tau": min(f * cell.R * cell.C, duration / 2)}, k)
+                           for f in (0.7, 2.2, 7.0))
+    return out
+
+
+def fault_parts(effect: str) -> tuple:
+    """The parts a circuit fault's parameters describe, as the diagnosis reports them: ``C``
+    of a capacitor off its value, ``R`` of a source, load or leakage resistance, ``C`` and
+    ``R`` of an absorption branch."""
+    return {"capacitor_value": ("C",), "dielectric_absorption": ("C", "R")}.get(effect, ("R",))
+
+
+def scaled_part(effect: str, params: dict, part: str, h: float) -> dict:
+    """A fault's parameters with one of its parts (see :func:`fault_parts`) multiplied by
+    ``exp(h)``: an absorption branch's ``C`` is ``fraction`` times the capacitor, its ``R``
+    is ``tau / C``."""
+    out = dict(params)
+    if effect == "dielectric_absorption":
+        out["tau"] = params["tau"] * math.exp(h)
+        if part == "C":
+            out["fraction"] = params["fraction"] * math.exp(h)
+    else:
+        out[part] = params[part] * math.exp(h)
+    return out
+
+
+def circuit_precision(residual, parts: tuple, noise: np.ndarray) -> dict:
+    """Relative 1-sigma uncertainty of each part of a circuit fault that a record leaves: the
+    spread of the least-squares estimate of its logarithm from the model's sensitivities at
+    the true values (``residual(part, h)``: the record's residual under the diagnosis's model
+    with that part multiplied by ``exp(h)``, its linear terms solved), the noise's spectrum
+    from ``noise``."""
+    h = 1e-4
+    jac = np.column_stack([(residual(p, h) - residual(p, -h)) / (2.0 * h) for p in parts])
+    weights = np.linalg.pinv(jac)
+    return {p: math.sqrt(max(spectral_variance(w, noise), 0.0)) for p, w in zip(parts, weights)}
 
 
 def random_fault(effect: str | None, rng: np.random.Generator, design: Design, duration: float) -> dict:
@@ -718,13 +832,16 @@ def random_fault(effect: str | None, rng: np.random.Generator, design: Design, d
 
 
 def random_circuit_spec(effect: str | None, seed: int, rate: tuple = (2.0, 50.0),
-                        duration: tuple = (600.0, 3600.0)) -> CircuitSpec:
+                        duration: tuple = (600.0, 3600.0), distinct_z: float = DISTINCT_Z,
+                        precise_to: float = PRECISE_TO) -> CircuitSpec:
     """A randomised record: sensor creep (one term, or two and a two-cell network in 30 % of
     the records), sampling ``rate`` (Hz, log-uniform), ``duration`` (s), any load program,
     white noise 1e-5 to 3e-4 of the step on the signal and within a factor e of it on
     ``corrected`` (plus, each in a third of the records, coloured noise of 0.5-2 times that
     level with a correlation time of 0.5-20 s, and a random-walk drift of 1-10 times it per
-    hour), measuring offsets, either way of driving the network, and the fault."""
+    hour), measuring offsets, either way of driving the network, and the fault. The record
+    keeps its fault detectable (z 10), ``distinct_z`` from the others and its parts determined
+    to ``precise_to`` (see :func:`generate_circuit`)."""
     rng = np.random.default_rng(seed)
     tau = (float(math.exp(rng.uniform(math.log(15.0), math.log(150.0)))),)
     beta = (float(rng.uniform(0.01, 0.05)),)
@@ -754,7 +871,7 @@ def random_circuit_spec(effect: str | None, seed: int, rate: tuple = (2.0, 50.0)
                        program=str(rng.choice(PROGRAMS)), jitter=float(rng.choice([0.0, 0.2])),
                        noise=Noise(white=level * gain), corrected_noise=out_noise,
                        drive=str(rng.choice(["continuous", "samples"])), seed=seed,
-                       detectable_z=DETECTABLE_Z)
+                       detectable_z=DETECTABLE_Z, distinct_z=distinct_z, precise_to=precise_to)
 
 
 
