@@ -14,12 +14,14 @@ was driven) and diagnosed against the nominal design. Printed:
   absorption the branch's ``C`` (fraction of the capacitor) and ``R`` (its time constant over C),
 - the gain on each effect's records (median held-out residual RMS ratio and ratio of the
   simulated output's error against the measured ``corrected``, nominal / as built),
-- timings.
+- timings;
+- with ``--spice-check``, each as-built network run through ngspice on its record, against
+  the measured ``corrected`` (RMS over the fit's residual RMS: 1 is "to the noise").
 
 Usage::
 
     python benchmarks/diagnose_circuit_confusion.py [--per-effect 20] [--clean 40] [--seed 0]
-                                                    [--jobs 1] [--json out.json]
+                                                    [--jobs 1] [--json out.json] [--spice-check]
     python benchmarks/diagnose_circuit_confusion.py --report out.jsonl   # summary of a saved run
 """
 
@@ -39,7 +41,7 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 from creepcomp import synth
-from creepcomp.diagnose_circuit import diagnose_circuit
+from creepcomp.diagnose_circuit import diagnose_circuit, ngspice_check
 
 EFFECTS = list(synth.CIRCUIT_EFFECTS)
 
@@ -51,12 +53,14 @@ def branch_parts(params: dict, capacitor: float) -> dict:
 
 
 def run_one(args):
-    effect, seed = args
+    effect, seed, spice_check = args
     spec = synth.random_circuit_spec(effect, seed)
     syn = synth.generate_circuit(spec)
     t0 = time.perf_counter()
     d = diagnose_circuit(syn.record, syn.design, spice_check=False)
     seconds = time.perf_counter() - t0
+    # the as-built network in ngspice on the same record (timed apart from the diagnosis)
+    check = ngspice_check(d.data, d.extended) if spice_check else None
     truth = dict(spec.hidden.get(effect, {})) if effect else {}
     cell = truth.pop("cell", None)
     cells = syn.design.network.cells
@@ -73,7 +77,7 @@ def run_one(args):
             "findings": [f.effect for f in d.findings], "errors": errors, "part_ok": part_ok,
             "cells": len(cells), "gain": d.gain,
             "seconds": seconds, "n": len(syn.record), "program": spec.program, "rate": spec.rate,
-            "drive": spec.drive, "noise_factor": syn.noise_factor,
+            "drive": spec.drive, "noise_factor": syn.noise_factor, "spice_check": check,
             "output_noise": ("drift" if spec.corrected_noise.drift > 0 else
                              "coloured" if spec.corrected_noise.coloured > 0 else "white")}
 
@@ -87,6 +91,8 @@ def main(argv=None):
     ap.add_argument("--json", default=None, help="write the results to this file (and, as they come, "
                                                 "one line each to the same name + 'l')")
     ap.add_argument("--effects", default=None, help="comma-separated subset")
+    ap.add_argument("--spice-check", action="store_true",
+                    help="also run each as-built network through ngspice on its record")
     ap.add_argument("--report", default=None, help="only print the summary of a saved run (JSON lines)")
     args = ap.parse_args(argv)
     if args.report:
@@ -99,7 +105,7 @@ def main(argv=None):
     for k, e in enumerate(effects):
         per_row[e] = [args.seed + 20000 + 1000 * (k + 1) + i for i in range(args.per_effect)]
     # round robin over the rows, so that a run stopped early is still balanced
-    tasks = [(e, seeds[i]) for i in range(max(map(len, per_row.values())))
+    tasks = [(e, seeds[i], args.spice_check) for i in range(max(map(len, per_row.values())))
              for e, seeds in per_row.items() if i < len(seeds)]
     t0 = time.perf_counter()
     results = []
@@ -172,6 +178,11 @@ def report(results, effects, wall):
         h = [x["gain"]["heldout_rms_ratio"] for x in sub if x["gain"].get("heldout_rms_ratio")]
         c = [x["gain"]["correction_error_ratio"] for x in sub if x["gain"].get("correction_error_ratio")]
         print(f"  {e:22s} {np.median(h) if h else float('nan'):20.3g} {np.median(c) if c else float('nan'):20.3g}")
+    checks = [x["spice_check"] for x in results if x.get("spice_check") and x["spice_check"].get("ratio")]
+    if checks:
+        ratio = np.array([c["ratio"] for c in checks])
+        print(f"\nAs built in ngspice vs measured `corrected`, RMS over the fit's residual RMS ({len(checks)} "
+              f"records): median {np.median(ratio):.6f}, range {ratio.min():.6f} - {ratio.max():.6f}")
     secs = np.array([x["seconds"] for x in results])
     print(f"\n{len(results)} records in {wall:.0f} s; per record median {np.median(secs):.1f} s, "
           f"max {secs.max():.1f} s")

@@ -59,7 +59,7 @@ def test_netlist_of_a_record_uses_a_file_source(run_cli, tmp_path):
     assert "rec-signal.txt" in out and "3000 samples" in out
     text = out_cir.read_text()
     assert 'file="rec-signal.txt"' in text and "PWL" not in text and len(text) < 2000
-    assert (out_cir.parent / "rec-signal.txt").read_text().count("\n") == 3000
+    assert (out_cir.parent / "rec-signal.txt").read_text().count("\n") == 3001   # the last sample held once more
     result = subprocess.run(["ngspice", "-b", out_cir.name], cwd=out_cir.parent,
                             capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, result.stderr

@@ -104,8 +104,9 @@ def test_record_netlist_stays_small_for_a_long_record():
     assert 'filesource' in text and 'file="r.txt"' in text
     assert deck.tran[0] == pytest.approx(0.01) and deck.tran[2] == pytest.approx(0.005)
     data = spice.record_data(t + 50.0, signal)
-    assert data.count("\n") == n and data.startswith("0 0\n")
-    assert float(data.splitlines()[-1].split()[0]) == pytest.approx(t[-1])
+    assert data.count("\n") == n + 1 and data.startswith("0 0\n")
+    last, hold = (np.array(line.split(), float) for line in data.splitlines()[-2:])
+    assert last == pytest.approx([t[-1], signal[-1]]) and hold == pytest.approx([t[-1] + 0.01, signal[-1]])
     with pytest.raises(InputError, match="constant"):
         spice.record_deck(Network((Cell(1e6, 1e-5),), 1e7), t, np.zeros(n))
 
@@ -194,6 +195,20 @@ def test_record_drive_agrees_on_ngspice_time_points():
     assert c.spice is not None and len(c.spice.time) > len(t)
     assert c.agreement_max_abs < 2e-6
     assert c.residual() is None and c.to_dict()["residual_creep_peak"] is None
+
+
+def test_a_record_drives_ngspice_up_to_its_last_sample():
+    # the netlist's stop time (12 digits) can lie a rounding past the last sample, where the
+    # filesource has no next line and gives 0 V over the whole last interval: the record's
+    # last sample is held one interval further, so ngspice sees the signal up to the end
+    net = Network((Cell(1e6, 1e-5),), 3e7)
+    t = np.arange(300) * 0.25
+    t[-1] -= 5e-12
+    signal = 1e-4 * (1.0 + 0.1 * np.sin(t / 5.0))
+    c = spice.simulate_record(net, t, signal)
+    assert c.spice.time[-1] == pytest.approx(t[-1])
+    np.testing.assert_allclose(c.spice.sensor, np.interp(c.spice.time, t, signal), rtol=0, atol=1e-13)
+    assert np.max(np.abs(c.spice.output - c.reference.output)) < 1e-6 * 1e-4
 
 
 def test_run_batch_reuses_one_engine_for_many_networks(default):

@@ -644,7 +644,7 @@ def diagnose_circuit(record: Record, design: Design, spice_check: bool = True,
                                        catch_ev))
     model = design.model
     fixes = tuple(suggest_fixes(current.network, model, resistor_series, capacitor_series)) if findings else ()
-    check = _spice_check(data, current) if spice_check else None
+    check = ngspice_check(data, current) if spice_check else None
     return CircuitDiagnosis(data, baseline, current, tuple(findings), tuple(trials), catch_ev, fixes,
                             _time.perf_counter() - start, check)
 
@@ -726,7 +726,7 @@ def _part(applied: Applied, design: Design) -> str | None:
     return "C1" if len(design.network.cells) == 1 else f"C1.{cell + 1}"
 
 
-def _spice_check(data: CircuitData, fit: CircuitFit) -> dict:
+def ngspice_check(data: CircuitData, fit: CircuitFit) -> dict:
     """The as-built network in ngspice on the same record, against the measured output."""
     from . import spice
 

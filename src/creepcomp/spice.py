@@ -450,9 +450,13 @@ def record_deck(network: Network, time, signal, data_file: str = "record-signal.
 
 
 def record_data(time, signal) -> str:
-    """Text of a ``filesource`` file: time from 0 (s) and signal, full precision."""
-    t = np.asarray(time, float)
-    rows = np.column_stack([t - t[0], np.asarray(signal, float)])
+    """Text of a ``filesource`` file: time from 0 (s) and signal, full precision, and one
+    more line an interval after the last sample holding its value: the netlist's stop time
+    (12 digits) can lie a rounding past the last sample, where a filesource with no next
+    line gives 0 V over the whole last interval."""
+    t = np.asarray(time, float) - float(time[0])
+    v = np.asarray(signal, float)
+    rows = np.column_stack([np.append(t, 2.0 * t[-1] - t[-2]), np.append(v, v[-1])])
     import io
 
     buf = io.StringIO()
@@ -1044,7 +1048,9 @@ def simulate_record(network: Network, time, signal, engine: Ngspice | None = Non
         data = Path(tmp) / deck.data_file
         data.write_text(record_data(rel, s), encoding="utf-8")
         run = engine.run(deck.with_data_file(str(data)))
-    keep = (run.time >= 0) & (run.time <= rel[-1])
+    # the netlist gives the stop time to 12 digits: its last point may lie a rounding past
+    # the last sample, and is the one that holds the last sample's value
+    keep = (run.time >= 0) & (run.time <= rel[-1] * (1.0 + 1e-11))
     tk = run.time[keep]
     grid = np.union1d(rel, tk)
     ref = lag.simulate(grid, np.interp(grid, rel, s), hold="linear", initial="settled")
