@@ -10,10 +10,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from creepcomp import spice, synth
+from creepcomp import effects, spice, synth
 from creepcomp.circuit import CIRCUIT_EFFECTS
 from creepcomp.data import path as data_path
-from creepcomp import effects
 from creepcomp.diagnose_circuit import (choose, combine, diagnose_circuit, evidence, fit_model, halves, prepare,
                                         with_heldout)
 from creepcomp.fit import Applied
@@ -202,4 +201,3 @@ def test_a_candidate_that_predicts_better_beats_a_lower_bic():
     # and the lower BIC stands when it also predicts better
     (applied, _, _), overrode = choose(data, [tried[1], tried[0][:2] + (replace(tried[0][2], delta_bic=0.0), None)])
     assert applied.name == "load_impedance" and overrode is None
-

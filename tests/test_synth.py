@@ -103,7 +103,7 @@ def test_a_circuit_fault_is_kept_detectable_distinct_and_measurable():
     assert synth.generate_circuit(base).noise_factor == {}
     for rule in ("detectable_z", "distinct_z", "precise_to"):
         syn = synth.generate_circuit(replace(base, **{rule: {"precise_to": 0.03}.get(rule, 10.0)}))
-        (name, factor), = syn.noise_factor.items()
+        (_, factor), = syn.noise_factor.items()
         assert 0 < factor < 1, (rule, factor)
         assert syn.spec.corrected_noise.white == pytest.approx(1e-3 * factor)
     both = synth.generate_circuit(replace(base, detectable_z=10.0, distinct_z=5.0, precise_to=0.03))
