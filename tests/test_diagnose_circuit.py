@@ -181,8 +181,8 @@ def test_halves_do_not_extrapolate_a_decay_from_its_tail():
 
 def test_a_candidate_that_predicts_better_beats_a_lower_bic():
     # a load resistance, the network driven by the continuous signal, the output drifting;
-    # the source resistance is handed a far lower BIC than it has: the record's held-out
-    # blocks and halves still choose the load
+    # the source resistance is handed a far lower BIC than it has: the record's halves still
+    # choose the load
     spec = synth.random_circuit_spec("load_impedance", 23006)
     assert spec.drive == "continuous" and spec.corrected_noise.drift > 0
     syn = synth.generate_circuit(spec)
@@ -201,3 +201,17 @@ def test_a_candidate_that_predicts_better_beats_a_lower_bic():
     # and the lower BIC stands when it also predicts better
     (applied, _, _), overrode = choose(data, [tried[1], tried[0][:2] + (replace(tried[0][2], delta_bic=0.0), None)])
     assert applied.name == "load_impedance" and overrode is None
+
+
+def test_a_load_resistance_is_not_taken_for_a_source_resistance():
+    # a short step record at 2.3 Hz, the network driven by the continuous signal, white
+    # noise: the source resistance attenuates the signal's measurement noise and wins on BIC
+    # and on the interleaved blocks; each half predicted from the other names the load
+    spec = synth.random_circuit_spec("load_impedance", 23050)
+    assert spec.drive == "continuous" and spec.program == "step"
+    syn = synth.generate_circuit(spec)
+    d = diagnose_circuit(syn.record, syn.design, spice_check=False, candidates=["source_impedance",
+                                                                                "load_impedance"])
+    assert d.cause == "load_impedance"
+    assert "better than source_impedance" in " ".join(t.outcome for t in d.trials)
+    assert d.findings[0].parameters["R"] == pytest.approx(spec.hidden["load_impedance"]["R"], rel=0.01)

@@ -8,7 +8,7 @@ the network with physical parameters; each is fitted on top of the current model
 while the evidence supports it, by the same rules as the sensor side
 (:class:`creepcomp.fit.Evidence`: BIC lower by :data:`~creepcomp.fit.BIC_STRONG` and held-out
 blocks predicted better by :data:`~creepcomp.fit.HELDOUT_Z` standard deviations); of several
-supported, the lowest BIC unless another predicts held-out data better (:func:`choose`). A generic
+supported, the lowest BIC unless another predicts the record's halves better (:func:`choose`). A generic
 extra lag tried on top says whether structure remains that no named effect explains
 (``unexplained``); with no finding the answer is ``none``.
 
@@ -623,7 +623,8 @@ def diagnose_circuit(record: Record, design: Design, spice_check: bool = True,
         supported = [t for t in tried if t[2].supported and not t[3]]
         best, overrode = choose(data, supported) if supported else (None, None)
         for applied, fit, ev, edge in tried:
-            outcome = ((f"accepted: predicts held-out data better than {overrode} (lower BIC)" if overrode
+            outcome = ((f"accepted: predicts each half from the other better than {overrode} (lower BIC)"
+                        if overrode
                         else "accepted") if best is not None and applied is best[0] else
                        f"rejected: {edge} at the edge of its range (not resolved by the record)" if edge
                        else "supported, not the best" if ev.supported else "rejected")
@@ -653,12 +654,12 @@ def choose(data: CircuitData, supported: list) -> tuple:
     """The supported candidate to keep, and the name of the one with the lowest BIC if that
     is not it (else None).
 
-    The lowest BIC wins unless another candidate predicts the held-out data better: in both
-    the interleaved blocks and the halves, by :data:`~creepcomp.fit.HELDOUT_Z` in one of
-    them. BIC under AR noise weighs the fast part of the residual; there the sensor's
+    The lowest BIC wins unless another candidate predicts each half of the record from the
+    other better by :data:`~creepcomp.fit.HELDOUT_Z`. BIC under AR noise, and the
+    interleaved held-out blocks, weigh the fast part of the residual; there the sensor's
     measurement noise in ``signal``, which the network never saw, can be partly explained
     by an effect that lowers the network's high-frequency gain (a source resistance for a
-    load resistance) while the record's slow part says otherwise.
+    load resistance) while the record's slow part, which the halves test, says otherwise.
     """
     ranked = sorted(supported, key=lambda t: t[2].delta_bic)
     best = ranked[0]
@@ -669,12 +670,10 @@ def choose(data: CircuitData, supported: list) -> tuple:
 
 
 def _predicts_better(data: CircuitData, fit: CircuitFit, rival: CircuitFit) -> bool:
-    """True when ``rival`` predicts held-out data better than ``fit`` (see :func:`choose`)."""
-    inter = compare(None, fit, rival)
-    if not inter.heldout_z > 0:
-        return False
+    """True when ``rival`` predicts each half from the other better than ``fit`` (see
+    :func:`choose`)."""
     across = compare(None, replace(fit, heldout=halves(data, fit)), replace(rival, heldout=halves(data, rival)))
-    return across.heldout_z > 0 and max(inter.heldout_z, across.heldout_z) >= HELDOUT_Z
+    return across.heldout_z >= HELDOUT_Z
 
 
 def at_bound(fit: CircuitFit, applied: Applied) -> str | None:
