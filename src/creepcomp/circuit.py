@@ -37,6 +37,14 @@ def capacitor_cells(network: Network) -> list[int]:
     return [k for k, c in enumerate(network.cells) if c.C > 0]
 
 
+def largest_capacitor(network: Network) -> int:
+    """Index of the cell with the largest capacitor (where a capacitor's fault sits by default)."""
+    caps = capacitor_cells(network)
+    if not caps:
+        raise InputError("the network has no capacitor in its series chain")
+    return max(caps, key=lambda i: network.cells[i].C)
+
+
 def apply_fault(network: Network, effect: str, params: dict, cell: int | None = None) -> Network:
     """The network with one circuit-side effect.
 
@@ -59,10 +67,9 @@ def apply_fault(network: Network, effect: str, params: dict, cell: int | None = 
     Network
     """
     if effect in ("capacitor_value", "dielectric_absorption", "capacitor_leakage"):
-        caps = capacitor_cells(network)
-        if not caps:
+        if not capacitor_cells(network):
             raise InputError(f"{effect}: the network has no capacitor in its series chain")
-        k = max(caps, key=lambda i: network.cells[i].C) if cell is None else cell
+        k = largest_capacitor(network) if cell is None else cell
         c = network.cells[k]
         if effect == "capacitor_value":
             new = replace(c, C=_positive(params["C"], "C"))

@@ -32,7 +32,7 @@ import numpy as np
 from scipy import ndimage, optimize
 
 from . import effects as effects_pkg
-from .circuit import FixOption, capacitor_cells, suggest_fixes
+from .circuit import FixOption, largest_capacitor, suggest_fixes
 from .errors import InputError
 from .files import Design
 from .fit import (BIC_STRONG, FOLDS, GAP_FACTOR, HELDOUT_Z, SLOW_NOISE_RATIO, Applied, Evidence, HeldOut, Param,
@@ -44,10 +44,6 @@ from .records import Record
 
 #: Most circuit effects added one after the other.
 MAX_EFFECTS = 3
-#: Degree of a polynomial in time that every model would carry for drift of the output's
-#: measuring chain: 0, none (degree 1 absorbed part of slow faults and named fewer of them
-#: in the benchmark, without fewer false findings).
-DRIFT_DEGREE = 0
 
 
 @dataclass(frozen=True)
@@ -212,18 +208,13 @@ def _columns(data: CircuitData, network: Network, generic_tau: float | None):
     lag = network.lag_expansion()
     t, u = data.time, data.signal
     sim = lag.direct * u + lag_states(t, u, lag.taus, hold="linear", initial="settled") @ np.array(lag.gains)
-    m = 1 + DRIFT_DEGREE + len(lag.taus) * (1 + len(data.breaks)) + (generic_tau is not None)
+    m = 1 + len(lag.taus) * (1 + len(data.breaks)) + (generic_tau is not None)
     cols = np.zeros((data.n, m), order="F")
     names, spread = ["offset"], [np.inf]
     cols[:, 0] = 1.0
-    # slow drift of the output's measuring chain: a Legendre polynomial over the record, in
-    # every model, so that no network effect is credited with it
-    x = 2.0 * (t - t[0]) / max(t[-1] - t[0], 1e-300) - 1.0
-    for d in range(1, DRIFT_DEGREE + 1):
-        cols[:, d] = np.polynomial.legendre.legval(x, [0.0] * d + [1.0])
-        names.append(f"drift[{d}]")
-        spread.append(np.inf)
-    j = 1 + DRIFT_DEGREE
+    # (a linear drift term in every model was measured in the benchmark: it absorbed part of
+    # slow faults and named fewer of them, without fewer false findings)
+    j = 1
     # a lag's state before the record is unknown but within the input's excursions: its
     # decay moves the output by at most the lag's gain times their span
     span = 2.0 * max(float(np.ptp(u)), float(np.max(np.abs(u))))
@@ -286,13 +277,18 @@ def residual_at(data: CircuitData, effect: str, values: dict, cell: int | None =
     ``cell``: its capacitor, by default the largest), the linear terms (offset, decays) solved
     as in every fit."""
     found = effects_pkg.get(effect)
-    cells = data.design.network.cells
     if found.per_capacitor and cell is None:
-        cell = max(capacitor_cells(data.design.network), key=lambda k: cells[k].C)
-    applied = Applied(found, (("cell", cell),) if found.per_capacitor else ())
-    params = [replace(p, name=f"{effect}.{p.name}") for p in found.network_params(data, dict(applied.settings))]
+        cell = largest_capacitor(data.design.network)
+    applied = (Applied(found, (("cell", cell),) if found.per_capacitor else ()),)
+    params = model_params(data, applied)
     x = [p.to_search(values[p.name[len(effect) + 1:]]) for p in params]
-    return _solve(data, (applied,), params, x, False)[0]
+    return _solve(data, applied, params, x, False)[0]
+
+
+def model_params(data: CircuitData, applied: tuple) -> list[Param]:
+    """The nonlinear parameters of the applied effects, named ``effect.parameter``."""
+    return [replace(p, name=f"{a.name}.{p.name}") for a in applied
+            for p in a.effect.network_params(data, dict(a.settings))]
 
 
 def fit_model(data: CircuitData, applied: tuple, starts: list[dict], generic: bool = False,
@@ -316,8 +312,7 @@ def fit_model(data: CircuitData, applied: tuple, starts: list[dict], generic: bo
     -------
     CircuitFit
     """
-    params = [replace(p, name=f"{a.name}.{p.name}") for a in applied
-              for p in a.effect.network_params(data, dict(a.settings))]
+    params = model_params(data, applied)
     if generic:
         lo, hi = generic_tau_range(data)
         params.append(Param("generic.tau", lo, hi, log=True, default=math.sqrt(lo * hi)))
@@ -403,7 +398,7 @@ def _finish(data, applied, params, values, net, residual, rows, generic) -> Circ
     """The fit with its BIC under AR noise (the noise of ``corrected`` need not be white:
     its order is chosen by BIC too). The decays of the initial state and of input breaks are
     held by their priors and not counted as free parameters (every model has them)."""
-    k = len(params) + sum(1 for key in values if key in ("offset", "generic.gain") or key.startswith("drift["))
+    k = len(params) + sum(1 for key in values if key in ("offset", "generic.gain"))
     ar_rows = rows_for(data, rows)
     noise = fit_noise(residual, ar_rows)
     n = len(ar_rows)
@@ -623,12 +618,9 @@ def diagnose_circuit(record: Record, design: Design, spice_check: bool = True,
         supported = [t for t in tried if t[2].supported and not t[3]]
         best, overrode = choose(data, supported) if supported else (None, None)
         for applied, fit, ev, edge in tried:
-            outcome = ((f"accepted: predicts each half from the other better than {overrode} (lower BIC)"
-                        if overrode
-                        else "accepted") if best is not None and applied is best[0] else
-                       f"rejected: {edge} at the edge of its range (not resolved by the record)" if edge
-                       else "supported, not the best" if ev.supported else "rejected")
-            trials.append(CircuitTrial(step, applied.name, _part(applied, design), ev, outcome))
+            chosen = best is not None and applied is best[0]
+            trials.append(CircuitTrial(step, applied.name, _part(applied, design), ev,
+                                       _outcome(chosen, overrode, edge, ev)))
         if best is None:
             break
         applied, fit, ev = best
@@ -648,6 +640,16 @@ def diagnose_circuit(record: Record, design: Design, spice_check: bool = True,
     check = ngspice_check(data, current) if spice_check else None
     return CircuitDiagnosis(data, baseline, current, tuple(findings), tuple(trials), catch_ev, fixes,
                             _time.perf_counter() - start, check)
+
+
+def _outcome(chosen: bool, overrode: str | None, edge: str | None, ev: Evidence) -> str:
+    """What became of a candidate at its step (see :func:`choose`, :func:`at_bound`)."""
+    if chosen:
+        return f"accepted: predicts each half from the other better than {overrode} (lower BIC)" if overrode \
+            else "accepted"
+    if edge:
+        return f"rejected: {edge} at the edge of its range (not resolved by the record)"
+    return "supported, not the best" if ev.supported else "rejected"
 
 
 def choose(data: CircuitData, supported: list) -> tuple:

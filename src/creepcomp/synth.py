@@ -752,15 +752,17 @@ def alternative_faults(network, effect: str, duration: float, size: float = 1e-3
             continue
         if other == "source_impedance":
             out.append(apply_fault(network, other, {"R": size * level}))
-        elif other == "load_impedance":
+            continue
+        if other == "load_impedance":
             out.append(apply_fault(network, other, {"R": level / size}))
-        for k in capacitor_cells(network) if other not in ("source_impedance", "load_impedance") else ():
+            continue
+        for k in capacitor_cells(network):
             cell = network.cells[k]
             if other == "capacitor_value":
                 out.append(apply_fault(network, other, {"C": cell.C * (1.0 + size)}, k))
             elif other == "capacitor_leakage":
                 out.append(apply_fault(network, other, {"R": cell.R / size}, k))
-            elif other == "dielectric_absorption":
+            else:
                 out.extend(apply_fault(network, other, {"fraction": size,
                                                         "tau": min(f * cell.R * cell.C, duration / 2)}, k)
                            for f in (0.7, 2.2, 7.0))
