@@ -110,6 +110,11 @@ def test_a_circuit_fault_is_kept_detectable_distinct_and_measurable():
     assert both.spec.noise.white == pytest.approx(1e-3 * min(both.noise_factor.values()))
     # absorption is hard to tell apart and to measure: it asks for less noise than detection
     assert both.noise_factor["precision"] < both.noise_factor["detectability"]
+    # two faults at once: detectable together; the other rules judge one fault
+    two = replace(base, hidden={**base.hidden, "capacitor_leakage": {"R": 1e8, "cell": 0}}, detectable_z=10.0)
+    assert set(synth.generate_circuit(two).noise_factor) == {"detectability"}
+    with pytest.raises(ValueError, match="one hidden fault"):
+        synth.generate_circuit(replace(two, precise_to=0.03))
 
 
 def test_precision_of_a_fault_agrees_with_the_fits_own_uncertainty():

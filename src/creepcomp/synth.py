@@ -680,7 +680,10 @@ def generate_circuit(spec: CircuitSpec) -> CircuitSynthetic:
                                          if spec.drive == "continuous" else 0.0)
         nominal_out = output(design.network, clean)
         signature = output(built, clean) - nominal_out
-        (effect, params), = spec.hidden.items()
+        if (spec.distinct_z > 0 or spec.precise_to > 0) and len(spec.hidden) != 1:
+            raise ValueError("distinct_z and precise_to judge one hidden fault: the spec has "
+                             f"{len(spec.hidden)}")
+        (effect, params), *_ = spec.hidden.items()
         if spec.detectable_z > 0:
             z = circuit_detectability(t, signature, nominal.taus, residual_noise)
             factors["detectability"] = min(1.0, z / spec.detectable_z)
