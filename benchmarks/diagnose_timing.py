@@ -17,8 +17,8 @@ import argparse
 import os
 import time
 
-from creepcomp import synth
-from creepcomp.diagnose import diagnose
+from creepcomp.synth import generate as synth
+from creepcomp.diagnose.sensor import diagnose
 
 CASES = {
     "clean": {},

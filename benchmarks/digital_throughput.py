@@ -27,11 +27,11 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy import signal  # noqa: E402
 
-from creepcomp import paper_methods  # noqa: E402
-from creepcomp.digital import Corrector, compensate  # noqa: E402
+from creepcomp.digital import paper_methods  # noqa: E402
+from creepcomp.digital.correctors import Corrector, compensate  # noqa: E402
 from creepcomp.lti import lag_coefficients  # noqa: E402
 from creepcomp.model import CreepModel  # noqa: E402
-from creepcomp.scenarios import paper_model  # noqa: E402
+from creepcomp.digital.scenarios import paper_model  # noqa: E402
 
 
 def best_of(function, repeats: int) -> float:

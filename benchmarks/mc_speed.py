@@ -12,10 +12,10 @@ import os
 import statistics
 import time
 
-from creepcomp import montecarlo as mc
+from creepcomp.verify import montecarlo as mc
 from creepcomp.data import default_sensor
-from creepcomp.files import Design
-from creepcomp.sizing import size
+from creepcomp.io.jsonfiles import Design
+from creepcomp.analog.sizing import size
 
 
 def main() -> None:
@@ -39,7 +39,7 @@ def main() -> None:
         print(f"{label}: {args.n} samples in {med:.2f} s (median of {args.repeats}; "
               f"{[round(t, 2) for t in times]}), {1e6 * med / args.n:.2f} µs per sample; "
               f"p99 peak residual creep {100 * result.percentiles()['p99']:.4f} %")
-    from creepcomp import spice
+    from creepcomp.verify import spice
     transient, _ = spice.time_transient(design.network, model)
     for label, t in per_sample.items():
         print(f"{label}: {transient / t:,.0f}x faster per sample than one ngspice transient "

@@ -21,10 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
-from creepcomp import spice
+from creepcomp.verify import spice
 from creepcomp.data import default_sensor
 from creepcomp.programs import staircase
-from creepcomp.sizing import size
+from creepcomp.analog.sizing import size
 
 
 def median_seconds(fn, repeats: int) -> tuple[float, float]:

@@ -16,9 +16,9 @@ import sys
 import time
 from pathlib import Path
 
-from creepcomp.diagnose import diagnose
-from creepcomp.fit import fit_prony, prepare, term_table
-from creepcomp.records import parse_columns, read_record
+from creepcomp.diagnose.sensor import diagnose
+from creepcomp.fit.core import fit_prony, prepare, term_table
+from creepcomp.io.records import parse_columns, read_record
 
 DEFAULT = Path(__file__).resolve().parents[1] / "tests" / "data" / "rheojax" / "creep_ps130_data.csv"
 

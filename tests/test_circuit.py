@@ -1,11 +1,11 @@
 import numpy as np
 import pytest
 
-from creepcomp.circuit import CIRCUIT_EFFECTS, apply_fault, suggest_fixes
+from creepcomp.analog.faults import CIRCUIT_EFFECTS, apply_fault, suggest_fixes
 from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 from creepcomp.network import Cell, Network
-from creepcomp.quality import step_peak
+from creepcomp.analog.quality import step_peak
 
 MODEL = CreepModel.voigt(0.03, 45.0)
 NOMINAL = Network((Cell(3e6, 15e-6),), 1e8, (), 0.0, None)

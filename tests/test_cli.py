@@ -4,7 +4,7 @@ import sys
 
 import pytest
 
-from creepcomp.files import read_design
+from creepcomp.io.jsonfiles import read_design
 
 
 def test_size_json_contract_keys_and_paper_figures(run_cli):

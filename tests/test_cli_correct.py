@@ -3,9 +3,9 @@ import json
 import numpy as np
 import pytest
 
-from creepcomp.files import write_model
+from creepcomp.io.jsonfiles import write_model
 from creepcomp.model import CreepModel
-from creepcomp.records import Record, read_record, write_record
+from creepcomp.io.records import Record, read_record, write_record
 
 MODEL = CreepModel((0.01, 0.02), (8.0, 60.0), gain=0.5, offset=0.02)
 

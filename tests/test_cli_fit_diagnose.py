@@ -4,10 +4,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from creepcomp import synth
+from creepcomp.synth import generate as synth
 from creepcomp.data import path as data_path
-from creepcomp.files import read_model
-from creepcomp.records import Record, write_record
+from creepcomp.io.jsonfiles import read_model
+from creepcomp.io.records import Record, write_record
 
 SHARED = Path(__file__).resolve().parent / "data" / "rheojax"
 

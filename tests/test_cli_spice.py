@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from creepcomp import spice
+from creepcomp.verify import spice
 from creepcomp.data import default_sensor
-from creepcomp.records import Record, write_record
-from creepcomp.sizing import ideal_network
+from creepcomp.io.records import Record, write_record
+from creepcomp.analog.sizing import ideal_network
 
 REPO = Path(__file__).resolve().parents[1]
 PAPER = REPO / "netlists" / "default-paper.json"

@@ -1,7 +1,7 @@
 """Diagnosis of synthetic records with hidden effects: named, parameters recovered, gain.
 
 Each effect is hidden in records with random parameters, sample rates (2-50 Hz), load
-programs, durations, noise level and colour (see :func:`creepcomp.synth.random_spec`); the
+programs, durations, noise level and colour (see :func:`creepcomp.synth.generate.random_spec`); the
 records are kept small (at most 5000 samples) so that the suite stays fast. The wide
 confusion matrix is ``benchmarks/diagnose_confusion.py``.
 """
@@ -11,9 +11,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from creepcomp import synth
-from creepcomp.diagnose import diagnose
-from creepcomp.records import Record
+from creepcomp.synth import generate as synth
+from creepcomp.diagnose.sensor import diagnose
+from creepcomp.io.records import Record
 
 SMALL = dict(max_samples=5000, duration=(600.0, 2400.0), noise=(2e-4, 1e-3))
 # parameters the contract names, and the effects they belong to

@@ -10,14 +10,16 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from creepcomp import effects, spice, synth
-from creepcomp.circuit import CIRCUIT_EFFECTS
+from creepcomp.diagnose import effects
+from creepcomp.verify import spice
+from creepcomp.synth import generate as synth
+from creepcomp.analog.faults import CIRCUIT_EFFECTS
 from creepcomp.data import path as data_path
-from creepcomp.diagnose_circuit import (choose, combine, diagnose_circuit, evidence, fit_model, halves, prepare,
-                                        with_heldout)
-from creepcomp.fit import Applied
-from creepcomp.files import read_design
-from creepcomp.records import read_record
+from creepcomp.diagnose.circuit import (choose, combine, diagnose_circuit, evidence, fit_model,
+    halves, prepare, with_heldout)
+from creepcomp.fit.core import Applied
+from creepcomp.io.jsonfiles import read_design
+from creepcomp.io.records import read_record
 
 SHORT = {"rate": (2.0, 8.0), "duration": (1200.0, 2400.0)}  # low rates keep the tests fast
 
@@ -89,7 +91,7 @@ def test_as_built_network_in_ngspice_matches_the_measured_output(bundled, tmp_pa
     # ngspice's as-built output differs from the measured one by the noise alone
     assert check["ratio"] == pytest.approx(1.0, abs=0.05)
     # the as-built design file reads back as the same network
-    from creepcomp.files import write_design
+    from creepcomp.io.jsonfiles import write_design
 
     back = read_design(write_design(tmp_path / "as-built.json", d.as_built))
     assert back.network == d.extended.network

@@ -2,9 +2,8 @@ import numpy as np
 import pytest
 from hypothesis import given, strategies as st
 
-from creepcomp.digital import (Corrector, _affine_recursion, _UniformBlocks, compensate,
-                               creep_error, default_initial, reference, saturation_factor,
-                               uniform_interval)
+from creepcomp.digital.correctors import (Corrector, _affine_recursion, _UniformBlocks,
+    compensate, creep_error, default_initial, reference, saturation_factor, uniform_interval)
 from creepcomp.errors import InputError
 from creepcomp.lti import lag_coefficients
 from creepcomp.model import CreepModel
@@ -167,7 +166,7 @@ def test_streaming_one_sample_at_a_time_like_firmware():
 
 
 def test_block_engine_equals_the_per_sample_recursion_and_passes_are_seamless(monkeypatch):
-    import creepcomp.digital as digital
+    import creepcomp.digital.correctors as digital
 
     rng = np.random.default_rng(3)
     t = np.arange(10_007) * 0.3

@@ -1,8 +1,10 @@
 import numpy as np
 import pytest
 
-from creepcomp import effects, programs, synth
-from creepcomp.effects import compensate, simulate
+from creepcomp.diagnose import effects
+from creepcomp import programs
+from creepcomp.synth import generate as synth
+from creepcomp.diagnose.effects import compensate, simulate
 from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 
@@ -95,8 +97,8 @@ def test_missing_temperature_for_a_thermal_extension_is_an_error():
 
 
 def test_extension_written_by_a_fit_reads_back(tmp_path):
-    from creepcomp.files import read_model, write_json
-    from creepcomp.fit import Structure, fit_structure, one_term_starts, prepare
+    from creepcomp.io.jsonfiles import read_model, write_json
+    from creepcomp.fit.core import Structure, fit_structure, one_term_starts, prepare
 
     syn = synth.generate(synth.Spec(hidden={"viscous_flow": {"rate": 3e-5}}, duration=1200, rate=4,
                                     program="staircase", seed=3))

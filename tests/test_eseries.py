@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from creepcomp import eseries
+from creepcomp.analog import eseries
 from creepcomp.errors import InputError
 
 

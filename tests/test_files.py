@@ -3,7 +3,7 @@ import json
 import pytest
 
 from creepcomp.errors import InputError
-from creepcomp.files import Design, read_design, read_model, write_design, write_model
+from creepcomp.io.jsonfiles import Design, read_design, read_model, write_design, write_model
 from creepcomp.model import CreepModel
 from creepcomp.network import Cell, Network
 

@@ -5,11 +5,11 @@ from hypothesis import strategies as st
 
 from creepcomp import programs
 from creepcomp.errors import InputError
-from creepcomp.fit import (Structure, compare, fit_noise, fit_prony, fit_structure, heldout,
-                           one_term_starts, prepare, rows_for, term_table, whiten)
+from creepcomp.fit.core import (Structure, compare, fit_noise, fit_prony, fit_structure, heldout,
+    one_term_starts, prepare, rows_for, term_table, whiten)
 from creepcomp.lti import lag_states, varying_lag_states
 from creepcomp.model import CreepModel
-from creepcomp.records import Record
+from creepcomp.io.records import Record
 
 
 def _record(model, program, t, noise, seed=0, offset=0.0):
@@ -110,7 +110,7 @@ def test_heldout_flags_a_useless_term_and_keeps_a_real_one():
     data = prepare(_record(model, prog, t, 2e-3, seed=5))
     one = fit_structure(data, Structure(1), one_term_starts(data))
     one = heldout(data, one)
-    from creepcomp.fit import fit_terms
+    from creepcomp.fit.core import fit_terms
 
     two = heldout(data, fit_terms(data, 2, one, one.noise))
     ev = compare(data, one, two)

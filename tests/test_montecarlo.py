@@ -5,14 +5,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from creepcomp import montecarlo as mc
+from creepcomp.verify import montecarlo as mc
 from creepcomp.errors import InputError
-from creepcomp.files import Design, write_design
+from creepcomp.io.jsonfiles import Design, write_design
 from creepcomp.lti import cascade_lags, cascade_step_arrays
 from creepcomp.model import CreepModel
 from creepcomp.network import Cell, Network
-from creepcomp.quality import predict
-from creepcomp.sizing import ideal_network
+from creepcomp.analog.quality import predict
+from creepcomp.analog.sizing import ideal_network
 
 MODEL = CreepModel.voigt(0.03, 45.0)
 DESIGN = Design(MODEL, Network((Cell(3e6, 15e-6),), 1e8))

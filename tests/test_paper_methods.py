@@ -3,8 +3,8 @@ import warnings
 import numpy as np
 import pytest
 
-from creepcomp import paper_methods
-from creepcomp.digital import compensate
+from creepcomp.digital import paper_methods
+from creepcomp.digital.correctors import compensate
 from creepcomp.model import CreepModel
 
 VOIGT = CreepModel.voigt(0.03, 45.0)

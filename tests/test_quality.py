@@ -7,8 +7,8 @@ from hypothesis import strategies as st
 
 from creepcomp.model import CreepModel
 from creepcomp.network import Cell, Network, modal_form, state_matrices
-from creepcomp.quality import predict, residual_curves, step_residual
-from creepcomp.sizing import ideal_network
+from creepcomp.analog.quality import predict, residual_curves, step_residual
+from creepcomp.analog.sizing import ideal_network
 
 
 def paper_closed_form(beta, tau, t):

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from creepcomp.errors import InputError
-from creepcomp.records import Record, parse_columns, parse_record, read_record, write_record
+from creepcomp.io.records import Record, parse_columns, parse_record, read_record, write_record
 
 SHARED = Path(__file__).resolve().parent / "data" / "rheojax"
 

@@ -3,9 +3,9 @@ import pytest
 from rich.console import Console
 
 from creepcomp.data import default_sensor
-from creepcomp.quality import sweep_hysteresis as predicted_hysteresis
-from creepcomp.scenarios import (demo_step, long_run, outcomes, paper_model, step_record,
-                                 sweep_hysteresis, sweep_record)
+from creepcomp.analog.quality import sweep_hysteresis as predicted_hysteresis
+from creepcomp.digital.scenarios import (demo_step, long_run, outcomes, paper_model, step_record,
+    sweep_hysteresis, sweep_record)
 
 
 def test_step_record_is_the_exact_response_to_held_loads():
@@ -52,7 +52,7 @@ def test_long_run_small():
 
 
 def test_demo_step_writes_the_figures(tmp_path, monkeypatch):
-    import creepcomp.scenarios as scenarios
+    import creepcomp.digital.scenarios as scenarios
 
     monkeypatch.setattr(scenarios, "step_record", lambda model: step_record(model, hold_time=60.0, rate=1.0))
     monkeypatch.setattr(scenarios, "sweep_record", lambda model: sweep_record(model, cycles=2, quarter_points=50))

@@ -5,8 +5,8 @@ from hypothesis import strategies as st
 
 from creepcomp.errors import InputError, NotRealisableError
 from creepcomp.model import CreepModel
-from creepcomp.quality import step_peak
-from creepcomp.sizing import DEFAULT_RES_RANGE, ideal_network, size
+from creepcomp.analog.quality import step_peak
+from creepcomp.analog.sizing import DEFAULT_RES_RANGE, ideal_network, size
 
 
 @given(beta0=st.floats(0.001, 0.3), tau=st.floats(0.1, 1e4), cap=st.floats(1e-9, 1e-4),
@@ -80,7 +80,7 @@ def test_snapping_e24_e6_meets_5e4_and_beats_nearest():
     assert rep.chosen_quality.residual_creep_peak <= 5e-4
     assert rep.uncorrected_quality.residual_creep_peak == pytest.approx(0.027)
     assert rep.nearest_quality.residual_creep_peak > rep.chosen_quality.residual_creep_peak
-    from creepcomp import eseries
+    from creepcomp.analog import eseries
     e24 = eseries.values_in_range("E24", 1, 1e10)
     e6 = eseries.values_in_range("E6", 1e-12, 1e-3)
     for label, kind, v in rep.chosen.parts():

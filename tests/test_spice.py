@@ -11,14 +11,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from creepcomp import spice
+from creepcomp.verify import spice
 from creepcomp.data import default_sensor
 from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 from creepcomp.network import Branch, Cell, Network
 from creepcomp.programs import LoadProgram, staircase, step
-from creepcomp.quality import predict
-from creepcomp.sizing import ideal_network
+from creepcomp.analog.quality import predict
+from creepcomp.analog.sizing import ideal_network
 
 REPO = Path(__file__).resolve().parents[1]
 PAPER_FINAL = 0.03 ** 2 / 1.06                       # beta0^2 / (1 + 2 beta0), physics.md

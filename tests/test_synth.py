@@ -5,8 +5,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from creepcomp import synth
-from creepcomp.diagnose_circuit import diagnose_circuit, prepare, residual_at
+from creepcomp.synth import generate as synth
+from creepcomp.diagnose.circuit import diagnose_circuit, prepare, residual_at
 from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 

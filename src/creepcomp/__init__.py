@@ -4,13 +4,13 @@ The Python API behind the ``creepcomp`` command: creep models, correction networ
 sizing and E-series snapping, and their predicted quality.
 """
 
-from .errors import CreepcompError, InputError, NotRealisableError
-from .files import Design, read_design, read_model, write_design, write_model
-from .lti import LagExpansion
-from .model import CreepModel
-from .network import Branch, Cell, Network
-from .quality import Quality, predict
-from .sizing import SizingReport, ideal_network, size
+from creepcomp.errors import CreepcompError, InputError, NotRealisableError
+from creepcomp.io.jsonfiles import Design, read_design, read_model, write_design, write_model
+from creepcomp.lti import LagExpansion
+from creepcomp.model import CreepModel
+from creepcomp.network import Branch, Cell, Network
+from creepcomp.analog.quality import Quality, predict
+from creepcomp.analog.sizing import SizingReport, ideal_network, size
 
 __version__ = "0.1.0"
 

@@ -15,7 +15,7 @@ import control
 import numpy as np
 from scipy import signal, special
 
-from .errors import InputError
+from creepcomp.errors import InputError
 
 #: Relative spread of time steps below which sampling counts as uniform (then scipy's lfilter
 #: runs the recursion; the coefficient error this tolerance allows is below 1e-9 * dt / tau).

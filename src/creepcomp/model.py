@@ -9,8 +9,8 @@ from typing import Any, Mapping
 import control
 import numpy as np
 
-from .errors import InputError
-from .lti import LagExpansion
+from creepcomp.errors import InputError
+from creepcomp.lti import LagExpansion
 
 
 def _check_number(value, name: str) -> float:

@@ -20,9 +20,9 @@ from typing import Mapping
 import control
 import numpy as np
 
-from .errors import InputError
-from .lti import LagExpansion
-from .model import CreepModel
+from creepcomp.errors import InputError
+from creepcomp.lti import LagExpansion
+from creepcomp.model import CreepModel
 
 
 @dataclass(frozen=True)

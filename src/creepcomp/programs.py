@@ -13,8 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import InputError
-from .lti import LagExpansion, lag_states
+from creepcomp.errors import InputError
+from creepcomp.lti import LagExpansion, lag_states
 
 
 @dataclass(frozen=True)

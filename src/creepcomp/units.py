@@ -10,7 +10,7 @@ import math
 import re
 from decimal import Decimal
 
-from .errors import InputError
+from creepcomp.errors import InputError
 
 # prefix -> power of ten (decimal arithmetic keeps "2.7%" and "4.7u" exact to the last digit)
 PREFIXES = {

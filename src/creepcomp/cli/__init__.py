@@ -11,18 +11,18 @@ import sys
 import typer
 from typer.exceptions import Abort, Exit, TyperException
 
-from ..errors import CreepcompError
-from .common import app, fail
+from creepcomp.errors import CreepcompError
+from creepcomp.cli.common import app, fail
 
 # Subcommand modules register themselves on import.
-from . import size as _size  # noqa: E402,F401
-from . import demo as _demo  # noqa: E402,F401
-from . import correct as _correct  # noqa: E402,F401
-from . import mc as _mc  # noqa: E402,F401
-from . import netlist as _netlist  # noqa: E402,F401
-from . import simulate as _simulate  # noqa: E402,F401
-from . import fit as _fit  # noqa: E402,F401
-from . import diagnose as _diagnose  # noqa: E402,F401
+from creepcomp.cli import size as _size  # noqa: E402,F401
+from creepcomp.cli import demo as _demo  # noqa: E402,F401
+from creepcomp.cli import correct as _correct  # noqa: E402,F401
+from creepcomp.cli import mc as _mc  # noqa: E402,F401
+from creepcomp.cli import netlist as _netlist  # noqa: E402,F401
+from creepcomp.cli import simulate as _simulate  # noqa: E402,F401
+from creepcomp.cli import fit as _fit  # noqa: E402,F401
+from creepcomp.cli import diagnose as _diagnose  # noqa: E402,F401
 
 
 def main(argv: list[str] | None = None) -> int:

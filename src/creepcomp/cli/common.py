@@ -7,9 +7,9 @@ import sys
 import typer
 from rich.console import Console
 
-from ..errors import InputError
-from ..files import to_json
-from ..units import parse_quantity
+from creepcomp.errors import InputError
+from creepcomp.io.jsonfiles import to_json
+from creepcomp.units import parse_quantity
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
                   help="Remove creep from elastomer-based sensors: size RC correction networks, "

@@ -9,15 +9,15 @@ import numpy as np
 import typer
 from rich.table import Table
 
-from ..digital import (compensate, creep_error, default_initial, reference,
-                       saturation_factor, uniform_interval)
-from ..digital_plots import plot_correction
-from ..errors import InputError
-from ..files import read_model
-from ..records import parse_columns, read_record, write_record
-from ..units import format_quantity
-from .common import app, console, pct, print_json
-from .size import describe_model
+from creepcomp.digital.correctors import (compensate, creep_error, default_initial, reference,
+    saturation_factor, uniform_interval)
+from creepcomp.report.digital import plot_correction
+from creepcomp.errors import InputError
+from creepcomp.io.jsonfiles import read_model
+from creepcomp.io.records import parse_columns, read_record, write_record
+from creepcomp.units import format_quantity
+from creepcomp.cli.common import app, console, pct, print_json
+from creepcomp.cli.size import describe_model
 
 #: A record "starts loaded" when its first load is above this fraction of its largest load.
 LOADED_START = 1e-3

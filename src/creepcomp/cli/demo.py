@@ -6,8 +6,8 @@ from pathlib import Path
 
 import typer
 
-from ..demo import run_demo
-from .common import app, console
+from creepcomp.cli.demo_steps import run_demo
+from creepcomp.cli.common import app, console
 
 
 @app.command("demo")

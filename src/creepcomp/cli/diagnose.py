@@ -9,14 +9,15 @@ import numpy as np
 import typer
 from rich.table import Table
 
-from ..diagnose import Diagnosis, diagnose
-from ..diagnose_circuit import CircuitDiagnosis, combine, diagnose_circuit
-from ..errors import InputError
-from ..files import read_design
-from ..fit import BIC_STRONG, HELDOUT_Z
-from ..units import format_quantity
-from .common import app, console, err_console, pct, print_json
-from .fit import COLUMNS_HELP, INITIAL_TEXT, describe_record, load_record, record_options
+from creepcomp.diagnose.sensor import Diagnosis, diagnose
+from creepcomp.diagnose.circuit import CircuitDiagnosis, combine, diagnose_circuit
+from creepcomp.errors import InputError
+from creepcomp.io.jsonfiles import read_design
+from creepcomp.fit.core import BIC_STRONG, HELDOUT_Z
+from creepcomp.units import format_quantity
+from creepcomp.cli.common import app, console, err_console, pct, print_json
+from creepcomp.cli.fit import (COLUMNS_HELP, INITIAL_TEXT, describe_record, load_record,
+    record_options)
 
 
 @app.command("diagnose")
@@ -63,7 +64,7 @@ def diagnose_command(
     units = {c: record.unit(c) for c in ("signal", "load")}
     paths = {}
     if output is not None:
-        from ..diagnose_report import write_report
+        from creepcomp.report.diagnosis import write_report
 
         paths = write_report(result, output, units, circuit=circuit)
     if as_json:
@@ -83,7 +84,7 @@ def split_candidates(text: str | None) -> tuple[list | None, list | None]:
     """``--effects``: the sensor-side and the circuit-side names (None: all of that side)."""
     if not text:
         return None, None
-    from .. import effects as effects_pkg
+    from creepcomp.diagnose import effects as effects_pkg
 
     names = [c.strip() for c in text.split(",") if c.strip()]
     chosen = [effects_pkg.get(n) for n in names]
@@ -137,7 +138,7 @@ def render_diagnosis(record, d: Diagnosis) -> None:
 
 def render_circuit(cd: CircuitDiagnosis, su: str) -> None:
     """Print the circuit side of a diagnosis as tables."""
-    from ..diagnose_circuit_report import _element, elements, quantity
+    from creepcomp.report.circuit_diagnosis import _element, elements, quantity
 
     b, e = cd.baseline, cd.extended
     console.print(f"\n[bold]circuit side[/bold]: the nominal network driven by the measured signal against "

@@ -8,12 +8,12 @@ from typing import Optional
 import typer
 from rich.table import Table
 
-from ..errors import InputError
-from ..files import write_json
-from ..fit import BIC_STRONG, HELDOUT_Z, PronyResult, fit_prony, prepare, term_table
-from ..records import Record, parse_columns, read_record
-from ..units import format_quantity
-from .common import app, console, pct, print_json, quantity
+from creepcomp.errors import InputError
+from creepcomp.io.jsonfiles import write_json
+from creepcomp.fit.core import BIC_STRONG, HELDOUT_Z, PronyResult, fit_prony, prepare, term_table
+from creepcomp.io.records import Record, parse_columns, read_record
+from creepcomp.units import format_quantity
+from creepcomp.cli.common import app, console, pct, print_json, quantity
 
 COLUMNS_HELP = ("Map the file's columns to time, load, signal (temperature, corrected), e.g. "
                 "'time=Step time,signal=Strain,load=Stress'; a number is a constant column (load=1).")
@@ -96,7 +96,7 @@ def fit_command(
     if output is not None:
         write_json(output, model)
     if plot is not None:
-        from ..diagnose_report import plot_fit
+        from creepcomp.report.diagnosis import plot_fit
 
         plot_fit(data, result.fit, plot, record)
     if as_json:

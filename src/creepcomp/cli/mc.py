@@ -9,11 +9,12 @@ import typer
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from .. import montecarlo as mc
-from ..errors import InputError
-from ..files import read_design
-from ..report import tolerance_report_html
-from .common import app, console, err_console, pct, print_json, quantity, value_range
+from creepcomp.verify import montecarlo as mc
+from creepcomp.errors import InputError
+from creepcomp.io.jsonfiles import read_design
+from creepcomp.report.common import tolerance_report_html
+from creepcomp.cli.common import (app, console, err_console, pct, print_json, quantity,
+    value_range)
 
 
 def _tolerance(text: str, option: str, distribution: str) -> mc.Tolerance:

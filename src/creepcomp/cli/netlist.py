@@ -8,13 +8,13 @@ from typing import Optional
 
 import typer
 
-from .. import spice
-from ..errors import InputError
-from ..files import Design, read_design
-from ..programs import LoadProgram
-from ..records import Record, parse_columns, read_record
-from ..units import format_quantity
-from .common import app, console, print_json, quantity
+from creepcomp.verify import spice
+from creepcomp.errors import InputError
+from creepcomp.io.jsonfiles import Design, read_design
+from creepcomp.programs import LoadProgram
+from creepcomp.io.records import Record, parse_columns, read_record
+from creepcomp.units import format_quantity
+from creepcomp.cli.common import app, console, print_json, quantity
 
 PROGRAM_HELP = ("step: one load step; staircase: loading and unloading steps (the paper's "
                 "fig. 2); sweep: triangular sweep between -FS and +FS (its fig. 6).")

@@ -10,10 +10,10 @@ import numpy as np
 import typer
 from rich.table import Table
 
-from .. import spice
-from ..units import format_quantity
-from .common import app, console, err_console, pct, print_json
-from .netlist import PROGRAM_HELP, read_drive
+from creepcomp.verify import spice
+from creepcomp.units import format_quantity
+from creepcomp.cli.common import app, console, err_console, pct, print_json
+from creepcomp.cli.netlist import PROGRAM_HELP, read_drive
 
 
 def _sci(x: float | None) -> str:
@@ -117,7 +117,7 @@ def simulate_command(
         plot_path = plot or Path(f"{design.stem}-{drive.name}.png")
         spice.plot_comparison(comparison, plot_path)
     if netlist is not None:
-        from .netlist import drive_deck
+        from creepcomp.cli.netlist import drive_deck
 
         deck, data = drive_deck(drive, f"{netlist.stem}-signal.txt")
         spice.write_deck(netlist, deck, data)

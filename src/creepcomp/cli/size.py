@@ -9,13 +9,13 @@ from typing import Optional
 import typer
 from rich.table import Table
 
-from ..errors import InputError
-from ..files import read_model, write_design
-from ..model import CreepModel
-from ..report import plot_design_comparison
-from ..sizing import DEFAULT_CAP_RANGE, DEFAULT_RES_RANGE, SizingReport, size
-from ..units import format_quantity
-from .common import app, console, pct, print_json, quantity, value_range
+from creepcomp.errors import InputError
+from creepcomp.io.jsonfiles import read_model, write_design
+from creepcomp.model import CreepModel
+from creepcomp.report.common import plot_design_comparison
+from creepcomp.analog.sizing import DEFAULT_CAP_RANGE, DEFAULT_RES_RANGE, SizingReport, size
+from creepcomp.units import format_quantity
+from creepcomp.cli.common import app, console, pct, print_json, quantity, value_range
 
 
 def model_from_options(beta0: str | None, tau: str | None, model_file: Path | None) -> CreepModel:

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from importlib import resources
 
-from ..files import read_model
-from ..model import CreepModel
+from creepcomp.io.jsonfiles import read_model
+from creepcomp.model import CreepModel
 
 
 def path(name: str):

@@ -1,0 +1,303 @@
+"""Candidate effects: what a real sensor does beyond the paper's linear creep (``diagnosis.md``).
+
+Every effect is one module of this package holding one object, ``EFFECT``, that follows the
+interface of :class:`Effect`: its identifier and side, its parameters, how it is fitted on
+top of a base fit, how it is simulated, how it changes the model written out, and how the
+creep correction inverts it. Modules are found by scanning the package, so a new effect is
+one new module.
+
+Sensor-side effects act at stages of one signal path, which :func:`creepcomp.fit.core.basis`
+evaluates (every stage defaults to "no change")::
+
+    load --load_transform--> x --instant--> s --creep_input--> h --lags (tau_factor)--> c_k
+    signal = offset + gain * s + sum_k gain * beta_k * c_k + free decays + columns(...)
+
+Circuit-side effects (a later issue) implement :meth:`Effect.fit_on` and
+:meth:`Effect.simulate` against a record's ``corrected`` column and a design instead.
+"""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+from dataclasses import replace
+
+import numpy as np
+
+from creepcomp.errors import InputError
+from creepcomp.fit.core import Applied, Data, Fit, Param, Structure, basis, fit_structure
+from creepcomp.model import CreepModel
+
+
+class Effect:
+    """Interface of a candidate effect (subclass it; override what the effect changes).
+
+    Attributes
+    ----------
+    name : str
+        Identifier from ``diagnosis.md`` (a contract).
+    side : str
+        ``sensor`` (``signal`` against ``load``) or ``circuit`` (``corrected`` against the
+        network driven by ``signal``).
+    parameters : tuple of str
+        Names of the parameters reported in findings.
+    needs : tuple of str
+        Record columns the effect needs (e.g. ``temperature``).
+    repeatable : bool
+        May be found more than once (further creep terms).
+    changes_lags : bool
+        Provides :meth:`tau_factor`.
+    state_dependent : bool
+        Its ``tau_factor`` depends on the lag states (solved by iteration).
+    summary : str
+        One line for reports.
+    """
+
+    name = ""
+    side = "sensor"
+    parameters: tuple[str, ...] = ()
+    needs: tuple[str, ...] = ()
+    repeatable = False
+    changes_lags = False
+    state_dependent = False
+    summary = ""
+
+    # -- applicability and fitting -------------------------------------------------------
+    def applicable(self, data: Data, structure: Structure) -> str | None:
+        """Why the effect cannot be tried on this record and model, or None."""
+        for col in self.needs:
+            if getattr(data, col, None) is None:
+                return f"the record has no '{col}' column"
+        if structure.has(self.name) and not self.repeatable:
+            return "already in the model"
+        return None
+
+    def settings(self, data: Data, base: Fit) -> tuple:
+        """Fixed settings when applied on top of ``base`` (key, value pairs)."""
+        return ()
+
+    def extend(self, structure: Structure, applied: Applied) -> Structure:
+        """The structure with this effect applied."""
+        return structure.with_effect(applied)
+
+    def nonlinear_params(self, data: Data, applied: Applied) -> list[Param]:
+        """The effect's own nonlinear parameters (names without the effect prefix)."""
+        return []
+
+    def starts(self, data: Data, base: Fit, applied: Applied) -> list[dict]:
+        """Start values of the effect's own nonlinear parameters (names without prefix)."""
+        return [{}]
+
+    def fit_on(self, data: Data, base: Fit, refine: str = "all", start: dict | None = None) -> Fit:
+        """Fit the base model extended by this effect (its likelihood with its own AR noise).
+
+        ``refine``: ``all`` (every nonlinear parameter refined together), ``own`` (the
+        base's held, the effect's own refined: a quick screening) or ``none`` (the best
+        start kept, only the linear part solved). ``start``: start values of every
+        nonlinear parameter (default: the base's values and the effect's own start grid).
+        """
+        applied = Applied(self, self.settings(data, base))
+        structure = self.extend(base.structure, applied)
+        known = {p.name: base.values[p.name] for p in base.params}
+        starts = [start] if start is not None else []
+        for own in ([] if start is not None else self.starts(data, base, applied)):
+            s = dict(known)
+            s.update({self._key(applied, k): v for k, v in own.items()})
+            starts.append(s)
+        return fit_structure(data, structure, starts,
+                             n_refine=2 if refine == "own" else 1, refine=refine != "none",
+                             frozen=known if refine == "own" else None, with_cov=refine == "all")
+
+    @staticmethod
+    def _key(applied: Applied, name: str) -> str:
+        return name if name.startswith("tau[") else f"{applied.name}.{name}"
+
+    # -- stages of the signal path (defaults: no change) --------------------------------------
+    def load_transform(self, data: Data, x: np.ndarray, p: dict, applied: Applied) -> np.ndarray:
+        """The load as the sensor sees it."""
+        return x
+
+    def instant(self, data: Data, s: np.ndarray, p: dict, applied: Applied) -> np.ndarray:
+        """The instantaneous signal (load units) from the load seen."""
+        return s
+
+    def creep_input(self, data: Data, h: np.ndarray, p: dict, applied: Applied) -> np.ndarray:
+        """What drives the creep terms."""
+        return h
+
+    def tau_factor(self, data: Data, h, lags, taus, p: dict, applied: Applied):
+        """Factor on each term's time constant over each sample step, shape (N-1, K).
+
+        A ``state_dependent`` effect is called on segments of the record (``h`` and ``lags``
+        of a segment, ``data`` the whole record) and must use only what it is given."""
+        return 1.0
+
+    def columns(self, data: Data, s, h, lags, p: dict, applied: Applied) -> dict:
+        """Extra columns of the linear part, by name (their coefficients are fitted)."""
+        return {}
+
+    # -- results -------------------------------------------------------------------------------
+    def unphysical(self, fit: Fit, applied: Applied) -> str | None:
+        """Why the fitted parameters cannot be this effect (then it is not named), or None."""
+        return None
+
+    def report(self, fit: Fit, applied: Applied) -> dict:
+        """Reported parameters: name -> (value, standard deviation)."""
+        return {}
+
+    def extension(self, fit: Fit, applied: Applied) -> dict | None:
+        """The entry of the model file's ``extensions`` (None: the change is in the terms)."""
+        return None
+
+    def restore(self, entry: dict, model: CreepModel, data: Data) -> tuple[Applied, dict]:
+        """Inverse of :meth:`extension`: the applied effect and its values (prefixed names)."""
+        raise InputError(f"extension '{self.name}' cannot be read back")
+
+    def precondition(self, data: Data, delta: np.ndarray, load: np.ndarray, values: dict,
+                     applied: Applied) -> np.ndarray:
+        """Map a correction increment (load units, after the linear inverse) back through this
+        effect's stage, approximately; used by :func:`compensate`. ``values`` holds all the
+        model's values (this effect's prefixed)."""
+        return delta
+
+    def linear_terms(self, values: dict, applied: Applied, data: Data) -> list[tuple[float, float]]:
+        """Prony terms (beta, tau) that approximate the effect for the linear inverse."""
+        return []
+
+
+def _discover() -> dict[str, Effect]:
+    found = {}
+    for info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
+        module = importlib.import_module(f"{__name__}.{info.name}")
+        effect = getattr(module, "EFFECT", None)
+        if isinstance(effect, Effect):
+            found[effect.name] = effect
+    return found
+
+
+#: Every effect found in this package, by identifier.
+REGISTRY: dict[str, Effect] = _discover()
+
+#: Order in which sensor-side effects are listed (contract vocabulary first).
+SENSOR_ORDER = ("extra_retardation", "viscous_flow", "nonlinear_creep", "asymmetric_recovery",
+                "thermal_drift", "thermal_retardation", "static_nonlinearity", "time_offset")
+
+
+def sensor_effects() -> list[Effect]:
+    """The sensor-side effects, in vocabulary order (then any others by name)."""
+    known = [REGISTRY[n] for n in SENSOR_ORDER if n in REGISTRY]
+    rest = [e for n, e in sorted(REGISTRY.items()) if e.side == "sensor" and n not in SENSOR_ORDER]
+    return known + rest
+
+
+def get(name: str) -> Effect:
+    """The effect with this identifier."""
+    try:
+        return REGISTRY[name]
+    except KeyError:
+        raise InputError(f"unknown effect '{name}' (known: {', '.join(sorted(REGISTRY))})") from None
+
+
+# ------------------------------------------------------------------------------------------
+# Extended models: simulation and correction
+# ------------------------------------------------------------------------------------------
+
+def arrays_data(time, load, signal=None, temperature=None, initial: str = "relaxed",
+                hold: str = "linear", source: str = "arrays") -> Data:
+    """A :class:`Data` from arrays, for simulation (no fitting checks)."""
+    t = np.asarray(time, float)
+    return Data(time=t, load=np.asarray(load, float),
+                signal=np.zeros_like(t) if signal is None else np.asarray(signal, float),
+                temperature=None if temperature is None else np.asarray(temperature, float),
+                source=source, initial=initial, load_step_at=None, hold=hold,
+                segment=np.zeros(len(t), int), fixed_offset=False)
+
+
+def model_structure(model: CreepModel, data: Data) -> tuple[Structure, dict]:
+    """Structure and values of an (extended) model file, ready for :func:`basis`."""
+    values = {"gain": model.gain, "offset": model.offset}
+    for k, (b, t) in enumerate(zip(model.beta, model.tau)):
+        values[f"tau[{k}]"] = t
+        values[f"a[{k}]"] = model.gain * b
+    structure = Structure(model.n_terms)
+    for name, entry in (model.extensions or {}).items():
+        effect = get(name)
+        if not isinstance(entry, dict):
+            raise InputError(f"model extension '{name}': expected an object of parameters")
+        applied, own = effect.restore(entry, model, data)
+        structure = structure.with_effect(applied)
+        values.update(own)
+    return structure, values
+
+
+def simulate(model: CreepModel, time, load, temperature=None, initial: str = "relaxed",
+             hold: str = "linear") -> np.ndarray:
+    """Signal of an extended model (model file with ``extensions``) for a load history.
+
+    Parameters
+    ----------
+    model : CreepModel
+    time, load : array_like
+    temperature : array_like, optional
+        Needed by thermal extensions.
+    initial : {"relaxed", "settled"}
+    hold : {"linear", "zero"}
+    """
+    data = arrays_data(time, load, temperature=temperature, initial=initial, hold=hold)
+    structure, values = model_structure(model, data)
+    for a in structure.effects:
+        for col in a.effect.needs:
+            if getattr(data, col) is None:
+                raise InputError(f"the model's '{a.name}' extension needs a {col} history")
+    b = basis(data, structure, values)
+    missing = [n for n in b.names if n not in values]
+    if missing:
+        raise InputError(f"the model lacks values for {', '.join(missing)}")
+    return b.columns @ np.array([values[n] for n in b.names])
+
+
+def _linear_inverse(time, residual, gain: float, betas, taus, initial: str, hold: str) -> np.ndarray:
+    """Load-unit increment that the linear creep model maps to ``residual``: the digital
+    subtractive correction (:func:`creepcomp.digital.correctors.compensate`)."""
+    from creepcomp.digital.correctors import compensate as digital_compensate
+
+    lin = CreepModel(tuple(betas), tuple(taus), gain, 0.0)
+    return np.asarray(digital_compensate(time, residual, lin, method="subtractive",
+                                         initial=initial, hold=hold), float) / gain
+
+
+def compensate(time, signal, model: CreepModel, temperature=None, initial: str = "relaxed",
+               hold: str = "linear", tolerance: float = 1e-10, max_iterations: int = 60) -> np.ndarray:
+    """Creep-corrected signal of an extended model: the instantaneous signal
+    ``offset + gain * load`` whose simulation through the model equals the measured signal.
+
+    Solved by defect correction: the model's linear creep (plus the Prony equivalents of
+    linear extensions) is inverted by the digital subtractive correction, each extension maps
+    the increment back through its own stage (:meth:`Effect.precondition`), and the step is
+    repeated on what remains. A model without extensions is inverted in one step.
+
+    Returns
+    -------
+    numpy.ndarray
+        Compensated signal in signal units.
+    """
+    t = np.asarray(time, float)
+    y = np.asarray(signal, float)
+    data = arrays_data(t, np.zeros_like(t), temperature=temperature, initial=initial, hold=hold)
+    structure, values = model_structure(model, data)
+    betas, taus = list(model.beta), list(model.tau)
+    for a in structure.effects:
+        for b, tau in a.effect.linear_terms(values, a, data):
+            betas.append(b)
+            taus.append(tau)
+    load = np.zeros_like(t)
+    scale = max(float(np.max(np.abs(y - model.offset))) / abs(model.gain), 1e-300)
+    for _ in range(max_iterations):
+        sim = simulate(model, t, load, temperature, initial, hold)
+        delta = _linear_inverse(t, y - sim, model.gain, betas, taus, initial, hold)
+        for a in reversed(structure.effects):
+            delta = a.effect.precondition(data, delta, load, values, a)
+        load = load + delta
+        if float(np.max(np.abs(delta))) <= tolerance * scale:
+            break
+    return model.offset + model.gain * load

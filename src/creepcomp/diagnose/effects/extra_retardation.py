@@ -1,0 +1,75 @@
+"""``extra_retardation``: a further exponential creep term (paper eq. 8), faster or slower."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+
+from creepcomp.fit.core import Applied, Data, Fit, Structure, extra_term_starts, fit_structure
+from creepcomp.diagnose.effects import Effect
+
+
+class ExtraRetardation(Effect):
+    name = "extra_retardation"
+    parameters = ("tau", "beta")
+    repeatable = True
+    summary = "a further exponential creep term (Prony term), faster or slower than the others"
+
+    def settings(self, data: Data, base: Fit) -> tuple:
+        return (("term", base.structure.n_terms), ("base_taus", tuple(float(t) for t in base.taus)),
+                ("base_betas", tuple(float(b) for b in base.betas)), ("longest", data.tau_limits()[1]))
+
+    def extend(self, structure: Structure, applied: Applied) -> Structure:
+        grown = Structure(structure.n_terms + 1, structure.effects)
+        return grown.with_effect(applied)
+
+    def fit_on(self, data: Data, base: Fit, refine: str = "all", start: dict | None = None) -> Fit:
+        applied = Applied(self, self.settings(data, base))
+        structure = self.extend(base.structure, applied)
+        known = {p.name: base.values[p.name] for p in base.params}
+        starts = [start] if start is not None else extra_term_starts(data, base, structure)
+        return fit_structure(data, structure, starts,
+                             n_refine=2 if refine == "all" else 1,
+                             refine=refine != "none", frozen=known if refine == "own" else None,
+                             with_cov=refine == "all")
+
+    def added_term(self, fit: Fit, applied: Applied) -> int:
+        """The term the base did not have: the one left over when the others are matched to
+        the base's terms (closest in log tau plus log beta: a base term fitted where two
+        terms are has a time between theirs, and most of the larger one's amplitude)."""
+        n = applied.setting("term") + 1
+        base = np.column_stack([np.log(applied.setting("base_taus")),
+                                np.log(np.abs(applied.setting("base_betas")) + 1e-300)])
+        new = np.column_stack([np.log(fit.taus[:n]), np.log(np.abs(fit.betas[:n]) + 1e-300)])
+        best, best_cost = n - 1, math.inf
+        for left_out in range(n):
+            rest = [k for k in range(n) if k != left_out]
+            cost = min(sum(np.abs(new[r] - base[b]).sum() for r, b in zip(rest, perm))
+                       for perm in itertools.permutations(range(len(base))))
+            if cost < best_cost:
+                best, best_cost = left_out, cost
+        return best
+
+    def unphysical(self, fit: Fit, applied: Applied) -> str | None:
+        k = self.added_term(fit, applied)
+        tau, beta = fit.values[f"tau[{k}]"], fit.values[f"a[{k}]"] / fit.gain
+        if beta <= 0:
+            return f"beta = {beta:.3g}: a Voigt element only adds creep (beta > 0)"
+        longest = applied.setting("longest")
+        if tau > longest:
+            # its free initial state then decays as a ramp in time: drift, not creep
+            return f"tau = {tau:.3g} s: longer than the record can resolve ({longest:.3g} s)"
+        return None
+
+    def report(self, fit: Fit, applied: Applied) -> dict:
+        k = self.added_term(fit, applied)
+        return {"tau": fit.estimate(lambda v: v[f"tau[{k}]"]),
+                "beta": fit.estimate(lambda v: v[f"a[{k}]"] / v["gain"])}
+
+    def restore(self, entry, model, data):
+        return Applied(self, ()), {}
+
+
+EFFECT = ExtraRetardation()

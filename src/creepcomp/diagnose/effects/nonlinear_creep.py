@@ -1,0 +1,46 @@
+"""``nonlinear_creep``: the creep amplitude grows with the load level.
+
+Model: the creep terms are driven by ``s (1 + growth |s| / load_scale)`` instead of ``s``,
+i.e. each ``beta_k`` becomes ``beta_k (1 + growth |s| / load_scale)``: ``growth`` is the
+relative increase of creep at full-scale load (``load_scale``, the record's largest |load|).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from creepcomp.fit.core import Applied, Data, Fit, Param
+from creepcomp.diagnose.effects import Effect
+
+
+class NonlinearCreep(Effect):
+    name = "nonlinear_creep"
+    parameters = ("growth",)
+    summary = "creep amplitude that grows with the load level"
+
+    def settings(self, data: Data, base: Fit) -> tuple:
+        return (("load_scale", data.load_scale),)
+
+    def nonlinear_params(self, data, applied):
+        return [Param("growth", -0.95, 50.0, scale=0.1)]
+
+    def starts(self, data, base, applied):
+        return [{"growth": g} for g in (-0.5, 0.0, 0.5, 2.0)]
+
+    def creep_input(self, data, h, p, applied):
+        return h * (1.0 + p["growth"] * np.abs(h) / applied.setting("load_scale"))
+
+    def report(self, fit: Fit, applied: Applied) -> dict:
+        return {"growth": fit.estimate(lambda v: v["nonlinear_creep.growth"]),
+                "load_scale": (applied.setting("load_scale"), 0.0)}
+
+    def extension(self, fit: Fit, applied: Applied) -> dict:
+        return {"growth": fit.values["nonlinear_creep.growth"],
+                "load_scale": applied.setting("load_scale")}
+
+    def restore(self, entry, model, data):
+        return (Applied(self, (("load_scale", float(entry["load_scale"])),)),
+                {"nonlinear_creep.growth": float(entry["growth"])})
+
+
+EFFECT = NonlinearCreep()

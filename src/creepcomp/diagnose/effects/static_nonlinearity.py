@@ -1,0 +1,59 @@
+"""``static_nonlinearity``: the instantaneous response is not linear in load.
+
+Model: the instantaneous signal (load units) is ``x + a2 x^2 / L + a3 x^3 / L^2`` with ``L``
+the full-scale load (``load_scale``, the record's largest |load|); creep acts on it as on a
+linear one. ``a2`` and ``a3`` are the deviations at full scale relative to full scale.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from creepcomp.fit.core import Applied, Data, Fit, Param
+from creepcomp.diagnose.effects import Effect
+
+
+def deviation(x, a2: float, a3: float, scale: float):
+    """The nonlinear part ``a2 x^2 / L + a3 x^3 / L^2``."""
+    r = np.asarray(x, float) / scale
+    return scale * (a2 * r ** 2 + a3 * r ** 3)
+
+
+class StaticNonlinearity(Effect):
+    name = "static_nonlinearity"
+    parameters = ("a2", "a3")
+    summary = "an instantaneous response that is not linear in load"
+
+    def settings(self, data: Data, base: Fit) -> tuple:
+        return (("load_scale", data.load_scale),)
+
+    def nonlinear_params(self, data, applied):
+        return [Param("a2", -0.5, 0.5, scale=0.01), Param("a3", -0.5, 0.5, scale=0.01)]
+
+    def starts(self, data, base, applied):
+        return [{"a2": 0.0, "a3": 0.0}]
+
+    def instant(self, data, s, p, applied):
+        return s + deviation(s, p["a2"], p["a3"], applied.setting("load_scale"))
+
+    def report(self, fit: Fit, applied: Applied) -> dict:
+        return {"a2": fit.estimate(lambda v: v["static_nonlinearity.a2"]),
+                "a3": fit.estimate(lambda v: v["static_nonlinearity.a3"]),
+                "load_scale": (applied.setting("load_scale"), 0.0)}
+
+    def extension(self, fit: Fit, applied: Applied) -> dict:
+        return {"a2": fit.values["static_nonlinearity.a2"], "a3": fit.values["static_nonlinearity.a3"],
+                "load_scale": applied.setting("load_scale")}
+
+    def restore(self, entry, model, data):
+        return (Applied(self, (("load_scale", float(entry["load_scale"])),)),
+                {"static_nonlinearity.a2": float(entry["a2"]), "static_nonlinearity.a3": float(entry["a3"])})
+
+    def precondition(self, data, delta, load, values, applied):
+        a2, a3 = values["static_nonlinearity.a2"], values["static_nonlinearity.a3"]
+        r = load / applied.setting("load_scale")
+        slope = 1.0 + 2 * a2 * r + 3 * a3 * r ** 2
+        return delta / np.where(np.abs(slope) > 0.1, slope, 0.1)
+
+
+EFFECT = StaticNonlinearity()

@@ -1,0 +1,55 @@
+"""``thermal_retardation``: retardation times that change with temperature.
+
+Model: every term's time constant is ``tau_k exp(-kappa (T - T_ref))`` over each sample step
+(T at the step's middle; ``tau_k`` is the value at the reference temperature, the record's
+mean): ``kappa`` > 0 means faster creep when warmer (an Arrhenius law linearised around
+``T_ref``: ``kappa = E_a / (R T_ref^2)``). ``kappa`` is kept >= 0: retardation in polymers
+always speeds up with temperature (Arrhenius and WLF shift factors), and a negative value
+would only be another effect (e.g. recovery slower than creep) seen through a temperature
+history that happens to differ between loading and unloading.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from creepcomp.fit.core import Applied, Data, Fit, Param
+from creepcomp.diagnose.effects import Effect
+
+
+class ThermalRetardation(Effect):
+    name = "thermal_retardation"
+    parameters = ("kappa",)
+    needs = ("temperature",)
+    changes_lags = True
+    summary = "retardation times that change with temperature"
+
+    def settings(self, data: Data, base: Fit) -> tuple:
+        return (("reference_temperature", float(np.mean(data.temperature))),)
+
+    def nonlinear_params(self, data, applied):
+        # retardation times of polymers shorten with temperature (Arrhenius, WLF): kappa >= 0
+        return [Param("kappa", 0.0, 0.5, scale=0.01)]
+
+    def starts(self, data, base, applied):
+        return [{"kappa": k} for k in (0.005, 0.02, 0.06, 0.15)]
+
+    def tau_factor(self, data, h, lags, taus, p, applied):
+        temp = 0.5 * (data.temperature[:-1] + data.temperature[1:])
+        f = np.exp(-p["kappa"] * (temp - applied.setting("reference_temperature")))
+        return np.repeat(f[:, None], len(taus), axis=1)
+
+    def report(self, fit: Fit, applied: Applied) -> dict:
+        return {"kappa": fit.estimate(lambda v: v["thermal_retardation.kappa"]),
+                "reference_temperature": (applied.setting("reference_temperature"), 0.0)}
+
+    def extension(self, fit: Fit, applied: Applied) -> dict:
+        return {"kappa": fit.values["thermal_retardation.kappa"],
+                "reference_temperature": applied.setting("reference_temperature")}
+
+    def restore(self, entry, model, data):
+        return (Applied(self, (("reference_temperature", float(entry["reference_temperature"])),)),
+                {"thermal_retardation.kappa": float(entry["kappa"])})
+
+
+EFFECT = ThermalRetardation()

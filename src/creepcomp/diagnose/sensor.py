@@ -1,0 +1,473 @@
+"""Diagnosis (``diagnosis.md``): what the simulation gets wrong, the cause, the extended model,
+the gain.
+
+1. The baseline (the paper's model: one creep term, gain, offset; free initial creep state
+   unless told otherwise) is fitted; its residual is shown against time and load, with its
+   autocorrelation and noise model.
+2. Every candidate effect of :mod:`creepcomp.diagnose.effects` is fitted on top of the current model
+   (a quick fit of its own parameters, then all parameters together for the most promising).
+   A candidate is *supported* when the evidence is strong on both counts:
+
+   - BIC lower by at least :data:`~creepcomp.fit.core.BIC_STRONG` (a penalty of log n per
+     parameter), and
+   - data held out of the fit (interleaved blocks, refitted without them, simulated from the
+     load) predicted better, by at least :data:`~creepcomp.fit.core.HELDOUT_Z` standard
+     deviations of a spread computed from the noise spectrum; when the residual holds slow
+     noise (drift), each half of the record must also be predicted from the other.
+
+   Of the supported candidates the best by BIC is accepted, unless one with fewer parameters
+   that explains at least half as much (in BIC) is also supported and the richer one does not
+   predict held-out data better than it (parsimony), or unless the catch-all below predicts held-out data clearly better than it
+   (then the structure is not what the candidate says). Effects are added one at a time
+   while a candidate is supported.
+3. A catch-all extension (generic load-, rate-, direction- and temperature-driven terms) is
+   tried on top: if the evidence supports it, structure remains that no named effect
+   explains, and the answer includes ``unexplained``; it is ordered with the named findings
+   by how much each improves the held-out prediction. With no finding the answer is
+   ``none``: the baseline explains the data to its noise (coloured noise is reported as the
+   noise model, not as a cause).
+4. The gain: held-out residual RMS, and the error of the creep-corrected signal (digital
+   correction, :func:`creepcomp.diagnose.effects.compensate`) against the load, baseline model /
+   extended model.
+"""
+
+from __future__ import annotations
+
+import time as _time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from creepcomp.diagnose import effects as effects_pkg
+from creepcomp.diagnose.effects import Effect, compensate
+from creepcomp.errors import InputError
+from creepcomp.fit.core import (BIC_STRONG, HELDOUT_Z, SLOW_NOISE_RATIO, Applied, Data, Evidence,
+    Fit, Structure, autocorrelation, compare, fit_structure, halves, heldout, ljung_box, Problem,
+    model_file_dict, one_term_starts, prepare, rows_for, slow_noise_ratio, tau_grid, whiten)
+from creepcomp.lti import lag_states
+from creepcomp.io.records import Record
+
+#: Most effects added one after the other.
+MAX_EFFECTS = 4
+
+
+@dataclass(frozen=True)
+class Finding:
+    """An effect the evidence supports.
+
+    Attributes
+    ----------
+    effect : str
+        Identifier (``diagnosis.md``), or ``unexplained``.
+    parameters : dict
+        Fitted parameters.
+    uncertainty : dict
+        Their standard deviations.
+    evidence : Evidence
+        Against the model without it.
+    importance : float
+        Drop of the held-out sum of squares it brought (signal units squared).
+    """
+
+    effect: str
+    parameters: dict
+    uncertainty: dict
+    evidence: Evidence
+    importance: float
+    fit: Fit = field(compare=False, repr=False, default=None)
+
+    def to_dict(self) -> dict:
+        """JSON form (contract keys first)."""
+        return {"effect": self.effect, "parameters": self.parameters,
+                "uncertainty": self.uncertainty, "evidence": self.evidence.to_dict()}
+
+
+@dataclass(frozen=True)
+class Trial:
+    """One candidate tried at one step of the search."""
+
+    step: int
+    effect: str
+    delta_bic: float | None
+    evidence: Evidence | None
+    outcome: str
+
+    def to_dict(self) -> dict:
+        """JSON form."""
+        out = {"step": self.step, "effect": self.effect, "outcome": self.outcome,
+               "delta_bic": self.delta_bic}
+        if self.evidence is not None:
+            out.update(self.evidence.to_dict())
+        return out
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """Result of :func:`diagnose`."""
+
+    data: Data
+    baseline: Fit
+    extended: Fit
+    findings: tuple[Finding, ...]
+    trials: tuple[Trial, ...]
+    catch_all: Evidence | None
+    gain: dict
+    seconds: float
+    extended_model: dict
+    baseline_model: dict
+    correction: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def cause(self) -> str:
+        """The most important finding's effect, or ``none``."""
+        return self.findings[0].effect if self.findings else "none"
+
+    def residual_summary(self, fit: Fit) -> dict:
+        """Residual RMS (all samples and held out), noise model and whiteness of a fit."""
+        rows = rows_for(self.data, None, fit.noise.order)
+        white = whiten(fit.residual, rows, fit.noise)
+        q, p = ljung_box(white)
+        acf = autocorrelation(fit.residual, 1)[1] if self.data.n > 2 else float("nan")
+        return {"residual_rms": fit.residual_rms,
+                "heldout_residual_rms": fit.heldout.rms if fit.heldout else None,
+                "residual_rms_relative": fit.residual_rms / self.data.signal_scale,
+                "bic": fit.bic, "structure": fit.structure.describe(),
+                "noise": fit.noise.to_dict(self.data.dt_median),
+                "residual_lag1_autocorrelation": float(acf),
+                "whitened_ljung_box_p": p}
+
+    def to_dict(self) -> dict:
+        """The JSON object of ``creepcomp diagnose --json`` (``diagnosis.md``)."""
+        return {
+            "cause": self.cause,
+            "findings": [f.to_dict() for f in self.findings],
+            "baseline": self.residual_summary(self.baseline),
+            "extended": self.residual_summary(self.extended),
+            "gain": self.gain,
+            "record": {"source": self.data.source, "n_samples": self.data.n,
+                       "duration_s": self.data.duration, "sample_step_s": self.data.dt_median,
+                       "uniform": bool(np.ptp(np.diff(self.data.time)) <= 1e-9 * self.data.dt_median),
+                       "initial_state": self.data.initial,
+                       "temperature": self.data.temperature is not None},
+            "tried": [t.to_dict() for t in self.trials],
+            "catch_all": self.catch_all.to_dict() if self.catch_all else None,
+            "decision_rule": {"delta_bic_at_most": -BIC_STRONG, "heldout_z_at_least": HELDOUT_Z},
+            "extended_model": self.extended_model,
+            "seconds": self.seconds,
+        }
+
+
+# --------------------------------------------------------------------------------------------
+# The catch-all: generic structure no named effect stands for
+# --------------------------------------------------------------------------------------------
+
+class CatchAll(Effect):
+    """Generic extension used only to tell ``unexplained`` structure from noise: lags of the
+    load at further time constants, of its square and of its rising part, its integral and
+    rate, and temperature terms (level, square, lagged, and times the load and creep)."""
+
+    name = "unexplained"
+
+    def settings(self, data: Data, base: Fit) -> tuple:
+        return (("taus", tuple(float(t) for t in base.taus)),)
+
+    def columns(self, data, s, h, lags, p, applied):
+        t = data.time
+        taus = np.array(applied.setting("taus"))
+        scale = data.load_scale
+        lo, hi = 2.0 * data.dt_median, data.span
+        grid = np.geomspace(lo, hi, max(2, int(2 * np.log10(hi / lo)) + 1))
+        grid = [g for g in grid if np.min(np.abs(np.log(taus / g))) > np.log(1.5)]
+        out = {}
+        if grid:
+            extra = lag_states(t, s, grid, hold=data.hold)
+            for j, g in enumerate(grid):
+                out[f"lag_{g:.3g}s"] = extra[:, j]
+        square = s * np.abs(s) / scale
+        even = s ** 2 / scale
+        ds = np.diff(s, prepend=s[0])
+        rising = np.cumsum(np.clip(ds, 0, None))
+        out["square"] = square
+        out["even"] = even
+        out["cube"] = s ** 3 / scale ** 2
+        for name, x in (("square", square), ("even", even), ("rising", rising)):
+            lx = lag_states(t, x, taus, hold=data.hold)
+            for k in range(len(taus)):
+                out[f"lag_{name}_{k}"] = lx[:, k]
+        out["integral"] = np.concatenate([[0.0], np.cumsum(0.5 * (s[:-1] + s[1:]) * np.diff(t))])
+        out["rate"] = np.gradient(s, t) * data.dt_median
+        if data.temperature is not None:
+            dT = data.temperature - np.mean(data.temperature)
+            out["temperature"] = dT
+            out["temperature_squared"] = dT ** 2
+            for g in (data.span / 20, data.span / 5):
+                out[f"temperature_lag_{g:.3g}s"] = lag_states(t, dT, [g], hold=data.hold)[:, 0]
+            out["temperature_load"] = dT * s
+            for k in range(lags.shape[1]):
+                out[f"temperature_creep_{k}"] = dT * lags[:, k]
+        return out
+
+
+CATCH_ALL = CatchAll()
+
+
+# --------------------------------------------------------------------------------------------
+# The engine
+# --------------------------------------------------------------------------------------------
+
+def _heldout_sse(fit: Fit) -> float:
+    return float(np.sum(fit.heldout.residual ** 2))
+
+
+def _finding(effect: Effect, applied: Applied, fit: Fit, evidence: Evidence, before: Fit) -> Finding:
+    reported = effect.report(fit, applied)
+    params = {k: float(v[0]) for k, v in reported.items()}
+    sigma = {k: float(v[1]) for k, v in reported.items()}
+    return Finding(effect.name, params, sigma, evidence, _heldout_sse(before) - _heldout_sse(fit), fit)
+
+
+def _applied_of(fit: Fit, effect: Effect) -> Applied:
+    return [a for a in fit.structure.effects if a.effect is effect][-1]
+
+
+def _catch_all(data: Data, current: Fit) -> Fit | None:
+    """The generic extension on top of ``current`` (its nonlinear parameters kept)."""
+    try:
+        return CATCH_ALL.fit_on(data, current, refine="none")
+    except (InputError, np.linalg.LinAlgError, ValueError):
+        return None
+
+
+def _polish(data: Data, current: Fit, candidate: Fit) -> Fit:
+    """``current`` refitted from the candidate's values of the parameters they share, kept
+    when that fits better: an improvement must come from the candidate's own parameters,
+    not from a better optimum of the shared ones."""
+    shared = {p.name: candidate.values[p.name] for p in current.params if p.name in candidate.values}
+    try:
+        alt = fit_structure(data, current.structure, [shared], n_refine=1)
+    except (InputError, np.linalg.LinAlgError, ValueError):
+        return current
+    return heldout(data, alt) if alt.bic < current.bic - 1e-6 else current
+
+
+#: Candidates refined fully at each step (the best by the quick fit, plus any that already
+#: lower BIC).
+REFINED = 3
+
+
+def _restart_taus(data: Data, fit: Fit) -> Fit:
+    """The fit refined again from the best of a log grid of values for each retardation time
+    (the others and the effects' parameters held), when one fits better than where it is: the
+    effect may have moved the optimum of the time constants far from the baseline's."""
+    values = {p.name: fit.values[p.name] for p in fit.params}
+    problem = Problem(data, fit.structure)
+    here = problem.cost(values)
+    best, best_cost = None, here
+    for k in range(fit.structure.n_terms):
+        for tau in tau_grid(data, per_decade=3):
+            trial = dict(values, **{f"tau[{k}]": float(tau)})
+            c = problem.cost(trial)
+            if c < best_cost:
+                best, best_cost = trial, c
+    if best is None or best_cost > 0.999 * here:
+        return fit
+    alt = fit_structure(data, fit.structure, [best], n_refine=1)
+    return alt if alt.bic < fit.bic else fit
+
+
+def _candidates(data: Data, current: Fit, pool, step: int, trials: list) -> list:
+    """Every applicable candidate fitted on top of ``current``: a quick fit of its own
+    parameters first (the current model's held); then all parameters together for the
+    :data:`REFINED` best and for any that already lower BIC."""
+    quick = []
+    for effect in pool:
+        reason = effect.applicable(data, current.structure)
+        if reason:
+            if step == 1:
+                trials.append(Trial(step, effect.name, None, None, f"not tried: {reason}"))
+            continue
+        try:
+            f = effect.fit_on(data, current, refine="own")
+        except (InputError, np.linalg.LinAlgError, ValueError) as exc:
+            trials.append(Trial(step, effect.name, None, None, f"fit failed: {exc}"))
+            continue
+        quick.append((f.bic - current.bic, effect, f))
+    quick.sort(key=lambda x: x[0])
+    fitted = []
+    for rank, (delta, effect, f) in enumerate(quick):
+        if rank < REFINED or delta < 0:
+            try:
+                full = effect.fit_on(data, current, refine="all",
+                                     start={p.name: f.values[p.name] for p in f.params})
+                if full.bic < f.bic:
+                    f = full
+            except (InputError, np.linalg.LinAlgError, ValueError):
+                pass
+        reason = effect.unphysical(f, _applied_of(f, effect))
+        if reason:
+            trials.append(Trial(step, effect.name, f.bic - current.bic, None, f"unphysical: {reason}"))
+            continue
+        fitted.append((f.bic - current.bic, effect, f))
+    return sorted(fitted, key=lambda x: x[0])
+
+
+def diagnose(record: Record, initial: str = "free", load_step_at: float | None = None,
+             candidates: list[str] | None = None, max_effects: int = MAX_EFFECTS,
+             correction: bool = True) -> Diagnosis:
+    """Diagnose a record: baseline, candidate effects by evidence, catch-all, gain.
+
+    Parameters
+    ----------
+    record : Record
+    initial : {"free", "relaxed", "settled"}
+        Creep state at the first sample (see :func:`creepcomp.fit.core.prepare`).
+    load_step_at : float, optional
+        Time of a load step before the first sample (material creep tests).
+    candidates : list of str, optional
+        Effects to try (default: every sensor-side effect the record allows).
+    max_effects : int
+    correction : bool
+        Measure the gain on the creep-corrected signal too.
+    """
+    t_start = _time.perf_counter()
+    data = prepare(record, initial=initial, load_step_at=load_step_at)
+    pool = effects_pkg.sensor_effects() if candidates is None else [effects_pkg.get(c) for c in candidates]
+    current = heldout(data, fit_structure(data, Structure(1), one_term_starts(data)))
+    base = None
+    findings: list[Finding] = []
+    trials: list[Trial] = []
+    for step in range(1, max_effects + 1):
+        fitted = _candidates(data, current, pool, step, trials)
+        if fitted and fitted[0][0] <= -BIC_STRONG:
+            polished = _polish(data, current, fitted[0][2])
+            if polished is not current:
+                current = polished
+                fitted = sorted(((f.bic - current.bic, e, f) for _, e, f in fitted), key=lambda x: x[0])
+        if base is None:
+            base = current
+        accepted, wide = None, None
+        for delta_bic, effect, f in fitted:
+            # a simpler alternative to the accepted one, if it explains at least half as much
+            simpler = (accepted is not None and f.n_params < accepted[1].n_params
+                       and delta_bic <= 0.5 * (accepted[1].bic - current.bic))
+            if delta_bic > -BIC_STRONG or (accepted is not None and not simpler):
+                trials.append(Trial(step, effect.name, delta_bic, None,
+                                    "not supported (BIC)" if delta_bic > -BIC_STRONG else
+                                    "weaker than the accepted one"))
+                continue
+            f = heldout(data, _restart_taus(data, f))
+            ev = _evidence(data, current, f)
+            if not ev.supported:
+                trials.append(Trial(step, effect.name, delta_bic, ev, "not supported (held-out)"))
+                continue
+            if accepted is not None:
+                # parsimony: the richer one must predict held-out data better than this simpler one
+                if compare(data, f, accepted[1]).supported_heldout:
+                    trials.append(Trial(step, effect.name, delta_bic, ev,
+                                        f"supported, but {accepted[0].name} predicts better"))
+                    continue
+                trials[accepted[3]] = Trial(step, accepted[0].name, trials[accepted[3]].delta_bic,
+                                            accepted[2], f"supported, but not better on held-out "
+                                                         f"data than the simpler {effect.name}")
+            else:
+                wide = _generic(data, current)
+                if wide is not None and wide[1].supported and wide[0].bic < f.bic \
+                        and _evidence(data, f, wide[0], refine=False, always_halves=True).supported_heldout:
+                    trials.append(Trial(step, effect.name, delta_bic, ev,
+                                        "the generic extension predicts clearly better"))
+                    break
+            accepted = (effect, f, ev, len(trials))
+            trials.append(Trial(step, effect.name, delta_bic, ev, "accepted"))
+        if accepted is None:
+            break
+        effect, f, ev, _ = accepted
+        findings.append(_finding(effect, _applied_of(f, effect), f, ev, current))
+        current = f
+    if base is None:
+        base = current
+    generic = _generic(data, current)
+    catch = None
+    if generic is not None:
+        wide, catch = generic
+        if catch.supported:
+            findings.append(Finding("unexplained", {}, {}, catch,
+                                    _heldout_sse(current) - _heldout_sse(wide), wide))
+    findings.sort(key=lambda f: -f.importance)
+    extensions = {}
+    for a in current.structure.effects:
+        entry = a.effect.extension(current, a)
+        if entry is not None:
+            extensions[a.name] = entry
+    extended_model = model_file_dict(data, current, extensions=extensions)
+    baseline_model = model_file_dict(data, base)
+    gain = {"heldout_rms_ratio": base.heldout.rms / current.heldout.rms if current.heldout.rms > 0 else None,
+            "correction_error_ratio": None}
+    corr = {}
+    if correction:
+        corr = correction_errors(data, base, current, extensions)
+        if corr:
+            gain["correction_error_ratio"] = corr["ratio"]
+            gain["correction_error_baseline"] = corr["baseline_rms"]
+            gain["correction_error_extended"] = corr["extended_rms"]
+    return Diagnosis(data, base, current, tuple(findings), tuple(trials), catch, gain,
+                     _time.perf_counter() - t_start, extended_model, baseline_model, corr)
+
+
+def _evidence(data: Data, current: Fit, rich: Fit, refine: bool = True,
+              always_halves: bool = False) -> Evidence:
+    """Evidence for ``rich`` over ``current``: BIC and held-out blocks; and when the richer
+    model's residual holds slow noise (drift that spans held-out blocks,
+    :func:`~creepcomp.fit.core.slow_noise_ratio`), also the prediction of each half of the record
+    from the other: drift that a slow extension follows between interleaved blocks is not
+    predictable across halves, structure driven by the load is. The weaker of the two
+    held-out results is reported. ``always_halves``: test across halves in any case (the
+    catch-all, whose many slow terms follow drift easily)."""
+    ev = compare(data, current, rich)
+    if ev.supported and (always_halves or slow_noise_ratio(rich.residual) > SLOW_NOISE_RATIO):
+        across = compare(data, replace(current, heldout=halves(data, current)),
+                         replace(rich, heldout=halves(data, rich, refine=refine)))
+        if not across.supported_heldout:
+            ev = replace(ev, heldout_z=min(ev.heldout_z, across.heldout_z),
+                         heldout_rms_ratio=min(ev.heldout_rms_ratio, across.heldout_rms_ratio))
+    return ev
+
+
+def _generic(data: Data, current: Fit) -> tuple[Fit, Evidence] | None:
+    """The catch-all on top of ``current`` with its evidence (held out only when BIC
+    supports it)."""
+    wide = _catch_all(data, current)
+    if wide is None:
+        return None
+    if wide.bic - current.bic > -BIC_STRONG:
+        return wide, Evidence(wide.bic - current.bic, float("nan"), float("nan"))
+    wide = heldout(data, wide, refine=False)
+    return wide, _evidence(data, current, wide, refine=False, always_halves=True)
+
+
+def correction_errors(data: Data, base: Fit, extended: Fit, extensions: dict) -> dict:
+    """Creep-corrected signal with the baseline and with the extended model, and the RMS of
+    each one's error against the load scaled to it (least-squares gain and offset).
+
+    The correction assumes a relaxed start when the load starts at zero, a settled one
+    otherwise."""
+    initial = "relaxed" if data.load[0] == 0 else "settled"
+    try:
+        model_b = base.creep_model()
+        model_e = extended.creep_model(extensions)
+    except InputError:
+        return {}
+    out = {"initial": initial}
+    for label, model in (("baseline", model_b), ("extended", model_e)):
+        try:
+            comp = compensate(data.time, data.signal, model, data.temperature, initial=initial,
+                              hold=data.hold)
+        except (InputError, ImportError):
+            return {}
+        design = np.column_stack([data.load, np.ones(data.n)])
+        coef, *_ = np.linalg.lstsq(design, comp, rcond=None)
+        err = comp - design @ coef
+        out[f"{label}_compensated"] = comp
+        out[f"{label}_error"] = err
+        out[f"{label}_rms"] = float(np.sqrt(np.mean(err ** 2)))
+    out["ratio"] = out["baseline_rms"] / out["extended_rms"] if out["extended_rms"] > 0 else None
+    return out

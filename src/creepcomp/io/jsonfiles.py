@@ -1,0 +1,112 @@
+"""Model files and design files (``design-file.md``): reading with checks, writing."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from creepcomp.errors import InputError
+from creepcomp.model import CreepModel
+from creepcomp.network import Network
+
+
+def read_json(path: str | Path, what: str = "file") -> dict:
+    """Read a JSON object, with one clear message for a missing or malformed file."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError(f"{what} {p}: no such file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{what} {p}: cannot read it ({exc})") from None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{what} {p}: not valid JSON at line {exc.lineno}, column {exc.colno}: "
+                         f"{exc.msg}") from None
+    if not isinstance(data, dict):
+        raise InputError(f"{what} {p}: expected one JSON object, found {type(data).__name__}")
+    return data
+
+
+def _clean(obj: Any) -> Any:
+    """JSON-safe copy: numpy scalars to floats, non-finite floats to None."""
+    if isinstance(obj, dict):
+        return {k: _clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_clean(v) for v in obj]
+    if hasattr(obj, "item") and not isinstance(obj, (str, bytes)):
+        obj = obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+def to_json(obj: Any) -> str:
+    """Serialise a result object to JSON text (non-finite numbers become null)."""
+    return json.dumps(_clean(obj), indent=2, allow_nan=False)
+
+
+def write_json(path: str | Path, obj: Any) -> Path:
+    """Write a JSON object to ``path`` (creating folders); returns the path."""
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    p.write_text(to_json(obj) + "\n", encoding="utf-8")
+    return p
+
+
+def read_model(path: str | Path) -> CreepModel:
+    """Read a model file (``beta``, ``tau`` ...) or the ``creep`` block of a design file."""
+    data = read_json(path, "model file")
+    if "creep" in data and "beta" not in data:
+        return CreepModel.from_dict(data["creep"], where=f"model file {path}: 'creep'")
+    return CreepModel.from_dict(data, where=f"model file {path}")
+
+
+def write_model(path: str | Path, model: CreepModel) -> Path:
+    """Write a model file."""
+    return write_json(path, model.to_dict())
+
+
+@dataclass(frozen=True)
+class Design:
+    """A design file: the creep it was sized for and the network that is built.
+
+    Attributes
+    ----------
+    model : CreepModel
+    network : Network
+    extra : dict
+        Keys beyond the contract (``rule``, ``series``, ``predicted`` ...), kept as read.
+    """
+
+    model: CreepModel
+    network: Network
+    extra: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        """Design-file form."""
+        out = {"creep": {"beta": list(self.model.beta), "tau": list(self.model.tau)}}
+        out.update(self.network.to_dict())
+        out.update({k: v for k, v in self.extra.items() if k not in out})
+        return out
+
+
+def read_design(path: str | Path) -> Design:
+    """Read and check a design file."""
+    data = read_json(path, "design file")
+    where = f"design file {path}"
+    if "creep" not in data:
+        raise InputError(f"{where}: missing 'creep' (found keys: {', '.join(data)})")
+    model = CreepModel.from_dict(data["creep"], where=f"{where}: 'creep'")
+    network = Network.from_dict(data, where=where)
+    known = {"creep", "cells", "R2", "shunt", "source_resistance", "load_resistance"}
+    return Design(model, network, {k: v for k, v in data.items() if k not in known})
+
+
+def write_design(path: str | Path, design: Design | dict) -> Path:
+    """Write a design file."""
+    return write_json(path, design.to_dict() if isinstance(design, Design) else design)

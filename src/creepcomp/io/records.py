@@ -1,0 +1,390 @@
+"""Measured records (``data-format.md``): reading, checking, column mapping, writing.
+
+A record is a CSV file with ``time``, ``load`` and ``signal`` columns (and optionally
+``temperature`` and ``corrected``), metadata lines ``# key: value`` before the header, and
+one clear message, naming file, line and column, for every problem.
+
+Other files are read with a column mapping (``{"time": "tR", "load": "P", "signal": "Ri"}``;
+on the command line ``--columns time=tR,load=P,signal=Ri``). With a mapping the header is
+the first line holding all the mapped names, so an instrument export's preamble is skipped;
+a units row right under such a header is read as units (a time column in ``min``, ``ms`` or
+``h`` is converted to seconds). A mapped value that is a number and not a column name, such
+as ``load=1``, is a constant column: a material test's single load step.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+
+from creepcomp.errors import InputError
+
+REQUIRED = ("time", "load", "signal")
+OPTIONAL = ("temperature", "corrected")
+COLUMNS = REQUIRED + OPTIONAL
+TIME_UNITS_TO_SECONDS = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "min": 60.0, "h": 3600.0, "hr": 3600.0}
+
+
+@dataclass(frozen=True)
+class Record:
+    """A measured record.
+
+    Attributes
+    ----------
+    time, load, signal : numpy.ndarray
+        Required columns; time in seconds, strictly increasing.
+    temperature, corrected : numpy.ndarray or None
+        Optional columns.
+    metadata : dict
+        ``# key: value`` lines (and units read from an instrument's units row).
+    source : str
+        Where it came from (file name), for messages.
+    """
+
+    time: np.ndarray
+    load: np.ndarray
+    signal: np.ndarray
+    temperature: np.ndarray | None = None
+    corrected: np.ndarray | None = None
+    metadata: dict = field(default_factory=dict)
+    source: str = "record"
+
+    def __post_init__(self):
+        for name in COLUMNS:
+            value = getattr(self, name)
+            if value is not None:
+                object.__setattr__(self, name, np.asarray(value, dtype=float))
+        check_arrays(self)
+
+    def __len__(self) -> int:
+        return len(self.time)
+
+    @property
+    def duration(self) -> float:
+        """Time span of the record (s)."""
+        return float(self.time[-1] - self.time[0])
+
+    @property
+    def is_uniform(self) -> bool:
+        """True when the sampling is uniform (see :func:`creepcomp.lti.is_uniform`)."""
+        from creepcomp.lti import is_uniform
+
+        return is_uniform(self.time)
+
+    def unit(self, column: str) -> str:
+        """The unit named in metadata ``units.<column>``, or an empty string."""
+        return str(self.metadata.get(f"units.{column}", ""))
+
+    def require(self, n_samples: int = 2, duration: float | None = None, what: str = "this analysis",
+                columns: tuple[str, ...] = ()) -> None:
+        """Raise a clear error when the record is too short or lacks a column.
+
+        Parameters
+        ----------
+        n_samples : int
+            Fewest samples needed.
+        duration : float, optional
+            Shortest time span needed (s), e.g. a multiple of the time scale to resolve.
+        what : str
+            The analysis, for the message.
+        columns : tuple of str
+            Optional columns that must be present.
+        """
+        if len(self) < n_samples:
+            raise InputError(f"{self.source}: {len(self)} samples is too few for {what} "
+                             f"(needs at least {n_samples})")
+        if duration is not None and self.duration < duration:
+            raise InputError(f"{self.source}: the record spans {self.duration:.4g} s, shorter than "
+                             f"the {duration:.4g} s that {what} needs")
+        for col in columns:
+            if getattr(self, col) is None:
+                raise InputError(f"{self.source}: {what} needs a '{col}' column")
+
+    def design_path(self, override: str | Path | None = None) -> Path:
+        """The design file of the network that produced ``corrected``.
+
+        ``override`` (the CLI's ``--design``) wins over metadata ``design:``, which is
+        relative to the record's folder.
+        """
+        if override is not None:
+            return Path(override)
+        name = self.metadata.get("design")
+        if not name:
+            raise InputError(f"{self.source}: the record has a 'corrected' column but names no "
+                             "design: add '# design: FILE' or give --design FILE")
+        base = Path(self.source).parent if self.source else Path(".")
+        return base / str(name)
+
+    def with_columns(self, **columns) -> "Record":
+        """A copy with some columns replaced or added."""
+        return replace(self, **columns)
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The present columns, in contract order."""
+        return {name: getattr(self, name) for name in COLUMNS if getattr(self, name) is not None}
+
+
+def check_arrays(record: Record) -> None:
+    """Shape, finiteness and time-order checks of a record built from arrays."""
+    n = len(record.time)
+    for name in COLUMNS:
+        value = getattr(record, name)
+        if value is None:
+            continue
+        if value.ndim != 1 or len(value) != n:
+            raise InputError(f"{record.source}: column '{name}' has {value.size} values for "
+                             f"{n} time points")
+        bad = np.flatnonzero(~np.isfinite(value))
+        if bad.size:
+            raise InputError(f"{record.source}: column '{name}', sample {bad[0]}: "
+                             f"{value[bad[0]]} is not a finite number")
+    dt = np.diff(record.time)
+    bad = np.flatnonzero(dt <= 0)
+    if bad.size:
+        i = bad[0] + 1
+        kind = "repeats" if dt[bad[0]] == 0 else "goes back from"
+        raise InputError(f"{record.source}: time is not strictly increasing: sample {i} "
+                         f"({record.time[i]:g} s) {kind} the previous one ({record.time[i - 1]:g} s)")
+
+
+def parse_columns(text: str | None) -> dict[str, str]:
+    """Parse ``time=tR,load=P,signal=Ri`` into a mapping; names must be record columns."""
+    if not text:
+        return {}
+    out = {}
+    for item in next(csv.reader([text], skipinitialspace=True)):
+        if "=" not in item:
+            raise InputError(f"--columns: '{item}' is not NAME=COLUMN (e.g. time=tR,signal=Ri)")
+        key, value = (s.strip() for s in item.split("=", 1))
+        key = key.lower()
+        if key not in COLUMNS:
+            raise InputError(f"--columns: '{key}' is not a record column ({', '.join(COLUMNS)})")
+        if not value:
+            raise InputError(f"--columns: no column name given for '{key}'")
+        out[key] = value
+    return out
+
+
+def _sniff_delimiter(line: str) -> str:
+    for d in (",", "\t", ";"):
+        if d in line:
+            return d
+    return ","
+
+
+def _number(text: str) -> float:
+    return float(text.strip())
+
+
+def read_record(path: str | Path, columns: Mapping[str, str] | None = None,
+                delimiter: str | None = None, duplicate_times: str = "error") -> Record:
+    """Read and check a measured record.
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV file.
+    columns : mapping, optional
+        Record column -> the file's column name (or a constant number).
+    delimiter : str, optional
+        Field delimiter; default: detected from the header (comma, tab or semicolon).
+    duplicate_times : {"error", "mean"}
+        Repeated time stamps are an error, or (asked for explicitly, e.g. for files whose
+        time stamps were rounded) the rows sharing a time are averaged; the number merged is
+        kept in ``metadata["merged_duplicate_times"]``.
+
+    Returns
+    -------
+    Record
+
+    Raises
+    ------
+    InputError
+        Naming the file, line and column of the first problem.
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise InputError(f"record {p}: no such file") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"record {p}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+    except OSError as exc:
+        raise InputError(f"record {p}: cannot read it ({exc.strerror})") from None
+    return parse_record(text, source=str(p), columns=columns, delimiter=delimiter,
+                        duplicate_times=duplicate_times)
+
+
+def parse_record(text: str, source: str = "record", columns: Mapping[str, str] | None = None,
+                 delimiter: str | None = None, duplicate_times: str = "error") -> Record:
+    """Parse record text (see :func:`read_record`)."""
+    mapping = {k.lower(): v for k, v in (columns or {}).items()}
+    lines = text.splitlines()
+    metadata: dict[str, str] = {}
+    header_at = None
+    for i, line in enumerate(lines):
+        stripped = line.strip()
+        if header_at is None and stripped.startswith("#"):
+            body = stripped.lstrip("#").strip()
+            if ":" in body:
+                key, value = body.split(":", 1)
+                metadata[key.strip()] = value.strip()
+            continue
+        if not stripped:
+            continue
+        if not mapping:
+            header_at = i
+            break
+        d = delimiter or _sniff_delimiter(line)
+        fields = [f.strip() for f in next(csv.reader([line], delimiter=d))]
+        wanted = [v for v in mapping.values() if not _is_number(v)]
+        if all(any(f.lower() == w.lower() for f in fields) for w in wanted):
+            header_at = i
+            break
+    if header_at is None:
+        if mapping:
+            raise InputError(f"{source}: no header line holds the mapped columns "
+                             f"{', '.join(repr(v) for v in mapping.values() if not _is_number(v))}")
+        raise InputError(f"{source}: no header line (the file is empty or all comments)")
+    d = delimiter or _sniff_delimiter(lines[header_at])
+    reader = csv.reader(io.StringIO("\n".join(lines[header_at:])), delimiter=d)
+    header = [h.strip() for h in next(reader)]
+    lowered = [h.lower() for h in header]
+    index: dict[str, int | float] = {}
+    for name in COLUMNS:
+        wanted = mapping.get(name, name if name not in mapping else None)
+        if name in mapping and _is_number(mapping[name]) and mapping[name].lower() not in lowered:
+            index[name] = float(mapping[name])
+            continue
+        if wanted is not None and wanted.lower() in lowered:
+            index[name] = lowered.index(wanted.lower())
+        elif name in mapping:
+            raise InputError(f"{source}, line {header_at + 1}: mapped column '{mapping[name]}' for "
+                             f"'{name}' not found; columns found: {', '.join(header)}")
+    missing = [c for c in REQUIRED if c not in index]
+    if missing:
+        raise InputError(f"{source}, line {header_at + 1}: missing required column"
+                         f"{'s' if len(missing) > 1 else ''} {', '.join(repr(m) for m in missing)}; "
+                         f"columns found: {', '.join(header)} (map others with --columns)")
+    rows = list(reader)
+    first_data = header_at + 2
+    units_row = None
+    if mapping and rows and not _row_is_numeric(rows[0], index):
+        units_row, rows, first_data = rows[0], rows[1:], first_data + 1
+    values = {name: [] for name in index}
+    for offset, row in enumerate(rows):
+        line_no = first_data + offset
+        if not row or all(not f.strip() for f in row):
+            continue
+        for name, col in index.items():
+            if isinstance(col, float):
+                values[name].append(col)
+                continue
+            if col >= len(row):
+                raise InputError(f"{source}, line {line_no}: column '{header[col]}' is missing "
+                                 f"(the row has {len(row)} fields)")
+            cell = row[col].strip()
+            try:
+                x = _number(cell)
+            except ValueError:
+                raise InputError(f"{source}, line {line_no}, column '{header[col]}': "
+                                 f"'{cell}' is not a number") from None
+            if not math.isfinite(x):
+                raise InputError(f"{source}, line {line_no}, column '{header[col]}': "
+                                 f"'{cell}' is not a finite number")
+            values[name].append(x)
+    arrays = {name: np.array(v, dtype=float) for name, v in values.items()}
+    if units_row is not None:
+        for name, col in index.items():
+            if not isinstance(col, float) and col < len(units_row) and units_row[col].strip():
+                metadata.setdefault(f"units.{name}", units_row[col].strip())
+        scale = TIME_UNITS_TO_SECONDS.get(metadata.get("units.time", "s").strip().lower())
+        if scale is None:
+            raise InputError(f"{source}: time unit '{metadata['units.time']}' is not one of "
+                             f"{', '.join(TIME_UNITS_TO_SECONDS)}")
+        if scale != 1.0:
+            arrays["time"] = arrays["time"] * scale
+            metadata["units.time"] = f"s (converted from {metadata['units.time']})"
+    if len(arrays["time"]) == 0:
+        raise InputError(f"{source}: no data rows after the header (line {header_at + 1})")
+    if duplicate_times == "mean":
+        arrays, merged = _merge_duplicate_times(arrays)
+        if merged:
+            metadata["merged_duplicate_times"] = str(merged)
+    elif duplicate_times != "error":
+        raise InputError(f"duplicate_times '{duplicate_times}': use 'error' or 'mean'")
+    _check_time_order(arrays["time"], source, first_data, rows)
+    return Record(source=source, metadata=metadata,
+                  **{name: arrays.get(name) for name in COLUMNS})
+
+
+def _merge_duplicate_times(arrays: dict) -> tuple[dict, int]:
+    """Average the rows of each run of equal time stamps (time must not go backwards)."""
+    t = arrays["time"]
+    if np.any(np.diff(t) < 0):
+        return arrays, 0           # going backwards stays an error, reported by the caller
+    starts = np.flatnonzero(np.diff(t, prepend=np.nan) != 0)
+    counts = np.diff(np.append(starts, len(t)))
+    merged = {name: np.add.reduceat(v, starts) / counts for name, v in arrays.items()}
+    return merged, int(len(t) - len(starts))
+
+
+def _check_time_order(t: np.ndarray, source: str, first_data: int, rows) -> None:
+    dt = np.diff(t)
+    bad = np.flatnonzero(dt <= 0)
+    if bad.size:
+        k = bad[0] + 1
+        nonblank = [i for i, r in enumerate(rows) if r and any(f.strip() for f in r)]
+        line_no = first_data + nonblank[k]
+        what = "repeats the previous time" if dt[bad[0]] == 0 else "is earlier than the previous time"
+        raise InputError(f"{source}, line {line_no}, column 'time': {t[k]:g} {what} "
+                         f"({t[k - 1]:g}); time must be strictly increasing")
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _row_is_numeric(row, index) -> bool:
+    for col in index.values():
+        if isinstance(col, float) or col >= len(row):
+            continue
+        if not _is_number(row[col].strip()):
+            return False
+    return True
+
+
+def write_record(path: str | Path, record: Record, extra: Mapping[str, np.ndarray] | None = None,
+                 metadata: Mapping[str, str] | None = None, digits: int = 17) -> Path:
+    """Write a record (plus extra columns) as CSV with its metadata lines.
+
+    Numbers are written with ``digits`` significant digits (17: reading back gives the same
+    floats).
+    """
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    cols = dict(record.columns())
+    for name, values in (extra or {}).items():
+        values = np.asarray(values, dtype=float)
+        if values.shape != record.time.shape:
+            raise InputError(f"column '{name}' has {values.size} values for {len(record)} samples")
+        cols[name] = values
+    meta = dict(record.metadata)
+    meta.update(metadata or {})
+    with p.open("w", encoding="utf-8", newline="") as fh:
+        for key, value in meta.items():
+            fh.write(f"# {key}: {value}\n")
+        fh.write(",".join(cols) + "\n")
+        data = np.column_stack(list(cols.values()))
+        np.savetxt(fh, data, delimiter=",", fmt=f"%.{int(digits)}g")
+    return p

@@ -1,0 +1,1 @@
+"""Synthetic records with known hidden effects, for tests and benchmarks."""

@@ -1,0 +1,1 @@
+"""Proof of a design: ngspice netlists and simulation, Monte Carlo and worst-case tolerances."""
