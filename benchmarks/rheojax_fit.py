@@ -17,7 +17,8 @@ import time
 from pathlib import Path
 
 from creepcomp.diagnose.sensor import diagnose
-from creepcomp.fit.core import fit_prony, prepare, term_table
+from creepcomp.diagnose import effects
+from creepcomp.fit.core import Applied, fit_prony, prepare, term_table
 from creepcomp.io.records import parse_columns, read_record
 
 DEFAULT = Path(__file__).resolve().parents[1] / "tests" / "data" / "rheojax" / "creep_ps130_data.csv"
@@ -33,7 +34,7 @@ def main(argv=None):
     data = prepare(record, load_step_at=0.0)
     for flow in (False, True):
         t0 = time.perf_counter()
-        result = fit_prony(data, max_terms=8, flow=flow)
+        result = fit_prony(data, max_terms=8, effects=(Applied(effects.get("viscous_flow")),) if flow else ())
         fit = result.fit
         print(f"\n{'with' if flow else 'without'} viscous flow ({time.perf_counter() - t0:.1f} s): "
               f"{fit.structure.n_terms} terms chosen; residual RMS {fit.residual_rms:.3g} 1/Pa = "

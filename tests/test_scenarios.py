@@ -4,7 +4,8 @@ from rich.console import Console
 
 from creepcomp.data import default_sensor
 from creepcomp.analog.quality import sweep_hysteresis as predicted_hysteresis
-from creepcomp.digital.scenarios import (demo_step, long_run, outcomes, paper_model, step_record,
+from creepcomp.cli.demo import step_digital_correction
+from creepcomp.digital.scenarios import (long_run, outcomes, paper_model, step_record,
     sweep_hysteresis, sweep_record)
 
 
@@ -58,7 +59,7 @@ def test_demo_step_writes_the_figures(tmp_path, monkeypatch):
     monkeypatch.setattr(scenarios, "sweep_record", lambda model: sweep_record(model, cycles=2, quarter_points=50))
     monkeypatch.setattr(scenarios, "long_run", lambda model: long_run(model, samples=5000, literal_samples=300))
     console = Console(record=True, width=200)
-    demo_step(tmp_path, console)
+    step_digital_correction(tmp_path, console)
     text = console.export_text()
     for name in ("digital-steps.png", "digital-sweep.png", "digital-steps.csv", "paper-model.json"):
         assert (tmp_path / name).stat().st_size > 100

@@ -6,6 +6,7 @@ Errors in the user's input become one line on stderr and exit status 2.
 
 from __future__ import annotations
 
+import os
 import sys
 
 import typer
@@ -27,6 +28,9 @@ from creepcomp.cli import diagnose as _diagnose  # noqa: E402,F401
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the console script; returns the exit status."""
+    # Plots go to files: the command line chooses matplotlib's file backend (before any import
+    # of pyplot); the library itself never chooses one.
+    os.environ.setdefault("MPLBACKEND", "Agg")
     command = typer.main.get_command(app)
     try:
         command.main(args=argv, prog_name="creepcomp", standalone_mode=False)

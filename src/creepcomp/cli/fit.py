@@ -10,7 +10,8 @@ from rich.table import Table
 
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import write_json
-from creepcomp.fit.core import BIC_STRONG, HELDOUT_Z, PronyResult, fit_prony, prepare, term_table
+from creepcomp.diagnose import effects
+from creepcomp.fit.core import BIC_STRONG, HELDOUT_Z, Applied, PronyResult, fit_prony, prepare, term_table
 from creepcomp.io.records import Record, parse_columns, read_record
 from creepcomp.units import format_quantity
 from creepcomp.cli.common import app, console, pct, print_json, quantity
@@ -91,7 +92,8 @@ def fit_command(
         if not 1 <= fixed <= 20:
             raise InputError(f"--terms {fixed}: use 1 to 20")
     data = prepare(record, initial=init, load_step_at=step)
-    result = fit_prony(data, max_terms=max_terms, n_terms=fixed, flow=flow)
+    extra = (Applied(effects.get("viscous_flow")),) if flow else ()
+    result = fit_prony(data, max_terms=max_terms, n_terms=fixed, effects=extra)
     model = result.to_dict()
     if output is not None:
         write_json(output, model)

@@ -12,7 +12,7 @@ from rich.table import Table
 from creepcomp.verify import montecarlo as mc
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_design
-from creepcomp.report.common import tolerance_report_html
+from creepcomp.report.tolerance import tolerance_report_html
 from creepcomp.cli.common import (app, console, err_console, pct, print_json, quantity,
     value_range)
 

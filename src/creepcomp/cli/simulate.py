@@ -115,7 +115,9 @@ def simulate_command(
     plot_path = None
     if not no_plot:
         plot_path = plot or Path(f"{design.stem}-{drive.name}.png")
-        spice.plot_comparison(comparison, plot_path)
+        from creepcomp.report.spice import plot_comparison
+
+        plot_comparison(comparison, plot_path)
     if netlist is not None:
         from creepcomp.cli.netlist import drive_deck
 

@@ -12,7 +12,7 @@ from rich.table import Table
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_model, write_design
 from creepcomp.model import CreepModel
-from creepcomp.report.common import plot_design_comparison
+from creepcomp.report.design import plot_design_comparison
 from creepcomp.analog.sizing import DEFAULT_CAP_RANGE, DEFAULT_RES_RANGE, SizingReport, size
 from creepcomp.units import format_quantity
 from creepcomp.cli.common import app, console, pct, print_json, quantity, value_range

@@ -1216,20 +1216,12 @@ class PronyResult:
         return model_file_dict(self.data, self.fit, self.steps, self.chosen)
 
 
-def _flow_effects(flow: bool) -> tuple:
-    if not flow:
-        return ()
-    from creepcomp.diagnose.effects import get
-
-    return (Applied(get("viscous_flow")),)
-
-
 def fit_terms(data: Data, n_terms: int, previous: Fit | None = None, noise: Noise | None = None,
-              flow: bool = False) -> Fit:
-    """Fit ``n_terms`` Prony terms (plus viscous flow with ``flow``): starts from the
-    non-negative spectrum and, when given, from the previous fit plus one grid time; refine;
-    keep the best."""
-    structure = Structure(n_terms, _flow_effects(flow))
+              effects: tuple[Applied, ...] = ()) -> Fit:
+    """Fit ``n_terms`` Prony terms (plus ``effects`` applied to every model, e.g. viscous flow):
+    starts from the non-negative spectrum and, when given, from the previous fit plus one grid
+    time; refine; keep the best."""
+    structure = Structure(n_terms, tuple(effects))
     if n_terms == 1:
         starts = one_term_starts(data)
     else:
@@ -1242,14 +1234,15 @@ def fit_terms(data: Data, n_terms: int, previous: Fit | None = None, noise: Nois
 
 
 def fit_prony(data: Data, max_terms: int = 6, n_terms: int | None = None,
-              folds: int = FOLDS, flow: bool = False) -> PronyResult:
+              folds: int = FOLDS, effects: tuple[Applied, ...] = ()) -> PronyResult:
     """Identify gain, offset and Prony terms, adding terms while the evidence supports them.
 
     A term is added when it lowers BIC by at least :data:`BIC_STRONG` *and* predicts held-out
     data better by at least :data:`HELDOUT_Z` standard deviations; the search stops at the
     first term that is not supported (or at ``max_terms``). ``n_terms`` fixes the number.
     Each model's likelihood has its own AR noise (its parameters counted by BIC).
-    ``flow`` adds a viscous-flow term (Burgers model) to every model.
+    ``effects`` are applied to every model (e.g. ``(Applied(effects.get("viscous_flow")),)``
+    for the Burgers model).
     """
     steps: list[OrderStep] = []
     chosen = 0
@@ -1257,7 +1250,7 @@ def fit_prony(data: Data, max_terms: int = 6, n_terms: int | None = None,
     top = n_terms or max_terms
     for k in range(1, top + 1):
         try:
-            fit = heldout(data, fit_terms(data, k, previous, None, flow), folds)
+            fit = heldout(data, fit_terms(data, k, previous, None, effects), folds)
         except (InputError, linalg.LinAlgError):
             break
         ev = compare(data, previous, fit) if previous is not None else None

@@ -4,15 +4,12 @@ from __future__ import annotations
 
 import html
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from creepcomp.report.diagnosis import _fmt, _png, _thin  # noqa: E402
-from creepcomp.fit.core import autocorrelation  # noqa: E402
-from creepcomp.units import format_quantity  # noqa: E402
+from creepcomp.report.common import format_cell, png_base64, thin
+from creepcomp.fit.core import autocorrelation
+from creepcomp.units import format_quantity
 
 #: Units of the circuit effects' parameters.
 UNITS = {"C": "F", "R": "Ω", "tau": "s", "fraction": ""}
@@ -48,7 +45,7 @@ def circuit_figures(cd, units: dict) -> list[tuple[str, str]]:
     data, base, ext = cd.data, cd.baseline, cd.extended
     su = units.get("signal", "")
     ylab = f"corrected ({su})" if su else "corrected"
-    idx = _thin(data.n)
+    idx = thin(data.n)
     t = data.time[idx] - data.time[0]
     xlabel = f"time since the first sample (s); first sample at {data.time[0]:g} s"
     figs = []
@@ -71,7 +68,7 @@ def circuit_figures(cd, units: dict) -> list[tuple[str, str]]:
         a.grid(True, alpha=0.3)
     fig.tight_layout()
     figs.append(("Circuit side: measured corrected against the network driven by the measured signal",
-                 _png(fig)))
+                 png_base64(fig, dpi=90)))
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4))
     a1.plot(data.signal[idx], base.residual[idx], ".", ms=2, color="C3", label="nominal")
     if ext is not base:
@@ -90,7 +87,7 @@ def circuit_figures(cd, units: dict) -> list[tuple[str, str]]:
     for a in (a1, a2):
         a.grid(True, alpha=0.3)
     fig.tight_layout()
-    figs.append(("Circuit side: residual against the signal, and its autocorrelation", _png(fig)))
+    figs.append(("Circuit side: residual against the signal, and its autocorrelation", png_base64(fig, dpi=90)))
     return figs
 
 
@@ -105,10 +102,10 @@ def circuit_html(cd, units: dict) -> str:
     rows = []
     for f in cd.findings:
         params = ", ".join(f"{k} = {quantity(k, v)} ± {quantity(k, f.uncertainty.get(k))}"
-                           if k in UNITS else f"{k} = {_fmt(v)}" for k, v in f.parameters.items())
+                           if k in UNITS else f"{k} = {format_cell(v)}" for k, v in f.parameters.items())
         rows.append(f"<tr><td><b>{html.escape(f.effect)}</b></td><td>{html.escape(f.part or '–')}</td>"
-                    f"<td>{params}</td><td>{_fmt(f.evidence.delta_bic)}</td>"
-                    f"<td>{_fmt(f.evidence.heldout_rms_ratio)}</td><td>{_fmt(f.evidence.heldout_z)}</td></tr>")
+                    f"<td>{params}</td><td>{format_cell(f.evidence.delta_bic)}</td>"
+                    f"<td>{format_cell(f.evidence.heldout_rms_ratio)}</td><td>{format_cell(f.evidence.heldout_z)}</td></tr>")
     findings = ("<table><tr><th>effect</th><th>part</th><th>parameters (± 1 sigma)</th><th>ΔBIC</th>"
                 "<th>held-out RMS ratio</th><th>held-out z</th></tr>" + "".join(rows) + "</table>"
                 if rows else "<p>No circuit effect is supported: the nominal network explains the measured "
@@ -124,8 +121,8 @@ def circuit_html(cd, units: dict) -> str:
     fix_table = ("<table><tr><th>part</th><th>as built</th><th>replace by</th><th>peak residual creep</th>"
                  "<th>note</th></tr>" + fixes + "</table>") if fixes else "<p>No single-part change is needed.</p>"
     tried = "".join(f"<tr><td>{t.step}</td><td>{html.escape(t.effect)}</td><td>{html.escape(t.part or '–')}</td>"
-                    f"<td>{_fmt(t.evidence.delta_bic)}</td><td>{_fmt(t.evidence.heldout_rms_ratio)}</td>"
-                    f"<td>{_fmt(t.evidence.heldout_z)}</td><td>{html.escape(t.outcome)}</td></tr>"
+                    f"<td>{format_cell(t.evidence.delta_bic)}</td><td>{format_cell(t.evidence.heldout_rms_ratio)}</td>"
+                    f"<td>{format_cell(t.evidence.heldout_z)}</td><td>{html.escape(t.outcome)}</td></tr>"
                     for t in cd.trials)
     check = out["spice_check"]
     if check is None:
@@ -134,18 +131,18 @@ def circuit_html(cd, units: dict) -> str:
         spice = f"<p>ngspice check not available: {html.escape(check['error'])}</p>"
     else:
         spice = (f"<p>The as-built network in ngspice, driven by the measured signal: RMS difference from the "
-                 f"measured corrected {_fmt(check['rms_ngspice_vs_measured'])} {html.escape(su)}, against the "
-                 f"fit's residual RMS {_fmt(check['residual_rms_of_the_fit'])} {html.escape(su)} "
-                 f"(ratio {_fmt(check['ratio'])}; 1 means: to the noise).</p>")
+                 f"measured corrected {format_cell(check['rms_ngspice_vs_measured'])} {html.escape(su)}, against the "
+                 f"fit's residual RMS {format_cell(check['residual_rms_of_the_fit'])} {html.escape(su)} "
+                 f"(ratio {format_cell(check['ratio'])}; 1 means: to the noise).</p>")
     g = out["gain"]
     figs = "".join(f"<h3>{html.escape(title)}</h3><img src='data:image/png;base64,{png}'/>"
                    for title, png in circuit_figures(cd, units))
     return f"""<h2>Circuit side: cause {html.escape(cd.cause)}</h2>
 {findings}
-<p>Nominal network driven by the measured signal: residual RMS {_fmt(cd.baseline.rms)} {html.escape(su)}
-(held out {_fmt(cd.baseline.heldout.rms if cd.baseline.heldout else None)}); as built:
-{_fmt(cd.extended.rms)} {html.escape(su)} (held out {_fmt(cd.extended.heldout.rms if cd.extended.heldout else None)}).
-Gain: held-out RMS ratio {_fmt(g['heldout_rms_ratio'])}, output error ratio {_fmt(g['correction_error_ratio'])}.</p>
+<p>Nominal network driven by the measured signal: residual RMS {format_cell(cd.baseline.rms)} {html.escape(su)}
+(held out {format_cell(cd.baseline.heldout.rms if cd.baseline.heldout else None)}); as built:
+{format_cell(cd.extended.rms)} {html.escape(su)} (held out {format_cell(cd.extended.heldout.rms if cd.extended.heldout else None)}).
+Gain: held-out RMS ratio {format_cell(g['heldout_rms_ratio'])}, output error ratio {format_cell(g['correction_error_ratio'])}.</p>
 <h3>As-built network</h3>
 <table><tr><th>part</th><th>design</th><th>as built</th></tr>{parts}</table>
 <p>Peak residual creep of a load step: design {100 * rc['nominal']:.4f} %, as built {100 * rc['as_built']:.4f} %.</p>

@@ -6,22 +6,12 @@ import html
 import json
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from creepcomp.io.jsonfiles import to_json, write_design, write_json  # noqa: E402
-from creepcomp.fit.core import Data, Fit, autocorrelation  # noqa: E402
-from creepcomp.report.common import png_base64, save_figure  # noqa: E402
-
-_MAX_POINTS = 20000
-
-
-def _thin(n: int, limit: int = _MAX_POINTS) -> np.ndarray:
-    return np.arange(0, n, max(1, n // limit))
-
+from creepcomp.io.jsonfiles import to_json, write_design, write_json
+from creepcomp.fit.core import Data, Fit, autocorrelation
+from creepcomp.report.common import format_cell, png_base64, save_figure, thin
 
 def _labels(data: Data, units: dict) -> tuple[str, str, str]:
     su = units.get("signal", "")
@@ -33,7 +23,7 @@ def plot_fit(data: Data, fit: Fit, path, record=None) -> Path:
     """Measured and fitted signal against time, with the load, and the residual."""
     units = {c: record.unit(c) for c in ("signal", "load")} if record is not None else {}
     ylabel, loadlabel, su = _labels(data, units)
-    idx = _thin(data.n)
+    idx = thin(data.n)
     t = data.time[idx] - data.time[0]
     fig, (ax, axr) = plt.subplots(2, 1, figsize=(11, 7), sharex=True,
                                   gridspec_kw={"height_ratios": [2, 1]})
@@ -61,17 +51,13 @@ def plot_fit(data: Data, fit: Fit, path, record=None) -> Path:
     return save_figure(fig, path, dpi=100)
 
 
-def _png(fig) -> str:
-    return png_base64(fig, dpi=90)
-
-
 def diagnosis_figures(diagnosis, units: dict) -> list[tuple[str, str]]:
     """(title, base64 PNG) of each plot of a diagnosis."""
     d = diagnosis
     data, base, ext = d.data, d.baseline, d.extended
     ylabel, loadlabel, su = _labels(data, units)
     rlabel = f"residual ({su})" if su else "residual"
-    idx = _thin(data.n)
+    idx = thin(data.n)
     t = data.time[idx] - data.time[0]
     xlabel = f"time since the first sample (s); first sample at {data.time[0]:g} s"
     same = ext is base or ext.structure == base.structure
@@ -90,7 +76,7 @@ def diagnosis_figures(diagnosis, units: dict) -> list[tuple[str, str]]:
     ax.legend(loc="upper left", fontsize=8)
     ax.grid(True, alpha=0.3)
     fig.tight_layout()
-    figs.append(("Measured and simulated signal (load in green)", _png(fig)))
+    figs.append(("Measured and simulated signal (load in green)", png_base64(fig, dpi=90)))
 
     fig, ax = plt.subplots(figsize=(11, 4))
     ax.plot(t, base.residual[idx], ".", ms=2, color="C3", alpha=0.6,
@@ -104,12 +90,12 @@ def diagnosis_figures(diagnosis, units: dict) -> list[tuple[str, str]]:
     ax.legend(fontsize=8, markerscale=4)
     ax.grid(True, alpha=0.3)
     fig.tight_layout()
-    figs.append(("Residual (measured minus simulated) against time", _png(fig)))
+    figs.append(("Residual (measured minus simulated) against time", png_base64(fig, dpi=90)))
 
     ncols = 2 if data.temperature is not None else 1
     fig, axes = plt.subplots(1, ncols, figsize=(11 if ncols == 2 else 7, 4.2), squeeze=False)
     ax = axes[0, 0]
-    sub = _thin(data.n, 6000)
+    sub = thin(data.n, 6000)
     ax.plot(data.load[sub], base.residual[sub], ".", ms=2, color="C3", alpha=0.5, label="baseline")
     if not same:
         ax.plot(data.load[sub], ext.residual[sub], ".", ms=2, color="C0", alpha=0.5, label="extended")
@@ -126,7 +112,7 @@ def diagnosis_figures(diagnosis, units: dict) -> list[tuple[str, str]]:
         ax.set_ylabel(rlabel)
         ax.grid(True, alpha=0.3)
     fig.tight_layout()
-    figs.append(("Residual against load" + (" and temperature" if ncols == 2 else ""), _png(fig)))
+    figs.append(("Residual against load" + (" and temperature" if ncols == 2 else ""), png_base64(fig, dpi=90)))
 
     lags = int(min(data.n // 4, max(50, 0.2 * data.duration / data.dt_median), 5000))
     fig, ax = plt.subplots(figsize=(9, 3.8))
@@ -141,7 +127,7 @@ def diagnosis_figures(diagnosis, units: dict) -> list[tuple[str, str]]:
     ax.legend(fontsize=8)
     ax.grid(True, alpha=0.3)
     fig.tight_layout()
-    figs.append(("Autocorrelation of the residual", _png(fig)))
+    figs.append(("Autocorrelation of the residual", png_base64(fig, dpi=90)))
 
     corr = d.correction
     if corr:
@@ -156,18 +142,8 @@ def diagnosis_figures(diagnosis, units: dict) -> list[tuple[str, str]]:
         ax.legend(fontsize=8)
         ax.grid(True, alpha=0.3)
         fig.tight_layout()
-        figs.append(("Creep-corrected signal minus the load scaled to it: before and after", _png(fig)))
+        figs.append(("Creep-corrected signal minus the load scaled to it: before and after", png_base64(fig, dpi=90)))
     return figs
-
-
-def _fmt(x) -> str:
-    if x is None:
-        return "–"
-    if isinstance(x, float):
-        if not np.isfinite(x):
-            return "–"
-        return f"{x:.4g}"
-    return html.escape(str(x))
 
 
 def render_html(diagnosis, units: dict, title: str = "creepcomp diagnose",
@@ -178,29 +154,29 @@ def render_html(diagnosis, units: dict, title: str = "creepcomp diagnose",
     result = d.to_dict()
     rows = []
     for f in d.findings:
-        params = ", ".join(f"{k} = {_fmt(v)} ± {_fmt(f.uncertainty.get(k))}" for k, v in f.parameters.items())
+        params = ", ".join(f"{k} = {format_cell(v)} ± {format_cell(f.uncertainty.get(k))}" for k, v in f.parameters.items())
         ev = f.evidence
         rows.append(f"<tr><td><b>{html.escape(f.effect)}</b></td><td>{params or '–'}</td>"
-                    f"<td>{_fmt(ev.delta_bic)}</td><td>{_fmt(ev.heldout_rms_ratio)}</td>"
-                    f"<td>{_fmt(ev.heldout_z)}</td></tr>")
+                    f"<td>{format_cell(ev.delta_bic)}</td><td>{format_cell(ev.heldout_rms_ratio)}</td>"
+                    f"<td>{format_cell(ev.heldout_z)}</td></tr>")
     findings = ("<table><tr><th>effect</th><th>parameters (± 1 sigma)</th><th>ΔBIC</th>"
                 "<th>held-out RMS ratio</th><th>held-out z</th></tr>" + "".join(rows) + "</table>"
                 if rows else "<p>No effect is supported: the baseline explains the record to its noise.</p>")
-    tried = "".join(f"<tr><td>{t.step}</td><td>{html.escape(t.effect)}</td><td>{_fmt(t.delta_bic)}</td>"
-                    f"<td>{_fmt(t.evidence.heldout_rms_ratio if t.evidence else None)}</td>"
-                    f"<td>{_fmt(t.evidence.heldout_z if t.evidence else None)}</td>"
+    tried = "".join(f"<tr><td>{t.step}</td><td>{html.escape(t.effect)}</td><td>{format_cell(t.delta_bic)}</td>"
+                    f"<td>{format_cell(t.evidence.heldout_rms_ratio if t.evidence else None)}</td>"
+                    f"<td>{format_cell(t.evidence.heldout_z if t.evidence else None)}</td>"
                     f"<td>{html.escape(t.outcome)}</td></tr>" for t in d.trials)
     b, e, g = result["baseline"], result["extended"], result["gain"]
     su = units.get("signal", "")
     stats = "".join(
-        f"<tr><td>{label}</td><td>{_fmt(b[key])}</td><td>{_fmt(e[key])}</td></tr>"
+        f"<tr><td>{label}</td><td>{format_cell(b[key])}</td><td>{format_cell(e[key])}</td></tr>"
         for label, key in (("residual RMS (" + (su or "signal units") + ")", "residual_rms"),
                            ("held-out residual RMS", "heldout_residual_rms"),
                            ("residual RMS / signal range", "residual_rms_relative"),
                            ("BIC", "bic"), ("residual lag-1 autocorrelation", "residual_lag1_autocorrelation"),
                            ("Ljung-Box p of the prewhitened residual", "whitened_ljung_box_p")))
-    noise = (f"baseline noise {b['noise']['model']}, memory {_fmt(b['noise']['memory_s'])} s; "
-             f"extended {e['noise']['model']}, memory {_fmt(e['noise']['memory_s'])} s")
+    noise = (f"baseline noise {b['noise']['model']}, memory {format_cell(b['noise']['memory_s'])} s; "
+             f"extended {e['noise']['model']}, memory {format_cell(e['noise']['memory_s'])} s")
     figs = "".join(f"<h3>{html.escape(title_)}</h3><img src='data:image/png;base64,{png}'/>"
                    for title_, png in diagnosis_figures(d, units))
     if circuit is not None:
@@ -212,7 +188,7 @@ def render_html(diagnosis, units: dict, title: str = "creepcomp diagnose",
     rec = result["record"]
     catch = result["catch_all"]
     catch_text = ("not fitted" if not catch else
-                  f"ΔBIC {_fmt(catch['delta_bic'])}, held-out z {_fmt(catch['heldout_z'])}")
+                  f"ΔBIC {format_cell(catch['delta_bic'])}, held-out z {format_cell(catch['heldout_z'])}")
     return f"""<!DOCTYPE html>
 <html><head><meta charset="utf-8"><title>{html.escape(title)}</title>
 <style>body{{font-family:sans-serif;max-width:1150px;margin:auto;padding:1em}}
@@ -220,8 +196,8 @@ table{{border-collapse:collapse;margin:0.5em 0}}td,th{{border:1px solid #bbb;pad
 td:first-child,th:first-child{{text-align:left}}img{{max-width:100%}}pre{{background:#f4f4f4;padding:0.6em}}</style>
 </head><body>
 <h1>{html.escape(title)}</h1>
-<p>Record <code>{html.escape(rec['source'])}</code>: {rec['n_samples']} samples over {_fmt(rec['duration_s'])} s,
-median step {_fmt(rec['sample_step_s'])} s ({'uniform' if rec['uniform'] else 'irregular'});
+<p>Record <code>{html.escape(rec['source'])}</code>: {rec['n_samples']} samples over {format_cell(rec['duration_s'])} s,
+median step {format_cell(rec['sample_step_s'])} s ({'uniform' if rec['uniform'] else 'irregular'});
 initial creep state: {html.escape(rec['initial_state'])}; temperature column: {'yes' if rec['temperature'] else 'no'}.</p>
 {circuit_section}
 <h2>Sensor side: cause {html.escape(d.cause)}</h2>
@@ -232,10 +208,10 @@ initial creep state: {html.escape(rec['initial_state'])}; temperature column: {'
 extension (catch-all) would. Catch-all on top of the final model: {catch_text}.</p>
 <h2>Gain</h2>
 <table><tr><th></th><th>value</th></tr>
-<tr><td>held-out residual RMS, baseline / extended</td><td>{_fmt(g.get('heldout_rms_ratio'))}</td></tr>
-<tr><td>creep-corrected signal error, baseline / extended</td><td>{_fmt(g.get('correction_error_ratio'))}</td></tr>
-<tr><td>creep-corrected signal error RMS, baseline model</td><td>{_fmt(g.get('correction_error_baseline'))}</td></tr>
-<tr><td>creep-corrected signal error RMS, extended model</td><td>{_fmt(g.get('correction_error_extended'))}</td></tr></table>
+<tr><td>held-out residual RMS, baseline / extended</td><td>{format_cell(g.get('heldout_rms_ratio'))}</td></tr>
+<tr><td>creep-corrected signal error, baseline / extended</td><td>{format_cell(g.get('correction_error_ratio'))}</td></tr>
+<tr><td>creep-corrected signal error RMS, baseline model</td><td>{format_cell(g.get('correction_error_baseline'))}</td></tr>
+<tr><td>creep-corrected signal error RMS, extended model</td><td>{format_cell(g.get('correction_error_extended'))}</td></tr></table>
 <h2>Baseline and extended model</h2>
 <table><tr><th></th><th>baseline</th><th>extended</th></tr>{stats}</table>
 <p>{html.escape(noise)}</p>

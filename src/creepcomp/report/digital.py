@@ -4,14 +4,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from creepcomp.analog.quality import sweep_branches  # noqa: E402
-from creepcomp.report.common import save_figure  # noqa: E402
+from creepcomp.analog.quality import sweep_branches
+from creepcomp.report.common import save_figure
 
 #: Smallest error drawn on log axes (exact corrections sit at rounding level).
 ERROR_FLOOR = 1e-16

@@ -1,0 +1,57 @@
+"""The design comparison plot: residual creep after a step and the sweep loop of several designs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from creepcomp.analog.quality import step_residual, sweep_hysteresis
+from creepcomp.model import CreepModel
+from creepcomp.network import Network
+from creepcomp.report.common import save_figure
+
+__all__ = ["plot_design_comparison"]
+
+
+def plot_design_comparison(model: CreepModel, designs: dict[str, Network | None],
+                           path: str | Path, sweep_period: float | None = None) -> Path:
+    """Residual creep after a load step, and the sweep hysteresis loop, of several designs.
+
+    Parameters
+    ----------
+    model : CreepModel
+        The sensor's creep.
+    designs : dict
+        Label to network (None for the uncorrected sensor).
+    path : str or Path
+        PNG file to write.
+    sweep_period : float, optional
+        Period of the triangular sweep (s).
+
+    Returns
+    -------
+    Path
+    """
+    fig, (ax_step, ax_loop) = plt.subplots(1, 2, figsize=(12, 4.8))
+    for label, net in designs.items():
+        t, e, _ = step_residual(model, net)
+        ax_step.plot(t, 100 * e, label=label)
+        _, load, up, down = sweep_hysteresis(model, net, sweep_period)
+        (line,) = ax_loop.plot(load, 100 * (up - load), label=label)
+        ax_loop.plot(load, 100 * (down - load), color=line.get_color())
+    ax_step.set_xscale("symlog", linthresh=max(min(model.tau) / 10, 1e-3))
+    ax_step.set_xlabel("time after a load step (s)")
+    ax_step.set_ylabel("residual creep (% of step)")
+    ax_step.set_title("Load step")
+    ax_step.axhline(0, color="0.6", lw=0.8)
+    ax_step.legend(fontsize=8)
+    ax_loop.set_xlabel("load (fraction of full scale)")
+    ax_loop.set_ylabel("output - ideal output (% of FS)")
+    ax_loop.set_title("Triangular sweep ±FS, up and down branches")
+    ax_loop.axhline(0, color="0.6", lw=0.8)
+    for ax in (ax_step, ax_loop):
+        ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    return save_figure(fig, path)
