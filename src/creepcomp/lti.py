@@ -11,11 +11,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import control
 import numpy as np
-from scipy import signal, special
 
 from creepcomp.errors import InputError
+
+__all__ = ["LagExpansion", "UNIFORM_RTOL", "lag_coefficients", "is_uniform", "lag_states",
+           "cascade_matrices", "cascade_step", "cascade_step_arrays", "triangle_lag_gap",
+           "cascade_lags", "varying_lag_states"]
 
 #: Relative spread of time steps below which sampling counts as uniform (then scipy's lfilter
 #: runs the recursion; the coefficient error this tolerance allows is below 1e-9 * dt / tau).
@@ -62,16 +64,24 @@ class LagExpansion:
         """Gain at infinite frequency, ``D``."""
         return self.direct
 
-    def state_space(self) -> control.StateSpace:
-        """Diagonal state-space realisation (state ``k`` is lag ``k``'s output)."""
+    def matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Diagonal state-space matrices ``A, B, C, D`` (state ``k`` is lag ``k``'s output)."""
         taus = np.array(self.taus)
-        if len(taus) == 0:
-            return control.ss([], [], [], [[self.direct]])
-        return control.ss(np.diag(-1.0 / taus), (1.0 / taus)[:, None],
-                          np.array(self.gains)[None, :], [[self.direct]])
+        return (np.diag(-1.0 / taus), (1.0 / taus)[:, None], np.array(self.gains)[None, :],
+                np.array([[self.direct]]))
 
-    def transfer_function(self) -> control.TransferFunction:
+    def state_space(self) -> "control.StateSpace":
+        """Diagonal state-space realisation as a python-control object (see :meth:`matrices`)."""
+        import control
+
+        if len(self.taus) == 0:
+            return control.ss([], [], [], [[self.direct]])
+        return control.ss(*self.matrices())
+
+    def transfer_function(self) -> "control.TransferFunction":
         """The transfer function as a python-control object."""
+        import control
+
         tf = control.tf([self.direct], [1.0])
         for a, tau in zip(self.gains, self.taus):
             tf = tf + control.tf([a], [tau, 1.0])
@@ -149,6 +159,8 @@ def lag_coefficients(dt, taus, hold: str = "linear"):
     if hold == "zero":
         return e, one_minus_e, np.zeros_like(e)
     if hold == "linear":
+        from scipy import special
+
         g = special.exprel(-x)          # (1 - e) / x, accurate for small x
         return e, g - e, 1.0 - g
     raise InputError(f"hold '{hold}': use 'linear' or 'zero'")
@@ -204,6 +216,8 @@ def lag_states(time, u, taus, hold: str = "linear", initial="relaxed", u_before=
     if not np.all(dt > 0):
         raise InputError("time must be strictly increasing")
     if is_uniform(t):
+        from scipy import signal
+
         step = float(np.mean(dt))
         for j, tau in enumerate(taus):
             e, b0, b1 = (float(c) for c in lag_coefficients(step, tau, hold))
@@ -231,6 +245,17 @@ def _scan(t, taus, e, drive, c0, out):
             growth = np.exp(rel)              # 1 / (product of e from i0 to n), <= exp(500)
             acc = np.cumsum(drive[i0:i1 - 1] * growth, axis=0)
             out[i0 + 1:i1] = (c + acc) / growth
+
+
+def cascade_matrices(first: LagExpansion, second: LagExpansion):
+    """State-space matrices ``A, B, C, D`` of ``second(s) * first(s)`` (first's states first)."""
+    a1, b1, c1, d1 = first.matrices()
+    a2, b2, c2, d2 = second.matrices()
+    n1, n2 = len(a1), len(a2)
+    a = np.block([[a1, np.zeros((n1, n2))], [b2 @ c1, a2]])
+    b = np.vstack([b1, b2 @ d1])
+    c = np.hstack([d2 @ c1, c2])
+    return a, b, c, d2 @ d1
 
 
 def cascade_step(first: LagExpansion, second: LagExpansion, t) -> np.ndarray:

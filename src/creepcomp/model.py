@@ -6,7 +6,6 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
-import control
 import numpy as np
 
 from creepcomp.errors import InputError
@@ -102,16 +101,18 @@ class CreepModel:
         """``G(s)`` as a sum of lags: direct gain 1, gains ``beta``, time constants ``tau``."""
         return LagExpansion(1.0, self.beta, self.tau)
 
-    def transfer_function(self) -> control.TransferFunction:
+    def transfer_function(self) -> "control.TransferFunction":
         """``G(s)`` as a python-control transfer function (signal per unit instantaneous signal)."""
         return self.lag_expansion().transfer_function()
 
-    def state_space(self) -> control.StateSpace:
+    def state_space(self) -> "control.StateSpace":
         """``G(s)`` as a diagonal python-control state-space system."""
         return self.lag_expansion().state_space()
 
     def zeros(self) -> np.ndarray:
         """Zeros of ``G(s)`` (the poles of the ideal correction ``1/G``), in rad/s."""
+        import control
+
         return np.sort_complex(control.zeros(self.transfer_function().minreal()))
 
     def response(self, time, load, hold: str = "linear", initial="relaxed") -> np.ndarray:

@@ -17,7 +17,6 @@ import math
 from dataclasses import dataclass, replace
 from typing import Mapping
 
-import control
 import numpy as np
 
 from creepcomp.errors import InputError
@@ -172,12 +171,14 @@ class Network:
         return "lag" if self.shunt else "lead"
 
     # --- H(s) --------------------------------------------------------------------------
-    def state_space(self) -> control.StateSpace:
+    def state_space(self) -> "control.StateSpace":
         """State-space model of ``H(s)``; states are the capacitor voltages."""
+        import control
+
         A, B, C, D, _ = state_matrices(*self.as_arrays())
         return control.ss(A[0], B[0][:, None], C[0][None, :], [[D[0]]])
 
-    def transfer_function(self) -> control.TransferFunction:
+    def transfer_function(self) -> "control.TransferFunction":
         """``H(s)`` as a python-control transfer function."""
         return self.lag_expansion().transfer_function()
 

@@ -5,10 +5,13 @@ Residual creep is the corrected output relative to its ideal, creep-free value,
 instantaneous jump, as a fraction of that jump. With the paper's rule it moves from 0 to
 ``beta0^2 / (1 + 2 beta0)`` (physics.md, section 3); with the exact rule it stays at 0.
 
-The reported figures come from python-control (exact discretisation of the cascade
-``H(s) G(s)`` on uniform segments); between grid points the peak is refined with the closed
-form :func:`residual_curves`, which also screens many candidate designs at once. The tests
-hold the two together.
+The step response is the closed form :func:`residual_curves` (which also screens many
+candidate designs at once) on uniform segments that resolve every time constant, its peak
+refined between grid points; the sweep is the exact discretisation of the cascade
+``H(s) G(s)`` for a load ramping linearly between samples (first-order hold), the method
+python-control's ``forced_response`` uses. python-control itself is the independent check:
+the tests hold both figures against it, and ``creepcomp simulate`` against ngspice. (It is not
+imported here: importing it costs more than a whole ``creepcomp size``.)
 """
 
 from __future__ import annotations
@@ -16,13 +19,16 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import control
 import numpy as np
-from scipy import linalg, optimize
 
-from creepcomp.lti import LagExpansion, cascade_step_arrays
+from creepcomp.lti import LagExpansion, cascade_matrices, cascade_step_arrays
 from creepcomp.model import CreepModel
 from creepcomp.network import Network
+
+__all__ = ["Quality", "SEGMENT_POINTS", "SEGMENT_SPAN", "SWEEP_QUARTER_POINTS",
+           "default_sweep_period", "corrected_system", "step_residual", "sweep_hysteresis",
+           "sweep_branches", "step_peak", "predict", "screening_times", "residual_curves",
+           "screening_deviation", "step_deviation"]
 
 #: Points per uniform segment of the step-response grid.
 SEGMENT_POINTS = 801
@@ -74,10 +80,20 @@ def default_sweep_period(model: CreepModel) -> float:
     return 2.0 * math.pi * model.tau[k]
 
 
-def corrected_system(model: CreepModel, network: Network | None) -> control.StateSpace:
-    """The cascade ``H(s) G(s)`` (or ``G(s)`` alone when ``network`` is None)."""
+def corrected_system(model: CreepModel, network: Network | None) -> "control.StateSpace":
+    """The cascade ``H(s) G(s)`` (or ``G(s)`` alone when ``network`` is None) in python-control."""
+    import control
+
     G = model.state_space()
     return G if network is None else control.series(G, network.state_space())
+
+
+def _cascade(model: CreepModel, network: Network | None):
+    """State-space matrices of ``H(s) G(s)`` (``G(s)`` alone when ``network`` is None)."""
+    g = model.lag_expansion()
+    if network is None:
+        return g.matrices()
+    return cascade_matrices(g, network.lag_expansion())
 
 
 def _ideal_gain(model: CreepModel, network: Network | None) -> float:
@@ -90,9 +106,9 @@ def _dc_gain(model: CreepModel, network: Network | None) -> float:
     return dc if network is None else dc * network.lag_expansion().dc_gain
 
 
-def _segment_ends(sys: control.StateSpace) -> list[float]:
+def _segment_ends(taus) -> list[float]:
     """End times of uniform grid segments, one per decade-separated time constant."""
-    taus = np.sort(-1.0 / np.real(np.linalg.eigvals(sys.A)))
+    taus = np.sort(np.asarray(taus, dtype=float))
     ends: list[float] = []
     for tau in taus:
         end = SEGMENT_SPAN * tau
@@ -104,7 +120,7 @@ def _segment_ends(sys: control.StateSpace) -> list[float]:
 
 
 def step_residual(model: CreepModel, network: Network | None = None):
-    """Residual creep after a unit load step, computed with python-control.
+    """Residual creep after a unit load step (closed form :func:`residual_curves`).
 
     Returns
     -------
@@ -112,25 +128,32 @@ def step_residual(model: CreepModel, network: Network | None = None):
         Times after the step (s), on uniform segments that resolve every time constant.
     residual : numpy.ndarray
         ``y / y_ideal - 1`` at those times.
-    states : numpy.ndarray
-        The cascade's states there (for exact evaluation in between).
     """
-    sys = corrected_system(model, network)
-    ideal = _ideal_gain(model, network)
-    x0 = np.zeros(sys.nstates)
-    t0 = 0.0
-    times, outs, states = [], [], []
-    for end in _segment_ends(sys):
-        grid = np.linspace(0.0, end - t0, SEGMENT_POINTS)
-        r = control.forced_response(sys, grid, np.ones_like(grid), X0=x0, return_x=True)
-        times.append(grid + t0)
-        outs.append(np.atleast_1d(r.outputs))
-        states.append(np.atleast_2d(r.states).T)
-        x0 = states[-1][-1]
-        t0 = end
-    time = np.concatenate(times)
-    keep = np.concatenate([[True], np.diff(time) > 0])
-    return time[keep], np.concatenate(outs)[keep] / ideal - 1.0, np.concatenate(states)[keep]
+    lags = _lag_arrays(network)
+    ends = _segment_ends(np.concatenate([model.tau, lags[2][0]]))
+    starts = [0.0] + ends[:-1]
+    time = np.concatenate([np.linspace(0.0, end - t0, SEGMENT_POINTS) + t0
+                           for t0, end in zip(starts, ends)])
+    time = time[np.concatenate([[True], np.diff(time) > 0])]
+    return time, residual_curves(model, *lags, time)[0]
+
+
+def _golden_max(f, lo: float, hi: float, xatol: float) -> tuple[float, float]:
+    """Largest value of a unimodal ``f`` on ``[lo, hi]`` by golden-section search."""
+    ratio = (math.sqrt(5.0) - 1.0) / 2.0
+    a, b = lo, hi
+    c, d = b - ratio * (b - a), a + ratio * (b - a)
+    fc, fd = f(c), f(d)
+    while b - a > xatol:
+        if fc >= fd:
+            b, d, fd = d, c, fc
+            c = b - ratio * (b - a)
+            fc = f(c)
+        else:
+            a, c, fc = c, d, fd
+            d = a + ratio * (b - a)
+            fd = f(d)
+    return (fc, c) if fc >= fd else (fd, d)
 
 
 def _refine_peak(model: CreepModel, network: Network | None, time, residual) -> tuple[float, float]:
@@ -140,14 +163,13 @@ def _refine_peak(model: CreepModel, network: Network | None, time, residual) -> 
     lo, hi = max(k - 1, 0), min(k + 1, len(time) - 1)
     if hi == lo:
         return float(abs(residual[k])), float(time[k])
-    lags = _lag_arrays(network) if network is not None else (np.ones(1), np.zeros((1, 0)), np.ones((1, 0)))
+    lags = _lag_arrays(network)
 
-    def neg_abs(t):
-        return -abs(residual_curves(model, *lags, np.array([t]))[0, 0])
+    def size(t):
+        return abs(residual_curves(model, *lags, np.array([t]))[0, 0])
 
-    res = optimize.minimize_scalar(neg_abs, bounds=(time[lo], time[hi]), method="bounded",
-                                   options={"xatol": 1e-9 * max(time[hi], 1.0)})
-    best = max((-res.fun, res.x), (abs(residual[k]), time[k]))
+    best = max(_golden_max(size, float(time[lo]), float(time[hi]), 1e-9 * max(time[hi], 1.0)),
+               (abs(residual[k]), time[k]))
     return float(best[0]), float(best[1])
 
 
@@ -170,18 +192,32 @@ def sweep_hysteresis(model: CreepModel, network: Network | None = None,
     load, y_up, y_down : numpy.ndarray
         The two branches against load (normalised to FS and to the ideal output), for plots.
     """
+    from scipy import linalg
+
     period = default_sweep_period(model) if period is None else float(period)
-    sys = corrected_system(model, network)
-    ideal = _ideal_gain(model, network)
+    a, b, c, d = _cascade(model, network)
+    n = len(a)
     m = SWEEP_QUARTER_POINTS
-    t = np.linspace(0.0, period, 4 * m + 1)
     q = np.arange(4 * m + 1)
     load = np.where(q <= m, q / m, np.where(q <= 3 * m, 2.0 - q / m, q / m - 4.0))
-    one_period = control.forced_response(sys, t, load, X0=np.zeros(sys.nstates), return_x=True)
-    gamma = np.atleast_2d(one_period.states)[:, -1]
-    phi = linalg.expm(np.asarray(sys.A) * period)
-    x0 = np.linalg.solve(np.eye(sys.nstates) - phi, gamma)
-    y = np.atleast_1d(control.forced_response(sys, t, load, X0=x0).outputs) / ideal
+    # first-order hold: x[k+1] = Ad x[k] + B0 u[k] + B1 u[k+1], exact for a ramping load
+    dt = period / (4 * m)
+    aug = np.zeros((n + 2, n + 2))
+    aug[:n, :n], aug[:n, n:n + 1], aug[n, n + 1] = a * dt, b * dt, 1.0
+    e = linalg.expm(aug)
+    ad, b1 = e[:n, :n], e[:n, n + 1]
+    b0 = e[:n, n] - b1
+
+    def states(x0):
+        x = np.empty((len(load), n))
+        x[0] = x0
+        for k in range(len(load) - 1):
+            x[k + 1] = ad @ x[k] + b0 * load[k] + b1 * load[k + 1]
+        return x
+
+    gamma = states(np.zeros(n))[-1]
+    x0 = np.linalg.solve(np.eye(n) - linalg.expm(a * period), gamma)
+    y = (states(x0) @ c[0] + d[0, 0] * load) / _ideal_gain(model, network)
     load, y_up, y_down = sweep_branches(y, m)
     return float(np.abs(y_down - y_up).max()), load, y_up, y_down
 
@@ -213,7 +249,7 @@ def sweep_branches(y, quarter_points: int):
 
 
 def step_peak(model: CreepModel, network: Network | None = None) -> tuple[float, float, float]:
-    """Peak and final residual creep after a load step (python-control grid, exact refinement).
+    """Peak and final residual creep after a load step (segment grid, exact refinement).
 
     Returns
     -------
@@ -225,7 +261,7 @@ def step_peak(model: CreepModel, network: Network | None = None) -> tuple[float,
         Settled ``y / y_ideal - 1`` (signed).
     """
     ideal = _ideal_gain(model, network)
-    time, residual, _ = step_residual(model, network)
+    time, residual = step_residual(model, network)
     peak, peak_time = _refine_peak(model, network, time, residual)
     final = _dc_gain(model, network) / ideal - 1.0
     if abs(final) >= peak:
@@ -283,7 +319,10 @@ def residual_curves(model: CreepModel, direct, gains, taus, t) -> np.ndarray:
     return y / (g.hf_gain * np.asarray(direct)[:, None]) - 1.0
 
 
-def _lag_arrays(network: Network):
+def _lag_arrays(network: Network | None):
+    """Batch-of-one sum-of-lags arrays of a network (``H = 1`` when None)."""
+    if network is None:
+        return np.ones(1), np.zeros((1, 0)), np.ones((1, 0))
     lag = network.lag_expansion()
     return np.array([lag.direct]), np.array([lag.gains]), np.array([lag.taus])
 
@@ -307,11 +346,11 @@ def screening_deviation(model: CreepModel, direct, gains, taus,
 
 
 def step_deviation(model: CreepModel, network: Network, reference: Network | None = None) -> float:
-    """Peak ``|e(t) - e_ref(t)|`` after a load step, ``e`` from python-control.
+    """Peak ``|e(t) - e_ref(t)|`` after a load step, on :func:`step_residual`'s grid.
 
-    With ``reference`` None this is the peak residual creep on python-control's grid.
+    With ``reference`` None this is the peak residual creep on that grid.
     """
-    t, e, _ = step_residual(model, network)
+    t, e = step_residual(model, network)
     final = _dc_gain(model, network) / _ideal_gain(model, network) - 1.0
     if reference is not None:
         e = e - residual_curves(model, *_lag_arrays(reference), t)[0]

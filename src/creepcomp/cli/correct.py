@@ -9,9 +9,6 @@ import numpy as np
 import typer
 from rich.table import Table
 
-from creepcomp.digital.correctors import (compensate, creep_error, default_initial, reference,
-    saturation_factor, uniform_interval)
-from creepcomp.report.digital import plot_correction
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_model
 from creepcomp.io.records import parse_columns, read_record, write_record
@@ -48,6 +45,9 @@ def correct_command(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ) -> None:
     """Remove creep from a record sample by sample, and report the creep error left."""
+    from creepcomp.digital.correctors import (compensate, creep_error, default_initial,
+                                              saturation_factor, uniform_interval)
+
     if model_file is None:
         raise InputError("give the sensor's creep model: --model FILE (a JSON object with 'beta' "
                          "and 'tau' lists, as written by creepcomp fit)")
@@ -79,6 +79,9 @@ def correct_command(
             "compensated.method": method, "compensated.initial": start, "compensated.hold": hold,
             "compensated.model": str(model_file)})
     if plot is not None:
+        from creepcomp.digital.correctors import reference
+        from creepcomp.report.digital import plot_correction
+
         plot_correction(record.time, record.signal, compensated,
                         reference(record.load, model, method), plot,
                         title=f"{record_path.name}: {method} correction", signal_unit=unit,

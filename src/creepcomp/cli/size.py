@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Optional
+from typing import TYPE_CHECKING, Optional
 
 import typer
 from rich.table import Table
@@ -12,10 +12,11 @@ from rich.table import Table
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_model, write_design
 from creepcomp.model import CreepModel
-from creepcomp.report.design import plot_design_comparison
-from creepcomp.analog.sizing import DEFAULT_CAP_RANGE, DEFAULT_RES_RANGE, SizingReport, size
 from creepcomp.units import format_quantity
 from creepcomp.cli.common import app, console, pct, print_json, quantity, value_range
+
+if TYPE_CHECKING:
+    from creepcomp.analog.sizing import SizingReport
 
 
 def model_from_options(beta0: str | None, tau: str | None, model_file: Path | None) -> CreepModel:
@@ -70,6 +71,8 @@ def size_command(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ) -> None:
     """Size the RC network that cancels the creep, snap it to E-series parts, predict its quality."""
+    from creepcomp.analog.sizing import DEFAULT_CAP_RANGE, DEFAULT_RES_RANGE, size
+
     model = model_from_options(beta0, tau, model_file)
     rule = rule.strip().lower()
     report = size(
@@ -90,6 +93,8 @@ def size_command(
         designs = {"uncorrected": None, "ideal": report.ideal, "chosen parts": report.chosen}
         if report.nearest is not None:
             designs["nearest values"] = report.nearest
+        from creepcomp.report.design import plot_design_comparison
+
         plot_design_comparison(model, designs, plot, report.chosen_quality.sweep_period)
     if as_json:
         print_json(report.to_dict())

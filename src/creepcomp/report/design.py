@@ -36,7 +36,7 @@ def plot_design_comparison(model: CreepModel, designs: dict[str, Network | None]
     """
     fig, (ax_step, ax_loop) = plt.subplots(1, 2, figsize=(12, 4.8))
     for label, net in designs.items():
-        t, e, _ = step_residual(model, net)
+        t, e = step_residual(model, net)
         ax_step.plot(t, 100 * e, label=label)
         _, load, up, down = sweep_hysteresis(model, net, sweep_period)
         (line,) = ax_loop.plot(load, 100 * (up - load), label=label)
