@@ -1,5 +1,7 @@
 """Error types: every problem a user can act on is one of these."""
 
+__all__ = ["CreepcompError", "InputError", "NotRealisableError"]
+
 
 class CreepcompError(Exception):
     """Base class of the project's errors; the message is meant for the user."""

@@ -11,6 +11,8 @@ import numpy as np
 from creepcomp.errors import InputError
 from creepcomp.lti import LagExpansion
 
+__all__ = ["CreepModel"]
+
 
 def _check_number(value, name: str) -> float:
     try:

@@ -23,6 +23,8 @@ from creepcomp.errors import InputError
 from creepcomp.lti import LagExpansion
 from creepcomp.model import CreepModel
 
+__all__ = ["Cell", "Branch", "Network", "state_matrices", "modal_form", "parallel"]
+
 
 @dataclass(frozen=True)
 class Cell:

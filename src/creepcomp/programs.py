@@ -16,6 +16,8 @@ import numpy as np
 from creepcomp.errors import InputError
 from creepcomp.lti import LagExpansion, lag_states
 
+__all__ = ["LoadProgram", "step", "staircase", "triangle_sweep"]
+
 
 @dataclass(frozen=True)
 class LoadProgram:
@@ -157,8 +159,3 @@ def triangle_sweep(period: float, cycles: int = 3, full_scale: float = 1.0, star
         times += [t0 + q, t0 + 3 * q, t0 + 4 * q]
         loads += [full_scale, -full_scale, 0.0]
     return LoadProgram(tuple(times), tuple(loads), name or f"triangular sweep ±{full_scale:g}, period {period:g} s")
-
-
-def from_samples(times, loads, name: str = "load history") -> LoadProgram:
-    """A program through given samples (linear between them)."""
-    return LoadProgram(tuple(np.asarray(times, float)), tuple(np.asarray(loads, float)), name)

@@ -12,6 +12,8 @@ from decimal import Decimal
 
 from creepcomp.errors import InputError
 
+__all__ = ["PREFIXES", "UNITS", "TIME_UNITS", "parse_quantity", "format_quantity"]
+
 # prefix -> power of ten (decimal arithmetic keeps "2.7%" and "4.7u" exact to the last digit)
 PREFIXES = {
     "p": -12, "n": -9, "u": -6, "µ": -6, "μ": -6, "m": -3,
@@ -132,8 +134,3 @@ def format_quantity(value: float | None, unit: str = "", digits: int = 4) -> str
             break
     text = f"{value / scale:.{digits}g}"
     return f"{text} {prefix}{unit}".strip()
-
-
-def format_fraction(value: float, digits: int = 3) -> str:
-    """Format a dimensionless fraction in scientific notation with its percent, e.g. ``8.49e-04 (0.0849 %)``."""
-    return f"{value:.{digits - 1}e} ({value * 100:.{digits}g} %)"

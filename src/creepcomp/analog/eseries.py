@@ -15,6 +15,8 @@ import numpy as np
 
 from creepcomp.errors import InputError
 
+__all__ = ["SERIES", "TOLERANCE", "series_values", "values_in_range", "neighbours", "nearest"]
+
 _E24 = (1.0, 1.1, 1.2, 1.3, 1.5, 1.6, 1.8, 2.0, 2.2, 2.4, 2.7, 3.0,
         3.3, 3.6, 3.9, 4.3, 4.7, 5.1, 5.6, 6.2, 6.8, 7.5, 8.2, 9.1)
 

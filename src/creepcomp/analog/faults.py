@@ -23,6 +23,9 @@ from creepcomp.model import CreepModel
 from creepcomp.network import Network, modal_form, state_matrices
 from creepcomp.analog.quality import screening_deviation, step_peak
 
+__all__ = ["CIRCUIT_EFFECTS", "FIX_SPAN", "IMPROVEMENT", "capacitor_cells", "largest_capacitor",
+           "apply_fault", "FixOption", "suggest_fixes"]
+
 CIRCUIT_EFFECTS = ("capacitor_value", "source_impedance", "load_impedance",
                    "dielectric_absorption", "capacitor_leakage")
 

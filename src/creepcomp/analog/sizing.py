@@ -33,6 +33,11 @@ from creepcomp.analog.quality import (Quality, predict, screening_deviation, ste
     step_peak)
 from creepcomp.units import format_quantity
 
+__all__ = ["RULES", "DEFAULT_CAPACITANCE", "DEFAULT_CAP_RANGE", "DEFAULT_RES_RANGE",
+           "FILM_CAP_RANGE", "HIGH_IMPEDANCE", "ASSUMED_LEAKAGE", "MAX_COMBINATIONS_PER_LEVEL",
+           "EXACT_RECHECKS", "explain_unrealisable", "ideal_network", "PartChoice", "SizingReport",
+           "size", "nearest_snap", "output_resistance", "design_warnings"]
+
 RULES = ("exact", "paper")
 #: Capacitance of the largest capacitor when the user fixes nothing and does not snap.
 DEFAULT_CAPACITANCE = 10e-6

@@ -7,6 +7,8 @@ from importlib import resources
 from creepcomp.io.jsonfiles import read_model
 from creepcomp.model import CreepModel
 
+__all__ = ["path", "default_sensor"]
+
 
 def path(name: str):
     """Filesystem path of a bundled data file."""

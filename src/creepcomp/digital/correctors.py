@@ -50,6 +50,10 @@ from creepcomp.errors import InputError
 from creepcomp.lti import UNIFORM_RTOL, lag_coefficients
 from creepcomp.model import CreepModel
 
+__all__ = ["METHODS", "HOLDS", "INITIAL_STATES", "BLOCK", "PASS_SAMPLES", "default_initial",
+           "saturation_factor", "Corrector", "check_invertible", "compensate", "uniform_interval",
+           "reference", "CreepError", "creep_error"]
+
 METHODS = ("subtractive", "supplemental")
 HOLDS = ("zero", "linear")
 INITIAL_STATES = ("relaxed", "settled")

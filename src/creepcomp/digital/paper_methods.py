@@ -18,6 +18,8 @@ import numpy as np
 
 from creepcomp.errors import InputError
 
+__all__ = ["subtractive", "supplemental"]
+
 
 def _arrays(time, raw, beta, tau):
     t = np.asarray(time, dtype=float)

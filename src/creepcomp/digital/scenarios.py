@@ -27,6 +27,9 @@ from creepcomp.programs import LoadProgram, staircase, triangle_sweep
 from creepcomp.analog.quality import default_sweep_period, sweep_branches
 from creepcomp.io.records import Record
 
+__all__ = ["paper_model", "SyntheticRecord", "step_record", "sweep_record", "sweep_hysteresis",
+           "Outcome", "outcomes", "LongRun", "long_run"]
+
 
 def paper_model() -> CreepModel:
     """Three creep terms, ``beta0`` = 3 %: a sensor like the paper's accelerometer.

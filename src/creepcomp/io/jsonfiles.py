@@ -12,6 +12,9 @@ from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 from creepcomp.network import Network
 
+__all__ = ["read_json", "to_json", "write_json", "read_model", "write_model", "Design",
+           "read_design", "write_design"]
+
 
 def read_json(path: str | Path, what: str = "file") -> dict:
     """Read a JSON object, with one clear message for a missing or malformed file."""

@@ -25,6 +25,9 @@ import numpy as np
 
 from creepcomp.errors import InputError
 
+__all__ = ["REQUIRED", "OPTIONAL", "COLUMNS", "TIME_UNITS_TO_SECONDS", "Record", "check_arrays",
+           "parse_columns", "read_record", "parse_record", "write_record"]
+
 REQUIRED = ("time", "load", "signal")
 OPTIONAL = ("temperature", "corrected")
 COLUMNS = REQUIRED + OPTIONAL

@@ -1,1 +1,9 @@
-"""Plots and HTML reports: the only place that imports matplotlib."""
+"""Plots and HTML reports: the only place that imports matplotlib.
+
+One module per report: ``design`` (residual creep and sweep of designs), ``tolerance`` (Monte
+Carlo report), ``spice`` (ngspice against python-control), ``digital`` (digital correction),
+``diagnosis`` and ``circuit_diagnosis`` (diagnose reports), and ``common`` (saving figures,
+HTML pages). Nothing is imported here, so that one report costs only its own imports.
+"""
+
+__all__: list[str] = []

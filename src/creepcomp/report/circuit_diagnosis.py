@@ -11,6 +11,8 @@ from creepcomp.report.common import format_cell, png_base64, thin
 from creepcomp.fit.core import autocorrelation
 from creepcomp.units import format_quantity
 
+__all__ = ["UNITS", "quantity", "elements", "circuit_figures", "circuit_html"]
+
 #: Units of the circuit effects' parameters.
 UNITS = {"C": "F", "R": "Ω", "tau": "s", "fraction": ""}
 

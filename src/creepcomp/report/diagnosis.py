@@ -13,6 +13,8 @@ from creepcomp.io.jsonfiles import to_json, write_design, write_json
 from creepcomp.fit.core import Data, Fit, autocorrelation
 from creepcomp.report.common import format_cell, png_base64, save_figure, thin
 
+__all__ = ["plot_fit", "diagnosis_figures", "render_html", "write_report"]
+
 def _labels(data: Data, units: dict) -> tuple[str, str, str]:
     su = units.get("signal", "")
     lu = units.get("load", "")

@@ -10,6 +10,8 @@ import numpy as np
 from creepcomp.analog.quality import sweep_branches
 from creepcomp.report.common import save_figure
 
+__all__ = ["ERROR_FLOOR", "plot_correction", "plot_step_outcomes", "plot_sweep_outcomes"]
+
 #: Smallest error drawn on log axes (exact corrections sit at rounding level).
 ERROR_FLOOR = 1e-16
 
