@@ -17,7 +17,7 @@ import argparse
 import os
 import time
 
-from creepcomp.synth import generate as synth
+from creepcomp import synth
 from creepcomp.diagnose.sensor import diagnose
 
 CASES = {
@@ -34,7 +34,7 @@ def main(argv=None):
     print(f"load average before: {os.getloadavg()[0]:.2f}")
     for name, hidden in CASES.items():
         spec = synth.Spec(hidden=hidden, beta=(0.03,), tau=(45.0,), gain=1.0, rate=10.0, duration=1800.0,
-                          program="staircase", noise=synth.Noise(white=5e-4), seed=30)
+                          program="staircase", noise=synth.NoiseSpec(white=5e-4), seed=30)
         record = synth.generate(spec).record
         times, cpu, cause = [], [], None
         for _ in range(args.repeat):

@@ -4,7 +4,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from creepcomp.synth import generate as synth
+from creepcomp import synth
 from creepcomp.data import path as data_path
 from creepcomp.io.jsonfiles import read_model
 from creepcomp.io.records import Record, write_record
@@ -16,7 +16,7 @@ SHARED = Path(__file__).resolve().parent / "data" / "rheojax"
 def two_term_record(tmp_path_factory):
     spec = synth.Spec(hidden={"extra_retardation": {"tau": 300.0, "beta": 0.012}}, beta=(0.03,),
                       tau=(30.0,), gain=2.0, offset=0.1, rate=4.0, duration=1800, program="staircase",
-                      noise=synth.Noise(white=1e-3), seed=21)
+                      noise=synth.NoiseSpec(white=1e-3), seed=21)
     p = tmp_path_factory.mktemp("rec") / "two.csv"
     write_record(p, synth.generate(spec).record)
     return p

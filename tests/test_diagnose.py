@@ -1,7 +1,7 @@
 """Diagnosis of synthetic records with hidden effects: named, parameters recovered, gain.
 
 Each effect is hidden in records with random parameters, sample rates (2-50 Hz), load
-programs, durations, noise level and colour (see :func:`creepcomp.synth.generate.random_spec`); the
+programs, durations, noise level and colour (see :func:`creepcomp.synth.sensor.random_spec`); the
 records are kept small (at most 5000 samples) so that the suite stays fast. The wide
 confusion matrix is ``benchmarks/diagnose_confusion.py``.
 """
@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from creepcomp.synth import generate as synth
+from creepcomp import synth
 from creepcomp.diagnose.sensor import diagnose
 from creepcomp.io.records import Record
 
@@ -95,6 +95,6 @@ def test_no_candidate_explains_it_so_unexplained():
 
 def test_record_starting_loaded_without_effect_is_none():
     syn = synth.generate(synth.Spec(duration=1500, rate=5, program="step", start_loaded=True, seed=6,
-                                    noise=synth.Noise(white=5e-4)))
+                                    noise=synth.NoiseSpec(white=5e-4)))
     assert syn.record.load[0] != 0
     assert diagnose(syn.record).cause == "none"

@@ -12,7 +12,7 @@ import pytest
 
 from creepcomp.diagnose import effects
 from creepcomp.verify import spice
-from creepcomp.synth import generate as synth
+from creepcomp import synth
 from creepcomp.analog.faults import CIRCUIT_EFFECTS
 from creepcomp.data import path as data_path
 from creepcomp.diagnose.circuit import (choose, combine, diagnose_circuit, evidence, fit_model,

@@ -3,7 +3,7 @@ import pytest
 
 from creepcomp.diagnose import effects
 from creepcomp import programs
-from creepcomp.synth import generate as synth
+from creepcomp import synth
 from creepcomp.diagnose.effects import compensate, simulate
 from creepcomp.errors import InputError
 from creepcomp.model import CreepModel

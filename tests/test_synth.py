@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from creepcomp.synth import generate as synth
+from creepcomp import synth
 from creepcomp.diagnose.circuit import diagnose_circuit, prepare, residual_at
 from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
@@ -35,7 +35,7 @@ def test_programs_change_the_load_within_the_record(kind, seed, loaded):
 
 def test_clean_record_is_the_creep_model_plus_noise():
     spec = synth.Spec(beta=(0.03,), tau=(45.0,), gain=2.0, offset=0.5, rate=5.0, duration=900,
-                      program="staircase", noise=synth.Noise(white=1e-3), seed=4)
+                      program="staircase", noise=synth.NoiseSpec(white=1e-3), seed=4)
     syn = synth.generate(spec)
     r = syn.record
     model = CreepModel((0.03,), (45.0,), gain=2.0, offset=0.5)
@@ -57,10 +57,10 @@ def test_irregular_sampling_and_gaps():
 def test_noise_colour_and_drift():
     rng = np.random.default_rng(0)
     t = np.arange(0, 3600, 0.1)
-    e = synth._noise(t, synth.Noise(white=0.0, coloured=1.0, correlation_time=2.0), rng)
+    e = synth.sample_noise(t, synth.NoiseSpec(white=0.0, coloured=1.0, correlation_time=2.0), rng)
     r1 = np.corrcoef(e[:-1], e[1:])[0, 1]
     assert r1 == pytest.approx(np.exp(-0.1 / 2.0), abs=0.01)
-    d = synth._noise(t, synth.Noise(white=0.0, drift=1.0), rng)
+    d = synth.sample_noise(t, synth.NoiseSpec(white=0.0, drift=1.0), rng)
     assert 0.2 < abs(d[-1] - d[0]) < 5.0        # about one unit after an hour
 
 
@@ -89,17 +89,17 @@ def test_unknown_names_are_refused():
 
 def test_a_hidden_effect_is_kept_detectable_by_scaling_the_noise():
     faint = synth.Spec(hidden={"extra_retardation": {"tau": 200.0, "beta": 1e-4}}, tau=(20.0,), rate=2.0,
-                       duration=1200.0, noise=synth.Noise(white=1e-2), seed=3, detectable_z=10.0)
+                       duration=1200.0, noise=synth.NoiseSpec(white=1e-2), seed=3, detectable_z=10.0)
     assert synth.generate(faint).spec.noise.white < 1e-3
     clear = replace(faint, hidden={"extra_retardation": {"tau": 200.0, "beta": 0.02}},
-                    noise=synth.Noise(white=1e-4))
+                    noise=synth.NoiseSpec(white=1e-4))
     assert synth.generate(clear).spec.noise.white == 1e-4
 
 
 def test_a_circuit_fault_is_kept_detectable_distinct_and_measurable():
     base = synth.CircuitSpec(hidden={"dielectric_absorption": {"fraction": 0.01, "tau": 60.0, "cell": 0}},
-                             rate=4.0, duration=1200.0, noise=synth.Noise(white=1e-3),
-                             corrected_noise=synth.Noise(white=1e-3), seed=4)
+                             rate=4.0, duration=1200.0, noise=synth.NoiseSpec(white=1e-3),
+                             corrected_noise=synth.NoiseSpec(white=1e-3), seed=4)
     assert synth.generate_circuit(base).noise_factor == {}
     for rule in ("detectable_z", "distinct_z", "precise_to"):
         syn = synth.generate_circuit(replace(base, **{rule: {"precise_to": 0.03}.get(rule, 10.0)}))
@@ -119,7 +119,7 @@ def test_a_circuit_fault_is_kept_detectable_distinct_and_measurable():
 
 def test_precision_of_a_fault_agrees_with_the_fits_own_uncertainty():
     spec = synth.CircuitSpec(hidden={"capacitor_value": {"C": 14e-6}}, rate=4.0, duration=900.0, seed=2,
-                             corrected_noise=synth.Noise(white=2e-4), drive="samples")
+                             corrected_noise=synth.NoiseSpec(white=2e-4), drive="samples")
     syn = synth.generate_circuit(spec)
     data = prepare(syn.record, syn.design)
 

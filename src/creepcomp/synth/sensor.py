@@ -1,72 +1,36 @@
-"""Synthetic records with known hidden effects, for examples, tests, the demo and benchmarks.
+"""Synthetic sensor records with known hidden effects, for examples, tests, the demo and benchmarks.
 
 A record is simulated on a fine time grid that holds every breakpoint of the load program
 (so steps and ramps are exact), independently of how the fit discretises: the hidden effects
 are written here in their own forms (some deliberately not the fitted ones: a saturating
-static nonlinearity, a power-law nonlinear creep, an Arrhenius temperature law), then sampled at the record's (uniform, jittered or gappy) times
-and given noise of several kinds. Everything random takes a seed.
+static nonlinearity, a power-law nonlinear creep, an Arrhenius temperature law), then sampled
+at the record's (uniform, jittered or gappy) times and given noise of several kinds. Everything
+random takes a seed.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 
 import numpy as np
 
-from creepcomp.analog.faults import CIRCUIT_EFFECTS, apply_fault, capacitor_cells
 from creepcomp.errors import InputError
-from creepcomp.io.jsonfiles import Design
-from creepcomp.fit.core import spectral_variance
-from creepcomp.lti import LagExpansion, cascade_lags, lag_states, varying_lag_states
-from creepcomp.model import CreepModel
-from creepcomp.programs import LoadProgram
 from creepcomp.io.records import Record
-from creepcomp.analog.sizing import size
+from creepcomp.lti import lag_states, varying_lag_states
+from creepcomp.programs import LoadProgram
+from creepcomp.synth.common import DETECTABLE_Z, NoiseSpec, heldout_z, sample_noise, scaled_noise
+
+__all__ = ["EFFECTS", "PROGRAMS", "PROGRAMS_FOR", "Spec", "Synthetic", "make_program", "sample_times",
+           "temperature_profile", "simulate_signal", "detectability", "generate", "random_hidden",
+           "random_spec", "random_record", "DEMO_SPEC", "reported_truth"]
 
 #: Hidden effects the generator can put in a record.
 EFFECTS = ("extra_retardation", "viscous_flow", "nonlinear_creep", "asymmetric_recovery",
            "thermal_drift", "thermal_retardation", "static_nonlinearity", "time_offset")
 
+#: Kinds of load program :func:`make_program` draws.
 PROGRAMS = ("step", "staircase", "sweep", "mixture", "random")
-
-#: Randomised records keep a hidden effect detectable: where its signature, beyond what the
-#: baseline absorbs, would stand less than this far out of the noise (:func:`detectability`,
-#: in held-out z with every parameter known; diagnose asks for 3 with them fitted), the
-#: record's noise is scaled down until it does.
-DETECTABLE_Z = 10.0
-#: Held-out ``z`` that the part of a benchmark record's circuit fault no other circuit fault
-#: mimics must reach at least (:func:`alternative_faults`): the fault can be told apart.
-DISTINCT_Z = 5.0
-#: Relative 1-sigma uncertainty to which a benchmark record of a built network determines its
-#: fault's parts (C, R) at most: "within 10 %" is then three standard deviations.
-PRECISE_TO = 0.03
-
-
-@dataclass(frozen=True)
-class Noise:
-    """Measurement noise, in signal units.
-
-    Attributes
-    ----------
-    white : float
-        Standard deviation of white noise.
-    coloured : float
-        Standard deviation of an Ornstein-Uhlenbeck (continuous AR(1)) component.
-    correlation_time : float
-        Its correlation time (s).
-    drift : float
-        Random-walk drift: standard deviation after one hour.
-    lsb : float
-        Quantisation step (0: none).
-    """
-
-    white: float = 1e-3
-    coloured: float = 0.0
-    correlation_time: float = 1.0
-    drift: float = 0.0
-    lsb: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -86,7 +50,7 @@ class Spec:
     gaps: int = 0
     start_loaded: bool = False
     start: float = 0.0
-    noise: Noise = Noise()
+    noise: NoiseSpec = NoiseSpec()
     temperature: bool = False
     seed: int = 0
     detectable_z: float = 0.0      # see DETECTABLE_Z
@@ -332,23 +296,6 @@ def _asymmetric_lag(grid, h_before, h_after, tau: float, tau_recovery: float, c0
         out.append(c)
     return np.array(out)
 
-
-def _noise(t: np.ndarray, noise: Noise, rng: np.random.Generator) -> np.ndarray:
-    e = rng.normal(0.0, noise.white, len(t)) if noise.white > 0 else np.zeros(len(t))
-    if noise.coloured > 0:
-        a = np.exp(-np.diff(t) / noise.correlation_time)
-        x = np.empty(len(t))
-        x[0] = rng.normal(0, noise.coloured)
-        w = rng.normal(0, 1, len(t) - 1) * noise.coloured * np.sqrt(1 - a ** 2)
-        for i in range(1, len(t)):
-            x[i] = a[i - 1] * x[i - 1] + w[i - 1]
-        e = e + x
-    if noise.drift > 0:
-        steps = rng.normal(0, 1, len(t) - 1) * noise.drift * np.sqrt(np.diff(t) / 3600.0)
-        e = e + np.concatenate([[0.0], np.cumsum(steps)])
-    return e
-
-
 def detectability(spec: Spec, program: LoadProgram, t: np.ndarray, temperature_fn,
                   clean: np.ndarray, noise: np.ndarray) -> float:
     """How far the hidden effects stand out of the noise: the held-out ``z`` (see
@@ -365,14 +312,7 @@ def detectability(spec: Spec, program: LoadProgram, t: np.ndarray, temperature_f
     directions = np.column_stack([np.ones_like(t), u, lag, (lag_up - lag) / 0.01,
                                   np.exp(-(t - t[0]) / tau)])
     coef, *_ = np.linalg.lstsq(directions, signature, rcond=None)
-    return _heldout_z(signature - directions @ coef, noise)
-
-
-def _heldout_z(rest: np.ndarray, noise: np.ndarray) -> float:
-    """Held-out ``z`` of a signature with every parameter known: its energy over twice the
-    spread of its product with the noise (spectrum from ``noise``)."""
-    spread = math.sqrt(max(spectral_variance(rest, noise), 0.0))
-    return float(np.sum(rest ** 2) / (2.0 * spread)) if spread > 0 else math.inf
+    return heldout_z(signature - directions @ coef, noise)
 
 
 def generate(spec: Spec) -> Synthetic:
@@ -397,14 +337,14 @@ def generate(spec: Spec) -> Synthetic:
             hidden[name].setdefault("reference_temperature", temp_mean)
     spec = replace(spec, hidden=hidden)
     clean = simulate_signal(spec, program, t, temp_fn)
-    noise = _noise(t, spec.noise, rng)
+    noise = sample_noise(t, spec.noise, rng)
     if spec.hidden and spec.detectable_z > 0:
         z = detectability(spec, program, t, temp_fn, clean, noise)
         if z < spec.detectable_z:
             # the same noise realisation, scaled (every component is linear in its size)
             f = z / spec.detectable_z
             noise = noise * f
-            spec = replace(spec, noise=_scaled(spec.noise, f))
+            spec = replace(spec, noise=scaled_noise(spec.noise, f))
     signal = clean + noise
     if spec.noise.lsb > 0:
         signal = np.round(signal / spec.noise.lsb) * spec.noise.lsb
@@ -522,11 +462,11 @@ def random_spec(effect: str | None, seed: int, rate: tuple = (2.0, 50.0),
     gain = float(rng.uniform(0.2, 5.0) * rng.choice([-1, 1], p=[0.2, 0.8]))
     fs = float(rng.choice([1.0, 2.0, 9.81, 50.0]))
     white = float(np.exp(rng.uniform(np.log(noise[0]), np.log(noise[1])))) * abs(gain) * fs
-    n = Noise(white=white,
-              coloured=white * rng.uniform(0.3, 1.0) * colour_scale if rng.uniform() < coloured else 0.0,
-              correlation_time=float(rng.uniform(2.0, 20.0) / r),
-              drift=white * rng.uniform(0.2, 1.0) * colour_scale if rng.uniform() < drift else 0.0,
-              lsb=white * rng.uniform(0.1, 1.0) if rng.uniform() < 0.3 else 0.0)
+    n = NoiseSpec(white=white,
+                  coloured=white * rng.uniform(0.3, 1.0) * colour_scale if rng.uniform() < coloured else 0.0,
+                  correlation_time=float(rng.uniform(2.0, 20.0) / r),
+                  drift=white * rng.uniform(0.2, 1.0) * colour_scale if rng.uniform() < drift else 0.0,
+                  lsb=white * rng.uniform(0.1, 1.0) if rng.uniform() < 0.3 else 0.0)
     choices = list(programs or PROGRAMS_FOR[effect])
     irregular_now = rng.uniform() < irregular
     hidden = random_hidden(effect, rng, tau, r, dur, beta, forms, abs(gain) * fs)
@@ -553,15 +493,7 @@ def random_record(effect: str | None, seed: int, **ranges) -> Synthetic:
 #: staircase of loading and unloading steps whose recovery is slower than its creep.
 DEMO_SPEC = Spec(hidden={"asymmetric_recovery": {"tau_recovery": 150.0}}, beta=(0.03,), tau=(45.0,),
                  gain=0.05, offset=0.002, rate=2.0, duration=1500.0, program="staircase",
-                 full_scale=10.0, noise=Noise(white=2e-4), seed=2008)
-
-
-def demo_record() -> Synthetic:
-    """The record bundled as ``data/hidden_effect.csv`` (see :data:`DEMO_SPEC`)."""
-    syn = generate(DEMO_SPEC)
-    meta = dict(syn.record.metadata)
-    meta.update({"description": "synthetic force sensor with a hidden effect (creepcomp.synth.generate.DEMO_SPEC)"})
-    return Synthetic(replace(syn.record, metadata=meta, source="hidden_effect.csv"), syn.spec, syn.program)
+                 full_scale=10.0, noise=NoiseSpec(white=2e-4), seed=2008)
 
 
 def reported_truth(synthetic: Synthetic) -> dict:
@@ -582,331 +514,3 @@ def reported_truth(synthetic: Synthetic) -> dict:
             out[name] = {}
     return out
 
-
-# --------------------------------------------------------------------------------------------
-# The circuit side: records of a built network with a hidden fault
-# --------------------------------------------------------------------------------------------
-# The sensor creeps (one Prony term); the design is the exact network for it, snapped to
-# E24/E6 parts; the network as built carries a hidden circuit fault. Both channels are
-# simulated exactly for the load program, then sampled, with independent measurement noise.
-
-
-@dataclass(frozen=True)
-class CircuitSpec:
-    """Everything that defines a synthetic record of a built network."""
-
-    hidden: dict = field(default_factory=dict)
-    beta: tuple = (0.03,)
-    tau: tuple = (45.0,)
-    gain: float = 1.0
-    offset: float = 0.0
-    corrected_offset: float = 0.0
-    rate: float = 10.0
-    duration: float = 1800.0
-    program: str = "staircase"
-    jitter: float = 0.0
-    noise: Noise = Noise(white=1e-4)
-    corrected_noise: Noise = Noise(white=1e-4)
-    drive: str = "continuous"
-    seed: int = 0
-    detectable_z: float = 0.0
-    distinct_z: float = 0.0
-    precise_to: float = 0.0
-    """``drive``: ``continuous``, the network sees the sensor's continuous signal (measurement
-    noise on both channels is the ADC's); ``samples``, it is driven by the sampled, noisy
-    signal taken linear between samples, as a simulator would drive a netlist with a record.
-    ``detectable_z``, ``distinct_z``, ``precise_to``: see :func:`generate_circuit` (0: noise
-    as given)."""
-
-
-@dataclass(frozen=True)
-class CircuitSynthetic:
-    """A synthetic record, the nominal design and the network as really built."""
-
-    record: Record
-    design: Design
-    built: object
-    spec: CircuitSpec
-    noise_factor: dict = field(default_factory=dict)
-    """``noise_factor``: what each rule of :func:`generate_circuit` asked the noise to be
-    multiplied by (1: left as drawn)."""
-
-
-def generate_circuit(spec: CircuitSpec) -> CircuitSynthetic:
-    """Simulate a record with ``signal`` and ``corrected`` from a :class:`CircuitSpec`.
-
-    With ``spec.detectable_z`` the noise of both channels is scaled down where the fault
-    would not stand out of it (see :func:`circuit_detectability`); with ``spec.distinct_z``
-    where the part of its signature that no other circuit fault mimics (to first order, see
-    :func:`alternative_faults`) would not stand out that far; with ``spec.precise_to``
-    also where the record would not determine the fault's parts (``C``, ``R``) to that
-    relative 1-sigma uncertainty (see :func:`circuit_precision`)."""
-    rng = np.random.default_rng(spec.seed)
-    model = CreepModel(spec.beta, spec.tau)
-    design = Design(model, size(model).chosen, {"rule": "exact"})
-    built = design.network
-    for effect, params in spec.hidden.items():
-        params = dict(params)
-        built = apply_fault(built, effect, params, params.pop("cell", None))
-    program = make_program(spec.program, spec.duration, rng, 1.0, False, max(spec.tau), 0.0, unload=True)
-    t = sample_times(spec.duration, spec.rate, rng, spec.jitter, 0, 0.0)
-    g = model.lag_expansion()
-    clean = spec.offset + spec.gain * program.response(g, t)
-    signal_noise = _noise(t, spec.noise, rng)
-    output_noise = _noise(t, spec.corrected_noise, rng)
-
-    def output(network, signal):
-        if spec.drive != "continuous":
-            return network.lag_expansion().simulate(t, signal, initial="settled")
-        h = network.lag_expansion()
-        D, R, q = cascade_lags(1.0, [g.gains], [g.taus], h.direct, [h.gains], [h.taus])
-        return h.dc_gain * spec.offset + spec.gain * program.response(LagExpansion(float(D[0]), tuple(R[0]),
-                                                                                   tuple(q[0])), t)
-
-    def record(signal_noise, output_noise):
-        signal = clean + signal_noise
-        corrected = spec.corrected_offset + output(built, signal) + output_noise
-        return Record(t, program.sample(t), signal, corrected=corrected,
-                      metadata={"units.load": "N", "units.signal": "V", "synth.seed": str(spec.seed),
-                                "synth.program": spec.program},
-                      source=f"synthetic built network (seed {spec.seed})")
-
-    factors = {}
-    if spec.hidden and (spec.detectable_z > 0 or spec.distinct_z > 0 or spec.precise_to > 0):
-        nominal = design.network.lag_expansion()
-        # what the model's residual holds: the output's noise, and for a network that saw the
-        # clean signal, the signal's noise through the simulated network
-        residual_noise = output_noise - (nominal.simulate(t, signal_noise)
-                                         if spec.drive == "continuous" else 0.0)
-        nominal_out = output(design.network, clean)
-        signature = output(built, clean) - nominal_out
-        if (spec.distinct_z > 0 or spec.precise_to > 0) and len(spec.hidden) != 1:
-            raise ValueError("distinct_z and precise_to judge one hidden fault: the spec has "
-                             f"{len(spec.hidden)}")
-        (effect, params), *_ = spec.hidden.items()
-        if spec.detectable_z > 0:
-            z = circuit_detectability(t, signature, nominal.taus, residual_noise)
-            factors["detectability"] = min(1.0, z / spec.detectable_z)
-        if spec.distinct_z > 0:
-            z = min(circuit_detectability(t, signature, nominal.taus, residual_noise,
-                                          [output(net, clean) - nominal_out])
-                    for net in alternative_faults(design.network, effect, spec.duration))
-            factors["distinctness"] = min(1.0, z / spec.distinct_z)
-        if spec.precise_to > 0:
-            factors["precision"] = _precision_factor(spec, design, effect, params,
-                                                     lambda f: record(signal_noise * f, output_noise * f),
-                                                     residual_noise)
-        f = min(factors.values())
-        if f < 1.0:
-            signal_noise, output_noise = signal_noise * f, output_noise * f
-            spec = replace(spec, noise=_scaled(spec.noise, f), corrected_noise=_scaled(spec.corrected_noise, f))
-    return CircuitSynthetic(record(signal_noise, output_noise), design, built, spec, factors)
-
-
-def _precision_factor(spec: CircuitSpec, design: Design, effect: str, params: dict, record_with, noise) -> float:
-    """Factor on the noise for which the record determines the fault's parts to
-    ``spec.precise_to`` (see :func:`circuit_precision`; ``record_with(f)``: the record with
-    its noise times ``f``). The priors of the diagnosis's decays are relative to the noise, so
-    the factor is found in a few steps."""
-    from creepcomp.diagnose.circuit import prepare, residual_at
-
-    fault = dict(params)
-    cell = fault.pop("cell", None)
-    f = 1.0
-    for _ in range(4):
-        data = prepare(record_with(f), design)
-        sd = circuit_precision(lambda part, h: residual_at(data, effect, scaled_part(effect, fault, part, h), cell),
-                               fault_parts(effect), noise * f)
-        worst = max(sd.values())
-        if worst <= 1.05 * spec.precise_to:
-            break
-        f *= spec.precise_to / worst
-    return f
-
-
-def _scaled(noise: Noise, f: float) -> Noise:
-    """The noise with every component scaled by ``f``."""
-    return replace(noise, white=noise.white * f, coloured=noise.coloured * f, drift=noise.drift * f,
-                   lsb=noise.lsb * f)
-
-
-def circuit_detectability(t: np.ndarray, signature: np.ndarray, taus, noise: np.ndarray,
-                          also: list | None = None) -> float:
-    """How far a circuit fault stands out of the noise: the held-out ``z`` (see
-    :func:`creepcomp.fit.core.compare`) that its signature (output as built minus output as
-    designed, noise-free) would give with the fault's parameters known, once what the model
-    absorbs anyway is removed (offset, decays at the network's poles, and to be safe a linear
-    trend) and the directions ``also`` (e.g. another fault's signature)."""
-    x = t - t[0]
-    directions = np.column_stack([np.ones_like(t), x] + [np.exp(-x / p) for p in taus] + list(also or []))
-    coef, *_ = np.linalg.lstsq(directions, signature, rcond=None)
-    return _heldout_z(signature - directions @ coef, noise)
-
-
-def alternative_faults(network, effect: str, duration: float, size: float = 1e-3) -> list:
-    """Small faults of every other circuit kind (each capacitor where it applies): each one's
-    signature is what that effect would explain of a fault's signature to first order.
-    An absorption stands for the family of its time constants by three of them (0.7, 2.2 and
-    7 times the cell's R C, at most half the ``duration``, s), as in :func:`random_fault`."""
-    level = network.R2 if network.R2 is not None else sum(c.R for c in network.cells)
-    out = []
-    for other in CIRCUIT_EFFECTS:
-        if other == effect:
-            continue
-        if other == "source_impedance":
-            out.append(apply_fault(network, other, {"R": size * level}))
-            continue
-        if other == "load_impedance":
-            out.append(apply_fault(network, other, {"R": level / size}))
-            continue
-        for k in capacitor_cells(network):
-            cell = network.cells[k]
-            if other == "capacitor_value":
-                out.append(apply_fault(network, other, {"C": cell.C * (1.0 + size)}, k))
-            elif other == "capacitor_leakage":
-                out.append(apply_fault(network, other, {"R": cell.R / size}, k))
-            else:
-                out.extend(apply_fault(network, other, {"fraction": size,
-                                                        "tau": min(f * cell.R * cell.C, duration / 2)}, k)
-                           for f in (0.7, 2.2, 7.0))
-    return out
-
-
-def fault_parts(effect: str) -> tuple:
-    """The parts a circuit fault's parameters describe, as the diagnosis reports them: ``C``
-    of a capacitor off its value, ``R`` of a source, load or leakage resistance, ``C`` and
-    ``R`` of an absorption branch."""
-    return {"capacitor_value": ("C",), "dielectric_absorption": ("C", "R")}.get(effect, ("R",))
-
-
-def scaled_part(effect: str, params: dict, part: str, h: float) -> dict:
-    """A fault's parameters with one of its parts (see :func:`fault_parts`) multiplied by
-    ``exp(h)``: an absorption branch's ``C`` is ``fraction`` times the capacitor, its ``R``
-    is ``tau / C``."""
-    out = dict(params)
-    if effect == "dielectric_absorption":
-        out["tau"] = params["tau"] * math.exp(h)
-        if part == "C":
-            out["fraction"] = params["fraction"] * math.exp(h)
-    else:
-        out[part] = params[part] * math.exp(h)
-    return out
-
-
-def circuit_precision(residual, parts: tuple, noise: np.ndarray) -> dict:
-    """Relative 1-sigma uncertainty of each part of a circuit fault that a record leaves: the
-    spread of the least-squares estimate of its logarithm from the model's sensitivities at
-    the true values (``residual(part, h)``: the record's residual under the diagnosis's model
-    with that part multiplied by ``exp(h)``, its linear terms solved), the noise's spectrum
-    from ``noise``."""
-    h = 1e-4
-    jac = np.column_stack([(residual(p, h) - residual(p, -h)) / (2.0 * h) for p in parts])
-    weights = np.linalg.pinv(jac)
-    return {p: math.sqrt(max(spectral_variance(w, noise), 0.0)) for p, w in zip(parts, weights)}
-
-
-def random_fault(effect: str | None, rng: np.random.Generator, design: Design, duration: float) -> dict:
-    """A random fault of a kind, large enough to matter at the record's noise (see
-    :func:`random_circuit_spec`), with its physical parameters; a capacitor's fault names
-    its ``cell`` (a random one of the network's capacitors). An absorption's time constant
-    is at most half the record's ``duration`` (s), so the record shows it."""
-    if effect is None:
-        return {}
-    net = design.network
-    k = int(rng.choice(capacitor_cells(net)))
-    cell = net.cells[k]
-    level = net.R2 if net.R2 is not None else sum(c.R for c in net.cells)
-    if effect == "capacitor_value":
-        sign = rng.choice([-1.0, 1.0])
-        return {"C": cell.C * (1.0 + sign * rng.uniform(0.05, 0.25)), "cell": k}
-    if effect == "source_impedance":
-        return {"R": level * math.exp(rng.uniform(math.log(0.01), math.log(0.2)))}
-    if effect == "load_impedance":
-        return {"R": level * math.exp(rng.uniform(math.log(1.5), math.log(30.0)))}
-    if effect == "dielectric_absorption":
-        # film capacitors absorb 0.05-0.25 % (physics.md): a fault is a dielectric that
-        # absorbs more, as ceramic X7R does (0.6-2.5 %). Its memory is slow: from 0.7 to 7
-        # times the cell's own R C (absorption much faster than that only adds capacitance,
-        # and is told apart from a larger capacitor by nothing in the output)
-        return {"fraction": math.exp(rng.uniform(math.log(0.005), math.log(0.03))),
-                "tau": min(cell.R * cell.C * math.exp(rng.uniform(math.log(0.7), math.log(7.0))), duration / 2),
-                "cell": k}
-    if effect == "capacitor_leakage":
-        return {"R": cell.R * math.exp(rng.uniform(math.log(5.0), math.log(100.0))), "cell": k}
-    raise ValueError(f"unknown circuit effect {effect}")
-
-
-def random_circuit_spec(effect: str | None, seed: int, rate: tuple = (2.0, 50.0),
-                        duration: tuple = (600.0, 3600.0), distinct_z: float = DISTINCT_Z,
-                        precise_to: float = PRECISE_TO) -> CircuitSpec:
-    """A randomised record: sensor creep (one term, or two and a two-cell network in 30 % of
-    the records), sampling ``rate`` (Hz, log-uniform), ``duration`` (s), any load program,
-    white noise 1e-5 to 3e-4 of the step on the signal and within a factor e of it on
-    ``corrected`` (plus, each in a third of the records, coloured noise of 0.5-2 times that
-    level with a correlation time of 0.5-20 s, and a random-walk drift of 1-10 times it per
-    hour), measuring offsets, either way of driving the network, and the fault. The record
-    keeps its fault detectable (z 10), ``distinct_z`` from the others and its parts determined
-    to ``precise_to`` (see :func:`generate_circuit`)."""
-    rng = np.random.default_rng(seed)
-    tau = (float(math.exp(rng.uniform(math.log(15.0), math.log(150.0)))),)
-    beta = (float(rng.uniform(0.01, 0.05)),)
-    if rng.uniform() < 0.3:  # a two-term sensor and its two-cell Foster network
-        tau += (tau[0] * float(rng.uniform(5.0, 20.0)),)
-        beta += (float(rng.uniform(0.005, 0.03)),)
-    try:
-        design = Design(CreepModel(beta, tau), size(CreepModel(beta, tau)).chosen)
-    except InputError:  # the slow term needs parts beyond the E-series ranges: one term
-        beta, tau = beta[:1], tau[:1]
-        design = Design(CreepModel(beta, tau), size(CreepModel(beta, tau)).chosen)
-    record_duration = float(rng.uniform(*duration))
-    hidden = {effect: random_fault(effect, rng, design, record_duration)} if effect else {}
-    gain = float(math.exp(rng.uniform(math.log(1e-4), math.log(1.0))))
-    level = float(math.exp(rng.uniform(math.log(1e-5), math.log(3e-4))))
-    out_level = level * math.exp(rng.uniform(-1.0, 1.0))
-    # the output's measuring chain: coloured noise in a third of the records, drift in a third
-    coloured = out_level * rng.uniform(0.5, 2.0) if rng.uniform() < 1 / 3 else 0.0
-    drift = out_level * rng.uniform(1.0, 10.0) if rng.uniform() < 1 / 3 else 0.0
-    out_noise = Noise(white=out_level * gain, coloured=coloured * gain,
-                      correlation_time=float(rng.uniform(0.5, 20.0)), drift=drift * gain)
-    return CircuitSpec(hidden=hidden, beta=beta, tau=tau, gain=gain,
-                       offset=float(rng.normal(0, 0.05)) * gain,
-                       corrected_offset=float(rng.normal(0, 0.01)) * gain,
-                       rate=float(math.exp(rng.uniform(*np.log(rate)))),
-                       duration=record_duration,
-                       program=str(rng.choice(PROGRAMS)), jitter=float(rng.choice([0.0, 0.2])),
-                       noise=Noise(white=level * gain), corrected_noise=out_noise,
-                       drive=str(rng.choice(["continuous", "samples"])), seed=seed,
-                       detectable_z=DETECTABLE_Z, distinct_z=distinct_z, precise_to=precise_to)
-
-
-
-
-#: The demo's built network: the default sensor (3 %, 45 s) read at 5 Hz for 30 minutes
-#: through a staircase, its network built with a capacitor 12 % below its nominal value.
-DEMO_CIRCUIT_SPEC = CircuitSpec(hidden={"capacitor_value": {"C": 0.88 * 15e-6}}, beta=(0.03,), tau=(45.0,),
-                                gain=1e-4, offset=2e-6, corrected_offset=-1e-6, rate=5.0, duration=1800.0,
-                                program="staircase", noise=Noise(white=2e-9), corrected_noise=Noise(white=2e-9),
-                                seed=2009)
-
-
-def demo_circuit_record() -> CircuitSynthetic:
-    """The record bundled as ``data/built_network.csv`` with its nominal design
-    ``data/built_network.design.json`` (see :data:`DEMO_CIRCUIT_SPEC`)."""
-    syn = generate_circuit(DEMO_CIRCUIT_SPEC)
-    meta = dict(syn.record.metadata)
-    meta.update({"design": "built_network.design.json",
-                 "description": "synthetic sensor and its built correction network with a hidden fault "
-                                "(creepcomp.synth.generate.DEMO_CIRCUIT_SPEC)"})
-    record = replace(syn.record, metadata=meta, source="built_network.csv")
-    return CircuitSynthetic(record, syn.design, syn.built, syn.spec)
-
-
-def write_demo_circuit(folder) -> tuple:
-    """Write the demo's built-network record and its nominal design into ``folder``."""
-    from creepcomp.io.jsonfiles import write_design
-    from creepcomp.io.records import write_record
-
-    syn = demo_circuit_record()
-    folder = Path(folder)
-    return (write_record(folder / "built_network.csv", syn.record, digits=10),
-            write_design(folder / "built_network.design.json", syn.design))
