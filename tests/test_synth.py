@@ -139,3 +139,10 @@ def test_precision_of_a_fault_agrees_with_the_fits_own_uncertainty():
     # source, load, leakage and absorption at three time constants: not a capacitor's value
     others = synth.alternative_faults(syn.design.network, "capacitor_value", 900.0)
     assert len(others) == 6 and all(n.cells[0].C == syn.design.network.cells[0].C for n in others)
+
+
+def test_bundled_hidden_effect_record_is_current(tmp_path):
+    from creepcomp.data import path as data_path
+
+    written = synth.write_demo_record(tmp_path)
+    assert written.read_text() == data_path("hidden_effect.csv").read_text(), "regenerate data/hidden_effect.csv"

@@ -2,16 +2,9 @@
 paper's literal formulas (``paper_methods``, for comparison) and its test scenarios
 (``scenarios``)."""
 
-from creepcomp.digital.correctors import (METHODS, HOLDS, INITIAL_STATES, BLOCK, PASS_SAMPLES,
-                                          default_initial, saturation_factor, Corrector,
-                                          check_invertible, compensate, uniform_interval, reference,
-                                          CreepError, creep_error)
-from creepcomp.digital.paper_methods import subtractive, supplemental
-from creepcomp.digital.scenarios import (paper_model, SyntheticRecord, step_record, sweep_record,
-                                         sweep_hysteresis, Outcome, outcomes, LongRun, long_run)
+from creepcomp.digital import correctors, paper_methods, scenarios
+from creepcomp.digital.correctors import *  # noqa: F401,F403
+from creepcomp.digital.paper_methods import *  # noqa: F401,F403
+from creepcomp.digital.scenarios import *  # noqa: F401,F403
 
-__all__ = ["METHODS", "HOLDS", "INITIAL_STATES", "BLOCK", "PASS_SAMPLES", "default_initial",
-           "saturation_factor", "Corrector", "check_invertible", "compensate", "uniform_interval",
-           "reference", "CreepError", "creep_error", "subtractive", "supplemental", "paper_model",
-           "SyntheticRecord", "step_record", "sweep_record", "sweep_hysteresis", "Outcome",
-           "outcomes", "LongRun", "long_run"]
+__all__ = correctors.__all__ + paper_methods.__all__ + scenarios.__all__

@@ -12,18 +12,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 
 from creepcomp.errors import InputError
-from creepcomp.io.records import Record
+from creepcomp.io.records import Record, write_record
 from creepcomp.lti import lag_states, varying_lag_states
 from creepcomp.programs import LoadProgram
 from creepcomp.synth.common import DETECTABLE_Z, NoiseSpec, heldout_z, sample_noise, scaled_noise
 
 __all__ = ["EFFECTS", "PROGRAMS", "PROGRAMS_FOR", "Spec", "Synthetic", "make_program", "sample_times",
            "temperature_profile", "simulate_signal", "detectability", "generate", "random_hidden",
-           "random_spec", "random_record", "DEMO_SPEC", "reported_truth"]
+           "random_spec", "random_record", "DEMO_SPEC", "write_demo_record", "reported_truth"]
 
 #: Hidden effects the generator can put in a record.
 EFFECTS = ("extra_retardation", "viscous_flow", "nonlinear_creep", "asymmetric_recovery",
@@ -494,6 +495,15 @@ def random_record(effect: str | None, seed: int, **ranges) -> Synthetic:
 DEMO_SPEC = Spec(hidden={"asymmetric_recovery": {"tau_recovery": 150.0}}, beta=(0.03,), tau=(45.0,),
                  gain=0.05, offset=0.002, rate=2.0, duration=1500.0, program="staircase",
                  full_scale=10.0, noise=NoiseSpec(white=2e-4), seed=2008)
+
+
+def write_demo_record(folder) -> Path:
+    """Write the record bundled as ``data/hidden_effect.csv`` (:data:`DEMO_SPEC`) into ``folder``."""
+    record = generate(DEMO_SPEC).record
+    meta = dict(record.metadata)
+    meta["description"] = ("synthetic force sensor with a hidden effect "
+                           "(creepcomp.synth.sensor.DEMO_SPEC)")
+    return write_record(Path(folder) / "hidden_effect.csv", replace(record, metadata=meta), digits=9)
 
 
 def reported_truth(synthetic: Synthetic) -> dict:
