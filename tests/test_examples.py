@@ -1,0 +1,168 @@
+"""The examples run: each script in a fresh process with ``--fast``, writing its files and
+printing its figures with their units."""
+
+from __future__ import annotations
+
+import ast
+import json
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from creepcomp.io.jsonfiles import read_design
+from creepcomp.synth.generate import DEMO_CIRCUIT_SPEC, DEMO_SPEC
+from creepcomp.units import parse_quantity
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = ROOT / "examples"
+SCRIPTS = ("size_network", "ngspice_proof", "tolerance_report", "correct_record",
+           "diagnose_record", "diagnose_built_network")
+#: A percentage as the examples print it, e.g. ``0.029 %``, ``-0.0262 %``, ``2.22e-14 %``.
+PERCENT = r"(-?[0-9.]+(?:e[-+]\d+)?) %"
+#: A value with an SI prefix and a unit, e.g. ``1.2 MΩ``, ``501.5 nV``.
+QUANTITY = r"(-?[0-9.]+ [pnµmkMG]?{unit})"
+
+
+def run_example(name: str, out: Path, *args: str) -> str:
+    """Run ``examples/NAME.py --fast --out OUT ARGS`` in a new process; its stdout."""
+    env = dict(os.environ)
+    # the subprocess imports this checkout's package, as the tests do
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(ROOT / "src"), env.get("PYTHONPATH")) if p)
+    proc = subprocess.run([sys.executable, str(EXAMPLES / f"{name}.py"), "--fast", "--out", str(out),
+                           *args], capture_output=True, text=True, env=env, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    return proc.stdout
+
+
+def written(folder: Path, *names: str) -> None:
+    """Every named file exists in ``folder`` and is not empty."""
+    for name in names:
+        assert (folder / name).is_file() and (folder / name).stat().st_size > 0, name
+
+
+def percent(pattern: str, text: str) -> list[float]:
+    """The fractions printed as percentages in the first line matching ``pattern``."""
+    line = re.search(pattern + r".*", text)
+    assert line, pattern
+    return [float(v) / 100 for v in re.findall(PERCENT, line.group(0))]
+
+
+def quantity(text: str, kind: str) -> float:
+    """A printed quantity (``13.2 µF``) in SI units."""
+    return parse_quantity(text.replace(" ", ""), kind)
+
+
+@pytest.fixture(scope="module")
+def sized(tmp_path_factory):
+    """``size_network.py``: its output folder and stdout."""
+    out = tmp_path_factory.mktemp("examples") / "size_network"
+    return out, run_example("size_network", out)
+
+
+def test_every_example_is_tested_documented_and_indexed():
+    assert sorted(p.stem for p in EXAMPLES.glob("*.py")) == sorted(SCRIPTS)
+    index = (EXAMPLES / "README.md").read_text(encoding="utf-8")
+    for name in SCRIPTS:
+        tree = ast.parse((EXAMPLES / f"{name}.py").read_text(encoding="utf-8"))
+        doc = ast.get_docstring(tree)
+        assert doc and "--fast" in doc and "Run it" in doc, name
+        assert any(isinstance(n, ast.FunctionDef) and n.name == "main" for n in tree.body), name
+        assert f"examples/{name}.py" in index, name
+
+
+def test_size_network(sized):
+    out, stdout = sized
+    written(out, "design.json", "sizing.png")
+    design = read_design(out / "design.json")
+    assert len(design.network.cells) == 2
+    assert design.network.source_resistance > 0 and design.network.load_resistance is not None
+    for label, _, value in design.network.parts():
+        row = re.search(rf"^  {re.escape(label)}\s+{QUANTITY.format(unit='[ΩF]')}\s+"
+                        rf"{QUANTITY.format(unit='[ΩF]')}\s+[-+][0-9.]+ %", stdout, re.MULTILINE)
+        assert row, label
+        assert quantity(row.group(2), "ohm" if label.startswith("R") else "farad") == \
+            pytest.approx(value, rel=1e-3)
+    predicted = json.loads((out / "design.json").read_text())["predicted"]
+    ideal, chosen, *_, uncorrected = percent(r"residual creep, peak", stdout)
+    assert chosen == pytest.approx(predicted["residual_creep_peak"], rel=5e-3)
+    assert ideal < chosen < uncorrected
+    hysteresis = percent(r"hysteresis, ±FS sweep of [0-9.]+ s", stdout)
+    assert hysteresis[1] == pytest.approx(predicted["hysteresis"], rel=5e-3)
+    assert f"design written to {out / 'design.json'}" in stdout
+
+
+def test_ngspice_proof_of_the_sized_design(sized, tmp_path):
+    design_file = sized[0] / "design.json"
+    stdout = run_example("ngspice_proof", tmp_path, "--design", str(design_file))
+    written(tmp_path, "design-step.cir", "ngspice-step.png")
+    netlist = (tmp_path / "design-step.cir").read_text()
+    assert ".tran" in netlist and "meas tran residual_creep_peak" in netlist
+    predicted = read_design(design_file).extra["predicted"]["residual_creep_peak"]
+    peaks = percent(r"residual creep, peak:", stdout)
+    assert peaks[0] == pytest.approx(predicted, rel=0.02)           # python-control
+    if "ngspice not run" not in stdout:
+        assert peaks[1] == pytest.approx(predicted, rel=0.02)       # ngspice
+        agreement = re.search(r"largest \|ngspice - python-control\|: (\S+) of full scale", stdout)
+        assert float(agreement.group(1)) < 1e-5
+
+
+def test_tolerance_report_of_the_default_design(tmp_path):
+    stdout = run_example("tolerance_report", tmp_path)
+    written(tmp_path, "tolerances.html")
+    assert "<img" in (tmp_path / "tolerances.html").read_text(encoding="utf-8")
+    assert re.search(r"\b2000 samples, seed \d+", stdout)
+    for metric in ("residual creep, peak", "residual creep, final", "hysteresis"):
+        nominal, p50, p95, p99, largest = percent(rf"(?m)^  {metric}\s", stdout)
+        assert p50 <= p95 <= p99 <= largest
+    yield_ = re.search(r"\(OIML R60 C3\): ([0-9.]+) %", stdout)
+    assert yield_ and 0 <= float(yield_.group(1)) <= 100
+    worst = percent(r"worst case of the peak residual creep:", stdout)[0]
+    assert worst >= percent(r"(?m)^  residual creep, peak\s", stdout)[4]
+
+
+def test_correct_record(tmp_path):
+    stdout = run_example("correct_record", tmp_path)
+    written(tmp_path, "record.csv", "model.json", "corrected.csv", "correction-subtractive.png",
+            "correction-supplemental.png")
+    for method in ("subtractive", "supplemental"):
+        raw = percent(rf"{method}, raw signal", stdout)
+        corrected = percent(rf"{method}, corrected", stdout)
+        assert re.search(rf"{method}, corrected\s+{QUANTITY.format(unit='V')}", stdout)
+        assert corrected[0] < raw[0] / 10 and corrected[1] < raw[1] / 10   # peak and RMS
+    streamed = re.search(r"blocks of \d+ samples: .* correction (\S+) V", stdout)
+    assert float(streamed.group(1)) < 1e-12
+
+
+def test_diagnose_record_finds_the_hidden_effect(tmp_path):
+    stdout = run_example("diagnose_record", tmp_path)
+    written(tmp_path, "report.html", "diagnosis.json", "model.json", "baseline-model.json", "fit.png")
+    (effect, truth), = DEMO_SPEC.hidden.items()
+    assert f"cause: {effect}" in stdout
+    for name, value in truth.items():
+        fitted = re.search(rf"{name} = ([0-9.]+ m?s) ±", stdout)
+        assert quantity(fitted.group(1), "second") == pytest.approx(value, rel=0.03)
+    ratios = [float(r) for r in re.findall(r"\(ratio ([0-9.]+)\)", stdout)]
+    assert len(ratios) == 2 and min(ratios) > 1
+    assert json.loads((tmp_path / "diagnosis.json").read_text())["cause"] == effect
+
+
+def test_diagnose_built_network_finds_the_fault_and_the_fix(tmp_path):
+    stdout = run_example("diagnose_built_network", tmp_path)
+    written(tmp_path, "report.html", "diagnosis.json", "model.json", "baseline-model.json",
+            "as-built-design.json")
+    (effect, truth), = DEMO_CIRCUIT_SPEC.hidden.items()
+    assert f"circuit cause: {effect}" in stdout
+    fitted = re.search(rf"C = {QUANTITY.format(unit='F')} ±", stdout)
+    assert quantity(fitted.group(1), "farad") == pytest.approx(truth["C"], rel=0.01)
+    design, as_built = percent(r"peak residual creep of a load step:", stdout)
+    assert as_built > design
+    fix = re.search(rf"fix: (\S+) {QUANTITY.format(unit='[ΩF]')} -> {QUANTITY.format(unit='[ΩF]')} "
+                    rf"\((E\d+)\): peak residual creep {PERCENT}", stdout)
+    assert fix and float(fix.group(5)) / 100 < as_built
+    built = read_design(tmp_path / "as-built-design.json")
+    assert max(c.C for c in built.network.cells) == pytest.approx(truth["C"], rel=0.01)
+    assert "ngspice, as-built network" not in stdout                 # --fast: not run
