@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from creepcomp.io.jsonfiles import read_design
-from creepcomp.synth.generate import DEMO_CIRCUIT_SPEC, DEMO_SPEC
+from creepcomp.synth import DEMO_CIRCUIT_SPEC, DEMO_SPEC
 from creepcomp.units import parse_quantity
 
 ROOT = Path(__file__).resolve().parents[1]
