@@ -31,7 +31,7 @@ $(STAMP): pyproject.toml
 
 # Reference netlists of the bundled designs (a test fails when they are stale).
 netlists: setup
-	$(PY) -c "from creepcomp.verify.spice import write_reference_netlists as w; w('netlists')"
+	$(PY) -c "from creepcomp.verify.netlist import write_reference_netlists as w; w('netlists')"
 
 clean:
 	rm -rf $(VENV) $(DEMO_OUT) .pytest_cache .hypothesis

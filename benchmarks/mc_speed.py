@@ -12,7 +12,9 @@ import os
 import statistics
 import time
 
-from creepcomp.verify import montecarlo as mc
+from creepcomp.verify.montecarlo import run_monte_carlo
+from creepcomp.verify.ngspice_engine import time_transient
+from creepcomp.verify.tolerances import ToleranceSpec
 from creepcomp.data import default_sensor
 from creepcomp.io.jsonfiles import Design
 from creepcomp.analog.sizing import size
@@ -27,20 +29,19 @@ def main() -> None:
     design = Design(model, size(model).chosen)
     print(f"default design: {design.network.parts()}, {os.cpu_count()} cores, load {os.getloadavg()[0]:.2f}")
     per_sample = {}
-    for label, spec in (("E24 1 % resistors, 5 % capacitor", mc.ToleranceSpec()),
-                        ("same, polyester dielectric (absorption, leakage)", mc.ToleranceSpec(dielectric="polyester"))):
+    for label, spec in (("E24 1 % resistors, 5 % capacitor", ToleranceSpec()),
+                        ("same, polyester dielectric (absorption, leakage)", ToleranceSpec(dielectric="polyester"))):
         times = []
         for r in range(args.repeats):
             start = time.perf_counter()
-            result = mc.run(design, spec, args.n, seed=r)
+            result = run_monte_carlo(design, spec, args.n, seed=r)
             times.append(time.perf_counter() - start)
         med = statistics.median(times)
         per_sample[label] = med / args.n
         print(f"{label}: {args.n} samples in {med:.2f} s (median of {args.repeats}; "
               f"{[round(t, 2) for t in times]}), {1e6 * med / args.n:.2f} µs per sample; "
               f"p99 peak residual creep {100 * result.percentiles()['p99']:.4f} %")
-    from creepcomp.verify import spice
-    transient, _ = spice.time_transient(design.network, model)
+    transient, _ = time_transient(design.network, model)
     for label, t in per_sample.items():
         print(f"{label}: {transient / t:,.0f}x faster per sample than one ngspice transient "
               f"({1e3 * transient:.1f} ms)")

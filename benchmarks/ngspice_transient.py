@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from creepcomp.verify import spice
+from creepcomp.verify import compare, drive, netlist, ngspice_engine
 from creepcomp.data import default_sensor
 from creepcomp.programs import staircase
 from creepcomp.analog.sizing import size
@@ -45,24 +45,24 @@ def main() -> None:
     model = default_sensor()
     design = size(model)                                   # the default design: exact, E24/E6
     net = design.chosen
-    engine = spice.ngspice()
-    program = spice.synthetic_program(model, "step", net)
-    duration = spice.default_duration(program, model, net)
-    deck = spice.program_deck(net, model, program, duration)
-    inner, points = spice.time_transient(net, model, args.repeats, engine)
-    full, _ = median_seconds(lambda: spice.simulate(net, model, "step", engine=engine), 7)
+    engine = ngspice_engine.ngspice()
+    program = drive.synthetic_program(model, "step", net)
+    duration = drive.default_duration(program, model, net)
+    deck = netlist.program_deck(net, model, program, duration)
+    inner, points = ngspice_engine.time_transient(net, model, args.repeats, engine)
+    full, _ = median_seconds(lambda: compare.compare_program(net, model, "step", engine=engine), 7)
 
     with tempfile.TemporaryDirectory() as tmp:
-        path = spice.write_deck(Path(tmp) / "default.cir", deck)
+        path = netlist.write_deck(Path(tmp) / "default.cir", deck)
         batch, _ = median_seconds(lambda: subprocess.run(["ngspice", "-b", path.name], cwd=tmp,
                                                          capture_output=True, check=True), 7)
 
     variants = [net.with_parts([v * f for _, _, v in net.parts()])
                 for f in np.linspace(0.95, 1.05, 20)]
-    times = spice.transient_times(spice.spice_program(program, model, net), duration,
-                                  spice.DEFAULT_POINTS)
+    times = drive.transient_times(drive.spice_program(program, model, net), duration,
+                                  drive.DEFAULT_POINTS)
     t0 = time.perf_counter()
-    spice.run_batch(variants, model, program, times, engine=engine)
+    ngspice_engine.run_batch(variants, model, program, times, engine=engine)
     per_network = (time.perf_counter() - t0) / len(variants)
 
     n = args.record_samples
@@ -71,18 +71,18 @@ def main() -> None:
     rng = np.random.default_rng(1)
     signal = 1e-4 * model.response(t, prog.sample(t)) + 1e-8 * rng.standard_normal(n)
     t0 = time.perf_counter()
-    record = spice.simulate_record(net, t, signal, engine=engine)
+    record = compare.compare_record(net, t, signal, engine=engine)
     record_total = time.perf_counter() - t0
     netlist_bytes = len(record.deck.text().encode())
-    data_bytes = len(spice.record_data(t, signal).encode())
+    data_bytes = len(netlist.record_data(t, signal).encode())
 
     print(f"ngspice {engine.version}, load average {load:.2f} when started, "
           f"{os.cpu_count()} cores")
     print(f"default design: {', '.join(f'{lab} {v:.4g}' for lab, _, v in net.parts())}; "
-          f"load step, {duration:g} s, {spice.DEFAULT_POINTS} output points")
+          f"load step, {duration:g} s, {drive.DEFAULT_POINTS} output points")
     print(f"one transient, shared ngspice (load + run + read back), median of {args.repeats}: "
           f"{inner * 1e3:.1f} ms ({points} ngspice time points)")
-    print(f"simulate() with python-control reference and comparison, median of 7: {full * 1e3:.1f} ms")
+    print(f"compare_program() (python-control reference and comparison), median of 7: {full * 1e3:.1f} ms")
     print(f"same netlist through ngspice -b (new process), median of 7: {batch * 1e3:.1f} ms")
     print(f"run_batch of {len(variants)} networks through one engine: "
           f"{per_network * 1e3:.1f} ms per network")

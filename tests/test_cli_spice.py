@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from creepcomp.verify import spice
+from creepcomp.verify import ngspice_engine
 from creepcomp.data import default_sensor
 from creepcomp.io.records import Record, write_record
 from creepcomp.analog.sizing import ideal_network
@@ -105,11 +105,11 @@ def test_simulate_a_record(run_cli, tmp_path):
 
 def test_simulate_without_ngspice_still_gives_python_control(run_cli, monkeypatch, tmp_path):
     def missing():
-        raise spice.NgspiceUnavailable("ngspice is not installed (no libngspice shared library); "
-                                       f"install it with: {spice.INSTALL_HINT}")
+        raise ngspice_engine.NgspiceUnavailable("ngspice is not installed (no libngspice shared "
+                                                f"library); install it with: {ngspice_engine.INSTALL_HINT}")
 
-    monkeypatch.setattr(spice, "_ENGINE", None)
-    monkeypatch.setattr(spice, "_load_shared", missing)
+    monkeypatch.setattr(ngspice_engine, "_ENGINE", None)
+    monkeypatch.setattr(ngspice_engine, "_load_shared", missing)
     status, out, err = run_cli("simulate", PAPER, "--json", "--plot", tmp_path / "p.png")
     assert status == 0
     assert len(err.strip().splitlines()) == 1

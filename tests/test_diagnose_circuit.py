@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from creepcomp.diagnose import effects
-from creepcomp.verify import spice
+from creepcomp.verify.compare import at_sample_times
 from creepcomp import synth
 from creepcomp.analog.faults import CIRCUIT_EFFECTS
 from creepcomp.data import path as data_path
@@ -108,7 +108,7 @@ def test_at_sample_times_reads_ngspice_points_without_crossing_kinks():
     def kinked(t):
         return np.where(t % 2 < 1, t % 1, 1 - t % 1)
 
-    got = spice.at_sample_times(points, kinked(points), samples[1:])
+    got = at_sample_times(points, kinked(points), samples[1:])
     assert np.allclose(got, kinked(samples[1:] - 1e-12), atol=1e-9)
     assert not np.allclose(np.interp(samples[1:], points, kinked(points)), got, atol=1e-3)
 

@@ -5,7 +5,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from creepcomp.verify import montecarlo as mc
+from creepcomp.verify.montecarlo import run_monte_carlo, spot_check
+from creepcomp.verify.sensitivities import first_order_index
+from creepcomp.verify.tolerance_analysis import analyse
+from creepcomp.verify.tolerances import DIELECTRICS, Tolerance, ToleranceSpec, draw, factors
+from creepcomp.verify.variants import evaluate, variant
+from creepcomp.verify.worstcase import worst_case
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import Design, write_design
 from creepcomp.lti import cascade_lags, cascade_step_arrays
@@ -22,12 +27,12 @@ PERIOD = 2 * np.pi * 45.0
 @given(st.integers(0, 2**31), st.sampled_from([None, "polyester", "x7r"]))
 @settings(max_examples=12)
 def test_engine_matches_python_control_sample_by_sample(seed, dielectric):
-    spec = mc.ToleranceSpec(capacitor=mc.Tolerance(0.1), dielectric=dielectric, beta=mc.Tolerance(0.1),
-                            tau=mc.Tolerance(0.1), source_resistance=(0, 1e5), load_resistance=(1e8, 1e11))
-    box = mc.factors(DESIGN, spec)
-    values = mc.draw(box, 3, seed)
-    got = mc.evaluate(DESIGN, values, PERIOD, dielectric)
-    insulation = mc.DIELECTRICS[dielectric].insulation_time(25.0) if dielectric else None
+    spec = ToleranceSpec(capacitor=Tolerance(0.1), dielectric=dielectric, beta=Tolerance(0.1),
+                         tau=Tolerance(0.1), source_resistance=(0, 1e5), load_resistance=(1e8, 1e11))
+    box = factors(DESIGN, spec)
+    values = draw(box, 3, seed)
+    got = evaluate(DESIGN, values, PERIOD, dielectric)
+    insulation = DIELECTRICS[dielectric].insulation_time(25.0) if dielectric else None
     for i in range(3):
         c = values["C1"][i]
         extra = {}
@@ -56,17 +61,17 @@ def test_cascade_lags_step_equals_the_stable_closed_form():
 
 
 def test_same_seed_same_numbers_and_workers_do_not_matter():
-    spec = mc.ToleranceSpec(dielectric="polyester")
-    a = mc.run(DESIGN, spec, 30_000, seed=7, chunk=7_000, workers=1)
-    b = mc.run(DESIGN, spec, 30_000, seed=7, chunk=10_000, workers=2)
+    spec = ToleranceSpec(dielectric="polyester")
+    a = run_monte_carlo(DESIGN, spec, 30_000, seed=7, chunk=7_000, workers=1)
+    b = run_monte_carlo(DESIGN, spec, 30_000, seed=7, chunk=10_000, workers=2)
     np.testing.assert_array_equal(a.metrics.peak, b.metrics.peak)
     assert a.percentiles() == b.percentiles()
 
 
 def test_different_seeds_agree_within_sampling_error():
-    spec = mc.ToleranceSpec()
+    spec = ToleranceSpec()
     n = 40_000
-    runs = [mc.run(DESIGN, spec, n, seed=s, workers=1) for s in (1, 2)]
+    runs = [run_monte_carlo(DESIGN, spec, n, seed=s, workers=1) for s in (1, 2)]
     for q in (50, 95, 99):
         vals = [np.percentile(r.metrics.peak, q) for r in runs]
         # standard error of a quantile: sqrt(p(1-p)/n) / density, density from the sample
@@ -80,24 +85,24 @@ def test_different_seeds_agree_within_sampling_error():
 
 
 def test_worst_case_bounds_every_sample_and_finds_the_corner():
-    spec = mc.ToleranceSpec(resistor=mc.Tolerance(0.0), capacitor=mc.Tolerance(0.05, "uniform"))
-    wc = mc.worst_case(DESIGN, spec)
-    corners = mc.evaluate(DESIGN, {"C1": np.array([15e-6 * 0.95, 15e-6 * 1.05])}, PERIOD).peak
+    spec = ToleranceSpec(resistor=Tolerance(0.0), capacitor=Tolerance(0.05, "uniform"))
+    wc = worst_case(DESIGN, spec)
+    corners = evaluate(DESIGN, {"C1": np.array([15e-6 * 0.95, 15e-6 * 1.05])}, PERIOD).peak
     assert wc.value == pytest.approx(corners.max(), rel=1e-9)
-    spec = mc.ToleranceSpec(dielectric="polyester", beta=mc.Tolerance(0.05))
-    wc = mc.worst_case(DESIGN, spec)
-    sampled = mc.run(DESIGN, spec, 20_000, seed=3, workers=1).metrics.peak
+    spec = ToleranceSpec(dielectric="polyester", beta=Tolerance(0.05))
+    wc = worst_case(DESIGN, spec)
+    sampled = run_monte_carlo(DESIGN, spec, 20_000, seed=3, workers=1).metrics.peak
     assert wc.value >= sampled.max()
 
 
 def test_capacitor_dominates_with_polyester_and_a_tighter_one_helps():
-    spec = mc.ToleranceSpec(resistor=mc.Tolerance(0.01), capacitor=mc.Tolerance(0.05), dielectric="polyester")
-    rep = mc.analyse(DESIGN, spec, 40_000, seed=1, limit=0.000245, sensitivity_samples=5_000, workers=1)
+    spec = ToleranceSpec(resistor=Tolerance(0.01), capacitor=Tolerance(0.05), dielectric="polyester")
+    rep = analyse(DESIGN, spec, 40_000, seed=1, limit=0.000245, sensitivity_samples=5_000, workers=1)
     assert rep.sensitivities[0].factor == "C1"
     c1 = next(t for t in rep.tightenings if t.factor == "C1")
     assert c1.p99_to < c1.p99_from and c1.dielectric == "polypropylene"
-    better = mc.analyse(DESIGN, mc.ToleranceSpec(capacitor=mc.Tolerance(0.01), dielectric="polypropylene"),
-                        40_000, seed=1, limit=0.000245, sensitivity_samples=0, worst=False, workers=1)
+    better = analyse(DESIGN, ToleranceSpec(capacitor=Tolerance(0.01), dielectric="polypropylene"),
+                     40_000, seed=1, limit=0.000245, sensitivity_samples=0, worst=False, workers=1)
     assert better.result.yield_against(0.000245)[0] > rep.result.yield_against(0.000245)[0]
 
 
@@ -105,19 +110,19 @@ def test_first_order_index_finds_the_driver():
     rng = np.random.default_rng(0)
     x1, x2 = rng.normal(size=(2, 50_000))
     y = 3 * x1 + 0.5 * x2 ** 2
-    assert mc.first_order_index(x1, y) == pytest.approx(9 / (9 + 0.5), abs=0.02)
-    assert mc.first_order_index(x2, y) == pytest.approx(0.5 / (9 + 0.5), abs=0.02)
-    assert mc.first_order_index(rng.normal(size=50_000), y) < 0.005
+    assert first_order_index(x1, y) == pytest.approx(9 / (9 + 0.5), abs=0.02)
+    assert first_order_index(x2, y) == pytest.approx(0.5 / (9 + 0.5), abs=0.02)
+    assert first_order_index(rng.normal(size=50_000), y) < 0.005
 
 
 @pytest.mark.parametrize("kwargs,match", [
     (dict(dielectric="paper"), "dielectric 'paper'"),
     (dict(load_resistance=(0, 1e9)), "positive"),
-    (dict(parts={"C9": mc.Tolerance(0.01)}), "no part named C9"),
+    (dict(parts={"C9": Tolerance(0.01)}), "no part named C9"),
 ])
 def test_bad_specs(kwargs, match):
     with pytest.raises(InputError, match=match):
-        mc.factors(DESIGN, mc.ToleranceSpec(**kwargs))
+        factors(DESIGN, ToleranceSpec(**kwargs))
 
 
 def test_cli_mc_json_contract_and_report(run_cli, tmp_path):
@@ -150,11 +155,11 @@ def test_cli_mc_bad_input(run_cli, tmp_path, args, needle):
 
 
 def test_ngspice_spot_check_agrees_with_the_engine():
-    spec = mc.ToleranceSpec(dielectric="polyester", beta=mc.Tolerance(0.05), load_resistance=(1e9, 1e11))
-    result = mc.run(DESIGN, spec, 1000, seed=5, workers=1)
-    check = mc.spot_check(result, n=5, points=200)
+    spec = ToleranceSpec(dielectric="polyester", beta=Tolerance(0.05), load_resistance=(1e9, 1e11))
+    result = run_monte_carlo(DESIGN, spec, 1000, seed=5, workers=1)
+    check = spot_check(result, n=5, points=200)
     assert check["n"] == 5 and check["agreement_max_abs"] < 1e-6
-    one = mc.variant(DESIGN, result.values, 2, "polyester")
+    one = variant(DESIGN, result.values, 2, "polyester")
     assert one.network.cells[0].has_absorption and one.network.load_resistance == result.values["load_resistance"][2]
-    assert mc.evaluate(DESIGN, {k: v[2:3] for k, v in result.values.items()}, PERIOD, "polyester").peak[0] == \
+    assert evaluate(DESIGN, {k: v[2:3] for k, v in result.values.items()}, PERIOD, "polyester").peak[0] == \
         pytest.approx(predict(one.model, one.network, PERIOD).residual_creep_peak, rel=1e-4)

@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from creepcomp.verify import spice
+from creepcomp.verify import compare, drive, netlist, ngspice_engine
 from creepcomp.data import default_sensor
 from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
@@ -34,10 +34,10 @@ def default():
 # --- programs and time points ---------------------------------------------------------------
 
 def test_transient_times_are_uniform_between_breakpoints_and_hit_them():
-    prog = spice.spice_program(staircase((1, 3, 0), hold=100.0), default_sensor(),
+    prog = drive.spice_program(staircase((1, 3, 0), hold=100.0), default_sensor(),
                                ideal_network(default_sensor(), "exact", 10e-6))
-    t = spice.transient_times(prog, 400.0, 200)
-    edges = spice.program_breakpoints(prog, 400.0)
+    t = drive.transient_times(prog, 400.0, 200)
+    edges = drive.program_breakpoints(prog, 400.0)
     assert set(edges) <= set(t) and t[0] == 0 and t[-1] == 400.0
     assert np.diff(t).max() <= 400.0 / 200 * (1 + 1e-9)
     for a, b in zip(edges[:-1], edges[1:]):
@@ -48,29 +48,29 @@ def test_transient_times_are_uniform_between_breakpoints_and_hit_them():
 def test_steps_become_short_ramps_normalised_and_rounded_as_printed():
     model = default_sensor()
     net = ideal_network(model, "paper", 10e-6)
-    prog = spice.spice_program(staircase((2.0, 4.0, 1.0), hold=100.0), model, net)
+    prog = drive.spice_program(staircase((2.0, 4.0, 1.0), hold=100.0), model, net)
     assert max(prog.loads) == 1.0 and prog.loads[1] == 0.5
     assert np.all(np.diff(prog.times) > 0)                         # no repeated time left
     assert prog.times[1] == pytest.approx(1e-5)                    # 1e-6 of ~45 s, power of ten
-    assert all(float(spice.spice_number(t)) == t for t in prog.times + prog.loads)
-    assert spice.ramped(step(1.0, at=5.0), 0.1).times == (5.0, 5.1)
+    assert all(float(drive.spice_number(t)) == t for t in prog.times + prog.loads)
+    assert drive.ramped(step(1.0, at=5.0), 0.1).times == (5.0, 5.1)
     with pytest.raises(InputError, match="does not fit"):
-        spice.ramped(LoadProgram((0, 0, 1e-3), (0, 1, 1)), 1.0)
+        drive.ramped(LoadProgram((0, 0, 1e-3), (0, 1, 1)), 1.0)
     with pytest.raises(InputError, match="zero throughout"):
-        spice.spice_program(LoadProgram((0, 1), (0, 0)), model, net)
+        drive.spice_program(LoadProgram((0, 1), (0, 0)), model, net)
     with pytest.raises(InputError, match="starts at"):
-        spice.spice_program(step(1.0, at=-1.0), model, net)
+        drive.spice_program(step(1.0, at=-1.0), model, net)
 
 
 def test_default_durations_settle_a_step_and_keep_a_program():
     model = default_sensor()
-    assert spice.default_duration(spice.synthetic_program(model, "step"), model) == 900.0
-    stair = spice.synthetic_program(model, "staircase")
-    assert spice.default_duration(stair, model) == stair.end == 6 * 230.0
-    sweep = spice.synthetic_program(model, "sweep")
+    assert drive.default_duration(drive.synthetic_program(model, "step"), model) == 900.0
+    stair = drive.synthetic_program(model, "staircase")
+    assert drive.default_duration(stair, model) == stair.end == 6 * 230.0
+    sweep = drive.synthetic_program(model, "sweep")
     assert sweep.end == pytest.approx(3 * 2 * math.pi * 45.0)
     with pytest.raises(InputError, match="program 'ramp'"):
-        spice.synthetic_program(model, "ramp")
+        drive.synthetic_program(model, "ramp")
 
 
 # --- netlist text ---------------------------------------------------------------------------
@@ -79,7 +79,7 @@ def test_netlist_holds_the_whole_experiment_in_few_lines():
     model = CreepModel((0.01, -0.004), (5.0, 50.0))
     net = Network((Cell(1e6, 5e-6, leakage=1e12, absorption_R=1e9, absorption_C=1e-8),
                    Cell(2e5, 0.0)), 3e7, (Branch(4e6, 1e-6),), 470.0, 1e9)
-    deck = spice.program_deck(net, model, staircase(hold=50.0), 300.0, 1000, 1e-4)
+    deck = netlist.program_deck(net, model, staircase(hold=50.0), 300.0, 1000, 1e-4)
     text = deck.text()
     for line in ("Eins ins 0 load 0 0.0001", "Ccreep1 creep1 0 5", "Ccreep2 creep2 0 50",
                  "Bsensor emf 0 v=V(ins) + 0.01*V(creep1) - 0.004*V(creep2)",
@@ -98,26 +98,26 @@ def test_record_netlist_stays_small_for_a_long_record():
     n = 100_000
     t = np.arange(n) * 0.01
     signal = 1e-4 * (t > 100) + 1e-9 * np.sin(t)
-    deck = spice.record_deck(ideal_network(default_sensor(), "exact", 10e-6), t, signal, "r.txt")
+    deck = netlist.record_deck(ideal_network(default_sensor(), "exact", 10e-6), t, signal, "r.txt")
     text = deck.text()
     assert len(text.encode()) < 2000 and "PWL" not in text
     assert 'filesource' in text and 'file="r.txt"' in text
     assert deck.tran[0] == pytest.approx(0.01) and deck.tran[2] == pytest.approx(0.005)
-    data = spice.record_data(t + 50.0, signal)
+    data = netlist.record_data(t + 50.0, signal)
     assert data.count("\n") == n + 1 and data.startswith("0 0\n")
     last, hold = (np.array(line.split(), float) for line in data.splitlines()[-2:])
     assert last == pytest.approx([t[-1], signal[-1]]) and hold == pytest.approx([t[-1] + 0.01, signal[-1]])
     with pytest.raises(InputError, match="constant"):
-        spice.record_deck(Network((Cell(1e6, 1e-5),), 1e7), t, np.zeros(n))
+        netlist.record_deck(Network((Cell(1e6, 1e-5),), 1e7), t, np.zeros(n))
 
 
 # --- ngspice against python-control ---------------------------------------------------------
 
-@pytest.mark.parametrize("program", spice.PROGRAMS)
+@pytest.mark.parametrize("program", drive.PROGRAMS)
 @pytest.mark.parametrize("rule", ["paper", "exact"])
 def test_default_design_agrees_to_1e6_of_the_step(default, rule, program):
     model, nets = default
-    c = spice.simulate(nets[rule], model, program)
+    c = compare.compare_program(nets[rule], model, program)
     assert c.spice is not None and c.unavailable is None
     assert c.agreement_max_abs < 1e-6
     assert c.agreement_output < 1e-7
@@ -131,7 +131,7 @@ def test_default_design_agrees_to_1e6_of_the_step(default, rule, program):
 
 def test_python_control_reference_is_the_closed_form(default):
     model, nets = default
-    c = spice.simulate(nets["paper"], model, "step", engine=None)
+    c = compare.compare_program(nets["paper"], model, "step", engine=None)
     t = c.reference.time
     x = np.clip(t - 1e-5, 0, None) / 45.0           # the step is a 10 us ramp
     closed = PAPER_FINAL * (1 - np.exp(-x) + x * np.exp(-x))
@@ -142,9 +142,9 @@ def test_python_control_reference_is_the_closed_form(default):
 
 def test_agreement_does_not_depend_on_the_signal_level(default):
     model, nets = default
-    small = spice.simulate(nets["paper"], model, "staircase", signal=100e-6)
-    large = spice.simulate(nets["paper"], model, "staircase", signal=1.0)
-    tiny = spice.simulate(nets["paper"], model, "staircase", signal=1e-7)
+    small = compare.compare_program(nets["paper"], model, "staircase", signal=100e-6)
+    large = compare.compare_program(nets["paper"], model, "staircase", signal=1.0)
+    tiny = compare.compare_program(nets["paper"], model, "staircase", signal=1e-7)
     for c in (small, large, tiny):
         assert c.agreement_max_abs < 1e-6
     np.testing.assert_allclose(small.residual(), large.residual(), atol=1e-8)
@@ -154,8 +154,8 @@ def test_agreement_does_not_depend_on_the_signal_level(default):
 @pytest.mark.parametrize("stem", ["foster3-exact", "negative-lag"])
 @pytest.mark.parametrize("program", ["step", "staircase"])
 def test_multi_term_and_lag_designs_agree(stem, program):
-    design, _ = spice.reference_designs()[stem]
-    c = spice.simulate(design.network, design.model, program)
+    design, _ = netlist.reference_designs()[stem]
+    c = compare.compare_program(design.network, design.model, program)
     assert c.agreement_max_abs < 1e-6
     assert c.residual_creep_peak < 1e-9                 # exact designs: nothing left
 
@@ -166,11 +166,11 @@ def test_source_load_resistance_and_imperfect_capacitor_agree():
     cell = base.cells[0]
     net = Network((Cell(cell.R, cell.C, leakage=1e10, absorption_R=2e9, absorption_C=2e-7),),
                   base.R2, (), base.source_resistance, base.load_resistance)
-    c = spice.simulate(net, model, "step")
+    c = compare.compare_program(net, model, "step")
     assert c.agreement_max_abs < 1e-6
     assert c.residual_creep_peak > 1e-5                 # leakage and absorption show up ...
     assert c.residual_creep_peak == pytest.approx(c._residual_figures("reference")[0], rel=1e-4)
-    ideal = spice.simulate(base, model, "step")         # ... and without them it cancels
+    ideal = compare.compare_program(base, model, "step")   # ... and without them it cancels
     assert ideal.residual_creep_peak < 1e-10
 
 
@@ -180,7 +180,7 @@ def test_random_one_term_designs_agree(beta, tau, f1, f2):
     model = CreepModel.voigt(beta, tau)
     ideal = ideal_network(model, "exact", 4.7e-6)
     net = Network((Cell(ideal.cells[0].R * f1, ideal.cells[0].C),), ideal.R2 * f2)
-    c = spice.simulate(net, model, "step", points=500)
+    c = compare.compare_program(net, model, "step", points=500)
     assert c.agreement_max_abs < 1e-6
 
 
@@ -191,7 +191,7 @@ def test_record_drive_agrees_on_ngspice_time_points():
     t = 10.0 + np.cumsum(rng.uniform(0.05, 0.15, 20_000))           # irregular sampling
     prog = staircase(hold=(t[-1] - t[0]) / 7, start=t[0])
     signal = 1e-4 * model.response(t, prog.sample(t)) + 2e-9 * rng.standard_normal(len(t))
-    c = spice.simulate_record(net, t, signal)
+    c = compare.compare_record(net, t, signal)
     assert c.spice is not None and len(c.spice.time) > len(t)
     assert c.agreement_max_abs < 2e-6
     assert c.residual() is None and c.to_dict()["residual_creep_peak"] is None
@@ -205,7 +205,7 @@ def test_a_record_drives_ngspice_up_to_its_last_sample():
     t = np.arange(300) * 0.25
     t[-1] -= 5e-12
     signal = 1e-4 * (1.0 + 0.1 * np.sin(t / 5.0))
-    c = spice.simulate_record(net, t, signal)
+    c = compare.compare_record(net, t, signal)
     assert c.spice.time[-1] == pytest.approx(t[-1])
     np.testing.assert_allclose(c.spice.sensor, np.interp(c.spice.time, t, signal), rtol=0, atol=1e-13)
     assert np.max(np.abs(c.spice.output - c.reference.output)) < 1e-6 * 1e-4
@@ -217,13 +217,13 @@ def test_run_batch_reuses_one_engine_for_many_networks(default):
     impedance_x2 = exact.with_parts([v * 2 if k == "R" else v / 2 for _, k, v in exact.parts()])
     r1_high = exact.with_parts([v * 1.05 if label == "R1" else v for label, _, v in exact.parts()])
     networks = [exact, impedance_x2, r1_high]
-    prog = spice.synthetic_program(model, "step")
-    times = spice.transient_times(spice.spice_program(prog, model, exact), 900.0, 300)
-    engine = spice.ngspice()
-    runs = spice.run_batch(networks, model, prog, times, engine=engine)
-    assert spice.ngspice() is engine and len(runs) == 3
+    prog = drive.synthetic_program(model, "step")
+    times = drive.transient_times(drive.spice_program(prog, model, exact), 900.0, 300)
+    engine = ngspice_engine.ngspice()
+    runs = ngspice_engine.run_batch(networks, model, prog, times, engine=engine)
+    assert ngspice_engine.ngspice() is engine and len(runs) == 3
     for net, run in zip(networks, runs):
-        ref = spice.reference_transient(net, model, prog, times)
+        ref = compare.reference_transient(net, model, prog, times)
         assert np.max(np.abs(run.output - ref.output)) / 1e-4 < 1e-6
     # twice the impedance level is the same H(s); a 5 % error in R1 is not
     np.testing.assert_allclose(runs[1].output, runs[0].output, atol=1e-6 * 1e-4)
@@ -232,53 +232,55 @@ def test_run_batch_reuses_one_engine_for_many_networks(default):
 
 def test_a_broken_netlist_is_one_error_and_the_engine_recovers(default):
     model, nets = default
-    engine = spice.ngspice()
-    with pytest.raises(spice.NgspiceError, match="ngspice failed"):
+    engine = ngspice_engine.ngspice()
+    with pytest.raises(ngspice_engine.NgspiceError, match="ngspice failed"):
         engine.run("broken\nR1 a 0 1k\nXbogus a 0 nosuchsubckt\n.tran 1 10\n.end\n")
-    c = spice.simulate(nets["paper"], model, "step", points=200)
+    c = compare.compare_program(nets["paper"], model, "step", points=200)
     assert c.agreement_max_abs < 1e-6
 
 
 def test_notes_are_notes_and_errors_are_errors():
-    notes = spice._check("Circuit: x\nNote: No compatibility mode selected!",
-                         "Warning: voltage source vp has non-increasing PWL time points.\n"
-                         "Note: can't find init file.\nUsing SPARSE 1.3 as Direct Linear Solver", "x")
+    notes = ngspice_engine._check(
+        "Circuit: x\nNote: No compatibility mode selected!",
+        "Warning: voltage source vp has non-increasing PWL time points.\n"
+        "Note: can't find init file.\nUsing SPARSE 1.3 as Direct Linear Solver", "x")
     assert len(notes) == 3
-    with pytest.raises(spice.NgspiceError, match="Timestep too small"):
-        spice._check("", "doAnalyses: TRAN:  Timestep too small; time = 1e-08", "the run")
-    with pytest.raises(spice.NgspiceError, match="Error on line 3"):
-        spice._check("Error on line 3 or its substitute:", "", "loading")
+    with pytest.raises(ngspice_engine.NgspiceError, match="Timestep too small"):
+        ngspice_engine._check("", "doAnalyses: TRAN:  Timestep too small; time = 1e-08", "the run")
+    with pytest.raises(ngspice_engine.NgspiceError, match="Error on line 3"):
+        ngspice_engine._check("Error on line 3 or its substitute:", "", "loading")
 
 
 def test_without_ngspice_the_python_control_result_stands(default, monkeypatch):
     model, nets = default
 
     def missing():
-        raise spice.NgspiceUnavailable(f"ngspice is not installed; install it with: {spice.INSTALL_HINT}")
+        raise ngspice_engine.NgspiceUnavailable("ngspice is not installed; install it with: "
+                                                f"{ngspice_engine.INSTALL_HINT}")
 
-    monkeypatch.setattr(spice, "_ENGINE", None)
-    monkeypatch.setattr(spice, "_load_shared", missing)
-    c = spice.simulate(nets["paper"], model, "step")
+    monkeypatch.setattr(ngspice_engine, "_ENGINE", None)
+    monkeypatch.setattr(ngspice_engine, "_load_shared", missing)
+    c = compare.compare_program(nets["paper"], model, "step")
     assert c.spice is None and "apt-get install ngspice" in c.unavailable
     assert c.agreement_max_abs is None
     assert c.residual_creep_final == pytest.approx(PAPER_FINAL, rel=1e-6)
     d = c.to_dict()
     assert d["ngspice"]["available"] is False and d["agreement_max_abs"] is None
-    r = spice.simulate_record(nets["paper"], np.arange(100.0), np.arange(100.0) ** 0.5)
+    r = compare.compare_record(nets["paper"], np.arange(100.0), np.arange(100.0) ** 0.5)
     assert r.spice is None and len(r.reference.output) == 100
 
 
 def test_library_is_found_by_its_soname(monkeypatch):
     monkeypatch.delenv("NGSPICE_LIBRARY_PATH", raising=False)
-    monkeypatch.setattr(spice.ctypes.util, "find_library", lambda name: None)
-    with pytest.raises(spice.NgspiceUnavailable, match="apt-get install ngspice"):
-        spice._load_shared()
+    monkeypatch.setattr(ngspice_engine.ctypes.util, "find_library", lambda name: None)
+    with pytest.raises(ngspice_engine.NgspiceUnavailable, match="apt-get install ngspice"):
+        ngspice_engine._load_shared()
 
 
 # --- reference netlists ----------------------------------------------------------------------
 
 def test_reference_netlists_are_current(tmp_path):
-    spice.write_reference_netlists(tmp_path)
+    netlist.write_reference_netlists(tmp_path)
     fresh = {p.name: p.read_text() for p in tmp_path.iterdir()}
     committed = {p.name: p.read_text() for p in (REPO / "netlists").iterdir()
                  if p.suffix in (".cir", ".json")}
@@ -296,16 +298,16 @@ def _ngspice_batch(path: Path, cwd: Path):
     return result, measured
 
 
-@pytest.mark.parametrize("stem", list(spice.reference_designs()))
+@pytest.mark.parametrize("stem", list(netlist.reference_designs()))
 def test_each_reference_netlist_runs_clean_in_ngspice_batch(stem, tmp_path):
     src = REPO / "netlists" / f"{stem}.cir"
     shutil.copy(src, tmp_path / src.name)
     result, measured = _ngspice_batch(src, tmp_path)
     assert result.returncode == 0, result.stderr
-    assert spice._check(result.stdout, result.stderr, "ngspice -b") is not None
+    assert ngspice_engine._check(result.stdout, result.stderr, "ngspice -b") is not None
     assert sorted(p.name for p in tmp_path.iterdir()) == [src.name]       # writes nothing
-    design, _ = spice.reference_designs()[stem]
-    c = spice.simulate(design.network, design.model, "step")
+    design, _ = netlist.reference_designs()[stem]
+    c = compare.compare_program(design.network, design.model, "step")
     assert measured["residual_creep_peak"] == pytest.approx(c.residual_creep_peak, rel=1e-4, abs=1e-9)
     assert measured["residual_creep_final"] == pytest.approx(c.residual_creep_final, rel=1e-4, abs=1e-9)
     assert measured["uncorrected_creep_final"] == pytest.approx(design.model.beta0, rel=1e-6)

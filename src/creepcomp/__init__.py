@@ -36,6 +36,7 @@ _API = {
     "prepare": "creepcomp.fit.core", "fit_prony": "creepcomp.fit.core",
     "diagnose": "creepcomp.diagnose.sensor", "diagnose_circuit": "creepcomp.diagnose.circuit",
     "default_sensor": "creepcomp.data",
+    "compare_program": "creepcomp.verify.compare", "compare_record": "creepcomp.verify.compare",
 }
 
 __all__ = sorted(_API)

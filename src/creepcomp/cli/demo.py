@@ -46,7 +46,8 @@ def step_ngspice(out: Path, console: Console) -> None:
     from creepcomp.cli.simulate import render_comparison
     from creepcomp.io.jsonfiles import read_design
     from creepcomp.report.spice import plot_comparison
-    from creepcomp.verify.spice import reference_designs, simulate
+    from creepcomp.verify.compare import compare_program
+    from creepcomp.verify.netlist import reference_designs
 
     designs = []
     sized = Path(out) / "design-exact.json"
@@ -57,7 +58,7 @@ def step_ngspice(out: Path, console: Console) -> None:
         design, description = reference_designs()[stem]
         designs.append((stem, design, description))
     for stem, design, description in designs:
-        comparison = simulate(design.network, design.model, "step")
+        comparison = compare_program(design.network, design.model, "step")
         render_comparison(comparison, title=f"ngspice check, {description}")
         plot = plot_comparison(comparison, Path(out) / f"ngspice-{stem}.png")
         console.print(f"plot written to {plot}\n")
@@ -71,18 +72,19 @@ def step_tolerances(out: Path, console: Console) -> None:
     from creepcomp.data import default_sensor
     from creepcomp.io.jsonfiles import Design
     from creepcomp.report.tolerance import tolerance_report_html
-    from creepcomp.verify import montecarlo as mc
+    from creepcomp.verify.tolerance_analysis import analyse
+    from creepcomp.verify.tolerances import Tolerance, ToleranceSpec
 
     model = default_sensor()
     design = Design(model, size(model).chosen)
     limit = 0.000245
-    for name, spec in (("polyester-5pct", mc.ToleranceSpec(capacitor=mc.Tolerance(0.05), dielectric="polyester")),
-                       ("polypropylene-1pct", mc.ToleranceSpec(capacitor=mc.Tolerance(0.01),
-                                                               dielectric="polypropylene"))):
+    for name, spec in (("polyester-5pct", ToleranceSpec(capacitor=Tolerance(0.05), dielectric="polyester")),
+                       ("polypropylene-1pct", ToleranceSpec(capacitor=Tolerance(0.01),
+                                                            dielectric="polypropylene"))):
         console.print(f"[bold]Tolerances of the default exact design, {name.replace('-', ' ').replace('pct', ' %')} "
                       "capacitor, E24 1 % resistors[/bold]")
-        report = mc.analyse(design, spec, 200_000, seed=1, limit=limit, sensitivity_samples=20_000,
-                            spot_check_samples=200)
+        report = analyse(design, spec, 200_000, seed=1, limit=limit, sensitivity_samples=20_000,
+                         spot_check_samples=200)
         render(report)
         path = tolerance_report_html(report, out / f"tolerances-{name}.html")
         console.print(f"report written to {path}\n")

@@ -9,7 +9,8 @@ import typer
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from creepcomp.verify import montecarlo as mc
+from creepcomp.verify.tolerance_analysis import ToleranceReport, analyse
+from creepcomp.verify.tolerances import DIELECTRICS, Tolerance, ToleranceSpec
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_design
 from creepcomp.report.tolerance import tolerance_report_html
@@ -17,8 +18,8 @@ from creepcomp.cli.common import (app, console, err_console, pct, print_json, qu
     value_range)
 
 
-def _tolerance(text: str, option: str, distribution: str) -> mc.Tolerance:
-    return mc.Tolerance(quantity(text, "fraction", option, non_negative=True), distribution)
+def _tolerance(text: str, option: str, distribution: str) -> Tolerance:
+    return Tolerance(quantity(text, "fraction", option, non_negative=True), distribution)
 
 
 def _part_tolerances(items: list[str], distribution: str) -> dict:
@@ -74,14 +75,14 @@ def mc_command(
     design = read_design(design_file)
     if distribution not in ("normal", "uniform"):
         raise InputError(f"--dist '{distribution}': use normal or uniform")
-    if dielectric is not None and dielectric.lower() not in mc.DIELECTRICS:
-        raise InputError(f"--dielectric '{dielectric}': choose one of {', '.join(mc.DIELECTRICS)}")
+    if dielectric is not None and dielectric.lower() not in DIELECTRICS:
+        raise InputError(f"--dielectric '{dielectric}': choose one of {', '.join(DIELECTRICS)}")
     dielectric = dielectric.lower() if dielectric else None
     if cap_tol is None:
-        cap = mc.Tolerance(min(mc.DIELECTRICS[dielectric].tolerances) if dielectric else 0.05, distribution)
+        cap = Tolerance(min(DIELECTRICS[dielectric].tolerances) if dielectric else 0.05, distribution)
     else:
         cap = _tolerance(cap_tol, "--cap-tol", distribution)
-    tspec = mc.ToleranceSpec(
+    tspec = ToleranceSpec(
         resistor=_tolerance(res_tol, "--res-tol", distribution), capacitor=cap,
         parts=_part_tolerances(tol, distribution), dielectric=dielectric, temperature=temperature,
         source_resistance=_range(source_range, "--source-resistance-range", allow_zero=True),
@@ -101,8 +102,8 @@ def mc_command(
                 tasks[stage] = bar.add_task(stage, total=total)
             bar.update(tasks[stage], completed=done)
 
-        result = mc.analyse(design, tspec, n, seed, metric, limit, period, worst, sensitivity_n, progress,
-                            spot_check_samples=spot_check)
+        result = analyse(design, tspec, n, seed, metric, limit, period, worst, sensitivity_n, progress,
+                         spot_check_samples=spot_check)
     if report is not None:
         tolerance_report_html(result, report)
     if as_json:
@@ -124,7 +125,7 @@ def _range(text, option, allow_zero=False):
     return value_range(text, "ohm", option)
 
 
-def render(report: mc.ToleranceReport) -> None:
+def render(report: ToleranceReport) -> None:
     """Print a tolerance report as tables."""
     r = report.result
     names = {"peak": "residual creep, peak", "final": "residual creep, final (abs)", "hysteresis": "hysteresis"}

@@ -8,7 +8,9 @@ from typing import Optional
 
 import typer
 
-from creepcomp.verify import spice
+from creepcomp.verify.drive import (DEFAULT_POINTS, PROGRAMS, default_duration,
+                                    synthetic_program)
+from creepcomp.verify.netlist import Deck, program_deck, record_data, record_deck, write_deck
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import Design, read_design
 from creepcomp.programs import LoadProgram
@@ -53,8 +55,8 @@ def read_drive(design_path: Path, program: str, record: Path | None, columns: st
     """Check and read the options shared by ``netlist`` and ``simulate``."""
     design = read_design(design_path)
     name = program.strip().lower()
-    if name not in spice.PROGRAMS:
-        raise InputError(f"--program '{program}': choose one of {', '.join(spice.PROGRAMS)}")
+    if name not in PROGRAMS:
+        raise InputError(f"--program '{program}': choose one of {', '.join(PROGRAMS)}")
     if columns and record is None:
         raise InputError("--columns maps a record's columns: give --record FILE too")
     if points < 10:
@@ -67,23 +69,23 @@ def read_drive(design_path: Path, program: str, record: Path | None, columns: st
         rec = read_record(record, parse_columns(columns))
         rec.require(n_samples=2, what="driving a netlist")
         return Drive(design, "record", None, rec, None, points, signal_v)
-    prog = spice.synthetic_program(design.model, name, design.network)
+    prog = synthetic_program(design.model, name, design.network)
     return Drive(design, name, prog, None, duration_s, points, signal_v)
 
 
-def drive_deck(drive: Drive, data_file: str = "record-signal.txt") -> tuple[spice.Deck, str | None]:
+def drive_deck(drive: Drive, data_file: str = "record-signal.txt") -> tuple[Deck, str | None]:
     """The netlist of a drive, and the text of its data file (for a record)."""
     net, model = drive.design.network, drive.design.model
     if drive.record is not None:
         rec = drive.record
         source = Path(rec.source).name
-        deck = spice.record_deck(net, rec.time, rec.signal, data_file,
-                                 title=f"creepcomp: design driven by the record {source}",
-                                 name=rec.source)
-        return deck, spice.record_data(rec.time, rec.signal)
-    duration = drive.duration or spice.default_duration(drive.program, model, net)
-    deck = spice.program_deck(net, model, drive.program, duration, drive.points, drive.signal,
-                              title=f"creepcomp: design driven by synthetic creep, {drive.program.name}")
+        deck = record_deck(net, rec.time, rec.signal, data_file,
+                           title=f"creepcomp: design driven by the record {source}",
+                           name=rec.source)
+        return deck, record_data(rec.time, rec.signal)
+    duration = drive.duration or default_duration(drive.program, model, net)
+    deck = program_deck(net, model, drive.program, duration, drive.points, drive.signal,
+                        title=f"creepcomp: design driven by synthetic creep, {drive.program.name}")
     return deck, None
 
 
@@ -103,7 +105,7 @@ def netlist_command(
     duration: Optional[str] = typer.Option(None, "--duration", metavar="TIME",
                                            help="Simulated time (default: the program's, and 20 "
                                                 "time constants after a final step)."),
-    points: int = typer.Option(spice.DEFAULT_POINTS, "--points", metavar="N",
+    points: int = typer.Option(DEFAULT_POINTS, "--points", metavar="N",
                                help="Output time points; ngspice steps at most half their spacing."),
     signal: str = typer.Option("100u", "--signal", metavar="VOLT",
                                help="Instantaneous sensor signal at full scale, e.g. 100u or 1V."),
@@ -125,7 +127,7 @@ def netlist_command(
         else:
             console.print(text, markup=False, highlight=False, end="", soft_wrap=True)
         return
-    spice.write_deck(output, deck, data)
+    write_deck(output, deck, data)
     info = {"netlist": str(output), "bytes": output.stat().st_size,
             "lines": text.count("\n"), "run": f"ngspice -b {output}"}
     if deck.data_file is not None:

@@ -10,7 +10,9 @@ import numpy as np
 import typer
 from rich.table import Table
 
-from creepcomp.verify import spice
+from creepcomp.verify.compare import Comparison, compare_program, compare_record
+from creepcomp.verify.drive import DEFAULT_POINTS
+from creepcomp.verify.netlist import write_deck
 from creepcomp.units import format_quantity
 from creepcomp.cli.common import app, console, err_console, pct, print_json
 from creepcomp.cli.netlist import PROGRAM_HELP, read_drive
@@ -20,7 +22,7 @@ def _sci(x: float | None) -> str:
     return "n/a" if x is None else f"{x:.3g}"
 
 
-def _peak(comparison: spice.Comparison, which: str) -> str:
+def _peak(comparison: Comparison, which: str) -> str:
     e = comparison.residual(which)
     if e is None:
         return "n/a"
@@ -30,7 +32,7 @@ def _peak(comparison: spice.Comparison, which: str) -> str:
     return f"{pct(abs(float(e[k])))} at {comparison.reference.time[k]:.4g} s"
 
 
-def render_comparison(c: spice.Comparison, title: str | None = None) -> None:
+def render_comparison(c: Comparison, title: str | None = None) -> None:
     """Print a comparison as a table, with the ngspice run and its agreement."""
     d = c.to_dict()
     console.print(f"[bold]{title or 'creepcomp simulate'}[/bold]: {c.drive}; "
@@ -83,7 +85,7 @@ def simulate_command(
     duration: Optional[str] = typer.Option(None, "--duration", metavar="TIME",
                                            help="Simulated time (default: the program's, and 20 "
                                                 "time constants after a final step)."),
-    points: int = typer.Option(spice.DEFAULT_POINTS, "--points", metavar="N",
+    points: int = typer.Option(DEFAULT_POINTS, "--points", metavar="N",
                                help="Time points compared (uniform within each program segment)."),
     signal: str = typer.Option("100u", "--signal", metavar="VOLT",
                                help="Instantaneous sensor signal at full scale, e.g. 100u or 1V."),
@@ -105,10 +107,10 @@ def simulate_command(
     net, model = drive.design.network, drive.design.model
     if drive.record is not None:
         rec = drive.record
-        comparison = spice.simulate_record(net, rec.time, rec.signal, name=f"record {rec.source}")
+        comparison = compare_record(net, rec.time, rec.signal, name=f"record {rec.source}")
     else:
-        comparison = spice.simulate(net, model, drive.program, drive.duration, drive.points,
-                                    drive.signal)
+        comparison = compare_program(net, model, drive.program, drive.duration, drive.points,
+                                     drive.signal)
     if comparison.unavailable:
         err_console.print(f"creepcomp: note: {comparison.unavailable}; showing the python-control "
                           "result only", markup=False, highlight=False, soft_wrap=True)
@@ -122,7 +124,7 @@ def simulate_command(
         from creepcomp.cli.netlist import drive_deck
 
         deck, data = drive_deck(drive, f"{netlist.stem}-signal.txt")
-        spice.write_deck(netlist, deck, data)
+        write_deck(netlist, deck, data)
     if as_json:
         out = comparison.to_dict()
         out["design"] = str(design)

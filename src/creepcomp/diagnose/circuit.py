@@ -730,16 +730,16 @@ def _part(applied: Applied, design: Design) -> str | None:
 
 def ngspice_check(data: CircuitData, fit: CircuitFit) -> dict:
     """The as-built network in ngspice on the same record, against the measured output."""
-    from creepcomp.verify import spice
+    from creepcomp.verify.compare import at_sample_times, compare_record
 
     try:
-        comparison = spice.simulate_record(fit.network, data.time, data.signal, name=data.source)
+        comparison = compare_record(fit.network, data.time, data.signal, name=data.source)
     except Exception as exc:  # ngspice missing or failing: say so, do not fail the diagnosis
         return {"error": str(exc)}
     if comparison.spice is None:
         return {"error": comparison.unavailable or "ngspice not available"}
     t = data.time - data.time[0]
-    out = spice.at_sample_times(comparison.spice.time, comparison.spice.output, t)
+    out = at_sample_times(comparison.spice.time, comparison.spice.output, t)
     # the fit's output is the network's plus the measuring offset and the decays of its
     # initial state and input breaks: ngspice gives the network's part
     linear = data.corrected - fit.residual - fit.network.lag_expansion().simulate(t, data.signal, initial="settled")

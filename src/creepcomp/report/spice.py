@@ -7,7 +7,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 
 from creepcomp.report.common import save_figure
-from creepcomp.verify.spice import Comparison
+from creepcomp.verify.compare import Comparison
 
 __all__ = ["plot_comparison"]
 

@@ -13,8 +13,9 @@ __all__ = ["tolerance_report_html"]
 
 
 def tolerance_report_html(report, path: str | Path) -> Path:
-    """Write the HTML report of a tolerance analysis (:class:`montecarlo.ToleranceReport`):
-    histograms with the specification, the sensitivity chart, worst case and tighter parts."""
+    """Write the HTML report of a tolerance analysis
+    (:class:`creepcomp.verify.tolerance_analysis.ToleranceReport`): histograms with the
+    specification, the sensitivity chart, worst case and tighter parts."""
     r = report.result
     names = {"peak": "peak residual creep", "final": "final residual creep (absolute)",
              "hysteresis": "sweep hysteresis"}

@@ -1,0 +1,122 @@
+"""The whole tolerance analysis of a design, as ``creepcomp mc`` reports it: Monte Carlo,
+nominal, worst case, sensitivity, tighter parts and the ngspice spot check."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+from creepcomp.errors import InputError
+from creepcomp.io.jsonfiles import Design
+from creepcomp.verify.montecarlo import MonteCarloResult, nominal_metrics, run_monte_carlo, spot_check
+from creepcomp.verify.sensitivities import sensitivity, tighter_parts
+from creepcomp.verify.tolerances import ToleranceSpec
+from creepcomp.verify.variants import Metrics
+from creepcomp.verify.worstcase import WorstCase, worst_case
+
+__all__ = ["ToleranceReport", "analyse"]
+
+
+@dataclass(frozen=True)
+class ToleranceReport:
+    """Everything ``creepcomp mc`` reports."""
+
+    result: MonteCarloResult
+    metric: str
+    limit: float | None
+    nominal: Metrics
+    worst: WorstCase | None
+    sensitivities: list
+    tightenings: list
+    sensitivity_samples: int = 0
+    spot_check: dict | None = None
+
+    def to_dict(self) -> dict:
+        """``mc --json``: ``n``, ``residual_creep_peak`` percentiles, ``seconds`` and the rest."""
+        r = self.result
+        out = {"n": r.n, "seed": r.seed, "seconds": r.seconds,
+               "residual_creep_peak": r.percentiles("peak"),
+               "residual_creep_final": r.percentiles("final"),
+               "hysteresis": r.percentiles("hysteresis"),
+               "sweep_period": r.sweep_period,
+               "nominal": {"residual_creep_peak": float(self.nominal.peak[0]),
+                           "residual_creep_final": float(self.nominal.final[0]),
+                           "hysteresis": float(self.nominal.hysteresis[0])},
+               "factors": [{"name": f.name, "nominal": f.nominal, "low": f.low, "high": f.high,
+                            "distribution": f.distribution} for f in r.box],
+               "metric": self.metric}
+        if self.limit is not None:
+            y, se = r.yield_against(self.limit, self.metric)
+            out["spec"] = {"metric": self.metric, "limit": self.limit, "yield": y, "yield_standard_error": se}
+        if self.worst is not None:
+            out["worst_case"] = {"metric": self.worst.metric, "value": self.worst.value,
+                                 "at": self.worst.at, "method": self.worst.method}
+        out["sensitivity"] = [{"factor": s.factor, "share": s.share, "p99_alone": s.p99_alone}
+                              for s in self.sensitivities]
+        out["tighter_parts"] = [{"part": t.factor, "tolerance_from": t.tolerance_from,
+                                 "tolerance_to": t.tolerance_to, "dielectric": t.dielectric,
+                                 "p99_from": t.p99_from, "p99_to": t.p99_to,
+                                 "samples": self.sensitivity_samples} for t in self.tightenings]
+        if self.spot_check is not None:
+            out["spot_check"] = self.spot_check
+        return out
+
+
+def analyse(design: Design, spec: ToleranceSpec, n: int, seed: int = 0, metric: str = "peak",
+            limit: float | None = None, sweep_period: float | None = None, worst: bool = True,
+            sensitivity_samples: int = 20_000, progress: Callable[[str, int, int], None] | None = None,
+            workers: int | None = None, spot_check_samples: int = 0) -> ToleranceReport:
+    """Monte Carlo, nominal, worst case, sensitivity and tighter-part figures of a design.
+
+    Parameters
+    ----------
+    design : Design
+    spec : ToleranceSpec
+    n : int
+        Monte Carlo samples.
+    seed : int
+        Random seed.
+    metric : {"peak", "final", "hysteresis"}
+        The figure the specification, the worst case and the sensitivity are about.
+    limit : float, optional
+        Specification limit of that metric (fraction), for the yield.
+    sweep_period : float, optional
+        Hysteresis sweep period (s).
+    worst : bool
+        Search the worst case over the tolerance box.
+    sensitivity_samples : int
+        Samples per factor for the sensitivity and tighter-part runs (0: skip them).
+    progress : callable, optional
+        ``progress(stage, done, total)``.
+    workers : int, optional
+        Processes for the main run.
+    spot_check_samples : int
+        Samples to run through ngspice and compare (0: none).
+
+    Returns
+    -------
+    ToleranceReport
+    """
+    if metric not in ("peak", "final", "hysteresis"):
+        raise InputError(f"metric '{metric}': use peak, final or hysteresis")
+    count = (lambda done: progress("Monte Carlo", done, n)) if progress else None
+    result = run_monte_carlo(design, spec, n, seed, sweep_period, workers=workers, progress=count)
+    period = result.sweep_period
+    nominal = nominal_metrics(design, spec, period)
+    wc = worst_case(design, spec, metric, period) if worst else None
+    sens, tight = [], []
+    if sensitivity_samples:
+        if progress:
+            progress("sensitivity", 0, 1)
+        sens = sensitivity(result, metric, sensitivity_samples)
+        tight = tighter_parts(design, spec, sensitivity_samples, seed, metric, period)
+        if progress:
+            progress("sensitivity", 1, 1)
+    spot = None
+    if spot_check_samples:
+        if progress:
+            progress("ngspice spot-check", 0, 1)
+        spot = spot_check(result, spot_check_samples)
+        if progress:
+            progress("ngspice spot-check", 1, 1)
+    return ToleranceReport(result, metric, limit, nominal, wc, sens, tight, sensitivity_samples, spot)

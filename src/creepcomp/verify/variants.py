@@ -1,0 +1,238 @@
+"""Variants of a design drawn from its tolerance box, and their metrics, all at once.
+
+The networks' sum-of-lags forms come from the one state-space model
+(:func:`network.state_matrices`, batched symmetric eigensolver), the cascade with the
+sensor's creep is again a sum of lags (:func:`lti.cascade_lags`), and its step response and
+sweep hysteresis are closed forms (:func:`lti.triangle_lag_gap`). No Python loop per sample.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Mapping
+
+import numpy as np
+
+from creepcomp.analog.quality import default_sweep_period
+from creepcomp.io.jsonfiles import Design
+from creepcomp.lti import cascade_lags, triangle_lag_gap
+from creepcomp.model import CreepModel
+from creepcomp.network import Branch, Cell, Network, modal_form, state_matrices
+from creepcomp.verify.tolerances import ABSORPTION_TAU_RANGE, DIELECTRICS, Dielectric
+
+__all__ = ["Metrics", "STEP_GRID", "SWEEP_GRID", "sweep_period_or_default", "evaluate",
+           "residual_lags", "variant_arrays", "variant", "step_residual"]
+
+
+@dataclass(frozen=True)
+class Metrics:
+    """Per-sample figures: peak and final residual creep of a load step, sweep hysteresis."""
+
+    peak: np.ndarray
+    final: np.ndarray
+    hysteresis: np.ndarray
+
+    def get(self, name: str) -> np.ndarray:
+        """A metric by name: ``peak``, ``final`` (absolute value) or ``hysteresis``."""
+        if name == "final":
+            return np.abs(self.final)
+        return getattr(self, name)
+
+
+#: Times of the step-response grid, as multiples of each sample's slowest time constant.
+STEP_GRID = np.geomspace(1e-3, 30.0, 28)
+#: Positions along the first half of the rising sweep branch (the gap is symmetric).
+SWEEP_GRID = np.linspace(0.0, 0.5, 17)
+
+
+def sweep_period_or_default(model: CreepModel, sweep_period: float | None) -> float:
+    """The hysteresis sweep period asked for, or the model's default (s)."""
+    return default_sweep_period(model) if sweep_period is None else float(sweep_period)
+
+
+def evaluate(design: Design, values: Mapping[str, np.ndarray], sweep_period: float,
+             dielectric: str | None = None, temperature: float = 25.0,
+             n: int | None = None) -> Metrics:
+    """Metrics of many variants of a design at once.
+
+    Parameters
+    ----------
+    design : Design
+        Nominal design.
+    values : mapping
+        Factor name -> values (all the same length); factors not given stay nominal.
+    sweep_period : float
+        Period of the hysteresis sweep (s).
+    dielectric : str or None
+        Dielectric preset for leakage (absorption comes through ``values``).
+    temperature : float
+        For the leakage (degrees C).
+    n : int, optional
+        Number of variants when ``values`` is empty (default 1).
+
+    Returns
+    -------
+    Metrics
+    """
+    n = len(next(iter(values.values()))) if values else (n or 1)
+    rel, q = residual_lags(design, values, dielectric, temperature, n)
+    final = rel.sum(axis=1)
+    peak = np.maximum(_step_peak(rel, q), np.abs(final))
+    hysteresis = _sweep_peak(rel, q, sweep_period)
+    return Metrics(peak, final, hysteresis)
+
+
+def residual_lags(design: Design, values: Mapping[str, np.ndarray], dielectric: str | None,
+                  temperature: float, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Residual-creep form of the corrected sensor of every variant: ``H G / (H G)(inf) - 1
+    = sum_m rel_m (1 - 1/(1 + s q_m))``, as arrays ``rel`` and ``q`` of shape (n, M)."""
+    arrays, beta, tau = variant_arrays(design, values, dielectric, temperature, n)
+    d, r, p = modal_form(*state_matrices(*arrays))
+    D, R, q = cascade_lags(np.ones(n), beta, tau, d, r, p)
+    return R / D[:, None], q
+
+
+def variant_arrays(design: Design, values: Mapping[str, np.ndarray], dielectric: str | None,
+                   temperature: float, n: int):
+    """Network arrays (for :func:`network.state_matrices`) and creep terms of variants."""
+    net, model = design.network, design.model
+    parts = net.parts()
+    matrix = np.column_stack([values.get(label, np.full(n, v)) for label, _, v in parts])
+    arrays = list(net.batch_arrays(matrix))
+    if "source_resistance" in values:
+        arrays[5] = values["source_resistance"]
+    if "load_resistance" in values:
+        arrays[6] = values["load_resistance"]
+    if dielectric is not None:
+        arrays[7:10] = _imperfections(net, parts, matrix, values, DIELECTRICS[dielectric], temperature)
+    beta = np.column_stack([values.get(f"beta[{k}]", np.full(n, b)) for k, b in enumerate(model.beta)])
+    tau = np.column_stack([values.get(f"tau[{k}]", np.full(n, t)) for k, t in enumerate(model.tau)])
+    return arrays, beta, tau
+
+
+def variant(design: Design, values: Mapping[str, np.ndarray], i: int, dielectric: str | None = None,
+            temperature: float = 25.0) -> Design:
+    """Sample ``i`` of drawn values as a design of its own (network and creep model)."""
+    one = {k: v[i:i + 1] for k, v in values.items()}
+    arrays, beta, tau = variant_arrays(design, one, dielectric, temperature, 1)
+    cells_R, cells_C, R2, shunt_R, shunt_C, rs, rl, leak, r_da, c_da = (
+        a[0] if np.ndim(a) else a for a in arrays)
+    cells = tuple(Cell(float(r), float(c), None if not np.isfinite(lk) else float(lk),
+                       None if cd <= 0 else float(rd), None if cd <= 0 else float(cd))
+                  for r, c, lk, rd, cd in zip(cells_R, cells_C, leak, r_da, c_da))
+    shunt = tuple(Branch(float(r), float(c)) for r, c in zip(shunt_R, shunt_C))
+    network = Network(cells, None if not np.isfinite(R2) else float(R2), shunt, float(rs),
+                      None if rl is None or not np.isfinite(rl) else float(rl))
+    return Design(design.model.with_terms(beta[0], tau[0]), network)
+
+
+def step_residual(rel, q, t) -> np.ndarray:
+    """Residual creep ``sum_m rel_m (1 - exp(-t / q_m))`` at per-sample times ``t`` (B, T).
+
+    Written as ``sum rel - sum rel exp(-t/q)``: the cancellation at small t costs only
+    ~1e-16 of the (small) residual itself.
+    """
+    rate = 1.0 / q
+    decay = np.exp(-(rate[:, :, None] * t[:, None, :]))
+    return rel.sum(axis=1)[:, None] - np.einsum("bm,bmt->bt", rel, decay)
+
+
+def _step_peak(rel, q):
+    """Peak |residual creep| after a step.
+
+    Two lags (one creep term, one network pole): the single extremum in closed form.
+    More: a log grid, then two rounds of parabolic refinement.
+    """
+    if q.shape[1] == 2:
+        return _step_peak_two_lags(rel, q)
+    slowest = q.max(axis=1)
+    log_t = np.log(slowest)[:, None] + np.log(STEP_GRID)[None, :]
+    v = np.abs(step_residual(rel, q, np.exp(log_t)))
+    best, at = _grid_peak(v, log_t)
+    step = np.log(STEP_GRID[1] / STEP_GRID[0])
+    for width in (step / 4, step / 32):
+        pts = at[:, None] + width * np.array([-1.0, 0.0, 1.0])[None, :]
+        vals = np.abs(step_residual(rel, q, np.exp(pts)))
+        vertex = _vertex(pts, vals)
+        at = np.where(np.isfinite(vertex), vertex, at)
+        best = np.maximum(best, np.abs(step_residual(rel, q, np.exp(at)[:, None]))[:, 0])
+        best = np.maximum(best, vals.max(axis=1))
+    return best
+
+
+def _step_peak_two_lags(rel, q):
+    """``e(t) = sum_m rel_m (1 - exp(-t/q_m))`` for two lags has one extremum, where
+    ``rel_1/q_1 exp(-t/q_1) = -rel_2/q_2 exp(-t/q_2)``."""
+    slope1, slope2 = rel[:, 0] / q[:, 0], rel[:, 1] / q[:, 1]
+    rate_gap = 1.0 / q[:, 0] - 1.0 / q[:, 1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = -slope2 / slope1
+        t_star = -np.log(ratio) / rate_gap
+    ok = (ratio > 0) & np.isfinite(t_star) & (t_star > 0)
+    t_star = np.where(ok, t_star, 0.0)
+    inner = np.abs(step_residual(rel, q, t_star[:, None])[:, 0])
+    return np.where(ok, inner, 0.0)
+
+
+def _sweep_peak(rel, q, period):
+    """Largest |up - down| gap of the sweep (fraction of the ideal output).
+
+    The gap is symmetric about the middle of the branch, so half of it is evaluated, on a
+    uniform grid where ``exp(-t/q)`` are powers of one exponential (products, no overflow),
+    then refined by a parabola.
+    """
+    h = period / 2.0
+    x = SWEEP_GRID
+    qq = q[:, :, None]
+    powers = np.cumprod(np.broadcast_to(np.exp(-(x[1] - x[0]) * h / qq), q.shape + (len(x) - 1,)), axis=2)
+    early = np.concatenate([np.ones(q.shape + (1,)), powers], axis=2)       # exp(-t_j/q)
+    late = early[:, :, -1:] * early[:, :, ::-1]                              # exp(-(h-t_j)/q)
+    gap = np.abs(np.einsum("bm,bmx->bx", rel, triangle_lag_gap(qq, h, x, (early, late))))
+    best, at = _grid_peak(gap, np.broadcast_to(x, gap.shape))
+    pts = np.clip(at[:, None] + (x[1] - x[0]) / 4 * np.array([-1.0, 0.0, 1.0])[None, :], 0.0, 0.5)
+    vals = np.abs(np.einsum("bm,bmx->bx", rel, triangle_lag_gap(qq, h, pts[:, None, :])))
+    return np.maximum(best, vals.max(axis=1))
+
+
+def _grid_peak(v, coords):
+    """Row maxima of ``v`` and the parabolic estimate of where they are."""
+    k = np.argmax(v, axis=1)
+    rows = np.arange(len(v))
+    lo, hi = np.clip(k - 1, 0, v.shape[1] - 1), np.clip(k + 1, 0, v.shape[1] - 1)
+    pts = np.stack([coords[rows, lo], coords[rows, k], coords[rows, hi]], axis=1)
+    vals = np.stack([v[rows, lo], v[rows, k], v[rows, hi]], axis=1)
+    vertex = _vertex(pts, vals)
+    return v[rows, k], np.where(np.isfinite(vertex), vertex, coords[rows, k])
+
+
+def _vertex(pts, vals):
+    """Abscissa of the parabola through three equally spaced points (nan where it is not a
+    maximum inside them)."""
+    a, b, c = vals[:, 0], vals[:, 1], vals[:, 2]
+    h = pts[:, 1] - pts[:, 0]
+    curv = a - 2 * b + c
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = pts[:, 1] + h * (a - c) / (2 * curv)
+    ok = (curv < 0) & (x >= pts[:, 0]) & (x <= pts[:, 2]) & (h > 0)
+    return np.where(ok, x, np.nan)
+
+
+def _imperfections(net: Network, parts, matrix, values, dielectric: Dielectric, temperature: float):
+    """Leakage and absorption arrays of the cell capacitors for sampled values."""
+    n = len(matrix)
+    col = {label: j for j, (label, _, _) in enumerate(parts)}
+    insulation = dielectric.insulation_time(temperature)
+    leak, r_da, c_da = (np.repeat(a, n, axis=0) for a in net.imperfection_arrays())
+    many = len(net.cells) > 1
+    for k, cell in enumerate(net.cells):
+        if cell.C <= 0:
+            continue
+        label = f"C1.{k + 1}" if many else "C1"
+        c = matrix[:, col[label]]
+        leak[:, k] = insulation / c
+        frac = values.get(f"{label}.absorption", np.full(n, np.mean(dielectric.absorption)))
+        tau_da = values.get(f"{label}.absorption_tau", np.full(n, math.sqrt(np.prod(ABSORPTION_TAU_RANGE))))
+        c_da[:, k] = frac * c
+        r_da[:, k] = tau_da / c_da[:, k]
+    return leak, r_da, c_da
