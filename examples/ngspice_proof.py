@@ -40,8 +40,9 @@ from creepcomp import Design, default_sensor, read_design, size
 from creepcomp.cli.common import pct
 from creepcomp.report.spice import plot_comparison
 from creepcomp.units import format_quantity
-from creepcomp.verify.spice import (DEFAULT_POINTS, default_duration, program_deck, simulate,
-    synthetic_program, write_deck)
+from creepcomp.verify.compare import compare_program
+from creepcomp.verify.drive import DEFAULT_POINTS, default_duration, synthetic_program
+from creepcomp.verify.netlist import program_deck, write_deck
 
 PROGRAMS = ("step", "staircase", "sweep")
 FAST_POINTS = 400
@@ -96,7 +97,7 @@ def main(argv: list[str] | None = None) -> int:
         deck = program_deck(network, model, program, duration, points,
                             title=f"creepcomp example: design driven by synthetic creep, {program.name}")
         netlist = write_deck(args.out / f"design-{name}.cir", deck)
-        comparison = simulate(network, model, program, duration, points)
+        comparison = compare_program(network, model, program, duration, points)
         print(f"\n{program.name}: {duration:.4g} s, {points} time points; "
               f"netlist {netlist} ({format_quantity(netlist.stat().st_size, 'B')})")
         print(f"  residual creep, peak:  python-control {peak_text(comparison, 'reference')}", end="")

@@ -30,7 +30,7 @@ os.environ.setdefault("MPLBACKEND", "Agg")  # the plots go to files
 from creepcomp import Design, default_sensor, read_design, size
 from creepcomp.cli.common import pct
 from creepcomp.report.tolerance import tolerance_report_html
-from creepcomp.verify.montecarlo import Tolerance, ToleranceSpec, analyse
+from creepcomp.verify import Tolerance, ToleranceSpec, analyse
 
 #: OIML R60 class C3: creep within 0.0245 % of full scale.
 SPEC_LIMIT = 0.000245

@@ -142,23 +142,41 @@ def _step_peak(rel, q):
     """Peak |residual creep| after a step.
 
     Two lags (one creep term, one network pole): the single extremum in closed form.
-    More: a log grid, then two rounds of parabolic refinement.
+    More: a log grid, then the root of ``e'(t)`` between the grid neighbours of its largest
+    value (safeguarded Newton: a flat peak barely above the settled value needs it).
     """
     if q.shape[1] == 2:
         return _step_peak_two_lags(rel, q)
     slowest = q.max(axis=1)
     log_t = np.log(slowest)[:, None] + np.log(STEP_GRID)[None, :]
     v = np.abs(step_residual(rel, q, np.exp(log_t)))
-    best, at = _grid_peak(v, log_t)
-    step = np.log(STEP_GRID[1] / STEP_GRID[0])
-    for width in (step / 4, step / 32):
-        pts = at[:, None] + width * np.array([-1.0, 0.0, 1.0])[None, :]
-        vals = np.abs(step_residual(rel, q, np.exp(pts)))
-        vertex = _vertex(pts, vals)
-        at = np.where(np.isfinite(vertex), vertex, at)
-        best = np.maximum(best, np.abs(step_residual(rel, q, np.exp(at)[:, None]))[:, 0])
-        best = np.maximum(best, vals.max(axis=1))
-    return best
+    k = np.argmax(v, axis=1)
+    rows = np.arange(len(v))
+    a = np.exp(log_t[rows, np.maximum(k - 1, 0)])
+    b = np.exp(log_t[rows, np.minimum(k + 1, v.shape[1] - 1)])
+    sign = np.sign(step_residual(rel, q, np.exp(log_t[rows, k])[:, None])[:, 0])
+    return np.maximum(v[rows, k], _bracketed_peak(rel, q, a, b, sign))
+
+
+def _bracketed_peak(rel, q, a, b, sign, steps: int = 12) -> np.ndarray:
+    """``|e|`` at the root of ``e'`` in ``[a, b]`` (0 where ``sign * e'`` does not fall from
+    positive to negative there): Newton steps inside the bracket, bisection (in log t) outside."""
+    slope = sign[:, None] * rel / q
+
+    def derivatives(t):
+        decay = np.exp(-t[:, None] / q)
+        return np.sum(slope * decay, axis=1), -np.sum(slope / q * decay, axis=1)
+
+    valid = (derivatives(a)[0] > 0) & (derivatives(b)[0] < 0)
+    t = np.sqrt(a * b)
+    for _ in range(steps):
+        first, second = derivatives(t)
+        a, b = np.where(first > 0, t, a), np.where(first > 0, b, t)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            newton = t - first / second
+        t = np.where((second < 0) & (newton > a) & (newton < b), newton, np.sqrt(a * b))
+    value = np.abs(step_residual(rel, q, t[:, None])[:, 0])
+    return np.where(valid & np.isfinite(value), value, 0.0)
 
 
 def _step_peak_two_lags(rel, q):
