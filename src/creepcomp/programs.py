@@ -21,6 +21,9 @@ from creepcomp.lti import LagExpansion, lag_states
 class LoadProgram:
     """Piecewise-linear load history.
 
+    Before the first breakpoint the load is ``loads[0]``, held long enough for creep to
+    settle; after the last it stays at ``loads[-1]``.
+
     Parameters
     ----------
     times : tuple of float
@@ -29,9 +32,6 @@ class LoadProgram:
         Load at each breakpoint.
     name : str
         Short description for plots and reports.
-
-    Before the first breakpoint the load is ``loads[0]``, held long enough for creep to
-    settle; after the last it stays at ``loads[-1]``.
     """
 
     times: tuple[float, ...]
