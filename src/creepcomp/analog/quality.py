@@ -3,7 +3,7 @@
 Residual creep is the corrected output relative to its ideal, creep-free value,
 ``y(t) / (H(inf) G(inf) S_ins) - 1``: for a step, the output's drift after the
 instantaneous jump, as a fraction of that jump. With the paper's rule it moves from 0 to
-``beta0^2 / (1 + 2 beta0)`` (physics.md, section 3); with the exact rule it stays at 0.
+``beta0^2 / (1 + 2 beta0)`` (``docs/physics.md``, section 3); with the exact rule it stays at 0.
 
 The reported figures come from python-control (exact discretisation of the cascade
 ``H(s) G(s)`` on uniform segments); between grid points the peak is refined with the closed
