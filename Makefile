@@ -7,7 +7,7 @@ DEBS    := ngspice libngspice0 libngspice0-dev
 SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 DEMO_OUT ?= demo-output
 
-.PHONY: demo test setup system-deps netlists bench clean
+.PHONY: demo test docs setup system-deps netlists bench clean
 
 demo: setup
 	$(VENV)/bin/creepcomp demo --out $(DEMO_OUT)
@@ -26,8 +26,14 @@ system-deps:
 $(STAMP): pyproject.toml
 	python3 -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e '.[test]'
+	$(PY) -m pip install -q -e '.[test,docs]'
 	touch $(STAMP)
+
+# The documentation site (docs/, mkdocs.yml) into site/; warnings are errors.
+docs: setup
+	@$(PY) -c "import mkdocs, material, mkdocstrings_handlers.python" 2>/dev/null || \
+	  $(PY) -m pip install -q -e '.[docs]'
+	NO_MKDOCS_2_WARNING=1 $(PY) -m mkdocs build --strict -d site
 
 # Reference netlists of the bundled designs (a test fails when they are stale).
 netlists: setup

@@ -1,4 +1,7 @@
-"""The creep model: Prony terms ``G(s) = 1 + sum_k beta_k / (1 + s tau_k)`` (physics.md, section 1)."""
+"""The creep model: Prony terms ``G(s) = 1 + sum_k beta_k / (1 + s tau_k)``.
+
+See ``docs/physics.md``, section 1.
+"""
 
 from __future__ import annotations
 
@@ -39,7 +42,7 @@ class CreepModel:
     offset : float
         Signal at zero load.
     extensions : mapping
-        Fitted extensions of the model (see ``diagnosis.md``), kept as given.
+        Fitted extensions of the model (see ``docs/diagnosis.md``), kept as given.
     """
 
     beta: tuple[float, ...]

@@ -1,6 +1,6 @@
 """The correction network: its parts, and its transfer function ``H(s)``.
 
-Topology (physics.md, section 3, generalised): from the sensor (a voltage source behind
+Topology (``docs/physics.md``, section 3, generalised): from the sensor (a voltage source behind
 ``source_resistance``) a series chain of cells, each a resistor ``R`` in parallel with a
 capacitor ``C`` (``C = 0`` is a plain resistor), to the output; from the output to ground
 ``R2`` (optional), the next stage's ``load_resistance`` (optional) and shunt branches, each

@@ -23,6 +23,9 @@ __all__ = ["LoadProgram", "step", "staircase", "triangle_sweep"]
 class LoadProgram:
     """Piecewise-linear load history.
 
+    Before the first breakpoint the load is ``loads[0]``, held long enough for creep to
+    settle; after the last it stays at ``loads[-1]``.
+
     Parameters
     ----------
     times : tuple of float
@@ -31,9 +34,6 @@ class LoadProgram:
         Load at each breakpoint.
     name : str
         Short description for plots and reports.
-
-    Before the first breakpoint the load is ``loads[0]``, held long enough for creep to
-    settle; after the last it stays at ``loads[-1]``.
     """
 
     times: tuple[float, ...]

@@ -1,4 +1,4 @@
-"""The built network: its faults (the circuit side of ``diagnosis.md``) and how to fix them.
+"""The built network: its faults (the circuit side of ``docs/diagnosis.md``) and how to fix them.
 
 A built correction network never matches its design exactly. The circuit-side effects are
 changes of the :class:`~creepcomp.network.Network` itself, each with its physical parameters:

@@ -3,7 +3,7 @@
 Residual creep is the corrected output relative to its ideal, creep-free value,
 ``y(t) / (H(inf) G(inf) S_ins) - 1``: for a step, the output's drift after the
 instantaneous jump, as a fraction of that jump. With the paper's rule it moves from 0 to
-``beta0^2 / (1 + 2 beta0)`` (physics.md, section 3); with the exact rule it stays at 0.
+``beta0^2 / (1 + 2 beta0)`` (``docs/physics.md``, section 3); with the exact rule it stays at 0.
 
 The step response is the closed form :func:`residual_curves` (which also screens many
 candidate designs at once) on uniform segments that resolve every time constant, its peak

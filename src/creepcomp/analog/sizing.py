@@ -1,6 +1,6 @@
 """Sizing the correction network by the paper's rule or exactly, and snapping it to E-series parts.
 
-Rules (physics.md, section 3):
+Rules (``docs/physics.md``, section 3):
 
 * ``paper``: ``tau_p = C R1 R2 / (R1 + R2) = tau`` and ``R1 / R2 = beta0 / (1 + beta0)``,
   exactly as the paper states it (one creep term; source and load resistance ignored, as
@@ -216,7 +216,7 @@ class SizingReport:
     warnings: tuple[str, ...] = field(default_factory=tuple)
 
     def design_dict(self) -> dict:
-        """The design file (``design-file.md``) of the chosen parts."""
+        """The design file (``docs/design-file.md``) of the chosen parts."""
         out = {"creep": {"beta": list(self.model.beta), "tau": list(self.model.tau)}}
         out.update(self.chosen.to_dict())
         out["rule"] = self.rule

@@ -1,4 +1,4 @@
-"""The ``creepcomp`` command: a thin Typer layer over the Python API (``cli.md``).
+"""The ``creepcomp`` command: a thin Typer layer over the Python API (``docs/cli.md``).
 
 Each subcommand lives in its own module and registers itself on :data:`app`.
 Errors in the user's input become one line on stderr and exit status 2.

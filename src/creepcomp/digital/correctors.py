@@ -1,10 +1,10 @@
 """Digital creep correction (paper section III): exact, recursive, batch and streaming.
 
 The raw signal is the instantaneous signal through the creep model, ``x = G[S]`` with
-``x = signal - offset`` and ``S = gain * load`` (physics.md, sections 1-2). Sampled, with the
-load held between samples (``hold="zero"``, the paper's assumption) or ramping linearly
-between them (``hold="linear"``), each creep term is a first-order lag discretised exactly by
-:func:`creepcomp.lti.lag_coefficients`::
+``x = signal - offset`` and ``S = gain * load`` (``docs/physics.md``, sections 1-2).
+Sampled, with the load held between samples (``hold="zero"``, the paper's assumption) or
+ramping linearly between them (``hold="linear"``), each creep term is a first-order lag
+discretised exactly by :func:`creepcomp.lti.lag_coefficients`::
 
     c_k[n+1] = e_k c_k[n] + b0_k S[n] + b1_k S[n+1],      x[n] = S[n] + sum_k beta_k c_k[n]
 

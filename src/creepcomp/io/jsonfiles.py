@@ -1,4 +1,4 @@
-"""Model files and design files (``design-file.md``): reading with checks, writing."""
+"""Model files and design files (``docs/design-file.md``): reading with checks, writing."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Measured records (``data-format.md``): reading, checking, column mapping, writing.
+"""Measured records (``docs/record-format.md``): reading, checking, column mapping, writing.
 
 A record is a CSV file with ``time``, ``load`` and ``signal`` columns (and optionally
 ``temperature`` and ``corrected``), metadata lines ``# key: value`` before the header, and
