@@ -260,7 +260,7 @@ def random_fault(effect: str | None, rng: np.random.Generator, design: Design, d
     if effect == "load_impedance":
         return {"R": level * math.exp(rng.uniform(math.log(1.5), math.log(30.0)))}
     if effect == "dielectric_absorption":
-        # film capacitors absorb 0.05-0.25 % (physics.md): a fault is a dielectric that
+        # film capacitors absorb 0.05-0.25 % (docs/physics.md): a fault is a dielectric that
         # absorbs more, as ceramic X7R does (0.6-2.5 %). Its memory is slow: from 0.7 to 7
         # times the cell's own R C (absorption much faster than that only adds capacitance,
         # and is told apart from a larger capacitor by nothing in the output)

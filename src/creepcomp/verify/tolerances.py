@@ -28,7 +28,7 @@ class Dielectric:
     its insulation resistance (as the time constant R_ins * C) at 25 and 85 degrees C.
 
     Figures: published film and ceramic capacitor data (WIMA), as tabulated in the project's
-    ``physics.md``.
+    ``docs/physics.md``.
     """
 
     name: str
