@@ -13,7 +13,6 @@ from creepcomp.verify.tolerance_analysis import ToleranceReport, analyse
 from creepcomp.verify.tolerances import DIELECTRICS, Tolerance, ToleranceSpec
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_design
-from creepcomp.report.tolerance import tolerance_report_html
 from creepcomp.cli.common import (app, console, err_console, pct, print_json, quantity,
     value_range)
 
@@ -105,6 +104,8 @@ def mc_command(
         result = analyse(design, tspec, n, seed, metric, limit, period, worst, sensitivity_n, progress,
                          spot_check_samples=spot_check)
     if report is not None:
+        from creepcomp.report.tolerance import tolerance_report_html
+
         tolerance_report_html(result, report)
     if as_json:
         out = result.to_dict()

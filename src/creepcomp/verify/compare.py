@@ -11,7 +11,6 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-import control
 import numpy as np
 
 from creepcomp.analog.quality import corrected_system
@@ -32,13 +31,15 @@ __all__ = ["reference_transient", "Comparison", "compare_program", "compare_reco
            "at_sample_times"]
 
 
-def _settled(sys: control.StateSpace, u0: float) -> np.ndarray:
+def _settled(sys: "control.StateSpace", u0: float) -> np.ndarray:
     A, B = np.asarray(sys.A), np.asarray(sys.B)[:, 0]
     return np.linalg.solve(A, -B * u0) if u0 else np.zeros(A.shape[0])
 
 
-def _piecewise_response(sys: control.StateSpace, t, u, edges) -> np.ndarray:
+def _piecewise_response(sys: "control.StateSpace", t, u, edges) -> np.ndarray:
     """python-control ``forced_response`` segment by segment (uniform steps within each)."""
+    import control
+
     y = np.empty(len(t))
     x = _settled(sys, u[0])
     y[0] = (np.asarray(sys.C) @ x + np.asarray(sys.D)[:, 0] * u[0])[0]

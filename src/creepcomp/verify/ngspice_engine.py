@@ -19,7 +19,6 @@ import time as _time
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from creepcomp.errors import CreepcompError
 from creepcomp.model import CreepModel
@@ -248,6 +247,8 @@ def _interpolate(t_src, y_src, t_dst, edges) -> np.ndarray:
             continue
         ts, ys = t_src[src], y_src[src]
         if len(ts) >= 4:
+            from scipy.interpolate import CubicSpline
+
             out[dst] = CubicSpline(ts, ys)(t_dst[dst])
         else:
             out[dst] = np.interp(t_dst[dst], ts, ys)

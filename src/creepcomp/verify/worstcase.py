@@ -5,7 +5,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize
 
 from creepcomp.io.jsonfiles import Design
 from creepcomp.verify.tolerances import ToleranceSpec, factors
@@ -57,6 +56,8 @@ def worst_case(design: Design, spec: ToleranceSpec, metric: str = "peak",
     starts = list(corners[np.argsort(corner_values)[-3:]]) + [np.array([f.nominal for f in box])]
     scale = highs - lows
     best_x, best_v = corners[np.argmax(corner_values)], float(corner_values.max())
+    from scipy import optimize
+
     for x0 in starts:
         res = optimize.minimize(lambda z: -metric_at((lows + z * scale)[None, :])[0],
                                 (x0 - lows) / scale, method="L-BFGS-B", bounds=[(0, 1)] * m,
