@@ -154,7 +154,7 @@ def render_sizing(report: SizingReport, title: str | None = None) -> None:
             c_near = max(v for _, k, v in report.nearest.parts() if k == "C")
             columns.append((f"nearest values (C = {format_quantity(c_near, 'F')})", report.nearest_quality))
     columns.append(("uncorrected", report.uncorrected_quality))
-    table = Table(title="Predicted (exact transfer functions, python-control)", title_justify="left")
+    table = Table(title="Predicted (exact transfer functions)", title_justify="left")
     table.add_column("")
     for name, _ in columns:
         table.add_column(name, justify="right")
