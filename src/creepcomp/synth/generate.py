@@ -18,7 +18,7 @@ import numpy as np
 from creepcomp.analog.faults import CIRCUIT_EFFECTS, apply_fault, capacitor_cells
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import Design
-from creepcomp.fit.core import spectral_variance
+from creepcomp.fit.noise import spectral_variance
 from creepcomp.lti import LagExpansion, cascade_lags, lag_states, varying_lag_states
 from creepcomp.model import CreepModel
 from creepcomp.programs import LoadProgram
@@ -708,7 +708,7 @@ def _precision_factor(spec: CircuitSpec, design: Design, effect: str, params: di
     ``spec.precise_to`` (see :func:`circuit_precision`; ``record_with(f)``: the record with
     its noise times ``f``). The priors of the diagnosis's decays are relative to the noise, so
     the factor is found in a few steps."""
-    from creepcomp.diagnose.circuit import prepare, residual_at
+    from creepcomp.fit.circuit import prepare, residual_at
 
     fault = dict(params)
     cell = fault.pop("cell", None)
