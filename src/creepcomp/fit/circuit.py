@@ -326,9 +326,9 @@ def fit_model(data: CircuitData, applied: tuple, starts: list[dict], generic: bo
     grid over its whole range and Brent's method (:func:`_scalar_search`), several by
     ``least_squares`` with tighter ``ftol`` and ``gtol`` (1e-10) and its default
     finite-difference step, and a held-out refit by one Gauss-Newton step
-    (:func:`_gauss_newton_step`). These are the settings the circuit benchmark
-    (``benchmarks/diagnose_circuit_confusion.py``) was made with; the sensor side's would
-    change its records.
+    (:func:`_gauss_newton_step`). These are the settings the circuit side's rules were
+    benchmarked with (``benchmarks/diagnose_circuit_confusion.py``); they are kept so that its
+    results stay as they were.
     """
     params = model_params(data, applied)
     if generic:
