@@ -18,7 +18,9 @@ from pathlib import Path
 
 from creepcomp.diagnose.sensor import diagnose
 from creepcomp.diagnose import effects
-from creepcomp.fit.core import Applied, fit_prony, prepare, term_table
+from creepcomp.fit.data import prepare
+from creepcomp.fit.structure import Applied
+from creepcomp.fit.prony import fit_prony, term_table
 from creepcomp.io.records import parse_columns, read_record
 
 DEFAULT = Path(__file__).resolve().parents[1] / "tests" / "data" / "rheojax" / "creep_ps130_data.csv"

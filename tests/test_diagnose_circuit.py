@@ -15,9 +15,9 @@ from creepcomp.verify.compare import at_sample_times
 from creepcomp import synth
 from creepcomp.analog.faults import CIRCUIT_EFFECTS
 from creepcomp.data import path as data_path
-from creepcomp.diagnose.circuit import (choose, combine, diagnose_circuit, evidence, fit_model,
-    halves, prepare, with_heldout)
-from creepcomp.fit.core import Applied
+from creepcomp.diagnose.circuit import choose, combine, diagnose_circuit, evidence
+from creepcomp.fit.circuit import fit_model, halves, prepare, with_heldout
+from creepcomp.fit.structure import Applied
 from creepcomp.io.jsonfiles import read_design
 from creepcomp.io.records import read_record
 

@@ -98,7 +98,10 @@ def test_missing_temperature_for_a_thermal_extension_is_an_error():
 
 def test_extension_written_by_a_fit_reads_back(tmp_path):
     from creepcomp.io.jsonfiles import read_model, write_json
-    from creepcomp.fit.core import Structure, fit_structure, one_term_starts, prepare
+    from creepcomp.fit.data import prepare
+    from creepcomp.fit.structure import Structure
+    from creepcomp.fit.solver import fit_structure
+    from creepcomp.fit.starts import one_term_starts
 
     syn = synth.generate(synth.Spec(hidden={"viscous_flow": {"rate": 3e-5}}, duration=1200, rate=4,
                                     program="staircase", seed=3))

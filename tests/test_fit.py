@@ -5,8 +5,13 @@ from hypothesis import strategies as st
 
 from creepcomp import programs
 from creepcomp.errors import InputError
-from creepcomp.fit.core import (Structure, compare, fit_noise, fit_prony, fit_structure, heldout,
-    one_term_starts, prepare, rows_for, term_table, whiten)
+from creepcomp.fit.data import prepare
+from creepcomp.fit.structure import Structure
+from creepcomp.fit.noise import fit_noise, rows_for, whiten
+from creepcomp.fit.solver import fit_structure
+from creepcomp.fit.evidence import compare, heldout
+from creepcomp.fit.starts import one_term_starts
+from creepcomp.fit.prony import fit_prony, term_table
 from creepcomp.lti import lag_states, varying_lag_states
 from creepcomp.model import CreepModel
 from creepcomp.io.records import Record
@@ -110,10 +115,10 @@ def test_heldout_flags_a_useless_term_and_keeps_a_real_one():
     data = prepare(_record(model, prog, t, 2e-3, seed=5))
     one = fit_structure(data, Structure(1), one_term_starts(data))
     one = heldout(data, one)
-    from creepcomp.fit.core import fit_terms
+    from creepcomp.fit.prony import fit_terms
 
     two = heldout(data, fit_terms(data, 2, one, one.noise))
-    ev = compare(data, one, two)
+    ev = compare(one, two)
     assert not ev.supported and ev.delta_bic > 0
     assert one.heldout.rms == pytest.approx(2e-3, rel=0.1)
 

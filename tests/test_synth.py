@@ -6,7 +6,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from creepcomp import synth
-from creepcomp.diagnose.circuit import diagnose_circuit, prepare, residual_at
+from creepcomp.diagnose.circuit import diagnose_circuit
+from creepcomp.fit.circuit import prepare, residual_at
 from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 

@@ -33,7 +33,7 @@ _API = {
     "size": "creepcomp.analog.sizing", "suggest_fixes": "creepcomp.analog.faults",
     "Corrector": "creepcomp.digital.correctors", "compensate": "creepcomp.digital.correctors",
     "creep_error": "creepcomp.digital.correctors",
-    "prepare": "creepcomp.fit.core", "fit_prony": "creepcomp.fit.core",
+    "prepare": "creepcomp.fit.data", "fit_prony": "creepcomp.fit.prony",
     "diagnose": "creepcomp.diagnose.sensor", "diagnose_circuit": "creepcomp.diagnose.circuit",
     "default_sensor": "creepcomp.data",
     "compare_program": "creepcomp.verify.compare", "compare_record": "creepcomp.verify.compare",

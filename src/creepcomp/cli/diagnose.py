@@ -13,7 +13,7 @@ from creepcomp.diagnose.sensor import Diagnosis, diagnose
 from creepcomp.diagnose.circuit import CircuitDiagnosis, combine, diagnose_circuit
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_design
-from creepcomp.fit.core import BIC_STRONG, HELDOUT_Z
+from creepcomp.fit.evidence import BIC_STRONG, HELDOUT_Z
 from creepcomp.units import format_quantity
 from creepcomp.cli.common import app, console, err_console, pct, print_json
 from creepcomp.cli.fit import (COLUMNS_HELP, INITIAL_TEXT, describe_record, load_record,

@@ -11,7 +11,10 @@ from rich.table import Table
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import write_json
 from creepcomp.diagnose import effects
-from creepcomp.fit.core import BIC_STRONG, HELDOUT_Z, Applied, PronyResult, fit_prony, prepare, term_table
+from creepcomp.fit.data import prepare
+from creepcomp.fit.structure import Applied
+from creepcomp.fit.evidence import BIC_STRONG, HELDOUT_Z
+from creepcomp.fit.prony import PronyResult, fit_prony, term_table
 from creepcomp.io.records import Record, parse_columns, read_record
 from creepcomp.units import format_quantity
 from creepcomp.cli.common import app, console, pct, print_json, quantity

@@ -8,10 +8,10 @@ the gain.
    (a quick fit of its own parameters, then all parameters together for the most promising).
    A candidate is *supported* when the evidence is strong on both counts:
 
-   - BIC lower by at least :data:`~creepcomp.fit.core.BIC_STRONG` (a penalty of log n per
+   - BIC lower by at least :data:`~creepcomp.fit.evidence.BIC_STRONG` (a penalty of log n per
      parameter), and
    - data held out of the fit (interleaved blocks, refitted without them, simulated from the
-     load) predicted better, by at least :data:`~creepcomp.fit.core.HELDOUT_Z` standard
+     load) predicted better, by at least :data:`~creepcomp.fit.evidence.HELDOUT_Z` standard
      deviations of a spread computed from the noise spectrum; when the residual holds slow
      noise (drift), each half of the record must also be predicted from the other.
 
@@ -34,18 +34,26 @@ the gain.
 from __future__ import annotations
 
 import time as _time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from creepcomp.diagnose import effects as effects_pkg
 from creepcomp.diagnose.effects import Effect, compensate
 from creepcomp.errors import InputError
-from creepcomp.fit.core import (BIC_STRONG, HELDOUT_Z, SLOW_NOISE_RATIO, Applied, Data, Evidence,
-    Fit, Structure, autocorrelation, compare, fit_structure, halves, heldout, ljung_box, Problem,
-    model_file_dict, one_term_starts, prepare, rows_for, slow_noise_ratio, tau_grid, whiten)
+from creepcomp.fit.data import Data, prepare
+from creepcomp.fit.structure import Applied, Structure
+from creepcomp.fit.noise import autocorrelation, ljung_box, rows_for, whiten
+from creepcomp.fit.solver import Fit, Problem, fit_structure
+from creepcomp.fit.evidence import (BIC_STRONG, HELDOUT_Z, Evidence, compare, compare_with_halves,
+    halves, heldout)
+from creepcomp.fit.starts import one_term_starts, tau_grid
+from creepcomp.fit.prony import model_file_dict
 from creepcomp.lti import lag_states
 from creepcomp.io.records import Record
+
+__all__ = ["MAX_EFFECTS", "REFINED", "Finding", "Trial", "Diagnosis", "CatchAll", "CATCH_ALL",
+           "diagnose", "correction_errors"]
 
 #: Most effects added one after the other.
 MAX_EFFECTS = 4
@@ -320,7 +328,7 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
     ----------
     record : Record
     initial : {"free", "relaxed", "settled"}
-        Creep state at the first sample (see :func:`creepcomp.fit.core.prepare`).
+        Creep state at the first sample (see :func:`creepcomp.fit.data.prepare`).
     load_step_at : float, optional
         Time of a load step before the first sample (material creep tests).
     candidates : list of str, optional
@@ -362,7 +370,7 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
                 continue
             if accepted is not None:
                 # parsimony: the richer one must predict held-out data better than this simpler one
-                if compare(data, f, accepted[1]).supported_heldout:
+                if compare(f, accepted[1]).supported_heldout:
                     trials.append(Trial(step, effect.name, delta_bic, ev,
                                         f"supported, but {accepted[0].name} predicts better"))
                     continue
@@ -415,21 +423,14 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
 
 def _evidence(data: Data, current: Fit, rich: Fit, refine: bool = True,
               always_halves: bool = False) -> Evidence:
-    """Evidence for ``rich`` over ``current``: BIC and held-out blocks; and when the richer
-    model's residual holds slow noise (drift that spans held-out blocks,
-    :func:`~creepcomp.fit.core.slow_noise_ratio`), also the prediction of each half of the record
-    from the other: drift that a slow extension follows between interleaved blocks is not
-    predictable across halves, structure driven by the load is. The weaker of the two
-    held-out results is reported. ``always_halves``: test across halves in any case (the
-    catch-all, whose many slow terms follow drift easily)."""
-    ev = compare(data, current, rich)
-    if ev.supported and (always_halves or slow_noise_ratio(rich.residual) > SLOW_NOISE_RATIO):
-        across = compare(data, replace(current, heldout=halves(data, current)),
-                         replace(rich, heldout=halves(data, rich, refine=refine)))
-        if not across.supported_heldout:
-            ev = replace(ev, heldout_z=min(ev.heldout_z, across.heldout_z),
-                         heldout_rms_ratio=min(ev.heldout_rms_ratio, across.heldout_rms_ratio))
-    return ev
+    """Evidence for ``rich`` over ``current`` (:func:`~creepcomp.fit.evidence.compare_with_halves`):
+    BIC and held-out blocks, and when the richer model's residual holds slow noise also the
+    prediction of each half of the record from the other (``refine``: refit the richer
+    model's nonlinear parameters on each half). ``always_halves``: test across halves in any
+    case (the catch-all, whose many slow terms follow drift easily)."""
+    return compare_with_halves(current, rich,
+                               lambda: (halves(data, current), halves(data, rich, refine=refine)),
+                               always_halves)
 
 
 def _generic(data: Data, current: Fit) -> tuple[Fit, Evidence] | None:

@@ -1,1 +1,36 @@
-"""Prony identification of a creep model from a record: data, noise, solver, evidence, order."""
+"""Models of measured records, by job: the record prepared for fitting (:mod:`.data`), model
+structures and their linear basis (:mod:`.structure`), the residual's AR noise and the
+information criterion (:mod:`.noise`), the least-squares solver (:mod:`.solver`), held-out
+evidence (:mod:`.evidence`), start values (:mod:`.starts`), Prony identification with the
+number of terms chosen by evidence (:mod:`.prony`), and the model of a built network's
+measured output (:mod:`.circuit`, the circuit side of the diagnosis).
+"""
+
+from creepcomp.fit.circuit import CircuitData, CircuitFit
+from creepcomp.fit.data import CONSTANT_LOAD_TOLERANCE, GAP_FACTOR, Data, gaps, prepare
+from creepcomp.fit.evidence import (BIC_STRONG, BLOCKS, FOLDS, HELDOUT_Z, MIN_BLOCK_SAMPLES,
+    SLOW_NOISE_RATIO, UNDETERMINED_VARIANCE_RATIO, Evidence, HeldOut, block_index, compare,
+    compare_with_halves, half_blocks, halves, heldout, jacobian, predict_held_out, slow_noise_ratio)
+from creepcomp.fit.noise import (MAX_AR_ORDER, ARNoise, autocorrelation, fit_noise, gaussian_bic,
+    ljung_box, rows_for, spectral_variance, whiten)
+from creepcomp.fit.prony import (OrderStep, PronyResult, fit_prony, fit_summary, fit_terms,
+    model_file_dict, term_table)
+from creepcomp.fit.solver import ANCHOR_WEIGHT, Fit, Problem, best_of_starts, fit_structure, with_noise
+from creepcomp.fit.starts import cluster_taus, extra_term_starts, nnls_spectrum, one_term_starts, tau_grid
+from creepcomp.fit.structure import Applied, Basis, Param, Structure, basis, taus_of
+
+__all__ = [
+    "CircuitData", "CircuitFit",
+    "CONSTANT_LOAD_TOLERANCE", "GAP_FACTOR", "Data", "gaps", "prepare",
+    "BIC_STRONG", "BLOCKS", "FOLDS", "HELDOUT_Z", "MIN_BLOCK_SAMPLES", "SLOW_NOISE_RATIO",
+    "UNDETERMINED_VARIANCE_RATIO", "Evidence", "HeldOut", "block_index", "compare",
+    "compare_with_halves", "half_blocks", "halves", "heldout", "jacobian", "predict_held_out",
+    "slow_noise_ratio",
+    "MAX_AR_ORDER", "ARNoise", "autocorrelation", "fit_noise", "gaussian_bic", "ljung_box",
+    "rows_for", "spectral_variance", "whiten",
+    "OrderStep", "PronyResult", "fit_prony", "fit_summary", "fit_terms", "model_file_dict",
+    "term_table",
+    "ANCHOR_WEIGHT", "Fit", "Problem", "best_of_starts", "fit_structure", "with_noise",
+    "cluster_taus", "extra_term_starts", "nnls_spectrum", "one_term_starts", "tau_grid",
+    "Applied", "Basis", "Param", "Structure", "basis", "taus_of",
+]

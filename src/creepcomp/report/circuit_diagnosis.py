@@ -8,7 +8,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from creepcomp.report.common import format_cell, png_base64, thin
-from creepcomp.fit.core import autocorrelation
+from creepcomp.fit.noise import autocorrelation
 from creepcomp.units import format_quantity
 
 __all__ = ["UNITS", "quantity", "elements", "circuit_figures", "circuit_html"]

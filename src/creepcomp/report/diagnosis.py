@@ -10,7 +10,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from creepcomp.io.jsonfiles import to_json, write_design, write_json
-from creepcomp.fit.core import Data, Fit, autocorrelation
+from creepcomp.fit.data import Data
+from creepcomp.fit.noise import autocorrelation
+from creepcomp.fit.solver import Fit
 from creepcomp.report.common import format_cell, png_base64, save_figure, thin
 
 __all__ = ["plot_fit", "diagnosis_figures", "render_html", "write_report"]

@@ -18,7 +18,8 @@ import numpy as np
 from creepcomp.analog.faults import CIRCUIT_EFFECTS, apply_fault, capacitor_cells
 from creepcomp.analog.sizing import size
 from creepcomp.errors import InputError
-from creepcomp.fit.core import spectral_variance
+from creepcomp.fit.circuit import prepare, residual_at
+from creepcomp.fit.noise import spectral_variance
 from creepcomp.io.jsonfiles import Design, write_design
 from creepcomp.io.records import Record, write_record
 from creepcomp.lti import LagExpansion, cascade_lags
@@ -150,8 +151,6 @@ def _precision_factor(spec: CircuitSpec, design: Design, effect: str, params: di
     ``spec.precise_to`` (see :func:`circuit_precision`; ``record_with(f)``: the record with
     its noise times ``f``). The priors of the diagnosis's decays are relative to the noise, so
     the factor is found in a few steps."""
-    from creepcomp.diagnose.circuit import prepare, residual_at
-
     fault = dict(params)
     cell = fault.pop("cell", None)
     f = 1.0
@@ -169,7 +168,7 @@ def _precision_factor(spec: CircuitSpec, design: Design, effect: str, params: di
 def circuit_detectability(t: np.ndarray, signature: np.ndarray, taus, noise: np.ndarray,
                           also: list | None = None) -> float:
     """How far a circuit fault stands out of the noise: the held-out ``z`` (see
-    :func:`creepcomp.fit.core.compare`) that its signature (output as built minus output as
+    :func:`creepcomp.fit.evidence.compare`) that its signature (output as built minus output as
     designed, noise-free) would give with the fault's parameters known, once what the model
     absorbs anyway is removed (offset, decays at the network's poles, and to be safe a linear
     trend) and the directions ``also`` (e.g. another fault's signature)."""

@@ -8,7 +8,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from creepcomp.fit.core import spectral_variance
+from creepcomp.fit.noise import spectral_variance
 
 __all__ = ["DETECTABLE_Z", "DISTINCT_Z", "PRECISE_TO", "NoiseSpec", "sample_noise", "scaled_noise",
            "heldout_z"]

@@ -300,7 +300,7 @@ def _asymmetric_lag(grid, h_before, h_after, tau: float, tau_recovery: float, c0
 def detectability(spec: Spec, program: LoadProgram, t: np.ndarray, temperature_fn,
                   clean: np.ndarray, noise: np.ndarray) -> float:
     """How far the hidden effects stand out of the noise: the held-out ``z`` (see
-    :func:`creepcomp.fit.core.compare`) that the part of their signature the baseline cannot
+    :func:`creepcomp.fit.evidence.compare`) that the part of their signature the baseline cannot
     absorb would give with every parameter known. The signature (the noise-free record with
     the effects minus the one without) is projected off the baseline's directions at the true
     values (offset, load, the lag, its derivative in tau, a free initial creep state); ``z``

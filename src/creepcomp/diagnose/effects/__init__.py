@@ -6,7 +6,7 @@ top of a base fit, how it is simulated, how it changes the model written out, an
 creep correction inverts it. Modules are found by scanning the package, so a new effect is
 one new module.
 
-Sensor-side effects act at stages of one signal path, which :func:`creepcomp.fit.core.basis`
+Sensor-side effects act at stages of one signal path, which :func:`creepcomp.fit.structure.basis`
 evaluates (every stage defaults to "no change")::
 
     load --load_transform--> x --instant--> s --creep_input--> h --lags (tau_factor)--> c_k
@@ -25,7 +25,9 @@ from dataclasses import replace
 import numpy as np
 
 from creepcomp.errors import InputError
-from creepcomp.fit.core import Applied, Data, Fit, Param, Structure, basis, fit_structure
+from creepcomp.fit.data import Data
+from creepcomp.fit.structure import Applied, Param, Structure, basis
+from creepcomp.fit.solver import Fit, fit_structure
 from creepcomp.model import CreepModel
 
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from creepcomp.analog.faults import apply_fault, capacitor_cells
-from creepcomp.fit.core import Param
+from creepcomp.fit.structure import Param
 from creepcomp.diagnose.effects import Effect
 
 

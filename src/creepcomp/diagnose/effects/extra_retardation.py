@@ -7,7 +7,10 @@ import math
 
 import numpy as np
 
-from creepcomp.fit.core import Applied, Data, Fit, Structure, extra_term_starts, fit_structure
+from creepcomp.fit.data import Data
+from creepcomp.fit.structure import Applied, Structure
+from creepcomp.fit.solver import Fit, fit_structure
+from creepcomp.fit.starts import extra_term_starts
 from creepcomp.diagnose.effects import Effect
 
 

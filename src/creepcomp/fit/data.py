@@ -1,0 +1,173 @@
+"""A record prepared for fitting a creep model: the samples, the load history's start, and
+the segments that gaps in the sampling cut it into."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from creepcomp.errors import InputError
+from creepcomp.io.records import Record
+
+__all__ = ["GAP_FACTOR", "CONSTANT_LOAD_TOLERANCE", "Data", "gaps", "prepare"]
+
+#: A time step longer than this many median steps is a gap: the noise model forgets across it.
+GAP_FACTOR = 5.0
+
+
+def gaps(time: np.ndarray) -> np.ndarray:
+    """True for each sample that follows a gap in the sampling (a step longer than
+    :data:`GAP_FACTOR` median steps); never the first sample."""
+    dt = np.diff(time)
+    return np.concatenate([[False], dt > GAP_FACTOR * np.median(dt)])
+
+
+@dataclass(frozen=True)
+class Data:
+    """A record prepared for fitting.
+
+    Attributes
+    ----------
+    time, load, signal : numpy.ndarray
+    temperature : numpy.ndarray or None
+    source : str
+    initial : str
+        ``free`` (initial creep states fitted), ``relaxed``, ``settled`` or ``step``
+        (a load step at ``load_step_at``, before the first sample).
+    load_step_at : float or None
+    hold : str
+        ``linear`` or ``zero``: the load between samples.
+    segment : numpy.ndarray of int
+        Segment number of each sample; a gap in the sampling starts a new segment.
+    fixed_offset : bool
+        The load never changes within the record, so offset and gain cannot be told apart:
+        the offset is fixed at zero (the signal is taken as zero at zero load).
+    """
+
+    time: np.ndarray
+    load: np.ndarray
+    signal: np.ndarray
+    temperature: np.ndarray | None
+    source: str
+    initial: str
+    load_step_at: float | None
+    hold: str
+    segment: np.ndarray
+    fixed_offset: bool
+
+    @property
+    def n(self) -> int:
+        """Number of samples."""
+        return len(self.time)
+
+    @property
+    def t0(self) -> float:
+        """Time of the first sample (s)."""
+        return float(self.time[0])
+
+    @property
+    def duration(self) -> float:
+        """Time span of the record (s)."""
+        return float(self.time[-1] - self.time[0])
+
+    @property
+    def span(self) -> float:
+        """Time from the load history's start (the step, or the first sample) to the end (s)."""
+        start = self.load_step_at if self.load_step_at is not None else self.t0
+        return float(self.time[-1] - start)
+
+    @property
+    def dt_median(self) -> float:
+        """Median sampling step (s)."""
+        return float(np.median(np.diff(self.time)))
+
+    @property
+    def dt_small(self) -> float:
+        """Finest sampling step that the record uses often (5th percentile, s)."""
+        return float(np.percentile(np.diff(self.time), 5))
+
+    @property
+    def load_scale(self) -> float:
+        """Largest absolute load: the full scale of the record."""
+        return float(np.max(np.abs(self.load)))
+
+    @property
+    def signal_scale(self) -> float:
+        """Spread of the signal (for scaling)."""
+        return float(np.ptp(self.signal)) or float(np.max(np.abs(self.signal))) or 1.0
+
+    def tau_limits(self) -> tuple[float, float]:
+        """Retardation times the record can resolve: from two sampling steps (a faster lag
+        cannot be told from the instantaneous response; after a known load step, down to half
+        the time to the first sample) to a few times the record's length (s)."""
+        low = 2.0 * self.dt_median
+        if self.load_step_at is not None:
+            low = min(low, 0.5 * (self.t0 - self.load_step_at) or low, 2.0 * self.dt_small)
+        return low, 3.0 * self.span
+
+    def lag_initial(self, h: np.ndarray, taus: np.ndarray, values: dict | None = None):
+        """Initial states of lags of the input ``h``: zero, settled at ``h[0]``, after the
+        known load step, or (``free``) ``h[0]`` plus each term's fitted offset ``c0[k]``."""
+        if self.initial == "relaxed":
+            return "relaxed"
+        if self.initial == "settled":
+            return "settled"
+        if self.initial == "free":
+            values = values or {}
+            return h[0] + np.array([values.get(f"c0[{k}]", 0.0) for k in range(len(taus))])
+        return h[0] * -np.expm1(-(self.t0 - self.load_step_at) / np.asarray(taus, float))
+
+    def with_signal(self, signal) -> "Data":
+        """A copy with another signal (e.g. a simulated one)."""
+        return replace(self, signal=np.asarray(signal, float))
+
+
+#: Relative spread below which a load counts as constant.
+CONSTANT_LOAD_TOLERANCE = 1e-6
+
+
+def prepare(record: Record, initial: str = "free", load_step_at: float | None = None,
+            hold: str = "linear", min_samples: int = 20) -> Data:
+    """Check a record and prepare it for fitting.
+
+    Parameters
+    ----------
+    record : Record
+    initial : {"free", "relaxed", "settled"}
+        Creep state at the first sample: fitted from the data (``free``: the record may start
+        loaded or creeping), zero, or settled at the first load.
+    load_step_at : float, optional
+        Time of a single load step that happened before the first sample (a material creep
+        test: the load was zero before it and ``load[0]`` after it).
+    hold : {"linear", "zero"}
+    min_samples : int
+
+    Returns
+    -------
+    Data
+    """
+    record.require(n_samples=min_samples, what="fitting a creep model")
+    if hold not in ("linear", "zero"):
+        raise InputError(f"hold '{hold}': use 'linear' or 'zero'")
+    if initial not in ("free", "relaxed", "settled"):
+        raise InputError(f"initial state '{initial}': use free, relaxed or settled")
+    load = record.load
+    if not np.any(load != 0):
+        raise InputError(f"{record.source}: the load is zero throughout: nothing to fit the "
+                         "signal against")
+    # constant to within an export's rounding (instrument files write a set stress as e.g.
+    # 0.0005 and 0.00050000001362507)
+    constant = float(np.ptp(load)) <= CONSTANT_LOAD_TOLERANCE * float(np.max(np.abs(load)))
+    if load_step_at is not None:
+        if load_step_at > record.time[0]:
+            raise InputError(f"--load-step-at {load_step_at:g} s: must not be after the first "
+                             f"sample ({record.time[0]:g} s)")
+        initial = "step"
+    elif constant:
+        raise InputError(f"{record.source}: the load is constant ({load[0]:g}) throughout, so "
+                         "creep cannot be told from offset: give the time of the load step "
+                         "(--load-step-at, e.g. 0 for a creep test whose step was at t = 0)")
+    return Data(time=record.time, load=load, signal=record.signal, temperature=record.temperature,
+                source=record.source, initial=initial, load_step_at=load_step_at, hold=hold,
+                segment=np.cumsum(gaps(record.time)), fixed_offset=constant)

@@ -1,0 +1,272 @@
+"""Evidence for a richer model over a simpler one: prediction of held-out data and the
+information criterion.
+
+Models are compared by BIC (:func:`creepcomp.fit.noise.gaussian_bic`) *and* by prediction
+of held-out data: interleaved blocks are left out in turn, the model is refitted on the rest
+and simulated over them; the spread of the held-out improvement is computed from the noise
+spectrum, so that coloured noise does not pass for structure. When the residual holds slow
+noise (drift), each half of the record must also be predicted from the other. Both sides of
+the diagnosis decide by these rules.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Callable
+
+import numpy as np
+from scipy import linalg
+
+from creepcomp.errors import InputError
+from creepcomp.fit.data import Data
+from creepcomp.fit.noise import spectral_variance
+from creepcomp.fit.solver import Fit, fit_structure
+from creepcomp.fit.structure import basis
+
+__all__ = ["BIC_STRONG", "HELDOUT_Z", "FOLDS", "BLOCKS", "MIN_BLOCK_SAMPLES",
+           "UNDETERMINED_VARIANCE_RATIO", "SLOW_NOISE_RATIO", "HeldOut", "block_index",
+           "half_blocks", "predict_held_out", "jacobian", "halves", "heldout", "Evidence",
+           "compare", "slow_noise_ratio", "compare_with_halves"]
+
+#: BIC difference that counts as strong evidence (Kass & Raftery 1995: 2 ln B > 10 is
+#: "very strong"; a Bayes factor above ~150). With white-noise likelihoods this is a
+#: parsimony filter more than a test: coloured noise inflates it, the held-out test decides.
+BIC_STRONG = 10.0
+#: Held-out improvement needed, in standard deviations of its noise (one-sided 0.13 % for
+#: noise whose memory is shorter than a block; slow noise that spans blocks makes the test
+#: optimistic, hence the margin over 2).
+HELDOUT_Z = 3.0
+#: Number of contiguous blocks held out in turn.
+FOLDS = 5
+
+
+@dataclass(frozen=True)
+class HeldOut:
+    """Prediction of data held out of the fit: contiguous blocks, one at a time.
+
+    Attributes
+    ----------
+    residual : numpy.ndarray
+        Measured minus predicted on every sample, each predicted by the fit without its block.
+    blocks : numpy.ndarray of int
+        Block of each sample.
+    """
+
+    residual: np.ndarray
+    blocks: np.ndarray
+
+    @property
+    def rms(self) -> float:
+        """RMS of the held-out residual."""
+        return float(np.sqrt(np.mean(self.residual ** 2)))
+
+
+#: Blocks the record is cut into; block ``b`` is held out in fold ``b % FOLDS``. Many short
+#: blocks keep data from every part of the record (every load step's neighbourhood) in each
+#: fit, so that held-out data test what the model predicts, not what one block alone shows.
+BLOCKS = 40
+#: Fewest samples in a block.
+MIN_BLOCK_SAMPLES = 50
+
+
+def block_index(data, blocks: int = BLOCKS) -> np.ndarray:
+    """Contiguous blocks of equal numbers of samples (fewer blocks when the record is short);
+    equal counts rather than equal durations keep log-spaced material tests balanced.
+    ``data``: any prepared record (its number of samples ``n``)."""
+    blocks = max(FOLDS, min(blocks, data.n // MIN_BLOCK_SAMPLES))
+    return np.minimum(np.arange(data.n) * blocks // data.n, blocks - 1)
+
+
+def half_blocks(n: int) -> np.ndarray:
+    """The two halves of ``n`` samples as blocks 0 and 1 (held out with ``folds = 2``)."""
+    return np.minimum(np.arange(n) * 2 // n, 1)
+
+
+def predict_held_out(blocks: np.ndarray, folds: int,
+                     refit: Callable[[np.ndarray], np.ndarray]) -> HeldOut:
+    """Held-out prediction: block ``b`` is in fold ``b % folds``; for each fold,
+    ``refit(keep)`` fits the model on the samples ``keep`` (the other folds) and returns its
+    residual on every sample, of which the fold's samples are kept. Both fits use it:
+    :func:`heldout` and :func:`creepcomp.fit.circuit.with_heldout`."""
+    fold = blocks % folds
+    resid = np.empty(len(blocks))
+    for b in range(folds):
+        inside = fold == b
+        if inside.any():
+            resid[inside] = refit(~inside)[inside]
+    return HeldOut(resid, blocks)
+
+
+#: A nonlinear parameter whose variance would grow more than this factor without the held-out
+#: data is kept at the full fit's value in that fold (the rest of the record does not
+#: determine it: e.g. a recovery time when all unloading is held out).
+UNDETERMINED_VARIANCE_RATIO = 10.0
+
+
+def jacobian(data: Data, fit: Fit) -> np.ndarray:
+    """Derivatives of the fitted signal by every nonlinear parameter (search coordinates, by
+    central differences) and by the linear coefficients (the basis), all samples."""
+    values = fit.values
+    b = basis(data, fit.structure, values)
+    coef = np.array([values[n] for n in b.names])
+    cols = []
+    for p in fit.params:
+        x = p.to_search(values[p.name])
+        h = 1e-6 * max(1.0, abs(x))
+        plus = dict(values, **{p.name: p.from_search(x + h)})
+        minus = dict(values, **{p.name: p.from_search(x - h)})
+        cols.append((basis(data, fit.structure, plus).columns @ coef
+                     - basis(data, fit.structure, minus).columns @ coef) / (2 * h))
+    return np.column_stack(cols + [b.columns])
+
+
+def _undetermined(jac: np.ndarray, keep: np.ndarray, names: list, values: dict) -> dict | None:
+    """The nonlinear parameters (first columns of ``jac``) that the kept samples leave
+    undetermined, with their values."""
+    def variances(rows):
+        j = jac[rows]
+        norms = np.sqrt(np.sum(j ** 2, axis=0))
+        norms[norms == 0] = 1.0
+        inv = linalg.pinvh((j / norms).T @ (j / norms))
+        return np.diag(inv)[:len(names)] / norms[:len(names)] ** 2
+    full = variances(slice(None))
+    part = variances(keep)
+    out = {n: values[n] for n, vf, vp in zip(names, full, part)
+           if not vp <= UNDETERMINED_VARIANCE_RATIO * vf}
+    return out or None
+
+
+def halves(data: Data, fit: Fit, refine: bool = True) -> HeldOut:
+    """Held-out prediction across the record's two halves: fitted on one half, simulated over
+    the other. Slow noise (drift) that interleaved blocks would let a slow extension
+    interpolate is not predictable across halves; structure driven by the load is."""
+    return heldout(data, fit, folds=2, refine=refine, blocks=half_blocks(data.n)).heldout
+
+
+def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
+            blocks: np.ndarray | None = None) -> Fit:
+    """The fit with its held-out prediction: the record is cut into :data:`BLOCKS` blocks;
+    for each of ``folds`` folds its (interleaved) blocks are left out, the model is refitted on the rest
+    (from the fit's own values, same noise model) and simulated from the load over them.
+
+    Directions the remaining data leave undetermined keep the full fit's values: linear ones
+    weakly (gain against offset when the rest has one load level,
+    :data:`~creepcomp.fit.solver.ANCHOR_WEIGHT`), nonlinear ones whose variance the rest of
+    the record would multiply by more than :data:`UNDETERMINED_VARIANCE_RATIO` (the initial
+    creep state once the start is held out, a recovery time when the rest has no unloading).
+    A held-out error then measures what the model predicts, not an extrapolation of what
+    nothing constrained.
+    """
+    blocks = block_index(data) if blocks is None else blocks
+    start = {p.name: fit.values[p.name] for p in fit.params}
+    anchor = {n: v for n, v in fit.values.items() if n not in start}
+    jac = jacobian(data, fit) if refine and start else None
+
+    def refit(keep: np.ndarray) -> np.ndarray:
+        frozen = _undetermined(jac, keep, list(start), start) if jac is not None else None
+        try:  # (refit from the fit's own values, same noise model)
+            return fit_structure(data, fit.structure, [start], noise=fit.noise, mask=keep,
+                                 max_nfev=3, with_cov=False, anchor=anchor, refine=refine,
+                                 frozen=frozen).residual
+        except InputError:
+            return fit.residual
+
+    return replace(fit, heldout=predict_held_out(blocks, folds, refit))
+
+
+@dataclass(frozen=True)
+class Evidence:
+    """How much better a model explains a record than a simpler one.
+
+    Attributes
+    ----------
+    delta_bic : float
+        BIC of the richer model minus the simpler's (negative: evidence for the richer).
+    heldout_rms_ratio : float
+        Held-out residual RMS, simpler / richer.
+    heldout_z : float
+        Improvement of the prewhitened held-out squared error, in standard deviations.
+    """
+
+    delta_bic: float
+    heldout_rms_ratio: float
+    heldout_z: float
+
+    @property
+    def supported_heldout(self) -> bool:
+        """Held-out data predicted better, by :data:`HELDOUT_Z` standard deviations and in RMS."""
+        return self.heldout_z >= HELDOUT_Z and self.heldout_rms_ratio > 1.0
+
+    @property
+    def supported(self) -> bool:
+        """Strong evidence by both BIC and held-out prediction (which must also be better in
+        plain RMS)."""
+        return (self.delta_bic <= -BIC_STRONG and self.heldout_z >= HELDOUT_Z
+                and self.heldout_rms_ratio > 1.0)
+
+    def to_dict(self) -> dict:
+        """JSON form."""
+        return {"delta_bic": self.delta_bic, "heldout_rms_ratio": self.heldout_rms_ratio,
+                "heldout_z": self.heldout_z}
+
+
+def compare(simple, rich) -> Evidence:
+    """Evidence for ``rich`` over ``simple``: two fits of the same record (sensor
+    :class:`~creepcomp.fit.solver.Fit` or circuit :class:`~creepcomp.fit.circuit.CircuitFit`),
+    each with its ``bic``, and with held-out predictions (else the held-out figures are NaN).
+
+    With ``D`` the drop of the held-out sum of squares and ``delta`` the difference of the two
+    held-out predictions, ``D = sum delta^2 + 2 sum delta e`` when ``rich`` is right and
+    ``-sum delta^2 + 2 sum delta e`` when ``simple`` is, ``e`` the noise. The spread of
+    ``sum delta e`` is computed in the frequency domain from the spectrum of the richer
+    model's held-out residual (a smoothed periodogram), so slow noise (drift) that a fitted
+    extension happens to follow does not count as evidence: ``z = D / (2 sd)``.
+    """
+    delta_bic = rich.bic - simple.bic
+    if simple.heldout is None or rich.heldout is None:
+        return Evidence(delta_bic, float("nan"), float("nan"))
+    ratio = simple.heldout.rms / rich.heldout.rms if rich.heldout.rms > 0 else float("inf")
+    rs, rr = simple.heldout.residual, rich.heldout.residual
+    d = float(np.sum(rs ** 2 - rr ** 2))
+    sd = math.sqrt(max(spectral_variance(rr - rs, rr), 0.0))
+    z = d / (2.0 * sd) if sd > 0 else (float("inf") if d > 0 else 0.0)
+    return Evidence(float(delta_bic), float(ratio), float(z))
+
+
+#: Residual power below the held-out block rate, relative to the next two octaves, above
+#: which the noise counts as slow (drift): white noise gives 1 (+-0.2).
+SLOW_NOISE_RATIO = 2.0
+
+
+def slow_noise_ratio(residual: np.ndarray, blocks: int = BLOCKS) -> float:
+    """Mean periodogram over the frequencies below the held-out blocks' rate (bins 1 ...
+    ``blocks``) over its mean in the next two octaves (``blocks`` ... ``4 blocks``): about 1
+    for white or short-memory coloured noise, large for drift that spans several blocks."""
+    e = residual - np.mean(residual)
+    power = np.abs(np.fft.rfft(e)) ** 2
+    if len(power) < 4 * blocks + 1:
+        return 1.0
+    low = np.mean(power[1:blocks + 1])
+    mid = np.mean(power[blocks + 1:4 * blocks + 1])
+    return float(low / mid) if mid > 0 else float("inf")
+
+
+def compare_with_halves(simple, rich, across: Callable[[], tuple[HeldOut, HeldOut]],
+                        always_halves: bool = False) -> Evidence:
+    """Evidence for ``rich`` over ``simple`` (:func:`compare`); and when it is supported and
+    the richer model's residual holds slow noise (drift that spans held-out blocks,
+    :func:`slow_noise_ratio`), also the prediction of each half of the record from the other
+    (``across()``: the two fits' held-out predictions across halves): drift that a slow
+    extension follows between interleaved blocks is not predictable across halves, structure
+    driven by the input is. The weaker of the two held-out results counts.
+    ``always_halves``: test across halves in any case (a catch-all, whose slow terms follow
+    drift easily)."""
+    ev = compare(simple, rich)
+    if ev.supported and (always_halves or slow_noise_ratio(rich.residual) > SLOW_NOISE_RATIO):
+        held_simple, held_rich = across()
+        other = compare(replace(simple, heldout=held_simple), replace(rich, heldout=held_rich))
+        if not other.supported_heldout:
+            ev = replace(ev, heldout_z=min(ev.heldout_z, other.heldout_z),
+                         heldout_rms_ratio=min(ev.heldout_rms_ratio, other.heldout_rms_ratio))
+    return ev

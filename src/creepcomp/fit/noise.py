@@ -1,0 +1,147 @@
+"""The residual's noise: an autoregressive model on the sample sequence (its memory broken
+at gaps), prewhitening, whiteness tests, the spectral spread of a weighted sum of noise, and
+the Gaussian likelihood and information criterion of a residual."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import linalg
+
+from creepcomp.fit.data import Data
+
+__all__ = ["MAX_AR_ORDER", "ARNoise", "rows_for", "whiten", "fit_noise", "ljung_box",
+           "autocorrelation", "spectral_variance", "gaussian_bic"]
+
+#: Largest order of the autoregressive noise model.
+MAX_AR_ORDER = 5
+
+
+def gaussian_bic(rss: float, n: int, n_params: int) -> tuple[float, float]:
+    """Log-likelihood of ``n`` independent Gaussian errors whose variance is estimated from
+    their sum of squares ``rss``, and its Bayesian information criterion
+    (``-2 loglik + n_params ln n``): the one information criterion of both fits, sensor
+    (:func:`creepcomp.fit.solver.with_noise`) and circuit (:mod:`creepcomp.fit.circuit`).
+
+    Returns
+    -------
+    loglik, bic : float
+    """
+    sigma2 = max(rss / n, 1e-300)
+    loglik = -0.5 * n * (math.log(2 * math.pi * sigma2) + 1.0)
+    return loglik, -2.0 * loglik + n_params * math.log(n)
+
+
+@dataclass(frozen=True)
+class ARNoise:
+    """AR(p) noise: ``e[n] = sum_i phi_i e[n-i] + w[n]``, ``w`` white with deviation ``sigma``."""
+
+    phi: tuple[float, ...] = ()
+    sigma: float = float("nan")
+
+    @property
+    def order(self) -> int:
+        """p."""
+        return len(self.phi)
+
+    def correlation_samples(self) -> float:
+        """Rough memory of the noise in samples (``1 / (1 - sum phi)``)."""
+        s = sum(self.phi)
+        return float("inf") if s >= 1 else 1.0 / (1.0 - s)
+
+    def to_dict(self, dt: float) -> dict:
+        """JSON form."""
+        return {"model": f"AR({self.order})", "phi": list(self.phi),
+                "innovation_sigma": self.sigma,
+                "memory_s": self.correlation_samples() * dt}
+
+
+def rows_for(data: Data, mask: np.ndarray | None = None, order: int = MAX_AR_ORDER) -> np.ndarray:
+    """Samples that have ``order`` predecessors in the same segment and inside ``mask``."""
+    n = data.n
+    ok = np.ones(n, bool) if mask is None else np.asarray(mask, bool).copy()
+    good = ok.copy()
+    for i in range(1, order + 1):
+        prev = np.zeros(n, bool)
+        prev[i:] = ok[:-i] & (data.segment[i:] == data.segment[:-i])
+        good &= prev
+    return np.flatnonzero(good)
+
+
+def whiten(z: np.ndarray, rows: np.ndarray, noise: ARNoise) -> np.ndarray:
+    """Prewhitened rows: ``z[n] - sum_i phi_i z[n-i]`` for ``n`` in ``rows``."""
+    out = z[rows].copy()
+    for i, phi in enumerate(noise.phi, start=1):
+        out -= phi * z[rows - i]
+    return out
+
+
+def fit_noise(residual: np.ndarray, rows: np.ndarray, max_order: int = MAX_AR_ORDER) -> ARNoise:
+    """AR(p) noise of a residual, p chosen by BIC (least squares on the given rows)."""
+    y = residual[rows]
+    n = len(rows)
+    best, best_bic = ARNoise((), float(np.sqrt(np.mean(y ** 2)))), n * np.log(np.mean(y ** 2) + 1e-300)
+    lagged = np.column_stack([residual[rows - i] for i in range(1, max_order + 1)]) if max_order else None
+    for p in range(1, max_order + 1):
+        phi, *_ = linalg.lstsq(lagged[:, :p], y, lapack_driver="gelsy")
+        rss = float(np.sum((y - lagged[:, :p] @ phi) ** 2))
+        bic = n * np.log(rss / n + 1e-300) + p * np.log(n)
+        if bic < best_bic - 1e-9:
+            best, best_bic = ARNoise(tuple(float(v) for v in phi), math.sqrt(rss / n)), bic
+    return best
+
+
+def ljung_box(white_residual: np.ndarray, lags: int = 20) -> tuple[float, float]:
+    """Ljung-Box statistic and p-value of a (prewhitened) residual: is it white?"""
+    from scipy import stats
+
+    w = white_residual - np.mean(white_residual)
+    n = len(w)
+    lags = min(lags, n // 4)
+    if lags < 1:
+        return float("nan"), float("nan")
+    acf = autocorrelation(w, lags)[1:]
+    q = float(n * (n + 2) * np.sum(acf ** 2 / (n - np.arange(1, lags + 1))))
+    return q, float(stats.chi2.sf(q, lags))
+
+
+def autocorrelation(x: np.ndarray, lags: int) -> np.ndarray:
+    """Sample autocorrelation at lags 0 ... ``lags`` (FFT)."""
+    x = np.asarray(x, float) - np.mean(x)
+    n = len(x)
+    size = 1 << (2 * n - 1).bit_length()
+    f = np.fft.rfft(x, size)
+    acov = np.fft.irfft(f * np.conj(f), size)[:lags + 1]
+    return acov / acov[0] if acov[0] > 0 else np.zeros(lags + 1)
+
+
+def spectral_variance(weights: np.ndarray, noise_sample: np.ndarray) -> float:
+    """Variance of ``sum_n weights[n] e[n]`` for stationary noise ``e`` whose spectrum is
+    estimated from ``noise_sample`` (periodogram smoothed over about +-15 % in frequency,
+    at least +-4 frequency bins, and not below its +-1-bin local mean); samples are taken as
+    equally spaced."""
+    n = len(weights)
+    m = 1 << (2 * n - 1).bit_length()          # zero padding: no circular wrap-around
+    e = noise_sample - np.mean(noise_sample)
+    power = np.abs(np.fft.rfft(e, m)) ** 2 / n
+    per_bin = max(1, m // n)                   # padded bins per independent frequency
+    # smoothed for a steady estimate, but never below the local level: at the lowest
+    # frequencies slow noise (drift, 1/f^2) would otherwise be averaged away
+    spectrum = np.maximum(_smooth_log(power, min_half=4 * per_bin),
+                          _smooth_log(power, min_half=per_bin, fraction=0.0))
+    gain = np.abs(np.fft.rfft(weights, m)) ** 2
+    w = np.full(len(power), 2.0)
+    w[0] = 1.0
+    w[-1] = 1.0
+    return float(np.sum(w * gain * spectrum) / m)
+
+
+def _smooth_log(x: np.ndarray, min_half: int, fraction: float = 0.15) -> np.ndarray:
+    k = np.arange(len(x))
+    half = np.maximum(min_half, (fraction * k).astype(int))
+    lo = np.clip(k - half, 0, len(x) - 1)
+    hi = np.clip(k + half, 0, len(x) - 1)
+    c = np.concatenate([[0.0], np.cumsum(x)])
+    return (c[hi + 1] - c[lo]) / (hi - lo + 1)

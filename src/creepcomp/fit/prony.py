@@ -1,0 +1,171 @@
+"""Prony identification of a creep model from a record: 1, 2, ... terms, each added while
+the evidence supports it, and the model file with uncertainties and fit statistics."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+from scipy import linalg
+
+from creepcomp.errors import InputError
+from creepcomp.fit.data import Data
+from creepcomp.fit.evidence import FOLDS, Evidence, compare, heldout
+from creepcomp.fit.noise import ARNoise
+from creepcomp.fit.solver import Fit, fit_structure
+from creepcomp.fit.starts import cluster_taus, extra_term_starts, nnls_spectrum, one_term_starts, tau_grid
+from creepcomp.fit.structure import Applied, Structure
+from creepcomp.model import CreepModel
+
+__all__ = ["OrderStep", "PronyResult", "fit_terms", "fit_prony", "term_table", "fit_summary",
+           "model_file_dict"]
+
+
+@dataclass(frozen=True)
+class OrderStep:
+    """One candidate number of terms."""
+
+    n_terms: int
+    fit: Fit
+    evidence: Evidence | None      # against the previous number of terms
+
+
+@dataclass(frozen=True)
+class PronyResult:
+    """Prony fits for 1, 2, ... terms and the one the evidence chose."""
+
+    data: Data
+    steps: tuple[OrderStep, ...]
+    chosen: int                     # index into steps
+
+    @property
+    def fit(self) -> Fit:
+        """The chosen fit."""
+        return self.steps[self.chosen].fit
+
+    def model(self) -> CreepModel:
+        """The chosen creep model."""
+        return self.fit.creep_model()
+
+    def to_dict(self) -> dict:
+        """Model-file form: the model plus uncertainties and fit statistics."""
+        return model_file_dict(self.data, self.fit, self.steps, self.chosen)
+
+
+def fit_terms(data: Data, n_terms: int, previous: Fit | None = None, noise: ARNoise | None = None,
+              effects: tuple[Applied, ...] = ()) -> Fit:
+    """Fit ``n_terms`` Prony terms (plus ``effects`` applied to every model, e.g. viscous flow):
+    starts from the non-negative spectrum and, when given, from the previous fit plus one grid
+    time; refine; keep the best."""
+    structure = Structure(n_terms, tuple(effects))
+    if n_terms == 1:
+        starts = one_term_starts(data)
+    else:
+        grid = tau_grid(data, per_decade=6)
+        amps, _ = nnls_spectrum(data, grid)
+        starts = [{f"tau[{k}]": t for k, t in enumerate(cluster_taus(grid, amps, n_terms))}]
+        if previous is not None:
+            starts += extra_term_starts(data, previous, structure)
+    return fit_structure(data, structure, starts, noise=noise, n_refine=3)
+
+
+def fit_prony(data: Data, max_terms: int = 6, n_terms: int | None = None,
+              folds: int = FOLDS, effects: tuple[Applied, ...] = ()) -> PronyResult:
+    """Identify gain, offset and Prony terms, adding terms while the evidence supports them.
+
+    A term is added when it lowers BIC by at least :data:`BIC_STRONG` *and* predicts held-out
+    data better by at least :data:`HELDOUT_Z` standard deviations; the search stops at the
+    first term that is not supported (or at ``max_terms``). ``n_terms`` fixes the number.
+    Each model's likelihood has its own AR noise (its parameters counted by BIC).
+    ``effects`` are applied to every model (e.g. ``(Applied(effects.get("viscous_flow")),)``
+    for the Burgers model).
+    """
+    steps: list[OrderStep] = []
+    chosen = 0
+    previous = None
+    top = n_terms or max_terms
+    for k in range(1, top + 1):
+        try:
+            fit = heldout(data, fit_terms(data, k, previous, None, effects), folds)
+        except (InputError, linalg.LinAlgError):
+            break
+        ev = compare(previous, fit) if previous is not None else None
+        steps.append(OrderStep(k, fit, ev))
+        if n_terms is not None:
+            chosen = len(steps) - 1
+        elif ev is None or ev.supported:
+            chosen = len(steps) - 1
+        else:
+            break
+        previous = fit
+    if not steps:
+        raise InputError(f"{data.source}: no creep model could be fitted")
+    return PronyResult(data, tuple(steps), chosen)
+
+
+def term_table(fit: Fit) -> list[dict]:
+    """Each term's beta and tau with standard deviations, sorted by tau."""
+    rows = []
+    for k in range(fit.structure.n_terms):
+        beta = fit.estimate(lambda v, k=k: v[f"a[{k}]"] / v["gain"])
+        tau = fit.estimate(lambda v, k=k: v[f"tau[{k}]"])
+        rows.append({"beta": beta[0], "beta_sigma": beta[1], "tau": tau[0], "tau_sigma": tau[1]})
+    return sorted(rows, key=lambda r: r["tau"])
+
+
+def fit_summary(data: Data, fit: Fit) -> dict:
+    """Fit statistics for model files and JSON output."""
+    out = {
+        "record": data.source,
+        "n_samples": data.n,
+        "duration_s": data.duration,
+        "initial_state": {"free": "fitted (free initial creep states)",
+                          "relaxed": "relaxed (assumed)", "settled": "settled at the first load (assumed)",
+                          "step": f"load step at {data.load_step_at} s"}[data.initial],
+        "structure": fit.structure.describe(),
+        "residual_rms": fit.residual_rms,
+        "residual_rms_relative": fit.residual_rms / data.signal_scale,
+        "loglik": fit.loglik,
+        "bic": fit.bic,
+        "n_params": fit.n_params,
+        "noise": fit.noise.to_dict(data.dt_median),
+    }
+    if fit.heldout is not None:
+        out["heldout_residual_rms"] = fit.heldout.rms
+        out["heldout_residual_rms_relative"] = fit.heldout.rms / data.signal_scale
+    if data.fixed_offset:
+        out["offset_note"] = "the load is constant within the record: offset fixed at 0"
+    return out
+
+
+def model_file_dict(data: Data, fit: Fit, steps: Sequence[OrderStep] = (), chosen: int = 0,
+                    extensions: dict | None = None) -> dict:
+    """Model file: ``beta``, ``tau``, ``gain``, ``offset`` (+ ``extensions``), with
+    ``uncertainty`` and ``fit`` statistics as extra keys. Without ``extensions`` given, the
+    fit's own effects write theirs."""
+    if extensions is None:
+        extensions = {}
+        for a in fit.structure.effects:
+            entry = a.effect.extension(fit, a)
+            if entry is not None:
+                extensions[a.name] = entry
+    terms = term_table(fit)
+    gain = fit.estimate(lambda v: v["gain"])
+    offset = fit.estimate(lambda v: v.get("offset", 0.0))
+    model = {"beta": [t["beta"] for t in terms], "tau": [t["tau"] for t in terms],
+             "gain": gain[0], "offset": offset[0]}
+    if extensions:
+        model["extensions"] = extensions
+    model["uncertainty"] = {"beta": [t["beta_sigma"] for t in terms],
+                            "tau": [t["tau_sigma"] for t in terms],
+                            "gain": gain[1], "offset": offset[1] if not data.fixed_offset else 0.0,
+                            "note": "one standard deviation: Jacobian of the prewhitened residual, "
+                                    "Gaussian AR noise, locally linear model"}
+    model["fit"] = fit_summary(data, fit)
+    if steps:
+        model["fit"]["orders"] = [{
+            "n_terms": s.n_terms, "bic": s.fit.bic, "residual_rms": s.fit.residual_rms,
+            "heldout_residual_rms": s.fit.heldout.rms if s.fit.heldout else None,
+            **({"evidence": s.evidence.to_dict()} if s.evidence else {}),
+            "chosen": i == chosen} for i, s in enumerate(steps)]
+    return model

@@ -1,0 +1,223 @@
+"""Model structures: the nonlinear parameters, the effects applied, and the linear basis of
+a model for given values of its nonlinear parameters.
+
+The model of a record is
+
+    signal = offset + gain * (s + sum_k beta_k c_k) + ...
+
+with ``s`` the load as the sensor sees it and ``c_k`` the load through a first-order lag of
+time constant ``tau_k`` (:func:`creepcomp.lti.lag_states`, exact for any sampling), started
+from an initial state that is fitted (a record may start loaded or creeping: ``c0[k]``,
+bounded by the loads a sensor sees) or known. For fixed time constants and initial states
+the signal is *linear* in offset, gain and ``gain * beta_k`` (the columns of :class:`Basis`),
+so only the time constants, the initial states and an effect's own nonlinear parameters
+(see :mod:`creepcomp.diagnose.effects`) are searched.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from creepcomp.fit.data import Data
+from creepcomp.lti import lag_states, varying_lag_states
+
+__all__ = ["Param", "Applied", "Structure", "taus_of", "Basis", "basis"]
+
+#: Iterations of the mode switching of lags whose time constant depends on their state.
+_MODE_ITERATIONS = 50
+
+
+@dataclass(frozen=True)
+class Param:
+    """A nonlinear parameter: name, bounds in natural units, and how it is searched.
+
+    ``log`` parameters (time constants) are searched on their logarithm; the others on
+    ``value / scale``.
+    """
+
+    name: str
+    lower: float
+    upper: float
+    log: bool = False
+    scale: float = 1.0
+    default: float = 0.0
+
+    def to_search(self, value: float) -> float:
+        """Natural value to search coordinate."""
+        return math.log(value) if self.log else value / self.scale
+
+    def from_search(self, x: float) -> float:
+        """Search coordinate to natural value."""
+        return math.exp(x) if self.log else x * self.scale
+
+    def bounds(self) -> tuple[float, float]:
+        """Bounds in search coordinates."""
+        return self.to_search(self.lower), self.to_search(self.upper)
+
+    def clip(self, value: float) -> float:
+        """The value moved inside the bounds (strictly)."""
+        lo, hi = self.bounds()
+        x = min(max(self.to_search(value), lo + 1e-9 * (hi - lo)), hi - 1e-9 * (hi - lo))
+        return self.from_search(x)
+
+
+@dataclass(frozen=True)
+class Applied:
+    """An effect applied to a model, with its fixed settings (e.g. which term it acts on)."""
+
+    effect: Any
+    settings: tuple = ()
+
+    @property
+    def name(self) -> str:
+        """The effect's identifier."""
+        return self.effect.name
+
+    def setting(self, key: str, default=None):
+        """One fixed setting."""
+        return dict(self.settings).get(key, default)
+
+    def own(self, values: dict) -> dict:
+        """This effect's parameter values, without the ``effect.`` prefix."""
+        prefix = self.name + "."
+        return {k[len(prefix):]: v for k, v in values.items() if k.startswith(prefix)}
+
+
+@dataclass(frozen=True)
+class Structure:
+    """Which model: the number of Prony terms and the effects applied, in order."""
+
+    n_terms: int = 1
+    effects: tuple[Applied, ...] = ()
+
+    def with_effect(self, applied: Applied) -> "Structure":
+        """This structure plus one effect."""
+        return replace(self, effects=self.effects + (applied,))
+
+    def has(self, name: str) -> bool:
+        """True when the effect ``name`` is applied."""
+        return any(a.name == name for a in self.effects)
+
+    def params(self, data: Data) -> list[Param]:
+        """The nonlinear parameters: time constants, then each effect's own."""
+        lo, hi = data.tau_limits()
+        out = [Param(f"tau[{k}]", lo, hi * 10.0, log=True) for k in range(self.n_terms)]
+        if data.initial == "free":
+            # each term's creep state at the first sample, relative to the first load: within
+            # the loads a sensor sees (a free decay amplitude alone could follow any slow trend)
+            scale = data.load_scale
+            out += [Param(f"c0[{k}]", -2.0 * scale, 2.0 * scale, scale=scale)
+                    for k in range(self.n_terms)]
+        for a in self.effects:
+            out += [replace(p, name=f"{a.name}.{p.name}") for p in a.effect.nonlinear_params(data, a)]
+        return out
+
+    def describe(self) -> str:
+        """Short text, e.g. ``2 terms + viscous_flow``."""
+        text = f"{self.n_terms} term{'s' if self.n_terms > 1 else ''}"
+        return " + ".join([text] + [a.name for a in self.effects])
+
+
+def taus_of(values: dict, n_terms: int) -> np.ndarray:
+    """The time constants in a value dictionary."""
+    return np.array([values[f"tau[{k}]"] for k in range(n_terms)])
+
+
+@dataclass(frozen=True)
+class Basis:
+    """Columns of the linear part of a model for fixed nonlinear parameters."""
+
+    columns: np.ndarray
+    names: tuple[str, ...]
+    load_seen: np.ndarray        # the load after load-side effects (delay)
+    instant: np.ndarray          # s: instantaneous signal in load units
+    creep_input: np.ndarray      # h: what drives the lags
+    lags: np.ndarray             # (N, K)
+
+
+#: Samples per segment when lags whose time constant depends on their own state are solved.
+_SEGMENT = 4096
+
+
+def _state_dependent_lags(data: Data, h, taus, init, factor, effects, values):
+    """Lags whose time constants depend on their own state (modes such as creep and recovery),
+    solved segment by segment: within a segment the modes are found by fixed-point iteration
+    (modes from states, states from modes; the causal solution is its only fixed point), and
+    the segment's last state starts the next one. Short segments hold few mode switches, so
+    the iteration converges in a few rounds whatever the whole record holds."""
+    t = data.time
+    n, k = len(t), len(taus)
+    out = np.empty((n, k))
+    modes = np.ones((n - 1, k))
+    c = np.full(k, h[0]) if isinstance(init, str) and init == "settled" else (
+        np.zeros(k) if isinstance(init, str) else np.asarray(init, float))
+    out[0] = c
+    start = 0
+    while start < n - 1:
+        end = min(start + _SEGMENT, n - 1)
+        seg_t, seg_h = t[start:end + 1], h[start:end + 1]
+        base = factor[start:end]
+        seg = varying_lag_states(seg_t, seg_h, taus[None, :] * base, hold=data.hold, initial=c)
+        current = None
+        for _ in range(_MODE_ITERATIONS):
+            new = np.ones_like(base)
+            for a in effects:
+                new = new * a.effect.tau_factor(data, seg_h, seg, taus, a.own(values), a)
+            if current is not None and np.array_equal(new, current):
+                break
+            current = new
+            seg = varying_lag_states(seg_t, seg_h, taus[None, :] * base * current, hold=data.hold,
+                                     initial=c)
+        out[start:end + 1] = seg
+        modes[start:end] = current
+        c = seg[-1]
+        start = end
+    return out, factor * modes
+
+
+def basis(data: Data, structure: Structure, values: dict, cache: dict | None = None) -> Basis:
+    """Evaluate the model's linear basis for given nonlinear parameter values."""
+    t = data.time
+    effects = structure.effects
+    x = data.load
+    for a in effects:
+        x = a.effect.load_transform(data, x, a.own(values), a)
+    s = x
+    for a in effects:
+        s = a.effect.instant(data, s, a.own(values), a)
+    h = s
+    for a in effects:
+        h = a.effect.creep_input(data, h, a.own(values), a)
+    taus = taus_of(values, structure.n_terms)
+    init = data.lag_initial(h, taus, values)
+    lags = lag_states(t, h, taus, hold=data.hold, initial=init)
+    dynamic = [a for a in effects if a.effect.changes_lags]
+    factor = None
+    if dynamic:
+        static = [a for a in dynamic if not a.effect.state_dependent]
+        factor = np.ones((len(t) - 1, len(taus)))
+        for a in static:
+            factor = factor * a.effect.tau_factor(data, h, lags, taus, a.own(values), a)
+        states = [a for a in dynamic if a.effect.state_dependent]
+        if states:
+            lags, factor = _state_dependent_lags(data, h, taus, init, factor, states, values)
+        else:
+            lags = varying_lag_states(t, h, taus[None, :] * factor, hold=data.hold, initial=init)
+    cols, names = [], []
+    if not data.fixed_offset:
+        cols.append(np.ones_like(t))
+        names.append("offset")
+    cols.append(s)
+    names.append("gain")
+    for k in range(len(taus)):
+        cols.append(lags[:, k])
+        names.append(f"a[{k}]")
+    for a in effects:
+        for name, col in a.effect.columns(data, s, h, lags, a.own(values), a).items():
+            cols.append(col)
+            names.append(f"{a.name}.{name}")
+    return Basis(np.column_stack(cols), tuple(names), x, s, h, lags)
