@@ -4,7 +4,7 @@ import pytest
 from creepcomp.diagnose import effects
 from creepcomp import programs
 from creepcomp import synth
-from creepcomp.diagnose.effects import compensate, simulate
+from creepcomp.diagnose.effects import compensate_extended, simulate_extended
 from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 
@@ -45,7 +45,7 @@ def test_extended_model_simulation_matches_the_independent_generator(name):
     prog, u = _staircase(t)
     temp = 25.0 + 3.0 * np.sin(2 * np.pi * t / 500.0) if name.startswith("thermal") else None
     model = CreepModel((0.04,), (40.0,), gain=1.5, offset=0.2, extensions={name: entry})
-    got = simulate(model, t, u, temp)
+    got = simulate_extended(model, t, u, temp)
     hidden = {"viscous_flow": {"rate": 2e-5}, "nonlinear_creep": {"growth": 0.8},
               "asymmetric_recovery": {"tau_recovery": 120.0},
               "thermal_drift": {"coefficient": 0.003, "reference_temperature": 25.0},
@@ -71,7 +71,7 @@ def test_simulation_without_extensions_is_the_creep_model():
     t = np.arange(0, 600, 0.5)
     _, u = _staircase(t)
     model = CreepModel((0.03, 0.01), (30.0, 200.0), gain=2.0, offset=-0.1)
-    np.testing.assert_allclose(simulate(model, t, u), model.response(t, u), atol=1e-12)
+    np.testing.assert_allclose(simulate_extended(model, t, u), model.response(t, u), atol=1e-12)
 
 
 @pytest.mark.parametrize("name", sorted(EXTENSIONS) + [None])
@@ -82,8 +82,8 @@ def test_compensation_inverts_the_extended_model(name):
     temp = 25.0 + 3.0 * np.sin(2 * np.pi * t / 500.0)
     ext = {name: EXTENSIONS[name]} if name else {}
     model = CreepModel((0.04,), (40.0,), gain=1.5, offset=0.2, extensions=ext)
-    y = simulate(model, t, u, temp)
-    comp = compensate(t, y, model, temp)
+    y = simulate_extended(model, t, u, temp)
+    comp = compensate_extended(t, y, model, temp)
     err = comp - (0.2 + 1.5 * u)
     if name == "time_offset":            # the first samples precede the delayed signal
         err = err[t > 2.0]
@@ -93,7 +93,7 @@ def test_compensation_inverts_the_extended_model(name):
 def test_missing_temperature_for_a_thermal_extension_is_an_error():
     model = CreepModel((0.04,), (40.0,), extensions={"thermal_drift": EXTENSIONS["thermal_drift"]})
     with pytest.raises(InputError, match="temperature"):
-        simulate(model, np.arange(10.0), np.ones(10))
+        simulate_extended(model, np.arange(10.0), np.ones(10))
 
 
 def test_extension_written_by_a_fit_reads_back(tmp_path):
@@ -116,5 +116,5 @@ def test_extension_written_by_a_fit_reads_back(tmp_path):
     back = read_model(tmp_path / "m.json")
     t = syn.record.time
     decay = fit.values["a[0]"] * fit.values["c0[0]"] * np.exp(-(t - t[0]) / fit.values["tau[0]"])
-    np.testing.assert_allclose(simulate(back, t, syn.record.load) + decay, fit.prediction,
+    np.testing.assert_allclose(simulate_extended(back, t, syn.record.load) + decay, fit.prediction,
                                atol=1e-9 * np.ptp(fit.prediction))

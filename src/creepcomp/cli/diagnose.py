@@ -22,7 +22,7 @@ from creepcomp.cli.fit import (COLUMNS_HELP, INITIAL_TEXT, describe_record, load
 
 @app.command("diagnose")
 def diagnose_command(
-    record_path: Path = typer.Argument(..., metavar="RECORD", help="Measured record (CSV, data-format.md)."),
+    record_path: Path = typer.Argument(..., metavar="RECORD", help="Measured record (CSV, docs/record-format.md)."),
     design: Optional[Path] = typer.Option(None, "--design", metavar="FILE",
                                           help="Design file of the network that produced 'corrected' "
                                                "(overrides the record's '# design:' line): the circuit "
@@ -45,7 +45,7 @@ def diagnose_command(
                                                "into DIR."),
     spice_check: bool = typer.Option(True, "--spice-check/--no-spice-check",
                                      help="Run the as-built network in ngspice on the record."),
-    as_json: bool = typer.Option(False, "--json", help="Print one JSON object (diagnosis.md)."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object (docs/diagnosis.md)."),
 ) -> None:
     """Fit the paper's model, find what it misses by evidence, extend it, measure the gain."""
     record = load_record(record_path, columns, delimiter, duplicate_times)

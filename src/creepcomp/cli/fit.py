@@ -61,7 +61,7 @@ INITIAL_TEXT = {"free": "initial creep state fitted (the record may start loaded
 
 @app.command("fit")
 def fit_command(
-    record_path: Path = typer.Argument(..., metavar="RECORD", help="Measured record (CSV, data-format.md)."),
+    record_path: Path = typer.Argument(..., metavar="RECORD", help="Measured record (CSV, docs/record-format.md)."),
     columns: Optional[str] = typer.Option(None, "--columns", metavar="MAP", help=COLUMNS_HELP),
     delimiter: Optional[str] = typer.Option(None, "--delimiter", metavar="CHAR",
                                             help="Field delimiter (default: detected; 'tab' for tabs)."),

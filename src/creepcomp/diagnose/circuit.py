@@ -1,4 +1,4 @@
-"""Diagnosis of a built correction network (``diagnosis.md``, circuit side).
+"""Diagnosis of a built correction network (``docs/diagnosis.md``, circuit side).
 
 When a record holds both the sensor's raw ``signal`` and the measured output of the analog
 network (``corrected``), the nominal network of the design is simulated on the measured
@@ -151,7 +151,7 @@ class CircuitDiagnosis:
                 "whitened_ljung_box_p": p}
 
     def to_dict(self) -> dict:
-        """The circuit side's JSON (``diagnosis.md`` keys plus the as-built network and fix)."""
+        """The circuit side's JSON (``docs/diagnosis.md`` keys plus the as-built network and fix)."""
         return {"cause": self.cause, "findings": [f.to_dict() for f in self.findings],
                 "baseline": self.summary(self.baseline), "extended": self.summary(self.extended),
                 "gain": self.gain, "tried": [t.to_dict() for t in self.trials],
@@ -324,7 +324,7 @@ def ngspice_check(data: CircuitData, fit: CircuitFit) -> dict:
 
 
 def combine(sensor: dict, circuit: CircuitDiagnosis) -> dict:
-    """One ``diagnosis.md`` object for a record diagnosed on both sides.
+    """One ``docs/diagnosis.md`` object for a record diagnosed on both sides.
 
     The circuit side leads when it names a cause (the record was given with its network's
     design to ask about the network); otherwise the sensor side does. ``cause``,

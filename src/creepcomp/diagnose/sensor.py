@@ -1,4 +1,4 @@
-"""Diagnosis (``diagnosis.md``): what the simulation gets wrong, the cause, the extended model,
+"""Diagnosis (``docs/diagnosis.md``): what the simulation gets wrong, the cause, the extended model,
 the gain.
 
 1. The baseline (the paper's model: one creep term, gain, offset; free initial creep state
@@ -27,7 +27,7 @@ the gain.
    ``none``: the baseline explains the data to its noise (coloured noise is reported as the
    noise model, not as a cause).
 4. The gain: held-out residual RMS, and the error of the creep-corrected signal (digital
-   correction, :func:`creepcomp.diagnose.effects.compensate`) against the load, baseline model /
+   correction, :func:`creepcomp.diagnose.effects.compensate_extended`) against the load, baseline model /
    extended model.
 """
 
@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from creepcomp.diagnose import effects as effects_pkg
-from creepcomp.diagnose.effects import Effect, compensate
+from creepcomp.diagnose.effects import Effect, compensate_extended
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data, prepare
 from creepcomp.fit.structure import Applied, Structure
@@ -66,7 +66,7 @@ class Finding:
     Attributes
     ----------
     effect : str
-        Identifier (``diagnosis.md``), or ``unexplained``.
+        Identifier (``docs/diagnosis.md``), or ``unexplained``.
     parameters : dict
         Fitted parameters.
     uncertainty : dict
@@ -145,7 +145,7 @@ class Diagnosis:
                 "whitened_ljung_box_p": p}
 
     def to_dict(self) -> dict:
-        """The JSON object of ``creepcomp diagnose --json`` (``diagnosis.md``)."""
+        """The JSON object of ``creepcomp diagnose --json`` (``docs/diagnosis.md``)."""
         return {
             "cause": self.cause,
             "findings": [f.to_dict() for f in self.findings],
@@ -460,7 +460,7 @@ def correction_errors(data: Data, base: Fit, extended: Fit, extensions: dict) ->
     out = {"initial": initial}
     for label, model in (("baseline", model_b), ("extended", model_e)):
         try:
-            comp = compensate(data.time, data.signal, model, data.temperature, initial=initial,
+            comp = compensate_extended(data.time, data.signal, model, data.temperature, initial=initial,
                               hold=data.hold)
         except (InputError, ImportError):
             return {}

@@ -1,4 +1,4 @@
-"""Candidate effects: what a real sensor does beyond the paper's linear creep (``diagnosis.md``).
+"""Candidate effects: what a real sensor does beyond the paper's linear creep (``docs/diagnosis.md``).
 
 Every effect is one module of this package holding one object, ``EFFECT``, that follows the
 interface of :class:`Effect`: its identifier and side, its parameters, how it is fitted on
@@ -30,6 +30,9 @@ from creepcomp.fit.structure import Applied, Param, Structure, basis
 from creepcomp.fit.solver import Fit, fit_structure
 from creepcomp.model import CreepModel
 
+__all__ = ["Effect", "REGISTRY", "SENSOR_ORDER", "sensor_effects", "get", "arrays_data",
+           "model_structure", "simulate_extended", "compensate_extended"]
+
 
 class Effect:
     """Interface of a candidate effect (subclass it; override what the effect changes).
@@ -37,7 +40,7 @@ class Effect:
     Attributes
     ----------
     name : str
-        Identifier from ``diagnosis.md`` (a contract).
+        Identifier from ``docs/diagnosis.md`` (a contract).
     side : str
         ``sensor`` (``signal`` against ``load``) or ``circuit`` (``corrected`` against the
         network driven by ``signal``).
@@ -232,7 +235,7 @@ def model_structure(model: CreepModel, data: Data) -> tuple[Structure, dict]:
     return structure, values
 
 
-def simulate(model: CreepModel, time, load, temperature=None, initial: str = "relaxed",
+def simulate_extended(model: CreepModel, time, load, temperature=None, initial: str = "relaxed",
              hold: str = "linear") -> np.ndarray:
     """Signal of an extended model (model file with ``extensions``) for a load history.
 
@@ -268,7 +271,7 @@ def _linear_inverse(time, residual, gain: float, betas, taus, initial: str, hold
                                          initial=initial, hold=hold), float) / gain
 
 
-def compensate(time, signal, model: CreepModel, temperature=None, initial: str = "relaxed",
+def compensate_extended(time, signal, model: CreepModel, temperature=None, initial: str = "relaxed",
                hold: str = "linear", tolerance: float = 1e-10, max_iterations: int = 60) -> np.ndarray:
     """Creep-corrected signal of an extended model: the instantaneous signal
     ``offset + gain * load`` whose simulation through the model equals the measured signal.
@@ -295,7 +298,7 @@ def compensate(time, signal, model: CreepModel, temperature=None, initial: str =
     load = np.zeros_like(t)
     scale = max(float(np.max(np.abs(y - model.offset))) / abs(model.gain), 1e-300)
     for _ in range(max_iterations):
-        sim = simulate(model, t, load, temperature, initial, hold)
+        sim = simulate_extended(model, t, load, temperature, initial, hold)
         delta = _linear_inverse(t, y - sim, model.gain, betas, taus, initial, hold)
         for a in reversed(structure.effects):
             delta = a.effect.precondition(data, delta, load, values, a)

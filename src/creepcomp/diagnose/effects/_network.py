@@ -6,6 +6,8 @@ from creepcomp.analog.faults import apply_fault, capacitor_cells
 from creepcomp.fit.structure import Param
 from creepcomp.diagnose.effects import Effect
 
+__all__ = ["NetworkEffect", "log_param", "geometric", "resistance_scale"]
+
 
 class NetworkEffect(Effect):
     """A circuit-side effect: the network as built differs from its design.
@@ -52,7 +54,7 @@ def geometric(center: float, factors) -> list[float]:
     return [center * f for f in factors]
 
 
-def output_resistance(network) -> float:
-    """The network's resistance level: the sum of its resistors (ohm)."""
+def resistance_scale(network) -> float:
+    """The network's resistance scale for start values: the sum of its resistors (ohm)."""
     total = sum(c.R for c in network.cells) + (network.R2 or 0.0)
     return total if total > 0 else 1.0

@@ -16,6 +16,8 @@ from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
 from creepcomp.diagnose.effects import Effect
 
+__all__ = ["AsymmetricRecovery", "EFFECT"]
+
 
 class AsymmetricRecovery(Effect):
     name = "asymmetric_recovery"

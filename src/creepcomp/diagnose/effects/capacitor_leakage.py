@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from creepcomp.diagnose.effects._network import NetworkEffect, log_param
 
+__all__ = ["CapacitorLeakage", "EFFECT"]
+
 
 class CapacitorLeakage(NetworkEffect):
     """Leakage across a capacitor (its insulation resistance, or a board leakage path)."""

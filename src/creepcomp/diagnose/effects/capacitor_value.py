@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from creepcomp.diagnose.effects._network import NetworkEffect, log_param
 
+__all__ = ["CapacitorValue", "EFFECT"]
+
 
 class CapacitorValue(NetworkEffect):
     """The capacitor of a cell measures another value than its design."""

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from creepcomp.diagnose.effects._network import NetworkEffect, log_param
 
+__all__ = ["DielectricAbsorption", "EFFECT"]
+
 
 class DielectricAbsorption(NetworkEffect):
     """Dielectric absorption of a capacitor, as one series R-C branch across it."""

@@ -13,6 +13,8 @@ from creepcomp.fit.solver import Fit, fit_structure
 from creepcomp.fit.starts import extra_term_starts
 from creepcomp.diagnose.effects import Effect
 
+__all__ = ["ExtraRetardation", "EFFECT"]
+
 
 class ExtraRetardation(Effect):
     name = "extra_retardation"

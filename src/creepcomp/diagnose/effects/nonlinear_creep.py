@@ -14,6 +14,8 @@ from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
 from creepcomp.diagnose.effects import Effect
 
+__all__ = ["NonlinearCreep", "EFFECT"]
+
 
 class NonlinearCreep(Effect):
     name = "nonlinear_creep"

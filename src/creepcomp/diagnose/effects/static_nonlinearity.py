@@ -14,6 +14,8 @@ from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
 from creepcomp.diagnose.effects import Effect
 
+__all__ = ["deviation", "StaticNonlinearity", "EFFECT"]
+
 
 def deviation(x, a2: float, a3: float, scale: float):
     """The nonlinear part ``a2 x^2 / L + a3 x^3 / L^2``."""

@@ -9,6 +9,8 @@ from creepcomp.fit.structure import Applied
 from creepcomp.fit.solver import Fit
 from creepcomp.diagnose.effects import Effect
 
+__all__ = ["ThermalDrift", "EFFECT"]
+
 
 class ThermalDrift(Effect):
     name = "thermal_drift"

@@ -18,6 +18,8 @@ from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
 from creepcomp.diagnose.effects import Effect
 
+__all__ = ["ThermalRetardation", "EFFECT"]
+
 
 class ThermalRetardation(Effect):
     name = "thermal_retardation"

@@ -11,6 +11,8 @@ from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
 from creepcomp.diagnose.effects import Effect
 
+__all__ = ["shifted", "TimeOffset", "EFFECT"]
+
 
 def shifted(time, values, delay: float) -> np.ndarray:
     """``values`` at ``time - delay`` (linear interpolation, ends held)."""

@@ -10,6 +10,8 @@ from creepcomp.fit.structure import Applied
 from creepcomp.fit.solver import Fit
 from creepcomp.diagnose.effects import Effect
 
+__all__ = ["integral", "ViscousFlow", "EFFECT"]
+
 #: The flow is approximated, for the linear creep correction, by a Prony term this many
 #: record lengths long (over the record its lag equals the integral to within ~1/(2 x this)).
 _EQUIVALENT_LENGTHS = 1000.0
