@@ -37,10 +37,9 @@ os.environ.setdefault("MPLBACKEND", "Agg")  # the plots go to files
 
 from creepcomp import (Corrector, CreepModel, Record, compensate, creep_error, read_record,
     staircase, write_model, write_record)
-from creepcomp.cli.common import pct
 from creepcomp.digital.correctors import reference, uniform_interval
 from creepcomp.report.digital import plot_correction
-from creepcomp.units import format_quantity
+from creepcomp.units import format_percent, format_quantity
 
 #: The example force sensor: creep terms, volts per newton, volts at zero load.
 SENSOR = CreepModel(beta=(0.006, 0.015, 0.009), tau=(6.0, 45.0, 150.0), gain=0.2e-3, offset=0.5e-3)
@@ -83,9 +82,9 @@ def main(argv: list[str] | None = None) -> int:
     print(f"record {path}: {len(record)} samples every {format_quantity(dt, 's')}, "
           f"{record.duration:.4g} s; loads up to {max(LEVELS):g} N held {hold:g} s each; "
           f"noise {format_quantity(NOISE, 'V')} RMS")
-    print(f"model {model_path}: beta = " + ", ".join(pct(b) for b in SENSOR.beta)
+    print(f"model {model_path}: beta = " + ", ".join(format_percent(b) for b in SENSOR.beta)
           + ", tau = " + ", ".join(format_quantity(t, "s") for t in SENSOR.tau)
-          + f"; beta0 = {pct(SENSOR.beta0)}")
+          + f"; beta0 = {format_percent(SENSOR.beta0)}")
 
     corrected = {}
     print(f"\ncreep error against the true load      {'peak':>10} {'(of FS)':>10} "
@@ -95,8 +94,8 @@ def main(argv: list[str] | None = None) -> int:
         for label, values in (("raw signal", record.signal), ("corrected", corrected[method])):
             error = creep_error(record.time, values, record.load, SENSOR, method)
             print(f"  {method + ', ' + label:<37}{format_quantity(error.peak, 'V'):>10} "
-                  f"{pct(error.peak_fraction):>10} {format_quantity(error.rms, 'V'):>10} "
-                  f"{pct(error.rms_fraction):>10}")
+                  f"{format_percent(error.peak_fraction):>10} {format_quantity(error.rms, 'V'):>10} "
+                  f"{format_percent(error.rms_fraction):>10}")
         plot_correction(record.time, record.signal, corrected[method],
                         reference(record.load, SENSOR, method),
                         args.out / f"correction-{method}.png",

@@ -30,11 +30,10 @@ from pathlib import Path
 os.environ.setdefault("MPLBACKEND", "Agg")  # the plots go to files
 
 from creepcomp import diagnose, diagnose_circuit, read_design, read_record
-from creepcomp.cli.common import pct
 from creepcomp.data import path as bundled
 from creepcomp.report.circuit_diagnosis import elements, quantity
 from creepcomp.report.diagnosis import write_report
-from creepcomp.units import format_quantity
+from creepcomp.units import format_percent, format_quantity
 
 
 def element(kind: str, value: float | None) -> str:
@@ -64,7 +63,7 @@ def main(argv: list[str] | None = None) -> int:
           f"design {design_path}")
     b, e = circuit.baseline, circuit.extended
     print(f"nominal network driven by the measured signal, against the measured output: residual "
-          f"RMS {format_quantity(b.rms, unit)} ({pct(b.rms / circuit.data.scale)} of its range)")
+          f"RMS {format_quantity(b.rms, unit)} ({format_percent(b.rms / circuit.data.scale)} of its range)")
     print(f"\ncircuit cause: {circuit.cause}")
     for f in circuit.findings:
         fitted = "; ".join(f"{k} = {quantity(k, v)} ± {quantity(k, f.uncertainty.get(k))}"
@@ -79,13 +78,13 @@ def main(argv: list[str] | None = None) -> int:
             if value is not None or built[label][1] is not None:
                 print(f"  {label:<22}{element(kind, value):>12}{element(*built[label]):>12}")
     creep = circuit.residual_creep
-    print(f"\npeak residual creep of a load step: design {pct(creep['nominal'])}, "
-          f"as built {pct(creep['as_built'])}")
+    print(f"\npeak residual creep of a load step: design {format_percent(creep['nominal'])}, "
+          f"as built {format_percent(creep['as_built'])}")
     for fix in circuit.fixes:
         unit_of_part = "F" if fix.part.startswith("C") else "Ω"
         print(f"  fix: {fix.part} {format_quantity(fix.value_from, unit_of_part)} -> "
               f"{format_quantity(fix.value_to, unit_of_part)} ({fix.series}): peak residual creep "
-              f"{pct(fix.residual_creep_peak)}; {fix.note}")
+              f"{format_percent(fix.residual_creep_peak)}; {fix.note}")
     gain = circuit.gain
     if e is not b:
         print(f"gain: held-out residual RMS {format_quantity(b.heldout.rms, unit)} -> "

@@ -28,10 +28,9 @@ from pathlib import Path
 os.environ.setdefault("MPLBACKEND", "Agg")  # the plots go to files
 
 from creepcomp import diagnose, read_record
-from creepcomp.cli.common import pct
 from creepcomp.data import path as bundled
 from creepcomp.report.diagnosis import plot_fit, write_report
-from creepcomp.units import format_quantity
+from creepcomp.units import format_percent, format_quantity
 
 
 def parameter(name: str, value: float | None) -> str:
@@ -41,7 +40,7 @@ def parameter(name: str, value: float | None) -> str:
     if name.startswith("tau") or name == "delay":
         return format_quantity(value, "s")
     if name == "beta":
-        return pct(value)
+        return format_percent(value)
     if name == "rate":
         return f"{value:.4g} /s"
     return f"{value:.4g}"
@@ -63,7 +62,7 @@ def main(argv: list[str] | None = None) -> int:
     base = result.residual_summary(result.baseline)
     print(f"record {record.source}: {len(record)} samples over {record.duration:.4g} s")
     print(f"baseline (the paper's model, one creep term): residual RMS "
-          f"{format_quantity(base['residual_rms'], unit)} ({pct(base['residual_rms_relative'])} of "
+          f"{format_quantity(base['residual_rms'], unit)} ({format_percent(base['residual_rms_relative'])} of "
           f"the signal's range), held out {format_quantity(base['heldout_residual_rms'], unit)}")
     print(f"\ncause: {result.cause}")
     for f in result.findings:

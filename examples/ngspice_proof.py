@@ -37,9 +37,8 @@ from pathlib import Path
 os.environ.setdefault("MPLBACKEND", "Agg")  # the plots go to files
 
 from creepcomp import Design, default_sensor, read_design, size
-from creepcomp.cli.common import pct
 from creepcomp.report.spice import plot_comparison
-from creepcomp.units import format_quantity
+from creepcomp.units import format_percent, format_quantity
 from creepcomp.verify.compare import compare_program
 from creepcomp.verify.drive import DEFAULT_POINTS, default_duration, synthetic_program
 from creepcomp.verify.netlist import program_deck, write_deck
@@ -70,7 +69,7 @@ def peak_text(comparison, which: str) -> str:
     residual = comparison.residual(which)
     k = int(abs(residual).argmax())
     peak = abs(float(residual[k]))
-    return pct(peak) if peak < 1e-12 else f"{pct(peak)} at {comparison.reference.time[k]:.4g} s"
+    return format_percent(peak) if peak < 1e-12 else f"{format_percent(peak)} at {comparison.reference.time[k]:.4g} s"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -105,7 +104,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"\n  ngspice not run: {comparison.unavailable}")
         else:
             print(f", ngspice {peak_text(comparison, 'spice')}")
-            print(f"  residual creep, final: ngspice {pct(comparison.residual_creep_final)}")
+            print(f"  residual creep, final: ngspice {format_percent(comparison.residual_creep_final)}")
             print(f"  agreement, largest |ngspice - python-control|: "
                   f"{comparison.agreement_max_abs:.3g} of full scale "
                   f"(ngspice {comparison.ngspice_version}, {comparison.ngspice_points} time points "
@@ -113,7 +112,7 @@ def main(argv: list[str] | None = None) -> int:
         if standalone:
             measured = run_standalone(netlist)
             print("  ngspice -b on the netlist alone: "
-                  + ", ".join(f"{key.replace('_', ' ')} {pct(value)}" for key, value in measured.items()
+                  + ", ".join(f"{key.replace('_', ' ')} {format_percent(value)}" for key, value in measured.items()
                               if key != "at"))
         plot = plot_comparison(comparison, args.out / f"ngspice-{name}.png")
         print(f"  plot written to {plot}")

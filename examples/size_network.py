@@ -30,9 +30,8 @@ from pathlib import Path
 os.environ.setdefault("MPLBACKEND", "Agg")  # the plots go to files
 
 from creepcomp import CreepModel, read_model, size, write_design
-from creepcomp.cli.common import pct
 from creepcomp.report.design import plot_design_comparison
-from creepcomp.units import format_quantity
+from creepcomp.units import format_percent, format_quantity
 
 #: The example sensor: two creep terms (relative amplitude, retardation time in s).
 SENSOR = CreepModel(beta=(0.012, 0.018), tau=(8.0, 60.0))
@@ -63,8 +62,8 @@ def main(argv: list[str] | None = None) -> int:
                   capacitance=FAST_CAPACITANCE if args.fast else None,
                   source_resistance=SOURCE_RESISTANCE, load_resistance=LOAD_RESISTANCE)
 
-    terms = ", ".join(f"{pct(b)} at {format_quantity(t, 's')}" for b, t in zip(model.beta, model.tau))
-    print(f"sensor: {model.n_terms} creep terms ({terms}); beta0 = {pct(model.beta0)}")
+    terms = ", ".join(f"{format_percent(b)} at {format_quantity(t, 's')}" for b, t in zip(model.beta, model.tau))
+    print(f"sensor: {model.n_terms} creep terms ({terms}); beta0 = {format_percent(model.beta0)}")
     print(f"source resistance {format_quantity(SOURCE_RESISTANCE, 'Ω')}, "
           f"load resistance {format_quantity(LOAD_RESISTANCE, 'Ω')}")
     print(f"\n{report.rule} rule, {report.chosen.topology} network, {report.resistor_series} "
@@ -75,7 +74,7 @@ def main(argv: list[str] | None = None) -> int:
     for p in report.parts:
         print(f"  {p.label:<6}{format_quantity(p.ideal, unit_of(p.kind)):>12}"
               f"{format_quantity(p.chosen, unit_of(p.kind)):>12}{100 * p.deviation:>+10.2f} %"
-              f"   {pct(p.residual_if_only_this)}")
+              f"   {format_percent(p.residual_if_only_this)}")
 
     columns = [("ideal parts", report.ideal_quality), ("chosen parts", report.chosen_quality)]
     designs = {"ideal parts": report.ideal, "chosen parts": report.chosen}
@@ -90,7 +89,7 @@ def main(argv: list[str] | None = None) -> int:
                           ("residual creep, final", lambda q: q.residual_creep_final),
                           (f"hysteresis, ±FS sweep of {format_quantity(period, 's')}",
                            lambda q: q.hysteresis)):
-        print(f"  {label:<34}" + "".join(f"{pct(figure(q)):>16}" for _, q in columns))
+        print(f"  {label:<34}" + "".join(f"{format_percent(figure(q)):>16}" for _, q in columns))
     if report.nearest is not None:
         print("  nearest values: each part rounded to its nearest series value at C = "
               + format_quantity(max(v for _, k, v in report.nearest.parts() if k == "C"), "F"))

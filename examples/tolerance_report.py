@@ -28,7 +28,7 @@ from pathlib import Path
 os.environ.setdefault("MPLBACKEND", "Agg")  # the plots go to files
 
 from creepcomp import Design, default_sensor, read_design, size
-from creepcomp.cli.common import pct
+from creepcomp.units import format_percent
 from creepcomp.report.tolerance import tolerance_report_html
 from creepcomp.verify import Tolerance, ToleranceSpec, analyse
 
@@ -75,12 +75,12 @@ def main(argv: list[str] | None = None) -> int:
     for metric, label in (("peak", "residual creep, peak"), ("final", "residual creep, final"),
                           ("hysteresis", "hysteresis")):
         figures = [report.nominal.get(metric)[0], *result.percentiles(metric).values()]
-        print(f"  {label:<30}" + "".join(f"{pct(v):>12}" for v in figures))
+        print(f"  {label:<30}" + "".join(f"{format_percent(v):>12}" for v in figures))
     share, error = result.yield_against(SPEC_LIMIT, "peak")
-    print(f"\nyield against peak residual creep <= {pct(SPEC_LIMIT)} (OIML R60 C3): "
+    print(f"\nyield against peak residual creep <= {format_percent(SPEC_LIMIT)} (OIML R60 C3): "
           f"{100 * share:.2f} % (± {100 * error:.2f} %)")
     worst = report.worst
-    print(f"worst case of the peak residual creep: {pct(worst.value)} at "
+    print(f"worst case of the peak residual creep: {format_percent(worst.value)} at "
           + ", ".join(f"{k} = {v:.4g}" for k, v in worst.at.items()) + f" ({worst.method})")
     if report.sensitivities:
         print("share of the spread each factor explains alone: "
@@ -88,8 +88,8 @@ def main(argv: list[str] | None = None) -> int:
     for t in report.tightenings:
         print(f"{t.factor} at ±{100 * t.tolerance_to:.3g} %"
               + (f" {t.dielectric}" if t.dielectric else "")
-              + f" (now ±{100 * t.tolerance_from:.3g} %): p99 of the peak from {pct(t.p99_from)} "
-              f"to {pct(t.p99_to)}")
+              + f" (now ±{100 * t.tolerance_from:.3g} %): p99 of the peak from {format_percent(t.p99_from)} "
+              f"to {format_percent(t.p99_to)}")
     check = report.spot_check
     if check is not None and "error" in check:
         print(f"no ngspice spot-check: {check['error']}")

@@ -12,7 +12,7 @@ from decimal import Decimal
 
 from creepcomp.errors import InputError
 
-__all__ = ["PREFIXES", "UNITS", "TIME_UNITS", "parse_quantity", "format_quantity"]
+__all__ = ["PREFIXES", "UNITS", "TIME_UNITS", "parse_quantity", "format_quantity", "format_percent"]
 
 # prefix -> power of ten (decimal arithmetic keeps "2.7%" and "4.7u" exact to the last digit)
 PREFIXES = {
@@ -134,3 +134,13 @@ def format_quantity(value: float | None, unit: str = "", digits: int = 4) -> str
             break
     text = f"{value / scale:.{digits}g}"
     return f"{text} {prefix}{unit}".strip()
+
+
+def format_percent(x: float | None, digits: int = 3) -> str:
+    """A fraction as percent, e.g. ``0.0849 %``; tiny values in scientific notation."""
+    if x is None:
+        return "n/a"
+    v = 100.0 * x
+    if v != 0 and abs(v) < 1e-4:
+        return f"{v:.2e} %"
+    return f"{v:.{digits}g} %"

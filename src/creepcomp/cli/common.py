@@ -54,13 +54,3 @@ def value_range(text: str, kind: str, option: str) -> tuple[float, float]:
 def print_json(obj) -> None:
     """Print one JSON object on stdout."""
     sys.stdout.write(to_json(obj) + "\n")
-
-
-def pct(x: float | None, digits: int = 3) -> str:
-    """A fraction as percent, e.g. ``0.0849 %``; tiny values in scientific notation."""
-    if x is None:
-        return "n/a"
-    v = 100.0 * x
-    if v != 0 and abs(v) < 1e-4:
-        return f"{v:.2e} %"
-    return f"{v:.{digits}g} %"

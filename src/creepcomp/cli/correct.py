@@ -12,8 +12,8 @@ from rich.table import Table
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_model
 from creepcomp.io.records import parse_columns, read_record, write_record
-from creepcomp.units import format_quantity
-from creepcomp.cli.common import app, console, pct, print_json
+from creepcomp.units import format_percent, format_quantity
+from creepcomp.cli.common import app, console, print_json
 from creepcomp.cli.size import describe_model
 
 #: A record "starts loaded" when its first load is above this fraction of its largest load.
@@ -144,10 +144,10 @@ def _render(path, record, model, result, before, after, dt, unit, notes) -> None
     table.add_column("raw signal", justify="right")
     table.add_column("compensated", justify="right")
     table.add_row("peak", _value(before.peak, unit), _value(after.peak, unit))
-    table.add_row("peak (of full scale)", pct(before.peak_fraction), pct(after.peak_fraction))
+    table.add_row("peak (of full scale)", format_percent(before.peak_fraction), format_percent(after.peak_fraction))
     table.add_row("  at", format_quantity(before.peak_time, "s"), format_quantity(after.peak_time, "s"))
     table.add_row("RMS", _value(before.rms, unit), _value(after.rms, unit))
-    table.add_row("RMS (of full scale)", pct(before.rms_fraction), pct(after.rms_fraction))
+    table.add_row("RMS (of full scale)", format_percent(before.rms_fraction), format_percent(after.rms_fraction))
     console.print(table)
     if result["reduction"] is not None:
         console.print(f"peak creep error reduced {result['reduction']:.3g}-fold")

@@ -3,21 +3,21 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
+from typing import TYPE_CHECKING, Optional
 
 import numpy as np
 import typer
 from rich.table import Table
 
-from creepcomp.diagnose.sensor import Diagnosis, diagnose
-from creepcomp.diagnose.circuit import CircuitDiagnosis, combine, diagnose_circuit
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_design
-from creepcomp.fit.evidence import BIC_STRONG, HELDOUT_Z
-from creepcomp.units import format_quantity
-from creepcomp.cli.common import app, console, err_console, pct, print_json
+from creepcomp.units import format_percent, format_quantity
+from creepcomp.cli.common import app, console, err_console, print_json
 from creepcomp.cli.fit import (COLUMNS_HELP, INITIAL_TEXT, describe_record, load_record,
     record_options)
+
+if TYPE_CHECKING:
+    from creepcomp.diagnose import CircuitDiagnosis, Diagnosis
 
 
 @app.command("diagnose")
@@ -48,6 +48,8 @@ def diagnose_command(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object (docs/diagnosis.md)."),
 ) -> None:
     """Fit the paper's model, find what it misses by evidence, extend it, measure the gain."""
+    from creepcomp.diagnose import combine, diagnose, diagnose_circuit
+
     record = load_record(record_path, columns, delimiter, duplicate_times)
     init, step = record_options(initial, load_step_at)
     sensor_candidates, circuit_candidates = split_candidates(effects)
@@ -93,12 +95,14 @@ def split_candidates(text: str | None) -> tuple[list | None, list | None]:
 
 def render_diagnosis(record, d: Diagnosis) -> None:
     """Print a diagnosis as tables."""
+    from creepcomp.fit import BIC_STRONG, HELDOUT_Z
+
     su = record.unit("signal")
     console.print(f"[bold]creepcomp diagnose[/bold]: {describe_record(record, d.data)}")
     console.print(INITIAL_TEXT[d.data.initial].format(step=d.data.load_step_at))
     b = d.residual_summary(d.baseline)
     console.print(f"baseline (the paper's model, 1 creep term): residual RMS {b['residual_rms']:.4g} {su} "
-                  f"({pct(b['residual_rms_relative'])} of the signal's range), held out "
+                  f"({format_percent(b['residual_rms_relative'])} of the signal's range), held out "
                   f"{b['heldout_residual_rms']:.4g} {su}; noise {b['noise']['model']}, residual lag-1 "
                   f"autocorrelation {b['residual_lag1_autocorrelation']:.3f}")
     console.print(f"[bold]cause: {d.cause}[/bold]")
@@ -142,7 +146,7 @@ def render_circuit(cd: CircuitDiagnosis, su: str) -> None:
 
     b, e = cd.baseline, cd.extended
     console.print(f"\n[bold]circuit side[/bold]: the nominal network driven by the measured signal against "
-                  f"the measured corrected: residual RMS {b.rms:.4g} {su} ({pct(b.rms / cd.data.scale)} of its "
+                  f"the measured corrected: residual RMS {b.rms:.4g} {su} ({format_percent(b.rms / cd.data.scale)} of its "
                   f"range), held out {b.heldout.rms:.4g} {su}")
     console.print(f"[bold]circuit cause: {cd.cause}[/bold]")
     if cd.findings:
@@ -167,7 +171,7 @@ def render_circuit(cd: CircuitDiagnosis, su: str) -> None:
         console.print("no circuit effect is supported by the evidence: the nominal network explains the "
                       "measured output to its noise")
     rc = cd.residual_creep
-    console.print(f"peak residual creep of a load step: design {pct(rc['nominal'])}, as built {pct(rc['as_built'])}")
+    console.print(f"peak residual creep of a load step: design {format_percent(rc['nominal'])}, as built {format_percent(rc['as_built'])}")
     if cd.fixes:
         t = Table(title="Fix: single-part changes, best first", title_justify="left")
         for col in ("part", "as built", "replace by", "peak residual creep", "note"):
@@ -175,7 +179,7 @@ def render_circuit(cd: CircuitDiagnosis, su: str) -> None:
         for f in cd.fixes:
             unit = "F" if f.part.startswith("C") else "Ω"
             t.add_row(f.part, format_quantity(f.value_from, unit), f"{format_quantity(f.value_to, unit)} ({f.series})",
-                      pct(f.residual_creep_peak), f.note)
+                      format_percent(f.residual_creep_peak), f.note)
         console.print(t)
     g = cd.gain
     if e is not b:
@@ -203,7 +207,7 @@ def _value(name: str, v: float) -> str:
     if name.startswith("tau") or name == "delay":
         return format_quantity(v, "s")
     if name == "beta":
-        return pct(v)
+        return format_percent(v)
     if name == "rate":
         return f"{v:.4g} /s"
     return f"{v:.4g}"

@@ -3,21 +3,19 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
+from typing import TYPE_CHECKING, Optional
 
 import typer
 from rich.table import Table
 
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import write_json
-from creepcomp.diagnose import effects
-from creepcomp.fit.data import prepare
-from creepcomp.fit.structure import Applied
-from creepcomp.fit.evidence import BIC_STRONG, HELDOUT_Z
-from creepcomp.fit.prony import PronyResult, fit_prony, term_table
 from creepcomp.io.records import Record, parse_columns, read_record
-from creepcomp.units import format_quantity
-from creepcomp.cli.common import app, console, pct, print_json, quantity
+from creepcomp.units import format_percent, format_quantity
+from creepcomp.cli.common import app, console, print_json, quantity
+
+if TYPE_CHECKING:
+    from creepcomp.fit.prony import PronyResult
 
 COLUMNS_HELP = ("Map the file's columns to time, load, signal (temperature, corrected), e.g. "
                 "'time=Step time,signal=Strain,load=Stress'; a number is a constant column (load=1).")
@@ -94,6 +92,9 @@ def fit_command(
             raise InputError(f"--terms '{terms}': use auto or a whole number") from None
         if not 1 <= fixed <= 20:
             raise InputError(f"--terms {fixed}: use 1 to 20")
+    from creepcomp.diagnose import effects
+    from creepcomp.fit import Applied, fit_prony, prepare
+
     data = prepare(record, initial=init, load_step_at=step)
     extra = (Applied(effects.get("viscous_flow")),) if flow else ()
     result = fit_prony(data, max_terms=max_terms, n_terms=fixed, effects=extra)
@@ -116,6 +117,8 @@ def fit_command(
 
 def render_fit(record: Record, result: PronyResult, fixed: int | None) -> None:
     """Print the order search and the chosen model."""
+    from creepcomp.fit import BIC_STRONG, HELDOUT_Z, term_table
+
     data, fit = result.data, result.fit
     su, lu = record.unit("signal"), record.unit("load")
     console.print(f"[bold]creepcomp fit[/bold]: {describe_record(record, data)}")
@@ -135,7 +138,7 @@ def render_fit(record: Record, result: PronyResult, fixed: int | None) -> None:
     console.print(table)
     terms = term_table(fit)
     t2 = Table(title=f"Model: {fit.structure.n_terms} creep term{'s' if fit.structure.n_terms > 1 else ''}, "
-                     f"beta0 = {pct(sum(t['beta'] for t in terms))}", title_justify="left")
+                     f"beta0 = {format_percent(sum(t['beta'] for t in terms))}", title_justify="left")
     for col in ("", "value", "± 1 sigma"):
         t2.add_column(col, justify="right")
     gain = fit.estimate(lambda v: v["gain"])
@@ -146,15 +149,15 @@ def render_fit(record: Record, result: PronyResult, fixed: int | None) -> None:
         off = fit.estimate(lambda v: v["offset"])
         t2.add_row(f"offset ({su or 'signal units'})", f"{off[0]:.6g}", f"{off[1]:.2g}")
     for k, t in enumerate(terms):
-        t2.add_row(f"beta[{k}]", pct(t["beta"], 4), pct(t["beta_sigma"], 2))
+        t2.add_row(f"beta[{k}]", format_percent(t["beta"], 4), format_percent(t["beta_sigma"], 2))
         t2.add_row(f"tau[{k}]", format_quantity(t["tau"], "s"), format_quantity(t["tau_sigma"], "s", 2))
     if fit.structure.has("viscous_flow"):
         rate = fit.estimate(lambda v: v["viscous_flow.flow"] / v["gain"])
         t2.add_row("viscous flow rate (1/s, of the instantaneous signal)", f"{rate[0]:.4g}", f"{rate[1]:.2g}")
     console.print(t2)
     scale = data.signal_scale
-    console.print(f"residual RMS {fit.residual_rms:.4g} {su} ({pct(fit.residual_rms / scale)} of the signal's "
-                  f"range); held-out {fit.heldout.rms:.4g} {su} ({pct(fit.heldout.rms / scale)})"
+    console.print(f"residual RMS {fit.residual_rms:.4g} {su} ({format_percent(fit.residual_rms / scale)} of the signal's "
+                  f"range); held-out {fit.heldout.rms:.4g} {su} ({format_percent(fit.heldout.rms / scale)})"
                   if fit.heldout else f"residual RMS {fit.residual_rms:.4g}")
     n = fit.noise
     console.print(f"noise model AR({n.order}), innovation sigma {n.sigma:.3g} {su}, memory "

@@ -13,7 +13,8 @@ from creepcomp.verify.tolerance_analysis import ToleranceReport, analyse
 from creepcomp.verify.tolerances import DIELECTRICS, Tolerance, ToleranceSpec
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_design
-from creepcomp.cli.common import (app, console, err_console, pct, print_json, quantity,
+from creepcomp.units import format_percent
+from creepcomp.cli.common import (app, console, err_console, print_json, quantity,
     value_range)
 
 
@@ -136,23 +137,23 @@ def render(report: ToleranceReport) -> None:
     for col in ("", "nominal", "p50", "p95", "p99", "max"):
         table.add_column(col, justify="right" if col else "left")
     for m in ("peak", "final", "hysteresis"):
-        table.add_row(names[m], pct(report.nominal.get(m)[0]), *[pct(v) for v in r.percentiles(m).values()])
+        table.add_row(names[m], format_percent(report.nominal.get(m)[0]), *[format_percent(v) for v in r.percentiles(m).values()])
     console.print(table)
     if report.limit is not None:
         y, se = r.yield_against(report.limit, report.metric)
-        console.print(f"yield against {names[report.metric]} ≤ {pct(report.limit)}: "
+        console.print(f"yield against {names[report.metric]} ≤ {format_percent(report.limit)}: "
                       f"[bold]{100 * y:.2f} %[/bold] (± {100 * se:.2f} %)")
     if report.worst is not None:
         w = report.worst
         at = ", ".join(f"{k} = {v:.4g}" for k, v in w.at.items())
-        console.print(f"worst case of {names[w.metric]}: [bold]{pct(w.value)}[/bold] at {at} ({w.method})")
+        console.print(f"worst case of {names[w.metric]}: [bold]{format_percent(w.value)}[/bold] at {at} ({w.method})")
     if report.sensitivities:
         sens = Table(title="Sensitivity", title_justify="left")
         sens.add_column("factor")
         sens.add_column("share of the spread", justify="right")
         sens.add_column("p99 when only it varies", justify="right")
         for s in report.sensitivities:
-            sens.add_row(s.factor, f"{100 * s.share:.1f} %", pct(s.p99_alone))
+            sens.add_row(s.factor, f"{100 * s.share:.1f} %", format_percent(s.p99_alone))
         console.print(sens)
         console.print(f"dominant: {report.sensitivities[0].factor}")
     sc = report.spot_check
@@ -165,5 +166,5 @@ def render(report: ToleranceReport) -> None:
                       f"{sc['seconds_per_transient'] / (r.seconds / r.n):,.0f}x)")
     for t in report.tightenings:
         part = f"{t.factor} at {100 * t.tolerance_to:.3g} %" + (f" {t.dielectric}" if t.dielectric else "")
-        console.print(f"{part} (now {100 * t.tolerance_from:.3g} %): p99 from {pct(t.p99_from)} to "
-                      f"{pct(t.p99_to)} ({report.sensitivity_samples} samples each)")
+        console.print(f"{part} (now {100 * t.tolerance_from:.3g} %): p99 from {format_percent(t.p99_from)} to "
+                      f"{format_percent(t.p99_to)} ({report.sensitivity_samples} samples each)")

@@ -13,8 +13,8 @@ from rich.table import Table
 from creepcomp.verify.compare import Comparison, compare_program, compare_record
 from creepcomp.verify.drive import DEFAULT_POINTS
 from creepcomp.verify.netlist import write_deck
-from creepcomp.units import format_quantity
-from creepcomp.cli.common import app, console, err_console, pct, print_json
+from creepcomp.units import format_percent, format_quantity
+from creepcomp.cli.common import app, console, err_console, print_json
 from creepcomp.cli.netlist import PROGRAM_HELP, read_drive
 
 
@@ -28,8 +28,8 @@ def _peak(comparison: Comparison, which: str) -> str:
         return "n/a"
     k = int(abs(e).argmax())
     if abs(e[k]) < 1e-12:
-        return pct(abs(float(e[k])))
-    return f"{pct(abs(float(e[k])))} at {comparison.reference.time[k]:.4g} s"
+        return format_percent(abs(float(e[k])))
+    return f"{format_percent(abs(float(e[k])))} at {comparison.reference.time[k]:.4g} s"
 
 
 def render_comparison(c: Comparison, title: str | None = None) -> None:
@@ -49,8 +49,8 @@ def render_comparison(c: Comparison, title: str | None = None) -> None:
         ng = d["ngspice"]
         table.add_row("residual creep, peak (of full scale)", _peak(c, "reference"),
                       _peak(c, "spice") if spice_ok else "not run")
-        table.add_row("residual creep, final", pct(ref["residual_creep_final"]),
-                      pct(ng.get("residual_creep_final")) if spice_ok else "not run")
+        table.add_row("residual creep, final", format_percent(ref["residual_creep_final"]),
+                      format_percent(ng.get("residual_creep_final")) if spice_ok else "not run")
     else:
         def volts(w, f):
             return format_quantity(float(f(w.output)), "V") if w is not None else "not run"

@@ -12,8 +12,8 @@ from rich.table import Table
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_model, write_design
 from creepcomp.model import CreepModel
-from creepcomp.units import format_quantity
-from creepcomp.cli.common import app, console, pct, print_json, quantity, value_range
+from creepcomp.units import format_percent, format_quantity
+from creepcomp.cli.common import app, console, print_json, quantity, value_range
 
 if TYPE_CHECKING:
     from creepcomp.analog.sizing import SizingReport
@@ -108,9 +108,9 @@ def size_command(
 
 def describe_model(model: CreepModel) -> str:
     """One line: the creep terms."""
-    terms = ", ".join(f"beta = {pct(b)} at tau = {format_quantity(t, 's')}"
+    terms = ", ".join(f"beta = {format_percent(b)} at tau = {format_quantity(t, 's')}"
                       for b, t in zip(model.beta, model.tau))
-    return f"{model.n_terms} creep term{'s' if model.n_terms > 1 else ''} ({terms}); beta0 = {pct(model.beta0)}"
+    return f"{model.n_terms} creep term{'s' if model.n_terms > 1 else ''} ({terms}); beta0 = {format_percent(model.beta0)}"
 
 
 def _peak_time(q) -> str:
@@ -141,7 +141,7 @@ def render_sizing(report: SizingReport, title: str | None = None) -> None:
         for p in report.parts:
             parts.add_row(p.label, format_quantity(p.ideal, _unit(p.kind)),
                           format_quantity(p.chosen, _unit(p.kind)), f"{100 * p.deviation:+.2f} %",
-                          pct(p.residual_if_only_this))
+                          format_percent(p.residual_if_only_this))
     else:
         for label, kind, v in net.parts():
             parts.add_row(label, format_quantity(v, _unit(kind)))
@@ -158,12 +158,12 @@ def render_sizing(report: SizingReport, title: str | None = None) -> None:
     table.add_column("")
     for name, _ in columns:
         table.add_column(name, justify="right")
-    table.add_row("residual creep, peak (of a load step)", *[pct(q.residual_creep_peak) for _, q in columns])
+    table.add_row("residual creep, peak (of a load step)", *[format_percent(q.residual_creep_peak) for _, q in columns])
     table.add_row("  at (s after the step)",
                   *[_peak_time(q) for _, q in columns])
-    table.add_row("residual creep, final", *[pct(q.residual_creep_final) for _, q in columns])
+    table.add_row("residual creep, final", *[format_percent(q.residual_creep_final) for _, q in columns])
     table.add_row(f"hysteresis, ±FS sweep of {report.chosen_quality.sweep_period:.4g} s (of FS)",
-                  *[pct(q.hysteresis) for _, q in columns])
+                  *[format_percent(q.hysteresis) for _, q in columns])
     console.print(table)
     if report.nearest is not None and snapped:
         console.print(f"searched {report.candidates_evaluated} part combinations; nearest-value "

@@ -1,0 +1,45 @@
+"""The command line starts without the heavy libraries: they are imported where they are used.
+
+Start-up time itself is measured by ``benchmarks/startup.py`` (figures in docs/benchmarks.md);
+this test checks its cause, which does not depend on how busy the machine is.
+"""
+
+import json
+import subprocess
+import sys
+
+HEAVY = ("control", "scipy.signal", "scipy.optimize", "scipy.interpolate", "matplotlib", "PySpice")
+
+
+def modules_after(code: str) -> set[str]:
+    """Modules loaded by a fresh interpreter after running ``code``."""
+    probe = code + "\nimport sys, json\nprint(json.dumps(sorted(sys.modules)))"
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    return set(json.loads(out.stdout.strip().splitlines()[-1]))
+
+
+def heavy(modules: set[str]) -> list[str]:
+    return sorted(h for h in HEAVY if h in modules)
+
+
+def test_help_imports_no_heavy_library():
+    loaded = modules_after("import sys\nfrom creepcomp.cli import main\n"
+                           "import contextlib, io\n"
+                           "with contextlib.redirect_stdout(io.StringIO()):\n"
+                           "    main(['--help'])")
+    assert "typer" in loaded
+    assert heavy(loaded) == []
+
+
+def test_sizing_imports_neither_python_control_nor_matplotlib():
+    loaded = modules_after("from creepcomp.cli import main\n"
+                           "import contextlib, io\n"
+                           "with contextlib.redirect_stdout(io.StringIO()):\n"
+                           "    assert main(['size', '--beta0', '3%', '--tau', '45s', '--json']) == 0")
+    assert "creepcomp.analog.sizing" in loaded
+    assert heavy(loaded) == []
+
+
+def test_import_creepcomp_imports_nothing_heavy():
+    loaded = modules_after("import creepcomp")
+    assert heavy(loaded) == [] and "numpy" not in loaded
