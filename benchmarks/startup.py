@@ -61,7 +61,7 @@ def main(argv: list[str] | None = None) -> int:
         t = wall_times(command, args.repeat)
         rows.append((label, statistics.median(t), min(t), max(t)))
     if args.markdown:
-        print(f"| command | median (s) | lowest (s) | highest (s) |\n|---|---|---|---|")
+        print("| command | median (s) | lowest (s) | highest (s) |\n|---|---|---|---|")
         for label, med, lo, hi in rows:
             print(f"| `{label}` | {med:.3f} | {lo:.3f} | {hi:.3f} |")
     else:

@@ -30,20 +30,8 @@ os.environ.setdefault("MPLBACKEND", "Agg")  # the plots go to files
 from creepcomp import diagnose, read_record
 from creepcomp.data import path as bundled
 from creepcomp.report.diagnosis import plot_fit, write_report
-from creepcomp.units import format_percent, format_quantity
+from creepcomp.units import format_parameter, format_percent, format_quantity
 
-
-def parameter(name: str, value: float | None) -> str:
-    """A fitted parameter with its unit: times in seconds, amplitudes in percent."""
-    if value is None:
-        return "n/a"
-    if name.startswith("tau") or name == "delay":
-        return format_quantity(value, "s")
-    if name == "beta":
-        return format_percent(value)
-    if name == "rate":
-        return f"{value:.4g} /s"
-    return f"{value:.4g}"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -66,7 +54,7 @@ def main(argv: list[str] | None = None) -> int:
           f"the signal's range), held out {format_quantity(base['heldout_residual_rms'], unit)}")
     print(f"\ncause: {result.cause}")
     for f in result.findings:
-        fitted = "; ".join(f"{k} = {parameter(k, v)} ± {parameter(k, f.uncertainty.get(k))}"
+        fitted = "; ".join(f"{k} = {format_parameter(k, v)} ± {format_parameter(k, f.uncertainty.get(k))}"
                            for k, v in f.parameters.items()) or "-"
         ev = f.evidence
         print(f"  {f.effect}: {fitted} (ΔBIC {ev.delta_bic:.1f}, held-out RMS ratio "

@@ -6,14 +6,12 @@ records are kept small (at most 5000 samples) so that the suite stays fast. The 
 confusion matrix is ``benchmarks/diagnose_confusion.py``.
 """
 
-import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from creepcomp import synth
 from creepcomp.diagnose.sensor import diagnose
-from creepcomp.io.records import Record
 
 SMALL = dict(max_samples=5000, duration=(600.0, 2400.0), noise=(2e-4, 1e-3))
 # parameters the contract names, and the effects they belong to

@@ -9,11 +9,16 @@ linearly between samples (``hold="linear"``), on uniform or irregular time point
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from dataclasses import dataclass
 
 import numpy as np
 
 from creepcomp.errors import InputError
+
+if TYPE_CHECKING:
+    import control
 
 __all__ = ["LagExpansion", "UNIFORM_RTOL", "lag_coefficients", "is_uniform", "lag_states",
            "cascade_matrices", "cascade_step", "cascade_step_arrays", "triangle_lag_gap",

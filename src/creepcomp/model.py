@@ -7,12 +7,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any, Mapping, TYPE_CHECKING
 
 import numpy as np
 
 from creepcomp.errors import InputError
 from creepcomp.lti import LagExpansion
+
+if TYPE_CHECKING:
+    import control
 
 __all__ = ["CreepModel"]
 

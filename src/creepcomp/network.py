@@ -15,13 +15,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Mapping
+from typing import Mapping, TYPE_CHECKING
 
 import numpy as np
 
 from creepcomp.errors import InputError
 from creepcomp.lti import LagExpansion
-from creepcomp.model import CreepModel
+
+if TYPE_CHECKING:
+    import control
 
 __all__ = ["Cell", "Branch", "Network", "state_matrices", "modal_form", "parallel"]
 

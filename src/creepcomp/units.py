@@ -12,7 +12,8 @@ from decimal import Decimal
 
 from creepcomp.errors import InputError
 
-__all__ = ["PREFIXES", "UNITS", "TIME_UNITS", "parse_quantity", "format_quantity", "format_percent"]
+__all__ = ["PREFIXES", "UNITS", "TIME_UNITS", "parse_quantity", "format_quantity", "format_percent",
+           "format_parameter"]
 
 # prefix -> power of ten (decimal arithmetic keeps "2.7%" and "4.7u" exact to the last digit)
 PREFIXES = {
@@ -144,3 +145,17 @@ def format_percent(x: float | None, digits: int = 3) -> str:
     if v != 0 and abs(v) < 1e-4:
         return f"{v:.2e} %"
     return f"{v:.{digits}g} %"
+
+
+def format_parameter(name: str, value: float | None) -> str:
+    """A diagnosis parameter with its unit, by its name: times (``tau*``, ``delay``) in
+    seconds, ``beta`` in percent, ``rate`` per second, others as plain numbers."""
+    if value is None or not math.isfinite(value):
+        return "n/a"
+    if name.startswith("tau") or name == "delay":
+        return format_quantity(value, "s")
+    if name == "beta":
+        return format_percent(value)
+    if name == "rate":
+        return f"{value:.4g} /s"
+    return f"{value:.4g}"

@@ -18,12 +18,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from creepcomp.lti import LagExpansion, cascade_matrices, cascade_step_arrays
+from creepcomp.lti import cascade_matrices, cascade_step_arrays
 from creepcomp.model import CreepModel
 from creepcomp.network import Network
+
+if TYPE_CHECKING:
+    import control
 
 __all__ = ["Quality", "SEGMENT_POINTS", "SEGMENT_SPAN", "SWEEP_QUARTER_POINTS",
            "default_sweep_period", "corrected_system", "step_residual", "sweep_hysteresis",

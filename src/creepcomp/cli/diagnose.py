@@ -5,13 +5,12 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, Optional
 
-import numpy as np
 import typer
 from rich.table import Table
 
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_design
-from creepcomp.units import format_percent, format_quantity
+from creepcomp.units import format_parameter, format_percent, format_quantity
 from creepcomp.cli.common import app, console, err_console, print_json
 from creepcomp.cli.fit import (COLUMNS_HELP, INITIAL_TEXT, describe_record, load_record,
     record_options)
@@ -111,7 +110,7 @@ def render_diagnosis(record, d: Diagnosis) -> None:
         for col in ("effect", "parameters (± 1 sigma)", "ΔBIC", "held-out RMS ratio", "held-out z"):
             t.add_column(col, justify="right" if col.startswith(("Δ", "held")) else "left")
         for f in d.findings:
-            params = "; ".join(f"{k} = {_value(k, v)} ± {_value(k, f.uncertainty.get(k, float('nan')))}"
+            params = "; ".join(f"{k} = {format_parameter(k, v)} ± {format_parameter(k, f.uncertainty.get(k, float('nan')))}"
                                for k, v in f.parameters.items()) or "-"
             t.add_row(f.effect, params, f"{f.evidence.delta_bic:.1f}", f"{f.evidence.heldout_rms_ratio:.3g}",
                       f"{f.evidence.heldout_z:.1f}")
@@ -200,14 +199,3 @@ def render_circuit(cd: CircuitDiagnosis, su: str) -> None:
 def _ratio(x) -> str:
     return "-" if x is None else f"{x:.3g}"
 
-
-def _value(name: str, v: float) -> str:
-    if v is None or not np.isfinite(v):
-        return "n/a"
-    if name.startswith("tau") or name == "delay":
-        return format_quantity(v, "s")
-    if name == "beta":
-        return format_percent(v)
-    if name == "rate":
-        return f"{v:.4g} /s"
-    return f"{v:.4g}"

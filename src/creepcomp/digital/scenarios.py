@@ -14,7 +14,6 @@ Raw signals come from :meth:`LoadProgram.response` (exact for any sampling).
 
 from __future__ import annotations
 
-import math
 import warnings
 from dataclasses import dataclass
 

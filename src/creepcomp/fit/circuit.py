@@ -463,7 +463,6 @@ def uncertainty(data: CircuitData, fit: CircuitFit, applied: Applied) -> dict:
     findings' reported uncertainties stay as they were.
     """
     x0 = np.array([p.to_search(fit.values[p.name]) for p in fit.params])
-    lower = np.array([p.bounds()[0] for p in fit.params])
     upper = np.array([p.bounds()[1] for p in fit.params])
     r0 = fit.residual
     cols = []

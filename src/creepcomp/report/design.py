@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import matplotlib.pyplot as plt
-import numpy as np
 
 from creepcomp.analog.quality import step_residual, sweep_hysteresis
 from creepcomp.model import CreepModel

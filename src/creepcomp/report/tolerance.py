@@ -55,7 +55,7 @@ def tolerance_report_html(report, path: str | Path) -> Path:
                                   f"<b>{100 * y:.2f} %</b> of samples (± {100 * se:.2f} %).</p>"))
     sections.append(("Distributions", f"<img alt='histograms' src='{hist}'>"))
     sections.append(("Sensitivity", f"<img alt='sensitivity chart' src='{sens_png}'>" +
-                     html_table(["factor", "share of spread", f"p99 when only it varies"],
+                     html_table(["factor", "share of spread", "p99 when only it varies"],
                                 [[s.factor, f"{100 * s.share:.1f} %", pct(s.p99_alone)] for s in sens])))
     if report.tightenings:
         sections.append(("What a tighter part buys", html_table(

@@ -7,6 +7,8 @@ record's reference is the network's exact lag discretisation at ngspice's own ti
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,6 +28,9 @@ from creepcomp.verify.netlist import (Deck, program_deck, record_arrays, record_
                                       record_deck)
 from creepcomp.verify.ngspice_engine import (Ngspice, NgspiceUnavailable, Waveforms, ngspice,
                                              waveforms_from_run)
+
+if TYPE_CHECKING:
+    import control
 
 __all__ = ["reference_transient", "Comparison", "compare_program", "compare_record",
            "at_sample_times"]

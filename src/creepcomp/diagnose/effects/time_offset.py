@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from creepcomp.fit.data import Data
 from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
 from creepcomp.diagnose.effects import Effect
