@@ -10,7 +10,7 @@ Measures (best of several runs, wall clock):
 - streaming in chunks of 1000 samples (``digital.Corrector``);
 - batch correction of an irregularly sampled record;
 - the paper's eq. 7 as printed (O(N^2)) against the production corrector at N samples.
-Prints a Markdown table for the README.
+Prints a Markdown table for docs/benchmarks.md.
 """
 
 from __future__ import annotations

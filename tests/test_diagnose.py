@@ -68,7 +68,7 @@ def test_json_follows_the_contract():
 
 def test_two_effects_added_one_at_a_time():
     # (sizes within the generator's ranges: a drift 4x larger drags the one-term baseline
-    # to a slow negative term that hides both; see README)
+    # to a slow negative term that hides both; see docs/benchmarks.md, known limitations)
     syn = synth.generate(synth.Spec(hidden={"thermal_drift": {"coefficient": 0.001},
                                             "viscous_flow": {"rate": 3e-5}},
                                     duration=1800, rate=4, program="staircase", seed=8))
@@ -80,7 +80,7 @@ def test_two_effects_added_one_at_a_time():
 
 @pytest.mark.xfail(strict=True, reason="known limitation: the catch-all must also predict each half "
                    "of the record from the other, and its many load-nonlinear columns fitted on "
-                   "one half's load levels extrapolate worse than the baseline (see README)")
+                   "one half's load levels extrapolate worse than the baseline (see docs/benchmarks.md, known limitations)")
 def test_no_candidate_explains_it_so_unexplained():
     """A static nonlinearity with only flow allowed as a candidate: structure remains that no
     candidate explains; the answer is 'unexplained', not a forced name."""
