@@ -147,12 +147,11 @@ def step_digital_correction(out: Path, console: Console) -> None:
 def step_diagnosis(out: Path, console: Console) -> None:
     """Diagnose the bundled record that hides an effect; write the HTML report and models."""
     from creepcomp.cli.diagnose import render_diagnosis
-    from creepcomp.data import path
-    from creepcomp.diagnose.sensor import diagnose
+    from creepcomp.data import hidden_effect
+    from creepcomp.diagnose import diagnose
     from creepcomp.report.diagnosis import write_report
-    from creepcomp.io.records import read_record
 
-    record = read_record(path("hidden_effect.csv"))
+    record = hidden_effect()
     result = diagnose(record)
     render_diagnosis(record, result)
     units = {c: record.unit(c) for c in ("signal", "load")}
@@ -165,17 +164,14 @@ def step_circuit_diagnosis(out: Path, console: Console) -> None:
     """Diagnose the bundled record of a built network with a hidden fault: what the simulated
     network gets wrong, the as-built network (design file, checked in ngspice) and the fix."""
     from creepcomp.cli.diagnose import render_circuit
-    from creepcomp.data import path
-    from creepcomp.diagnose.sensor import diagnose
-    from creepcomp.diagnose.circuit import diagnose_circuit
+    from creepcomp.data import built_network, built_network_design
+    from creepcomp.diagnose import diagnose, diagnose_circuit
     from creepcomp.report.diagnosis import write_report
-    from creepcomp.io.jsonfiles import read_design
-    from creepcomp.io.records import read_record
 
-    record = read_record(path("built_network.csv"))
+    record = built_network()
     console.print("[bold]Diagnosis of a built network[/bold] (data/built_network.csv: signal and measured "
                   "corrected output; its nominal design data/built_network.design.json)")
-    circuit = diagnose_circuit(record, read_design(record.design_path()))
+    circuit = diagnose_circuit(record, built_network_design())
     render_circuit(circuit, record.unit("signal"))
     units = {c: record.unit(c) for c in ("signal", "load")}
     for label, p in write_report(diagnose(record), out / "circuit-diagnosis", units, circuit=circuit).items():
