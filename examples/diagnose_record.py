@@ -60,7 +60,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"  {f.effect}: {fitted} (ΔBIC {ev.delta_bic:.1f}, held-out RMS ratio "
               f"{ev.heldout_rms_ratio:.3g}, held-out z {ev.heldout_z:.1f})")
     if not result.findings:
-        print("  no effect is supported by the evidence: the baseline explains the record to its noise")
+        print("  no effect is supported by the evidence: no candidate predicts held-out data better "
+              "than the baseline (that alone does not show the residual is noise)")
     extended = result.residual_summary(result.extended)
     gain = result.gain
     print(f"\ngain: held-out residual RMS {format_quantity(base['heldout_residual_rms'], unit)} -> "

@@ -116,8 +116,8 @@ def render_diagnosis(record, d: Diagnosis) -> None:
                       f"{f.evidence.heldout_z:.1f}")
         console.print(t)
     else:
-        console.print("no effect is supported by the evidence: the baseline explains the record to "
-                      "its noise")
+        console.print("no effect is supported by the evidence: no candidate predicts held-out data "
+                      "better than the baseline (that alone does not show the residual above is noise)")
     t = Table(title=f"Candidates (accepted: ΔBIC <= -{BIC_STRONG:g} and held-out z >= {HELDOUT_Z:g})",
               title_justify="left")
     for col in ("step", "effect", "ΔBIC", "held-out z", "outcome"):
@@ -167,8 +167,8 @@ def render_circuit(cd: CircuitDiagnosis, su: str) -> None:
                 t.add_row(label, _element(*design[label]), _element(*built[label]))
         console.print(t)
     else:
-        console.print("no circuit effect is supported by the evidence: the nominal network explains the "
-                      "measured output to its noise")
+        console.print("no circuit effect is supported by the evidence: no candidate predicts held-out "
+                      "data better than the nominal network (that alone does not show the residual is noise)")
     rc = cd.residual_creep
     console.print(f"peak residual creep of a load step: design {format_percent(rc['nominal'])}, as built {format_percent(rc['as_built'])}")
     if cd.fixes:

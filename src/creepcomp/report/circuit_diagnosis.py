@@ -110,8 +110,8 @@ def circuit_html(cd, units: dict) -> str:
                     f"<td>{format_cell(f.evidence.heldout_rms_ratio)}</td><td>{format_cell(f.evidence.heldout_z)}</td></tr>")
     findings = ("<table><tr><th>effect</th><th>part</th><th>parameters (± 1 sigma)</th><th>ΔBIC</th>"
                 "<th>held-out RMS ratio</th><th>held-out z</th></tr>" + "".join(rows) + "</table>"
-                if rows else "<p>No circuit effect is supported: the nominal network explains the measured "
-                "output to its noise.</p>")
+                if rows else "<p>No circuit effect is supported: no candidate predicts held-out data better than "
+                "the nominal network (that alone does not show the residual is noise).</p>")
     design, built = elements(cd.baseline.network), elements(cd.extended.network)
     parts = "".join(f"<tr><td>{label}</td><td>{_element(*design[label])}</td><td>{_element(*built[label])}</td></tr>"
                     for label in design if design[label][1] is not None or built[label][1] is not None)

@@ -165,7 +165,8 @@ def render_html(diagnosis, units: dict, title: str = "creepcomp diagnose",
                     f"<td>{format_cell(ev.heldout_z)}</td></tr>")
     findings = ("<table><tr><th>effect</th><th>parameters (± 1 sigma)</th><th>ΔBIC</th>"
                 "<th>held-out RMS ratio</th><th>held-out z</th></tr>" + "".join(rows) + "</table>"
-                if rows else "<p>No effect is supported: the baseline explains the record to its noise.</p>")
+                if rows else "<p>No effect is supported: no candidate predicts held-out data better than the baseline "
+                "(that alone does not show the residual is noise).</p>")
     tried = "".join(f"<tr><td>{t.step}</td><td>{html.escape(t.effect)}</td><td>{format_cell(t.delta_bic)}</td>"
                     f"<td>{format_cell(t.evidence.heldout_rms_ratio if t.evidence else None)}</td>"
                     f"<td>{format_cell(t.evidence.heldout_z if t.evidence else None)}</td>"
