@@ -10,8 +10,9 @@ candidate designs at once) on uniform segments that resolve every time constant,
 refined between grid points; the sweep is the exact discretisation of the cascade
 ``H(s) G(s)`` for a load ramping linearly between samples (first-order hold), the method
 python-control's ``forced_response`` uses. python-control itself is the independent check:
-the tests hold both figures against it, and ``creepcomp simulate`` against ngspice. (It is not
-imported here: importing it costs more than a whole ``creepcomp size``.)
+the tests hold both figures against it, and ``creepcomp simulate`` against ngspice. (Only
+:func:`corrected_system` imports it, when called: its import costs more than a whole
+``creepcomp size``.)
 """
 
 from __future__ import annotations
