@@ -13,7 +13,8 @@ from scipy import linalg
 from creepcomp.fit.data import Data
 
 __all__ = ["MAX_AR_ORDER", "ARNoise", "rows_for", "whiten", "fit_noise", "ljung_box",
-           "autocorrelation", "spectral_variance", "gaussian_bic"]
+           "autocorrelation", "spectral_variance", "gaussian_bic", "FLOOR_WINDOW", "MISFIT_LIMIT",
+           "NoiseFloor", "noise_floor", "quantisation_step", "misfit_ratio", "explained_share"]
 
 #: Largest order of the autoregressive noise model.
 MAX_AR_ORDER = 5
@@ -145,3 +146,135 @@ def _smooth_log(x: np.ndarray, min_half: int, fraction: float = 0.15) -> np.ndar
     hi = np.clip(k + half, 0, len(x) - 1)
     c = np.concatenate([[0.0], np.cumsum(x)])
     return (c[hi + 1] - c[lo]) / (hi - lo + 1)
+
+
+# --------------------------------------------------------------------------------------------
+# The noise floor, measured apart from any creep model
+# --------------------------------------------------------------------------------------------
+
+#: Samples per window of the noise-floor estimate: long enough that noise correlated over a
+#: few tens of samples stays in the window's residual, short enough that a quadratic follows
+#: creep within it.
+FLOOR_WINDOW = 96
+#: A misfit ratio (residual RMS / noise floor) up to this is consistent with 1: the floor
+#: misses part of noise correlated over more than about a third of a window, and a drift.
+MISFIT_LIMIT = 1.5
+
+
+@dataclass(frozen=True)
+class NoiseFloor:
+    """RMS of a record's measurement noise, estimated without the creep model.
+
+    Attributes
+    ----------
+    rms : float
+        Noise RMS in signal units.
+    method : str
+        How it was estimated (``noise_floor_method``).
+    quantisation_step : float
+        Step of the signal's value grid (0: not quantised).
+    windows : int
+        Windows the estimate is the median of.
+    """
+
+    rms: float
+    method: str
+    quantisation_step: float
+    windows: int
+
+    def to_dict(self) -> dict:
+        """JSON form."""
+        return {"noise_floor": self.rms, "noise_floor_method": self.method,
+                "quantisation_step": self.quantisation_step or None}
+
+
+def quantisation_step(y: np.ndarray) -> float:
+    """The step of the grid the values lie on (the smallest change between successive samples,
+    when nearly all changes are whole multiples of it), or 0."""
+    d = np.abs(np.diff(np.asarray(y, float)))
+    scale = float(np.max(np.abs(y))) if len(y) else 0.0
+    d = d[d > 1e-9 * max(scale, 1e-300)]
+    if len(d) < 10:
+        return 0.0
+    q = float(np.min(d))
+    multiples = d / q
+    on_grid = np.abs(multiples - np.round(multiples)) <= 1e-3
+    return q if np.mean(on_grid) >= 0.99 else 0.0
+
+
+def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW) -> NoiseFloor:
+    """The measurement noise's RMS from the record alone (no creep model).
+
+    The record is cut into windows of ``window`` samples (not across gaps in the sampling);
+    in each, the signal is fitted by least squares with a quadratic in time plus the load
+    (so load steps and load noise the signal follows do not count as noise), and the median of
+    the windows' residual variances (corrected for the parameters and for the median's bias)
+    is the noise variance: windows with a creep transient or a jump are few and do not move
+    the median. A signal on a value grid of step ``q`` has at least ``q**2 / 12``.
+
+    Parameters
+    ----------
+    signal : array_like
+    load : array_like, optional
+        The input the signal follows (the load; on the circuit side the network's input).
+    time : array_like, optional
+        Sample times (default: sample numbers).
+    window : int
+
+    Returns
+    -------
+    NoiseFloor
+    """
+    y = np.asarray(signal, float)
+    n = len(y)
+    t = np.arange(n, dtype=float) if time is None else np.asarray(time, float)
+    x = None if load is None else np.asarray(load, float)
+    w = int(min(window, max(8, n // 4)))
+    dt = np.diff(t)
+    breaks = np.flatnonzero(dt > 5.0 * np.median(dt)) + 1 if n > 2 else np.array([], int)
+    edges = np.concatenate([[0], breaks, [n]])
+    variances, dofs = [], []
+    for a, b in zip(edges[:-1], edges[1:]):
+        for start in range(a, b - w + 1, w):
+            sl = slice(start, start + w)
+            tt = t[sl] - t[sl].mean()
+            span = max(float(np.ptp(tt)), 1e-300)
+            cols = [np.ones(w), tt / span, (tt / span) ** 2]
+            if x is not None and np.ptp(x[sl]) > 0:
+                cols.append(x[sl] - x[sl].mean())
+            a_ = np.column_stack(cols)
+            coef, *_ = np.linalg.lstsq(a_, y[sl], rcond=None)
+            r = y[sl] - a_ @ coef
+            dof = w - a_.shape[1]
+            variances.append(float(r @ r) / dof)
+            dofs.append(dof)
+    q = quantisation_step(y)
+    if variances:
+        k = float(np.median(dofs))
+        # median of chi2(k)/k (Wilson-Hilferty)
+        var = float(np.median(variances)) / (1.0 - 2.0 / (9.0 * k)) ** 3
+    else:
+        var = 0.0
+    method = (f"median over {len(variances)} windows of {w} samples of the residual variance "
+              f"of a local quadratic in time plus the load")
+    if q > 0 and var < q * q / 12.0:
+        var = q * q / 12.0
+        method += f"; raised to the quantisation floor step^2/12 (step {q:.4g})"
+    return NoiseFloor(float(np.sqrt(var)), method, q, len(variances))
+
+
+def misfit_ratio(residual_rms: float, floor: NoiseFloor | float) -> float | None:
+    """Residual RMS over the noise floor (None when the floor is zero)."""
+    f = floor.rms if isinstance(floor, NoiseFloor) else float(floor)
+    return float(residual_rms / f) if f > 0 else None
+
+
+def explained_share(baseline_rms: float, extended_rms: float, floor: NoiseFloor | float) -> float | None:
+    """Share of the baseline's misfit variance above the floor that the extended model removes,
+    ``1 - (ext^2 - floor^2) / (base^2 - floor^2)`` clipped to [0, 1] (None when the baseline
+    is at the floor: nothing to explain)."""
+    f = floor.rms if isinstance(floor, NoiseFloor) else float(floor)
+    excess = baseline_rms ** 2 - f ** 2
+    if excess <= 0:
+        return None
+    return float(min(1.0, max(0.0, 1.0 - (extended_rms ** 2 - f ** 2) / excess)))
