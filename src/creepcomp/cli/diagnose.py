@@ -104,6 +104,15 @@ def render_diagnosis(record, d: Diagnosis) -> None:
                   f"({format_percent(b['residual_rms_relative'])} of the signal's range), held out "
                   f"{b['heldout_residual_rms']:.4g} {su}; noise {b['noise']['model']}, residual lag-1 "
                   f"autocorrelation {b['residual_lag1_autocorrelation']:.3f}")
+    if d.floor is not None:
+        from creepcomp.fit.noise import MISFIT_LIMIT
+
+        share = d.explained_share
+        console.print(f"noise floor {d.floor.rms:.4g} {su} (measured without the model: {d.floor.method}); "
+                      f"misfit ratio (residual RMS / floor) baseline {_ratio(d.misfit_ratio(d.baseline))}, "
+                      f"extended {_ratio(d.misfit_ratio(d.extended))} (consistent with noise up to "
+                      f"{MISFIT_LIMIT:g}); explained share of the excess misfit "
+                      f"{'-' if share is None else format_percent(share)}")
     console.print(f"[bold]cause: {d.cause}[/bold]")
     if d.findings:
         t = Table(title="Findings (most important first)", title_justify="left")
@@ -115,9 +124,12 @@ def render_diagnosis(record, d: Diagnosis) -> None:
             t.add_row(f.effect, params, f"{f.evidence.delta_bic:.1f}", f"{f.evidence.heldout_rms_ratio:.3g}",
                       f"{f.evidence.heldout_z:.1f}")
         console.print(t)
+        for f in d.findings:
+            if f.note:
+                console.print(f"{f.effect}: {f.note}")
     else:
-        console.print("no effect is supported by the evidence: no candidate predicts held-out data "
-                      "better than the baseline (that alone does not show the residual above is noise)")
+        console.print("no effect is supported by the evidence, and the baseline's misfit is consistent "
+                      "with the noise floor: the paper's model explains the record to its noise")
     t = Table(title=f"Candidates (accepted: ΔBIC <= -{BIC_STRONG:g} and held-out z >= {HELDOUT_Z:g})",
               title_justify="left")
     for col in ("step", "effect", "ΔBIC", "held-out z", "outcome"):
