@@ -543,6 +543,10 @@ _HEADER_TOP = """\
 #define @PU@_BOUND_FS @BOUND_FS@
 #define @PU@_MODEL_ID @MODEL_ID@
 #define @PU@_SAVED_WORDS (2 + 2 * @PU@_TERMS)
+
+#ifdef __cplusplus
+extern "C" {   /* C linkage when included from C++ (an Arduino sketch) */
+#endif
 """
 
 _HEADER_API = """
@@ -556,6 +560,9 @@ void @P@_save(const @P@_state *s, @P@_saved *out);
 /* Returns 0, or -1 for a block of another model, -2 for a corrupted block (state unchanged). */
 int @P@_restore(@P@_state *s, const @P@_saved *in);
 
+#ifdef __cplusplus
+}
+#endif
 #endif
 """
 
@@ -842,6 +849,9 @@ void @P@_init(@P@_state *s);
 void @P@_settle(@P@_state *s, float raw);
 float @P@_step(@P@_state *s, float raw);
 
+#ifdef __cplusplus
+}
+#endif
 #endif
 """
 
