@@ -26,8 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from creepcomp.digital.firmware import error_bound, generate, naive_float32
-from creepcomp.digital.firmware_check import verify
+from creepcomp.digital.firmware import firmware_bound, generate_firmware, naive_float32
+from creepcomp.digital.firmware_check import verify_firmware
 from creepcomp.model import CreepModel
 
 MODEL = CreepModel(beta=(0.01, 0.01, 0.015), tau=(5.0, 50.0, 500.0))
@@ -68,13 +68,13 @@ def three_term_table(samples: int) -> list[str]:
     for label, (t, signal, fs) in records.items():
         for precision in ("float32", "q31"):
             for method in ("subtractive", "supplemental"):
-                fw = generate(MODEL, method, precision, RATE, fs)
-                check = verify(fw, t, signal)
+                fw = generate_firmware(MODEL, method, precision, RATE, fs)
+                check = verify_firmware(fw, t, signal)
                 assert check.passed, (precision, method)
                 rows.append(f"| {label} | {precision} | {method} | {fw.bound.total_fs:.2e} | "
                             f"{check.max_error_fs:.2e} | {check.ns_per_sample:.1f} | {check.object_bytes} |")
         for method in ("subtractive", "supplemental"):
-            check = verify(naive_float32(MODEL, method, RATE, fs), t, signal)
+            check = verify_firmware(naive_float32(MODEL, method, RATE, fs), t, signal)
             rows.append(f"| {label} | naive float32 | {method} | none | {check.max_error_fs:.2e} "
                         f"| {check.ns_per_sample:.1f} | {check.object_bytes} |")
     return rows
@@ -86,7 +86,7 @@ def sweep_tau_rate(figure: Path | None) -> list[str]:
     load = np.where((np.arange(n) // 20_000) % 2 == 1, 1.0, 0.0)
     grid = np.logspace(np.log10(3), np.log10(3e6), 40)
     points = np.array([3, 30, 300, 3e3, 3e4, 3e5, 3e6])
-    bounds = {p: [error_bound(CreepModel((0.015,), (g / rate,)), "subtractive", p, rate, 1.0).total_fs
+    bounds = {p: [firmware_bound(CreepModel((0.015,), (g / rate,)), "subtractive", p, rate, 1.0).total_fs
                   for g in grid] for p in ("float32", "q31")}
     measured = {"float32": [], "q31": [], "naive float32": []}
     rows = ["| tau * rate | bound float32 | measured float32 | bound q31 | measured q31 | naive float32 measured |",
@@ -97,12 +97,12 @@ def sweep_tau_rate(figure: Path | None) -> list[str]:
         fs = float(np.max(np.abs(signal)))
         row = [f"{g:.0e}"]
         for p in ("float32", "q31"):
-            fw = generate(model, "subtractive", p, rate, fs)
-            check = verify(fw, t, signal, repeats=1)
+            fw = generate_firmware(model, "subtractive", p, rate, fs)
+            check = verify_firmware(fw, t, signal, repeats=1)
             assert check.passed, (p, g)
             measured[p].append(check.max_error_fs)
             row += [f"{fw.bound.total_fs:.2e}", f"{check.max_error_fs:.2e}"]
-        naive = verify(naive_float32(model, "subtractive", rate, fs), t, signal, repeats=1)
+        naive = verify_firmware(naive_float32(model, "subtractive", rate, fs), t, signal, repeats=1)
         measured["naive float32"].append(naive.max_error_fs)
         rows.append("| " + " | ".join(row + [f"{naive.max_error_fs:.2e}"]) + " |")
     if figure is not None:

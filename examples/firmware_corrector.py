@@ -35,8 +35,8 @@ from pathlib import Path
 import numpy as np
 
 from creepcomp import CreepModel, Record, compensate, creep_error, write_model, write_record
-from creepcomp.digital.firmware import FULL_SCALE_WORD, generate
-from creepcomp.digital.firmware_check import STRICT_FLAGS, verify
+from creepcomp.digital.firmware import FULL_SCALE_WORD, generate_firmware
+from creepcomp.digital.firmware_check import STRICT_FLAGS, verify_firmware
 from creepcomp.units import format_percent, format_quantity
 
 HERE = Path(__file__).resolve().parent / "firmware" / "hx711_scale"
@@ -93,7 +93,7 @@ def main(argv: list[str] | None = None) -> int:
     write_model(args.out / "model.json", SENSOR)
     record = synthetic_codes(longest, duration)
     write_record(args.out / "record.csv", record)
-    firmware = generate(SENSOR, "subtractive", "q31", RATE, FULL_SCALE)
+    firmware = generate_firmware(SENSOR, "subtractive", "q31", RATE, FULL_SCALE)
     sketch = args.out / "hx711_scale"
     sketch.mkdir(exist_ok=True)
     for name in ("hx711_scale.ino", "hx711_host.c", "hx711_host.h"):
@@ -124,7 +124,7 @@ def main(argv: list[str] | None = None) -> int:
         error = creep_error(record.time, values, record.load, SENSOR)
         print(f"  {label:<39}{error.peak / SENSOR.gain:>10.2f} g {format_percent(error.peak / FULL_SCALE):>10}")
     print("  (the corrected signal keeps the ADC's 2 counts of noise)")
-    check = verify(firmware, record.time, record.signal)
+    check = verify_firmware(firmware, record.time, record.signal)
     print(f"\ncorrector on this host: {check.ns_per_sample:.1f} ns per sample (gcc -O2), object "
           f"{check.object_bytes} bytes (text + data)")
     return 0 if sketch_error <= bound else 1

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from creepcomp.digital.firmware import error_bound, generate, naive_float32
+from creepcomp.digital.firmware import firmware_bound, generate_firmware, naive_float32
 from creepcomp.digital.firmware_check import (STRICT_FLAGS, Verification, compile_object,
-                                              verify)
+                                              verify_firmware)
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import write_model
 from creepcomp.io.records import Record, write_record
@@ -60,7 +60,7 @@ def record():
 @needs_gcc
 @pytest.mark.parametrize("precision,method", VARIANTS)
 def test_generated_code_compiles_strictly_and_calls_no_library_per_sample(tmp_path, precision, method):
-    fw = generate(MODEL, method, precision, RATE, 0.01, name="scale_fix")
+    fw = generate_firmware(MODEL, method, precision, RATE, 0.01, name="scale_fix")
     obj = compile_object(fw, tmp_path, flags=("-O0",))
     assert {"-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic"} <= set(STRICT_FLAGS)
     undefined = set(subprocess.run(["nm", "-u", obj], capture_output=True, text=True,
@@ -80,7 +80,7 @@ def test_generated_code_compiles_strictly_and_calls_no_library_per_sample(tmp_pa
 
 @pytest.mark.parametrize("precision,method", VARIANTS)
 def test_bound_of_the_three_term_model_meets_the_target(precision, method):
-    bound = error_bound(MODEL, method, precision, RATE, 0.01)
+    bound = firmware_bound(MODEL, method, precision, RATE, 0.01)
     assert 0 < bound.total_fs <= 1e-5
     assert bound.total_fs == pytest.approx(sum(bound.terms.values()), rel=1e-5)
     assert bound.peak_fs > 1.0                      # the inverse filter overshoots a step
@@ -89,9 +89,9 @@ def test_bound_of_the_three_term_model_meets_the_target(precision, method):
 def test_float32_bound_counts_the_offset_and_q31_does_not():
     far = CreepModel(MODEL.beta, MODEL.tau, offset=1000.0)
     near = CreepModel(MODEL.beta, MODEL.tau, offset=0.0)
-    f_far, f_near = (error_bound(m, "subtractive", "float32", RATE, 1.0).total_fs for m in (far, near))
+    f_far, f_near = (firmware_bound(m, "subtractive", "float32", RATE, 1.0).total_fs for m in (far, near))
     assert f_far > 100 * f_near                     # raw values of 1000 FS lose 10 bits in float32
-    q_far, q_near = (error_bound(m, "subtractive", "q31", RATE, 1.0).total_fs for m in (far, near))
+    q_far, q_near = (firmware_bound(m, "subtractive", "q31", RATE, 1.0).total_fs for m in (far, near))
     assert q_far == pytest.approx(q_near, rel=1e-9)
 
 
@@ -99,8 +99,8 @@ def test_float32_bound_counts_the_offset_and_q31_does_not():
 @pytest.mark.parametrize("precision,method", VARIANTS)
 def test_measured_error_within_the_bound_on_steps_sweeps_and_swings(record, precision, method):
     t, _, signal = record
-    fw = generate(MODEL, method, precision, RATE, full_scale(MODEL, signal))
-    check = verify(fw, t, signal, repeats=1)
+    fw = generate_firmware(MODEL, method, precision, RATE, full_scale(MODEL, signal))
+    check = verify_firmware(fw, t, signal, repeats=1)
     assert check.samples == len(t)
     assert 0 < check.max_error_fs <= fw.bound.total_fs
     assert check.passed and check.ns_per_sample > 0 and check.object_bytes > 0
@@ -110,8 +110,8 @@ def test_measured_error_within_the_bound_on_steps_sweeps_and_swings(record, prec
 def test_naive_float32_recursion_exceeds_the_bound(record):
     t, _, signal = record
     fs = full_scale(MODEL, signal)
-    naive = verify(naive_float32(MODEL, "subtractive", RATE, fs), t, signal, repeats=1)
-    bound = error_bound(MODEL, "subtractive", "float32", RATE, fs).total_fs
+    naive = verify_firmware(naive_float32(MODEL, "subtractive", RATE, fs), t, signal, repeats=1)
+    bound = firmware_bound(MODEL, "subtractive", "float32", RATE, fs).total_fs
     assert naive.bound_fs is None and naive.passed
     assert naive.max_error_fs > 5 * bound
 
@@ -124,8 +124,8 @@ def test_long_hold_of_a_million_time_constants(precision, method):
     t = np.arange(n) / rate
     load = np.where(t >= 0.5, 1.0, 0.0)
     signal = model.response(t, load, hold="zero")
-    fw = generate(model, method, precision, rate, full_scale(model, signal))
-    check = verify(fw, t, signal, repeats=1)
+    fw = generate_firmware(model, method, precision, rate, full_scale(model, signal))
+    check = verify_firmware(fw, t, signal, repeats=1)
     assert check.max_error_fs <= fw.bound.total_fs
 
 
@@ -144,8 +144,8 @@ def test_random_models_stay_within_their_bound(data):
     precision = data.draw(st.sampled_from(["float32", "q31"]), label="precision")
     method = data.draw(st.sampled_from(["subtractive", "supplemental"]), label="method")
     t, _, signal = mixed_record(model, rate, 20_000, seed=data.draw(st.integers(0, 99), label="seed"))
-    fw = generate(model, method, precision, rate, full_scale(model, signal))
-    check = verify(fw, t, signal, repeats=1)
+    fw = generate_firmware(model, method, precision, rate, full_scale(model, signal))
+    check = verify_firmware(fw, t, signal, repeats=1)
     assert check.max_error_fs <= fw.bound.total_fs
 
 
@@ -176,7 +176,7 @@ int main(void)
 @needs_gcc
 @pytest.mark.parametrize("precision", ["float32", "q31"])
 def test_state_saved_and_restored_across_a_power_cycle(tmp_path, precision):
-    fw = generate(MODEL, "subtractive", precision, RATE, 0.01)
+    fw = generate_firmware(MODEL, "subtractive", precision, RATE, 0.01)
     obj = compile_object(fw, tmp_path)
     kind, value = ("float", "0.009f") if precision == "float32" else ("int32_t", "900000000")
     (tmp_path / "main.c").write_text(SAVE_RESTORE_TEST.replace("creep_input", kind)
@@ -189,16 +189,16 @@ def test_state_saved_and_restored_across_a_power_cycle(tmp_path, precision):
 
 def test_q31_refuses_a_model_outside_its_word_range():
     with pytest.raises(InputError, match="q31 needs -0.5 < beta0"):
-        generate(CreepModel(beta=(-0.3, -0.3), tau=(1.0, 10.0)), precision="q31", rate=10.0)
+        generate_firmware(CreepModel(beta=(-0.3, -0.3), tau=(1.0, 10.0)), precision="q31", rate=10.0)
 
 
 def test_bad_arguments_are_refused_with_a_message():
     with pytest.raises(InputError, match="precision 'q15'"):
-        generate(MODEL, precision="q15")
+        generate_firmware(MODEL, precision="q15")
     with pytest.raises(InputError, match="rate"):
-        generate(MODEL, rate=0.0)
+        generate_firmware(MODEL, rate=0.0)
     with pytest.raises(InputError, match="C identifier"):
-        generate(MODEL, name="my-scale")
+        generate_firmware(MODEL, name="my-scale")
 
 
 # ------------------------------------------------------------------------------- command line
@@ -260,7 +260,7 @@ def test_cli_measured_error_above_the_bound_fails_with_status_3(run_cli, cli_fil
         return Verification(samples=len(time), max_error_fs=2 * fw.bound.total_fs, worst_sample=7,
                             ns_per_sample=1.0, object_bytes=1, bound_fs=fw.bound.total_fs)
 
-    monkeypatch.setattr(firmware_check, "verify", too_large)
+    monkeypatch.setattr(firmware_check, "verify_firmware", too_large)
     _, rec, model = cli_files
     status, out, err = run_cli("firmware", model, "--verify", rec, "--json")
     assert status == 3

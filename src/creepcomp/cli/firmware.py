@@ -43,7 +43,7 @@ def firmware_command(
 ) -> None:
     """Write the creep corrector of a model as C99 with its proven error bound; verify it."""
     from creepcomp.digital.correctors import uniform_interval
-    from creepcomp.digital.firmware import PRECISIONS, generate
+    from creepcomp.digital.firmware import PRECISIONS, generate_firmware
     from creepcomp.io.jsonfiles import read_model
     from creepcomp.io.records import parse_columns, read_record
 
@@ -54,11 +54,12 @@ def firmware_command(
     model = read_model(model_file)
     rate_hz = quantity(rate, "hertz", "--rate", positive=True)
     scale = quantity(full_scale, "number", "--full-scale", positive=True)
-    record = None
+    record, unit = None, "signal units"
     if verify_record is not None:
         import numpy as np
 
         record = read_record(verify_record, columns=parse_columns(columns))
+        unit = record.unit("signal") or unit
         dt = uniform_interval(record.time)
         if rate_hz is None:
             if dt is None:
@@ -75,17 +76,17 @@ def firmware_command(
     if scale is None:
         raise InputError("give the input range the bound assumes: --full-scale VALUE, the largest "
                          "|signal - offset| in signal units")
-    firmware = generate(model, method, precision, rate_hz, scale, name)
+    firmware = generate_firmware(model, method, precision, rate_hz, scale, name)
     files = [] if output is None else [str(p) for p in firmware.write(output)]
     result = {"model": str(model_file), "method": method, "precision": precision,
               "rate": firmware.rate, "full_scale": firmware.full_scale, "name": name,
-              "files": files, "bound_fs": firmware.bound.total_fs,
+              "signal_unit": unit, "files": files, "bound_fs": firmware.bound.total_fs,
               "bound": firmware.bound.to_dict()}
     check = None
     if record is not None:
-        from creepcomp.digital.firmware_check import verify
+        from creepcomp.digital.firmware_check import verify_firmware
 
-        check = verify(firmware, record.time, record.signal)
+        check = verify_firmware(firmware, record.time, record.signal)
         result.update(check.to_dict())
         result["record"] = str(verify_record)
     if as_json:
@@ -103,7 +104,7 @@ def _render(result: dict, firmware, check) -> None:
 
     console.print(f"[bold]creepcomp firmware[/bold]: {result['model']}, {result['method']} method, "
                   f"{result['precision']}, {format_quantity(result['rate'], 'Hz')}, full scale "
-                  f"{result['full_scale']:.6g} (signal units)", soft_wrap=True)
+                  f"{result['full_scale']:.6g} {result['signal_unit']}", soft_wrap=True)
     table = Table(title="Proven worst-case error against the float64 corrector",
                   title_justify="left")
     table.add_column("part")

@@ -17,7 +17,7 @@ of a single-precision state. So the state is held wider than the arithmetic:
   ``2**60`` per full scale; coefficients are 31-bit mantissas with a shift (relative error
   ``2**-31`` however small ``a_k`` is); every product fits a 64-bit integer.
 
-The worst-case error bound (:func:`error_bound`) follows the arithmetic: each operation's rounding
+The worst-case error bound (:func:`firmware_bound`) follows the arithmetic: each operation's rounding
 and each stored coefficient's error is a local error; the state errors obey
 ``d[n+1] = M d[n] + a eps[n] + eta[n]`` with ``M = I - diag(a) - a beta^T`` (the corrector's own
 recursion), so a local error reaches the output through the impulse response of that recursion,
@@ -37,7 +37,7 @@ from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 
 __all__ = ["PRECISIONS", "FULL_SCALE_WORD", "REFERENCE_ALLOWANCE", "ErrorBound", "Firmware",
-           "error_bound", "generate", "naive_float32"]
+           "firmware_bound", "generate_firmware", "naive_float32"]
 
 PRECISIONS = ("float32", "q31")
 #: q31: the input word of a full-scale signal (the words keep one bit of headroom).
@@ -241,7 +241,7 @@ def _stored(c: dict, precision: str) -> dict:
 
 # ------------------------------------------------------------------------------- the bound
 
-def error_bound(model: CreepModel, method: str = "subtractive", precision: str = "float32",
+def firmware_bound(model: CreepModel, method: str = "subtractive", precision: str = "float32",
                 rate: float = 100.0, full_scale: float = 1.0) -> ErrorBound:
     """Proven worst-case difference between the generated C corrector and the exact one.
 
@@ -368,7 +368,7 @@ def _qty(value: float, unit: str) -> str:
     return format_quantity(value, unit, digits=6)
 
 
-def generate(model: CreepModel, method: str = "subtractive", precision: str = "float32",
+def generate_firmware(model: CreepModel, method: str = "subtractive", precision: str = "float32",
              rate: float = 100.0, full_scale: float = 1.0, name: str = "creep") -> Firmware:
     """Generate the C99 corrector of a model, with its derivation and error bound in comments.
 
@@ -393,7 +393,7 @@ def generate(model: CreepModel, method: str = "subtractive", precision: str = "f
     Firmware
     """
     _check(model, method, precision, rate, full_scale, name)
-    bound = error_bound(model, method, precision, rate, full_scale)
+    bound = firmware_bound(model, method, precision, rate, full_scale)
     c = _coefficients(model, rate)
     st = _stored(c, precision)
     text = _FLOAT32 if precision == "float32" else _Q31
@@ -469,13 +469,20 @@ def _bound_lines(bound: ErrorBound, full_scale: float) -> list[str]:
     return lines
 
 
+def _version() -> str:
+    from importlib import metadata
+
+    try:
+        return metadata.version("creepcomp")
+    except metadata.PackageNotFoundError:
+        return "(version unknown)"
+
+
 def _comment(lines) -> str:
     return "\n".join((" * " + line).rstrip() for line in lines)
 
 
 def _substitutions(model, method, precision, rate, full_scale, name, c, st, bound) -> dict:
-    from creepcomp import __version__
-
     k = model.n_terms
     derivation = _derivation(model, method, precision, rate, full_scale, c, st)
     bound_text = (_bound_lines(bound, full_scale) if bound is not None else
@@ -483,7 +490,7 @@ def _substitutions(model, method, precision, rate, full_scale, name, c, st, boun
                    "for comparison only, do not deploy."])
     command = (f"creepcomp firmware MODEL --method {method} --precision {precision} "
                f"--rate {rate:.9g} --full-scale {full_scale:.9g} --name {name}")
-    sub = {"@P@": name, "@PU@": name.upper(), "@K@": str(k), "@VERSION@": __version__,
+    sub = {"@P@": name, "@PU@": name.upper(), "@K@": str(k), "@VERSION@": _version(),
            "@COMMAND@": command, "@DERIVATION@": _comment(derivation), "@BOUND@": _comment(bound_text),
            "@RATE@": repr(float(rate)), "@FS@": repr(float(full_scale)), "@OFFSET@": repr(float(model.offset)),
            "@BOUND_FS@": f"{bound.total_fs:.3e}" if bound is not None else "-1.0",

@@ -16,7 +16,7 @@ from creepcomp.errors import CreepcompError, InputError
 from creepcomp.digital.firmware import Firmware
 
 __all__ = ["STRICT_FLAGS", "Verification", "find_compiler", "compile_object", "run_firmware",
-           "verify"]
+           "verify_firmware"]
 
 #: The flags the generated code must compile under without a warning.
 STRICT_FLAGS = ("-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic")
@@ -142,7 +142,7 @@ def run_firmware(firmware: Firmware, signal, start: str, repeats: int = 5,
         return y, float(out.strip()), _object_bytes(obj)
 
 
-def verify(firmware: Firmware, time, signal, repeats: int = 5, compiler: str | None = None) -> Verification:
+def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler: str | None = None) -> Verification:
     """Run the generated corrector over a record and compare it with :func:`compensate`.
 
     The record must be sampled at the firmware's rate and stay within its full scale (the
