@@ -199,6 +199,8 @@ def test_bad_arguments_are_refused_with_a_message():
         generate_firmware(MODEL, rate=0.0)
     with pytest.raises(InputError, match="C identifier"):
         generate_firmware(MODEL, name="my-scale")
+    with pytest.raises(InputError, match="C identifier"):
+        generate_firmware(MODEL, name="")
 
 
 # ------------------------------------------------------------------------------- command line

@@ -150,7 +150,7 @@ def _check(model: CreepModel, method: str, precision: str, rate: float, full_sca
         raise InputError(f"rate = {rate!r}: the sample rate must be positive and finite (Hz)")
     if not (full_scale > 0 and math.isfinite(full_scale)):
         raise InputError(f"full scale = {full_scale!r}: must be positive and finite (signal units)")
-    if not (name.isascii() and name.replace("_", "a").isalnum() and not name[0].isdigit()):
+    if not (name and name.isascii() and name.replace("_", "a").isalnum() and not name[0].isdigit()):
         raise InputError(f"name '{name}': a C identifier is needed (letters, digits, '_'; "
                          "not starting with a digit)")
     check_invertible(model)
