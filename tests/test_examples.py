@@ -20,7 +20,7 @@ from creepcomp.units import parse_quantity
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
 SCRIPTS = ("size_network", "ngspice_proof", "tolerance_report", "correct_record",
-           "diagnose_record", "diagnose_built_network")
+           "diagnose_record", "diagnose_built_network", "firmware_corrector")
 #: A percentage as the examples print it, e.g. ``0.029 %``, ``-0.0262 %``, ``2.22e-14 %``.
 PERCENT = r"(-?[0-9.]+(?:e[-+]\d+)?) %"
 #: A value with an SI prefix and a unit, e.g. ``1.2 MΩ``, ``501.5 nV``.
@@ -166,3 +166,20 @@ def test_diagnose_built_network_finds_the_fault_and_the_fix(tmp_path):
     built = read_design(tmp_path / "as-built-design.json")
     assert max(c.C for c in built.network.cells) == pytest.approx(truth["C"], rel=0.01)
     assert "ngspice, as-built network" not in stdout                 # --fast: not run
+
+
+def test_firmware_corrector_sketch_within_its_bound(tmp_path):
+    stdout = run_example("firmware_corrector", tmp_path)
+    written(tmp_path, "model.json", "record.csv", "hx711_scale/creep.h", "hx711_scale/creep.c",
+            "hx711_scale/hx711_scale.ino")
+    bound = float(re.search(r"proven worst-case error (\S+) of full scale", stdout).group(1))
+    assert 0 < bound <= 1e-5
+    if "gcc not found" in stdout:
+        return
+    written(tmp_path, "sketch-output.csv")
+    measured = float(re.search(r"largest difference from the float64 corrector (\S+) of full scale",
+                               stdout).group(1))
+    assert measured <= bound
+    raw, corrected = (float(g) for g in re.findall(r"(\d+\.\d+) g ", stdout))
+    assert corrected < raw / 100
+    assert re.search(r"[0-9.]+ ns per sample \(gcc -O2\), object \d+ bytes", stdout)
