@@ -48,10 +48,10 @@ def read_any(path: str | Path, columns: Mapping[str, str] | None = None, delimit
         raise InputError(f"{p}: a column mapping or delimiter applies to text records only "
                          f"(a {suffix} file's columns are fixed)")
     if suffix == ".mat":
-        from creepcomp.io.insole import rank_taxels, read_insole, read_insole_file
+        from creepcomp.io.insole import read_insole, read_insole_file, working_taxels
 
         if taxel is None:
-            good = ", ".join(str(r["taxel"]) for r in rank_taxels(read_insole_file(p), top=5))
+            good = working_taxels(read_insole_file(p))
             raise InputError(f"{p}: an insole file holds 280 taxels; name one (--taxel N), e.g. "
                              f"those that follow the pressure best: {good}")
         return read_insole(p, taxel)

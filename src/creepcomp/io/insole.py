@@ -23,7 +23,7 @@ from creepcomp.errors import InputError
 from creepcomp.io.records import Record
 
 __all__ = ["N_TAXELS", "FULL_SCALE", "DROPOUT_BELOW", "InsoleFile", "read_insole_file",
-           "taxel_problems", "rank_taxels", "insole_record", "read_insole"]
+           "taxel_problems", "rank_taxels", "working_taxels", "insole_record", "read_insole"]
 
 N_TAXELS = 280
 #: The counts are 8-bit: a taxel at 255 is clipped.
@@ -84,13 +84,14 @@ def read_insole_file(path: str | Path) -> InsoleFile:
         When the file is missing, not a MATLAB file, or lacks ``experiment.C`` / ``experiment.P``.
     """
     from scipy.io import loadmat
+    from scipy.io.matlab import MatReadError
 
     p = Path(path)
     if not p.exists():
         raise InputError(f"insole file {p}: no such file")
     try:
         mat = loadmat(str(p), squeeze_me=True, struct_as_record=False)
-    except (ValueError, TypeError, OSError, NotImplementedError) as exc:
+    except (MatReadError, ValueError, TypeError, OSError, NotImplementedError) as exc:
         raise InputError(f"{p}: not a readable MATLAB file ({exc})") from None
     exp = mat.get("experiment")
     if exp is None or not hasattr(exp, "C") or not hasattr(exp, "P"):
@@ -137,6 +138,12 @@ def taxel_problems(counts: np.ndarray, time: np.ndarray | None = None) -> list[s
     return out
 
 
+def working_taxels(insole: InsoleFile, top: int = 5) -> str:
+    """The ``top`` working taxels that follow the pressure best, as text for messages."""
+    good = [str(r["taxel"]) for r in rank_taxels(insole) if not r["problems"]][:top]
+    return ", ".join(good) or "none (every taxel has a problem)"
+
+
 def rank_taxels(insole: InsoleFile, top: int | None = None) -> list[dict]:
     """Taxels ordered by how closely their counts follow the pressure, working ones first.
 
@@ -181,9 +188,8 @@ def insole_record(insole: InsoleFile, taxel: int, allow_broken: bool = False) ->
     counts = insole.counts[:, taxel]
     problems = taxel_problems(counts, insole.time)
     if problems and not allow_broken:
-        good = ", ".join(str(r["taxel"]) for r in rank_taxels(insole, top=5))
         raise InputError(f"{insole.source}: taxel {taxel} {'; '.join(problems)}; taxels that follow "
-                         f"the pressure best: {good}")
+                         f"the pressure best: {working_taxels(insole)}")
     metadata = {"units.load": "bar", "units.signal": "counts", "insole.taxel": str(taxel),
                 "insole.alignment": insole.alignment,
                 "insole.sign": "the counts fall as the pressure rises: the gain is negative"}
