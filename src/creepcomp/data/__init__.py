@@ -6,11 +6,11 @@ synthetic force-sensor record that hides an effect the paper's model lacks (made
 network with a hidden fault and ``built_network_design()`` its nominal design (made by
 :data:`creepcomp.synth.circuit.DEMO_CIRCUIT_SPEC`). ``path(name)`` gives any file's path.
 
-Measured records of others, with their licences and sources beside them in ``real/``
-(``real/insole/SOURCE.md``, ``real/wood/SOURCE.md``): one taxel of each of two capacitive
-pressure insoles in an air chamber (:func:`insole_left_steps`, :func:`insole_right_staircase`;
-BSD-3-Clause) and tensile creep of spruce slices at two load levels (:func:`wood_creep`,
-:func:`wood_specimens`; MIT).
+Measured records of others, with their licences and sources beside them (``LICENSE`` and a
+source note in ``real/insole/`` and ``real/wood/``; see ``docs/real-data.md``): one taxel of
+each of two capacitive pressure insoles in an air chamber (:func:`insole_left_steps`,
+:func:`insole_right_staircase`; BSD-3-Clause) and tensile creep of spruce slices at two load
+levels (:func:`wood_creep`, :func:`wood_specimens`; MIT).
 """
 
 from __future__ import annotations
