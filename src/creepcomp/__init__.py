@@ -24,7 +24,7 @@ _API = {
     "LoadProgram": "creepcomp.programs", "step": "creepcomp.programs",
     "staircase": "creepcomp.programs", "triangle_sweep": "creepcomp.programs",
     "Record": "creepcomp.io.records", "read_record": "creepcomp.io.records",
-    "write_record": "creepcomp.io.records",
+    "write_record": "creepcomp.io.records", "read_any": "creepcomp.io.formats",
     "Design": "creepcomp.io.jsonfiles", "read_design": "creepcomp.io.jsonfiles",
     "read_model": "creepcomp.io.jsonfiles", "write_design": "creepcomp.io.jsonfiles",
     "write_model": "creepcomp.io.jsonfiles",

@@ -13,7 +13,7 @@ from creepcomp.io.jsonfiles import read_design
 from creepcomp.units import format_parameter, format_percent, format_quantity
 from creepcomp.cli.common import app, console, err_console, print_json
 from creepcomp.cli.fit import (COLUMNS_HELP, INITIAL_TEXT, describe_record, load_record,
-    record_options)
+    record_options, SHEET_OPTION, TAXEL_OPTION)
 
 if TYPE_CHECKING:
     from creepcomp.diagnose import CircuitDiagnosis, Diagnosis
@@ -45,11 +45,13 @@ def diagnose_command(
     spice_check: bool = typer.Option(True, "--spice-check/--no-spice-check",
                                      help="Run the as-built network in ngspice on the record."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object (docs/diagnosis.md)."),
+    taxel: Optional[int] = TAXEL_OPTION,
+    sheet: Optional[str] = SHEET_OPTION,
 ) -> None:
     """Fit the paper's model, find what it misses by evidence, extend it, measure the gain."""
     from creepcomp.diagnose import combine, diagnose, diagnose_circuit
 
-    record = load_record(record_path, columns, delimiter, duplicate_times)
+    record = load_record(record_path, columns, delimiter, duplicate_times, taxel, sheet)
     init, step = record_options(initial, load_step_at)
     sensor_candidates, circuit_candidates = split_candidates(effects)
     circuit = None

@@ -10,7 +10,7 @@ from rich.table import Table
 
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import write_json
-from creepcomp.io.records import Record, parse_columns, read_record
+from creepcomp.io.records import Record, parse_columns
 from creepcomp.units import format_percent, format_quantity
 from creepcomp.cli.common import app, console, print_json, quantity
 
@@ -19,17 +19,24 @@ if TYPE_CHECKING:
 
 COLUMNS_HELP = ("Map the file's columns to time, load, signal (temperature, corrected), e.g. "
                 "'time=Step time,signal=Strain,load=Stress'; a number is a constant column (load=1).")
+# other measured files (creepcomp.io.formats): the insole .mat files' taxel, the workbooks' sheet
+TAXEL_OPTION = typer.Option(None, "--taxel", metavar="N", help="Taxel (0-279) of an insole .mat file.")
+SHEET_OPTION = typer.Option(None, "--sheet", metavar="NAME", help="Sheet (specimen) of an .xlsx creep workbook.")
 
 
 def load_record(path: Path, columns: str | None, delimiter: str | None,
-                duplicate_times: str) -> Record:
-    """Read a record with the command line's mapping options."""
+                duplicate_times: str, taxel: int | None = None, sheet: str | None = None) -> Record:
+    """Read a record with the command line's mapping options (and, for insole ``.mat`` files
+    and creep ``.xlsx`` workbooks, their taxel or sheet)."""
+    from creepcomp.io.formats import read_any
+
     mode = duplicate_times.strip().lower()
     if mode not in ("error", "mean"):
         raise InputError(f"--duplicate-times '{duplicate_times}': use error or mean")
     delim = {"tab": "\t", "\\t": "\t", "comma": ",", "semicolon": ";"}.get(
         (delimiter or "").lower(), delimiter) or None
-    return read_record(path, parse_columns(columns), delimiter=delim, duplicate_times=mode)
+    return read_any(path, parse_columns(columns), delimiter=delim, duplicate_times=mode,
+                    taxel=taxel, sheet=sheet)
 
 
 def record_options(initial: str, load_step_at: str | None) -> tuple[str, float | None]:
@@ -80,9 +87,11 @@ def fit_command(
     plot: Optional[Path] = typer.Option(None, "--plot", metavar="FILE.png",
                                         help="Plot measured vs fitted and the residual."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object (the model file)."),
+    taxel: Optional[int] = TAXEL_OPTION,
+    sheet: Optional[str] = SHEET_OPTION,
 ) -> None:
     """Fit gain, offset and creep terms to a record; the number of terms by evidence."""
-    record = load_record(record_path, columns, delimiter, duplicate_times)
+    record = load_record(record_path, columns, delimiter, duplicate_times, taxel, sheet)
     init, step = record_options(initial, load_step_at)
     fixed = None
     if terms.strip().lower() != "auto":
