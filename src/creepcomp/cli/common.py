@@ -51,6 +51,23 @@ def value_range(text: str, kind: str, option: str) -> tuple[float, float]:
     return low, high
 
 
+#: Largest |beta0| (relative creep at infinite time) taken without a warning: elastomer
+#: sensors show a few % up to tens of %.
+PLAUSIBLE_BETA0 = 0.5
+
+
+def warn_creep(model, where: str) -> None:
+    """One warning line on stderr when the creep is beyond :data:`PLAUSIBLE_BETA0`."""
+    from creepcomp.units import format_percent
+
+    if abs(model.beta0) > PLAUSIBLE_BETA0:
+        err_console.print(f"creepcomp: warning: {where}: beta0 = {format_percent(model.beta0)} "
+                          f"(relative creep at infinite time, {model.beta0:g} as a fraction) is "
+                          f"beyond the {format_percent(PLAUSIBLE_BETA0)} elastomer sensors show; "
+                          "a percentage needs its % sign (3% or 0.03)",
+                          markup=False, highlight=False, soft_wrap=True)
+
+
 def print_json(obj) -> None:
     """Print one JSON object on stdout."""
     sys.stdout.write(to_json(obj) + "\n")

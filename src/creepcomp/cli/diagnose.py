@@ -10,6 +10,7 @@ from rich.table import Table
 
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_design
+from creepcomp.io.outputs import check_outputs
 from creepcomp.units import format_parameter, format_percent, format_quantity
 from creepcomp.cli.common import app, console, err_console, print_json
 from creepcomp.cli.fit import (COLUMNS_HELP, INITIAL_TEXT, describe_record, load_record,
@@ -49,6 +50,7 @@ def diagnose_command(
     """Fit the paper's model, find what it misses by evidence, extend it, measure the gain."""
     from creepcomp.diagnose import combine, diagnose, diagnose_circuit
 
+    check_outputs(dirs={"-o": output}, inputs=[record_path, design])
     record = load_record(record_path, columns, delimiter, duplicate_times)
     init, step = record_options(initial, load_step_at)
     sensor_candidates, circuit_candidates = split_candidates(effects)

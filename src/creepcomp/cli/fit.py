@@ -10,6 +10,7 @@ from rich.table import Table
 
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import write_json
+from creepcomp.io.outputs import check_outputs
 from creepcomp.io.records import Record, parse_columns, read_record
 from creepcomp.units import format_percent, format_quantity
 from creepcomp.cli.common import app, console, print_json, quantity
@@ -82,6 +83,7 @@ def fit_command(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object (the model file)."),
 ) -> None:
     """Fit gain, offset and creep terms to a record; the number of terms by evidence."""
+    check_outputs({"-o": output, "--plot": plot}, inputs=[record_path])
     record = load_record(record_path, columns, delimiter, duplicate_times)
     init, step = record_options(initial, load_step_at)
     fixed = None

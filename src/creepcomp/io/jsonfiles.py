@@ -106,6 +106,7 @@ def read_design(path: str | Path) -> Design:
         raise InputError(f"{where}: missing 'creep' (found keys: {', '.join(data)})")
     model = CreepModel.from_dict(data["creep"], where=f"{where}: 'creep'")
     network = Network.from_dict(data, where=where)
+    network.check_buildable(where)
     known = {"creep", "cells", "R2", "shunt", "source_resistance", "load_resistance"}
     return Design(model, network, {k: v for k, v in data.items() if k not in known})
 

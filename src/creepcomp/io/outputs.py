@@ -1,5 +1,6 @@
-"""Output paths checked before any work: not an input, in a folder that exists and can be
-written, not a folder where a file is wanted (and the reverse).
+"""Output paths checked before any work: not an input, in a folder that can be written (a
+missing folder is made later, as before, when its nearest existing parent is a writable
+folder), not a folder where a file is wanted (and the reverse).
 
 Every command that writes files calls :func:`check_outputs` first, so a long run never ends
 in "cannot write" and never overwrites the file it read; the files themselves are then
@@ -28,11 +29,12 @@ def _same(a: Path, b: Path) -> bool:
 
 
 def _writable_folder(folder: Path, option: str, path: Path) -> None:
-    """Refuse a folder that is missing, not a folder, or cannot take a new file."""
-    if not folder.exists():
-        raise InputError(f"{option} {path}: folder {folder} does not exist")
+    """Refuse a folder that is not a folder, or cannot take a new file (a missing folder is
+    judged by its nearest existing parent, where it would be made)."""
+    while not folder.exists() and not folder.is_symlink() and folder != folder.parent:
+        folder = folder.parent
     if not folder.is_dir():
-        raise InputError(f"{option} {path}: {folder} is not a folder")
+        raise InputError(f"{option} {path}: {folder} is a file, not a folder")
     # os.access alone is not enough (root, read-only mounts): try to create a file there
     try:
         with tempfile.TemporaryFile(dir=folder, prefix=".creepcomp-probe-"):
