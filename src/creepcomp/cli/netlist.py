@@ -19,6 +19,9 @@ from creepcomp.io.records import Record, parse_columns, read_record
 from creepcomp.units import format_quantity
 from creepcomp.cli.common import app, console, print_json, quantity
 
+#: Most time points of a synthetic drive.
+MAX_POINTS = 1_000_000
+
 PROGRAM_HELP = ("step: one load step; staircase: loading and unloading steps (the paper's "
                 "fig. 2); sweep: triangular sweep between -FS and +FS (its fig. 6).")
 
@@ -60,8 +63,9 @@ def read_drive(design_path: Path, program: str, record: Path | None, columns: st
         raise InputError(f"--program '{program}': choose one of {', '.join(PROGRAMS)}")
     if columns and record is None:
         raise InputError("--columns maps a record's columns: give --record FILE too")
-    if points < 10:
-        raise InputError(f"--points {points}: use at least 10")
+    if not 10 <= points <= MAX_POINTS:
+        raise InputError(f"--points {points}: use 10 to {MAX_POINTS} (more time points than a "
+                         "plot or a residual-creep figure needs, at a cost in time and memory)")
     duration_s = quantity(duration, "second", "--duration", positive=True)
     signal_v = quantity(signal, "volt", "--signal", positive=True)
     if record is not None:

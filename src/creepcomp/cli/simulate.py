@@ -15,7 +15,7 @@ from creepcomp.verify.drive import DEFAULT_POINTS
 from creepcomp.verify.netlist import write_deck
 from creepcomp.io.outputs import check_outputs
 from creepcomp.units import format_percent, format_quantity
-from creepcomp.cli.common import app, console, err_console, print_json
+from creepcomp.cli.common import app, console, err_console, print_json, progress_bar
 from creepcomp.cli.netlist import PROGRAM_HELP, read_drive
 
 
@@ -114,7 +114,9 @@ def simulate_command(
     net, model = drive.design.network, drive.design.model
     if drive.record is not None:
         rec = drive.record
-        comparison = compare_record(net, rec.time, rec.signal, name=f"record {rec.source}")
+        with progress_bar(f"simulating {len(rec)} samples (python-control, ngspice)",
+                          disable=as_json):
+            comparison = compare_record(net, rec.time, rec.signal, name=f"record {rec.source}")
     else:
         comparison = compare_program(net, model, drive.program, drive.duration, drive.points,
                                      drive.signal)
