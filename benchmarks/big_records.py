@@ -31,14 +31,12 @@ def make_record(path: Path, n: int, rate: float = 1000.0) -> None:
     sys.path.insert(0, str(ROOT / "src"))
     from creepcomp.io.records import Record, write_record
     from creepcomp.model import CreepModel
-    from creepcomp.programs import LoadProgram  # noqa: F401  (layout check only)
 
     t = np.arange(n) / rate
     edges = np.linspace(0, t[-1], 9)[1:-1]
     levels = np.array([0, 1, 2, 3, 2, 1, 3, 0], float)
     load = levels[np.searchsorted(edges, t, side="right")]
     model = CreepModel((0.03,), (45.0,))
-    from creepcomp.lti import LagExpansion  # noqa: F401
     # creep response: first-order lag of the load with gain beta
     a = np.exp(-1.0 / (rate * model.tau[0]))
     from scipy.signal import lfilter
@@ -47,16 +45,24 @@ def make_record(path: Path, n: int, rate: float = 1000.0) -> None:
     write_record(path, Record(t, load, signal, metadata={"units.signal": "mV", "units.load": "N"}))
 
 
+CHILD = ("import atexit, resource, sys\n"
+         "atexit.register(lambda: open(sys.argv[1], 'w').write("
+         "str(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)))\n"
+         "from creepcomp.cli import main\n"
+         "sys.exit(main(sys.argv[2:]))\n")
+
+
 def run(args: list[str], cwd: Path) -> dict:
-    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    """Run one command in a fresh process; its wall time and its own peak resident memory."""
+    peak_file = cwd / "peak.txt"
     start = time.perf_counter()
-    proc = subprocess.run([sys.executable, "-c", "import sys; from creepcomp.cli import main; "
-                           "sys.exit(main(sys.argv[1:]))", *args], cwd=cwd, capture_output=True,
-                          text=True, env={**os.environ, "PYTHONPATH": str(ROOT / "src")})
+    proc = subprocess.run([sys.executable, "-c", CHILD, str(peak_file), *args], cwd=cwd,
+                          capture_output=True, text=True,
+                          env={**os.environ, "PYTHONPATH": str(ROOT / "src")})
     seconds = time.perf_counter() - start
-    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    peak = int(peak_file.read_text()) if peak_file.exists() else None
     return {"args": " ".join(args), "status": proc.returncode, "seconds": seconds,
-            "peak_mb": peak / 1024 if peak > before else None,
+            "peak_mb": peak / 1024 if peak else None,
             "last": (proc.stderr.strip().splitlines() or proc.stdout.strip().splitlines() or [""])[-1]}
 
 
@@ -72,6 +78,8 @@ def main() -> None:
         make_record(rec, opts.samples)
         print(f"record: {opts.samples} samples, {rec.stat().st_size / 1e6:.0f} MB, float64 size "
               f"{3 * 8 * opts.samples / 1e6:.0f} MB, written in {time.perf_counter() - t0:.1f} s")
+        baseline = run(["size", "--beta0", "3%", "--tau", "45s"], tmp)
+        print(f"baseline (size, imports only): {baseline['peak_mb']:.0f} MB")
         fit = run(["fit", str(rec), "-o", str(tmp / "model.json")], tmp)
         runs = [fit,
                 run(["diagnose", str(rec), "--json"], tmp),
@@ -83,7 +91,7 @@ def main() -> None:
         print("| command | exit | wall time | peak memory | last line |")
         print("|---|---|---|---|---|")
         for r in runs:
-            peak = f"{r['peak_mb']:.0f} MB" if r["peak_mb"] else "≤ earlier peak"
+            peak = f"{r['peak_mb']:.0f} MB" if r["peak_mb"] else "n/a"
             print(f"| `{r['args'].replace(str(tmp) + '/', '')}` | {r['status']} | {r['seconds']:.1f} s | "
                   f"{peak} | {r['last'][:100]} |")
     finally:

@@ -33,7 +33,7 @@ def main(argv: list[str] | None = None) -> int:
     os.environ.setdefault("MPLBACKEND", "Agg")
     command = typer.main.get_command(app)
     try:
-        command.main(args=argv, prog_name="creepcomp", standalone_mode=False)
+        result = command.main(args=argv, prog_name="creepcomp", standalone_mode=False)
     except TyperException as exc:
         return fail(exc.format_message(), getattr(exc, "exit_code", 2) or 2)
     except CreepcompError as exc:
@@ -41,6 +41,10 @@ def main(argv: list[str] | None = None) -> int:
     except Exit as exc:
         return exc.exit_code
     except (Abort, KeyboardInterrupt):
+        return fail("interrupted", 130)
+    # Typer turns Ctrl-C into its exit status 130 and, outside standalone mode, returns it
+    # (a command itself returns None)
+    if result == 130:
         return fail("interrupted", 130)
     return 0
 
