@@ -203,7 +203,7 @@ def test_ctrl_c_halts_ngspice_and_removes_its_temporary_files(tmp_path):
                             cwd=tmp_path, preexec_fn=_default_sigint)
     # wait until ngspice's data file exists: the simulation is running
     deadline = time.monotonic() + 60
-    while time.monotonic() < deadline and not any(tmp.glob("creepcomp-*/*")):
+    while time.monotonic() < deadline and not any(tmp.glob("creepcomp-*/[!.]*")):
         time.sleep(0.05)
     time.sleep(0.3)
     sent = time.monotonic()

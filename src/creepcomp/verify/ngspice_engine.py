@@ -59,7 +59,8 @@ class _QuietPySpice(logging.Filter):
         self.running = False
 
     def filter(self, record: logging.LogRecord) -> bool:
-        if "Unsupported Ngspice version" in record.getMessage():
+        message = record.getMessage()
+        if "Unsupported Ngspice version" in message or "aren't any circuits loaded" in message:
             return False
         return not self.running
 
