@@ -35,7 +35,7 @@ def main(argv: list[str] | None = None) -> int:
     command = typer.main.get_command(app)
     try:
         # a command may end with typer.Exit(status) (firmware --verify: 3 when the bound fails)
-        status = command.main(args=argv, prog_name="creepcomp", standalone_mode=False)
+        result = command.main(args=argv, prog_name="creepcomp", standalone_mode=False)
     except TyperException as exc:
         return fail(exc.format_message(), getattr(exc, "exit_code", 2) or 2)
     except CreepcompError as exc:
@@ -44,7 +44,11 @@ def main(argv: list[str] | None = None) -> int:
         return exc.exit_code
     except (Abort, KeyboardInterrupt):
         return fail("interrupted", 130)
-    return status if isinstance(status, int) else 0
+    # Typer turns Ctrl-C into its exit status 130 and, outside standalone mode, returns it
+    # (a command itself returns None)
+    if result == 130:
+        return fail("interrupted", 130)
+    return result if isinstance(result, int) else 0
 
 
 def run() -> None:

@@ -10,10 +10,11 @@ from rich.table import Table
 
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_design
+from creepcomp.io.outputs import check_outputs
 from creepcomp.units import format_parameter, format_percent, format_quantity
-from creepcomp.cli.common import app, console, err_console, print_json
+from creepcomp.cli.common import app, console, print_json, progress_bar
 from creepcomp.cli.fit import (COLUMNS_HELP, INITIAL_TEXT, describe_record, load_record,
-    record_options, SHEET_OPTION, TAXEL_OPTION)
+    record_options, reduce_for_fit, SHEET_OPTION, TAXEL_OPTION)
 
 if TYPE_CHECKING:
     from creepcomp.diagnose import CircuitDiagnosis, Diagnosis
@@ -51,8 +52,13 @@ def diagnose_command(
     """Fit the paper's model, find what it misses by evidence, extend it, measure the gain."""
     from creepcomp.diagnose import combine, diagnose, diagnose_circuit
 
-    record = load_record(record_path, columns, delimiter, duplicate_times, taxel, sheet)
+    check_outputs(dirs={"-o": output}, inputs=[record_path, design])
     init, step = record_options(initial, load_step_at)
+    with progress_bar(f"reading {record_path.name}", disable=as_json) as update:
+        full = load_record(record_path, columns, delimiter, duplicate_times, taxel, sheet)
+        update(0, description="reducing the record")
+        record, reduction = reduce_for_fit(full)
+        del full
     sensor_candidates, circuit_candidates = split_candidates(effects)
     circuit = None
     if record.corrected is not None or design is not None:
@@ -60,9 +66,9 @@ def diagnose_command(
             raise InputError(f"{record.source}: --design was given but the record has no "
                              "'corrected' column")
         nominal = read_design(record.design_path(design))
-        with err_console.status("diagnosing the circuit side"):
+        with progress_bar("diagnosing the circuit side", disable=as_json):
             circuit = diagnose_circuit(record, nominal, spice_check=spice_check, candidates=circuit_candidates)
-    with err_console.status("diagnosing the sensor side"):
+    with progress_bar("diagnosing the sensor side", disable=as_json):
         result = diagnose(record, initial=init, load_step_at=step, candidates=sensor_candidates)
     units = {c: record.unit(c) for c in ("signal", "load")}
     paths = {}
@@ -72,6 +78,8 @@ def diagnose_command(
         paths = write_report(result, output, units, circuit=circuit)
     if as_json:
         out = result.to_dict() if circuit is None else combine(result.to_dict(), circuit)
+        if reduction:
+            out["record_reduction"] = reduction
         if paths:
             out["files"] = {k: str(v) for k, v in paths.items()}
         print_json(out)
@@ -79,6 +87,9 @@ def diagnose_command(
     render_diagnosis(record, result)
     if circuit is not None:
         render_circuit(circuit, record.unit("signal"))
+    for note in (reduction, result.reduced):
+        if note:
+            console.print(f"[yellow]note:[/yellow] {note}", soft_wrap=True)
     for label, path in paths.items():
         console.print(f"{label.replace('_', ' ')} written to {path}")
 

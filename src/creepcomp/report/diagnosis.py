@@ -9,6 +9,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
+from creepcomp.io.atomic import write_text_atomic
 from creepcomp.io.jsonfiles import to_json, write_design, write_json
 from creepcomp.fit.data import Data
 from creepcomp.fit.noise import autocorrelation
@@ -300,7 +301,7 @@ def write_report(diagnosis, out_dir, units: dict | None = None, circuit=None) ->
     out.mkdir(parents=True, exist_ok=True)
     paths = {"report": out / "report.html", "diagnosis": out / "diagnosis.json",
              "model": out / "model.json", "baseline_model": out / "baseline-model.json"}
-    paths["report"].write_text(render_html(diagnosis, units or {}, circuit=circuit), encoding="utf-8")
+    write_text_atomic(paths["report"], render_html(diagnosis, units or {}, circuit=circuit))
     if circuit is not None:
         from creepcomp.diagnose.circuit import combine
 
