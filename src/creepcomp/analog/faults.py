@@ -243,7 +243,10 @@ def suggest_fixes(as_built: Network, model: CreepModel, resistor_series: str = "
 
 
 def _has_faults(network: Network, label: str) -> bool:
-    """True when the capacitor ``label`` carries absorption or leakage."""
+    """True when the capacitor ``label`` carries absorption or leakage (a shunt branch's
+    ``C3`` has neither)."""
+    if not label.startswith("C1"):
+        return False
     k = int(label.split(".")[1]) - 1 if "." in label else 0
     cell = network.cells[k]
     return cell != cell.ideal()

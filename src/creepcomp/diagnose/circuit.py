@@ -49,6 +49,7 @@ from creepcomp.fit.noise import (MISFIT_LIMIT, NoiseFloor, autocorrelation, expl
 from creepcomp.fit.structure import Applied
 from creepcomp.io.jsonfiles import Design
 from creepcomp.io.records import Record
+from creepcomp.units import format_quantity
 
 __all__ = ["MAX_EFFECTS", "EQUIVALENT_BIC", "MISMATCH_RATIO", "PART_FACTOR", "FAULT_PRIOR", "evidence",
            "circuit_noise_floor", "implausible", "equivalent", "most_probable", "separating_measurement",
@@ -227,6 +228,20 @@ class CircuitDiagnosis:
         return {"nominal": step_peak(model, self.baseline.network)[0],
                 "as_built": step_peak(model, self.extended.network)[0]}
 
+    def explanation(self) -> list[str]:
+        """The verdict and, for each finding with alternatives, what the record cannot tell
+        apart and the measurement that would: lines of text for the report."""
+        lines = [self.verdict()]
+        for f in self.findings:
+            for a in f.alternatives:
+                params = ", ".join(f"{k} = {_format(k, v)}" for k, v in a["parameters"].items())
+                mine = ", ".join(f"{k} = {_format(k, v)}" for k, v in f.parameters.items())
+                lines.append(f"{f.effect} {f.part or ''} ({mine}) fits the record as well as {a['effect']} "
+                             f"{a['part'] or ''} ({params}), BIC {a['delta_bic']:+.1f}; {f.effect} is named, more "
+                             f"probable under the prior ({FAULT_PRIOR[f.effect]['why']}); to tell them apart: "
+                             f"{a['measurement']}".replace("  ", " "))
+        return lines
+
     def summary(self, fit: CircuitFit) -> dict:
         """Residual figures of one model."""
         rows = rows_for(self.data, None, 5)
@@ -256,6 +271,13 @@ class CircuitDiagnosis:
                                   "misfit_limit": MISFIT_LIMIT, "equivalent_bic_below": EQUIVALENT_BIC,
                                   "mismatch_ratio": MISMATCH_RATIO},
                 "fault_prior": {k: dict(v) for k, v in FAULT_PRIOR.items()}}
+
+
+def _format(name: str, value: float) -> str:
+    unit = {"R": "Ω", "C": "F", "tau": "s"}.get(name)
+    if name == "fraction":
+        return f"{100 * value:.3g} %"
+    return format_quantity(value, unit) if unit else f"{value:.4g}"
 
 
 def circuit_effects() -> list:
