@@ -79,7 +79,7 @@ def test_clean_network_is_none(seed):
     assert d.fixes == ()
     assert d.extended is d.baseline
     out = d.to_dict()
-    assert out["baseline"]["misfit_ratio"] <= MISFIT_LIMIT and out["explained_share"] is None
+    assert out["baseline"]["misfit_ratio"] <= MISFIT_LIMIT and not out["explained_share"]
     assert "explains the measured output to its noise" in d.verdict()
 
 
