@@ -173,6 +173,8 @@ def render_circuit(cd: CircuitDiagnosis, su: str) -> None:
                   f"the measured corrected: residual RMS {b.rms:.4g} {su} ({format_percent(b.rms / cd.data.scale)} of its "
                   f"range), held out {b.heldout.rms:.4g} {su}")
     console.print(f"[bold]circuit cause: {cd.cause}[/bold]")
+    for line in cd.explanation():
+        console.print(line, markup=False, highlight=False)
     if cd.findings:
         t = Table(title="Circuit findings (most important first)", title_justify="left")
         for col in ("effect", "part", "parameters (± 1 sigma)", "ΔBIC", "held-out RMS ratio", "held-out z"):
