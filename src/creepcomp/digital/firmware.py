@@ -699,8 +699,8 @@ def _bound_lines(bound: ErrorBound, full_scale: float) -> list[str]:
              f"for every input with |raw - offset| <= FS, from a relaxed or settled start. "
              f"Largest |S|: {bound.peak_fs:.6g} x FS.", "Parts (fraction of FS, times their gains):"]
     lines += [f"  {name}: {value:.3e}" for name, value in bound.terms.items()]
-    lines.append("Derivation: docs/firmware.md (local roundings through the l1 norm of the "
-                 "recursion's impulse response).")
+    lines.append("Derivation: docs/firmware.md (local roundings through the gains of the "
+                 "corrector's own recursion).")
     return lines
 
 
