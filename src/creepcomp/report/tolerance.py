@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import matplotlib.pyplot as plt
-import numpy as np
 
 from creepcomp.io.atomic import write_text_atomic
 from creepcomp.report.common import figure_data_uri, html_page, html_table
@@ -24,13 +23,14 @@ def tolerance_report_html(report, path: str | Path) -> Path:
     for ax, metric in zip(axes, ("peak", "final", "hysteresis")):
         v = 100 * r.metrics.get(metric)
         ax.hist(v, bins=80, color="#4477aa")
+        figures = r.percentiles(metric)
         for q, style in ((50, ":"), (99, "--")):
-            ax.axvline(np.percentile(v, q), color="k", ls=style, lw=1, label=f"p{q}")
+            ax.axvline(100 * figures[f"p{q}"], color="k", ls=style, lw=1, label=f"p{q}")
         if report.limit is not None and metric == report.metric:
             ax.axvline(100 * report.limit, color="#cc3311", lw=2, label="spec")
         ax.axvline(100 * report.nominal.get(metric)[0], color="#228833", lw=1.5, label="nominal")
         ax.set_xlabel(f"{names[metric]} (% of FS)")
-        ax.set_ylabel("samples")
+        ax.set_ylabel("samples" if r.kept == r.n else f"samples (first {r.kept:,} of {r.n:,})")
         ax.legend(fontsize=8)
     fig.tight_layout()
     hist = figure_data_uri(fig)
