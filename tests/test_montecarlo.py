@@ -210,3 +210,22 @@ def test_streaming_percentiles_stay_within_one_bin_as_the_range_grows():
         rank = q / 100 * (len(x) - 1)
         lo, hi = s[int(np.floor(rank))], s[int(np.ceil(rank))]
         assert lo - stream.resolution <= stream.percentile(q) <= hi + stream.resolution
+
+
+def test_html_tables_give_numbers_with_their_units(tmp_path):
+    from creepcomp.report.common import format_cell, format_named
+    from creepcomp.report.tolerance import tolerance_report_html
+
+    assert format_named("R2", 99000.0) == "99 kΩ" and format_named("C1", 0.00126) == "1.26 mF"
+    assert f"{format_named('tau', 150.4)} ± {format_named('tau', 0.5257)}" == "150.4 s ± 525.7 ms"
+    assert format_named("beta[0]", 0.03) == "3 %" and format_cell(float("nan"), "Ω") == "–"
+    rep = analyse(DESIGN, ToleranceSpec(load_resistance=(1e8, 1e11)), 3_000, sensitivity_samples=0,
+                  worst=True, spot_check_samples=1)
+    page = tolerance_report_html(rep, tmp_path / "r.html").read_text()
+    box = page[page.index("Tolerance box"):]
+    assert "<td>R1</td><td>3 MΩ</td>" in box and "<td>C1</td><td>15 µF</td>" in box
+    assert "<td>load_resistance</td><td>" in box and "GΩ" in box
+    worst = page[page.index("Worst case"):page.index("Tolerance box")]
+    assert "Ω</td>" in worst and "F</td>" in worst
+    if "No ngspice" not in page:
+        assert "<td>time per ngspice transient</td><td>" in page and "s</td>" in page

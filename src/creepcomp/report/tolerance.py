@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import html
 from pathlib import Path
 
 import matplotlib.pyplot as plt
 
 from creepcomp.io.atomic import write_text_atomic
-from creepcomp.report.common import figure_data_uri, html_page, html_table
+from creepcomp.report.common import figure_data_uri, format_named, html_page, html_table
+from creepcomp.units import format_quantity
 
 __all__ = ["tolerance_report_html"]
 
@@ -68,11 +70,22 @@ def tolerance_report_html(report, path: str | Path) -> Path:
         w = report.worst
         sections.append(("Worst case over the tolerance box", f"<p>{names[w.metric]}: <b>{pct(w.value)}</b> "
                          f"({w.method})</p>" + html_table(["factor", "value"],
-                                                          [[k, f"{v:.5g}"] for k, v in w.at.items()])))
+                                                          [[k, format_named(k, v)] for k, v in w.at.items()])))
     if report.spot_check is not None:
         sc = report.spot_check
-        sections.append(("ngspice spot-check", "<p>" + ", ".join(f"{k}: {v}" for k, v in sc.items()) + "</p>"))
-    factors_rows = [[f.name, f"{f.nominal:.5g}", f"{f.low:.5g}", f"{f.high:.5g}", f.distribution] for f in r.box]
+        if "error" in sc:
+            spot = f"<p>No ngspice spot-check: {html.escape(sc['error'])}</p>"
+        else:
+            per = sc.get("seconds_per_transient")
+            spot = html_table(["", ""], [
+                ["samples run through ngspice (a load step each)", str(sc["n"])],
+                ["largest difference from the engine (of the step)", pct(sc["agreement_max_abs"])],
+                ["time, all transients", format_quantity(sc["seconds"], "s")],
+                ["time per ngspice transient", format_quantity(per, "s") if per else "–"],
+                ["time per engine sample", format_quantity(r.seconds / r.n, "s")]])
+        sections.append(("ngspice spot-check", spot))
+    factors_rows = [[f.name, format_named(f.name, f.nominal), format_named(f.name, f.low),
+                     format_named(f.name, f.high), f.distribution] for f in r.box]
     sections.append(("Tolerance box", html_table(["factor", "nominal", "low", "high", "distribution"], factors_rows)))
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
