@@ -2,6 +2,7 @@
 record, and of ``mc --n 100000000`` (docs/benchmarks.md, "Big records").
 
     nice -n 10 python benchmarks/big_records.py [--samples 10000000] [--mc 100000000]
+        [--only fit,diagnose,correct,mc]
 
 Each command runs in its own process; peak memory is that process's maximum resident set
 (``resource.getrusage(RUSAGE_CHILDREN)`` after it ends, one child at a time). The record and
@@ -70,21 +71,30 @@ def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--samples", type=int, default=10_000_000)
     parser.add_argument("--mc", type=int, default=100_000_000)
+    parser.add_argument("--only", default="fit,diagnose,correct,mc",
+                        help="comma-separated cases to run (correct needs fit's model)")
     opts = parser.parse_args()
+    only = set(opts.only.split(","))
     tmp = Path(tempfile.mkdtemp(prefix="creepcomp-bench-"))
     try:
-        rec = tmp / "big.csv"
-        t0 = time.perf_counter()
-        make_record(rec, opts.samples)
-        print(f"record: {opts.samples} samples, {rec.stat().st_size / 1e6:.0f} MB, float64 size "
-              f"{3 * 8 * opts.samples / 1e6:.0f} MB, written in {time.perf_counter() - t0:.1f} s")
-        baseline = run(["size", "--beta0", "3%", "--tau", "45s"], tmp)
-        print(f"baseline (size, imports only): {baseline['peak_mb']:.0f} MB")
-        fit = run(["fit", str(rec), "-o", str(tmp / "model.json")], tmp)
-        runs = [fit,
-                run(["diagnose", str(rec), "--json"], tmp),
-                run(["correct", str(rec), "--model", str(tmp / "model.json"), "-o", str(tmp / "out.csv")], tmp)]
-        if opts.mc:
+        runs = []
+        if only & {"fit", "diagnose", "correct"}:
+            rec = tmp / "big.csv"
+            t0 = time.perf_counter()
+            make_record(rec, opts.samples)
+            print(f"record: {opts.samples} samples, {rec.stat().st_size / 1e6:.0f} MB, float64 size "
+                  f"{3 * 8 * opts.samples / 1e6:.0f} MB, written in {time.perf_counter() - t0:.1f} s")
+            baseline = run(["size", "--beta0", "3%", "--tau", "45s"], tmp)
+            print(f"baseline (size, imports only): {baseline['peak_mb']:.0f} MB")
+            fit = run(["fit", str(rec), "-o", str(tmp / "model.json")], tmp)
+            if "fit" in only:
+                runs.append(fit)
+            if "diagnose" in only:
+                runs.append(run(["diagnose", str(rec), "--json"], tmp))
+            if "correct" in only:
+                runs.append(run(["correct", str(rec), "--model", str(tmp / "model.json"), "-o",
+                                 str(tmp / "out.csv")], tmp))
+        if opts.mc and "mc" in only:
             design = ROOT / "src" / "creepcomp" / "data" / "built_network.design.json"
             runs.append(run(["mc", str(design), "--n", str(opts.mc), "--spot-check", "0",
                              "--sensitivity-n", "0", "--no-worst-case"], tmp))

@@ -130,3 +130,23 @@ def test_model_extensions_are_said_to_be_unused(run_cli, files):
     status, stdout, err = run_cli("correct", record, "--model", model, "--json")
     assert status == 0, err
     assert any("viscous_flow" in note and "not used" in note for note in json.loads(stdout)["notes"])
+
+
+def test_correct_streamed_in_chunks_gives_the_in_memory_figures(files):
+    from creepcomp.digital.correctors import Corrector, compensate, creep_error
+
+    _, _, _, t, load = files
+    rng = np.random.default_rng(4)
+    signal = MODEL.response(t, load, hold="zero") + 1e-4 * rng.standard_normal(len(t))
+    whole = Corrector(MODEL, dt=0.5).process(signal)
+    streamed = compensate(t, signal, MODEL, chunk=97)
+    np.testing.assert_allclose(streamed, whole, rtol=0, atol=1e-12)
+    # the error's figures: one pass over the record, or 7 samples at a time
+    one = creep_error(t, streamed, load, MODEL, chunk=len(t))
+    ref = MODEL.offset + MODEL.gain * load
+    err = streamed - ref
+    assert one.rms == float(np.sqrt(np.mean(err ** 2)))
+    assert one.peak == float(np.max(np.abs(err))) and one.peak_time == t[np.argmax(np.abs(err))]
+    many = creep_error(t, streamed, load, MODEL, chunk=7)
+    assert (many.peak, many.peak_time, many.full_scale) == (one.peak, one.peak_time, one.full_scale)
+    assert many.rms == pytest.approx(one.rms, rel=1e-12)

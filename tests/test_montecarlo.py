@@ -163,3 +163,69 @@ def test_ngspice_spot_check_agrees_with_the_engine():
     assert one.network.cells[0].has_absorption and one.network.load_resistance == result.values["load_resistance"][2]
     assert evaluate(DESIGN, {k: v[2:3] for k, v in result.values.items()}, PERIOD, "polyester").peak[0] == \
         pytest.approx(predict(one.model, one.network, PERIOD).residual_creep_peak, rel=1e-4)
+
+
+def test_a_run_that_fits_in_one_block_is_exact_and_blocks_stream_within_their_resolution():
+    from creepcomp.verify.montecarlo import block_seed
+
+    spec = ToleranceSpec(dielectric="polyester")
+    whole = run_monte_carlo(DESIGN, spec, 12_000, seed=5, workers=1)
+    one_block = run_monte_carlo(DESIGN, spec, 12_000, seed=5, workers=1, block=12_000)
+    assert whole.kept == whole.n == 12_000 and whole.resolution() == 0
+    assert one_block.percentiles() == whole.percentiles()
+    # the same as the samples drawn in one go from the seed (today's numbers)
+    alone = evaluate(DESIGN, draw(whole.box, 12_000, 5), whole.sweep_period, "polyester").peak
+    np.testing.assert_array_equal(whole.metrics.peak, alone)
+
+    limit = 3e-4
+    streamed = run_monte_carlo(DESIGN, spec, 12_000, seed=5, workers=1, block=2_500, limit=limit)
+    assert streamed.n == 12_000 and streamed.kept == 2_500 and streamed.resolution() > 0
+    every = np.concatenate([evaluate(DESIGN, draw(streamed.box, size, block_seed(5, i)),
+                                     streamed.sweep_period, "polyester").peak
+                            for i, size in enumerate((2_500,) * 4 + (2_000,))])
+    got = streamed.percentiles()
+    assert got["max"] == every.max()
+    for q in (50, 95, 99):
+        exact = np.percentile(every, q)
+        gap = np.diff(np.sort(every)).max()       # linear interpolation between two samples
+        assert abs(got[f"p{q}"] - exact) <= streamed.resolution() + gap
+        assert abs(got[f"p{q}"] - exact) < 1e-3 * exact
+    assert streamed.yield_against(limit)[0] == np.mean(every <= limit)
+    with pytest.raises(InputError, match="needs the Monte Carlo run with that limit"):
+        streamed.yield_against(2 * limit)
+
+
+def test_streaming_percentiles_stay_within_one_bin_as_the_range_grows():
+    from creepcomp.verify.montecarlo import StreamingPercentiles
+
+    x = np.random.default_rng(1).lognormal(size=400_000)
+    x[-1] = -50.0                                   # late values far outside the first blocks
+    x[-2] = 1e4
+    stream = StreamingPercentiles(bins=1024)
+    for lo in range(0, len(x), 50_000):
+        stream.add(x[lo:lo + 50_000])
+    assert not stream.exact and stream.n == len(x) and (stream.min, stream.max) == (-50.0, 1e4)
+    s = np.sort(x)
+    for q in (1, 50, 95, 99, 99.9):
+        rank = q / 100 * (len(x) - 1)
+        lo, hi = s[int(np.floor(rank))], s[int(np.ceil(rank))]
+        assert lo - stream.resolution <= stream.percentile(q) <= hi + stream.resolution
+
+
+def test_html_tables_give_numbers_with_their_units(tmp_path):
+    from creepcomp.report.common import format_cell, format_named
+    from creepcomp.report.tolerance import tolerance_report_html
+
+    assert format_named("R2", 99000.0) == "99 kΩ" and format_named("C1", 0.00126) == "1.26 mF"
+    assert f"{format_named('tau', 150.4)} ± {format_named('tau', 0.5257)}" == "150.4 s ± 525.7 ms"
+    assert format_named("beta[0]", 0.03) == "3 %" and format_cell(float("nan"), "Ω") == "–"
+    rep = analyse(DESIGN, ToleranceSpec(load_resistance=(1e8, 1e11)), 3_000, sensitivity_samples=0,
+                  worst=True, spot_check_samples=1)
+    page = tolerance_report_html(rep, tmp_path / "r.html").read_text()
+    box = page[page.index("Tolerance box"):]
+    assert "<td>R1</td><td>3 MΩ</td>" in box and "<td>C1</td><td>15 µF</td>" in box
+    assert "<td>load_resistance</td><td>" in box and "GΩ" in box
+    worst = page[page.index("Worst case"):page.index("Tolerance box")]
+    assert "Ω</td>" in worst and "F</td>" in worst
+    if "No ngspice" not in page:
+        assert "<td>time per ngspice transient</td><td>" in page and "s</td>" in page

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 from typing import List, Optional
 
@@ -35,6 +36,17 @@ def _part_tolerances(items: list[str], distribution: str) -> dict:
         label, tol = (s.strip() for s in item.split("=", 1))
         out[label] = _tolerance(tol, f"--tol {label}", distribution)
     return out
+
+
+#: A Monte Carlo expected to take longer than this (s) gets a note with its expected duration.
+LONG_RUN = 600.0
+
+
+def _duration(seconds: float) -> str:
+    for unit, size in (("days", 86400), ("hours", 3600), ("minutes", 60)):
+        if seconds >= 2 * size:
+            return f"{seconds / size:.3g} {unit}"
+    return f"{seconds:.3g} s"
 
 
 @app.command("mc")
@@ -102,11 +114,21 @@ def mc_command(
                   TimeElapsedColumn(), console=err_console, transient=True,
                   disable=as_json or not err_console.is_terminal) as bar:
         tasks = {}
+        started = time.perf_counter()
 
         def progress(stage, done, total):
             if stage not in tasks:
                 tasks[stage] = bar.add_task(stage, total=total)
+                if stage == "Monte Carlo":
+                    tasks["estimate"] = None
             bar.update(tasks[stage], completed=done)
+            if stage == "Monte Carlo" and tasks.get("estimate", 0) is None and done and done < total:
+                expected = (time.perf_counter() - started) * total / done
+                tasks["estimate"] = expected
+                if expected > LONG_RUN:
+                    err_console.print(f"note: --n {total}: about {_duration(expected)} at the pace of "
+                                      f"the first {done} samples (Ctrl-C stops it)", markup=False,
+                                      soft_wrap=True)
 
         result = analyse(design, tspec, n, seed, metric, limit, period, worst, sensitivity_n, progress,
                          spot_check_samples=spot_check)
@@ -145,6 +167,10 @@ def render(report: ToleranceReport) -> None:
     for m in ("peak", "final", "hysteresis"):
         table.add_row(names[m], format_percent(report.nominal.get(m)[0]), *[format_percent(v) for v in r.percentiles(m).values()])
     console.print(table)
+    if r.kept < r.n:
+        console.print(f"percentiles from a {r.n:,}-sample streaming histogram, within "
+                      f"{format_percent(r.resolution('peak'))} (peak); max exact; sensitivity from "
+                      f"the first {r.kept:,} samples")
     if report.limit is not None:
         y, se = r.yield_against(report.limit, report.metric)
         console.print(f"yield against {names[report.metric]} ≤ {format_percent(report.limit)}: "

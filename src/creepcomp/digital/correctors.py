@@ -50,7 +50,7 @@ from creepcomp.errors import InputError
 from creepcomp.lti import UNIFORM_RTOL, lag_coefficients
 from creepcomp.model import CreepModel
 
-__all__ = ["METHODS", "HOLDS", "INITIAL_STATES", "BLOCK", "PASS_SAMPLES", "default_initial",
+__all__ = ["ERROR_CHUNK", "METHODS", "HOLDS", "INITIAL_STATES", "BLOCK", "PASS_SAMPLES", "default_initial",
            "saturation_factor", "Corrector", "check_invertible", "compensate", "uniform_interval",
            "reference", "CreepError", "creep_error"]
 
@@ -468,17 +468,33 @@ class CreepError:
                 "full_scale": self.full_scale}
 
 
-def creep_error(time, values, load, model: CreepModel, method: str = "subtractive") -> CreepError:
+#: Samples per pass of :func:`creep_error` (its temporaries stay this size on long records).
+ERROR_CHUNK = 1 << 20
+
+
+def creep_error(time, values, load, model: CreepModel, method: str = "subtractive",
+                chunk: int = ERROR_CHUNK) -> CreepError:
     """Error of ``values`` (raw or compensated) against the method's load reference.
 
     The reference is :func:`reference` (instantaneous for subtractive, saturated for
-    supplemental); full scale is its largest excursion from the offset in the record.
+    supplemental); full scale is its largest excursion from the offset in the record. Long
+    records are taken ``chunk`` samples at a time (running sum of squares, peak and full
+    scale), so memory does not grow with them.
     """
     t = np.asarray(time, dtype=float)
-    ref = reference(load, model, method)
-    err = np.asarray(values, dtype=float) - ref
-    if err.shape != t.shape or len(t) == 0:
+    v = np.asarray(values, dtype=float)
+    load = np.asarray(load, dtype=float)
+    if v.shape != t.shape or load.shape != t.shape or t.ndim != 1 or len(t) == 0:
         raise InputError("time, values and load must be 1-D of equal, non-zero length")
-    k = int(np.argmax(np.abs(err)))
-    return CreepError(rms=float(np.sqrt(np.mean(err ** 2))), peak=float(abs(err[k])),
-                      peak_time=float(t[k]), full_scale=float(np.max(np.abs(ref - model.offset))))
+    squares, peak, peak_at, full_scale = 0.0, -1.0, 0, 0.0
+    step = max(int(chunk), 1)
+    for lo in range(0, len(t), step):
+        ref = reference(load[lo:lo + step], model, method)
+        err = v[lo:lo + step] - ref
+        squares += float(np.sum(err ** 2))
+        k = int(np.argmax(np.abs(err)))
+        if abs(err[k]) > peak:
+            peak, peak_at = float(abs(err[k])), lo + k
+        full_scale = max(full_scale, float(np.max(np.abs(ref - model.offset))))
+    return CreepError(rms=math.sqrt(squares / len(t)), peak=peak, peak_time=float(t[peak_at]),
+                      full_scale=full_scale)

@@ -7,7 +7,7 @@ import html
 import matplotlib.pyplot as plt
 import numpy as np
 
-from creepcomp.report.common import format_cell, png_base64, thin
+from creepcomp.report.common import format_cell, format_named, png_base64, thin
 from creepcomp.diagnose.circuit import FAULT_PRIOR
 from creepcomp.fit.noise import MISFIT_LIMIT, autocorrelation
 from creepcomp.units import format_quantity
@@ -117,7 +117,7 @@ def circuit_html(cd, units: dict) -> str:
                             f"<td>{html.escape(a['effect'])} {html.escape(a['part'] or '')}</td><td>{ap}</td>"
                             f"<td>{format_cell(a['delta_bic'])}</td><td>{html.escape(a['measurement'])}</td></tr>")
         params = ", ".join(f"{k} = {quantity(k, v)} ± {quantity(k, f.uncertainty.get(k))}"
-                           if k in UNITS else f"{k} = {format_cell(v)}" for k, v in f.parameters.items())
+                           if k in UNITS else f"{k} = {format_named(k, v)}" for k, v in f.parameters.items())
         rows.append(f"<tr><td><b>{html.escape(f.effect)}</b></td><td>{html.escape(f.part or '–')}</td>"
                     f"<td>{params}{('<br/>' + html.escape(f.note)) if f.note else ''}</td><td>{format_cell(f.evidence.delta_bic)}</td>"
                     f"<td>{format_cell(f.evidence.heldout_rms_ratio)}</td><td>{format_cell(f.evidence.heldout_z)}</td></tr>")

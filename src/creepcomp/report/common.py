@@ -9,15 +9,17 @@ from __future__ import annotations
 import base64
 import html
 import io
+import re
 from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
 
 from creepcomp.io.atomic import atomic_path
+from creepcomp.units import format_parameter, format_percent, format_quantity
 
 __all__ = ["save_figure", "png_base64", "figure_data_uri", "html_page", "html_table", "thin",
-           "format_cell", "MAX_POINTS"]
+           "format_cell", "format_named", "MAX_POINTS"]
 
 #: Most points drawn of one curve (longer records are thinned evenly).
 MAX_POINTS = 20000
@@ -28,15 +30,39 @@ def thin(n: int, limit: int = MAX_POINTS) -> np.ndarray:
     return np.arange(0, n, max(1, n // limit))
 
 
-def format_cell(x) -> str:
-    """A table cell: floats to 4 significant digits, ``–`` for None and non-finite values."""
+def format_cell(x, unit: str | None = None) -> str:
+    """A table cell: floats to 4 significant digits (with ``unit``: engineering notation and
+    the unit, ``%`` for a fraction as percent), ``–`` for None and non-finite values."""
     if x is None:
         return "–"
-    if isinstance(x, float):
+    if isinstance(x, (float, np.floating)):
         if not np.isfinite(x):
             return "–"
+        if unit == "%":
+            return format_percent(float(x))
+        if unit:
+            return html.escape(format_quantity(float(x), unit))
         return f"{x:.4g}"
     return html.escape(str(x))
+
+
+def format_named(name: str, value) -> str:
+    """A value with the unit its name implies: resistors and resistances (``R1``,
+    ``source_resistance``) in Ω, capacitors (``C1``) in F, absorption ratios and ``beta`` in
+    percent, times (``tau``, ``..._tau``, ``delay``) in s; else
+    :func:`creepcomp.units.format_parameter`."""
+    if value is None or not np.isfinite(value):
+        return "–"
+    key = name.split(".")[-1]
+    if re.fullmatch(r"R\d+", key) or key.endswith("resistance"):
+        return format_cell(float(value), "Ω")
+    if re.fullmatch(r"C\d+", key):
+        return format_cell(float(value), "F")
+    if key.startswith("beta") or key == "absorption":
+        return format_percent(float(value))
+    if key.startswith("tau") or key.endswith("_tau"):
+        return format_cell(float(value), "s")
+    return html.escape(format_parameter(key, float(value)))
 
 
 def save_figure(fig, path, dpi: int = 110) -> Path:

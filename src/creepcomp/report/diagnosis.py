@@ -14,7 +14,7 @@ from creepcomp.io.jsonfiles import to_json, write_design, write_json
 from creepcomp.fit.data import Data
 from creepcomp.fit.noise import autocorrelation
 from creepcomp.fit.solver import Fit
-from creepcomp.report.common import format_cell, png_base64, save_figure, thin
+from creepcomp.report.common import format_cell, format_named, png_base64, save_figure, thin
 
 __all__ = ["plot_fit", "diagnosis_figures", "render_html", "write_report"]
 
@@ -191,7 +191,7 @@ def render_html(diagnosis, units: dict, title: str = "creepcomp diagnose",
     result = d.to_dict()
     rows = []
     for f in d.findings:
-        params = ", ".join(f"{k} = {format_cell(v)}" + (f" ± {format_cell(f.uncertainty[k])}" if k in f.uncertainty else "")
+        params = ", ".join(f"{k} = {format_named(k, v)}" + (f" ± {format_named(k, f.uncertainty[k])}" if k in f.uncertainty else "")
                            for k, v in f.parameters.items())
         ev = f.evidence
         rows.append(f"<tr><td><b>{html.escape(f.effect)}</b></td><td>{params or '–'}</td>"

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import html
 from pathlib import Path
 
 import matplotlib.pyplot as plt
-import numpy as np
 
 from creepcomp.io.atomic import write_text_atomic
-from creepcomp.report.common import figure_data_uri, html_page, html_table
+from creepcomp.report.common import figure_data_uri, format_named, html_page, html_table
+from creepcomp.units import format_quantity
 
 __all__ = ["tolerance_report_html"]
 
@@ -24,13 +25,14 @@ def tolerance_report_html(report, path: str | Path) -> Path:
     for ax, metric in zip(axes, ("peak", "final", "hysteresis")):
         v = 100 * r.metrics.get(metric)
         ax.hist(v, bins=80, color="#4477aa")
+        figures = r.percentiles(metric)
         for q, style in ((50, ":"), (99, "--")):
-            ax.axvline(np.percentile(v, q), color="k", ls=style, lw=1, label=f"p{q}")
+            ax.axvline(100 * figures[f"p{q}"], color="k", ls=style, lw=1, label=f"p{q}")
         if report.limit is not None and metric == report.metric:
             ax.axvline(100 * report.limit, color="#cc3311", lw=2, label="spec")
         ax.axvline(100 * report.nominal.get(metric)[0], color="#228833", lw=1.5, label="nominal")
         ax.set_xlabel(f"{names[metric]} (% of FS)")
-        ax.set_ylabel("samples")
+        ax.set_ylabel("samples" if r.kept == r.n else f"samples (first {r.kept:,} of {r.n:,})")
         ax.legend(fontsize=8)
     fig.tight_layout()
     hist = figure_data_uri(fig)
@@ -68,11 +70,22 @@ def tolerance_report_html(report, path: str | Path) -> Path:
         w = report.worst
         sections.append(("Worst case over the tolerance box", f"<p>{names[w.metric]}: <b>{pct(w.value)}</b> "
                          f"({w.method})</p>" + html_table(["factor", "value"],
-                                                          [[k, f"{v:.5g}"] for k, v in w.at.items()])))
+                                                          [[k, format_named(k, v)] for k, v in w.at.items()])))
     if report.spot_check is not None:
         sc = report.spot_check
-        sections.append(("ngspice spot-check", "<p>" + ", ".join(f"{k}: {v}" for k, v in sc.items()) + "</p>"))
-    factors_rows = [[f.name, f"{f.nominal:.5g}", f"{f.low:.5g}", f"{f.high:.5g}", f.distribution] for f in r.box]
+        if "error" in sc:
+            spot = f"<p>No ngspice spot-check: {html.escape(sc['error'])}</p>"
+        else:
+            per = sc.get("seconds_per_transient")
+            spot = html_table(["", ""], [
+                ["samples run through ngspice (a load step each)", str(sc["n"])],
+                ["largest difference from the engine (of the step)", pct(sc["agreement_max_abs"])],
+                ["time, all transients", format_quantity(sc["seconds"], "s")],
+                ["time per ngspice transient", format_quantity(per, "s") if per else "–"],
+                ["time per engine sample", format_quantity(r.seconds / r.n, "s")]])
+        sections.append(("ngspice spot-check", spot))
+    factors_rows = [[f.name, format_named(f.name, f.nominal), format_named(f.name, f.low),
+                     format_named(f.name, f.high), f.distribution] for f in r.box]
     sections.append(("Tolerance box", html_table(["factor", "nominal", "low", "high", "distribution"], factors_rows)))
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -1,8 +1,9 @@
 """Monte Carlo of a design's residual creep and hysteresis, and its spot check in ngspice.
 
-All samples are drawn first, from the seed, then evaluated in batches
-(:func:`creepcomp.verify.variants.evaluate`), in parallel processes when there are several:
-the numbers do not depend on how the batches are spread.
+Samples are drawn in blocks of at most :data:`BLOCK`, each from its own seed, then evaluated
+in batches (:func:`creepcomp.verify.variants.evaluate`), in parallel processes when there are
+several: the numbers do not depend on how the batches are spread. Memory is bounded by the
+block at any ``n``; percentiles are exact up to one block, then from a fine histogram.
 """
 
 from __future__ import annotations
@@ -27,9 +28,8 @@ from creepcomp.verify.tolerances import ToleranceSpec, draw, factors
 from creepcomp.verify.variants import (Metrics, evaluate, residual_lags, step_residual,
                                        sweep_period_or_default, variant)
 
-__all__ = ["SPOT_CHECK_SPAN", "SPOT_CHECK_SETTLE", "BYTES_PER_VALUE", "JOIN_COPIES",
-           "MonteCarloResult", "run_monte_carlo", "available_memory", "check_memory",
-           "nominal_metrics", "spot_check"]
+__all__ = ["SPOT_CHECK_SPAN", "SPOT_CHECK_SETTLE", "BLOCK", "HISTOGRAM_BINS", "StreamingPercentiles",
+           "MonteCarloResult", "block_seed", "run_monte_carlo", "nominal_metrics", "spot_check"]
 
 
 #: The spot-check's step response spans this many of the slowest time constants, and is
@@ -38,9 +38,117 @@ SPOT_CHECK_SPAN = 12.0
 SPOT_CHECK_SETTLE = 1e-3
 
 
+#: Samples drawn, evaluated and held at once (each block's values and metrics: about 100 MB
+#: for a design with 9 factors); the first block is kept for the sensitivity, the report's
+#: histograms and the spot check.
+BLOCK = 1_000_000
+#: Bins of the streaming histogram that gives the percentiles of a run longer than one block.
+HISTOGRAM_BINS = 1 << 16
+
+METRIC_NAMES = ("peak", "final", "hysteresis")
+
+
+class StreamingPercentiles:
+    """Count, minimum, maximum and percentiles of values that arrive in blocks, in bounded
+    memory.
+
+    While everything fits in one block the values are kept and the percentiles are exact
+    (``numpy.percentile``, linear interpolation). Beyond, the values go into a histogram of
+    :data:`HISTOGRAM_BINS` equal bins that covers every value seen (when a block falls outside
+    it, neighbouring bins are merged in pairs and the range doubles); a percentile is then
+    interpolated within the bin that holds its rank: it is within :attr:`resolution` (one
+    bin width) of the sample of that rank (``numpy.percentile`` interpolates between the two
+    samples around a fractional rank; their gap is negligible at that many samples). ``min``, ``max`` and ``n`` are always exact.
+    """
+
+    def __init__(self, bins: int = HISTOGRAM_BINS):
+        if bins < 2 or bins % 2:
+            raise ValueError("bins must be even")
+        self.bins = bins
+        self.n = 0
+        self.min = math.inf
+        self.max = -math.inf
+        self._exact: np.ndarray | None = None
+        self._counts: np.ndarray | None = None
+        self._lo = 0.0
+        self._width = 0.0
+
+    @property
+    def exact(self) -> bool:
+        """Whether the percentiles are exact (every value kept)."""
+        return self._counts is None
+
+    @property
+    def resolution(self) -> float:
+        """Largest error of a percentile: 0 when exact, else the histogram's bin width."""
+        return 0.0 if self.exact else self._width
+
+    def add(self, values: np.ndarray) -> None:
+        """Add a block of values (finite)."""
+        v = np.asarray(values, float).ravel()
+        if not len(v):
+            return
+        self.n += len(v)
+        self.min = min(self.min, float(v.min()))
+        self.max = max(self.max, float(v.max()))
+        if self._counts is None and self._exact is None:
+            self._exact = v.copy()
+            return
+        if self._counts is None:
+            kept, self._exact = self._exact, None
+            self._start_histogram()
+            self._bin(kept)
+        self._cover()
+        self._bin(v)
+
+    def _start_histogram(self) -> None:
+        span = self.max - self.min
+        self._lo = self.min
+        self._width = span / (self.bins - 1) if span > 0 else max(abs(self.min), 1e-30) * 1e-12
+        self._counts = np.zeros(self.bins, np.int64)
+
+    def _cover(self) -> None:
+        # double the range (merging bins in pairs) until it holds min and max
+        while self.max >= self._lo + self.bins * self._width:
+            merged = self._counts.reshape(-1, 2).sum(axis=1)
+            self._counts = np.concatenate([merged, np.zeros(self.bins // 2, np.int64)])
+            self._width *= 2
+        while self.min < self._lo:
+            merged = self._counts.reshape(-1, 2).sum(axis=1)
+            self._counts = np.concatenate([np.zeros(self.bins // 2, np.int64), merged])
+            self._lo -= self.bins * self._width
+            self._width *= 2
+
+    def _bin(self, v: np.ndarray) -> None:
+        self._cover()
+        index = np.clip(((v - self._lo) / self._width).astype(np.int64), 0, self.bins - 1)
+        self._counts += np.bincount(index, minlength=self.bins)
+
+    def percentile(self, q: float) -> float:
+        """The ``q``-th percentile (0..100)."""
+        if self.n == 0:
+            raise ValueError("no values")
+        if self._counts is None:
+            return float(np.percentile(self._exact, q))
+        rank = q / 100 * (self.n - 1)                  # 0-based, as numpy's linear method
+        cumulative = np.cumsum(self._counts)
+        b = int(np.searchsorted(cumulative, rank, side="right"))
+        before = cumulative[b - 1] if b else 0
+        inside = (rank - before + 0.5) / self._counts[b]
+        value = self._lo + (b + min(inside, 1.0)) * self._width
+        return float(min(max(value, self.min), self.max))
+
+    def summary(self) -> dict:
+        """``p50``, ``p95``, ``p99`` and ``max``."""
+        return {"p50": self.percentile(50), "p95": self.percentile(95),
+                "p99": self.percentile(99), "max": self.max}
+
+
 @dataclass(frozen=True)
 class MonteCarloResult:
-    """Samples and metrics of a Monte Carlo run."""
+    """Figures of a Monte Carlo run: exact ``n``, min and max, streaming percentiles, exact
+    yield against the limit given to the run, and the first block of samples (``values``,
+    ``metrics``: every sample when ``n`` fits in one block)."""
 
     design: Design
     spec: ToleranceSpec
@@ -50,47 +158,92 @@ class MonteCarloResult:
     seed: int
     seconds: float
     sweep_period: float
+    total: int = 0
+    stats: dict | None = None
+    limit: float | None = None
+    limit_metric: str = "peak"
+    within_limit: int = 0
 
     @property
     def n(self) -> int:
         """Number of samples."""
+        return self.total or len(self.metrics.peak)
+
+    @property
+    def kept(self) -> int:
+        """Number of samples kept (``values`` and ``metrics``)."""
         return len(self.metrics.peak)
 
     def percentiles(self, metric: str = "peak") -> dict:
-        """``p50``, ``p95``, ``p99`` and ``max`` of a metric (fractions)."""
-        v = self.metrics.get(metric)
-        p50, p95, p99 = np.percentile(v, [50, 95, 99])
-        return {"p50": float(p50), "p95": float(p95), "p99": float(p99), "max": float(v.max())}
+        """``p50``, ``p95``, ``p99`` and ``max`` of a metric (fractions); exact when every
+        sample was kept, else within :meth:`resolution` of it."""
+        if self.stats is None or self.kept == self.n:
+            v = self.metrics.get(metric)
+            p50, p95, p99 = np.percentile(v, [50, 95, 99])
+            return {"p50": float(p50), "p95": float(p95), "p99": float(p99), "max": float(v.max())}
+        return self.stats[metric].summary()
+
+    def resolution(self, metric: str = "peak") -> float:
+        """Largest error of :meth:`percentiles` (0: exact)."""
+        return 0.0 if self.stats is None or self.kept == self.n else self.stats[metric].resolution
 
     def yield_against(self, limit: float, metric: str = "peak") -> tuple[float, float]:
-        """Fraction of samples with the metric at or below ``limit``, and its standard error."""
-        ok = float(np.mean(self.metrics.get(metric) <= limit))
+        """Fraction of samples with the metric at or below ``limit``, and its standard error.
+
+        Exact over all samples when every sample was kept or when ``limit`` and ``metric`` are
+        the ones the run counted against.
+        """
+        if self.kept == self.n:
+            ok = float(np.mean(self.metrics.get(metric) <= limit))
+        elif self.limit == limit and self.limit_metric == metric:
+            ok = self.within_limit / self.n
+        else:
+            raise InputError(f"the yield against {limit} needs the Monte Carlo run with that limit "
+                             f"(it kept {self.kept} of {self.n} samples)")
         return ok, math.sqrt(max(ok * (1 - ok), 1.0 / self.n) / self.n)
+
+
+def block_seed(seed: int, index: int):
+    """Seed of block ``index`` of a run: the run's seed for the first block (so a run that fits
+    in one block draws what :func:`creepcomp.verify.tolerances.draw` does), then a
+    ``(seed, index)`` sequence for each further one."""
+    return seed if index == 0 else [seed, index]
 
 
 def run_monte_carlo(design: Design, spec: ToleranceSpec, n: int, seed: int = 0,
                     sweep_period: float | None = None, chunk: int = 20_000,
                     progress: Callable[[int], None] | None = None,
-                    workers: int | None = None) -> MonteCarloResult:
-    """Monte Carlo of a design's residual creep and hysteresis.
+                    workers: int | None = None, block: int = BLOCK,
+                    limit: float | None = None, metric: str = "peak") -> MonteCarloResult:
+    """Monte Carlo of a design's residual creep and hysteresis, in bounded memory.
+
+    Samples are drawn and evaluated ``block`` at a time; each block's metrics go into
+    running figures (:class:`StreamingPercentiles`) and only the first block is kept.
 
     Parameters
     ----------
     design : Design
     spec : ToleranceSpec
     n : int
-        Number of samples.
+        Number of samples (any: memory is bounded by ``block``).
     seed : int
         Seed of the random generator: the same seed gives the same numbers.
     sweep_period : float, optional
         Hysteresis sweep period (s); default from the design's creep model.
     chunk : int
-        Samples evaluated per batch (memory bound).
+        Samples evaluated per batch (one task of a worker).
     progress : callable, optional
         Called with the number of samples done after each batch.
     workers : int, optional
         Processes evaluating batches in parallel (default: one per core). The numbers do
-        not depend on it: all samples are drawn first, from the seed.
+        not depend on it: each block's samples are drawn first, from the seed.
+    block : int
+        Samples drawn and held at once. Percentiles are exact when ``n <= block``, else within
+        one bin of a histogram of :data:`HISTOGRAM_BINS` bins (:meth:`MonteCarloResult.resolution`).
+    limit : float, optional
+        Count the samples with ``metric`` at or below it, for an exact yield at any ``n``.
+    metric : str
+        The metric ``limit`` is about.
 
     Returns
     -------
@@ -101,93 +254,57 @@ def run_monte_carlo(design: Design, spec: ToleranceSpec, n: int, seed: int = 0,
     start = _time.perf_counter()
     period = sweep_period_or_default(design.model, sweep_period)
     box = factors(design, spec)
-    check_memory(n, len(box))
-    values = draw(box, n, seed)
-    jobs = [({k: v[lo:lo + chunk] for k, v in values.items()}, min(chunk, n - lo))
-            for lo in range(0, n, chunk)]
-    workers = min(workers or os.cpu_count() or 1, len(jobs))
-    parts, done = [], 0
+    blocks = [(lo, min(block, n - lo)) for lo in range(0, n, block)]
+    workers = min(workers or os.cpu_count() or 1, -(-min(block, n) // chunk))
+    stats = {m: StreamingPercentiles() for m in METRIC_NAMES}
+    first_values, first_metrics, within, done = None, None, 0, 0
+    pool = None
     if workers > 1:
         pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
                                    initializer=_ignore_interrupts)
-        try:
-            futures = [pool.submit(evaluate, design, sub, period, spec.dielectric, spec.temperature, size)
-                       for sub, size in jobs]
-            for fut, (_, size) in zip(futures, jobs):
-                parts.append(fut.result())
-                done += size
+    try:
+        for index, (_, size) in enumerate(blocks):
+            values = draw(box, size, block_seed(seed, index))
+            jobs = [({k: v[lo:lo + chunk] for k, v in values.items()}, min(chunk, size - lo))
+                    for lo in range(0, size, chunk)]
+            parts = []
+            if pool is not None:
+                futures = [pool.submit(evaluate, design, sub, period, spec.dielectric,
+                                       spec.temperature, s) for sub, s in jobs]
+                results = (f.result() for f in futures)
+            else:
+                results = (evaluate(design, sub, period, spec.dielectric, spec.temperature, s)
+                           for sub, s in jobs)
+            for part, (_, s) in zip(results, jobs):
+                parts.append(part)
+                done += s
                 if progress:
                     progress(done)
-        except BaseException:
+            metrics = Metrics(*(np.concatenate([getattr(m, f) for m in parts])
+                                for f in ("peak", "final", "hysteresis")))
+            for m in METRIC_NAMES:
+                stats[m].add(metrics.get(m))
+            if limit is not None:
+                within += int(np.count_nonzero(metrics.get(metric) <= limit))
+            if index == 0:
+                first_values, first_metrics = values, metrics
+    except BaseException:
+        if pool is not None:
             # Ctrl-C (or an error): stop the workers now rather than after their queued batches
             processes = list((getattr(pool, "_processes", None) or {}).values())
             pool.shutdown(wait=False, cancel_futures=True)
             for proc in processes:
                 proc.terminate()
-            raise
+        raise
+    if pool is not None:
         pool.shutdown()
-    else:
-        for sub, size in jobs:
-            parts.append(evaluate(design, sub, period, spec.dielectric, spec.temperature, size))
-            done += size
-            if progress:
-                progress(done)
-    metrics = Metrics(*(np.concatenate([getattr(m, f) for m in parts])
-                        for f in ("peak", "final", "hysteresis")))
-    return MonteCarloResult(design, spec, box, values, metrics, seed,
-                            _time.perf_counter() - start, period)
+    return MonteCarloResult(design, spec, box, first_values, first_metrics, seed,
+                            _time.perf_counter() - start, period, n, stats, limit, metric, within)
 
 
 def _ignore_interrupts() -> None:
     """Worker processes leave Ctrl-C to the main process, which stops them."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
-#: Bytes held per Monte Carlo sample and factor (its value) or metric, with the copies made
-#: while joining the batches.
-BYTES_PER_VALUE = 8
-JOIN_COPIES = 2
-
-
-def available_memory() -> int | None:
-    """Memory available to a new allocation (bytes; Linux ``MemAvailable``), or None."""
-    try:
-        with open("/proc/meminfo") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):
-        return None
-
-
-def check_memory(n: int, n_factors: int, available: int | None = None) -> None:
-    """Refuse a Monte Carlo whose samples would not fit in memory, before allocating them.
-
-    Every sample's factor values and its three metrics are kept (for the percentiles and
-    the sensitivity), so memory grows with ``n``.
-
-    Raises
-    ------
-    InputError
-        Naming the memory needed, the memory available and the largest ``n`` that fits.
-    """
-    from creepcomp.units import format_quantity
-
-    per_sample = BYTES_PER_VALUE * (n_factors + 3 * JOIN_COPIES)
-    available = available_memory() if available is None else available
-    if available is None:
-        return
-    usable = int(0.8 * available)
-    if n * per_sample > usable:
-        raise InputError(f"--n {n}: the Monte Carlo keeps every sample ({n_factors} factors and "
-                         f"3 metrics, {per_sample} bytes each): "
-                         f"{format_quantity(n * per_sample, 'B', 3)}, more than the "
-                         f"{format_quantity(usable, 'B', 3)} of memory it may use here; use "
-                         f"--n {usable // per_sample} or fewer")
 
 
 def nominal_metrics(design: Design, spec: ToleranceSpec, sweep_period: float | None = None) -> Metrics:

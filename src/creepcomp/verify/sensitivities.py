@@ -52,8 +52,9 @@ def first_order_index(x: np.ndarray, y: np.ndarray, bins: int = 50) -> float:
 
 
 def sensitivity(result: MonteCarloResult, metric: str = "peak", n_alone: int = 20_000) -> list[Sensitivity]:
-    """Each factor's first-order share of the spread (from the Monte Carlo samples) and the
-    p99 with that factor alone varying; largest share first."""
+    """Each factor's first-order share of the spread (from the Monte Carlo's kept samples: all
+    of them, or its first block) and the p99 with that factor alone varying; largest share
+    first."""
     y = result.metrics.get(metric)
     design, spec = result.design, result.spec
     out = []

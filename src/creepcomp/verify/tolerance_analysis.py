@@ -45,6 +45,12 @@ class ToleranceReport:
                "factors": [{"name": f.name, "nominal": f.nominal, "low": f.low, "high": f.high,
                             "distribution": f.distribution} for f in r.box],
                "metric": self.metric}
+        if r.kept < r.n:
+            out["percentile_resolution"] = {
+                key: r.resolution(m) for key, m in (("residual_creep_peak", "peak"),
+                                                    ("residual_creep_final", "final"),
+                                                    ("hysteresis", "hysteresis"))}
+            out["samples_kept"] = r.kept
         if self.limit is not None:
             y, se = r.yield_against(self.limit, self.metric)
             out["spec"] = {"metric": self.metric, "limit": self.limit, "yield": y, "yield_standard_error": se}
@@ -100,7 +106,8 @@ def analyse(design: Design, spec: ToleranceSpec, n: int, seed: int = 0, metric: 
     if metric not in ("peak", "final", "hysteresis"):
         raise InputError(f"metric '{metric}': use peak, final or hysteresis")
     count = (lambda done: progress("Monte Carlo", done, n)) if progress else None
-    result = run_monte_carlo(design, spec, n, seed, sweep_period, workers=workers, progress=count)
+    result = run_monte_carlo(design, spec, n, seed, sweep_period, workers=workers, progress=count,
+                             limit=limit, metric=metric)
     period = result.sweep_period
     nominal = nominal_metrics(design, spec, period)
     wc = worst_case(design, spec, metric, period) if worst else None
