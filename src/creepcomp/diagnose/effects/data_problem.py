@@ -94,7 +94,7 @@ def screen(data: Data, fit: Fit) -> list[dict]:
     that dominates the noise. Each is ``{"kind", "where", ...}`` (times in s)."""
     out = []
     floor = noise_floor(data.signal, data.load, data.time)
-    clip = _clipping(data, fit, floor.rms)
+    clip = _clipping(data, fit, floor)
     if clip:
         out.append({"kind": "clipping", "where": clip})
     slip = _out_of_step(data, fit)
@@ -112,11 +112,14 @@ QUANTISATION_SHARE = 0.5
 CLIP_RUN = 3
 
 
-def _clipping(data: Data, fit: Fit, floor: float) -> list:
-    """[first, last] times of runs at the signal's largest or smallest value where the model
-    goes beyond it by more than 3 noise floors on average."""
+def _clipping(data: Data, fit: Fit, floor) -> list:
+    """[first, last] times of runs of :data:`CLIP_RUN` or more samples at the signal's largest
+    or smallest value. A noisy signal whose value grid is fine against its noise does not
+    repeat its extreme by chance; on a coarse grid the run counts only where the model goes
+    beyond the extreme by more than 3 noise floors on average."""
     y = data.signal
     tol = 1e-9 * max(float(np.max(np.abs(y))), 1e-300)
+    coarse = floor.quantisation_step >= floor.rms
     runs = []
     for level, sign in ((np.max(y), 1.0), (np.min(y), -1.0)):
         at = np.abs(y - level) <= tol
@@ -126,8 +129,7 @@ def _clipping(data: Data, fit: Fit, floor: float) -> list:
         for a, b in zip(edges[::2], edges[1::2]):
             if b - a < CLIP_RUN:
                 continue
-            beyond = sign * (fit.prediction[a:b] - level)
-            if np.mean(beyond) > 3.0 * floor:
+            if not coarse or np.mean(sign * (fit.prediction[a:b] - level)) > 3.0 * floor.rms:
                 runs.append([float(data.time[a]), float(data.time[b - 1])])
     return sorted(runs)
 
@@ -162,14 +164,15 @@ def _out_of_step(data: Data, fit: Fit) -> dict | None:
     if len(delays) < 4:
         return None
     lags = np.array([d for _, d in delays])
-    best = None
+    best, best_odd = None, np.inf
     for cut in range(2, len(lags) - 1):
         before, after = lags[:cut], lags[cut:]
-        # each side consistent (at most one odd event), and the two sides differ
+        # each side consistent (at most a quarter odd events), and the two sides differ
         b, a = np.median(before), np.median(after)
-        if abs(a - b) >= 1 and np.sum(before != b) <= len(before) // 4 and np.sum(after != a) <= len(after) // 4:
-            best = (cut, a - b)
-            break
+        odd = np.sum(before != b) + np.sum(after != a)
+        if abs(a - b) >= 1 and np.sum(before != b) <= len(before) // 4 \
+                and np.sum(after != a) <= len(after) // 4 and odd < best_odd:
+            best, best_odd = (cut, a - b), odd
     if best is None:
         return None
     cut, slip = best
@@ -183,7 +186,11 @@ class DataProblem(Effect):
     parameters = ("kind", "where")
     summary = "the record itself is at fault (signal jumps no load explains, clipping, channels out of step, coarse quantisation)"
 
+    _override = None
+
     def settings(self, data: Data, base: Fit) -> tuple:
+        if self._override is not None:
+            return self._override
         jumps = tuple(find_jumps(data, base.residual))
         return (("jumps", jumps), ("times", tuple(float(data.time[i]) for i in jumps)))
 
@@ -191,7 +198,19 @@ class DataProblem(Effect):
         applied = Applied(self, self.settings(data, base))
         if not applied.setting("jumps"):
             raise InputError("no signal jump that no load change explains")
-        return super().fit_on(data, base, refine, start)
+        fit = super().fit_on(data, base, refine, start)
+        # keep the jumps whose fitted height stands out of its uncertainty
+        keep = [j for j, i in enumerate(applied.setting("jumps"))
+                if abs(fit.values[f"data_problem.jump[{j}]"]) >= JUMP_Z * fit.uncertainty(
+                    lambda v, j=j: v[f"data_problem.jump[{j}]"])]
+        if fit.cov is None or len(keep) == len(applied.setting("jumps")) or not keep:
+            return fit
+        jumps = tuple(applied.setting("jumps")[j] for j in keep)
+        self._override = (("jumps", jumps), ("times", tuple(float(data.time[i]) for i in jumps)))
+        try:
+            return super().fit_on(data, base, refine, start)
+        finally:
+            self._override = None
 
     def columns(self, data, s, h, lags, p, applied):
         index = np.arange(data.n)
