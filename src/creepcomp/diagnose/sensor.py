@@ -34,7 +34,7 @@ the gain.
 from __future__ import annotations
 
 import time as _time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -43,7 +43,8 @@ from creepcomp.diagnose.effects import Effect, compensate_extended
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data, prepare
 from creepcomp.fit.structure import Applied, Structure
-from creepcomp.fit.noise import autocorrelation, ljung_box, rows_for, whiten
+from creepcomp.fit.noise import (MISFIT_LIMIT, NoiseFloor, autocorrelation, explained_share,
+    ljung_box, misfit_ratio as ratio_to_floor, noise_floor, rows_for, whiten)
 from creepcomp.fit.solver import Fit, Problem, fit_structure
 from creepcomp.fit.evidence import (BIC_STRONG, HELDOUT_Z, Evidence, compare, compare_with_halves,
     halves, heldout)
@@ -52,11 +53,14 @@ from creepcomp.fit.prony import model_file_dict
 from creepcomp.lti import lag_states
 from creepcomp.io.records import Record
 
-__all__ = ["MAX_EFFECTS", "REFINED", "Finding", "Trial", "Diagnosis", "CatchAll", "CATCH_ALL",
-           "diagnose", "correction_errors"]
+__all__ = ["MAX_EFFECTS", "REFINED", "CORRECTION_WORSE", "Finding", "Trial", "Diagnosis", "CatchAll",
+           "CATCH_ALL", "diagnose", "correction_errors"]
 
 #: Most effects added one after the other.
 MAX_EFFECTS = 4
+#: A correction-error ratio below this: the extension makes the creep-corrected signal worse
+#: (the ratio of two RMS errors of the same record moves by a percent or so without any change).
+CORRECTION_WORSE = 0.98
 
 
 @dataclass(frozen=True)
@@ -75,6 +79,14 @@ class Finding:
         Against the model without it.
     importance : float
         Drop of the held-out sum of squares it brought (signal units squared).
+    alternatives : tuple of dict
+        Other explanations the record cannot tell from this one (``effect``, ``part``,
+        ``parameters``).
+    note : str or None
+        What the user must know about it (e.g. it makes the creep-corrected signal worse).
+    correction_error_ratio : float or None
+        Error of the creep-corrected signal without it / with it (measured only when the whole
+        extension makes the correction worse).
     """
 
     effect: str
@@ -83,11 +95,25 @@ class Finding:
     evidence: Evidence
     importance: float
     fit: Fit = field(compare=False, repr=False, default=None)
+    alternatives: tuple = ()
+    note: str | None = None
+    correction_error_ratio: float | None = None
+
+    @property
+    def worsens_correction(self) -> bool:
+        """It makes the creep-corrected signal worse (ratio below :data:`CORRECTION_WORSE`)."""
+        return self.correction_error_ratio is not None and self.correction_error_ratio < CORRECTION_WORSE
 
     def to_dict(self) -> dict:
         """JSON form (contract keys first)."""
-        return {"effect": self.effect, "parameters": self.parameters,
-                "uncertainty": self.uncertainty, "evidence": self.evidence.to_dict()}
+        out = {"effect": self.effect, "parameters": self.parameters,
+               "uncertainty": self.uncertainty, "evidence": self.evidence.to_dict(),
+               "alternatives": list(self.alternatives)}
+        if self.note:
+            out["note"] = self.note
+        if self.correction_error_ratio is not None:
+            out["correction_error_ratio"] = self.correction_error_ratio
+        return out
 
 
 @dataclass(frozen=True)
@@ -124,11 +150,24 @@ class Diagnosis:
     extended_model: dict
     baseline_model: dict
     correction: dict = field(default_factory=dict, repr=False)
+    floor: NoiseFloor | None = None
 
     @property
     def cause(self) -> str:
         """The most important finding's effect, or ``none``."""
         return self.findings[0].effect if self.findings else "none"
+
+    def misfit_ratio(self, fit: Fit) -> float | None:
+        """A fit's residual RMS over the noise floor."""
+        return ratio_to_floor(fit.residual_rms, self.floor) if self.floor is not None else None
+
+    @property
+    def explained_share(self) -> float | None:
+        """Share of the baseline's misfit variance above the floor that the extended model
+        removes (None: the baseline is at the floor)."""
+        if self.floor is None:
+            return None
+        return explained_share(self.baseline.residual_rms, self.extended.residual_rms, self.floor)
 
     def residual_summary(self, fit: Fit) -> dict:
         """Residual RMS (all samples and held out), noise model and whiteness of a fit."""
@@ -138,6 +177,7 @@ class Diagnosis:
         acf = autocorrelation(fit.residual, 1)[1] if self.data.n > 2 else float("nan")
         return {"residual_rms": fit.residual_rms,
                 "heldout_residual_rms": fit.heldout.rms if fit.heldout else None,
+                "misfit_ratio": self.misfit_ratio(fit),
                 "residual_rms_relative": fit.residual_rms / self.data.signal_scale,
                 "bic": fit.bic, "structure": fit.structure.describe(),
                 "noise": fit.noise.to_dict(self.data.dt_median),
@@ -151,6 +191,10 @@ class Diagnosis:
             "findings": [f.to_dict() for f in self.findings],
             "baseline": self.residual_summary(self.baseline),
             "extended": self.residual_summary(self.extended),
+            "noise_floor": self.floor.rms if self.floor else None,
+            "noise_floor_method": self.floor.method if self.floor else None,
+            "quantisation_step": (self.floor.quantisation_step or None) if self.floor else None,
+            "explained_share": self.explained_share,
             "gain": self.gain,
             "record": {"source": self.data.source, "n_samples": self.data.n,
                        "duration_s": self.data.duration, "sample_step_s": self.data.dt_median,
@@ -159,7 +203,9 @@ class Diagnosis:
                        "temperature": self.data.temperature is not None},
             "tried": [t.to_dict() for t in self.trials],
             "catch_all": self.catch_all.to_dict() if self.catch_all else None,
-            "decision_rule": {"delta_bic_at_most": -BIC_STRONG, "heldout_z_at_least": HELDOUT_Z},
+            "decision_rule": {"delta_bic_at_most": -BIC_STRONG, "heldout_z_at_least": HELDOUT_Z,
+                              "none_when_misfit_ratio_at_most": MISFIT_LIMIT,
+                              "correction_worse_below": CORRECTION_WORSE},
             "extended_model": self.extended_model,
             "seconds": self.seconds,
         }
@@ -398,24 +444,26 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
         current = f
     if base is None:
         base = current
+    floor = noise_floor(data.signal, data.load, data.time)
     generic = _generic(data, current)
     catch = None
+    unexplained = None
     if generic is not None:
         wide, catch = generic
         if catch.supported:
-            findings.append(Finding("unexplained", {}, {}, catch,
-                                    _heldout_sse(current) - _heldout_sse(wide), wide))
+            unexplained = Finding("unexplained", _remaining(current, floor), {}, catch,
+                                  _heldout_sse(current) - _heldout_sse(wide), wide)
+    if unexplained is None and current.residual_rms > MISFIT_LIMIT * floor.rms:
+        # the floor says the misfit is not noise, whatever the evidence for a candidate
+        unexplained = Finding("unexplained", _remaining(current, floor), {},
+                              catch or Evidence(float("nan"), float("nan"), float("nan")), 0.0, None,
+                              note=_misfit_note(current, floor))
     # data problems no model column undoes (clipping, channels out of step, coarse quantisation)
     from creepcomp.diagnose.effects.data_problem import screen
     for problem in screen(data, current):
         findings.append(Finding("data_problem", problem, {}, Evidence(float("nan"), float("nan"), float("nan")),
                                 0.0 if problem["kind"] == "quantisation" else float("inf")))
-    findings.sort(key=lambda f: -f.importance)
-    extensions = {}
-    for a in current.structure.effects:
-        entry = a.effect.extension(current, a)
-        if entry is not None:
-            extensions[a.name] = entry
+    extensions = _extensions(current)
     extended_model = model_file_dict(data, current, extensions=extensions)
     baseline_model = model_file_dict(data, base)
     gain = {"heldout_rms_ratio": base.heldout.rms / current.heldout.rms if current.heldout.rms > 0 else None,
@@ -427,8 +475,64 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
             gain["correction_error_ratio"] = corr["ratio"]
             gain["correction_error_baseline"] = corr["baseline_rms"]
             gain["correction_error_extended"] = corr["extended_rms"]
+            if corr["ratio"] is not None and corr["ratio"] < CORRECTION_WORSE:
+                findings = _correction_notes(data, base, findings)
+    findings = _ordered(findings, unexplained)
     return Diagnosis(data, base, current, tuple(findings), tuple(trials), catch, gain,
-                     _time.perf_counter() - t_start, extended_model, baseline_model, corr)
+                     _time.perf_counter() - t_start, extended_model, baseline_model, corr, floor)
+
+
+def _extensions(fit: Fit) -> dict:
+    out = {}
+    for a in fit.structure.effects:
+        entry = a.effect.extension(fit, a)
+        if entry is not None:
+            out[a.name] = entry
+    return out
+
+
+def _remaining(fit: Fit, floor: NoiseFloor) -> dict:
+    """What is left above the floor: the misfit ratio and the RMS of the excess (signal units)."""
+    ratio = ratio_to_floor(fit.residual_rms, floor)
+    excess = float(np.sqrt(max(fit.residual_rms ** 2 - floor.rms ** 2, 0.0)))
+    return {"misfit_ratio": ratio, "excess_rms": excess}
+
+
+def _misfit_note(fit: Fit, floor: NoiseFloor) -> str:
+    return (f"the model misses the record by {fit.residual_rms / floor.rms:.3g} times the noise floor "
+            f"(residual RMS {fit.residual_rms:.4g}, floor {floor.rms:.4g} signal units): structure no "
+            f"candidate explains")
+
+
+def _correction_notes(data: Data, base: Fit, findings: list[Finding]) -> list[Finding]:
+    """Each named finding with the correction-error ratio of adding it (the model before it /
+    with it); a finding that makes the creep-corrected signal worse says so."""
+    out, before = [], base
+    by_step = [f for f in findings if f.effect != "unexplained"]
+    for f in by_step:
+        corr = correction_errors(data, before, f.fit, _extensions(f.fit))
+        ratio = corr.get("ratio") if corr else None
+        f = replace(f, correction_error_ratio=ratio)
+        if f.worsens_correction:
+            f = replace(f, note=(f"fits the signal better but makes the creep-corrected signal worse "
+                                 f"against the load (correction-error ratio {ratio:.3g}): it does not "
+                                 f"describe how the signal follows the load"))
+        out.append(f)
+        before = f.fit
+    return out + [f for f in findings if f.effect == "unexplained"]
+
+
+def _ordered(findings: list[Finding], unexplained: Finding | None) -> list[Finding]:
+    """Named findings by importance, those that make the correction worse after the others;
+    ``unexplained`` last (first when no named finding improves the correction)."""
+    named = [f for f in findings if f.effect != "unexplained"]
+    good = sorted((f for f in named if not f.worsens_correction), key=lambda f: -f.importance)
+    worse = sorted((f for f in named if f.worsens_correction), key=lambda f: -f.importance)
+    if unexplained is None:
+        return good + worse
+    if not good:
+        return [unexplained] + worse
+    return good + [unexplained] + worse
 
 
 def _evidence(data: Data, current: Fit, rich: Fit, refine: bool = True,

@@ -59,9 +59,13 @@ class ExtraRetardation(Effect):
 
     def unphysical(self, fit: Fit, applied: Applied) -> str | None:
         k = self.added_term(fit, applied)
-        tau, beta = fit.values[f"tau[{k}]"], fit.values[f"a[{k}]"] / fit.gain
-        if beta <= 0:
-            return f"beta = {beta:.3g}: a Voigt element only adds creep (beta > 0)"
+        tau = fit.values[f"tau[{k}]"]
+        settled = 1.0 + float(np.sum(fit.betas))
+        if settled <= 0:
+            # creep and relaxation both allowed (either sign, mixed); not a response that
+            # settles against the load's direction
+            return (f"1 + sum(beta) = {settled:.3g}: the settled response would have the opposite "
+                    f"sign of the instantaneous one, which no passive material does")
         longest = applied.setting("longest")
         if tau > longest:
             # its free initial state then decays as a ramp in time: drift, not creep

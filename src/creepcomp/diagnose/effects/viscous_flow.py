@@ -35,12 +35,21 @@ class ViscousFlow(Effect):
     parameters = ("rate",)
     summary = "creep that never saturates (a dashpot in series: Burgers model)"
 
+    def settings(self, data: Data, base: Fit) -> tuple:
+        return (("span", data.span),)
+
     def columns(self, data, s, h, lags, p, applied):
         return {"flow": integral(data, s)}
 
     def unphysical(self, fit: Fit, applied: Applied) -> str | None:
         rate = fit.values["viscous_flow.flow"] / fit.gain
-        return None if rate > 0 else f"rate = {rate:.3g} /s: a dashpot only adds creep (rate > 0)"
+        # flow of either sign (creep, or relaxation under imposed displacement); but a held
+        # load's response cannot flow through zero within the record
+        held = 1.0 + float(np.sum(fit.betas)) + rate * applied.setting("span")
+        if held <= 0:
+            return (f"rate = {rate:.3g} /s: under a held load the response would flow through zero "
+                    f"within the record, which no passive material does")
+        return None
 
     def report(self, fit: Fit, applied: Applied) -> dict:
         return {"rate": fit.estimate(lambda v: v["viscous_flow.flow"] / v["gain"])}
