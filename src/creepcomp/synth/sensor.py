@@ -59,7 +59,7 @@ NO_TEMPLATE = ("sensitivity_drift", "periodic_disturbance", "aging_retardation")
 
 #: No-template records keep their misfit visible: the part of their signature the baseline
 #: cannot absorb has at least this RMS relative to the noise (the noise is scaled down).
-VISIBLE_RATIO = 2.0
+VISIBLE_RATIO = 3.0
 
 #: Kinds of load program :func:`make_program` draws.
 PROGRAMS = ("step", "staircase", "sweep", "mixture", "random", "cycles")
@@ -523,6 +523,18 @@ def detectability(spec: Spec, program: LoadProgram, t: np.ndarray, temperature_f
     return (z, rest) if with_rest else z
 
 
+def _baseline_misfit(t, load, clean) -> float:
+    """RMS residual of the baseline (one creep term, free initial state) fitted to a noise-free
+    record."""
+    from creepcomp.fit.data import prepare
+    from creepcomp.fit.solver import fit_structure
+    from creepcomp.fit.starts import one_term_starts
+    from creepcomp.fit.structure import Structure
+
+    data = prepare(Record(t, load, clean, source="noise-free record"))
+    return fit_structure(data, Structure(1), one_term_starts(data), with_cov=False).residual_rms
+
+
 def _quiet_indices(load: np.ndarray, margin: int) -> np.ndarray:
     """Samples with no load change within ``margin`` samples either side."""
     changed = np.concatenate([[False], np.diff(load) != 0])
@@ -597,8 +609,10 @@ def generate(spec: Spec) -> Synthetic:
         z, rest = detectability(spec, program, t, temp_fn, clean, noise, with_rest=True)
         f = min(1.0, z / spec.detectable_z)
         if set(physical) & set(NO_TEMPLATE):
-            # and visible against the noise floor: misfit well above the noise's RMS
-            rms_rest, rms_noise = float(np.sqrt(np.mean(rest ** 2))), float(np.std(np.diff(noise)) / np.sqrt(2))
+            # and visible against the noise floor: the baseline fitted to the noise-free record
+            # misses it by VISIBLE_RATIO times the noise's RMS
+            rms_rest = _baseline_misfit(t, program.sample(t), clean)
+            rms_noise = float(np.std(noise))
             if rms_noise > 0:
                 f = min(f, rms_rest / (VISIBLE_RATIO * rms_noise))
         if f < 1.0:
