@@ -523,16 +523,20 @@ def detectability(spec: Spec, program: LoadProgram, t: np.ndarray, temperature_f
     return (z, rest) if with_rest else z
 
 
-def _baseline_misfit(t, load, clean) -> float:
-    """RMS residual of the baseline (one creep term, free initial state) fitted to a noise-free
-    record."""
+def _baseline_misfit(t, load, clean, terms: int = 1) -> float:
+    """RMS residual of the baseline (one creep term, free initial state; or ``terms`` = 2 creep
+    terms) fitted to a noise-free record."""
     from creepcomp.fit.data import prepare
     from creepcomp.fit.solver import fit_structure
-    from creepcomp.fit.starts import one_term_starts
+    from creepcomp.fit.starts import extra_term_starts, one_term_starts
     from creepcomp.fit.structure import Structure
 
     data = prepare(Record(t, load, clean, source="noise-free record"))
-    return fit_structure(data, Structure(1), one_term_starts(data), with_cov=False).residual_rms
+    fit = fit_structure(data, Structure(1), one_term_starts(data), with_cov=False)
+    if terms == 2:
+        two = Structure(2)
+        fit = fit_structure(data, two, extra_term_starts(data, fit, two), with_cov=False)
+    return fit.residual_rms
 
 
 def _quiet_indices(load: np.ndarray, margin: int) -> np.ndarray:
@@ -611,7 +615,9 @@ def generate(spec: Spec) -> Synthetic:
         if set(physical) & set(NO_TEMPLATE):
             # and visible against the noise floor: the baseline fitted to the noise-free record
             # misses it by VISIBLE_RATIO times the noise's RMS
-            rms_rest = _baseline_misfit(t, program.sample(t), clean)
+            # (aging creep against two creep terms: one further term must not absorb it either)
+            rms_rest = _baseline_misfit(t, program.sample(t), clean,
+                                        terms=2 if "aging_retardation" in physical else 1)
             rms_noise = float(np.std(noise))
             if rms_noise > 0:
                 f = min(f, rms_rest / (VISIBLE_RATIO * rms_noise))
