@@ -23,7 +23,7 @@ Usage::
 
     python benchmarks/diagnose_confusion.py [--per-effect 20] [--clean 40] [--seed 0]
                                             [--wide] [--jobs 2] [--json out.json]
-                                            [--classes a,b/c,...]
+                                            [--classes a,b/c,...] [--max-samples N]
     python benchmarks/diagnose_confusion.py --report out.json   # summary of a (partial) run
 
 Records are run round-robin over the classes, and ``--json`` is rewritten after each one, so
@@ -66,9 +66,11 @@ def all_classes() -> list[str]:
     return out + list(synth.NO_TEMPLATE)
 
 
-def class_spec(name: str, seed: int, wide: bool):
+def class_spec(name: str, seed: int, wide: bool, max_samples: int | None = None):
     """The randomised spec of a class: (effect, spec)."""
     ranges = dict(WIDE if wide else {})
+    if max_samples:
+        ranges["max_samples"] = max_samples
     if name == "none":
         return None, synth.random_spec(None, seed, **ranges)
     if name.startswith("relaxation"):
@@ -83,7 +85,7 @@ def run_one(args):
     try:
         return _run_one(args)
     except Exception as exc:  # noqa: BLE001 - a benchmark reports every failure and goes on
-        name, seed, _ = args
+        name, seed = args[:2]
         return {"class": name, "effect": name.partition("/")[0], "seed": seed,
                 "cause": f"error: {type(exc).__name__}: {exc}", "findings": [], "found": False,
                 "kinds": [], "errors": {}, "gain": {}, "seconds": 0.0, "n": 1, "program": "?",
@@ -91,8 +93,8 @@ def run_one(args):
 
 
 def _run_one(args):
-    name, seed, wide = args
-    effect, spec = class_spec(name, seed, wide)
+    name, seed, wide, max_samples = args
+    effect, spec = class_spec(name, seed, wide, max_samples)
     syn = synth.generate(spec)
     t0 = time.perf_counter()
     d = diagnose(syn.record)
@@ -143,6 +145,8 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--wide", action="store_true")
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--max-samples", type=int, default=None,
+                    help="shorten every record to at most this many samples (a quicker run)")
     ap.add_argument("--json", default=None)
     ap.add_argument("--classes", "--effects", dest="classes", default=None,
                     help="comma-separated subset of the classes")
@@ -167,7 +171,7 @@ def main(argv=None):
         if c not in synth.EFFECTS and c != "none":
             base += 200000
         count = args.clean if c == "none" else args.per_effect
-        queues.append([(c, args.seed + base + i, args.wide) for i in range(count)])
+        queues.append([(c, args.seed + base + i, args.wide, args.max_samples) for i in range(count)])
     # round-robin, two clean records per round (twice as many of them)
     tasks = []
     for i in range(max(map(len, queues), default=0)):

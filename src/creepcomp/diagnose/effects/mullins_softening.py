@@ -33,6 +33,15 @@ class MullinsSoftening(Effect):
     parameters = ("softening",)
     summary = "reloading below the largest load so far responds differently (first-cycle softening)"
 
+    def applicable(self, data, structure):
+        reason = super().applicable(data, structure)
+        if reason:
+            return reason
+        x = np.abs(data.load)
+        if np.max(past_maximum(x) - x) < 0.05 * data.load_scale:
+            return "the load never returns below its largest value so far: no reloading to compare"
+        return None
+
     def nonlinear_params(self, data, applied):
         return [Param("softening", -0.9, 0.9, scale=0.1)]
 

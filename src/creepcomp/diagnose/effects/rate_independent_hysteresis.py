@@ -18,7 +18,11 @@ from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
 from creepcomp.diagnose.effects import Effect
 
-__all__ = ["play", "RateIndependentHysteresis", "EFFECT"]
+__all__ = ["REVERSAL_SHARE", "play", "one_way_reason", "RateIndependentHysteresis", "EFFECT"]
+
+#: A load history "changes both ways" when its smaller direction (rises or falls, through a play of
+#: 1 % of full scale) makes at least this share of its larger one.
+REVERSAL_SHARE = 0.05
 
 
 def play(x, width: float, initial: float = 0.0) -> np.ndarray:
@@ -41,10 +45,26 @@ def play(x, width: float, initial: float = 0.0) -> np.ndarray:
     return np.clip(initial, lo, hi)
 
 
+def one_way_reason(data: Data) -> str | None:
+    """Why a record's load history cannot show a direction-dependent effect (its load changes
+    in one direction only, e.g. one step without release), or None."""
+    x = data.load
+    p = play(x, 0.01 * data.load_scale, initial=x[0])
+    d = np.diff(np.abs(p))
+    up, down = float(np.sum(d[d > 0])), float(-np.sum(d[d < 0]))
+    if min(up, down) < REVERSAL_SHARE * max(up, down, 1e-300):
+        return ("the load's magnitude only " + ("rises" if up > down else "falls") +
+                ": a direction-dependent effect cannot be told from creep or an offset")
+    return None
+
+
 class RateIndependentHysteresis(Effect):
     name = "rate_independent_hysteresis"
     parameters = ("width", "weight")
     summary = "output that depends on the direction of the load history, not on time (play operator)"
+
+    def applicable(self, data, structure):
+        return super().applicable(data, structure) or one_way_reason(data)
 
     def settings(self, data: Data, base: Fit) -> tuple:
         return (("load_scale", data.load_scale),)

@@ -17,7 +17,7 @@ from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
 from creepcomp.lti import lag_states
 from creepcomp.diagnose.effects import Effect
-from creepcomp.diagnose.effects.rate_independent_hysteresis import play
+from creepcomp.diagnose.effects.rate_independent_hysteresis import one_way_reason, play
 
 __all__ = ["DEAD_BAND", "total_variation", "TransitionOvershoot", "EFFECT"]
 
@@ -36,6 +36,10 @@ class TransitionOvershoot(Effect):
     name = "transition_overshoot"
     parameters = ("amplitude", "tau")
     summary = "a decaying transient of one sign after every load change, up or down"
+
+    def applicable(self, data, structure):
+        # on a load that only rises, an overshoot is a creep term of negative beta
+        return super().applicable(data, structure) or one_way_reason(data)
 
     def settings(self, data: Data, base: Fit) -> tuple:
         return (("load_scale", data.load_scale),)
