@@ -458,11 +458,6 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
         unexplained = Finding("unexplained", _remaining(current, floor), {},
                               catch or Evidence(float("nan"), float("nan"), float("nan")), 0.0, None,
                               note=_misfit_note(current, floor))
-    # data problems no model column undoes (clipping, channels out of step, coarse quantisation)
-    from creepcomp.diagnose.effects.data_problem import screen
-    for problem in screen(data, current):
-        findings.append(Finding("data_problem", problem, {}, Evidence(float("nan"), float("nan"), float("nan")),
-                                0.0 if problem["kind"] == "quantisation" else float("inf")))
     extensions = _extensions(current)
     extended_model = model_file_dict(data, current, extensions=extensions)
     baseline_model = model_file_dict(data, base)
@@ -477,6 +472,11 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
             gain["correction_error_extended"] = corr["extended_rms"]
             if corr["ratio"] is not None and corr["ratio"] < CORRECTION_WORSE:
                 findings = _correction_notes(data, base, findings)
+    # data problems no model column undoes (clipping, channels out of step, coarse quantisation)
+    from creepcomp.diagnose.effects.data_problem import screen
+    for problem in screen(data, current):
+        findings.append(Finding("data_problem", problem, {}, Evidence(float("nan"), float("nan"), float("nan")),
+                                0.0 if problem["kind"] == "quantisation" else float("inf")))
     findings = _ordered(findings, unexplained)
     return Diagnosis(data, base, current, tuple(findings), tuple(trials), catch, gain,
                      _time.perf_counter() - t_start, extended_model, baseline_model, corr, floor)

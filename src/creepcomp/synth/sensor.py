@@ -851,6 +851,9 @@ def random_spec(effect: str | None, seed: int, rate: tuple = (2.0, 50.0),
                   drift=white * rng.uniform(0.2, 1.0) * colour_scale if rng.uniform() < drift else 0.0,
                   lsb=white * rng.uniform(0.1, 1.0) if rng.uniform() < 0.3 else 0.0)
     choices = list(programs or PROGRAMS_FOR[effect])
+    if effect == "data_problem" and form == "out_of_step" and not programs:
+        # a slip shows as a change of delay between load steps: programs with many of them
+        choices = ["staircase", "cycles"]
     irregular_now = rng.uniform() < irregular
     hidden = random_hidden(effect, rng, tau, r, dur, beta, forms, abs(gain) * fs, form, gain)
     if effect == "data_problem" and hidden[effect]["form"] == "quantisation":
