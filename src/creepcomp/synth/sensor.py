@@ -763,7 +763,7 @@ def _formulated(effect: str, form: str | None, rng, tau, rate, duration, beta, s
                        a3=float(rng.choice([-1, 1]) * rng.uniform(0.0, 0.02)))
     elif effect == "time_offset":
         if form == "average":
-            k = int(rng.integers(5, 21))
+            k = int(rng.integers(3, 9))
             out.update(samples=k, delay=float((k - 1) / 2.0 / rate))
         else:
             out["delay"] = float(rng.uniform(2.0, 10.0) / rate)
