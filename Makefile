@@ -49,6 +49,5 @@ bench-digital: setup
 .PHONY: bench-diagnose
 bench-diagnose: setup
 	$(PY) benchmarks/diagnose_timing.py
-	$(PY) benchmarks/rheojax_fit.py
 	$(PY) benchmarks/diagnose_confusion.py --per-effect 20 --clean 40
 	$(PY) benchmarks/diagnose_circuit_confusion.py --per-effect 20 --clean 40

@@ -7,10 +7,16 @@ sample rate 2-50 Hz, load program, duration, noise on each channel, jitter, how 
 was driven) and diagnosed against the nominal design. Printed:
 
 - the confusion matrix (hidden effect against the cause named),
+- per fault: the true fault named as the cause or listed among its alternatives (records
+  the output cannot tell apart), the cause itself the true fault, clean networks ``none``,
+  ``none`` given above the noise floor (misfit ratio over
+  :data:`~creepcomp.fit.noise.MISFIT_LIMIT`), and the pairs named together with the
+  measurement the diagnosis proposes to separate them,
 - how many records of each fault had their noise scaled down by the generator's rules
   (the fault detectable, told apart from the other faults, its parts determined),
 - parameter recovery (fraction within 10 % and median relative error): ``C`` of
-  ``capacitor_value``, ``R`` of the impedances and of the leakage, and for dielectric
+  ``capacitor_value``, ``R`` of a wrong resistor, of the impedances and of the leakage (as
+  the cause or the alternative that names the true fault, on the true part), and for dielectric
   absorption the branch's ``C`` (fraction of the capacitor) and ``R`` (its time constant over C),
 - the gain on each effect's records (median held-out residual RMS ratio and ratio of the
   simulated output's error against the measured ``corrected``, nominal / as built),
@@ -41,8 +47,9 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 from creepcomp import synth
-from creepcomp.analog.faults import CIRCUIT_EFFECTS
+from creepcomp.analog.faults import CIRCUIT_EFFECTS, fault_part
 from creepcomp.diagnose.circuit import diagnose_circuit, ngspice_check
+from creepcomp.fit.noise import MISFIT_LIMIT
 
 EFFECTS = list(CIRCUIT_EFFECTS)
 
@@ -64,17 +71,33 @@ def run_one(args):
     check = ngspice_check(d.data, d.extended) if spice_check else None
     truth = dict(spec.hidden.get(effect, {})) if effect else {}
     cell = truth.pop("cell", None)
+    part = fault_part(syn.design.network, effect, cell, truth.pop("part", None)) if effect else None
     cells = syn.design.network.cells
-    part = None if cell is None else ("C1" if len(cells) == 1 else f"C1.{cell + 1}")
-    found = next((f for f in d.findings if f.effect == effect), None)
+    # the true fault as a finding, or as an alternative of one (on the true part when it has one)
+    found, how = None, None
+    for f in d.findings:
+        if f.effect == effect and (part is None or f.part == part):
+            found, how = {"parameters": f.parameters, "part": f.part}, "cause" if f is d.findings[0] else "finding"
+            break
+        alt = next((a for a in f.alternatives if a["effect"] == effect and (part is None or a["part"] == part)), None)
+        if alt is not None:
+            found, how = alt, "alternative"
+            break
+    if found is None:  # the effect named on another part
+        f = next((f for f in d.findings if f.effect == effect), None)
+        found, how = ({"parameters": f.parameters, "part": f.part}, "wrong part") if f else (None, None)
     errors, part_ok = {}, None
     if found is not None:
-        got = dict(found.parameters)
+        got = dict(found["parameters"])
         if effect == "dielectric_absorption":
             truth, got = branch_parts(truth, cells[cell].C), branch_parts(got, cells[cell].C)
         errors = {k: abs(got[k] / truth[k] - 1.0) for k in truth if k in got}
-        part_ok = None if part is None else found.part == part
-    return {"effect": effect or "none", "seed": seed, "cause": d.cause,
+        part_ok = None if part is None else found["part"] == part
+    out = d.to_dict()
+    pairs = [(f.effect, f.part, a["effect"], a["part"], a["measurement"]) for f in d.findings for a in f.alternatives]
+    return {"effect": effect or "none", "seed": seed, "cause": d.cause, "found_as": how,
+            "misfit_baseline": out["baseline"]["misfit_ratio"], "misfit_extended": out["extended"]["misfit_ratio"],
+            "mismatch": d.mismatch, "pairs": pairs,
             "findings": [f.effect for f in d.findings], "errors": errors, "part_ok": part_ok,
             "cells": len(cells), "gain": d.gain,
             "seconds": seconds, "n": len(syn.record), "program": spec.program, "rate": spec.rate,
@@ -116,7 +139,8 @@ def main(argv=None):
             if args.json:
                 with open(args.json + "l", "a") as fh:
                     fh.write(json.dumps(r, default=float) + "\n")
-            print(f"  {r['effect']:22s} seed {r['seed']:6d}: {r['cause']:22s} "
+            print(f"  {r['effect']:22s} seed {r['seed']:6d}: {r['cause']:22s} {r['found_as'] or '-':11s} "
+                  f"misfit {r['misfit_baseline']:.3g} -> {r['misfit_extended']:.3g} "
                   f"{','.join(r['findings'][1:]) or '':30s} {r['seconds']:5.1f} s "
                   f"({r['n']} samples, {r['program']}, {r['rate']:.1f} Hz, {r['drive']}, {r['output_noise']}, {r['cells']} cell"
                   f"{'s' if r['cells'] > 1 else ''}) {' '.join(f'{k} {100 * v:.1f} %' for k, v in r['errors'].items())}",
@@ -141,6 +165,40 @@ def report(results, effects, wall):
         named = sum(x["cause"] == r for x in sub) / len(sub)
         print(f"{r:22s}" + "".join(f"{n:12d}" for n in counts) + f"{len(sub) - sum(counts):8d}"
               f"{100 * named:7.0f}%")
+    print(f"\nPer fault: the true fault named as the cause or among its alternatives (on the true part), "
+          f"the cause itself the true fault; 'none' above the noise floor (misfit ratio > {MISFIT_LIMIT:g})")
+    print(f"  {'fault':22s} {'records':>8s} {'cause|alt':>10s} {'cause':>8s} {'none':>6s} {'none>floor':>11s} "
+          f"{'mismatch':>9s}")
+    for r in rows:
+        sub = [x for x in results if x["effect"] == r]
+        if not sub:
+            continue
+        n = len(sub)
+        ok = sum(x["cause"] == "none" if r == "none" else x.get("found_as") in ("cause", "alternative") for x in sub)
+        cause = sum(x["cause"] == r for x in sub)
+        none = sum(x["cause"] == "none" for x in sub)
+        above = sum(x["cause"] == "none" and (x.get("misfit_baseline") or 0) > MISFIT_LIMIT for x in sub)
+        mism = sum(bool(x.get("mismatch")) for x in sub)
+        print(f"  {r:22s} {n:8d} {100 * ok / n:9.0f}% {100 * cause / n:7.0f}% {none:6d} {above:11d} {mism:9d}")
+    pairs = {}
+    for x in results:
+        for cause, cpart, alt, apart, how in x.get("pairs", []):
+            key = (f"{cause} {cpart or ''}".strip(), f"{alt} {apart or ''}".strip())
+            pairs.setdefault(key, [0, how])[0] += 1
+    if pairs:
+        print("\nPairs the records could not separate (cause, alternative: records; measurement proposed)")
+        for (c, a), (count, how) in sorted(pairs.items(), key=lambda kv: -kv[1][0]):
+            print(f"  {c:24s} | {a:24s} {count:4d}: {how}")
+    clean = [x for x in results if x["effect"] == "none"]
+    if clean:
+        print("\nClean networks by the output's noise: 'none' / records (the others: cause named)")
+        for kind in ("white", "coloured", "drift"):
+            sub = [x for x in clean if x["output_noise"] == kind]
+            if sub:
+                print(f"  {kind:10s} {sum(x['cause'] == 'none' for x in sub)} of {len(sub)}; misfit ratios of the "
+                      f"nominal network: median {np.median([x['misfit_baseline'] for x in sub]):.3g}, max "
+                      f"{max(x['misfit_baseline'] for x in sub):.3g}; causes "
+                      f"{sorted({x['cause'] for x in sub if x['cause'] != 'none'})}")
     print("\nNamed correctly by the output's noise (all rows)")
     for kind in ("white", "coloured", "drift"):
         sub = [x for x in results if x["output_noise"] == kind]
@@ -170,7 +228,7 @@ def report(results, effects, wall):
         located = [x for x in results if x["effect"] == e and x["part_ok"] is not None]
         if located:
             two = [x for x in located if x["cells"] > 1]
-            print(f"  {e:22s} the right capacitor in {sum(x['part_ok'] for x in located)} of {len(located)} "
+            print(f"  {e:22s} the right part in {sum(x['part_ok'] for x in located)} of {len(located)} "
                   f"(two-cell networks: {sum(x['part_ok'] for x in two)} of {len(two)})")
     print("\nGain on each fault's records (medians, nominal network / as built)")
     print(f"  {'effect':22s} {'held-out RMS ratio':>20s} {'output error ratio':>20s}")

@@ -13,8 +13,12 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 @pytest.fixture
 def run_cli(capsys):
-    """Run the command line in-process; returns (status, stdout, stderr)."""
+    """Run the command line in-process; returns (status, stdout, stderr). The consoles are
+    wide, so that a long temporary path is never folded across lines of the output."""
     from creepcomp.cli import main
+    from creepcomp.cli.common import console, err_console
+
+    console.width = err_console.width = 400
 
     def run(*args):
         status = main([str(a) for a in args])

@@ -20,7 +20,8 @@ from creepcomp.units import parse_quantity
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
 SCRIPTS = ("size_network", "ngspice_proof", "tolerance_report", "correct_record",
-           "diagnose_record", "diagnose_built_network")
+           "diagnose_record", "diagnose_built_network", "firmware_corrector", "real_insole",
+           "real_wood")
 #: A percentage as the examples print it, e.g. ``0.029 %``, ``-0.0262 %``, ``2.22e-14 %``.
 PERCENT = r"(-?[0-9.]+(?:e[-+]\d+)?) %"
 #: A value with an SI prefix and a unit, e.g. ``1.2 MΩ``, ``501.5 nV``.
@@ -166,3 +167,43 @@ def test_diagnose_built_network_finds_the_fault_and_the_fix(tmp_path):
     built = read_design(tmp_path / "as-built-design.json")
     assert max(c.C for c in built.network.cells) == pytest.approx(truth["C"], rel=0.01)
     assert "ngspice, as-built network" not in stdout                 # --fast: not run
+
+
+def test_firmware_corrector_sketch_within_its_bound(tmp_path):
+    stdout = run_example("firmware_corrector", tmp_path)
+    written(tmp_path, "model.json", "record.csv", "hx711_scale/creep.h", "hx711_scale/creep.c",
+            "hx711_scale/hx711_scale.ino")
+    bound = float(re.search(r"proven worst-case error (\S+) of full scale", stdout).group(1))
+    assert 0 < bound <= 1e-5
+    if "gcc not found" in stdout:
+        return
+    written(tmp_path, "sketch-output.csv")
+    measured = float(re.search(r"largest difference from the float64 corrector (\S+) of full scale",
+                               stdout).group(1))
+    assert measured <= bound
+    raw, corrected = (float(g) for g in re.findall(r"(\d+\.\d+) g ", stdout))
+    assert corrected < raw / 100
+    assert re.search(r"[0-9.]+ ns per sample \(gcc -O2\), object \d+ bytes", stdout)
+
+
+def test_real_insole(tmp_path):
+    stdout = run_example("real_insole", tmp_path)
+    for name, taxel in (("left", 128), ("right", 123)):
+        written(tmp_path, f"{name}-fit.png", f"{name}/report.html", f"{name}/diagnosis.json")
+        assert re.search(rf"^{name}: \S+, taxel {taxel}: \d+ samples over", stdout, re.MULTILINE)
+        cause = json.loads((tmp_path / name / "diagnosis.json").read_text())["cause"]
+        assert f"cause: {cause}" in stdout
+    # the counts fall under pressure: the settled sensitivity is negative in both records
+    settled = [float(v) for v in re.findall(r"settled sensitivity gain x \(1 \+ beta0\) = (\S+) counts/bar", stdout)]
+    assert len(settled) == 2 and all(v < 0 for v in settled)
+    assert "--fast: every 4th sample" in stdout
+
+
+def test_real_wood(tmp_path):
+    stdout = run_example("real_wood", tmp_path)
+    for level in ("0.3", "0.5"):
+        written(tmp_path, f"wood-{level}-fit.png", f"wood-{level}/report.html")
+    betas = [float(b) for b in re.findall(r"beta0 = ([-0-9.]+) % over", stdout)]
+    assert len(betas) == 2 and all(0 < b < 100 for b in betas)          # creep, not relaxation
+    compliances = [float(j) for j in re.findall(r"J_c\(50 h\) = (\S+) 1/MPa", stdout)]
+    assert len(compliances) == 2 and all(1e-6 < j < 1e-3 for j in compliances)

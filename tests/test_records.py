@@ -6,7 +6,6 @@ import pytest
 from creepcomp.errors import InputError
 from creepcomp.io.records import Record, parse_columns, parse_record, read_record, write_record
 
-SHARED = Path(__file__).resolve().parent / "data" / "rheojax"
 
 
 def test_reads_metadata_case_insensitive_columns_and_optional_ones():
@@ -50,21 +49,44 @@ def test_too_short_records_are_reported():
         r.require(2, duration=450.0, what="a 45 s retardation time")
 
 
-def test_column_mapping_and_constant_load_for_rheojax_creep():
+def _rounded_stamps_export(path):
+    """A rheometer-like CSV: time stamps rounded so that rows 5 and 6 (lines 6, 7) share one."""
+    t = [0.5, 1.0, 2.0, 3.0, 4.0, 4.0, 5.0, 6.0]
+    rows = "".join(f"{x},{1e-6 * (1 + 0.01 * i):.9g},{i}\n" for i, x in enumerate(t))
+    path.write_text("Time,Creep Compliance,Step\n" + rows)
+    return path
+
+
+def test_column_mapping_and_constant_load_for_a_creep_export(tmp_path):
+    p = _rounded_stamps_export(tmp_path / "creep.csv")
     cols = parse_columns("time=Time,signal=Creep Compliance,load=1")
-    with pytest.raises(InputError, match="line 6480, column 'time': 1000 repeats"):
-        read_record(SHARED / "creep_ps130_data.csv", cols)
-    r = read_record(SHARED / "creep_ps130_data.csv", cols, duplicate_times="mean")
-    assert int(r.metadata["merged_duplicate_times"]) + len(r) == 28799
-    assert np.all(r.load == 1.0) and r.signal[0] == pytest.approx(3.32e-6)
+    with pytest.raises(InputError, match="line 7, column 'time': 4 repeats"):
+        read_record(p, cols)
+    r = read_record(p, cols, duplicate_times="mean")
+    assert r.metadata["merged_duplicate_times"] == "1" and len(r) == 7
+    assert np.all(r.load == 1.0) and r.signal[0] == pytest.approx(1e-6)
+    assert r.signal[4] == pytest.approx(1e-6 * (1 + 0.01 * 4.5))      # rows sharing t = 4 averaged
+
+
+def trios_like_export(time_min, strain_percent, stress_mpa) -> str:
+    """Text laid out as a rheometer's tab-separated export: a preamble of blocks, a header of
+    long column names, a units row, then the data."""
+    lines = ["Filename\tcreep.txt", "Instrument name\tRHEOMETER", "[File Parameters]",
+             "Name\tcreep", "[Geometry Parameters]", "Diameter\t8.0 mm", "", "[step]",
+             "Creep", "Time\tStep time\tStrain\tStress\tTemperature",
+             "s\tmin\t%\tMPa\t°C"]
+    lines += [f"{60 * t:.6g}\t{t:.9g}\t{e:.9g}\t{stress_mpa:.9g}\t25" for t, e in zip(time_min, strain_percent)]
+    return "\n".join(lines) + "\n"
 
 
 def test_instrument_export_with_preamble_and_units_row():
-    r = read_record(SHARED / "creep_experiment.txt",
-                    parse_columns("time=Step time,signal=Strain,load=Stress"))
-    assert len(r) == 483
-    assert r.time[-1] == pytest.approx(2.90037807 * 60, rel=1e-6)      # minutes -> seconds
+    t = np.linspace(0.01, 2.9, 40)
+    r = parse_record(trios_like_export(t, 0.5 + 0.01 * t, 0.2), "creep.txt",
+                     parse_columns("time=Step time,signal=Strain,load=Stress"))
+    assert len(r) == 40
+    assert r.time[-1] == pytest.approx(2.9 * 60, rel=1e-9)      # minutes -> seconds
     assert r.unit("load") == "MPa" and r.unit("signal") == "%"
+    assert r.unit("time").startswith("s (converted from min")
 
 
 @pytest.mark.parametrize("text,needle", [

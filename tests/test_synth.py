@@ -137,9 +137,10 @@ def test_precision_of_a_fault_agrees_with_the_fits_own_uncertainty():
     assert synth.fault_parts("dielectric_absorption") == ("C", "R")
     branch = synth.scaled_part("dielectric_absorption", {"fraction": 0.01, "tau": 50.0}, "C", np.log(2))
     assert branch == pytest.approx({"fraction": 0.02, "tau": 100.0})   # R = tau / C unchanged
-    # source, load, leakage and absorption at three time constants: not a capacitor's value
+    # source, load, leakage, absorption at three time constants and R1, R2 off their values:
+    # not a capacitor's value
     others = synth.alternative_faults(syn.design.network, "capacitor_value", 900.0)
-    assert len(others) == 6 and all(n.cells[0].C == syn.design.network.cells[0].C for n in others)
+    assert len(others) == 8 and all(n.cells[0].C == syn.design.network.cells[0].C for n in others)
 
 
 def test_bundled_hidden_effect_record_is_current(tmp_path):

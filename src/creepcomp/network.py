@@ -20,12 +20,19 @@ from typing import Mapping, TYPE_CHECKING
 import numpy as np
 
 from creepcomp.errors import InputError
+from creepcomp.units import format_quantity
 from creepcomp.lti import LagExpansion
 
 if TYPE_CHECKING:
     import control
 
-__all__ = ["Cell", "Branch", "Network", "state_matrices", "modal_form", "parallel"]
+__all__ = ["Cell", "Branch", "Network", "state_matrices", "modal_form", "parallel",
+           "RESISTANCE_RANGE", "CAPACITANCE_RANGE"]
+
+#: Resistances a design may hold (ohm): 1 mΩ to 1 PΩ (beyond it, board leakage decides).
+RESISTANCE_RANGE = (1e-3, 1e15)
+#: Capacitances a design may hold (farad): 1 fF to 10 F.
+CAPACITANCE_RANGE = (1e-15, 10.0)
 
 
 @dataclass(frozen=True)
@@ -139,6 +146,45 @@ class Network:
                            _positive(self.load_resistance, "load_resistance", allow_none=True))
 
     # --- parts -----------------------------------------------------------------------
+    def check_buildable(self, where: str = "design") -> None:
+        """Refuse part values no circuit has, or that the simulations cannot handle.
+
+        Resistances (parts, leakage, source and load) must lie in :data:`RESISTANCE_RANGE`,
+        capacitances (other than a cell's 0, "no capacitor") in :data:`CAPACITANCE_RANGE`,
+        and the network needs at least one capacitor: without one it corrects nothing.
+
+        Raises
+        ------
+        InputError
+            Naming the part, its value and the limits.
+        """
+        def check(value, name, kind):
+            low, high = RESISTANCE_RANGE if kind == "R" else CAPACITANCE_RANGE
+            unit = "Ω" if kind == "R" else "F"
+            if value is not None and not low <= value <= high:
+                raise InputError(f"{where}: {name} = {format_quantity(value, unit)} is outside "
+                                 f"{format_quantity(low, unit)} .. {format_quantity(high, unit)}, "
+                                 "what a built part can be and the simulations handle")
+
+        for k, c in enumerate(self.cells):
+            check(c.R, f"cells[{k}].R", "R")
+            if c.C != 0:
+                check(c.C, f"cells[{k}].C", "C")
+            check(c.leakage, f"cells[{k}].leakage", "R")
+            check(c.absorption_R, f"cells[{k}].absorption_R", "R")
+            check(c.absorption_C, f"cells[{k}].absorption_C", "C")
+        for j, b in enumerate(self.shunt):
+            check(b.R, f"shunt[{j}].R", "R")
+            check(b.C, f"shunt[{j}].C", "C")
+        check(self.R2, "R2", "R")
+        if self.source_resistance:
+            check(self.source_resistance, "source_resistance", "R")
+        check(self.load_resistance, "load_resistance", "R")
+        if not self.shunt and all(c.C == 0 for c in self.cells):
+            zero = ", ".join(f"cells[{k}].C = 0" for k in range(len(self.cells)))
+            raise InputError(f"{where}: the network has no capacitor ({zero}): it cannot correct "
+                             "creep; give each cell's capacitance in farad (C > 0)")
+
     def parts(self) -> list[tuple[str, str, float]]:
         """The parts as ``(label, kind, value)``, kind ``"R"`` or ``"C"``, in circuit order."""
         out = []

@@ -125,11 +125,15 @@ def format_quantity(value: float | None, unit: str = "", digits: int = 4) -> str
     """
     if value is None:
         return "none"
+    if math.isnan(value):
+        return "n/a"
     if math.isinf(value):
         return f"∞ {unit}".strip()
     if value == 0:
         return f"0 {unit}".strip()
     mag = abs(value)
+    if mag >= 1e16 or mag < 1e-16:
+        return f"{value:.{digits}g} {unit}".strip()      # beyond the prefixes: plain exponent
     for scale, prefix in _FORMAT_PREFIXES:
         if mag >= scale * 0.9999999:
             break

@@ -3,7 +3,8 @@
 A built correction network never matches its design exactly. The circuit-side effects are
 changes of the :class:`~creepcomp.network.Network` itself, each with its physical parameters:
 a capacitor off its value, a source resistance, a load resistance, dielectric absorption (a
-series R-C branch across the capacitor) and leakage (a resistance across it). Applied to the
+series R-C branch across the capacitor), leakage (a resistance across it) and a resistor off
+its value (any resistor of the design: R1 of each cell, R2, the shunt branches' R3). Applied to the
 nominal network they give the as-built network; its simulation is the one exact ``H(s)``.
 
 The fix: which single part to change, to what E-series value, and the residual creep that
@@ -24,10 +25,10 @@ from creepcomp.network import Network, modal_form, state_matrices
 from creepcomp.analog.quality import screening_deviation, step_peak
 
 __all__ = ["CIRCUIT_EFFECTS", "FIX_SPAN", "IMPROVEMENT", "capacitor_cells", "largest_capacitor",
-           "apply_fault", "FixOption", "suggest_fixes"]
+           "resistor_parts", "fault_part", "exact_equivalents", "apply_fault", "FixOption", "suggest_fixes"]
 
 CIRCUIT_EFFECTS = ("capacitor_value", "source_impedance", "load_impedance",
-                   "dielectric_absorption", "capacitor_leakage")
+                   "dielectric_absorption", "capacitor_leakage", "resistor_value")
 
 #: Range searched around a part's value for its replacement (factor either way).
 FIX_SPAN = 2.0
@@ -48,6 +49,50 @@ def largest_capacitor(network: Network) -> int:
     return max(caps, key=lambda i: network.cells[i].C)
 
 
+def resistor_parts(network: Network) -> dict[str, float]:
+    """The network's resistors by designator (``R1`` or ``R1.k``, ``R2``, ``R3`` or ``R3.j``,
+    as :meth:`~creepcomp.network.Network.parts` names them) with their values (ohm)."""
+    return {label: value for label, kind, value in network.parts() if kind == "R"}
+
+
+def fault_part(network: Network, effect: str, cell: int | None = None, part: str | None = None) -> str | None:
+    """The designator a fault sits on: the resistor ``part`` of a ``resistor_value``, the
+    capacitor of ``cell`` (``C1`` or ``C1.k``) of a capacitor's fault, None for the source and
+    load resistances."""
+    if effect == "resistor_value":
+        return part
+    if cell is None:
+        return None
+    return "C1" if len(network.cells) == 1 else f"C1.{cell + 1}"
+
+
+def exact_equivalents(network: Network, effect: str, part: str | None = None) -> list[tuple[str, str | None]]:
+    """Other faults that change the network's ``H(s)`` in exactly the same way, whatever the
+    record: ``(effect, part)`` pairs (``part`` as :func:`fault_part` names it).
+
+    - a load resistance ``RL`` and ``R2`` lower (``R2 || RL``; e.g. R2 15 % low is a load of
+      5.7 R2);
+    - leakage ``RP`` across a cell's capacitor and that cell's resistor lower (``R1 || RP``;
+      R1 20 % low is a leakage of 4 R1);
+    - a source resistance and a higher plain series resistor (a cell without capacitor, e.g.
+      the series R1 of a lag network): they add.
+    """
+    many = len(network.cells) > 1
+    resistor = {k: f"R1.{k + 1}" if many else "R1" for k in range(len(network.cells))}
+    capacitor = {k: f"C1.{k + 1}" if many else "C1" for k in range(len(network.cells))}
+    plain = [resistor[k] for k, c in enumerate(network.cells) if not c.C > 0]
+    pairs = []
+    if network.R2 is not None:
+        pairs.append((("load_impedance", None), ("resistor_value", "R2")))
+    for k, c in enumerate(network.cells):
+        if c.C > 0:
+            pairs.append((("capacitor_leakage", capacitor[k]), ("resistor_value", resistor[k])))
+    pairs.extend((("source_impedance", None), ("resistor_value", r)) for r in plain)
+    me = (effect, part)
+    out = [b for a, b in pairs if a == me] + [a for a, b in pairs if b == me]
+    return out
+
+
 def apply_fault(network: Network, effect: str, params: dict, cell: int | None = None) -> Network:
     """The network with one circuit-side effect.
 
@@ -61,7 +106,9 @@ def apply_fault(network: Network, effect: str, params: dict, cell: int | None = 
         ``capacitor_value``: ``C`` (F); ``source_impedance``: ``R`` (ohm, added to the
         design's source resistance); ``load_impedance``: ``R`` (ohm, in parallel with the
         design's load); ``dielectric_absorption``: ``fraction`` (of C) and ``tau`` (s);
-        ``capacitor_leakage``: ``R`` (ohm across the capacitor).
+        ``capacitor_leakage``: ``R`` (ohm across the capacitor); ``resistor_value``: ``R``
+        (ohm, the resistor's value as built) and ``part`` (its designator, see
+        :func:`resistor_parts`).
     cell : int, optional
         Which cell's capacitor (default: the one with the largest capacitance).
 
@@ -85,6 +132,15 @@ def apply_fault(network: Network, effect: str, params: dict, cell: int | None = 
         cells = list(network.cells)
         cells[k] = new
         return replace(network, cells=tuple(cells))
+    if effect == "resistor_value":
+        parts = network.parts()
+        labels = [p[0] for p in parts if p[1] == "R"]
+        part = params.get("part")
+        if part not in labels:
+            raise InputError(f"resistor_value: part {part!r} is not a resistor of the network "
+                             f"(its resistors: {', '.join(labels)})")
+        values = [_positive(params["R"], "R") if p[0] == part else p[2] for p in parts]
+        return network.with_parts(values)
     if effect == "source_impedance":
         return replace(network, source_resistance=network.source_resistance + _positive(params["R"], "R"))
     if effect == "load_impedance":
@@ -187,7 +243,10 @@ def suggest_fixes(as_built: Network, model: CreepModel, resistor_series: str = "
 
 
 def _has_faults(network: Network, label: str) -> bool:
-    """True when the capacitor ``label`` carries absorption or leakage."""
+    """True when the capacitor ``label`` carries absorption or leakage (a shunt branch's
+    ``C3`` has neither)."""
+    if not label.startswith("C1"):
+        return False
     k = int(label.split(".")[1]) - 1 if "." in label else 0
     cell = network.cells[k]
     return cell != cell.ideal()

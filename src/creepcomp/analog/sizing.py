@@ -36,7 +36,7 @@ from creepcomp.units import format_quantity
 __all__ = ["RULES", "DEFAULT_CAPACITANCE", "DEFAULT_CAP_RANGE", "DEFAULT_RES_RANGE",
            "FILM_CAP_RANGE", "HIGH_IMPEDANCE", "ASSUMED_LEAKAGE", "MAX_COMBINATIONS_PER_LEVEL",
            "EXACT_RECHECKS", "explain_unrealisable", "ideal_network", "PartChoice", "SizingReport",
-           "size", "nearest_snap", "output_resistance", "design_warnings"]
+           "size", "TAU_RANGE", "check_time_constants", "nearest_snap", "output_resistance", "design_warnings"]
 
 RULES = ("exact", "paper")
 #: Capacitance of the largest capacitor when the user fixes nothing and does not snap.
@@ -278,6 +278,7 @@ def size(model: CreepModel, rule: str = "exact", resistor_series: str | None = "
     -------
     SizingReport
     """
+    check_time_constants(model)
     def quality(net):
         return predict(model, net, sweep_period)
 
@@ -313,11 +314,11 @@ def size(model: CreepModel, rule: str = "exact", resistor_series: str | None = "
         net = ideals[-1]
         outside = ", ".join(f"{label} = {format_quantity(v, 'Ω')}" for label, kind, v in net.parts()
                             if kind == "R" and not res_range[0] <= v <= res_range[1])
-        largest_c = format_quantity(max(v for _, k, v in net.parts() if k == "C"), "F")
-        raise InputError(f"at C = {largest_c} the {rule} rule needs {outside}, outside the resistor "
-                         f"range {format_quantity(res_range[0], 'Ω')} .. "
-                         f"{format_quantity(res_range[1], 'Ω')} (--res-range); widen it or change "
-                         "the capacitor (--cap-range, --capacitance)")
+        c0 = max(v for _, k, v in net.parts() if k == "C")
+        raise InputError(f"at C = {format_quantity(c0, 'F')} the {rule} rule needs {outside}, outside "
+                         f"the resistor range {format_quantity(res_range[0], 'Ω')} .. "
+                         f"{format_quantity(res_range[1], 'Ω')} (--res-range); "
+                         + _capacitance_needed(net, c0, res_range))
     # Snapping keeps the rule's behaviour: closest to the rule's ideal step response (for the
     # exact rule, that is the smallest residual creep; for the paper's, its own residual).
     reference = None if rule == "exact" else ideals[0]
@@ -343,6 +344,36 @@ def size(model: CreepModel, rule: str = "exact", resistor_series: str | None = "
                         quality(nearest) if nearest else None,
                         tuple(parts), len(candidates),
                         tuple(design_warnings(model, chosen, rule, best_q)))
+
+
+#: Retardation times a network is sized for (s): 1 µs to 1 Gs (32 years). Beyond them the
+#: parts leave every E-series decade and the arithmetic of the search overflows.
+TAU_RANGE = (1e-6, 1e9)
+
+
+def check_time_constants(model: CreepModel) -> None:
+    """Refuse retardation times outside :data:`TAU_RANGE`, naming the limits."""
+    for k, t in enumerate(model.tau):
+        if not TAU_RANGE[0] <= t <= TAU_RANGE[1]:
+            raise InputError(f"tau[{k}] = {format_quantity(t, 's')}: outside the "
+                             f"{format_quantity(TAU_RANGE[0], 's')} .. {format_quantity(TAU_RANGE[1], 's')} "
+                             "a correction network can be sized for")
+
+
+def _capacitance_needed(net: Network, c0: float, res_range: tuple[float, float]) -> str:
+    """Advice for an infeasible size: the capacitance that brings every resistor into range.
+
+    The network's time constants are fixed by the creep, so its resistors scale as ``1/C``
+    (the source and load resistances aside).
+    """
+    rs = [v for _, k, v in net.parts() if k == "R"]
+    low, high = c0 * max(rs) / res_range[1], c0 * min(rs) / res_range[0]
+    if low <= high:
+        return (f"a capacitor of {format_quantity(low, 'F', 3)} .. {format_quantity(high, 'F', 3)} "
+                f"brings every resistor into range: e.g. --capacitance {format_quantity(low, 'F', 3).replace(' ', '')}, "
+                "or --cap-range; or widen --res-range")
+    return (f"no single capacitance brings all resistors into range (their ratio "
+            f"{max(rs) / min(rs):.3g} exceeds the range's): widen --res-range")
 
 
 def nearest_snap(model: CreepModel, rule: str, resistor_series: str, capacitor_series: str,

@@ -24,6 +24,7 @@ from creepcomp.cli import netlist as _netlist  # noqa: E402,F401
 from creepcomp.cli import simulate as _simulate  # noqa: E402,F401
 from creepcomp.cli import fit as _fit  # noqa: E402,F401
 from creepcomp.cli import diagnose as _diagnose  # noqa: E402,F401
+from creepcomp.cli import firmware as _firmware  # noqa: E402,F401
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -33,7 +34,8 @@ def main(argv: list[str] | None = None) -> int:
     os.environ.setdefault("MPLBACKEND", "Agg")
     command = typer.main.get_command(app)
     try:
-        command.main(args=argv, prog_name="creepcomp", standalone_mode=False)
+        # a command may end with typer.Exit(status) (firmware --verify: 3 when the bound fails)
+        result = command.main(args=argv, prog_name="creepcomp", standalone_mode=False)
     except TyperException as exc:
         return fail(exc.format_message(), getattr(exc, "exit_code", 2) or 2)
     except CreepcompError as exc:
@@ -42,7 +44,11 @@ def main(argv: list[str] | None = None) -> int:
         return exc.exit_code
     except (Abort, KeyboardInterrupt):
         return fail("interrupted", 130)
-    return 0
+    # Typer turns Ctrl-C into its exit status 130 and, outside standalone mode, returns it
+    # (a command itself returns None)
+    if result == 130:
+        return fail("interrupted", 130)
+    return result if isinstance(result, int) else 0
 
 
 def run() -> None:

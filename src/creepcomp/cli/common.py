@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import sys
 
 import typer
@@ -49,6 +50,47 @@ def value_range(text: str, kind: str, option: str) -> tuple[float, float]:
     if low > high:
         raise InputError(f"{option} = '{text}': LOW is above HIGH")
     return low, high
+
+
+#: Largest |beta0| (relative creep at infinite time) taken without a warning: elastomer
+#: sensors show a few % up to tens of %.
+PLAUSIBLE_BETA0 = 0.5
+
+
+def warn_creep(model, where: str) -> None:
+    """One warning line on stderr when the creep is beyond :data:`PLAUSIBLE_BETA0`."""
+    from creepcomp.units import format_percent
+
+    if abs(model.beta0) > PLAUSIBLE_BETA0:
+        err_console.print(f"creepcomp: warning: {where}: beta0 = {format_percent(model.beta0)} "
+                          f"(relative creep at infinite time, {model.beta0:g} as a fraction) is "
+                          f"beyond the {format_percent(PLAUSIBLE_BETA0)} elastomer sensors show; "
+                          "a percentage needs its % sign (3% or 0.03)",
+                          markup=False, highlight=False, soft_wrap=True)
+
+
+@contextlib.contextmanager
+def progress_bar(description: str, total: int | None = None, disable: bool = False):
+    """A Rich progress bar on stderr (a spinner without ``total``), shown on a terminal only.
+
+    Yields
+    ------
+    callable
+        ``update(done, total=None)`` moves the bar.
+    """
+    from rich.progress import (BarColumn, Progress, SpinnerColumn, TaskProgressColumn, TextColumn,
+                               TimeElapsedColumn)
+
+    with Progress(SpinnerColumn(), TextColumn("{task.description}"), BarColumn(),
+                  TaskProgressColumn(), TimeElapsedColumn(), console=err_console, transient=True,
+                  disable=disable or not err_console.is_terminal) as bar:
+        task = bar.add_task(description, total=total)
+
+        def update(done, total=None, description=None):
+            bar.update(task, completed=done, **({"total": total} if total is not None else {}),
+                       **({"description": description} if description else {}))
+
+        yield update
 
 
 def print_json(obj) -> None:

@@ -10,10 +10,11 @@ import typer
 from rich.table import Table
 
 from creepcomp.errors import InputError
-from creepcomp.io.jsonfiles import read_model
+from creepcomp.io.jsonfiles import read_json, read_model
+from creepcomp.io.outputs import check_outputs
 from creepcomp.io.records import parse_columns, read_record, write_record
 from creepcomp.units import format_percent, format_quantity
-from creepcomp.cli.common import app, console, print_json
+from creepcomp.cli.common import app, console, print_json, progress_bar, warn_creep
 from creepcomp.cli.size import describe_model
 
 #: A record "starts loaded" when its first load is above this fraction of its largest load.
@@ -51,12 +52,22 @@ def correct_command(
     if model_file is None:
         raise InputError("give the sensor's creep model: --model FILE (a JSON object with 'beta' "
                          "and 'tau' lists, as written by creepcomp fit)")
+    check_outputs({"-o": output, "--plot": plot}, inputs=[record_path, model_file])
     method = method.strip().lower()
     hold = hold.strip().lower()
+    if "creep" in read_json(model_file, "model file") and "beta" not in read_json(model_file, "model file"):
+        raise InputError(f"--model {model_file}: is a design file; its 'creep' block has no gain "
+                         "or offset, which the correction needs to judge the signal against the "
+                         "load: fit the record first (creepcomp fit RECORD -o model.json) and give "
+                         "that model")
     model = read_model(model_file)
+    warn_creep(model, str(model_file))
     record = read_record(record_path, columns=parse_columns(columns))
+    record.require(n_samples=2, what="creep correction")
     start = default_initial(method) if initial is None else initial.strip().lower()
-    compensated = compensate(record.time, record.signal, model, method, initial=start, hold=hold)
+    with progress_bar("correcting", total=len(record), disable=as_json) as update:
+        compensated = compensate(record.time, record.signal, model, method, initial=start,
+                                 hold=hold, progress=update)
     before = creep_error(record.time, record.signal, record.load, model, method)
     after = creep_error(record.time, compensated, record.load, model, method)
     dt = uniform_interval(record.time)
@@ -75,9 +86,10 @@ def correct_command(
         "output": None if output is None else str(output), "plot": None if plot is None else str(plot),
     }
     if output is not None:
-        write_record(output, record, extra={"compensated": compensated}, metadata={
-            "compensated.method": method, "compensated.initial": start, "compensated.hold": hold,
-            "compensated.model": str(model_file)})
+        with progress_bar(f"writing {output.name}", total=len(record), disable=as_json) as update:
+            write_record(output, record, extra={"compensated": compensated}, metadata={
+                "compensated.method": method, "compensated.initial": start, "compensated.hold": hold,
+                "compensated.model": str(model_file)}, progress=update)
     if plot is not None:
         from creepcomp.digital.correctors import reference
         from creepcomp.report.digital import plot_correction

@@ -205,4 +205,7 @@ def demo_command(
                              help="Folder for the design files, plots and reports."),
 ) -> None:
     """Size the default sensor's network by both rules, snap it, compare, and write the results."""
+    from creepcomp.io.outputs import check_output_dir
+
+    check_output_dir(out, "--out")
     run_demo(out, console)

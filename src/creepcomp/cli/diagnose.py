@@ -10,10 +10,11 @@ from rich.table import Table
 
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_design
+from creepcomp.io.outputs import check_outputs
 from creepcomp.units import format_parameter, format_percent, format_quantity
-from creepcomp.cli.common import app, console, err_console, print_json
+from creepcomp.cli.common import app, console, print_json, progress_bar
 from creepcomp.cli.fit import (COLUMNS_HELP, INITIAL_TEXT, describe_record, load_record,
-    record_options)
+    record_options, reduce_for_fit, SHEET_OPTION, TAXEL_OPTION)
 
 if TYPE_CHECKING:
     from creepcomp.diagnose import CircuitDiagnosis, Diagnosis
@@ -45,12 +46,19 @@ def diagnose_command(
     spice_check: bool = typer.Option(True, "--spice-check/--no-spice-check",
                                      help="Run the as-built network in ngspice on the record."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object (docs/diagnosis.md)."),
+    taxel: Optional[int] = TAXEL_OPTION,
+    sheet: Optional[str] = SHEET_OPTION,
 ) -> None:
     """Fit the paper's model, find what it misses by evidence, extend it, measure the gain."""
     from creepcomp.diagnose import combine, diagnose, diagnose_circuit
 
-    record = load_record(record_path, columns, delimiter, duplicate_times)
+    check_outputs(dirs={"-o": output}, inputs=[record_path, design])
     init, step = record_options(initial, load_step_at)
+    with progress_bar(f"reading {record_path.name}", disable=as_json) as update:
+        full = load_record(record_path, columns, delimiter, duplicate_times, taxel, sheet)
+        update(0, description="reducing the record")
+        record, reduction = reduce_for_fit(full)
+        del full
     sensor_candidates, circuit_candidates = split_candidates(effects)
     circuit = None
     if record.corrected is not None or design is not None:
@@ -58,9 +66,9 @@ def diagnose_command(
             raise InputError(f"{record.source}: --design was given but the record has no "
                              "'corrected' column")
         nominal = read_design(record.design_path(design))
-        with err_console.status("diagnosing the circuit side"):
+        with progress_bar("diagnosing the circuit side", disable=as_json):
             circuit = diagnose_circuit(record, nominal, spice_check=spice_check, candidates=circuit_candidates)
-    with err_console.status("diagnosing the sensor side"):
+    with progress_bar("diagnosing the sensor side", disable=as_json):
         result = diagnose(record, initial=init, load_step_at=step, candidates=sensor_candidates)
     units = {c: record.unit(c) for c in ("signal", "load")}
     paths = {}
@@ -70,6 +78,8 @@ def diagnose_command(
         paths = write_report(result, output, units, circuit=circuit)
     if as_json:
         out = result.to_dict() if circuit is None else combine(result.to_dict(), circuit)
+        if reduction:
+            out["record_reduction"] = reduction
         if paths:
             out["files"] = {k: str(v) for k, v in paths.items()}
         print_json(out)
@@ -77,6 +87,9 @@ def diagnose_command(
     render_diagnosis(record, result)
     if circuit is not None:
         render_circuit(circuit, record.unit("signal"))
+    for note in (reduction, result.reduced):
+        if note:
+            console.print(f"[yellow]note:[/yellow] {note}", soft_wrap=True)
     for label, path in paths.items():
         console.print(f"{label.replace('_', ' ')} written to {path}")
 
@@ -104,6 +117,15 @@ def render_diagnosis(record, d: Diagnosis) -> None:
                   f"({format_percent(b['residual_rms_relative'])} of the signal's range), held out "
                   f"{b['heldout_residual_rms']:.4g} {su}; noise {b['noise']['model']}, residual lag-1 "
                   f"autocorrelation {b['residual_lag1_autocorrelation']:.3f}")
+    if d.floor is not None:
+        from creepcomp.fit.noise import MISFIT_LIMIT
+
+        share = d.explained_share
+        console.print(f"noise floor {d.floor.rms:.4g} {su} (measured without the model: {d.floor.method}); "
+                      f"misfit ratio (residual RMS / floor) baseline {_ratio(d.misfit_ratio(d.baseline))}, "
+                      f"extended {_ratio(d.misfit_ratio(d.extended))} (consistent with noise up to "
+                      f"{MISFIT_LIMIT:g}); explained share of the excess misfit "
+                      f"{'-' if share is None else format_percent(share)}")
     console.print(f"[bold]cause: {d.cause}[/bold]")
     if d.findings:
         t = Table(title="Findings (most important first)", title_justify="left")
@@ -115,9 +137,12 @@ def render_diagnosis(record, d: Diagnosis) -> None:
             t.add_row(f.effect, params, f"{f.evidence.delta_bic:.1f}", f"{f.evidence.heldout_rms_ratio:.3g}",
                       f"{f.evidence.heldout_z:.1f}")
         console.print(t)
+        for f in d.findings:
+            if f.note:
+                console.print(f"{f.effect}: {f.note}")
     else:
-        console.print("no effect is supported by the evidence: no candidate predicts held-out data "
-                      "better than the baseline (that alone does not show the residual above is noise)")
+        console.print("no effect is supported by the evidence, and the baseline's misfit is consistent "
+                      "with the noise floor: the paper's model explains the record to its noise")
     t = Table(title=f"Candidates (accepted: ΔBIC <= -{BIC_STRONG:g} and held-out z >= {HELDOUT_Z:g})",
               title_justify="left")
     for col in ("step", "effect", "ΔBIC", "held-out z", "outcome"):
@@ -148,6 +173,8 @@ def render_circuit(cd: CircuitDiagnosis, su: str) -> None:
                   f"the measured corrected: residual RMS {b.rms:.4g} {su} ({format_percent(b.rms / cd.data.scale)} of its "
                   f"range), held out {b.heldout.rms:.4g} {su}")
     console.print(f"[bold]circuit cause: {cd.cause}[/bold]")
+    for line in cd.explanation():
+        console.print(line, markup=False, highlight=False)
     if cd.findings:
         t = Table(title="Circuit findings (most important first)", title_justify="left")
         for col in ("effect", "part", "parameters (± 1 sigma)", "ΔBIC", "held-out RMS ratio", "held-out z"):

@@ -10,26 +10,41 @@ from rich.table import Table
 
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import write_json
-from creepcomp.io.records import Record, parse_columns, read_record
+from creepcomp.io.outputs import check_outputs
+from creepcomp.io.records import Record, parse_columns
 from creepcomp.units import format_percent, format_quantity
-from creepcomp.cli.common import app, console, print_json, quantity
+from creepcomp.cli.common import app, console, print_json, progress_bar, quantity
 
 if TYPE_CHECKING:
     from creepcomp.fit.prony import PronyResult
 
 COLUMNS_HELP = ("Map the file's columns to time, load, signal (temperature, corrected), e.g. "
                 "'time=Step time,signal=Strain,load=Stress'; a number is a constant column (load=1).")
+# other measured files (creepcomp.io.formats): the insole .mat files' taxel, the workbooks' sheet
+TAXEL_OPTION = typer.Option(None, "--taxel", metavar="N", help="Taxel (0-279) of an insole .mat file.")
+SHEET_OPTION = typer.Option(None, "--sheet", metavar="NAME", help="Sheet (specimen) of an .xlsx creep workbook.")
 
 
 def load_record(path: Path, columns: str | None, delimiter: str | None,
-                duplicate_times: str) -> Record:
-    """Read a record with the command line's mapping options."""
+                duplicate_times: str, taxel: int | None = None, sheet: str | None = None) -> Record:
+    """Read a record with the command line's mapping options (and, for insole ``.mat`` files
+    and creep ``.xlsx`` workbooks, their taxel or sheet)."""
+    from creepcomp.io.formats import read_any
+
     mode = duplicate_times.strip().lower()
     if mode not in ("error", "mean"):
         raise InputError(f"--duplicate-times '{duplicate_times}': use error or mean")
     delim = {"tab": "\t", "\\t": "\t", "comma": ",", "semicolon": ";"}.get(
         (delimiter or "").lower(), delimiter) or None
-    return read_record(path, parse_columns(columns), delimiter=delim, duplicate_times=mode)
+    return read_any(path, parse_columns(columns), delimiter=delim, duplicate_times=mode,
+                    taxel=taxel, sheet=sheet)
+
+
+def reduce_for_fit(record: Record) -> tuple[Record, str | None]:
+    """The record as the fit sees it: reduced when much longer than a fit needs."""
+    from creepcomp.fit.reduce import reduce_record
+
+    return reduce_record(record)
 
 
 def record_options(initial: str, load_step_at: str | None) -> tuple[str, float | None]:
@@ -80,10 +95,17 @@ def fit_command(
     plot: Optional[Path] = typer.Option(None, "--plot", metavar="FILE.png",
                                         help="Plot measured vs fitted and the residual."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object (the model file)."),
+    taxel: Optional[int] = TAXEL_OPTION,
+    sheet: Optional[str] = SHEET_OPTION,
 ) -> None:
     """Fit gain, offset and creep terms to a record; the number of terms by evidence."""
-    record = load_record(record_path, columns, delimiter, duplicate_times)
+    check_outputs({"-o": output, "--plot": plot}, inputs=[record_path])
     init, step = record_options(initial, load_step_at)
+    with progress_bar(f"reading {record_path.name}", disable=as_json) as update:
+        full = load_record(record_path, columns, delimiter, duplicate_times, taxel, sheet)
+        update(0, description="reducing the record")
+        record, reduction = reduce_for_fit(full)
+        del full
     fixed = None
     if terms.strip().lower() != "auto":
         try:
@@ -95,10 +117,13 @@ def fit_command(
     from creepcomp.diagnose import effects
     from creepcomp.fit import Applied, fit_prony, prepare
 
-    data = prepare(record, initial=init, load_step_at=step)
-    extra = (Applied(effects.get("viscous_flow")),) if flow else ()
-    result = fit_prony(data, max_terms=max_terms, n_terms=fixed, effects=extra)
+    with progress_bar("fitting", disable=as_json):
+        data = prepare(record, initial=init, load_step_at=step)
+        extra = (Applied(effects.get("viscous_flow")),) if flow else ()
+        result = fit_prony(data, max_terms=max_terms, n_terms=fixed, effects=extra)
     model = result.to_dict()
+    if reduction:
+        model["record_reduction"] = reduction
     if output is not None:
         write_json(output, model)
     if plot is not None:
@@ -109,6 +134,8 @@ def fit_command(
         print_json(model)
         return
     render_fit(record, result, fixed)
+    if reduction:
+        console.print(f"[yellow]note:[/yellow] {reduction}", soft_wrap=True)
     if output is not None:
         console.print(f"model written to {output}")
     if plot is not None:

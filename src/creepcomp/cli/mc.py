@@ -13,13 +13,18 @@ from creepcomp.verify.tolerance_analysis import ToleranceReport, analyse
 from creepcomp.verify.tolerances import DIELECTRICS, Tolerance, ToleranceSpec
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_design
+from creepcomp.io.outputs import check_outputs
 from creepcomp.units import format_percent
 from creepcomp.cli.common import (app, console, err_console, print_json, quantity,
     value_range)
 
 
 def _tolerance(text: str, option: str, distribution: str) -> Tolerance:
-    return Tolerance(quantity(text, "fraction", option, non_negative=True), distribution)
+    value = quantity(text, "fraction", option, non_negative=True)
+    try:
+        return Tolerance(value, distribution)
+    except InputError as exc:
+        raise InputError(f"{option} '{text}': {exc}") from None
 
 
 def _part_tolerances(items: list[str], distribution: str) -> dict:
@@ -72,6 +77,7 @@ def mc_command(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ) -> None:
     """Tolerance Monte Carlo, worst case and sensitivity of a design's residual creep."""
+    check_outputs({"--report": report}, inputs=[design_file])
     design = read_design(design_file)
     if distribution not in ("normal", "uniform"):
         raise InputError(f"--dist '{distribution}': use normal or uniform")

@@ -10,13 +10,17 @@ import typer
 
 from creepcomp.verify.drive import (DEFAULT_POINTS, PROGRAMS, default_duration,
                                     synthetic_program)
-from creepcomp.verify.netlist import Deck, program_deck, record_data, record_deck, write_deck
+from creepcomp.verify.netlist import Deck, program_deck, record_deck, write_deck
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import Design, read_design
+from creepcomp.io.outputs import check_outputs
 from creepcomp.programs import LoadProgram
 from creepcomp.io.records import Record, parse_columns, read_record
 from creepcomp.units import format_quantity
 from creepcomp.cli.common import app, console, print_json, quantity
+
+#: Most time points of a synthetic drive.
+MAX_POINTS = 1_000_000
 
 PROGRAM_HELP = ("step: one load step; staircase: loading and unloading steps (the paper's "
                 "fig. 2); sweep: triangular sweep between -FS and +FS (its fig. 6).")
@@ -59,8 +63,9 @@ def read_drive(design_path: Path, program: str, record: Path | None, columns: st
         raise InputError(f"--program '{program}': choose one of {', '.join(PROGRAMS)}")
     if columns and record is None:
         raise InputError("--columns maps a record's columns: give --record FILE too")
-    if points < 10:
-        raise InputError(f"--points {points}: use at least 10")
+    if not 10 <= points <= MAX_POINTS:
+        raise InputError(f"--points {points}: use 10 to {MAX_POINTS} (more time points than a "
+                         "plot or a residual-creep figure needs, at a cost in time and memory)")
     duration_s = quantity(duration, "second", "--duration", positive=True)
     signal_v = quantity(signal, "volt", "--signal", positive=True)
     if record is not None:
@@ -73,8 +78,9 @@ def read_drive(design_path: Path, program: str, record: Path | None, columns: st
     return Drive(design, name, prog, None, duration_s, points, signal_v)
 
 
-def drive_deck(drive: Drive, data_file: str = "record-signal.txt") -> tuple[Deck, str | None]:
-    """The netlist of a drive, and the text of its data file (for a record)."""
+def drive_deck(drive: Drive, data_file: str = "record-signal.txt") -> tuple[Deck, tuple | None]:
+    """The netlist of a drive, and its data file's ``(time, signal)`` (for a record; see
+    :func:`creepcomp.verify.netlist.write_deck`)."""
     net, model = drive.design.network, drive.design.model
     if drive.record is not None:
         rec = drive.record
@@ -82,7 +88,7 @@ def drive_deck(drive: Drive, data_file: str = "record-signal.txt") -> tuple[Deck
         deck = record_deck(net, rec.time, rec.signal, data_file,
                            title=f"creepcomp: design driven by the record {source}",
                            name=rec.source)
-        return deck, record_data(rec.time, rec.signal)
+        return deck, (rec.time, rec.signal)
     duration = drive.duration or default_duration(drive.program, model, net)
     deck = program_deck(net, model, drive.program, duration, drive.points, drive.signal,
                         title=f"creepcomp: design driven by synthetic creep, {drive.program.name}")
@@ -115,6 +121,10 @@ def netlist_command(
 
     The netlist runs on its own: ngspice -b FILE.cir prints the residual creep it measures.
     """
+    files = {"-o": output}
+    if record is not None and output is not None:
+        files["-o (its data file)"] = output.parent / f"{output.stem}-signal.txt"
+    check_outputs(files, inputs=[design, record])
     drive = read_drive(design, program, record, columns, duration, points, signal)
     if drive.record is not None and output is None:
         raise InputError("--record needs -o FILE.cir: its data file is written beside the netlist")

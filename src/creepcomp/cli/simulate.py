@@ -13,8 +13,9 @@ from rich.table import Table
 from creepcomp.verify.compare import Comparison, compare_program, compare_record
 from creepcomp.verify.drive import DEFAULT_POINTS
 from creepcomp.verify.netlist import write_deck
+from creepcomp.io.outputs import check_outputs
 from creepcomp.units import format_percent, format_quantity
-from creepcomp.cli.common import app, console, err_console, print_json
+from creepcomp.cli.common import app, console, err_console, print_json, progress_bar
 from creepcomp.cli.netlist import PROGRAM_HELP, read_drive
 
 
@@ -103,20 +104,26 @@ def simulate_command(
     residual creep, and ngspice's run time; saves a plot of the creeping input, the
     corrected output from both simulators, and the residual creep.
     """
+    plot_path = None if no_plot else (plot or Path(f"{design.stem}-{program.strip().lower()}.png"
+                                                    if record is None else f"{design.stem}-record.png"))
+    files = {"--plot": plot_path, "--netlist": netlist}
+    if netlist is not None and record is not None:
+        files["--netlist (its data file)"] = netlist.parent / f"{netlist.stem}-signal.txt"
+    check_outputs(files, inputs=[design, record])
     drive = read_drive(design, program, record, columns, duration, points, signal)
     net, model = drive.design.network, drive.design.model
     if drive.record is not None:
         rec = drive.record
-        comparison = compare_record(net, rec.time, rec.signal, name=f"record {rec.source}")
+        with progress_bar(f"simulating {len(rec)} samples (python-control, ngspice)",
+                          disable=as_json):
+            comparison = compare_record(net, rec.time, rec.signal, name=f"record {rec.source}")
     else:
         comparison = compare_program(net, model, drive.program, drive.duration, drive.points,
                                      drive.signal)
     if comparison.unavailable:
         err_console.print(f"creepcomp: note: {comparison.unavailable}; showing the python-control "
                           "result only", markup=False, highlight=False, soft_wrap=True)
-    plot_path = None
-    if not no_plot:
-        plot_path = plot or Path(f"{design.stem}-{drive.name}.png")
+    if plot_path is not None:
         from creepcomp.report.spice import plot_comparison
 
         plot_comparison(comparison, plot_path)

@@ -11,9 +11,10 @@ from rich.table import Table
 
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_model, write_design
+from creepcomp.io.outputs import check_outputs
 from creepcomp.model import CreepModel
 from creepcomp.units import format_percent, format_quantity
-from creepcomp.cli.common import app, console, print_json, quantity, value_range
+from creepcomp.cli.common import app, console, print_json, quantity, value_range, warn_creep
 
 if TYPE_CHECKING:
     from creepcomp.analog.sizing import SizingReport
@@ -73,7 +74,9 @@ def size_command(
     """Size the RC network that cancels the creep, snap it to E-series parts, predict its quality."""
     from creepcomp.analog.sizing import DEFAULT_CAP_RANGE, DEFAULT_RES_RANGE, size
 
+    check_outputs({"-o": output, "--plot": plot}, inputs=[model_file])
     model = model_from_options(beta0, tau, model_file)
+    warn_creep(model, "--beta0" if model_file is None else str(model_file))
     rule = rule.strip().lower()
     report = size(
         model, rule=rule,

@@ -11,7 +11,20 @@ by :data:`~creepcomp.fit.evidence.BIC_STRONG` and held-out blocks predicted bett
 :data:`~creepcomp.fit.evidence.HELDOUT_Z` standard deviations); of several supported, the
 lowest BIC unless another predicts the record's halves better (:func:`choose`). A generic
 extra lag tried on top says whether structure remains that no named effect explains
-(``unexplained``); with no finding the answer is ``none``.
+(``unexplained``); with no finding the answer is ``none`` -- but only when the nominal
+network meets the measured output to the record's noise floor (:func:`circuit_noise_floor`,
+misfit ratio at most :data:`~creepcomp.fit.noise.MISFIT_LIMIT`); otherwise ``unexplained``
+with the misfit that remains, as also after named findings that leave misfit above the floor.
+
+Several faults can change the network's output alike (R2 low and a load resistance; R1 low
+and leakage across C1). After each step the candidates that fit the record as well as the
+chosen one (:func:`equivalent`) are its ``alternatives``; the cause among them is the most
+probable under the prior of :data:`FAULT_PRIOR` (:func:`most_probable`), and each
+alternative carries the measurement that would tell it from the cause
+(:func:`separating_measurement`). A fit that needs a part far off anything a built network
+holds (:func:`implausible`), or misfit far above the floor that no plausible fault removes,
+says that the design does not match the record (``design_mismatch``): no part is named and
+no fix proposed.
 
 The extension is the as-built network: written as a design file, checked in ngspice on the
 same record, and the fix is the single part change that leaves the least residual creep.
@@ -19,27 +32,65 @@ same record, and the fix is the single part change that leaves the least residua
 
 from __future__ import annotations
 
+import math
 import time as _time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from creepcomp.analog.faults import suggest_fixes
+from creepcomp.analog.faults import exact_equivalents, fault_part, resistor_parts, suggest_fixes
 from creepcomp.analog.quality import step_peak
 from creepcomp.diagnose import effects as effects_pkg
 from creepcomp.fit.circuit import (CircuitData, CircuitFit, fit_model, halves, prepare, uncertainty,
     with_heldout)
 from creepcomp.fit.evidence import BIC_STRONG, HELDOUT_Z, Evidence, compare, compare_with_halves
-from creepcomp.fit.noise import autocorrelation, fit_noise, ljung_box, rows_for, whiten
+from creepcomp.fit.noise import (MISFIT_LIMIT, NoiseFloor, autocorrelation, explained_share, fit_noise,
+    ljung_box, misfit_ratio, noise_floor, rows_for, whiten)
 from creepcomp.fit.structure import Applied
 from creepcomp.io.jsonfiles import Design
 from creepcomp.io.records import Record
+from creepcomp.units import format_quantity
 
-__all__ = ["MAX_EFFECTS", "evidence", "CircuitFinding", "CircuitTrial", "CircuitDiagnosis",
-           "circuit_effects", "diagnose_circuit", "choose", "at_bound", "ngspice_check", "combine"]
+__all__ = ["MAX_EFFECTS", "EQUIVALENT_BIC", "MISMATCH_RATIO", "PART_FACTOR", "FAULT_PRIOR", "evidence",
+           "circuit_noise_floor", "implausible", "equivalent", "most_probable", "separating_measurement",
+           "CircuitFinding", "CircuitTrial", "CircuitDiagnosis", "circuit_effects", "diagnose_circuit",
+           "choose", "at_bound", "ngspice_check", "combine"]
 
 #: Most circuit effects added one after the other.
 MAX_EFFECTS = 3
+#: Two explanations fit a record as well when their BIC differ by less than this (below
+#: "strong" evidence, 6, on the Kass-Raftery scale) and neither predicts the held-out blocks
+#: better by :data:`~creepcomp.fit.evidence.HELDOUT_Z`, nor each half of the record from the
+#: other (see :func:`equivalent`).
+EQUIVALENT_BIC = 6.0
+#: Misfit ratio (residual RMS over the noise floor) that no finding may leave: above it the
+#: design does not match the record (no single plausible fault explains it).
+MISMATCH_RATIO = 10.0
+#: A part (resistor or capacitor) off its nominal value by more than this factor either way
+#: is not a fault of a built network (tolerance, drift, a neighbouring value placed) but
+#: another design.
+PART_FACTOR = 1.6
+
+#: The prior of the circuit faults: how often each happens in an assembled network (share of
+#: built networks that carry it; assumed by the project, not measured) and what values a
+#: built network can hold (beyond them the fit is taken as a design that does not match the
+#: record, see :func:`implausible`). Among explanations the record cannot tell apart, the
+#: cause is the one of highest ``rate * exp(-BIC / 2)`` (:func:`most_probable`).
+FAULT_PRIOR = {
+    "resistor_value": {"rate": 0.05, "plausible": f"within a factor {PART_FACTOR:g} of the design value",
+                       "why": "wrong value placed, a 5 % part at its limit, drift with heat or humidity: "
+                              "the most common fault"},
+    "capacitor_value": {"rate": 0.04, "plausible": f"within a factor {PART_FACTOR:g} of the design value",
+                        "why": "capacitors are +-10 to +-20 % parts, and age"},
+    "source_impedance": {"rate": 0.01, "plausible": "at most half the network's resistance level",
+                         "why": "the sensor's output resistance left out of the design"},
+    "load_impedance": {"rate": 0.01, "plausible": "at least the network's resistance level",
+                       "why": "the next stage's input resistance left out of the design"},
+    "dielectric_absorption": {"rate": 0.01, "plausible": "up to 10 % of the capacitance",
+                              "why": "a ceramic or electrolytic placed where a film part was designed"},
+    "capacitor_leakage": {"rate": 0.005, "plausible": "at least the cell's own resistor",
+                          "why": "contamination on the board, an electrolytic part"},
+}
 
 
 def evidence(data: CircuitData, current: CircuitFit, rich: CircuitFit, always_halves: bool = False) -> Evidence:
@@ -66,13 +117,21 @@ class CircuitFinding:
     evidence: Evidence
     part: str | None = None
     uncertainty: dict = field(default_factory=dict)
+    alternatives: tuple = ()
+    note: str = ""
+    """``alternatives``: explanations that fit the record as well (dicts with ``effect``,
+    ``part``, ``parameters``, ``delta_bic`` against this one and the ``measurement`` that
+    would tell them apart); ``note``: e.g. ``design_mismatch: ...``."""
 
     def to_dict(self) -> dict:
         """JSON form (contract keys first)."""
         out = {"effect": self.effect, "parameters": self.parameters, "evidence": self.evidence.to_dict(),
-               "side": "circuit", "uncertainty": self.uncertainty}
+               "alternatives": [dict(a) for a in self.alternatives], "side": "circuit",
+               "uncertainty": self.uncertainty}
         if self.part:
             out["part"] = self.part
+        if self.note:
+            out["note"] = self.note
         return out
 
 
@@ -108,11 +167,42 @@ class CircuitDiagnosis:
     fixes: tuple
     seconds: float
     spice_check: dict | None = None
+    floor: NoiseFloor | None = None
+    mismatch: str | None = None
+    """``floor``: the noise floor of the comparison (:func:`circuit_noise_floor`);
+    ``mismatch``: why the design does not match the record (None: it does)."""
 
     @property
     def cause(self) -> str:
         """The most important finding's effect, ``none`` or ``unexplained``."""
         return self.findings[0].effect if self.findings else "none"
+
+    def misfit(self, fit: CircuitFit) -> float | None:
+        """Residual RMS of a model over the noise floor."""
+        return misfit_ratio(fit.rms, self.floor) if self.floor is not None else None
+
+    @property
+    def explained_share(self) -> float | None:
+        """Share of the nominal network's misfit variance above the floor that the as-built
+        network removes."""
+        return explained_share(self.baseline.rms, self.extended.rms, self.floor) if self.floor else None
+
+    def verdict(self) -> str:
+        """One sentence on what the circuit side found, against the noise floor."""
+        base = self.misfit(self.baseline)
+        if self.mismatch:
+            return (f"the design does not match the record: the nominal network misses the measured "
+                    f"output by {base:.3g} times the noise floor, and {self.mismatch}")
+        if self.cause == "none":
+            return (f"the nominal network explains the measured output to its noise "
+                    f"(misfit {base:.3g} times the noise floor)")
+        ext = self.misfit(self.extended)
+        named = [f.effect + (f" ({f.part})" if f.part else "") for f in self.findings if f.effect != "unexplained"]
+        text = (f"the nominal network misses the measured output by {base:.3g} times the noise floor; "
+                + (f"as built with {', '.join(named)} by {ext:.3g} times" if named else "no circuit effect explains it"))
+        if named and ext > MISFIT_LIMIT:
+            text += " (misfit above the floor remains: unexplained)"
+        return text
 
     @property
     def as_built(self) -> Design:
@@ -138,12 +228,26 @@ class CircuitDiagnosis:
         return {"nominal": step_peak(model, self.baseline.network)[0],
                 "as_built": step_peak(model, self.extended.network)[0]}
 
+    def explanation(self) -> list[str]:
+        """The verdict and, for each finding with alternatives, what the record cannot tell
+        apart and the measurement that would: lines of text for the report."""
+        lines = [self.verdict()]
+        for f in self.findings:
+            for a in f.alternatives:
+                params = ", ".join(f"{k} = {_format(k, v)}" for k, v in a["parameters"].items())
+                mine = ", ".join(f"{k} = {_format(k, v)}" for k, v in f.parameters.items())
+                lines.append(f"{f.effect} {f.part or ''} ({mine}) fits the record as well as {a['effect']} "
+                             f"{a['part'] or ''} ({params}), BIC {a['delta_bic']:+.1f}; {f.effect} is named, more "
+                             f"probable under the prior ({FAULT_PRIOR[f.effect]['why']}); to tell them apart: "
+                             f"{a['measurement']}".replace("  ", " "))
+        return lines
+
     def summary(self, fit: CircuitFit) -> dict:
         """Residual figures of one model."""
         rows = rows_for(self.data, None, 5)
         noise = fit_noise(fit.residual, rows)
         _, p = ljung_box(whiten(fit.residual, rows, noise))
-        return {"residual_rms": fit.rms,
+        return {"residual_rms": fit.rms, "misfit_ratio": self.misfit(fit),
                 "heldout_residual_rms": fit.heldout.rms if fit.heldout else None,
                 "residual_rms_relative": fit.rms / self.data.scale, "bic": fit.bic,
                 "structure": fit.describe(),
@@ -159,7 +263,21 @@ class CircuitDiagnosis:
                 "as_built": self.as_built.to_dict(), "residual_creep_peak": self.residual_creep,
                 "fixes": [f.to_dict() for f in self.fixes],
                 "spice_check": self.spice_check, "seconds": self.seconds,
-                "decision_rule": {"delta_bic_at_most": -BIC_STRONG, "heldout_z_at_least": HELDOUT_Z}}
+                "noise_floor": self.floor.rms if self.floor else None,
+                "noise_floor_method": self.floor.method if self.floor else None,
+                "explained_share": self.explained_share, "design_mismatch": self.mismatch,
+                "verdict": self.verdict(),
+                "decision_rule": {"delta_bic_at_most": -BIC_STRONG, "heldout_z_at_least": HELDOUT_Z,
+                                  "misfit_limit": MISFIT_LIMIT, "equivalent_bic_below": EQUIVALENT_BIC,
+                                  "mismatch_ratio": MISMATCH_RATIO},
+                "fault_prior": {k: dict(v) for k, v in FAULT_PRIOR.items()}}
+
+
+def _format(name: str, value: float) -> str:
+    unit = {"R": "Ω", "C": "F", "tau": "s"}.get(name)
+    if name == "fraction":
+        return f"{100 * value:.3g} %"
+    return format_quantity(value, unit) if unit else f"{value:.4g}"
 
 
 def circuit_effects() -> list:
@@ -184,6 +302,101 @@ def _fit_with(data: CircuitData, current: CircuitFit, applied: Applied) -> Circu
         s.update({f"{applied.name}.{k}": v for k, v in own.items()})
         starts.append(s)
     return fit_model(data, current.applied + (applied,), starts)
+
+
+def circuit_noise_floor(data: CircuitData) -> NoiseFloor:
+    """The noise floor that the nominal network's misfit is judged against
+    (:func:`creepcomp.fit.noise.noise_floor`, no model fitted): of the measured ``corrected``
+    minus the nominal network's simulation on the measured ``signal``. The comparison's noise
+    is the output's measurement noise and, where the built network saw the sensor's
+    continuous signal, the signal's measurement noise as the simulation passes it; both are
+    in that difference, and neither in ``corrected`` alone. Slow misfit (a wrong part) is
+    what each window's quadratic takes up."""
+    nominal = data.design.network.lag_expansion().simulate(data.time, data.signal, initial="settled")
+    floor = noise_floor(data.corrected - nominal, None, data.time)
+    return replace(floor, method="the measured corrected minus the nominal network's simulation on the "
+                                 "measured signal: " + floor.method)
+
+
+def implausible(effect: str, values: dict, design: Design, part: str | None = None,
+                cell: int | None = None) -> str | None:
+    """Why a fitted circuit fault is not one a built network of this design can hold (see
+    :data:`FAULT_PRIOR`), or None."""
+    net = design.network
+    level = (net.R2 if net.R2 is not None else 0.0) + sum(c.R for c in net.cells)
+
+    def off(value, nominal, what):
+        factor = value / nominal
+        if not 1.0 / PART_FACTOR <= factor <= PART_FACTOR:
+            return f"{what} fitted at {factor:.3g} times its design value"
+        return None
+
+    if effect == "resistor_value":
+        return off(values["R"], resistor_parts(net)[part], part)
+    if effect == "capacitor_value":
+        return off(values["C"], net.cells[cell].C, fault_part(net, effect, cell))
+    if effect == "source_impedance" and values["R"] > 0.5 * level:
+        return f"a source resistance of {values['R'] / level:.3g} times the network's resistance level"
+    if effect == "load_impedance" and values["R"] < level:
+        return f"a load resistance of {values['R'] / level:.3g} times the network's resistance level"
+    if effect == "capacitor_leakage" and values["R"] < net.cells[cell].R:
+        return f"a leakage of {values['R'] / net.cells[cell].R:.3g} times the cell's resistor"
+    if effect == "dielectric_absorption" and values["fraction"] > 0.1:
+        return f"an absorption of {100 * values['fraction']:.3g} % of the capacitance"
+    return None
+
+
+def _implausible(applied: Applied, fit: CircuitFit, design: Design) -> str | None:
+    settings = dict(applied.settings)
+    return implausible(applied.name, applied.own(fit.values), design, settings.get("part"), settings.get("cell"))
+
+
+def equivalent(data: CircuitData, chosen: tuple, rival: tuple) -> bool:
+    """True when the record cannot tell ``rival`` from ``chosen`` (both ``(applied, fit,
+    evidence, ...)`` of one step): their BIC differ by less than :data:`EQUIVALENT_BIC`,
+    neither predicts the held-out blocks better by :data:`~creepcomp.fit.evidence.HELDOUT_Z`
+    standard deviations, nor each half of the record from the other."""
+    if abs(rival[2].delta_bic - chosen[2].delta_bic) >= EQUIVALENT_BIC:
+        return False
+    if abs(compare(chosen[1], rival[1]).heldout_z) >= HELDOUT_Z:
+        return False
+    return not (_predicts_better(data, chosen[1], rival[1]) or _predicts_better(data, rival[1], chosen[1]))
+
+
+def most_probable(group: list, design: Design) -> tuple | None:
+    """Of candidates the record cannot tell apart, the most probable under
+    :data:`FAULT_PRIOR`: highest ``ln(rate) - delta_bic / 2``, implausible values excluded
+    (None when all are)."""
+    scored = [(math.log(FAULT_PRIOR.get(t[0].name, {"rate": 1e-3})["rate"]) - 0.5 * t[2].delta_bic, i)
+              for i, t in enumerate(group) if _implausible(t[0], t[1], design) is None]
+    return group[max(scored)[1]] if scored else None
+
+
+def separating_measurement(network, cause: tuple, other: tuple) -> str:
+    """The measurement that tells two explanations of a record apart, each ``(effect, part)``."""
+    pair = {cause[0], other[0]}
+    exact = other in exact_equivalents(network, *cause)
+    parts = [p for e, p in (cause, other) if e == "resistor_value" or e == "capacitor_value" and p]
+    if pair == {"resistor_value", "load_impedance"}:
+        return ("measure R2 out of circuit, and the next stage's input resistance with the network "
+                "unplugged" + (" (the output alone cannot: R2 || RL is all it sees)" if exact else ""))
+    if pair == {"resistor_value", "capacitor_leakage"}:
+        part = parts[0] if parts else "the resistor"
+        return (f"measure {part} out of circuit; or repeat the record after a temperature step (a leakage "
+                "grows with temperature, a film resistor hardly moves)"
+                + (" (the output alone cannot: R1 || leakage is all it sees)" if exact else ""))
+    if pair == {"resistor_value", "source_impedance"}:
+        return (f"measure {parts[0]} out of circuit, and the sensor's output resistance"
+                + (" (the output alone cannot: the two add)" if exact else ""))
+    if "capacitor_leakage" in pair:
+        return "repeat the record after a temperature step (a leakage grows with temperature)"
+    if "dielectric_absorption" in pair:
+        return ("a second record with another load program: holds longer than the absorption's time "
+                "constant, then a step back (absorption recovers slowly, a wrong part does not)")
+    if parts:
+        return f"measure {' and '.join(parts)} out of circuit"
+    return ("a second record with another load program (steps held for other times weigh the network's "
+            "fast and slow parts differently)")
 
 
 def diagnose_circuit(record: Record, design: Design, spice_check: bool = True,
@@ -211,9 +424,12 @@ def diagnose_circuit(record: Record, design: Design, spice_check: bool = True,
     start = _time.perf_counter()
     pool = circuit_effects() if candidates is None else [effects_pkg.get(c) for c in candidates]
     data = prepare(record, design)
+    floor = circuit_noise_floor(data)
     baseline = with_heldout(data, fit_model(data, (), [{}]))
+    base_ratio = misfit_ratio(baseline.rms, floor)
     current = baseline
     findings, trials = [], []
+    mismatch = None
     for step in range(1, MAX_EFFECTS + 1):
         tried = []
         for applied in _candidates(data, current, pool):
@@ -222,36 +438,77 @@ def diagnose_circuit(record: Record, design: Design, spice_check: bool = True,
             tried.append((applied, fit, evidence(data, current, fit), at_bound(fit, applied)))
         supported = [t for t in tried if t[2].supported and not t[3]]
         best, overrode = choose(data, supported) if supported else (None, None)
+        group = [best] + [t[:3] for t in supported if best is not None and t[0] is not best[0]
+                          and equivalent(data, best, t)] if best is not None else []
+        chosen = most_probable(group, design) if group else None
+        fitting = sorted((t for t in tried if t[2].supported), key=lambda t: t[2].delta_bic)
+        if fitting and _implausible(fitting[0][0], fitting[0][1], design) and (
+                chosen is None or chosen[2].delta_bic - fitting[0][2].delta_bic >= EQUIVALENT_BIC):
+            # the record is fitted best by a part no built network holds, and no plausible
+            # fault fits it as well: another design
+            mismatch = f"the best fit needs {_implausible(fitting[0][0], fitting[0][1], design)}"
+            chosen = None
         for applied, fit, ev, edge in tried:
-            chosen = best is not None and applied is best[0]
+            picked = chosen is not None and applied is chosen[0]
+            alternative = chosen is not None and not picked and any(applied is g[0] for g in group)
             trials.append(CircuitTrial(step, applied.name, _part(applied, design), ev,
-                                       _outcome(chosen, overrode, edge, ev)))
-        if best is None:
+                                       _outcome(picked, overrode if picked and chosen is best else None, edge, ev,
+                                                chosen[0].name if alternative else None,
+                                                _implausible(applied, fit, design) if mismatch else None)))
+        if chosen is None:
             break
-        applied, fit, ev = best
+        applied, fit, ev = chosen
+        where = (applied.name, _part(applied, design))
+        alternatives = tuple(
+            {"effect": g[0].name, "part": _part(g[0], design),
+             "parameters": g[0].effect.report_network(g[0].own(g[1].values), dict(g[0].settings)),
+             "delta_bic": float(g[2].delta_bic - ev.delta_bic),
+             "measurement": separating_measurement(design.network, where, (g[0].name, _part(g[0], design)))}
+            for g in sorted(group, key=lambda g: g[2].delta_bic) if g is not chosen)
         findings.append(CircuitFinding(applied.name, applied.effect.report_network(applied.own(fit.values),
                                                                                      dict(applied.settings)),
-                                       ev, _part(applied, design), uncertainty(data, fit, applied)))
+                                       ev, where[1], uncertainty(data, fit, applied), alternatives))
         current = fit
     catch = fit_model(data, current.applied, [{p.name: current.values[p.name] for p in current.params}],
                       generic=True)
     catch = with_heldout(data, catch)
     catch_ev = evidence(data, current, catch, always_halves=True)
-    if catch_ev.supported:
-        findings.append(CircuitFinding("unexplained", {"tau": catch.generic[1], "gain": catch.generic[0]},
-                                       catch_ev))
+    left = misfit_ratio(current.rms, floor)
+    if mismatch is None and findings and left is not None and left > MISMATCH_RATIO:
+        mismatch = (f"the best plausible faults ({', '.join(f.effect for f in findings)}) leave "
+                    f"{left:.3g} times the noise floor")
+    elif mismatch is None and not findings and base_ratio is not None and base_ratio > MISMATCH_RATIO:
+        mismatch = "no single plausible fault explains it"
+    if mismatch:
+        findings = [CircuitFinding("unexplained", {"misfit_ratio": base_ratio}, catch_ev if not findings
+                                   else findings[0].evidence, note=f"design_mismatch: {mismatch}")]
+        current = baseline
+    elif catch_ev.supported or (left is not None and left > MISFIT_LIMIT):
+        params = {"misfit_ratio": left}
+        if catch_ev.supported:
+            params.update({"tau": catch.generic[1], "gain": catch.generic[0]})
+        findings.append(CircuitFinding("unexplained", params, catch_ev,
+                                       note="" if catch_ev.supported else
+                                       "misfit above the noise floor that no circuit effect explains"))
     model = design.model
-    fixes = tuple(suggest_fixes(current.network, model, resistor_series, capacitor_series)) if findings else ()
-    check = ngspice_check(data, current) if spice_check else None
+    named = any(f.effect != "unexplained" for f in findings)
+    fixes = tuple(suggest_fixes(current.network, model, resistor_series, capacitor_series)) if named else ()
+    check = ngspice_check(data, current) if spice_check and not mismatch else None
     return CircuitDiagnosis(data, baseline, current, tuple(findings), tuple(trials), catch_ev, fixes,
-                            _time.perf_counter() - start, check)
+                            _time.perf_counter() - start, check, floor, mismatch)
 
 
-def _outcome(chosen: bool, overrode: str | None, edge: str | None, ev: Evidence) -> str:
-    """What became of a candidate at its step (see :func:`choose`, :func:`at_bound`)."""
+def _outcome(chosen: bool, overrode: str | None, edge: str | None, ev: Evidence, alternative_to: str | None = None,
+             absurd: str | None = None) -> str:
+    """What became of a candidate at its step (see :func:`choose`, :func:`at_bound`,
+    :func:`equivalent`, :func:`implausible`)."""
     if chosen:
         return f"accepted: predicts each half from the other better than {overrode} (lower BIC)" if overrode \
             else "accepted"
+    if alternative_to:
+        return f"alternative: fits as well as {alternative_to}, less probable under the prior"
+    if absurd and ev.supported:
+        return f"rejected: {absurd} (not a fault of this design)"
     if edge:
         return f"rejected: {edge} at the edge of its range (not resolved by the record)"
     return "supported, not the best" if ev.supported else "rejected"
@@ -295,10 +552,8 @@ def at_bound(fit: CircuitFit, applied: Applied) -> str | None:
 
 
 def _part(applied: Applied, design: Design) -> str | None:
-    cell = dict(applied.settings).get("cell")
-    if cell is None:
-        return None
-    return "C1" if len(design.network.cells) == 1 else f"C1.{cell + 1}"
+    settings = dict(applied.settings)
+    return fault_part(design.network, applied.name, settings.get("cell"), settings.get("part"))
 
 
 def ngspice_check(data: CircuitData, fit: CircuitFit) -> dict:

@@ -50,14 +50,19 @@ from creepcomp.fit.evidence import (BIC_STRONG, HELDOUT_Z, Evidence, compare, co
     halves, heldout)
 from creepcomp.fit.starts import one_term_starts, tau_grid
 from creepcomp.fit.prony import model_file_dict
+from creepcomp.fit.reduce import reduce_record
 from creepcomp.lti import lag_states
 from creepcomp.io.records import Record
 
 __all__ = ["MAX_EFFECTS", "REFINED", "CORRECTION_WORSE", "Finding", "Trial", "Diagnosis", "CatchAll",
-           "CATCH_ALL", "diagnose", "correction_errors"]
+           "CATCH_ALL", "diagnose", "correction_errors", "DIAGNOSE_MAX_SAMPLES"]
 
 #: Most effects added one after the other.
 MAX_EFFECTS = 4
+#: Samples the diagnosis works on at most: a longer record is reduced by block means within
+#: constant-load stretches (:func:`~creepcomp.fit.reduce.reduce_record`), which keeps its load
+#: steps sharp and everything slower than a few new sample intervals.
+DIAGNOSE_MAX_SAMPLES = 10_000
 #: A correction-error ratio below this: the extension makes the creep-corrected signal worse
 #: (the ratio of two RMS errors of the same record moves by a percent or so without any change).
 CORRECTION_WORSE = 0.98
@@ -151,6 +156,7 @@ class Diagnosis:
     baseline_model: dict
     correction: dict = field(default_factory=dict, repr=False)
     floor: NoiseFloor | None = None
+    reduced: str | None = None
 
     @property
     def cause(self) -> str:
@@ -200,7 +206,8 @@ class Diagnosis:
                        "duration_s": self.data.duration, "sample_step_s": self.data.dt_median,
                        "uniform": bool(np.ptp(np.diff(self.data.time)) <= 1e-9 * self.data.dt_median),
                        "initial_state": self.data.initial,
-                       "temperature": self.data.temperature is not None},
+                       "temperature": self.data.temperature is not None,
+                       "reduced": self.reduced},
             "tried": [t.to_dict() for t in self.trials],
             "catch_all": self.catch_all.to_dict() if self.catch_all else None,
             "decision_rule": {"delta_bic_at_most": -BIC_STRONG, "heldout_z_at_least": HELDOUT_Z,
@@ -372,7 +379,7 @@ def _candidates(data: Data, current: Fit, pool, step: int, trials: list) -> list
 
 def diagnose(record: Record, initial: str = "free", load_step_at: float | None = None,
              candidates: list[str] | None = None, max_effects: int = MAX_EFFECTS,
-             correction: bool = True) -> Diagnosis:
+             correction: bool = True, max_samples: int | None = DIAGNOSE_MAX_SAMPLES) -> Diagnosis:
     """Diagnose a record: baseline, candidate effects by evidence, catch-all, gain.
 
     Parameters
@@ -387,8 +394,13 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
     max_effects : int
     correction : bool
         Measure the gain on the creep-corrected signal too.
+    max_samples : int or None
+        Longer records are reduced to about this many samples first (None: never).
     """
     t_start = _time.perf_counter()
+    reduced = None
+    if max_samples is not None:
+        record, reduced = reduce_record(record, max_samples)
     data = prepare(record, initial=initial, load_step_at=load_step_at)
     pool = effects_pkg.sensor_effects() if candidates is None else [effects_pkg.get(c) for c in candidates]
     current = heldout(data, fit_structure(data, Structure(1), one_term_starts(data)))
@@ -479,7 +491,8 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
                                 0.0 if problem["kind"] == "quantisation" else float("inf")))
     findings = _ordered(findings, unexplained)
     return Diagnosis(data, base, current, tuple(findings), tuple(trials), catch, gain,
-                     _time.perf_counter() - t_start, extended_model, baseline_model, corr, floor)
+                     _time.perf_counter() - t_start, extended_model, baseline_model, corr, floor,
+                     reduced)
 
 
 def _extensions(fit: Fit) -> dict:

@@ -348,7 +348,7 @@ def _check_stable(M: np.ndarray, where: str, model: CreepModel) -> None:
 
 
 def compensate(time, signal, model: CreepModel, method: str = "subtractive", initial=None,
-               hold: str = "zero") -> np.ndarray:
+               hold: str = "zero", progress=None, chunk: int = 1_000_000) -> np.ndarray:
     """Creep-compensated signal of a whole record (uniform or irregular sampling).
 
     Parameters
@@ -368,6 +368,10 @@ def compensate(time, signal, model: CreepModel, method: str = "subtractive", ini
         supplemental.
     hold : {"zero", "linear"}
         Load held between samples (exact for steps at sample instants) or ramping linearly.
+    progress : callable, optional
+        Called as ``progress(samples_done, samples)`` after each chunk.
+    chunk : int
+        Samples fed to the :class:`Corrector` at a time (the result does not depend on it).
 
     Returns
     -------
@@ -384,8 +388,16 @@ def compensate(time, signal, model: CreepModel, method: str = "subtractive", ini
         where = f"at sample {bad[0] + 1}" if bad.size else "(not finite)"
         raise InputError(f"time must be finite and strictly increasing {where}")
     dt = uniform_interval(t, steps)
+    del steps
     corrector = Corrector(model, method, dt=dt, initial=initial, hold=hold)
-    return corrector.process(x) if dt is not None else corrector.process(x, t)
+    out = np.empty_like(x)
+    for lo in range(0, len(x), max(int(chunk), 1)):
+        hi = min(lo + int(chunk), len(x))
+        out[lo:hi] = (corrector.process(x[lo:hi]) if dt is not None
+                      else corrector.process(x[lo:hi], t[lo:hi]))
+        if progress:
+            progress(hi, len(x))
+    return out
 
 
 def uniform_interval(time, steps=None) -> float | None:

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from creepcomp.errors import InputError
+from creepcomp.io.atomic import write_text_atomic
 from creepcomp.model import CreepModel
 from creepcomp.network import Network
 
@@ -20,7 +21,7 @@ def read_json(path: str | Path, what: str = "file") -> dict:
     """Read a JSON object, with one clear message for a missing or malformed file."""
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        text = p.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
         raise InputError(f"{what} {p}: no such file") from None
     except (OSError, UnicodeDecodeError) as exc:
@@ -54,11 +55,10 @@ def to_json(obj: Any) -> str:
 
 
 def write_json(path: str | Path, obj: Any) -> Path:
-    """Write a JSON object to ``path`` (creating folders); returns the path."""
+    """Write a JSON object to ``path`` atomically (creating folders); returns the path."""
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
-    p.write_text(to_json(obj) + "\n", encoding="utf-8")
-    return p
+    return write_text_atomic(p, to_json(obj) + "\n")
 
 
 def read_model(path: str | Path) -> CreepModel:
@@ -106,6 +106,7 @@ def read_design(path: str | Path) -> Design:
         raise InputError(f"{where}: missing 'creep' (found keys: {', '.join(data)})")
     model = CreepModel.from_dict(data["creep"], where=f"{where}: 'creep'")
     network = Network.from_dict(data, where=where)
+    network.check_buildable(where)
     known = {"creep", "cells", "R2", "shunt", "source_resistance", "load_resistance"}
     return Design(model, network, {k: v for k, v in data.items() if k not in known})
 

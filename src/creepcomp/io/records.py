@@ -19,18 +19,20 @@ import io
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Mapping
+from typing import Callable, Mapping
 
 import numpy as np
 
 from creepcomp.errors import InputError
 
 __all__ = ["REQUIRED", "OPTIONAL", "COLUMNS", "TIME_UNITS_TO_SECONDS", "Record", "check_arrays",
-           "parse_columns", "read_record", "parse_record", "write_record"]
+           "parse_columns", "read_record", "parse_record", "write_record", "WRITE_ROWS"]
 
 REQUIRED = ("time", "load", "signal")
 OPTIONAL = ("temperature", "corrected")
 COLUMNS = REQUIRED + OPTIONAL
+#: Rows per block when writing a record (bounds the memory of the text being written).
+WRITE_ROWS = 500_000
 TIME_UNITS_TO_SECONDS = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "min": 60.0, "h": 3600.0, "hr": 3600.0}
 
 
@@ -185,6 +187,12 @@ def _number(text: str) -> float:
     return float(text.strip())
 
 
+def _check_delimiter(delimiter: str | None) -> None:
+    if delimiter is not None and (len(delimiter) != 1 or delimiter in "\r\n\"" or delimiter.isalnum()):
+        raise InputError(f"delimiter {delimiter!r}: give one character such as ',', ';' or a "
+                         "tab ('tab'), not a letter, digit, quote or line break")
+
+
 def read_record(path: str | Path, columns: Mapping[str, str] | None = None,
                 delimiter: str | None = None, duplicate_times: str = "error") -> Record:
     """Read and check a measured record.
@@ -212,6 +220,15 @@ def read_record(path: str | Path, columns: Mapping[str, str] | None = None,
         Naming the file, line and column of the first problem.
     """
     p = Path(path)
+    _check_delimiter(delimiter)
+    if p.is_file():
+        try:
+            return _read_fast(p, {k.lower(): v for k, v in (columns or {}).items()}, delimiter,
+                              duplicate_times)
+        except _Slow:
+            pass
+        except OSError:
+            pass                            # the full reader below words the message
     try:
         text = p.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
@@ -227,27 +244,13 @@ def read_record(path: str | Path, columns: Mapping[str, str] | None = None,
 def parse_record(text: str, source: str = "record", columns: Mapping[str, str] | None = None,
                  delimiter: str | None = None, duplicate_times: str = "error") -> Record:
     """Parse record text (see :func:`read_record`)."""
+    _check_delimiter(delimiter)
     mapping = {k.lower(): v for k, v in (columns or {}).items()}
     lines = text.splitlines()
     metadata: dict[str, str] = {}
     header_at = None
     for i, line in enumerate(lines):
-        stripped = line.strip()
-        if header_at is None and stripped.startswith("#"):
-            body = stripped.lstrip("#").strip()
-            if ":" in body:
-                key, value = body.split(":", 1)
-                metadata[key.strip()] = value.strip()
-            continue
-        if not stripped:
-            continue
-        if not mapping:
-            header_at = i
-            break
-        d = delimiter or _sniff_delimiter(line)
-        fields = [f.strip() for f in next(csv.reader([line], delimiter=d))]
-        wanted = [v for v in mapping.values() if not _is_number(v)]
-        if all(any(f.lower() == w.lower() for f in fields) for w in wanted):
+        if _is_header(line, mapping, delimiter, metadata):
             header_at = i
             break
     if header_at is None:
@@ -258,23 +261,7 @@ def parse_record(text: str, source: str = "record", columns: Mapping[str, str] |
     d = delimiter or _sniff_delimiter(lines[header_at])
     reader = csv.reader(io.StringIO("\n".join(lines[header_at:])), delimiter=d)
     header = [h.strip() for h in next(reader)]
-    lowered = [h.lower() for h in header]
-    index: dict[str, int | float] = {}
-    for name in COLUMNS:
-        wanted = mapping.get(name, name if name not in mapping else None)
-        if name in mapping and _is_number(mapping[name]) and mapping[name].lower() not in lowered:
-            index[name] = float(mapping[name])
-            continue
-        if wanted is not None and wanted.lower() in lowered:
-            index[name] = lowered.index(wanted.lower())
-        elif name in mapping:
-            raise InputError(f"{source}, line {header_at + 1}: mapped column '{mapping[name]}' for "
-                             f"'{name}' not found; columns found: {', '.join(header)}")
-    missing = [c for c in REQUIRED if c not in index]
-    if missing:
-        raise InputError(f"{source}, line {header_at + 1}: missing required column"
-                         f"{'s' if len(missing) > 1 else ''} {', '.join(repr(m) for m in missing)}; "
-                         f"columns found: {', '.join(header)} (map others with --columns)")
+    index = _resolve_columns(header, mapping, source, header_at)
     rows = list(reader)
     first_data = header_at + 2
     units_row = None
@@ -303,6 +290,15 @@ def parse_record(text: str, source: str = "record", columns: Mapping[str, str] |
                                  f"'{cell}' is not a finite number")
             values[name].append(x)
     arrays = {name: np.array(v, dtype=float) for name, v in values.items()}
+    arrays = _finish(arrays, metadata, units_row, index, source, header_at, duplicate_times)
+    _check_time_order(arrays["time"], source, first_data, rows)
+    return Record(source=source, metadata=metadata,
+                  **{name: arrays.get(name) for name in COLUMNS})
+
+
+def _finish(arrays: dict, metadata: dict, units_row, index: dict, source: str, header_at: int,
+            duplicate_times: str) -> dict:
+    """Units from a units row (time converted to seconds), the empty check, merged duplicates."""
     if units_row is not None:
         for name, col in index.items():
             if not isinstance(col, float) and col < len(units_row) and units_row[col].strip():
@@ -322,9 +318,134 @@ def parse_record(text: str, source: str = "record", columns: Mapping[str, str] |
             metadata["merged_duplicate_times"] = str(merged)
     elif duplicate_times != "error":
         raise InputError(f"duplicate_times '{duplicate_times}': use 'error' or 'mean'")
-    _check_time_order(arrays["time"], source, first_data, rows)
-    return Record(source=source, metadata=metadata,
-                  **{name: arrays.get(name) for name in COLUMNS})
+    return arrays
+
+
+class _Slow(Exception):
+    """The fast reader met something it leaves to the line-by-line parser (and its message)."""
+
+
+#: Lines read before the header by the fast reader (beyond that the full parser takes over).
+FAST_HEADER_LINES = 10_000
+
+
+def _read_fast(path: Path, mapping: dict, delimiter: str | None,
+               duplicate_times: str) -> Record:
+    """Read a well-formed record with pyarrow's CSV reader (fast, little memory).
+
+    Only the lines up to the header (and a units row) are parsed in Python; the data go to
+    pyarrow as float64. Anything unusual (a blank or non-numeric cell, a short row, a
+    non-finite value, time not increasing, a non-UTF-8 byte) raises :class:`_Slow`, and the
+    line-by-line parser, which names the line and column, reads the file instead.
+    """
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    source = str(path)
+    metadata: dict[str, str] = {}
+    with path.open("rb") as fh:
+        header_at, header_line = None, None
+        for i in range(FAST_HEADER_LINES):
+            raw = fh.readline()
+            if not raw:
+                break
+            try:
+                line = raw.decode("utf-8-sig" if i == 0 else "utf-8")
+            except UnicodeDecodeError:
+                raise _Slow() from None
+            if len(line.splitlines()) > 1:
+                raise _Slow()               # separators other than newlines: leave to the parser
+            if _is_header(line, mapping, delimiter, metadata):
+                header_at, header_line = i, line
+                break
+        if header_at is None:
+            raise _Slow()
+        d = delimiter or _sniff_delimiter(header_line)
+        header = [h.strip() for h in next(csv.reader([header_line], delimiter=d))]
+        index = _resolve_columns(header, mapping, source, header_at)
+        start = fh.tell()
+        units_row = None
+        if mapping:
+            raw = fh.readline()
+            try:
+                row = next(csv.reader([raw.decode("utf-8")], delimiter=d), [])
+            except UnicodeDecodeError:
+                raise _Slow() from None
+            if not _row_is_numeric(row, index):
+                units_row, start = row, fh.tell()
+        fh.seek(start)
+        wanted = {name: f"c{col}" for name, col in index.items() if not isinstance(col, float)}
+        try:
+            table = pacsv.read_csv(
+                fh, read_options=pacsv.ReadOptions(column_names=[f"c{k}" for k in range(len(header))]),
+                parse_options=pacsv.ParseOptions(delimiter=d),
+                convert_options=pacsv.ConvertOptions(
+                    include_columns=sorted(set(wanted.values())),
+                    column_types={c: pa.float64() for c in wanted.values()}))
+        except (pa.ArrowException, ValueError):
+            raise _Slow() from None
+    columns = {name: table.column(c) for name, c in wanted.items()}
+    n = table.num_rows
+    del table
+    if n == 0 or any(col.null_count for col in columns.values()):
+        raise _Slow()
+    arrays = {}
+    for name in list(columns):
+        chunks = columns.pop(name).chunks
+        arrays[name] = np.concatenate([c.to_numpy(zero_copy_only=False) for c in chunks])
+        del chunks
+        if not np.isfinite(arrays[name]).all():
+            raise _Slow()
+    for name, col in index.items():
+        if isinstance(col, float):
+            arrays[name] = np.full(n, col)
+    arrays = _finish(arrays, metadata, units_row, index, source, header_at, duplicate_times)
+    if not np.all(np.diff(arrays["time"]) > 0):
+        raise _Slow()
+    return Record(source=source, metadata=metadata, **{name: arrays.get(name) for name in COLUMNS})
+
+
+def _is_header(line: str, mapping: Mapping[str, str], delimiter: str | None,
+               metadata: dict) -> bool:
+    """True for the header line; a ``# key: value`` line before it goes into ``metadata``."""
+    stripped = line.strip()
+    if stripped.startswith("#"):
+        body = stripped.lstrip("#").strip()
+        if ":" in body:
+            key, value = body.split(":", 1)
+            metadata[key.strip()] = value.strip()
+        return False
+    if not stripped:
+        return False
+    if not mapping:
+        return True
+    d = delimiter or _sniff_delimiter(line)
+    fields = [f.strip() for f in next(csv.reader([line], delimiter=d))]
+    wanted = [v for v in mapping.values() if not _is_number(v)]
+    return all(any(f.lower() == w.lower() for f in fields) for w in wanted)
+
+
+def _resolve_columns(header: list[str], mapping: Mapping[str, str], source: str,
+                     header_at: int) -> dict[str, int | float]:
+    """Record column -> index in the header (or a constant value); raise for missing ones."""
+    lowered = [h.lower() for h in header]
+    index: dict[str, int | float] = {}
+    for name in COLUMNS:
+        wanted = mapping.get(name, name if name not in mapping else None)
+        if name in mapping and _is_number(mapping[name]) and mapping[name].lower() not in lowered:
+            index[name] = float(mapping[name])
+            continue
+        if wanted is not None and wanted.lower() in lowered:
+            index[name] = lowered.index(wanted.lower())
+        elif name in mapping:
+            raise InputError(f"{source}, line {header_at + 1}: mapped column '{mapping[name]}' for "
+                             f"'{name}' not found; columns found: {', '.join(header)}")
+    missing = [c for c in REQUIRED if c not in index]
+    if missing:
+        raise InputError(f"{source}, line {header_at + 1}: missing required column"
+                         f"{'s' if len(missing) > 1 else ''} {', '.join(repr(m) for m in missing)}; "
+                         f"columns found: {', '.join(header)} (map others with --columns)")
+    return index
 
 
 def _merge_duplicate_times(arrays: dict) -> tuple[dict, int]:
@@ -368,12 +489,31 @@ def _row_is_numeric(row, index) -> bool:
 
 
 def write_record(path: str | Path, record: Record, extra: Mapping[str, np.ndarray] | None = None,
-                 metadata: Mapping[str, str] | None = None, digits: int = 17) -> Path:
-    """Write a record (plus extra columns) as CSV with its metadata lines.
+                 metadata: Mapping[str, str] | None = None, digits: int | None = None,
+                 progress: Callable[[int, int], None] | None = None) -> Path:
+    """Write a record (plus extra columns) as CSV with its metadata lines, atomically.
 
-    Numbers are written with ``digits`` significant digits (17: reading back gives the same
-    floats).
+    Numbers are written in their shortest form that reads back as the same float (``0.2``
+    stays ``0.2``). The file appears complete or not at all (:mod:`creepcomp.io.atomic`).
+
+    Parameters
+    ----------
+    path : str or Path
+    record : Record
+    extra : mapping, optional
+        More columns, one value per sample.
+    metadata : mapping, optional
+        ``# key: value`` lines added to the record's.
+    digits : int, optional
+        Write numbers rounded to this many significant digits (``%g``) instead of exactly.
+    progress : callable, optional
+        Called as ``progress(rows_written, rows)`` while writing.
     """
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    from creepcomp.io.atomic import atomic_path
+
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
     cols = dict(record.columns())
@@ -384,10 +524,18 @@ def write_record(path: str | Path, record: Record, extra: Mapping[str, np.ndarra
         cols[name] = values
     meta = dict(record.metadata)
     meta.update(metadata or {})
-    with p.open("w", encoding="utf-8", newline="") as fh:
-        for key, value in meta.items():
-            fh.write(f"# {key}: {value}\n")
-        fh.write(",".join(cols) + "\n")
-        data = np.column_stack(list(cols.values()))
-        np.savetxt(fh, data, delimiter=",", fmt=f"%.{int(digits)}g")
+    n = len(record)
+    with atomic_path(p) as tmp, tmp.open("wb") as fh:
+        head = "".join(f"# {key}: {value}\n" for key, value in meta.items()) + ",".join(cols) + "\n"
+        fh.write(head.encode("utf-8"))
+        options = pacsv.WriteOptions(include_header=False)
+        for lo in range(0, n, WRITE_ROWS):
+            hi = min(lo + WRITE_ROWS, n)
+            if digits is None:
+                pacsv.write_csv(pa.table({k: v[lo:hi] for k, v in cols.items()}), fh, options)
+            else:
+                np.savetxt(fh, np.column_stack([v[lo:hi] for v in cols.values()]), delimiter=",",
+                           fmt=f"%.{int(digits)}g")
+            if progress:
+                progress(hi, n)
     return p

@@ -8,7 +8,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from creepcomp.report.common import format_cell, png_base64, thin
-from creepcomp.fit.noise import autocorrelation
+from creepcomp.diagnose.circuit import FAULT_PRIOR
+from creepcomp.fit.noise import MISFIT_LIMIT, autocorrelation
 from creepcomp.units import format_quantity
 
 __all__ = ["UNITS", "quantity", "elements", "circuit_figures", "circuit_html"]
@@ -93,6 +94,13 @@ def circuit_figures(cd, units: dict) -> list[tuple[str, str]]:
     return figs
 
 
+def _prior_table() -> str:
+    rows = "".join(f"<tr><td>{html.escape(e)}</td><td>{100 * p['rate']:.3g} %</td><td>{html.escape(p['plausible'])}</td>"
+                   f"<td>{html.escape(p['why'])}</td></tr>" for e, p in FAULT_PRIOR.items())
+    return ("<table><tr><th>fault</th><th>share of built networks (assumed)</th><th>plausible values</th>"
+            "<th>why</th></tr>" + rows + "</table>")
+
+
 def _element(kind: str, value) -> str:
     return "none" if value is None else format_quantity(value, "F" if kind == "C" else "Ω")
 
@@ -101,17 +109,32 @@ def circuit_html(cd, units: dict) -> str:
     """The circuit side's HTML section."""
     su = units.get("signal", "")
     out = cd.to_dict()
-    rows = []
+    rows, alt_rows = [], []
     for f in cd.findings:
+        for a in f.alternatives:
+            ap = ", ".join(f"{k} = {quantity(k, v)}" for k, v in a["parameters"].items())
+            alt_rows.append(f"<tr><td>{html.escape(f.effect)} {html.escape(f.part or '')}</td>"
+                            f"<td>{html.escape(a['effect'])} {html.escape(a['part'] or '')}</td><td>{ap}</td>"
+                            f"<td>{format_cell(a['delta_bic'])}</td><td>{html.escape(a['measurement'])}</td></tr>")
         params = ", ".join(f"{k} = {quantity(k, v)} ± {quantity(k, f.uncertainty.get(k))}"
                            if k in UNITS else f"{k} = {format_cell(v)}" for k, v in f.parameters.items())
         rows.append(f"<tr><td><b>{html.escape(f.effect)}</b></td><td>{html.escape(f.part or '–')}</td>"
-                    f"<td>{params}</td><td>{format_cell(f.evidence.delta_bic)}</td>"
+                    f"<td>{params}{('<br/>' + html.escape(f.note)) if f.note else ''}</td><td>{format_cell(f.evidence.delta_bic)}</td>"
                     f"<td>{format_cell(f.evidence.heldout_rms_ratio)}</td><td>{format_cell(f.evidence.heldout_z)}</td></tr>")
     findings = ("<table><tr><th>effect</th><th>part</th><th>parameters (± 1 sigma)</th><th>ΔBIC</th>"
                 "<th>held-out RMS ratio</th><th>held-out z</th></tr>" + "".join(rows) + "</table>"
                 if rows else "<p>No circuit effect is supported: no candidate predicts held-out data better than "
                 "the nominal network (that alone does not show the residual is noise).</p>")
+    alternatives = ("<h3>Explanations the record cannot tell apart</h3><table><tr><th>named</th><th>fits as well"
+                    "</th><th>its parameters</th><th>ΔBIC against the named</th><th>measurement that separates them"
+                    "</th></tr>" + "".join(alt_rows) + "</table><p>The named one is the more probable under the "
+                    "prior of the faults below.</p>" + _prior_table()) if alt_rows else ""
+    floor = cd.floor
+    misfit = (f"<p><b>{html.escape(cd.verdict())}</b>.</p><p>Noise floor {format_cell(floor.rms)} {html.escape(su)} "
+              f"({html.escape(floor.method)}); misfit ratio (residual RMS / floor): nominal "
+              f"{format_cell(cd.misfit(cd.baseline))}, as built {format_cell(cd.misfit(cd.extended))}; explained share "
+              f"{format_cell(cd.explained_share)}. 'none' needs a misfit ratio of the nominal network up to "
+              f"{MISFIT_LIMIT:g}.</p>") if floor is not None else ""
     design, built = elements(cd.baseline.network), elements(cd.extended.network)
     parts = "".join(f"<tr><td>{label}</td><td>{_element(*design[label])}</td><td>{_element(*built[label])}</td></tr>"
                     for label in design if design[label][1] is not None or built[label][1] is not None)
@@ -140,7 +163,9 @@ def circuit_html(cd, units: dict) -> str:
     figs = "".join(f"<h3>{html.escape(title)}</h3><img src='data:image/png;base64,{png}'/>"
                    for title, png in circuit_figures(cd, units))
     return f"""<h2>Circuit side: cause {html.escape(cd.cause)}</h2>
+{misfit}
 {findings}
+{alternatives}
 <p>Nominal network driven by the measured signal: residual RMS {format_cell(cd.baseline.rms)} {html.escape(su)}
 (held out {format_cell(cd.baseline.heldout.rms if cd.baseline.heldout else None)}); as built:
 {format_cell(cd.extended.rms)} {html.escape(su)} (held out {format_cell(cd.extended.heldout.rms if cd.extended.heldout else None)}).

@@ -14,6 +14,8 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
+from creepcomp.io.atomic import atomic_path
+
 __all__ = ["save_figure", "png_base64", "figure_data_uri", "html_page", "html_table", "thin",
            "format_cell", "MAX_POINTS"]
 
@@ -38,11 +40,14 @@ def format_cell(x) -> str:
 
 
 def save_figure(fig, path, dpi: int = 110) -> Path:
-    """Save a matplotlib figure to ``path`` (folders made as needed) and close it."""
+    """Save a matplotlib figure to ``path`` atomically (folders made as needed) and close it."""
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=dpi)
-    plt.close(fig)
+    try:
+        with atomic_path(out) as tmp:
+            fig.savefig(tmp, dpi=dpi, format=out.suffix.lstrip(".").lower() or "png")
+    finally:
+        plt.close(fig)
     return out
 
 

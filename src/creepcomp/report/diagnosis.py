@@ -9,6 +9,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
+from creepcomp.io.atomic import write_text_atomic
 from creepcomp.io.jsonfiles import to_json, write_design, write_json
 from creepcomp.fit.data import Data
 from creepcomp.fit.noise import autocorrelation
@@ -89,12 +90,18 @@ def diagnosis_figures(diagnosis, units: dict) -> list[tuple[str, str]]:
         ax.plot(t, ext.residual[idx], ".", ms=2, color="C0", alpha=0.6,
                 label=f"extended, RMS {ext.residual_rms:.3g}")
     ax.axhline(0, color="0.3", lw=0.8)
+    if d.floor is not None and d.floor.rms > 0:
+        ax.axhspan(-d.floor.rms, d.floor.rms, color="C2", alpha=0.15,
+                   label=f"± noise floor {d.floor.rms:.3g}")
     ax.set_xlabel(xlabel)
     ax.set_ylabel(rlabel)
     ax.legend(fontsize=8, markerscale=4)
     ax.grid(True, alpha=0.3)
     fig.tight_layout()
     figs.append(("Residual (measured minus simulated) against time", png_base64(fig, dpi=90)))
+
+    if d.floor is not None and d.floor.rms > 0:
+        figs.append(("Misfit against the noise floor", _misfit_figure(d, su)))
 
     ncols = 2 if data.temperature is not None else 1
     fig, axes = plt.subplots(1, ncols, figsize=(11 if ncols == 2 else 7, 4.2), squeeze=False)
@@ -150,6 +157,32 @@ def diagnosis_figures(diagnosis, units: dict) -> list[tuple[str, str]]:
     return figs
 
 
+def _misfit_figure(d, su: str) -> str:
+    """Bars of the residual RMS (all samples and held out) of the baseline and the extended
+    model, against the noise floor and the limit of a misfit consistent with noise."""
+    from creepcomp.fit.noise import MISFIT_LIMIT
+
+    floor = d.floor.rms
+    labels = ["baseline", "extended"]
+    fits = [d.baseline, d.extended]
+    fig, ax = plt.subplots(figsize=(9, 3.6))
+    x = np.arange(2)
+    ax.bar(x - 0.18, [f.residual_rms / floor for f in fits], 0.36, color=["C3", "C0"], label="all samples")
+    held = [f.heldout.rms / floor if f.heldout else np.nan for f in fits]
+    ax.bar(x + 0.18, held, 0.36, color=["C3", "C0"], alpha=0.45, hatch="//", label="held out")
+    ax.axhline(1.0, color="C2", lw=1.2, label=f"noise floor ({floor:.3g} {su})".replace(" )", ")"))
+    ax.axhline(MISFIT_LIMIT, color="C2", lw=1.0, ls="--", label=f"limit of 'consistent with noise' ({MISFIT_LIMIT:g})")
+    ax.set_xticks(x, labels)
+    ax.set_ylabel("residual RMS / noise floor")
+    share = d.explained_share
+    ax.set_title("explained share of the excess misfit: " + ("–" if share is None else f"{100 * share:.0f} %"),
+                 fontsize=10)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    ax.grid(True, axis="y", alpha=0.3)
+    fig.tight_layout()
+    return png_base64(fig, dpi=90)
+
+
 def render_html(diagnosis, units: dict, title: str = "creepcomp diagnose",
                 circuit=None) -> str:
     """The report as one self-contained HTML page (with the circuit side's section when a
@@ -158,15 +191,17 @@ def render_html(diagnosis, units: dict, title: str = "creepcomp diagnose",
     result = d.to_dict()
     rows = []
     for f in d.findings:
-        params = ", ".join(f"{k} = {format_cell(v)} ± {format_cell(f.uncertainty.get(k))}" for k, v in f.parameters.items())
+        params = ", ".join(f"{k} = {format_cell(v)}" + (f" ± {format_cell(f.uncertainty[k])}" if k in f.uncertainty else "")
+                           for k, v in f.parameters.items())
         ev = f.evidence
         rows.append(f"<tr><td><b>{html.escape(f.effect)}</b></td><td>{params or '–'}</td>"
                     f"<td>{format_cell(ev.delta_bic)}</td><td>{format_cell(ev.heldout_rms_ratio)}</td>"
-                    f"<td>{format_cell(ev.heldout_z)}</td></tr>")
+                    f"<td>{format_cell(ev.heldout_z)}</td><td>{html.escape(f.note or '')}</td></tr>")
     findings = ("<table><tr><th>effect</th><th>parameters (± 1 sigma)</th><th>ΔBIC</th>"
-                "<th>held-out RMS ratio</th><th>held-out z</th></tr>" + "".join(rows) + "</table>"
-                if rows else "<p>No effect is supported: no candidate predicts held-out data better than the baseline "
-                "(that alone does not show the residual is noise).</p>")
+                "<th>held-out RMS ratio</th><th>held-out z</th><th>note</th></tr>" + "".join(rows) + "</table>"
+                if rows else "<p>No effect is supported, and the baseline's misfit is consistent with the noise "
+                "floor: the paper's model explains the record to its noise.</p>")
+    floor_section = _floor_html(d, result, units.get("signal", ""))
     tried = "".join(f"<tr><td>{t.step}</td><td>{html.escape(t.effect)}</td><td>{format_cell(t.delta_bic)}</td>"
                     f"<td>{format_cell(t.evidence.heldout_rms_ratio if t.evidence else None)}</td>"
                     f"<td>{format_cell(t.evidence.heldout_z if t.evidence else None)}</td>"
@@ -207,6 +242,7 @@ initial creep state: {html.escape(rec['initial_state'])}; temperature column: {'
 {circuit_section}
 <h2>Sensor side: cause {html.escape(d.cause)}</h2>
 {findings}
+{floor_section}
 <p>Decision rule: an effect is added when BIC drops by at least {-result['decision_rule']['delta_bic_at_most']:g}
 (likelihood with AR noise) and data held out of the fit are predicted better by at least
 {result['decision_rule']['heldout_z_at_least']:g} standard deviations, and it explains more than a generic
@@ -229,6 +265,34 @@ extension (catch-all) would. Catch-all on top of the final model: {catch_text}.<
 """
 
 
+def _floor_html(d, result: dict, su: str) -> str:
+    """The noise floor, the misfit ratios and the explained share, with what they say."""
+    if d.floor is None:
+        return ""
+    from creepcomp.fit.noise import MISFIT_LIMIT
+
+    unit = f" {su}" if su else ""
+    b, e = result["baseline"]["misfit_ratio"], result["extended"]["misfit_ratio"]
+    share = result["explained_share"]
+    if b is not None and b <= MISFIT_LIMIT:
+        verdict = "The baseline's misfit is consistent with the noise floor."
+    elif e is not None and e <= MISFIT_LIMIT:
+        verdict = "The baseline misses the record by more than its noise; the extended model brings it to the floor."
+    else:
+        verdict = (f"The extended model still misses the record by {format_cell(e)} times the noise floor: "
+                   "part of the record is not explained (see <i>unexplained</i> in the findings).")
+    return f"""<h3>Noise floor and misfit</h3>
+<table><tr><th></th><th>value</th></tr>
+<tr><td>noise floor (RMS, measured without the model)</td><td>{format_cell(d.floor.rms)}{unit}</td></tr>
+<tr><td>how</td><td style="text-align:left">{html.escape(d.floor.method)}</td></tr>
+<tr><td>misfit ratio, baseline (residual RMS / floor)</td><td>{format_cell(b)}</td></tr>
+<tr><td>misfit ratio, extended</td><td>{format_cell(e)}</td></tr>
+<tr><td>consistent with noise up to</td><td>{MISFIT_LIMIT:g}</td></tr>
+<tr><td>explained share of the baseline's excess misfit</td><td>{'–' if share is None else f'{100 * share:.1f} %'}</td></tr>
+</table>
+<p>{verdict}</p>"""
+
+
 def write_report(diagnosis, out_dir, units: dict | None = None, circuit=None) -> dict[str, Path]:
     """Write ``report.html``, ``diagnosis.json``, ``model.json`` (extended) and
     ``baseline-model.json`` into ``out_dir``; with the circuit side also
@@ -237,7 +301,7 @@ def write_report(diagnosis, out_dir, units: dict | None = None, circuit=None) ->
     out.mkdir(parents=True, exist_ok=True)
     paths = {"report": out / "report.html", "diagnosis": out / "diagnosis.json",
              "model": out / "model.json", "baseline_model": out / "baseline-model.json"}
-    paths["report"].write_text(render_html(diagnosis, units or {}, circuit=circuit), encoding="utf-8")
+    write_text_atomic(paths["report"], render_html(diagnosis, units or {}, circuit=circuit))
     if circuit is not None:
         from creepcomp.diagnose.circuit import combine
 

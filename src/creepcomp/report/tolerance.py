@@ -7,6 +7,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
+from creepcomp.io.atomic import write_text_atomic
 from creepcomp.report.common import figure_data_uri, html_page, html_table
 
 __all__ = ["tolerance_report_html"]
@@ -75,5 +76,5 @@ def tolerance_report_html(report, path: str | Path) -> Path:
     sections.append(("Tolerance box", html_table(["factor", "nominal", "low", "high", "distribution"], factors_rows)))
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(html_page("creepcomp tolerance analysis", sections), encoding="utf-8")
+    write_text_atomic(out, html_page("creepcomp tolerance analysis", sections))
     return out

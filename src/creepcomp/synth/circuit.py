@@ -15,7 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from creepcomp.analog.faults import CIRCUIT_EFFECTS, apply_fault, capacitor_cells
+from creepcomp.analog.faults import (CIRCUIT_EFFECTS, apply_fault, capacitor_cells, exact_equivalents,
+                                     fault_part, resistor_parts)
 from creepcomp.analog.sizing import size
 from creepcomp.errors import InputError
 from creepcomp.fit.circuit import prepare, residual_at
@@ -126,13 +127,14 @@ def generate_circuit(spec: CircuitSpec) -> CircuitSynthetic:
             raise ValueError("distinct_z and precise_to judge one hidden fault: the spec has "
                              f"{len(spec.hidden)}")
         (effect, params), *_ = spec.hidden.items()
+        where = fault_part(design.network, effect, params.get("cell"), params.get("part"))
         if spec.detectable_z > 0:
             z = circuit_detectability(t, signature, nominal.taus, residual_noise)
             factors["detectability"] = min(1.0, z / spec.detectable_z)
         if spec.distinct_z > 0:
             z = min(circuit_detectability(t, signature, nominal.taus, residual_noise,
                                           [output(net, clean) - nominal_out])
-                    for net in alternative_faults(design.network, effect, spec.duration))
+                    for net in alternative_faults(design.network, effect, spec.duration, part=where))
             factors["distinctness"] = min(1.0, z / spec.distinct_z)
         if spec.precise_to > 0:
             factors["precision"] = _precision_factor(spec, design, effect, params,
@@ -178,15 +180,27 @@ def circuit_detectability(t: np.ndarray, signature: np.ndarray, taus, noise: np.
     return heldout_z(signature - directions @ coef, noise)
 
 
-def alternative_faults(network, effect: str, duration: float, size: float = 1e-3) -> list:
-    """Small faults of every other circuit kind (each capacitor where it applies): each one's
-    signature is what that effect would explain of a fault's signature to first order.
-    An absorption stands for the family of its time constants by three of them (0.7, 2.2 and
-    7 times the cell's R C, at most half the ``duration``, s), as in :func:`random_fault`."""
+def alternative_faults(network, effect: str, duration: float, size: float = 1e-3,
+                       part: str | None = None) -> list:
+    """Small faults of every other circuit kind (each capacitor or resistor where it applies):
+    each one's signature is what that effect would explain of a fault's signature to first
+    order. An absorption stands for the family of its time constants by three of them (0.7,
+    2.2 and 7 times the cell's R C, at most half the ``duration``, s), as in
+    :func:`random_fault`. Faults exactly equivalent to ``effect`` on ``part`` (see
+    :func:`creepcomp.analog.faults.exact_equivalents`) are left out: no record tells them
+    apart, the diagnosis lists them as alternatives."""
     level = network.R2 if network.R2 is not None else sum(c.R for c in network.cells)
+    same = set(exact_equivalents(network, effect, part))
     out = []
     for other in CIRCUIT_EFFECTS:
-        if other == effect:
+        if other == effect and other != "resistor_value":
+            continue
+        if other == "resistor_value":
+            out.extend(apply_fault(network, other, {"R": r * (1.0 + size), "part": label})
+                       for label, r in resistor_parts(network).items()
+                       if (other, label) not in same and not (effect == other and label == part))
+            continue
+        if (other, None) in same:
             continue
         if other == "source_impedance":
             out.append(apply_fault(network, other, {"R": size * level}))
@@ -196,6 +210,8 @@ def alternative_faults(network, effect: str, duration: float, size: float = 1e-3
             continue
         for k in capacitor_cells(network):
             cell = network.cells[k]
+            if (other, fault_part(network, other, k)) in same or (other == effect and fault_part(network, other, k) == part):
+                continue
             if other == "capacitor_value":
                 out.append(apply_fault(network, other, {"C": cell.C * (1.0 + size)}, k))
             elif other == "capacitor_leakage":
@@ -209,8 +225,8 @@ def alternative_faults(network, effect: str, duration: float, size: float = 1e-3
 
 def fault_parts(effect: str) -> tuple:
     """The parts a circuit fault's parameters describe, as the diagnosis reports them: ``C``
-    of a capacitor off its value, ``R`` of a source, load or leakage resistance, ``C`` and
-    ``R`` of an absorption branch."""
+    of a capacitor off its value, ``R`` of a resistor off its value, of a source, load or
+    leakage resistance, ``C`` and ``R`` of an absorption branch."""
     return {"capacitor_value": ("C",), "dielectric_absorption": ("C", "R")}.get(effect, ("R",))
 
 
@@ -243,11 +259,17 @@ def circuit_precision(residual, parts: tuple, noise: np.ndarray) -> dict:
 def random_fault(effect: str | None, rng: np.random.Generator, design: Design, duration: float) -> dict:
     """A random fault of a kind, large enough to matter at the record's noise (see
     :func:`random_circuit_spec`), with its physical parameters; a capacitor's fault names
-    its ``cell`` (a random one of the network's capacitors). An absorption's time constant
-    is at most half the record's ``duration`` (s), so the record shows it."""
+    its ``cell`` (a random one of the network's capacitors), a resistor's its ``part`` (a
+    random one of its resistors, 8-25 % off either way). An absorption's time constant is at
+    most half the record's ``duration`` (s), so the record shows it."""
     if effect is None:
         return {}
     net = design.network
+    if effect == "resistor_value":
+        parts = resistor_parts(net)
+        label = str(rng.choice(sorted(parts)))
+        sign = rng.choice([-1.0, 1.0])
+        return {"R": parts[label] * (1.0 + sign * rng.uniform(0.08, 0.25)), "part": label}
     k = int(rng.choice(capacitor_cells(net)))
     cell = net.cells[k]
     level = net.R2 if net.R2 is not None else sum(c.R for c in net.cells)
@@ -275,7 +297,8 @@ def random_circuit_spec(effect: str | None, seed: int, rate: tuple = (2.0, 50.0)
                         duration: tuple = (600.0, 3600.0), distinct_z: float = DISTINCT_Z,
                         precise_to: float = PRECISE_TO) -> CircuitSpec:
     """A randomised record: sensor creep (one term, or two and a two-cell network in 30 % of
-    the records), sampling ``rate`` (Hz, log-uniform), ``duration`` (s), any load program,
+    the records; for ``resistor_value``, an overshooting sensor and its lag network in 30 %
+    of them), sampling ``rate`` (Hz, log-uniform), ``duration`` (s), any load program,
     white noise 1e-5 to 3e-4 of the step on the signal and within a factor e of it on
     ``corrected`` (plus, each in a third of the records, coloured noise of 0.5-2 times that
     level with a correlation time of 0.5-20 s, and a random-walk drift of 1-10 times it per
@@ -288,6 +311,11 @@ def random_circuit_spec(effect: str | None, seed: int, rate: tuple = (2.0, 50.0)
     if rng.uniform() < 0.3:  # a two-term sensor and its two-cell Foster network
         tau += (tau[0] * float(rng.uniform(5.0, 20.0)),)
         beta += (float(rng.uniform(0.005, 0.03)),)
+    # a wrong resistor is drawn in lag networks too (an overshooting sensor, beta < 0): the
+    # other faults sit on a series capacitor, which a lag network does not have (drawn only
+    # for this fault, so that the other faults' records stay as they were)
+    if effect == "resistor_value" and rng.uniform() < 0.3:
+        beta = tuple(-b for b in beta)
     try:
         design = Design(CreepModel(beta, tau), size(CreepModel(beta, tau)).chosen)
     except InputError:  # the slow term needs parts beyond the E-series ranges: one term

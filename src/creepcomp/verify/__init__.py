@@ -12,7 +12,7 @@ metrics of many variants at once), :mod:`~creepcomp.verify.montecarlo`,
 
 from creepcomp.verify.drive import (DEFAULT_POINTS, DEFAULT_SIGNAL, PROGRAMS, default_duration,
                                     spice_program, synthetic_program, transient_times)
-from creepcomp.verify.netlist import (Deck, program_deck, record_data, record_deck,
+from creepcomp.verify.netlist import (Deck, program_deck, record_data, record_deck, write_record_data,
                                       reference_designs, write_deck, write_reference_netlists)
 from creepcomp.verify.ngspice_engine import (Ngspice, NgspiceError, NgspiceUnavailable, SpiceRun,
                                              Waveforms, ngspice, run_batch, run_transient,
@@ -30,7 +30,7 @@ from creepcomp.verify.tolerance_analysis import ToleranceReport, analyse
 __all__ = [
     "DEFAULT_POINTS", "DEFAULT_SIGNAL", "PROGRAMS", "default_duration", "spice_program",
     "synthetic_program", "transient_times",
-    "Deck", "program_deck", "record_data", "record_deck", "reference_designs", "write_deck",
+    "Deck", "program_deck", "record_data", "record_deck", "write_record_data", "reference_designs", "write_deck",
     "write_reference_netlists",
     "Ngspice", "NgspiceError", "NgspiceUnavailable", "SpiceRun", "Waveforms", "ngspice",
     "run_batch", "run_transient", "time_transient",

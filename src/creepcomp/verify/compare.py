@@ -24,8 +24,8 @@ from creepcomp.programs import LoadProgram
 from creepcomp.verify.drive import (DEFAULT_POINTS, DEFAULT_SIGNAL, checked_times,
                                     default_duration, program_breakpoints, spice_program,
                                     synthetic_program, transient_times)
-from creepcomp.verify.netlist import (Deck, program_deck, record_arrays, record_data,
-                                      record_deck)
+from creepcomp.verify.netlist import (Deck, program_deck, record_arrays, record_deck,
+                                      write_record_data)
 from creepcomp.verify.ngspice_engine import (Ngspice, NgspiceUnavailable, Waveforms, ngspice,
                                              waveforms_from_run)
 
@@ -288,8 +288,7 @@ def compare_record(network: Network, time, signal, engine: Ngspice | None = None
         return Comparison(name, full, hf, Waveforms(rel, s, out), None, method, None, None, None,
                           str(exc), deck)
     with tempfile.TemporaryDirectory(prefix="creepcomp-") as tmp:
-        data = Path(tmp) / deck.data_file
-        data.write_text(record_data(rel, s), encoding="utf-8")
+        data = write_record_data(Path(tmp) / deck.data_file, rel, s)
         run = engine.run(deck.with_data_file(str(data)))
     # the netlist gives the stop time to 12 digits: its last point may lie a rounding past
     # the last sample, and is the one that holds the last sample's value

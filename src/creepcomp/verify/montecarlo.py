@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import multiprocessing
 import os
+import signal
 import time as _time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
@@ -26,7 +27,8 @@ from creepcomp.verify.tolerances import ToleranceSpec, draw, factors
 from creepcomp.verify.variants import (Metrics, evaluate, residual_lags, step_residual,
                                        sweep_period_or_default, variant)
 
-__all__ = ["SPOT_CHECK_SPAN", "SPOT_CHECK_SETTLE", "MonteCarloResult", "run_monte_carlo",
+__all__ = ["SPOT_CHECK_SPAN", "SPOT_CHECK_SETTLE", "BYTES_PER_VALUE", "JOIN_COPIES",
+           "MonteCarloResult", "run_monte_carlo", "available_memory", "check_memory",
            "nominal_metrics", "spot_check"]
 
 
@@ -99,13 +101,16 @@ def run_monte_carlo(design: Design, spec: ToleranceSpec, n: int, seed: int = 0,
     start = _time.perf_counter()
     period = sweep_period_or_default(design.model, sweep_period)
     box = factors(design, spec)
+    check_memory(n, len(box))
     values = draw(box, n, seed)
     jobs = [({k: v[lo:lo + chunk] for k, v in values.items()}, min(chunk, n - lo))
             for lo in range(0, n, chunk)]
     workers = min(workers or os.cpu_count() or 1, len(jobs))
     parts, done = [], 0
     if workers > 1:
-        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
+        pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
+                                   initializer=_ignore_interrupts)
+        try:
             futures = [pool.submit(evaluate, design, sub, period, spec.dielectric, spec.temperature, size)
                        for sub, size in jobs]
             for fut, (_, size) in zip(futures, jobs):
@@ -113,6 +118,14 @@ def run_monte_carlo(design: Design, spec: ToleranceSpec, n: int, seed: int = 0,
                 done += size
                 if progress:
                     progress(done)
+        except BaseException:
+            # Ctrl-C (or an error): stop the workers now rather than after their queued batches
+            processes = list((getattr(pool, "_processes", None) or {}).values())
+            pool.shutdown(wait=False, cancel_futures=True)
+            for proc in processes:
+                proc.terminate()
+            raise
+        pool.shutdown()
     else:
         for sub, size in jobs:
             parts.append(evaluate(design, sub, period, spec.dielectric, spec.temperature, size))
@@ -123,6 +136,58 @@ def run_monte_carlo(design: Design, spec: ToleranceSpec, n: int, seed: int = 0,
                         for f in ("peak", "final", "hysteresis")))
     return MonteCarloResult(design, spec, box, values, metrics, seed,
                             _time.perf_counter() - start, period)
+
+
+def _ignore_interrupts() -> None:
+    """Worker processes leave Ctrl-C to the main process, which stops them."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+#: Bytes held per Monte Carlo sample and factor (its value) or metric, with the copies made
+#: while joining the batches.
+BYTES_PER_VALUE = 8
+JOIN_COPIES = 2
+
+
+def available_memory() -> int | None:
+    """Memory available to a new allocation (bytes; Linux ``MemAvailable``), or None."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def check_memory(n: int, n_factors: int, available: int | None = None) -> None:
+    """Refuse a Monte Carlo whose samples would not fit in memory, before allocating them.
+
+    Every sample's factor values and its three metrics are kept (for the percentiles and
+    the sensitivity), so memory grows with ``n``.
+
+    Raises
+    ------
+    InputError
+        Naming the memory needed, the memory available and the largest ``n`` that fits.
+    """
+    from creepcomp.units import format_quantity
+
+    per_sample = BYTES_PER_VALUE * (n_factors + 3 * JOIN_COPIES)
+    available = available_memory() if available is None else available
+    if available is None:
+        return
+    usable = int(0.8 * available)
+    if n * per_sample > usable:
+        raise InputError(f"--n {n}: the Monte Carlo keeps every sample ({n_factors} factors and "
+                         f"3 metrics, {per_sample} bytes each): "
+                         f"{format_quantity(n * per_sample, 'B', 3)}, more than the "
+                         f"{format_quantity(usable, 'B', 3)} of memory it may use here; use "
+                         f"--n {usable // per_sample} or fewer")
 
 
 def nominal_metrics(design: Design, spec: ToleranceSpec, sweep_period: float | None = None) -> Metrics:

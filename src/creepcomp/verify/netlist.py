@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from creepcomp.errors import InputError
+from creepcomp.io.atomic import atomic_path, write_text_atomic
 from creepcomp.model import CreepModel
 from creepcomp.network import Network
 from creepcomp.programs import LoadProgram
@@ -35,7 +36,7 @@ from creepcomp.verify.drive import (DEFAULT_POINTS, DEFAULT_SIGNAL, default_dura
 __all__ = [
     "MAX_STEP_FRACTION", "RECORD_MAX_STEP_FRACTION", "RELTOL", "TRTOL", "VOLTAGE_TOLERANCE",
     "REFERENCE_CAPACITANCE", "ascii_text", "Deck", "program_deck", "record_arrays",
-    "record_deck", "record_data", "write_deck", "reference_designs", "reference_deck",
+    "record_deck", "record_data", "write_record_data", "write_deck", "reference_designs", "reference_deck",
     "write_reference_netlists",
 ]
 
@@ -312,27 +313,55 @@ def record_deck(network: Network, time, signal, data_file: str = "record-signal.
 
 
 def record_data(time, signal) -> str:
-    """Text of a ``filesource`` file: time from 0 (s) and signal, full precision, and one
-    more line an interval after the last sample holding its value: the netlist's stop time
-    (12 digits) can lie a rounding past the last sample, where a filesource with no next
-    line gives 0 V over the whole last interval."""
-    t = np.asarray(time, float) - float(time[0])
+    """Text of a ``filesource`` file: time from 0 (s) and signal, each number in its shortest
+    exact form, and one more line an interval after the last sample holding its value: the
+    netlist's stop time (12 digits) can lie a rounding past the last sample, where a
+    filesource with no next line gives 0 V over the whole last interval."""
+    buf = io.BytesIO()
+    _write_record_data(buf, time, signal)
+    return buf.getvalue().decode("ascii")
+
+
+def _write_record_data(fh, time, signal, rows: int = 500_000) -> None:
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    t0 = float(time[0])
+    t = np.asarray(time, float)
     v = np.asarray(signal, float)
-    rows = np.column_stack([np.append(t, 2.0 * t[-1] - t[-2]), np.append(v, v[-1])])
-    buf = io.StringIO()
-    np.savetxt(buf, rows, fmt="%.17g")
-    return buf.getvalue()
+    n = len(t)
+    options = pacsv.WriteOptions(include_header=False, delimiter=" ")
+    for lo in range(0, n, rows):
+        hi = min(lo + rows, n)
+        tt, vv = t[lo:hi] - t0, v[lo:hi]
+        if hi == n:
+            tt = np.append(tt, 2.0 * (t[-1] - t0) - (t[-2] - t0))
+            vv = np.append(vv, v[-1])
+        pacsv.write_csv(pa.table({"t": tt, "v": vv}), fh, options)
 
 
-def write_deck(path: str | Path, deck: Deck, data: str | None = None) -> Path:
-    """Write a standalone netlist (and the data file its ``filesource`` reads, beside it)."""
+def write_record_data(path: str | Path, time, signal) -> Path:
+    """Write :func:`record_data`'s text to ``path`` atomically, in blocks (for long records)."""
+    p = Path(path)
+    with atomic_path(p) as tmp, tmp.open("wb") as fh:
+        _write_record_data(fh, time, signal)
+    return p
+
+
+def write_deck(path: str | Path, deck: Deck, data=None) -> Path:
+    """Write a standalone netlist (and the data file its ``filesource`` reads, beside it),
+    each atomically; ``data`` is the data file's text or a ``(time, signal)`` pair."""
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
-    p.write_text(deck.text(standalone=True), encoding="utf-8")
     if deck.data_file is not None:
         if data is None:
             raise InputError("a record netlist needs its data")
-        (p.parent / deck.data_file).write_text(data, encoding="utf-8")
+        target = p.parent / deck.data_file
+        if isinstance(data, str):
+            write_text_atomic(target, data)
+        else:
+            write_record_data(target, *data)
+    write_text_atomic(p, deck.text(standalone=True))
     return p
 
 
@@ -395,6 +424,6 @@ def write_reference_netlists(folder: str | Path = "netlists") -> list[Path]:
         path = out / f"{stem}.cir"
         text = deck.text()
         first, rest = text.split("\n", 1)
-        path.write_text(f"{first}\n{header}{rest}", encoding="utf-8")
+        write_text_atomic(path, f"{first}\n{header}{rest}")
         written.append(path)
     return written

@@ -13,6 +13,7 @@ import contextlib
 import ctypes.util
 import logging
 import os
+import signal
 import statistics
 import threading
 import time as _time
@@ -58,7 +59,8 @@ class _QuietPySpice(logging.Filter):
         self.running = False
 
     def filter(self, record: logging.LogRecord) -> bool:
-        if "Unsupported Ngspice version" in record.getMessage():
+        message = record.getMessage()
+        if "Unsupported Ngspice version" in message or "aren't any circuits loaded" in message:
             return False
         return not self.running
 
@@ -121,7 +123,7 @@ class Ngspice:
 
         text = deck.text(standalone=False) if isinstance(deck, Deck) else deck
         shared = self._shared
-        with self._lock, _running():
+        with self._lock, _running(), _deferred_interrupt() as interrupt:
             start = _time.perf_counter()
             notes: list[str] = []
             try:
@@ -131,10 +133,12 @@ class Ngspice:
                 except NgSpiceCircuitError:
                     pass                     # ngspice's own lines say why, just below
                 notes += _check(shared.stdout, shared.stderr, "loading the netlist")
+                shared._is_running = None    # set by ngspice's thread callback: False, then True
                 try:
-                    shared.run()
+                    shared.exec_command("bg_run")
                 except NgSpiceCommandError:
                     pass
+                _wait(shared, interrupt)
                 notes += _check(shared.stdout, shared.stderr, "the transient analysis")
                 plot = shared.last_plot
                 if not plot.startswith("tran"):
@@ -148,6 +152,60 @@ class Ngspice:
             seconds = _time.perf_counter() - start
         time = vectors.pop("time")
         return SpiceRun(time, vectors, seconds, tuple(notes))
+
+
+@contextlib.contextmanager
+def _deferred_interrupt():
+    """Ctrl-C during an ngspice run is noted, not raised where it lands: ngspice calls back
+    into Python (its output), and an exception there is lost ("Exception ignored from cffi
+    callback"). The run's wait loop halts ngspice on it; KeyboardInterrupt is raised once
+    ngspice is stopped and cleaned up."""
+    state = {"interrupted": False}
+    if threading.current_thread() is not threading.main_thread():
+        yield state
+        return
+
+    def note(signum, frame):
+        state["interrupted"] = True
+
+    previous = signal.signal(signal.SIGINT, note)
+    try:
+        yield state
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if state["interrupted"]:
+        raise KeyboardInterrupt
+
+
+def _wait(shared, interrupt: dict) -> None:
+    """Wait for ngspice's background run; halt it when interrupted (then raise
+    KeyboardInterrupt).
+
+    ngspice's thread reports its start and its end through PySpice's callback, which stores
+    ngspice's flag "exited" (False, then True) as ``_is_running``; ``ngSpice_running()``
+    alone would be False until the thread has started.
+    """
+    running = shared._ngspice_shared.ngSpice_running
+    start = _time.monotonic()
+    pause = 2e-4
+
+    def busy():
+        if shared._is_running is True:
+            return False
+        if shared._is_running is None and _time.monotonic() - start > 2.0:
+            return bool(running())          # the thread never reported: bg_run did not start
+        return True
+
+    while busy():
+        if interrupt["interrupted"]:
+            with contextlib.suppress(Exception):
+                shared.halt()
+            deadline = _time.monotonic() + 2.0
+            while running() and _time.monotonic() < deadline:
+                _time.sleep(0.01)
+            raise KeyboardInterrupt
+        _time.sleep(pause)
+        pause = min(2 * pause, 0.02)
 
 
 @contextlib.contextmanager
@@ -183,9 +241,18 @@ _ENGINE_LOCK = threading.Lock()
 def _load_shared():
     """Load PySpice's shared ngspice, finding the library by its soname when the
     unversioned ``libngspice.so`` (Debian's -dev package) is absent."""
+    from PySpice.Spice.NgSpice import Shared
     from PySpice.Spice.NgSpice.Shared import NgSpiceShared
 
     _quiet_pyspice()
+    # PySpice's callback for ngspice's background thread returns None where C wants an int
+    # (cffi then prints "Exception ignored from cffi callback" at every run); this one
+    # stores the same flag and returns 0. It must be in place before the library is loaded.
+    def thread_running(exited, ngspice_id, user_data):
+        Shared.ffi.from_handle(user_data)._is_running = bool(exited)
+        return 0
+
+    NgSpiceShared._background_thread_running = staticmethod(thread_running)
     if not os.environ.get("NGSPICE_LIBRARY_PATH"):
         found = ctypes.util.find_library("ngspice")
         if found is None:

@@ -67,8 +67,9 @@ class Tolerance:
     def __post_init__(self):
         if not (math.isfinite(self.rel) and self.rel >= 0):
             raise InputError(f"tolerance {self.rel!r}: must be zero or positive")
-        if self.rel >= 1 and self.distribution == "uniform":
-            raise InputError(f"tolerance {self.rel:.3g}: a part cannot vary by 100 % or more")
+        if self.rel >= 1:
+            raise InputError(f"tolerance {100 * self.rel:.4g} %: must be below 100 % (the "
+                             "tolerance box would reach zero or negative values)")
         if self.distribution not in ("normal", "uniform"):
             raise InputError(f"distribution '{self.distribution}': use normal or uniform")
 

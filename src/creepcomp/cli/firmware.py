@@ -1,0 +1,125 @@
+"""``creepcomp firmware``: the digital corrector of a model as portable C, with its worst-case
+error bound, verified against the float64 corrector on a record."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+from rich.table import Table
+
+from creepcomp.errors import InputError
+from creepcomp.cli.common import app, console, fail, print_json, quantity
+
+#: Exit status when the measured error of ``--verify`` exceeds the proven bound.
+BOUND_EXCEEDED = 3
+
+
+@app.command("firmware")
+def firmware_command(
+    model_file: Path = typer.Argument(..., metavar="MODEL", help="Model file (beta, tau; offset)."),
+    output: Optional[Path] = typer.Option(None, "-o", "--output", metavar="DIR",
+                                          help="Folder for NAME.h and NAME.c."),
+    method: str = typer.Option("subtractive", "--method", metavar="subtractive|supplemental",
+                               help="Output the instantaneous signal, or the saturated one."),
+    precision: str = typer.Option("float32", "--precision", metavar="float32|q31",
+                                  help="Single-precision floats, or 32-bit words with 64-bit states."),
+    rate: Optional[str] = typer.Option(None, "--rate", metavar="HZ",
+                                       help="Sample rate, e.g. 100Hz, 1k. Default with --verify: "
+                                            "the record's."),
+    full_scale: Optional[str] = typer.Option(None, "--full-scale", metavar="VALUE",
+                                             help="Largest |signal - offset| (signal units) the "
+                                                  "bound assumes and q31 scales to. Default with "
+                                                  "--verify: the record's."),
+    name: str = typer.Option("creep", "--name", metavar="NAME",
+                             help="Prefix of the C identifiers and the file names."),
+    verify_record: Optional[Path] = typer.Option(None, "--verify", metavar="RECORD",
+                                                 help="Compile with gcc, run over the record's "
+                                                      "samples, compare with the float64 corrector."),
+    columns: Optional[str] = typer.Option(None, "--columns", metavar="MAP",
+                                          help="Column mapping of the record, e.g. time=t,signal=V."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+) -> None:
+    """Write the creep corrector of a model as C99 with its proven error bound; verify it."""
+    from creepcomp.digital.correctors import uniform_interval
+    from creepcomp.digital.firmware import PRECISIONS, generate_firmware
+    from creepcomp.io.jsonfiles import read_model
+    from creepcomp.io.records import parse_columns, read_record
+
+    method = method.strip().lower()
+    precision = precision.strip().lower()
+    if precision not in PRECISIONS:
+        raise InputError(f"--precision '{precision}': use float32 or q31")
+    model = read_model(model_file)
+    rate_hz = quantity(rate, "hertz", "--rate", positive=True)
+    scale = quantity(full_scale, "number", "--full-scale", positive=True)
+    record, unit = None, "signal units"
+    if verify_record is not None:
+        import numpy as np
+
+        record = read_record(verify_record, columns=parse_columns(columns))
+        unit = record.unit("signal") or unit
+        dt = uniform_interval(record.time)
+        if rate_hz is None:
+            if dt is None:
+                raise InputError(f"{verify_record}: not uniformly sampled; the corrector runs at a "
+                                 "fixed rate")
+            rate_hz = 1.0 / dt
+        if scale is None:
+            scale = float(np.max(np.abs(record.signal - model.offset)))
+            if scale == 0:
+                raise InputError(f"{verify_record}: the signal equals the offset throughout; give "
+                                 "--full-scale")
+    if rate_hz is None:
+        raise InputError("give the sample rate: --rate HZ (e.g. --rate 100Hz)")
+    if scale is None:
+        raise InputError("give the input range the bound assumes: --full-scale VALUE, the largest "
+                         "|signal - offset| in signal units")
+    firmware = generate_firmware(model, method, precision, rate_hz, scale, name)
+    files = [] if output is None else [str(p) for p in firmware.write(output)]
+    result = {"model": str(model_file), "method": method, "precision": precision,
+              "rate": firmware.rate, "full_scale": firmware.full_scale, "name": name,
+              "signal_unit": unit, "files": files, "bound_fs": firmware.bound.total_fs,
+              "bound": firmware.bound.to_dict()}
+    check = None
+    if record is not None:
+        from creepcomp.digital.firmware_check import verify_firmware
+
+        check = verify_firmware(firmware, record.time, record.signal)
+        result.update(check.to_dict())
+        result["record"] = str(verify_record)
+    if as_json:
+        print_json(result)
+    else:
+        _render(result, firmware, check)
+    if check is not None and not check.passed:
+        fail(f"measured error {check.max_error_fs:.3e} of full scale at sample {check.worst_sample} "
+             f"exceeds the proven bound {firmware.bound.total_fs:.3e}", BOUND_EXCEEDED)
+        raise typer.Exit(BOUND_EXCEEDED)
+
+
+def _render(result: dict, firmware, check) -> None:
+    from creepcomp.units import format_quantity
+
+    console.print(f"[bold]creepcomp firmware[/bold]: {result['model']}, {result['method']} method, "
+                  f"{result['precision']}, {format_quantity(result['rate'], 'Hz')}, full scale "
+                  f"{result['full_scale']:.6g} {result['signal_unit']}", soft_wrap=True)
+    table = Table(title="Proven worst-case error against the float64 corrector",
+                  title_justify="left")
+    table.add_column("part")
+    table.add_column("of full scale", justify="right")
+    for part, value in firmware.bound.terms.items():
+        table.add_row(part, f"{value:.3e}")
+    table.add_row("[bold]bound[/bold]", f"[bold]{firmware.bound.total_fs:.3e}[/bold]")
+    console.print(table)
+    if check is not None:
+        verdict = "within the bound" if check.passed else "ABOVE THE BOUND"
+        console.print(f"verified on {result['record']}: {check.samples} samples, largest error "
+                      f"{check.max_error_fs:.3e} of full scale ({verdict}); "
+                      f"{check.ns_per_sample:.1f} ns per sample on this machine; object "
+                      f"{check.object_bytes} bytes (gcc -O2, text + data)", soft_wrap=True)
+    if result["files"]:
+        console.print("written: " + ", ".join(result["files"]), soft_wrap=True)
+    else:
+        console.print("no files written (give -o DIR)")

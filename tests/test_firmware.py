@@ -1,0 +1,270 @@
+"""The generated C corrector: it compiles strictly, needs no libm, keeps its state across a
+power cycle, and its measured error against the float64 corrector stays within its proven bound
+(steps, sweeps, full-scale swings, long holds, random models)."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from creepcomp.digital.firmware import firmware_bound, generate_firmware, naive_float32
+from creepcomp.digital.firmware_check import (STRICT_FLAGS, Verification, compile_object,
+                                              verify_firmware)
+from creepcomp.errors import InputError
+from creepcomp.io.jsonfiles import write_model
+from creepcomp.io.records import Record, write_record
+from creepcomp.model import CreepModel
+
+needs_gcc = pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc is not installed")
+
+#: The issue's 3-term model (beta 1 %, 1 %, 1.5 %; tau 5 s, 50 s, 500 s), with an offset.
+MODEL = CreepModel(beta=(0.01, 0.01, 0.015), tau=(5.0, 50.0, 500.0), gain=2e-3, offset=1e-3)
+RATE = 100.0
+VARIANTS = [(p, m) for p in ("float32", "q31") for m in ("subtractive", "supplemental")]
+
+
+def mixed_record(model: CreepModel, rate: float, n: int, seed: int = 0):
+    """Steps (held up to 600 s), a slow and a fast sweep and sample-to-sample full-scale swings."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / rate
+    load = np.zeros(n)
+    i = n // 20                                   # relaxed lead-in
+    quarter = n // 4
+    while i < 2 * quarter:                        # steps between random levels, incl. +-1
+        hold = int(rng.integers(5, int(600 * rate)))
+        load[i:i + hold] = rng.choice([-1.0, 1.0, rng.uniform(-1, 1)])
+        i += hold
+    s = np.arange(2 * quarter, 3 * quarter)
+    load[s] = np.sin(2 * np.pi * s / (0.3 * quarter)) * np.cos(2 * np.pi * s / 37.0)
+    swing = np.arange(3 * quarter, n)
+    load[swing] = np.where((swing // rng.integers(1, 4)) % 2 == 0, 1.0, -1.0)
+    signal = model.response(t, load, hold="zero")
+    return t, load, signal
+
+
+def full_scale(model, signal) -> float:
+    return float(np.max(np.abs(signal - model.offset)))
+
+
+@pytest.fixture(scope="module")
+def record():
+    return mixed_record(MODEL, RATE, 120_000)
+
+
+@needs_gcc
+@pytest.mark.parametrize("precision,method", VARIANTS)
+def test_generated_code_compiles_strictly_and_calls_no_library_per_sample(tmp_path, precision, method):
+    fw = generate_firmware(MODEL, method, precision, RATE, 0.01, name="scale_fix")
+    obj = compile_object(fw, tmp_path, flags=("-O0",))
+    assert {"-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic"} <= set(STRICT_FLAGS)
+    undefined = set(subprocess.run(["nm", "-u", obj], capture_output=True, text=True,
+                                   check=True).stdout.split()) - {"U"}
+    # float32 copies state words with memcpy (save/restore only); nothing else is linked in
+    assert undefined <= {"memcpy"}, undefined
+    code = re.sub(r"/\*.*?\*/", "", fw.source, flags=re.S)      # the C without its comments
+    for banned in ("malloc", "math.h", "exp", "double"):
+        assert banned not in code, banned              # no heap, libm or doubles
+    symbols = subprocess.run(["nm", obj], capture_output=True, text=True, check=True).stdout
+    kinds = {line.split()[-2] for line in symbols.splitlines() if len(line.split()) >= 2}
+    assert not kinds & set("BbDdCcGgSs"), symbols     # no writable (global) data: only code, constants
+    assert "#define SCALE_FIX_BOUND_FS" in fw.header and f"{fw.bound.total_fs:.3e}" in fw.header
+    # the derivation of each coefficient is written beside it
+    assert "-expm1(-2e-05)" in fw.header and "tau = 500 s" in fw.header
+
+
+@pytest.mark.parametrize("precision,method", VARIANTS)
+def test_bound_of_the_three_term_model_meets_the_target(precision, method):
+    bound = firmware_bound(MODEL, method, precision, RATE, 0.01)
+    assert 0 < bound.total_fs <= 1e-5
+    assert bound.total_fs == pytest.approx(sum(bound.terms.values()), rel=1e-5)
+    assert bound.peak_fs > 1.0                      # the inverse filter overshoots a step
+
+
+def test_float32_bound_counts_the_offset_and_q31_does_not():
+    far = CreepModel(MODEL.beta, MODEL.tau, offset=1000.0)
+    near = CreepModel(MODEL.beta, MODEL.tau, offset=0.0)
+    f_far, f_near = (firmware_bound(m, "subtractive", "float32", RATE, 1.0).total_fs for m in (far, near))
+    assert f_far > 100 * f_near                     # raw values of 1000 FS lose 10 bits in float32
+    q_far, q_near = (firmware_bound(m, "subtractive", "q31", RATE, 1.0).total_fs for m in (far, near))
+    assert q_far == pytest.approx(q_near, rel=1e-9)
+
+
+@needs_gcc
+@pytest.mark.parametrize("precision,method", VARIANTS)
+def test_measured_error_within_the_bound_on_steps_sweeps_and_swings(record, precision, method):
+    t, _, signal = record
+    fw = generate_firmware(MODEL, method, precision, RATE, full_scale(MODEL, signal))
+    check = verify_firmware(fw, t, signal, repeats=1)
+    assert check.samples == len(t)
+    assert 0 < check.max_error_fs <= fw.bound.total_fs
+    assert check.passed and check.ns_per_sample > 0 and check.object_bytes > 0
+
+
+@needs_gcc
+def test_naive_float32_recursion_exceeds_the_bound(record):
+    t, _, signal = record
+    fs = full_scale(MODEL, signal)
+    naive = verify_firmware(naive_float32(MODEL, "subtractive", RATE, fs), t, signal, repeats=1)
+    bound = firmware_bound(MODEL, "subtractive", "float32", RATE, fs).total_fs
+    assert naive.bound_fs is None and naive.passed
+    assert naive.max_error_fs > 5 * bound
+
+
+@needs_gcc
+@pytest.mark.parametrize("precision,method", VARIANTS)
+def test_long_hold_of_a_million_time_constants(precision, method):
+    model = CreepModel(beta=(0.02, 0.01), tau=(0.01, 0.05), offset=-0.3)
+    rate, n = 100.0, 1_000_001                      # 10^4 s = 10^6 x the shortest tau
+    t = np.arange(n) / rate
+    load = np.where(t >= 0.5, 1.0, 0.0)
+    signal = model.response(t, load, hold="zero")
+    fw = generate_firmware(model, method, precision, rate, full_scale(model, signal))
+    check = verify_firmware(fw, t, signal, repeats=1)
+    assert check.max_error_fs <= fw.bound.total_fs
+
+
+@needs_gcc
+@settings(max_examples=6, deadline=None)
+@given(data=st.data())
+def test_random_models_stay_within_their_bound(data):
+    k = data.draw(st.integers(1, 3), label="terms")
+    rate = data.draw(st.sampled_from([10.0, 100.0, 1000.0]), label="rate")
+    tau_rate = sorted(data.draw(st.lists(st.floats(1.0, 1e5), min_size=k, max_size=k), label="tau*rate"))
+    beta = data.draw(st.lists(st.floats(0.001, 0.06), min_size=k, max_size=k), label="beta")
+    negative = data.draw(st.booleans(), label="overshoot")
+    model = CreepModel(beta=tuple(-b if negative else b for b in beta),
+                       tau=tuple(x / rate for x in tau_rate),
+                       offset=data.draw(st.floats(-1.0, 1.0), label="offset"))
+    precision = data.draw(st.sampled_from(["float32", "q31"]), label="precision")
+    method = data.draw(st.sampled_from(["subtractive", "supplemental"]), label="method")
+    t, _, signal = mixed_record(model, rate, 20_000, seed=data.draw(st.integers(0, 99), label="seed"))
+    fw = generate_firmware(model, method, precision, rate, full_scale(model, signal))
+    check = verify_firmware(fw, t, signal, repeats=1)
+    assert check.max_error_fs <= fw.bound.total_fs
+
+
+SAVE_RESTORE_TEST = r"""
+#include <stdio.h>
+#include "creep.h"
+int main(void)
+{
+    creep_state a, b;
+    creep_saved block;
+    int i, bad = 0, r;
+    creep_init(&a);
+    for (i = 0; i < 5000; ++i) (void)creep_step(&a, (creep_input)(i < 100 ? 0 : INPUT));
+    creep_save(&a, &block);
+    creep_init(&b);
+    if (creep_restore(&b, &block) != 0) return 10;
+    for (i = 0; i < 3000; ++i) bad |= creep_step(&a, (creep_input)INPUT) != creep_step(&b, (creep_input)INPUT);
+    block.w[2] ^= 1u;
+    r = creep_restore(&b, &block);
+    block.w[2] ^= 1u;
+    block.w[0] ^= 1u;
+    printf("%d %d %d\n", bad, r, creep_restore(&b, &block));
+    return 0;
+}
+"""
+
+
+@needs_gcc
+@pytest.mark.parametrize("precision", ["float32", "q31"])
+def test_state_saved_and_restored_across_a_power_cycle(tmp_path, precision):
+    fw = generate_firmware(MODEL, "subtractive", precision, RATE, 0.01)
+    obj = compile_object(fw, tmp_path)
+    kind, value = ("float", "0.009f") if precision == "float32" else ("int32_t", "900000000")
+    (tmp_path / "main.c").write_text(SAVE_RESTORE_TEST.replace("creep_input", kind)
+                                     .replace("INPUT", value))
+    exe = tmp_path / "main"
+    subprocess.run(["gcc", *STRICT_FLAGS, "-I", tmp_path, tmp_path / "main.c", obj, "-o", exe], check=True)
+    out = subprocess.run([exe], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["0", "-2", "-1"]          # identical continuation; corrupted; other model
+
+
+def test_q31_refuses_a_model_outside_its_word_range():
+    with pytest.raises(InputError, match="q31 needs -0.5 < beta0"):
+        generate_firmware(CreepModel(beta=(-0.3, -0.3), tau=(1.0, 10.0)), precision="q31", rate=10.0)
+
+
+def test_bad_arguments_are_refused_with_a_message():
+    with pytest.raises(InputError, match="precision 'q15'"):
+        generate_firmware(MODEL, precision="q15")
+    with pytest.raises(InputError, match="rate"):
+        generate_firmware(MODEL, rate=0.0)
+    with pytest.raises(InputError, match="C identifier"):
+        generate_firmware(MODEL, name="my-scale")
+    with pytest.raises(InputError, match="C identifier"):
+        generate_firmware(MODEL, name="")
+
+
+# ------------------------------------------------------------------------------- command line
+
+@pytest.fixture
+def cli_files(tmp_path):
+    t, load, signal = mixed_record(MODEL, RATE, 30_000, seed=3)
+    rec = write_record(tmp_path / "rec.csv", Record(t, load, signal))
+    return tmp_path, rec, write_model(tmp_path / "model.json", MODEL)
+
+
+@needs_gcc
+def test_cli_json_writes_files_and_verifies(run_cli, cli_files):
+    tmp, rec, model = cli_files
+    status, out, err = run_cli("firmware", model, "-o", tmp / "fw", "--precision", "q31",
+                               "--method", "supplemental", "--verify", rec, "--json")
+    assert status == 0, err
+    result = json.loads(out)
+    assert result["files"] == [str(tmp / "fw" / "creep.h"), str(tmp / "fw" / "creep.c")]
+    assert all((tmp / "fw" / f).is_file() for f in ("creep.h", "creep.c"))
+    assert result["precision"] == "q31" and result["rate"] == pytest.approx(RATE)
+    assert result["samples"] == 30_000
+    assert 0 < result["max_error_fs"] <= result["bound_fs"] <= 1e-5
+    assert result["ns_per_sample"] > 0
+
+
+def test_cli_table_without_verify(run_cli, cli_files):
+    tmp, _, model = cli_files
+    status, out, err = run_cli("firmware", model, "--rate", "100Hz", "--full-scale", "10m")
+    assert status == 0, err
+    assert "Proven worst-case error" in out and "no files written" in out
+
+
+@pytest.mark.parametrize("args,message", [
+    (["--full-scale", "1"], "--rate"),
+    (["--rate", "100Hz"], "--full-scale"),
+    (["--rate", "fast", "--full-scale", "1"], "--rate"),
+    (["--rate", "100", "--full-scale", "1", "--method", "additive"], "method 'additive'"),
+])
+def test_cli_bad_input_is_one_line_with_status_2(run_cli, cli_files, args, message):
+    _, _, model = cli_files
+    status, out, err = run_cli("firmware", model, *args)
+    assert status == 2 and out == ""
+    assert err.count("\n") == 1 and err.startswith("creepcomp: error:") and message in err
+
+
+def test_cli_record_outside_the_full_scale_or_rate(run_cli, cli_files):
+    _, rec, model = cli_files
+    status, _, err = run_cli("firmware", model, "--verify", rec, "--full-scale", "1e-3")
+    assert status == 2 and "beyond the full scale" in err and err.count("\n") == 1
+    status, _, err = run_cli("firmware", model, "--verify", rec, "--rate", "50Hz")
+    assert status == 2 and "--rate 100" in err and err.count("\n") == 1
+
+
+def test_cli_measured_error_above_the_bound_fails_with_status_3(run_cli, cli_files, monkeypatch):
+    from creepcomp.digital import firmware_check
+
+    def too_large(fw, time, signal, **_):
+        return Verification(samples=len(time), max_error_fs=2 * fw.bound.total_fs, worst_sample=7,
+                            ns_per_sample=1.0, object_bytes=1, bound_fs=fw.bound.total_fs)
+
+    monkeypatch.setattr(firmware_check, "verify_firmware", too_large)
+    _, rec, model = cli_files
+    status, out, err = run_cli("firmware", model, "--verify", rec, "--json")
+    assert status == 3
+    assert json.loads(out)["within_bound"] is False
+    assert err.count("\n") == 1 and "exceeds the proven bound" in err
