@@ -22,7 +22,7 @@ from creepcomp.lti import lag_states, varying_lag_states
 from creepcomp.programs import LoadProgram
 from creepcomp.synth.common import DETECTABLE_Z, NoiseSpec, heldout_z, sample_noise, scaled_noise
 
-__all__ = ["EFFECTS", "FORMS", "DATA_PROBLEMS", "NO_TEMPLATE", "PROGRAMS", "PROGRAMS_FOR", "Spec", "Synthetic", "make_program", "sample_times",
+__all__ = ["EFFECTS", "FORMS", "DATA_PROBLEMS", "NO_TEMPLATE", "PROGRAMS", "ALL_PROGRAMS", "PROGRAMS_FOR", "Spec", "Synthetic", "make_program", "sample_times",
            "temperature_profile", "simulate_signal", "detectability", "generate", "random_hidden",
            "random_spec", "random_record", "DEMO_SPEC", "write_demo_record", "reported_truth", "play_loop",
            "VISIBLE_RATIO"]
@@ -61,8 +61,10 @@ NO_TEMPLATE = ("sensitivity_drift", "periodic_disturbance", "aging_retardation")
 #: cannot absorb has at least this RMS relative to the noise (the noise is scaled down).
 VISIBLE_RATIO = 3.0
 
-#: Kinds of load program :func:`make_program` draws.
-PROGRAMS = ("step", "staircase", "sweep", "mixture", "random", "cycles")
+#: Kinds of load program :func:`make_program` draws for any effect.
+PROGRAMS = ("step", "staircase", "sweep", "mixture", "random")
+#: Every kind :func:`make_program` makes: also cycles to rising levels (first-cycle effects).
+ALL_PROGRAMS = PROGRAMS + ("cycles",)
 
 
 @dataclass(frozen=True)
@@ -109,8 +111,9 @@ class Synthetic:
 def make_program(kind: str, duration: float, rng: np.random.Generator, full_scale: float = 1.0,
                  start_loaded: bool = False, tau: float = 45.0, start: float = 0.0,
                  unload: bool = False, one_sided: bool = False) -> LoadProgram:
-    """A random load program of a kind: ``step``, ``staircase``, ``sweep``, ``mixture`` or
-    ``random``, spanning ``duration`` from ``start``.
+    """A random load program of a kind: ``step``, ``staircase``, ``sweep``, ``mixture``,
+    ``random`` or ``cycles`` (to rising levels, each with a partial reload), spanning
+    ``duration`` from ``start``.
 
     With ``start_loaded`` the load is already at a level when the program starts (and has been
     for a random time, so creep is part-way), otherwise it starts at zero. ``unload``: a
@@ -202,7 +205,7 @@ def make_program(kind: str, duration: float, rng: np.random.Generator, full_scal
                 jump(float(level), t + k * step)
                 k += 1
     else:
-        raise InputError(f"load program '{kind}': use one of {', '.join(PROGRAMS)}")
+        raise InputError(f"load program '{kind}': use one of {', '.join(ALL_PROGRAMS)}")
     if times[-1] < t_end:
         hold(loads[-1], t_end)
     return LoadProgram(tuple(times), tuple(loads), f"{kind} program")
@@ -659,9 +662,9 @@ PROGRAMS_FOR = {
     "mullins_softening": ("cycles",),
     "data_problem": ("staircase", "step", "cycles"),
     "sensitivity_drift": ("staircase", "step", "mixture", "random", "sweep", "cycles"),
-    "periodic_disturbance": PROGRAMS,
+    "periodic_disturbance": ALL_PROGRAMS,
     "aging_retardation": ("staircase", "step", "cycles"),
-    None: PROGRAMS[:5],
+    None: PROGRAMS,
 }
 
 
