@@ -10,6 +10,8 @@
    naive float32 recursion (``c = e c + (1 - e) S``) on the same record. The same on a
    full-scale step held for twice as many samples (2 h at 360,000), where the naive
    recursion's states stall short of their target.
+   And the dt step (``--max-interval 40ms``) on a jittered record: intervals uniform in
+   [0.5, 1.5] / 100 Hz (whole microseconds) with 20 gaps of 40 ms, steps and swings.
 2. One creep term (beta 1.5 %) at tau * rate from 3 to 3e6: the bound of both precisions, and
    the measured error of both and of the naive recursion over 200,000 samples of load steps
    (every 20,000 samples). Plotted into ``--figure``.
@@ -80,6 +82,32 @@ def three_term_table(samples: int) -> list[str]:
     return rows
 
 
+def jittered_table(samples: int, max_interval: float = 0.04) -> list[str]:
+    rng = np.random.default_rng(0)
+    gaps = rng.uniform(0.5, 1.5, samples - 1) / RATE
+    gaps[rng.integers(0, samples - 1, 20)] = max_interval
+    t = np.concatenate([[0.0], np.cumsum(np.round(gaps * 1e6) / 1e6)])
+    load = np.zeros(samples)
+    i = samples // 20
+    while i < 3 * samples // 4:
+        hold = int(rng.integers(5, int(600 * RATE)))
+        load[i:i + hold] = rng.choice([-1.0, 1.0, rng.uniform(-1, 1)])
+        i += hold
+    load[3 * samples // 4:] = np.where(np.arange(samples - 3 * samples // 4) % 2 == 0, 1.0, -1.0)
+    signal = MODEL.response(t, load, hold="zero")
+    fs = float(np.max(np.abs(signal - MODEL.offset)))
+    rows = []
+    for precision in ("float32", "q31"):
+        for method in ("subtractive", "supplemental"):
+            fw = generate_firmware(MODEL, method, precision, full_scale=fs, max_interval=max_interval)
+            check = verify_firmware(fw, t, signal)
+            assert check.passed, (precision, method)
+            rows.append(f"| jittered 100 Hz (dt step, max 40 ms), {samples} samples | {precision} | "
+                        f"{method} | {fw.bound.total_fs:.2e} | {check.max_error_fs:.2e} | "
+                        f"{check.ns_per_sample:.1f} | {check.object_bytes} |")
+    return rows
+
+
 def sweep_tau_rate(figure: Path | None) -> list[str]:
     rate, n = 100.0, 200_000
     t = np.arange(n) / rate
@@ -135,8 +163,12 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--samples", type=int, default=360_000)
     parser.add_argument("--figure", type=Path, default=Path("docs/images/firmware-bound.png"))
+    parser.add_argument("--only-jitter", action="store_true", help="only the dt step's rows")
     args = parser.parse_args(argv)
     print(f"{platform.processor() or platform.machine()}, Python {sys.version.split()[0]}")
+    print("\n".join(jittered_table(args.samples)))
+    if args.only_jitter:
+        return 0
     print(f"\n3-term model at {RATE:g} Hz, {args.samples} samples:\n")
     print("\n".join(three_term_table(args.samples)))
     print("\nOne term (beta 1.5 %), bound and measured error vs tau * rate:\n")

@@ -15,7 +15,7 @@ from hypothesis import given, settings, strategies as st
 
 from creepcomp.digital.firmware import firmware_bound, generate_firmware, naive_float32
 from creepcomp.digital.firmware_check import (STRICT_FLAGS, Verification, compile_object,
-                                              verify_firmware)
+                                              step_intervals, verify_firmware)
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import write_model
 from creepcomp.io.records import Record, write_record
@@ -149,6 +149,119 @@ def test_random_models_stay_within_their_bound(data):
     assert check.max_error_fs <= fw.bound.total_fs
 
 
+# --------------------------------------------------------------- irregular sampling (dt step)
+
+MAX_INTERVAL = 0.04
+
+
+def jittered_record(model: CreepModel, n: int, seed: int = 0, rate: float = RATE,
+                    max_interval: float = MAX_INTERVAL):
+    """Intervals uniform in [0.5, 1.5] / rate (whole microseconds) with 20 gaps of max_interval;
+    load steps between random levels (up to full scale) held up to 200 s, then full-scale swings."""
+    rng = np.random.default_rng(seed)
+    gaps = rng.uniform(0.5, 1.5, n - 1) / rate
+    gaps[rng.integers(0, n - 1, 20)] = max_interval
+    gaps = np.round(gaps * 1e6) / 1e6
+    t = np.concatenate([[0.0], np.cumsum(gaps)])
+    load = np.zeros(n)
+    i = n // 20
+    while i < 3 * n // 4:
+        hold = int(rng.integers(5, int(200 * rate)))
+        load[i:i + hold] = rng.choice([-1.0, 1.0, rng.uniform(-1, 1)])
+        i += hold
+    load[3 * n // 4:] = np.where(np.arange(n - 3 * n // 4) % 2 == 0, 1.0, -1.0)
+    return t, load, model.response(t, load, hold="zero")
+
+
+@pytest.fixture(scope="module")
+def jittered():
+    return jittered_record(MODEL, 40_000)
+
+
+@needs_gcc
+@pytest.mark.parametrize("precision,method", VARIANTS)
+def test_dt_step_compiles_strictly_without_libm(tmp_path, precision, method):
+    fw = generate_firmware(MODEL, method, precision, full_scale=0.01, max_interval=MAX_INTERVAL)
+    assert fw.irregular and fw.rate is None and "creep_step_dt" in fw.header
+    obj = compile_object(fw, tmp_path, flags=("-O0",))
+    undefined = set(subprocess.run(["nm", "-u", obj], capture_output=True, text=True,
+                                   check=True).stdout.split()) - {"U"}
+    assert undefined <= {"memcpy"}, undefined
+    code = re.sub(r"/\*.*?\*/", "", fw.source, flags=re.S)
+    for banned in ("malloc", "math.h", "exp(", "double"):
+        assert banned not in code, banned
+    assert f"{fw.bound.total_fs:.3e}" in fw.header and "relative error of computed a" in fw.header
+
+
+@needs_gcc
+@pytest.mark.parametrize("precision,method", VARIANTS)
+def test_dt_step_error_within_its_bound_on_a_jittered_record(jittered, precision, method):
+    t, _, signal = jittered
+    fw = generate_firmware(MODEL, method, precision, full_scale=full_scale(MODEL, signal),
+                           max_interval=MAX_INTERVAL)
+    check = verify_firmware(fw, t, signal, repeats=1)
+    assert check.samples == len(t)
+    assert 0 < check.max_error_fs <= fw.bound.total_fs <= 1e-5
+
+
+def test_dt_bound_covers_the_intervals_and_is_near_the_fixed_rate_one():
+    for precision in ("float32", "q31"):
+        fixed = firmware_bound(MODEL, "subtractive", precision, RATE, 0.01).total_fs
+        dt = firmware_bound(MODEL, "subtractive", precision, full_scale=0.01, max_interval=0.04).total_fs
+        assert fixed < dt < 2 * fixed
+        parts = firmware_bound(MODEL, "subtractive", precision, full_scale=0.01, max_interval=0.04).terms
+        assert parts["coefficients a_k(dt) (series, stored 1/tau)"] > 0
+
+
+def test_dt_step_limits_are_refused_with_a_message():
+    with pytest.raises(InputError, match="half the shortest time constant"):
+        generate_firmware(MODEL, precision="q31", full_scale=0.01, max_interval=3.0)
+    # float32 reduces the range by halving: long gaps are fine
+    assert generate_firmware(MODEL, precision="float32", full_scale=0.01, max_interval=30.0).bound.total_fs < 1e-5
+    with pytest.raises(InputError, match="max interval"):
+        generate_firmware(MODEL, max_interval=1e-7)
+    fw = generate_firmware(MODEL, precision="q31", full_scale=0.01, max_interval=MAX_INTERVAL)
+    with pytest.raises(InputError, match="interval before sample 2 is 0.05 s"):
+        step_intervals(fw, [0.0, 0.01, 0.06])
+
+
+@needs_gcc
+def test_dt_step_refuses_intervals_out_of_range_and_long_gaps_against_the_exact_corrector(tmp_path):
+    """float32 with gaps of 4 tau of the fastest term (halving and doubling) stays in its bound;
+    an interval beyond the maximum returns -1 and changes nothing."""
+    t, _, signal = jittered_record(MODEL, 8_000, seed=5, max_interval=20.0)
+    fw = generate_firmware(MODEL, "subtractive", "float32", full_scale=full_scale(MODEL, signal),
+                           max_interval=20.0)
+    check = verify_firmware(fw, t, signal, repeats=1)
+    assert check.max_error_fs <= fw.bound.total_fs
+    obj = compile_object(fw, tmp_path)
+    (tmp_path / "main.c").write_text(DT_REFUSE_TEST)
+    exe = tmp_path / "main"
+    subprocess.run(["gcc", *STRICT_FLAGS, "-I", tmp_path, tmp_path / "main.c", obj, "-o", exe], check=True)
+    assert subprocess.run([exe], capture_output=True, text=True, check=True).stdout.split() == ["0", "-1", "-1", "-1", "1"]
+
+
+DT_REFUSE_TEST = r"""
+#include <stdio.h>
+#include <string.h>
+#include "creep.h"
+int main(void)
+{
+    creep_state s, before;
+    float y = 0.0f, z = 7.0f;
+    int r0, r1, r2, r3;
+    creep_init(&s);
+    r0 = creep_step_dt(&s, 0.005f, 0.01f, &y);
+    before = s;
+    r1 = creep_step_dt(&s, 0.005f, 21.0f, &z);
+    r2 = creep_step_dt(&s, 0.005f, 0.0f, &z);
+    r3 = creep_step_dt(&s, 0.005f, 1e-7f, &z);
+    printf("%d %d %d %d %d\n", r0, r1, r2, r3, memcmp(&s, &before, sizeof s) == 0 && z == 7.0f);
+    return 0;
+}
+"""
+
+
 SAVE_RESTORE_TEST = r"""
 #include <stdio.h>
 #include "creep.h"
@@ -268,3 +381,21 @@ def test_cli_measured_error_above_the_bound_fails_with_status_3(run_cli, cli_fil
     assert status == 3
     assert json.loads(out)["within_bound"] is False
     assert err.count("\n") == 1 and "exceeds the proven bound" in err
+
+
+@needs_gcc
+def test_cli_dt_step_on_a_jittered_record(run_cli, tmp_path):
+    t, load, signal = jittered_record(MODEL, 10_000, seed=7)
+    rec = write_record(tmp_path / "jitter.csv", Record(t, load, signal))
+    model = write_model(tmp_path / "model.json", MODEL)
+    status, _, err = run_cli("firmware", model, "--verify", rec)
+    assert status == 2 and "--max-interval" in err and err.count("\n") == 1
+    status, out, err = run_cli("firmware", model, "--verify", rec, "--max-interval", "40ms",
+                               "--precision", "q31", "--json", "-o", tmp_path / "fw")
+    assert status == 0, err
+    result = json.loads(out)
+    assert result["rate"] is None and result["max_interval"] == pytest.approx(0.04)
+    assert result["samples"] == 10_000 and 0 < result["max_error_fs"] <= result["bound_fs"] <= 1e-5
+    assert "creep_step_dt" in (tmp_path / "fw" / "creep.h").read_text()
+    status, _, err = run_cli("firmware", model, "--verify", rec, "--max-interval", "20ms")
+    assert status == 2 and "give a larger --max-interval" in err and err.count("\n") == 1

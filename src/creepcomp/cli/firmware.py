@@ -28,6 +28,10 @@ def firmware_command(
     rate: Optional[str] = typer.Option(None, "--rate", metavar="HZ",
                                        help="Sample rate, e.g. 100Hz, 1k. Default with --verify: "
                                             "the record's."),
+    max_interval: Optional[str] = typer.Option(None, "--max-interval", metavar="TIME",
+                                               help="Generate the dt step for irregular sampling "
+                                                    "instead of a fixed rate: intervals from 1 us "
+                                                    "to TIME (e.g. 40ms) are accepted."),
     full_scale: Optional[str] = typer.Option(None, "--full-scale", metavar="VALUE",
                                              help="Largest |signal - offset| (signal units) the "
                                                   "bound assumes and q31 scales to. Default with "
@@ -53,6 +57,7 @@ def firmware_command(
         raise InputError(f"--precision '{precision}': use float32 or q31")
     model = read_model(model_file)
     rate_hz = quantity(rate, "hertz", "--rate", positive=True)
+    longest = quantity(max_interval, "second", "--max-interval", positive=True)
     scale = quantity(full_scale, "number", "--full-scale", positive=True)
     record, unit = None, "signal units"
     if verify_record is not None:
@@ -61,25 +66,27 @@ def firmware_command(
         record = read_record(verify_record, columns=parse_columns(columns))
         unit = record.unit("signal") or unit
         dt = uniform_interval(record.time)
-        if rate_hz is None:
+        if rate_hz is None and longest is None:
             if dt is None:
-                raise InputError(f"{verify_record}: not uniformly sampled; the corrector runs at a "
-                                 "fixed rate")
+                raise InputError(f"{verify_record}: not uniformly sampled; give --max-interval TIME "
+                                 "for the dt step (irregular sampling)")
             rate_hz = 1.0 / dt
         if scale is None:
             scale = float(np.max(np.abs(record.signal - model.offset)))
             if scale == 0:
                 raise InputError(f"{verify_record}: the signal equals the offset throughout; give "
                                  "--full-scale")
-    if rate_hz is None:
-        raise InputError("give the sample rate: --rate HZ (e.g. --rate 100Hz)")
+    if rate_hz is None and longest is None:
+        raise InputError("give the sample rate: --rate HZ (e.g. --rate 100Hz), or --max-interval "
+                         "TIME for irregular sampling")
     if scale is None:
         raise InputError("give the input range the bound assumes: --full-scale VALUE, the largest "
                          "|signal - offset| in signal units")
-    firmware = generate_firmware(model, method, precision, rate_hz, scale, name)
+    firmware = generate_firmware(model, method, precision, rate_hz or 1.0, scale, name,
+                                 max_interval=longest)
     files = [] if output is None else [str(p) for p in firmware.write(output)]
     result = {"model": str(model_file), "method": method, "precision": precision,
-              "rate": firmware.rate, "full_scale": firmware.full_scale, "name": name,
+              "rate": firmware.rate, "max_interval": firmware.max_interval, "full_scale": firmware.full_scale, "name": name,
               "signal_unit": unit, "files": files, "bound_fs": firmware.bound.total_fs,
               "bound": firmware.bound.to_dict()}
     check = None
@@ -103,7 +110,10 @@ def _render(result: dict, firmware, check) -> None:
     from creepcomp.units import format_quantity
 
     console.print(f"[bold]creepcomp firmware[/bold]: {result['model']}, {result['method']} method, "
-                  f"{result['precision']}, {format_quantity(result['rate'], 'Hz')}, full scale "
+                  f"{result['precision']}, "
+                  + (format_quantity(result['rate'], 'Hz') if result["rate"] is not None else
+                     f"dt step (irregular sampling, up to {format_quantity(result['max_interval'], 's')})")
+                  + ", full scale "
                   f"{result['full_scale']:.6g} {result['signal_unit']}", soft_wrap=True)
     table = Table(title="Proven worst-case error against the float64 corrector",
                   title_justify="left")

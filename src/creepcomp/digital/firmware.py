@@ -51,6 +51,9 @@ _Q_IN = 2.0 ** -31                 # half a q31 word (fraction of full scale)
 _Q_STATE = 2.0 ** -61              # half a step of the 64-bit states
 _MARGIN = 1.0 + 1e-6               # second-order terms (products of roundings), float64 evaluation
 _METHODS = ("subtractive", "supplemental")
+#: Shortest interval the dt step accepts (s); also the q31 step's tick: dt is in microseconds.
+MIN_INTERVAL = 1e-6
+TICK = 1e-6
 
 
 @dataclass(frozen=True)
@@ -99,6 +102,10 @@ class Firmware:
         The proven bound (None for the naive reference recursion, which has none).
     harness : str
         A host program (not for the target) that reads samples and times the corrector.
+    rate : float or None
+        Fixed sample rate (Hz); None for the dt step.
+    max_interval : float or None
+        Longest interval the dt step accepts (s); None for the fixed rate.
     """
 
     model: CreepModel
@@ -112,6 +119,12 @@ class Firmware:
     harness: str
     bound: ErrorBound | None
     coefficients: dict
+    max_interval: float | None = None
+
+    @property
+    def irregular(self) -> bool:
+        """True for the dt step (``PREFIX_step_dt``, irregular sampling), False for the fixed rate."""
+        return self.max_interval is not None
 
     @property
     def filenames(self) -> tuple[str, str]:
@@ -154,6 +167,12 @@ def _check(model: CreepModel, method: str, precision: str, rate: float, full_sca
         raise InputError(f"name '{name}': a C identifier is needed (letters, digits, '_'; "
                          "not starting with a digit)")
     check_invertible(model)
+
+
+def _check_interval(max_interval: float) -> None:
+    if not (math.isfinite(max_interval) and max_interval >= MIN_INTERVAL):
+        raise InputError(f"max interval = {max_interval!r}: must be finite and at least "
+                         f"{MIN_INTERVAL:g} s (the shortest interval the dt step accepts)")
 
 
 def _coefficients(model: CreepModel, rate: float) -> dict:
@@ -242,7 +261,8 @@ def _stored(c: dict, precision: str) -> dict:
 # ------------------------------------------------------------------------------- the bound
 
 def firmware_bound(model: CreepModel, method: str = "subtractive", precision: str = "float32",
-                rate: float = 100.0, full_scale: float = 1.0) -> ErrorBound:
+                rate: float = 100.0, full_scale: float = 1.0,
+                max_interval: float | None = None) -> ErrorBound:
     """Proven worst-case difference between the generated C corrector and the exact one.
 
     Parameters
@@ -255,6 +275,9 @@ def firmware_bound(model: CreepModel, method: str = "subtractive", precision: st
         Sample rate (Hz).
     full_scale : float
         Input range the bound assumes: ``|raw - offset| <= full_scale`` (signal units).
+    max_interval : float, optional
+        The dt step (irregular sampling): the bound holds for every sequence of intervals
+        ``MIN_INTERVAL <= dt <= max_interval`` (s); ``rate`` is then not used.
 
     Returns
     -------
@@ -263,6 +286,10 @@ def firmware_bound(model: CreepModel, method: str = "subtractive", precision: st
         sequence in the range, from a relaxed or a settled start. float32 assumes IEEE binary32
         rounding to nearest with no excess precision (the C code refuses to compile otherwise).
     """
+    if max_interval is not None:
+        _check_interval(max_interval)
+        _check(model, method, precision, 1.0 / max_interval, full_scale, "x")
+        return _irregular_bound(model, method, precision, max_interval, full_scale)
     _check(model, method, precision, rate, full_scale, "x")
     c = _coefficients(model, rate)
     st = _stored(c, precision)
@@ -293,13 +320,13 @@ def firmware_bound(model: CreepModel, method: str = "subtractive", precision: st
                       gains={"sample": float(l_sample), "state": [float(g) for g in l_state]})
 
 
-def _local_terms(precision, st, c, k, cmax, fs, l_sample, l_state, g_state, sum_beta, sigma,
-                 method):
-    """Local errors times their gains (fractions of full scale); see docs/firmware.md."""
-    beta, a = c["beta"], c["a"]
+def _sample_errors(precision, st, c, k, cmax, fs, sum_beta, method):
+    """Local errors of ``S`` per sample, of a settled start and of the output (fractions of FS).
+
+    Returns ``(eps, start, out_offset, out_scale)``; see the table in docs/firmware.md.
+    """
+    beta = c["beta"]
     beta_err = float(np.sum(np.abs(st["beta"] - beta)))
-    a_err = np.abs(st["a"] - a)
-    d = 2 * cmax                                            # |S - c_k|
     sum_beta_hat = float(np.sum(np.abs(st["beta"])))
     if precision == "float32":
         u = _U32
@@ -312,8 +339,6 @@ def _local_terms(precision, st, c, k, cmax, fs, l_sample, l_state, g_state, sum_
         eps = {"input": x_err,
                "coefficients beta": beta_err * c_hi + sum_beta * u * c_hi,
                "sum beta.c": gamma * sum_beta_hat * c_hi + u * (1.0 + x_err + sum_beta_hat * c_hi * (1 + gamma))}
-        eta = a_err * d * (1 + u) ** 3 + a * d * ((1 + u) ** 3 - 1) + a * u * c_hi + u * u * c_hi
-        eta_coef = a_err * d * (1 + u) ** 3
         start = x_err * abs(st["w"]) + abs(st["w"] - c["w"]) + u * (1.0 + x_err) * abs(st["w"])
         out_offset = offset_err + u * (offset + offset_err + abs(st["sigma"] if method == "supplemental" else 1.0) * cmax * (1 + u))
         out_scale = (abs(st["sigma"] - c["sigma"]) * cmax + u * abs(st["sigma"]) * cmax
@@ -324,11 +349,27 @@ def _local_terms(precision, st, c, k, cmax, fs, l_sample, l_state, g_state, sum_
         eps = {"input": x_err,
                "coefficients beta": beta_err * c_q,
                "sum beta.c": sum_beta_hat * _Q_IN + k * _Q_STATE + _Q_IN}
-        eta = a_err * d + st["a"] * _Q_IN + _Q_STATE
-        eta_coef = a_err * d
         start = x_err * st["w"] + abs(st["w"] - c["w"])
         out_offset = 0.0
         out_scale = (abs(st["sigma"] - c["sigma"]) * cmax + _Q_IN) if method == "supplemental" else 0.0
+    return eps, start, out_offset, out_scale
+
+
+def _local_terms(precision, st, c, k, cmax, fs, l_sample, l_state, g_state, sum_beta, sigma,
+                 method):
+    """Local errors times their gains (fractions of full scale); see docs/firmware.md."""
+    a = c["a"]
+    a_err = np.abs(st["a"] - a)
+    d = 2 * cmax                                            # |S - c_k|
+    eps, start, out_offset, out_scale = _sample_errors(precision, st, c, k, cmax, fs, sum_beta, method)
+    if precision == "float32":
+        u = _U32
+        c_hi = cmax * (1 + u)
+        eta = a_err * d * (1 + u) ** 3 + a * d * ((1 + u) ** 3 - 1) + a * u * c_hi + u * u * c_hi
+        eta_coef = a_err * d * (1 + u) ** 3
+    else:
+        eta = a_err * d + st["a"] * _Q_IN + _Q_STATE
+        eta_coef = a_err * d
     eps_total = sum(eps.values())
     state_terms = l_state * eta
     b_s = l_sample * eps_total + float(np.sum(state_terms)) + float(np.sum(g_state)) * start
@@ -339,6 +380,154 @@ def _local_terms(precision, st, c, k, cmax, fs, l_sample, l_state, g_state, sum_
     terms["settled start"] = sigma * float(np.sum(g_state)) * start
     terms["output"] = out_offset + out_scale
     return terms, b_s, float(np.max(eta / a))
+
+
+# ------------------------------------------------------------- irregular sampling (dt step)
+
+def _series_terms(x_max: float, target: float) -> int:
+    """Fewest Taylor terms N of ``a = x t(x)`` with truncation ``x^N/(N+1)! <= target``."""
+    n = 2
+    while x_max ** n / math.factorial(n + 1) > target:
+        n += 1
+    return n
+
+
+def _dt_scheme(model: CreepModel, precision: str, max_interval: float) -> dict:
+    """How the dt step computes ``a_k(dt) = 1 - exp(-dt/tau_k)``, and its worst relative error.
+
+    float32: ``x = dt * (1/tau_k)``, halved ``m`` times until ``x <= 1/8``, ``a = x t(x)`` with
+    the Taylor series of ``t = (1 - exp(-x))/x`` in Horner form, then ``a <- a (2 - a)`` ``m``
+    times (``1 - a(2y) = (1 - a(y))^2``). q31: ``x = dt_ticks * m_k 2^-E_k`` exactly (``m_k`` the
+    31-bit mantissa of ``tick/tau_k``), ``t(x)`` in Q31 (``x <= 1/2``, no range reduction), and
+    the increment ``(S - c_k) a`` as ``((S - c_k) t) m_k dt 2^-E_k`` with two shifts.
+    """
+    taus = np.array(model.tau)
+    if precision == "float32":
+        u = _U32
+        dt_max = max(max_interval, _float32(max_interval))
+        dt_min = min(MIN_INTERVAL, _float32(MIN_INTERVAL))
+        inv_tau = np.array([_float32(1.0 / tau) for tau in taus])
+        delta_x = np.abs(inv_tau * taus - 1.0) + u * (1 + 1e-6)        # stored 1/tau, product
+        x_hi = dt_max * inv_tau * (1 + u)
+        halvings = np.array([max(0, math.ceil(math.log2(x / 0.125))) if x > 0.125 else 0
+                             for x in x_hi], dtype=int)
+        n = _series_terms(0.125, 2.0 ** -30)
+        # Horner with x <= 1/8: relative error <= 18u/14 (each level damps the inner one by
+        # x/(j+1) <= 1/16), then the product x t: 2.5u in all; each doubling adds (1+u)^2.
+        rel_series = 0.125 ** n / math.factorial(n + 1) / (1 - 0.0625) + 2.5 * u
+        rel_a = (1 + delta_x) * (1 + rel_series) * (1 + u) ** (2 * halvings) - 1
+        return {"dt_min": dt_min, "dt_max": dt_max, "inv_tau": inv_tau, "halvings": halvings,
+                "n": n, "inv_next": [_float32(1.0 / (j + 1)) for j in range(n)],
+                "rel_a": rel_a, "extra": np.zeros(len(taus)), "nu": np.full(len(taus), u * u),
+                "limit_f": _float32(max_interval), "min_f": _float32(MIN_INTERVAL)}
+    max_ticks = math.floor(max_interval / TICK + 1e-6)
+    if not 1 <= max_ticks < 2 ** 31:
+        raise InputError(f"max interval {max_interval:g} s: q31 counts the interval in uint32 ticks "
+                         f"of {TICK:g} s; give 1 tick to 2^31 - 1 ticks")
+    ms = [_mantissa(TICK / tau, f"tick/tau[{k}]") for k, tau in enumerate(taus)]
+    mant = np.array([m for m, _ in ms], dtype=float)
+    exps = np.array([31 + sh for _, sh in ms], dtype=int)
+    x_max = float(np.max(max_ticks * mant * 2.0 ** -exps))
+    if x_max > 0.5 or np.any(exps < 32):
+        raise InputError(f"max interval {max_interval:g} s is more than half the shortest time "
+                         f"constant ({min(taus):g} s): the q31 dt step needs dt <= tau/2; use "
+                         "float32 or a shorter --max-interval")
+    rel_m = np.abs(mant * 2.0 ** -exps / (TICK / taus) - 1.0)
+    n = _series_terms(0.5, 2.0 ** -34)
+    t_min = -math.expm1(-x_max) / x_max
+    # t in Q31: each Horner level rounds twice (0.75 + 0.5 units) and damps the inner error by
+    # x/(j+1) <= 1/4, so |t error| <= 1.7 units; x's rounding adds 0.25: 3 units of 2^-31.
+    rel_t = (3 * 2.0 ** -31 + 0.5 ** n / math.factorial(n + 1)) / t_min
+    r1 = math.ceil(math.log2(max_ticks + 1)) + 1
+    r2 = exps - 30 - r1
+    if np.any(r2 < 0):  # pragma: no cover - excluded by x_max <= 1/2
+        raise InputError("the q31 dt step cannot scale this model's coefficients")
+    extra = (2.0 ** -31 + 2.0 ** -31 / t_min + 2.0 ** (r1 - 61) / t_min) * np.ones(len(taus))
+    return {"dt_min": TICK, "dt_max": max_ticks * TICK, "max_ticks": max_ticks, "m": ms,
+            "exps": exps, "n": n, "inv_next": [round(2 ** 31 / (j + 1)) for j in range(n)],
+            "r1": r1, "r2": r2, "rel_a": (1 + rel_m) * (1 + rel_t) - 1, "extra": extra,
+            "nu": np.where(r2 >= 1, _Q_STATE, 0.0)}
+
+
+def _invariant_gains(beta: np.ndarray, a_max: np.ndarray):
+    """Componentwise invariant of ``|d[n+1]| <= |M(dt)| |d[n]| + a(dt) w`` for all allowed dt.
+
+    With ``M(dt) = I - diag(a) - a beta^T`` row ``k`` of ``|M|`` applied to ``z`` is
+    ``|1 - a_k(1 + beta_k)| z_k + a_k sum_{j != k} |beta_j| z_j``: convex in ``a_k`` and equal
+    to ``z_k`` at ``a_k = 0``, so ``|M| z + a w <= z`` holds for every ``0 < a_k <= a_max_k``
+    when it holds at ``a_max``. That is ``z = G z + h w``, solved as ``z = Z w``; returns
+    ``Z`` (``Z >= 0``) and the largest row sum of ``|M(a_max)|`` (at most 1, checked).
+    """
+    b = np.abs(beta)
+    one_plus = 1.0 + beta
+    big = a_max * one_plus > 1.0
+    if np.any(one_plus <= 0) or np.any(a_max * one_plus >= 2.0):
+        raise InputError("the corrector's recursion is unstable at the longest interval; give "
+                         "a shorter --max-interval")
+    h = np.where(big, a_max / np.where(big, 2.0 - a_max * one_plus, 1.0), 1.0 / one_plus)
+    g = h[:, None] * b[None, :]
+    np.fill_diagonal(g, 0.0)
+    rows = np.abs(1 - a_max * one_plus) + a_max * (b.sum() - b)
+    if np.max(np.abs(np.linalg.eigvals(g))) >= 1.0 or np.max(rows) > 1.0:
+        raise InputError("no error bound for irregular sampling: the creep terms' coupling "
+                         "(sum of |beta|) is too strong for the invariant used; use the fixed rate")
+    z = np.linalg.solve(np.eye(len(b)) - g, np.diag(h)) * _MARGIN
+    if np.any(z < 0):  # pragma: no cover - G >= 0 with spectral radius < 1 gives Z >= 0
+        raise InputError("no error bound for irregular sampling for this model")
+    return z, float(np.max(rows))
+
+
+def _irregular_bound(model: CreepModel, method: str, precision: str, max_interval: float,
+                     full_scale: float) -> ErrorBound:
+    c = _coefficients(model, 1.0 / max_interval)
+    st = _stored(c, precision)
+    sch = _dt_scheme(model, precision, max_interval)
+    beta, taus = c["beta"], c["tau"]
+    a_max = -np.expm1(-sch["dt_max"] / taus)
+    a_min = -np.expm1(-sch["dt_min"] / taus)
+    zmat, _ = _invariant_gains(beta, a_max)
+    b = np.abs(beta)
+    sum_beta = float(b.sum())
+    gain_state = b @ zmat                          # output error per unit of w_k (per unit a)
+    gain_sample = 1.0 + float(gain_state.sum())   # from a local error of S
+    z_peak = zmat @ np.ones(len(b))               # |c_k| of the exact corrector, |x| <= 1
+    z_peak = z_peak + max(0.0, abs(c["w"]) - float(np.min(z_peak)))     # settled start
+    peak = 1.0 + float(b @ z_peak)                # |S| of the exact corrector
+    sigma = c["sigma"] if method == "supplemental" else 1.0
+    k = len(beta)
+    u = _U32
+    cmax = max(peak, float(np.max(z_peak))) * (1.0 + 1e-3)
+    for _ in range(8):
+        d = 2 * cmax
+        eps, start, out_offset, out_scale = _sample_errors(precision, st, c, k, cmax, full_scale,
+                                                           sum_beta, method)
+        eps_total = sum(eps.values())
+        if precision == "float32":
+            coef = sch["rel_a"] * d * (1 + u) ** 3
+            rounding = d * ((1 + u) ** 3 - 1) + u * cmax * (1 + u) + sch["nu"] * cmax * (1 + u) / a_min
+        else:
+            coef = sch["rel_a"] * d
+            rounding = sch["extra"] + sch["nu"] / a_min
+        w = eps_total + coef + rounding            # per unit a: |state error| grows by a w
+        z_err = zmat @ w + start
+        s_max = eps_total + float(b @ z_err)
+        if cmax >= max(peak + s_max, float(np.max(z_peak + z_err))):
+            break
+        cmax = 2 * max(peak + s_max, float(np.max(z_peak + z_err)))
+    else:  # pragma: no cover
+        raise InputError("the corrector's rounding error is of the order of its signal: no useful bound")
+    if precision == "q31":
+        _check_q31_range(peak, cmax, sigma, method)
+    terms = {f"{name} (per sample, x{gain_sample:.4g})": sigma * gain_sample * v for name, v in eps.items()}
+    terms["coefficients a_k(dt) (series, stored 1/tau)"] = sigma * float(gain_state @ coef)
+    terms["state updates rounding"] = sigma * float(gain_state @ rounding)
+    terms["settled start"] = sigma * sum_beta * start
+    terms["output"] = out_offset + out_scale
+    terms["float64 reference (allowance)"] = REFERENCE_ALLOWANCE
+    total = sum(terms.values()) * _MARGIN
+    return ErrorBound(total_fs=float(total), terms={n: float(v) for n, v in terms.items()},
+                      full_scale=float(full_scale), peak_fs=float(peak),
+                      gains={"sample": float(gain_sample), "state": [float(g) for g in gain_state]})
 
 
 def _check_q31_range(peak: float, cmax: float, sigma: float, method: str) -> None:
@@ -369,7 +558,8 @@ def _qty(value: float, unit: str) -> str:
 
 
 def generate_firmware(model: CreepModel, method: str = "subtractive", precision: str = "float32",
-             rate: float = 100.0, full_scale: float = 1.0, name: str = "creep") -> Firmware:
+             rate: float = 100.0, full_scale: float = 1.0, name: str = "creep",
+             max_interval: float | None = None) -> Firmware:
     """Generate the C99 corrector of a model, with its derivation and error bound in comments.
 
     Parameters
@@ -387,21 +577,35 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
         Largest ``|raw - offset|`` (signal units): the bound assumes it, q31 scales by it.
     name : str
         Prefix of the C identifiers and of the file names.
+    max_interval : float, optional
+        Generate the dt step for irregular sampling instead of the fixed-rate step:
+        ``PREFIX_step_dt(state, raw, dt, &out)`` accepts ``MIN_INTERVAL <= dt <= max_interval``
+        (float32: dt in seconds; q31: dt in microsecond ticks). ``rate`` is then not used.
 
     Returns
     -------
     Firmware
     """
+    if max_interval is not None:
+        _check_interval(max_interval)
+        rate = 1.0 / max_interval
     _check(model, method, precision, rate, full_scale, name)
-    bound = firmware_bound(model, method, precision, rate, full_scale)
+    bound = firmware_bound(model, method, precision, rate, full_scale, max_interval)
     c = _coefficients(model, rate)
     st = _stored(c, precision)
+    scheme = None if max_interval is None else _dt_scheme(model, precision, max_interval)
     text = _FLOAT32 if precision == "float32" else _Q31
-    sub = _substitutions(model, method, precision, rate, full_scale, name, c, st, bound)
+    if scheme is not None:
+        text = _Texts(header=text.header, source=text.source,
+                      harness=_fill(_HARNESS_DT, _FLOAT_IO if precision == "float32" else _Q31_IO))
+    sub = _substitutions(model, method, precision, rate, full_scale, name, c, st, bound, scheme,
+                         max_interval)
     header, source, harness = (_fill(t, sub) for t in (text.header, text.source, text.harness))
-    return Firmware(model=model, method=method, precision=precision, rate=float(rate),
+    return Firmware(model=model, method=method, precision=precision,
+                    rate=None if scheme is not None else float(rate),
                     full_scale=float(full_scale), name=name, header=header, source=source,
-                    harness=harness, bound=bound, coefficients=_coefficient_table(c, st, precision))
+                    harness=harness, bound=bound, coefficients=_coefficient_table(c, st, precision),
+                    max_interval=None if scheme is None else float(scheme["dt_max"]))
 
 
 def naive_float32(model: CreepModel, method: str = "subtractive", rate: float = 100.0,
@@ -415,7 +619,7 @@ def naive_float32(model: CreepModel, method: str = "subtractive", rate: float = 
     _check(model, method, "float32", rate, full_scale, name)
     c = _coefficients(model, rate)
     st = _stored(c, "float32")
-    sub = _substitutions(model, method, "float32", rate, full_scale, name, c, st, None)
+    sub = _substitutions(model, method, "float32", rate, full_scale, name, c, st, None, None, None)
     sub["@E@"] = ", ".join(_c_float(x) for x in c["e"])
     header, source, harness = (_fill(t, sub) for t in (_NAIVE.header, _NAIVE.source, _NAIVE.harness))
     return Firmware(model=model, method=method, precision="float32", rate=float(rate),
@@ -458,14 +662,45 @@ def _derivation(model, method, precision, rate, full_scale, c, st) -> str:
     return lines
 
 
+def _dt_derivation(model, method, precision, full_scale, c, st, scheme) -> list[str]:
+    """The dt step's coefficients and the error of its ``a_k(dt)``, as comment lines."""
+    unit = "signal units"
+    lo, hi = scheme["dt_min"], scheme["dt_max"]
+    lines = [f"Model: {model.n_terms} creep term(s), beta0 = {model.beta0:.6g}, offset = "
+             f"{model.offset:.9g} {unit}; method {method}; precision {precision}.",
+             f"Irregular sampling: dt = time since the previous sample, {_qty(lo, 's')} <= dt <= "
+             f"{_qty(hi, 's')}; load held between samples.",
+             f"Full scale FS = {full_scale:.9g} {unit}: the inputs satisfy |raw - offset| <= FS.",
+             "a_k(dt) = 1 - exp(-dt/tau_k) is computed per sample without libm "
+             + ("(halving to x <= 1/8, " if precision == "float32" else "(x <= 1/2, ")
+             + f"{scheme['n']} Taylor terms of (1 - exp(-x))/x"
+             + (", doubling a <- a(2 - a));" if precision == "float32" else ");"),
+             "its worst relative error over the dt range is in the bound:"]
+    for k in range(model.n_terms):
+        tau = c["tau"][k]
+        lines.append(f"term {k}: beta = {c['beta'][k]:.9g}, tau = {_qty(tau, 's')}, "
+                     f"a(dt max) = {-math.expm1(-hi / tau):.9g}, relative error of computed a <= "
+                     f"{scheme['rel_a'][k]:.2e}")
+        if precision == "float32":
+            lines.append(f"  stored 1/tau = {scheme['inv_tau'][k]:.9e} 1/s, halvings <= {int(scheme['halvings'][k])}; "
+                         f"beta = {st['beta'][k]:.9e}")
+        else:
+            m, sh = scheme["m"][k]
+            lines.append(f"  tick/tau = {m} * 2^-{31 + sh} (tick {TICK:g} s); beta = "
+                         f"{st['beta_q'][k][0]} * 2^-{31 + st['beta_q'][k][1]}")
+    lines.append(f"1 + beta0 = {c['sigma']:.12g} (supplemental scale); 1/(1 + beta0) = {c['w']:.12g} "
+                 "(settled start: c_k = x / (1 + beta0))")
+    return lines
+
+
 def _bound_lines(bound: ErrorBound, full_scale: float) -> list[str]:
     lines = [f"Worst-case |output - exact float64 corrector| <= {bound.total_fs:.3e} x FS "
              f"= {bound.total_fs * full_scale:.3e} signal units,",
              f"for every input with |raw - offset| <= FS, from a relaxed or settled start. "
              f"Largest |S|: {bound.peak_fs:.6g} x FS.", "Parts (fraction of FS, times their gains):"]
     lines += [f"  {name}: {value:.3e}" for name, value in bound.terms.items()]
-    lines.append("Derivation: docs/firmware.md (local roundings through the l1 norm of the "
-                 "recursion's impulse response).")
+    lines.append("Derivation: docs/firmware.md (local roundings through the gains of the "
+                 "corrector's own recursion).")
     return lines
 
 
@@ -482,20 +717,44 @@ def _comment(lines) -> str:
     return "\n".join((" * " + line).rstrip() for line in lines)
 
 
-def _substitutions(model, method, precision, rate, full_scale, name, c, st, bound) -> dict:
+def _substitutions(model, method, precision, rate, full_scale, name, c, st, bound, scheme,
+                   max_interval) -> dict:
     k = model.n_terms
-    derivation = _derivation(model, method, precision, rate, full_scale, c, st)
+    if scheme is None:
+        derivation = _derivation(model, method, precision, rate, full_scale, c, st)
+        structure = {"@STATE_EXTRA@": "", "@INIT_EXTRA@": "", "@SETTLE_EXTRA@": "",
+                     "@SAVED_BASE@": "2", "@RESTORE_EXTRA@": "", "@SAVE_EXTRA@": "",
+                     "@STEP_DECL@": ("float @P@_step(@P@_state *s, float raw);" if precision == "float32"
+                                     else "int32_t @P@_step(@P@_state *s, int32_t raw);"),
+                     "@TIMING@": "#define @PU@_RATE_HZ @RATE@", **_FIXED[precision]}
+    else:
+        derivation = _dt_derivation(model, method, precision, full_scale, c, st, scheme)
+        structure = {**_DT_COMMON, **_DT[precision], "@N@": str(scheme["n"])}
+        if precision == "float32":
+            structure["@TIMING@"] = (f"#define @PU@_MIN_INTERVAL_S {_c_float(scheme['min_f'])}\n"
+                                     f"#define @PU@_MAX_INTERVAL_S {_c_float(scheme['limit_f'])}")
+            structure["@INV_TAU@"] = ", ".join(_c_float(x) for x in scheme["inv_tau"])
+            structure["@INV_NEXT@"] = ", ".join(_c_float(x) for x in scheme["inv_next"])
+        else:
+            structure["@TIMING@"] = (f"#define @PU@_TICK_S {TICK!r}\n#define @PU@_MAX_TICKS {scheme['max_ticks']}u\n"
+                                     f"#define @PU@_MAX_INTERVAL_S {scheme['dt_max']!r}")
+            structure["@TICK_M@"] = ", ".join(str(m) for m, _ in scheme["m"])
+            structure["@TICK_E@"] = ", ".join(str(int(e)) for e in scheme["exps"])
+            structure["@R2@"] = ", ".join(str(int(r)) for r in scheme["r2"])
+            structure["@R1@"] = str(scheme["r1"])
+            structure["@INV_NEXT@"] = ", ".join(str(v) for v in scheme["inv_next"])
     bound_text = (_bound_lines(bound, full_scale) if bound is not None else
                   ["NAIVE reference recursion (c = e c + (1 - e) S in float32): no error bound; "
                    "for comparison only, do not deploy."])
+    timing = f"--rate {rate:.9g}" if scheme is None else f"--max-interval {max_interval:.9g}"
     command = (f"creepcomp firmware MODEL --method {method} --precision {precision} "
-               f"--rate {rate:.9g} --full-scale {full_scale:.9g} --name {name}")
-    sub = {"@P@": name, "@PU@": name.upper(), "@K@": str(k), "@VERSION@": _version(),
+               f"{timing} --full-scale {full_scale:.9g} --name {name}")
+    sub = {**structure, "@P@": name, "@PU@": name.upper(), "@K@": str(k), "@VERSION@": _version(),
            "@COMMAND@": command, "@DERIVATION@": _comment(derivation), "@BOUND@": _comment(bound_text),
            "@RATE@": repr(float(rate)), "@FS@": repr(float(full_scale)), "@OFFSET@": repr(float(model.offset)),
            "@BOUND_FS@": f"{bound.total_fs:.3e}" if bound is not None else "-1.0",
            "@METHOD@": method, "@START@": "relaxed" if method == "subtractive" else "settled"}
-    sub["@MODEL_ID@"] = f"0x{_fnv1a(repr((c['beta'].tolist(), c['tau'].tolist(), c['offset'], rate, full_scale, precision, method))):08x}u"
+    sub["@MODEL_ID@"] = f"0x{_fnv1a(repr((c['beta'].tolist(), c['tau'].tolist(), c['offset'], rate, full_scale, precision, method) + (() if max_interval is None else (max_interval,)))):08x}u"
     if precision == "float32":
         sub.update({"@BETA@": ", ".join(_c_float(x) for x in st["beta"]),
                     "@A@": ", ".join(_c_float(x) for x in st["a"]),
@@ -544,12 +803,12 @@ _HEADER_TOP = """\
 #include <stdint.h>
 
 #define @PU@_TERMS @K@
-#define @PU@_RATE_HZ @RATE@
+@TIMING@
 #define @PU@_FULL_SCALE @FS@
 #define @PU@_OFFSET @OFFSET@
 #define @PU@_BOUND_FS @BOUND_FS@
 #define @PU@_MODEL_ID @MODEL_ID@
-#define @PU@_SAVED_WORDS (2 + 2 * @PU@_TERMS)
+#define @PU@_SAVED_WORDS (@SAVED_BASE@ + 2 * @PU@_TERMS)
 
 #ifdef __cplusplus
 extern "C" {   /* C linkage when included from C++ (an Arduino sketch) */
@@ -562,7 +821,7 @@ typedef struct { uint32_t w[@PU@_SAVED_WORDS]; } @P@_saved;
 
 void @P@_init(@P@_state *s);
 void @P@_settle(@P@_state *s, @T@ raw);
-@T@ @P@_step(@P@_state *s, @T@ raw);
+@STEP_DECL@
 void @P@_save(const @P@_state *s, @P@_saved *out);
 /* Returns 0, or -1 for a block of another model, -2 for a corrupted block (state unchanged). */
 int @P@_restore(@P@_state *s, const @P@_saved *in);
@@ -592,7 +851,7 @@ int @P@_restore(@P@_state *s, const @P@_saved *in)
     if (in->w[@PU@_SAVED_WORDS - 1] != @P@_checksum(in->w, @PU@_SAVED_WORDS - 1))
         return -2;
     for (k = 0; k < @PU@_TERMS; ++k)
-        @P@_unpack(s, k, in->w[1 + 2 * k], in->w[2 + 2 * k]);
+        @P@_unpack(s, k, in->w[1 + 2 * k], in->w[2 + 2 * k]);@RESTORE_EXTRA@
     return 0;
 }
 
@@ -601,7 +860,7 @@ void @P@_save(const @P@_state *s, @P@_saved *out)
     int k;
     out->w[0] = @PU@_MODEL_ID;
     for (k = 0; k < @PU@_TERMS; ++k)
-        @P@_pack(s, k, &out->w[1 + 2 * k], &out->w[2 + 2 * k]);
+        @P@_pack(s, k, &out->w[1 + 2 * k], &out->w[2 + 2 * k]);@SAVE_EXTRA@
     out->w[@PU@_SAVED_WORDS - 1] = @P@_checksum(out->w, @PU@_SAVED_WORDS - 1);
 }
 """
@@ -618,7 +877,7 @@ _FLOAT32_SOURCE = """\
 #endif
 
 static const float @P@_beta[@PU@_TERMS] = {@BETA@};
-static const float @P@_a[@PU@_TERMS] = {@A@};
+@COEF_A@
 static const float @P@_offset = @OFF_F@;
 static const float @P@_inv_saturation = @W_F@;
 static const float @P@_saturation = @SIGMA_F@;
@@ -629,7 +888,7 @@ void @P@_init(@P@_state *s)
     for (k = 0; k < @PU@_TERMS; ++k) {
         s->hi[k] = 0.0f;
         s->lo[k] = 0.0f;
-    }
+    }@INIT_EXTRA@
 }
 
 void @P@_settle(@P@_state *s, float raw)
@@ -639,32 +898,10 @@ void @P@_settle(@P@_state *s, float raw)
     for (k = 0; k < @PU@_TERMS; ++k) {
         s->hi[k] = c;
         s->lo[k] = 0.0f;
-    }
+    }@SETTLE_EXTRA@
 }
 
-float @P@_step(@P@_state *s, float raw)
-{
-    const float x = raw - @P@_offset;
-    float p = 0.0f, S;
-    int k;
-    for (k = 0; k < @PU@_TERMS; ++k)
-        p += @P@_beta[k] * s->hi[k];
-    S = x - p;
-    for (k = 0; k < @PU@_TERMS; ++k) {
-        /* c_k += a_k (S - c_k); the increment is added to hi exactly (TwoSum), its rounding
-         * error carried in lo to the next update. */
-        const float hi = s->hi[k];
-        const float m = @P@_a[k] * (S - hi) + s->lo[k];
-        const float sum = hi + m;
-        const float m_part = sum - hi;
-        const float hi_part = sum - m_part;
-        s->hi[k] = sum;
-        s->lo[k] = (hi - hi_part) + (m - m_part);
-    }
-    (void)@P@_saturation;
-    return @RETURN@;
-}
-
+@STEP_FN@
 static void @P@_pack(const @P@_state *s, int k, uint32_t *w0, uint32_t *w1)
 {
     memcpy(w0, &s->hi[k], sizeof *w0);
@@ -686,8 +923,7 @@ _Q31_SOURCE = """\
 /* beta_k = beta_m[k] * 2^-(30 + beta_s[k]), a_k = a_m[k] * 2^-(30 + a_s[k]) */
 static const int32_t @P@_beta_m[@PU@_TERMS] = {@BETA_M@};
 static const unsigned char @P@_beta_s[@PU@_TERMS] = {@BETA_S@};
-static const int32_t @P@_a_m[@PU@_TERMS] = {@A_M@};
-static const unsigned char @P@_a_s[@PU@_TERMS] = {@A_S@};
+@COEF_A@
 static const int64_t @P@_saturation_q30 = @SIGMA_Q@;     /* (1 + beta0) * 2^30 */
 static const int64_t @P@_inv_saturation_q30 = @W_Q@;     /* 2^30 / (1 + beta0) */
 
@@ -702,29 +938,17 @@ void @P@_init(@P@_state *s)
 {
     int k;
     for (k = 0; k < @PU@_TERMS; ++k)
-        s->c[k] = 0;
+        s->c[k] = 0;@INIT_EXTRA@
 }
 
 void @P@_settle(@P@_state *s, int32_t x)
 {
     int k;
     for (k = 0; k < @PU@_TERMS; ++k)
-        s->c[k] = (int64_t)x * @P@_inv_saturation_q30;
+        s->c[k] = (int64_t)x * @P@_inv_saturation_q30;@SETTLE_EXTRA@
 }
 
-int32_t @P@_step(@P@_state *s, int32_t x)
-{
-    int64_t p = 0, S;
-    int k;
-    for (k = 0; k < @PU@_TERMS; ++k)
-        p += @P@_shift(@P@_shift(s->c[k], 30) * @P@_beta_m[k], @P@_beta_s[k]);
-    S = (int64_t)x - @P@_shift(p, 30);
-    for (k = 0; k < @PU@_TERMS; ++k)
-        s->c[k] += @P@_shift((S - @P@_shift(s->c[k], 30)) * @P@_a_m[k], @P@_a_s[k]);
-    (void)@P@_saturation_q30;
-    return @RETURN@;
-}
-
+@STEP_FN@
 static void @P@_pack(const @P@_state *s, int k, uint32_t *w0, uint32_t *w1)
 {
     const uint64_t u = (uint64_t)s->c[k];
@@ -838,15 +1062,239 @@ int main(int argc, char **argv)
 }
 """
 
+
+# Pieces of the fixed-rate step and of the dt step (irregular sampling), put into the templates.
+_FIXED = {
+    "float32": {"@STEP_FN@": 'float @P@_step(@P@_state *s, float raw)\n{\n    const float x = raw - @P@_offset;\n    float p = 0.0f, S;\n    int k;\n    for (k = 0; k < @PU@_TERMS; ++k)\n        p += @P@_beta[k] * s->hi[k];\n    S = x - p;\n    for (k = 0; k < @PU@_TERMS; ++k) {\n        /* c_k += a_k (S - c_k); the increment is added to hi exactly (TwoSum), its rounding\n         * error carried in lo to the next update. */\n        const float hi = s->hi[k];\n        const float m = @P@_a[k] * (S - hi) + s->lo[k];\n        const float sum = hi + m;\n        const float m_part = sum - hi;\n        const float hi_part = sum - m_part;\n        s->hi[k] = sum;\n        s->lo[k] = (hi - hi_part) + (m - m_part);\n    }\n    (void)@P@_saturation;\n    return @RETURN@;\n}\n', "@COEF_A@": 'static const float @P@_a[@PU@_TERMS] = {@A@};\n'},
+    "q31": {"@STEP_FN@": 'int32_t @P@_step(@P@_state *s, int32_t x)\n{\n    int64_t p = 0, S;\n    int k;\n    for (k = 0; k < @PU@_TERMS; ++k)\n        p += @P@_shift(@P@_shift(s->c[k], 30) * @P@_beta_m[k], @P@_beta_s[k]);\n    S = (int64_t)x - @P@_shift(p, 30);\n    for (k = 0; k < @PU@_TERMS; ++k)\n        s->c[k] += @P@_shift((S - @P@_shift(s->c[k], 30)) * @P@_a_m[k], @P@_a_s[k]);\n    (void)@P@_saturation_q30;\n    return @RETURN@;\n}\n', "@COEF_A@": 'static const int32_t @P@_a_m[@PU@_TERMS] = {@A_M@};\nstatic const unsigned char @P@_a_s[@PU@_TERMS] = {@A_S@};\n'},
+}
+
+_DT_FLOAT_STEP = """/* a = 1 - exp(-x) for x > 0 without libm: x halved until x <= 1/8, the Taylor series of
+ * (1 - exp(-x))/x in Horner form, then a <- a (2 - a) once per halving, since
+ * 1 - a(2y) = (1 - a(y))^2. Relative error in the header's bound. */
+static float @P@_a_of(float x)
+{
+    int m = 0, j;
+    float t = 1.0f, a;
+    while (x > 0.125f) {
+        x *= 0.5f;
+        ++m;
+    }
+    for (j = @N@ - 1; j >= 1; --j)
+        t = 1.0f - x * @P@_inv_next[j] * t;
+    a = x * t;
+    while (m-- > 0)
+        a = a * (2.0f - a);
+    return a;
+}
+
+int @P@_step_dt(@P@_state *s, float raw, float dt, float *out)
+{
+    const float x = raw - @P@_offset;
+    float p = 0.0f, S;
+    int k;
+    if (!(dt >= @PU@_MIN_INTERVAL_S && dt <= @PU@_MAX_INTERVAL_S))
+        return -1;
+    for (k = 0; k < @PU@_TERMS; ++k) {
+        /* c_k += a_k(dt) (S_prev - c_k): the load held since the previous sample; the
+         * increment is added to hi exactly (TwoSum), its rounding error carried in lo. */
+        const float a = @P@_a_of(dt * @P@_inv_tau[k]);
+        const float hi = s->hi[k];
+        const float m = a * (s->last - hi) + s->lo[k];
+        const float sum = hi + m;
+        const float m_part = sum - hi;
+        const float hi_part = sum - m_part;
+        s->hi[k] = sum;
+        s->lo[k] = (hi - hi_part) + (m - m_part);
+    }
+    for (k = 0; k < @PU@_TERMS; ++k)
+        p += @P@_beta[k] * s->hi[k];
+    S = x - p;
+    s->last = S;
+    (void)@P@_saturation;
+    *out = @RETURN@;
+    return 0;
+}
+
+static void @P@_pack_last(const @P@_state *s, uint32_t *w0, uint32_t *w1)
+{
+    memcpy(w0, &s->last, sizeof *w0);
+    *w1 = 0u;
+}
+
+static void @P@_unpack_last(@P@_state *s, uint32_t w0, uint32_t w1)
+{
+    (void)w1;
+    memcpy(&s->last, &w0, sizeof w0);
+}
+"""
+
+_DT_FLOAT_COEF = """static const float @P@_inv_tau[@PU@_TERMS] = {@INV_TAU@};   /* 1/tau_k (1/s) */
+static const float @P@_inv_next[@N@] = {@INV_NEXT@};   /* 1/(j+1) */"""
+
+_DT_Q31_STEP = """/* t = (1 - exp(-x))/x in Q31 (2^31 = 1) for 0 <= x <= 1/2 given in Q31: Taylor series in
+ * Horner form. */
+static int64_t @P@_t_of(int64_t x)
+{
+    const int64_t one = (int64_t)1 << 31;
+    int64_t t = one;
+    int j;
+    for (j = @N@ - 1; j >= 1; --j)
+        t = one - @P@_shift(@P@_shift(x * @P@_inv_next[j], 31) * t, 31);
+    return t;
+}
+
+int @P@_step_dt(@P@_state *s, int32_t x, uint32_t dt, int32_t *out)
+{
+    int64_t p = 0, S;
+    int k;
+    if (dt < 1u || dt > @PU@_MAX_TICKS)
+        return -1;
+    for (k = 0; k < @PU@_TERMS; ++k) {
+        /* c_k += a_k(dt) (S_prev - c_k), a_k = x t(x), x = dt tick/tau_k = dt m_k 2^-e_k:
+         * ((S_prev - c_k) t) m_k dt, shifted by e_k - 30 in two steps. */
+        const int64_t xm = (int64_t)dt * @P@_tick_m[k];
+        const int64_t t = @P@_t_of(@P@_shift(xm, (unsigned)@P@_tick_e[k] - 31u));
+        const int64_t d = @P@_shift((s->last - @P@_shift(s->c[k], 30)) * t, 31);
+        int64_t inc = @P@_shift(d * @P@_tick_m[k], @R1@) * (int64_t)dt;
+        if (@P@_r2[k] > 0)
+            inc = @P@_shift(inc, @P@_r2[k]);
+        s->c[k] += inc;
+    }
+    for (k = 0; k < @PU@_TERMS; ++k)
+        p += @P@_shift(@P@_shift(s->c[k], 30) * @P@_beta_m[k], @P@_beta_s[k]);
+    S = (int64_t)x - @P@_shift(p, 30);
+    s->last = S;
+    (void)@P@_saturation_q30;
+    *out = @RETURN@;
+    return 0;
+}
+
+static void @P@_pack_last(const @P@_state *s, uint32_t *w0, uint32_t *w1)
+{
+    const uint64_t u = (uint64_t)s->last;
+    *w0 = (uint32_t)(u & 0xffffffffu);
+    *w1 = (uint32_t)(u >> 32);
+}
+
+static void @P@_unpack_last(@P@_state *s, uint32_t w0, uint32_t w1)
+{
+    const uint64_t u = ((uint64_t)w1 << 32) | w0;
+    s->last = (u >> 63) ? -(int64_t)(~u) - 1 : (int64_t)u;
+}
+"""
+
+_DT_Q31_COEF = """static const int32_t @P@_tick_m[@PU@_TERMS] = {@TICK_M@};   /* tick/tau_k = m 2^-e */
+static const unsigned char @P@_tick_e[@PU@_TERMS] = {@TICK_E@};
+static const unsigned char @P@_r2[@PU@_TERMS] = {@R2@};
+static const int64_t @P@_inv_next[@N@] = {@INV_NEXT@};   /* 2^31/(j+1) */"""
+
+_DT_COMMON = {
+    "@INIT_EXTRA@": "\n    s->last = 0;",
+    "@SAVED_BASE@": "4",
+    "@RESTORE_EXTRA@": "\n    @P@_unpack_last(s, in->w[1 + 2 * @PU@_TERMS], in->w[2 + 2 * @PU@_TERMS]);",
+    "@SAVE_EXTRA@": "\n    @P@_pack_last(s, &out->w[1 + 2 * @PU@_TERMS], &out->w[2 + 2 * @PU@_TERMS]);",
+}
+_DT = {
+    "float32": {"@STEP_FN@": _DT_FLOAT_STEP, "@COEF_A@": _DT_FLOAT_COEF,
+                "@STATE_EXTRA@": " float last;", "@SETTLE_EXTRA@": "\n    s->last = c;",
+                "@STEP_DECL@": ("/* Irregular sampling: dt = seconds since the previous sample (any value in range on\n"
+                                " * the first call). Returns 0 and writes *out, or -1 (nothing changed) when dt is\n"
+                                " * outside [@PU@_MIN_INTERVAL_S, @PU@_MAX_INTERVAL_S] or not a number. */\n"
+                                "int @P@_step_dt(@P@_state *s, float raw, float dt, float *out);")},
+    "q31": {"@STEP_FN@": _DT_Q31_STEP, "@COEF_A@": _DT_Q31_COEF,
+            "@STATE_EXTRA@": " int64_t last;",
+            "@SETTLE_EXTRA@": "\n    s->last = @P@_shift(s->c[0], 30);",
+            "@STEP_DECL@": ("/* Irregular sampling: dt = ticks of @PU@_TICK_S s (microseconds) since the previous\n"
+                            " * sample (any value in range on the first call). Returns 0 and writes *out, or -1\n"
+                            " * (nothing changed) when dt is outside [1, @PU@_MAX_TICKS]. */\n"
+                            "int @P@_step_dt(@P@_state *s, int32_t x, uint32_t dt, int32_t *out);")},
+}
+
+_HARNESS_DT = """\
+/* Host harness (not for the target): reads N doubles (signal units) and N intervals (doubles:
+ * seconds for float32, ticks for q31; the first is any valid value), runs @P@_step_dt over
+ * them REPEATS times from the start given, writes the outputs (doubles, signal units) of the
+ * first run and prints the best time per sample in nanoseconds (CLOCK_MONOTONIC). */
+#define _POSIX_C_SOURCE 199309L
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include "@P@.h"
+
+int main(int argc, char **argv)
+{
+    FILE *f;
+    long n, i;
+    int r, repeats, settled;
+    double *buf, *gap, best = -1.0;
+    @T@ *in, *out, *spare;
+    @DT_T@ *dts;
+    @P@_state s;
+    if (argc != 6) {
+        fprintf(stderr, "usage: %s IN DT OUT relaxed|settled REPEATS\\n", argv[0]);
+        return 2;
+    }
+    settled = strcmp(argv[4], "settled") == 0;
+    repeats = atoi(argv[5]);
+    f = fopen(argv[1], "rb");
+    if (!f) return 3;
+    fseek(f, 0, SEEK_END);
+    n = ftell(f) / (long)sizeof(double);
+    fseek(f, 0, SEEK_SET);
+    buf = malloc((size_t)n * sizeof *buf);
+    gap = malloc((size_t)n * sizeof *gap);
+    in = malloc((size_t)n * sizeof *in);
+    out = malloc((size_t)n * sizeof *out);
+    spare = malloc((size_t)n * sizeof *spare);
+    dts = malloc((size_t)n * sizeof *dts);
+    if (!buf || !gap || !in || !out || !spare || !dts || fread(buf, sizeof *buf, (size_t)n, f) != (size_t)n) return 3;
+    fclose(f);
+    f = fopen(argv[2], "rb");
+    if (!f || fread(gap, sizeof *gap, (size_t)n, f) != (size_t)n) return 3;
+    fclose(f);
+    for (i = 0; i < n; ++i) {
+        in[i] = @TO_WORD@;
+        dts[i] = (@DT_T@)gap[i];
+    }
+    for (r = 0; r < repeats; ++r) {
+        struct timespec t0, t1;
+        double ns;
+        int bad = 0;
+        @T@ *dst = r == 0 ? out : spare;
+        if (settled) @P@_settle(&s, in[0]); else @P@_init(&s);
+        clock_gettime(CLOCK_MONOTONIC, &t0);
+        for (i = 0; i < n; ++i)
+            bad |= @P@_step_dt(&s, in[i], dts[i], &dst[i]);
+        clock_gettime(CLOCK_MONOTONIC, &t1);
+        if (bad) {
+            fprintf(stderr, "an interval was refused by @P@_step_dt\\n");
+            return 4;
+        }
+        ns = ((double)(t1.tv_sec - t0.tv_sec) * 1e9 + (double)(t1.tv_nsec - t0.tv_nsec)) / (double)n;
+        if (best < 0 || ns < best) best = ns;
+    }
+    for (i = 0; i < n; ++i)
+        buf[i] = @FROM_WORD@;
+    f = fopen(argv[3], "wb");
+    if (!f || fwrite(buf, sizeof *buf, (size_t)n, f) != (size_t)n) return 3;
+    fclose(f);
+    printf("%.6f\\n", best);
+    return 0;
+}
+"""
+
 _FLOAT_STATE = """
 /* State in signal units above the offset: c_k = hi[k] + lo[k]. Owned by the caller. */
-typedef struct { float hi[@PU@_TERMS]; float lo[@PU@_TERMS]; } @P@_state;
+typedef struct { float hi[@PU@_TERMS]; float lo[@PU@_TERMS];@STATE_EXTRA@ } @P@_state;
 """
 
 _Q31_STATE = """
 /* Input and output words: round((signal - offset) / FULL_SCALE * 2^30), so |word| <= 2^30 at
  * full scale (one bit of headroom). State: c_k * 2^60 / FULL_SCALE. Owned by the caller. */
-typedef struct { int64_t c[@PU@_TERMS]; } @P@_state;
+typedef struct { int64_t c[@PU@_TERMS];@STATE_EXTRA@ } @P@_state;
 """
 
 _NAIVE_HEADER = _HEADER_TOP + """
@@ -862,8 +1310,8 @@ float @P@_step(@P@_state *s, float raw);
 #endif
 """
 
-_FLOAT_IO = {"@T@": "float", "@TO_WORD@": "(float)buf[i]", "@FROM_WORD@": "(double)out[i]"}
-_Q31_IO = {"@T@": "int32_t",
+_FLOAT_IO = {"@T@": "float", "@DT_T@": "float", "@TO_WORD@": "(float)buf[i]", "@FROM_WORD@": "(double)out[i]"}
+_Q31_IO = {"@T@": "int32_t", "@DT_T@": "uint32_t",
            "@TO_WORD@": "(int32_t)llround((buf[i] - @PU@_OFFSET) / @PU@_FULL_SCALE * 1073741824.0)",
            "@FROM_WORD@": "@PU@_OFFSET + (double)out[i] * (@PU@_FULL_SCALE / 1073741824.0)"}
 

@@ -16,7 +16,7 @@ from creepcomp.errors import CreepcompError, InputError
 from creepcomp.digital.firmware import Firmware
 
 __all__ = ["STRICT_FLAGS", "Verification", "find_compiler", "compile_object", "run_firmware",
-           "verify_firmware"]
+           "step_intervals", "verify_firmware"]
 
 #: The flags the generated code must compile under without a warning.
 STRICT_FLAGS = ("-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic")
@@ -105,7 +105,7 @@ def _object_bytes(obj: Path) -> int:
 
 
 def run_firmware(firmware: Firmware, signal, start: str, repeats: int = 5,
-                 compiler: str | None = None) -> tuple[np.ndarray, float, int]:
+                 compiler: str | None = None, intervals=None) -> tuple[np.ndarray, float, int]:
     """Compile the corrector and its host harness in a temporary folder and run it.
 
     Parameters
@@ -116,6 +116,9 @@ def run_firmware(firmware: Firmware, signal, start: str, repeats: int = 5,
     start : {"relaxed", "settled"}
     repeats : int
         Timed runs (the best is kept).
+    intervals : array_like, optional
+        For the dt step: the interval passed with each sample (seconds for float32, ticks for
+        q31), exactly representable in the step's argument type.
 
     Returns
     -------
@@ -127,6 +130,8 @@ def run_firmware(firmware: Firmware, signal, start: str, repeats: int = 5,
     if start not in ("relaxed", "settled"):
         raise InputError(f"start '{start}': use 'relaxed' or 'settled'")
     x = np.ascontiguousarray(signal, dtype="<f8")
+    if firmware.irregular and (intervals is None or len(intervals) != len(x)):
+        raise InputError("the dt step needs one interval per sample")
     cc = find_compiler(compiler)
     with tempfile.TemporaryDirectory(prefix="creepcomp-firmware-") as tmp:
         folder = Path(tmp)
@@ -136,7 +141,11 @@ def run_firmware(firmware: Firmware, signal, start: str, repeats: int = 5,
         _run([cc, "-std=c99", OPTIMISATION, "-I", folder, folder / "harness.c", obj, "-o", exe, "-lm"],
              "compiling the harness")
         x.tofile(folder / "in.bin")
-        out = _run([exe, folder / "in.bin", folder / "out.bin", start, max(1, int(repeats))],
+        files = [folder / "in.bin"]
+        if firmware.irregular:
+            np.ascontiguousarray(intervals, dtype="<f8").tofile(folder / "dt.bin")
+            files.append(folder / "dt.bin")
+        out = _run([exe, *files, folder / "out.bin", start, max(1, int(repeats))],
                    "running the harness")
         y = np.fromfile(folder / "out.bin", dtype="<f8")
         return y, float(out.strip()), _object_bytes(obj)
@@ -145,8 +154,9 @@ def run_firmware(firmware: Firmware, signal, start: str, repeats: int = 5,
 def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler: str | None = None) -> Verification:
     """Run the generated corrector over a record and compare it with :func:`compensate`.
 
-    The record must be sampled at the firmware's rate and stay within its full scale (the
-    range the bound assumes). Both start as the method's default (relaxed for subtractive,
+    The record must be sampled at the firmware's rate (fixed-rate step) or have intervals
+    within the dt step's range (each sample's own interval is passed), and stay within its
+    full scale (the range the bound assumes). Both start as the method's default (relaxed for subtractive,
     settled for supplemental), with the load held between samples.
 
     Returns
@@ -160,12 +170,82 @@ def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler
     x = np.asarray(signal, dtype=float)
     if t.ndim != 1 or x.shape != t.shape or len(t) < 2:
         raise InputError("verify needs a record of at least 2 samples (time and signal of equal length)")
+    if firmware.irregular:
+        return _verify_irregular(firmware, t, x, repeats, compiler)
     dt = uniform_interval(t)
     if dt is None:
-        raise InputError("the record is not uniformly sampled: the generated corrector runs at a fixed rate")
+        raise InputError("the record is not uniformly sampled: the generated corrector runs at a "
+                         "fixed rate (generate the dt step with --max-interval for irregular sampling)")
     if not math.isclose(dt * firmware.rate, 1.0, rel_tol=1e-6):
         raise InputError(f"the record is sampled at {1 / dt:.6g} Hz and the corrector was generated "
                          f"for {firmware.rate:.6g} Hz: give --rate {1 / dt:.6g}")
+    _check_range(firmware, x)
+    start = default_initial(firmware.method)
+    reference = compensate(t, x, firmware.model, firmware.method, initial=start, hold="zero")
+    y, ns, size = run_firmware(firmware, x, start, repeats, compiler)
+    return _compare(firmware, y, reference, ns, size)
+
+
+def step_intervals(firmware: Firmware, time) -> tuple[np.ndarray, np.ndarray]:
+    """The intervals the dt step is given for a record, and the times they add up to.
+
+    float32 takes each interval rounded to float32 (seconds), q31 rounded to whole ticks
+    (microseconds). The times are rebuilt from those intervals (seconds from the first sample;
+    exact sums for q31) so that the float64 reference sees what the firmware sees.
+
+    Returns
+    -------
+    intervals : numpy.ndarray
+        One per sample (the first repeats the second), in the step's unit (s or ticks).
+    time : numpy.ndarray
+        The sample times (s) those intervals give, for :func:`compensate`.
+    """
+    from creepcomp.digital.firmware import MIN_INTERVAL, TICK
+
+    t = np.asarray(time, dtype=float)
+    gaps = np.diff(t)
+    if firmware.precision == "float32":
+        step = gaps.astype(np.float32).astype(float)
+        limits, unit = (np.float32(MIN_INTERVAL), np.float32(firmware.max_interval)), 1.0
+    else:
+        step = np.round(gaps / TICK)
+        limits, unit = (1.0, round(firmware.max_interval / TICK)), TICK
+    bad = np.flatnonzero(~((step >= limits[0]) & (step <= limits[1])))
+    if bad.size:
+        i = int(bad[0])
+        raise InputError(f"the interval before sample {i + 1} is {gaps[i]:.6g} s, outside the dt "
+                         f"step's range {float(limits[0]) * unit:.6g} s to {float(limits[1]) * unit:.6g} s: "
+                         "give a larger --max-interval")
+    rebuilt = np.concatenate([[0.0], np.cumsum(step)]) * unit
+    return np.concatenate([step[:1], step]), rebuilt
+
+
+def _verify_irregular(firmware, t, x, repeats, compiler) -> Verification:
+    from creepcomp.digital.correctors import compensate, default_initial
+    from creepcomp.digital.firmware import TICK
+    from creepcomp.model import CreepModel
+
+    _check_range(firmware, x)
+    intervals, rebuilt = step_intervals(firmware, t)
+    model = firmware.model
+    if firmware.precision == "q31":       # integer microseconds: the reference's intervals are exact
+        rebuilt = np.round(rebuilt / TICK)
+        model = CreepModel(model.beta, tuple(tau / TICK for tau in model.tau), model.gain, model.offset)
+    start = default_initial(firmware.method)
+    reference = compensate(rebuilt, x, model, firmware.method, initial=start, hold="zero")
+    y, ns, size = run_firmware(firmware, x, start, repeats, compiler, intervals=intervals)
+    return _compare(firmware, y, reference, ns, size)
+
+
+def _compare(firmware, y, reference, ns, size) -> Verification:
+    error = np.abs(y - reference) / firmware.full_scale
+    worst = int(np.argmax(error))
+    return Verification(samples=len(y), max_error_fs=float(error[worst]), worst_sample=worst,
+                        ns_per_sample=ns, object_bytes=size,
+                        bound_fs=None if firmware.bound is None else firmware.bound.total_fs)
+
+
+def _check_range(firmware, x) -> None:
     excess = np.abs(x - firmware.model.offset)
     if not np.all(np.isfinite(x)):
         raise InputError(f"signal sample {int(np.flatnonzero(~np.isfinite(x))[0])} is not a finite number")
@@ -173,11 +253,3 @@ def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler
         i = int(np.argmax(excess))
         raise InputError(f"signal sample {i} is {excess[i]:.6g} from the offset, beyond the full scale "
                          f"{firmware.full_scale:.6g} that the bound assumes: give a larger --full-scale")
-    start = default_initial(firmware.method)
-    reference = compensate(t, x, firmware.model, firmware.method, initial=start, hold="zero")
-    y, ns, size = run_firmware(firmware, x, start, repeats, compiler)
-    error = np.abs(y - reference) / firmware.full_scale
-    worst = int(np.argmax(error))
-    return Verification(samples=len(x), max_error_fs=float(error[worst]), worst_sample=worst,
-                        ns_per_sample=ns, object_bytes=size,
-                        bound_fs=None if firmware.bound is None else firmware.bound.total_fs)

@@ -13,7 +13,7 @@ from scipy import linalg
 from creepcomp.fit.data import Data
 
 __all__ = ["MAX_AR_ORDER", "ARNoise", "rows_for", "whiten", "fit_noise", "ljung_box",
-           "autocorrelation", "spectral_variance", "gaussian_bic", "FLOOR_WINDOW", "MISFIT_LIMIT",
+           "autocorrelation", "spectral_variance", "gaussian_bic", "FLOOR_WINDOW", "FEW_WINDOWS", "MISFIT_LIMIT",
            "NoiseFloor", "noise_floor", "quantisation_step", "misfit_ratio", "explained_share"]
 
 #: Largest order of the autoregressive noise model.
@@ -156,6 +156,8 @@ def _smooth_log(x: np.ndarray, min_half: int, fraction: float = 0.15) -> np.ndar
 #: few tens of samples stays in the window's residual, short enough that a quadratic follows
 #: creep within it.
 FLOOR_WINDOW = 96
+#: Fewer windows than this make the floor a rough estimate (said in its method).
+FEW_WINDOWS = 10
 #: A misfit ratio (residual RMS / noise floor) up to this is consistent with 1: the floor
 #: misses part of noise correlated over more than about a third of a window, and a drift.
 MISFIT_LIMIT = 1.5
@@ -257,6 +259,9 @@ def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW) -> Noi
         var = 0.0
     method = (f"median over {len(variances)} windows of {w} samples of the residual variance "
               f"of a local quadratic in time plus the load")
+    if len(variances) < FEW_WINDOWS:
+        method += (f" (only {len(variances)} windows of {w} samples: a rough estimate, and on a sparse "
+                   f"record a window spans enough time for creep to bend within it)")
     if q > 0 and var < q * q / 12.0:
         var = q * q / 12.0
         method += f"; raised to the quantisation floor step^2/12 (step {q:.4g})"
