@@ -9,12 +9,14 @@ from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 
 VOCABULARY = ("extra_retardation", "viscous_flow", "nonlinear_creep", "asymmetric_recovery",
-              "thermal_drift", "thermal_retardation", "static_nonlinearity", "time_offset")
+              "thermal_drift", "thermal_retardation", "static_nonlinearity", "time_offset",
+              "transition_overshoot", "rate_independent_hysteresis", "mullins_softening",
+              "data_problem")
 
 
 def test_registry_holds_the_sensor_vocabulary():
     names = [e.name for e in effects.sensor_effects()]
-    assert names[:8] == list(VOCABULARY)
+    assert names[:len(VOCABULARY)] == list(VOCABULARY)
     for e in effects.sensor_effects():
         assert e.side == "sensor" and e.summary
     with pytest.raises(InputError, match="unknown effect"):
@@ -34,6 +36,9 @@ EXTENSIONS = {
     "thermal_retardation": {"kappa": 0.05, "reference_temperature": 25.0},
     "static_nonlinearity": {"a2": 0.02, "a3": -0.01, "load_scale": 2.0},
     "time_offset": {"delay": 0.7},
+    "transition_overshoot": {"amplitude": 0.06, "tau": 60.0, "load_scale": 2.0},
+    "rate_independent_hysteresis": {"width": 0.3, "weight": 0.12},
+    "mullins_softening": {"softening": 0.2},
 }
 
 
@@ -50,7 +55,10 @@ def test_extended_model_simulation_matches_the_independent_generator(name):
               "asymmetric_recovery": {"tau_recovery": 120.0},
               "thermal_drift": {"coefficient": 0.003, "reference_temperature": 25.0},
               "static_nonlinearity": {"a2": 0.02, "a3": -0.01},
-              "time_offset": {"delay": 0.7}}.get(name)
+              "time_offset": {"delay": 0.7},
+              "transition_overshoot": {"amplitude": 0.06, "tau": 60.0},
+              "rate_independent_hysteresis": {"form": "play", "width": 0.3, "weight": 0.12},
+              "mullins_softening": {"form": "chord", "softening": 0.2}}.get(name)
     if name == "thermal_retardation":       # synth uses Arrhenius: match kappa at 25 C
         kappa = 0.05
         hidden = {"activation": kappa * (298.15 ** 2), "reference_temperature": 25.0}

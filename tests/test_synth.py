@@ -22,7 +22,7 @@ def test_same_seed_same_record_other_seed_other_record():
 
 
 @settings(max_examples=30)
-@given(st.sampled_from(synth.PROGRAMS), st.integers(0, 2**31 - 1), st.booleans())
+@given(st.sampled_from(synth.ALL_PROGRAMS), st.integers(0, 2**31 - 1), st.booleans())
 def test_programs_change_the_load_within_the_record(kind, seed, loaded):
     rng = np.random.default_rng(seed)
     prog = synth.make_program(kind, 1800.0, rng, 2.0, loaded, 45.0)

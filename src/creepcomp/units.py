@@ -153,10 +153,17 @@ def format_percent(x: float | None, digits: int = 3) -> str:
 
 def format_parameter(name: str, value: float | None) -> str:
     """A diagnosis parameter with its unit, by its name: times (``tau*``, ``delay``) in
-    seconds, ``beta`` in percent, ``rate`` per second, others as plain numbers."""
+    seconds, ``beta`` in percent, ``rate`` per second, others as plain numbers; a kind as it
+    is, and a list item by item (an interval ``[a, b]`` as ``a to b``)."""
+    if isinstance(value, str):
+        return value
+    if isinstance(value, (list, tuple)):
+        items = [" to ".join(format_parameter(name, v) for v in x) if isinstance(x, (list, tuple))
+                 else format_parameter(name, x) for x in value]
+        return ", ".join(items) if items else "-"
     if value is None or not math.isfinite(value):
         return "n/a"
-    if name.startswith("tau") or name == "delay":
+    if name.startswith("tau") or name in ("delay", "where", "slip"):
         return format_quantity(value, "s")
     if name == "beta":
         return format_percent(value)

@@ -132,8 +132,10 @@ def render_diagnosis(record, d: Diagnosis) -> None:
         for col in ("effect", "parameters (± 1 sigma)", "ΔBIC", "held-out RMS ratio", "held-out z"):
             t.add_column(col, justify="right" if col.startswith(("Δ", "held")) else "left")
         for f in d.findings:
-            params = "; ".join(f"{k} = {format_parameter(k, v)} ± {format_parameter(k, f.uncertainty.get(k, float('nan')))}"
-                               for k, v in f.parameters.items()) or "-"
+            params = "; ".join(f"{k} = {format_parameter(k, v)}" + (
+                "" if k in f.uncertainty and f.uncertainty[k] is None  # a kind or a screened problem
+                else f" ± {format_parameter(k, f.uncertainty.get(k, float('nan')))}")
+                for k, v in f.parameters.items()) or "-"
             t.add_row(f.effect, params, f"{f.evidence.delta_bic:.1f}", f"{f.evidence.heldout_rms_ratio:.3g}",
                       f"{f.evidence.heldout_z:.1f}")
         console.print(t)

@@ -280,10 +280,15 @@ def _heldout_sse(fit: Fit) -> float:
     return float(np.sum(fit.heldout.residual ** 2))
 
 
+def _plain(x):
+    """A reported value as JSON holds it: numbers as float, kinds and lists of times as they are."""
+    return x if x is None or isinstance(x, (str, list, tuple)) else float(x)
+
+
 def _finding(effect: Effect, applied: Applied, fit: Fit, evidence: Evidence, before: Fit) -> Finding:
     reported = effect.report(fit, applied)
-    params = {k: float(v[0]) for k, v in reported.items()}
-    sigma = {k: float(v[1]) for k, v in reported.items()}
+    params = {k: _plain(v[0]) for k, v in reported.items()}
+    sigma = {k: _plain(v[1]) for k, v in reported.items()}
     return Finding(effect.name, params, sigma, evidence, _heldout_sse(before) - _heldout_sse(fit), fit)
 
 
@@ -479,6 +484,11 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
             gain["correction_error_extended"] = corr["extended_rms"]
             if corr["ratio"] is not None and corr["ratio"] < CORRECTION_WORSE:
                 findings = _correction_notes(data, base, findings)
+    # data problems no model column undoes (clipping, channels out of step, coarse quantisation)
+    from creepcomp.diagnose.effects.data_problem import screen
+    for problem in screen(data, current):
+        findings.append(Finding("data_problem", problem, dict.fromkeys(problem), Evidence(float("nan"), float("nan"), float("nan")),
+                                0.0 if problem["kind"] == "quantisation" else float("inf")))
     findings = _ordered(findings, unexplained)
     return Diagnosis(data, base, current, tuple(findings), tuple(trials), catch, gain,
                      _time.perf_counter() - t_start, extended_model, baseline_model, corr, floor,

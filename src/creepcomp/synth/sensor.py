@@ -22,16 +22,49 @@ from creepcomp.lti import lag_states, varying_lag_states
 from creepcomp.programs import LoadProgram
 from creepcomp.synth.common import DETECTABLE_Z, NoiseSpec, heldout_z, sample_noise, scaled_noise
 
-__all__ = ["EFFECTS", "PROGRAMS", "PROGRAMS_FOR", "Spec", "Synthetic", "make_program", "sample_times",
+__all__ = ["EFFECTS", "FORMS", "DATA_PROBLEMS", "NO_TEMPLATE", "PROGRAMS", "ALL_PROGRAMS", "PROGRAMS_FOR", "Spec", "Synthetic", "make_program", "sample_times",
            "temperature_profile", "simulate_signal", "detectability", "generate", "random_hidden",
-           "random_spec", "random_record", "DEMO_SPEC", "write_demo_record", "reported_truth"]
+           "random_spec", "random_record", "DEMO_SPEC", "write_demo_record", "reported_truth", "play_loop",
+           "VISIBLE_RATIO"]
 
 #: Hidden effects the generator can put in a record.
 EFFECTS = ("extra_retardation", "viscous_flow", "nonlinear_creep", "asymmetric_recovery",
-           "thermal_drift", "thermal_retardation", "static_nonlinearity", "time_offset")
+           "thermal_drift", "thermal_retardation", "static_nonlinearity", "time_offset",
+           "transition_overshoot", "rate_independent_hysteresis", "mullins_softening")
 
-#: Kinds of load program :func:`make_program` draws.
+#: Formulations of each hidden effect (``form`` of :func:`random_spec`); the first is closest to
+#: the fitted template, the others are what a physicist would equally write down.
+FORMS = {
+    "extra_retardation": ("exponential", "spectrum"),      # one term; a log-normal band of terms
+    "viscous_flow": ("linear", "norton"),                  # Newtonian dashpot; power-law (Norton) flow
+    "nonlinear_creep": ("linear", "power", "time"),        # amplitude ~ load; ~ |load|^m; load-dependent time
+    "asymmetric_recovery": ("state", "direction"),         # switched by the state's magnitude; by the load's direction
+    "thermal_drift": ("linear", "lagged"),                 # offset ~ T; ~ T through the sensor's thermal lag
+    "thermal_retardation": ("arrhenius", "wlf"),           # shift factor Arrhenius; Williams-Landel-Ferry
+    "static_nonlinearity": ("poly", "tanh"),               # polynomial; saturating
+    "time_offset": ("delay", "average"),                   # a delay; a boxcar-averaging ADC (group delay)
+    "transition_overshoot": ("exponential", "stretched"),  # exp(-t/tau); exp(-(t/tau)^b)
+    "rate_independent_hysteresis": ("play", "distributed"),  # one play on the output; several on the load, before creep
+    "mullins_softening": ("chord", "damage"),              # linear reloading curve; tanh-shaped damage
+    "data_problem": ("jump", "clipping", "out_of_step", "quantisation"),
+}
+
+#: Kinds of ``data_problem`` the generator makes (its forms).
+DATA_PROBLEMS = FORMS["data_problem"]
+
+#: Records with effects no template describes (diagnosis must say ``unexplained``): a
+#: multiplicative sensitivity drift over time, a periodic disturbance, creep whose retardation
+#: time ages with the time since the last load change.
+NO_TEMPLATE = ("sensitivity_drift", "periodic_disturbance", "aging_retardation")
+
+#: No-template records keep their misfit visible: the part of their signature the baseline
+#: cannot absorb has at least this RMS relative to the noise (the noise is scaled down).
+VISIBLE_RATIO = 3.0
+
+#: Kinds of load program :func:`make_program` draws for any effect.
 PROGRAMS = ("step", "staircase", "sweep", "mixture", "random")
+#: Every kind :func:`make_program` makes: also cycles to rising levels (first-cycle effects).
+ALL_PROGRAMS = PROGRAMS + ("cycles",)
 
 
 @dataclass(frozen=True)
@@ -78,8 +111,9 @@ class Synthetic:
 def make_program(kind: str, duration: float, rng: np.random.Generator, full_scale: float = 1.0,
                  start_loaded: bool = False, tau: float = 45.0, start: float = 0.0,
                  unload: bool = False, one_sided: bool = False) -> LoadProgram:
-    """A random load program of a kind: ``step``, ``staircase``, ``sweep``, ``mixture`` or
-    ``random``, spanning ``duration`` from ``start``.
+    """A random load program of a kind: ``step``, ``staircase``, ``sweep``, ``mixture``,
+    ``random`` or ``cycles`` (to rising levels, each with a partial reload), spanning
+    ``duration`` from ``start``.
 
     With ``start_loaded`` the load is already at a level when the program starts (and has been
     for a random time, so creep is part-way), otherwise it starts at zero. ``unload``: a
@@ -157,8 +191,21 @@ def make_program(kind: str, duration: float, rng: np.random.Generator, full_scal
             else:
                 hold(loads[-1], min(t + length, t_end))
             t = times[-1] if times[-1] > t else t + length
+    elif kind == "cycles":
+        # load cycles to ever higher levels, each with a partial reload (first-cycle effects)
+        n = int(rng.integers(3, 6))
+        peaks = np.sort(rng.uniform(0.25, 1.0, n)) * fs * (1 if rng.uniform() < 0.7 else -1)
+        peaks[-1] = np.sign(peaks[-1]) * fs * rng.uniform(0.85, 1.0)
+        step = (t_end - t) / (4 * n + 0.5)
+        k = 0
+        for peak in peaks:
+            for level in (peak, 0.0, peak * rng.uniform(0.4, 0.8), 0.0):
+                if k:
+                    hold(loads[-1], t + k * step)
+                jump(float(level), t + k * step)
+                k += 1
     else:
-        raise InputError(f"load program '{kind}': use one of {', '.join(PROGRAMS)}")
+        raise InputError(f"load program '{kind}': use one of {', '.join(ALL_PROGRAMS)}")
     if times[-1] < t_end:
         hold(loads[-1], t_end)
     return LoadProgram(tuple(times), tuple(loads), f"{kind} program")
@@ -217,14 +264,26 @@ def _fine_grid(program: LoadProgram, t_samples: np.ndarray, spacing: float, dela
 
 def simulate_signal(spec: Spec, program: LoadProgram, t_samples: np.ndarray,
                     temperature_fn=None) -> np.ndarray:
-    """Noise-free signal at ``t_samples`` with the hidden effects (fine-grid simulation)."""
+    """Noise-free signal at ``t_samples`` with the hidden effects (fine-grid simulation;
+    data problems are added by :func:`generate`, to the noisy record)."""
     hidden = spec.hidden
     delay = float(hidden.get("time_offset", {}).get("delay", 0.0))
+    average = hidden.get("time_offset", {}).get("form") == "average"
+    if average:
+        delay = 0.0
     taus = list(spec.tau)
     betas = list(spec.beta)
     if "extra_retardation" in hidden:
-        taus.append(float(hidden["extra_retardation"]["tau"]))
-        betas.append(float(hidden["extra_retardation"]["beta"]))
+        p = hidden["extra_retardation"]
+        if p.get("form", "exponential") == "spectrum":
+            # a band of retardation times, log-normal weights over +-spread decades
+            grid_tau = float(p["tau"]) * 10.0 ** np.linspace(-p["spread"], p["spread"], 7)
+            w = np.exp(-0.5 * (np.linspace(-2.0, 2.0, 7)) ** 2)
+            taus += list(grid_tau)
+            betas += list(float(p["beta"]) * w / w.sum())
+        else:
+            taus.append(float(p["tau"]))
+            betas.append(float(p["beta"]))
     spacing = min(1.0 / spec.rate / 4.0, min(taus) / 40.0)
     grid = _fine_grid(program, t_samples, spacing, delay)
     # the load on the grid, with steps placed exactly: duplicate each breakpoint time
@@ -235,34 +294,161 @@ def simulate_signal(spec: Spec, program: LoadProgram, t_samples: np.ndarray,
         p = hidden["static_nonlinearity"]
         f = _static_function(p, fs)
         s_after, s_before = f(u_after), f(u_before)
+    if "mullins_softening" in hidden:
+        s_after, s_before = _mullins(hidden["mullins_softening"], u_after, u_before)
+    if hidden.get("rate_independent_hysteresis", {}).get("form") == "distributed":
+        # friction in the mechanics: several plays on the load, before creep
+        p = hidden["rate_independent_hysteresis"]
+        extra = p["weight"] / spec.gain * _plays(p, u_after, u_before)
+        s_after, s_before = s_after + extra[1], s_before + extra[0]
     h_after, h_before = s_after, s_before
-    if "nonlinear_creep" in hidden:
+    if "nonlinear_creep" in hidden and hidden["nonlinear_creep"].get("form", "linear") != "time":
         g = _creep_function(hidden["nonlinear_creep"], fs)
         h_after, h_before = g(s_after), g(s_before)
     temp = temperature_fn(grid) if temperature_fn is not None else None
     init = np.full(len(taus), h_after[0])
     lags = lag_states(grid, h_after, taus, hold="linear", initial=init, u_before=h_before)
+    factor = np.ones((len(grid) - 1, 1))
+    varying = False
     if "thermal_retardation" in hidden:
         p = hidden["thermal_retardation"]
-        tk = 0.5 * (temp[:-1] + temp[1:]) + 273.15
-        tref = p["reference_temperature"] + 273.15
-        factor = np.exp(p["activation"] * (1.0 / tk - 1.0 / tref))[:, None]
+        tm = 0.5 * (temp[:-1] + temp[1:])
+        if p.get("form", "arrhenius") == "wlf":
+            dT = tm - p["reference_temperature"]
+            factor = factor * (10.0 ** (-p["c1"] * dT / (p["c2"] + dT)))[:, None]
+        else:
+            tk = tm + 273.15
+            tref = p["reference_temperature"] + 273.15
+            factor = factor * np.exp(p["activation"] * (1.0 / tk - 1.0 / tref))[:, None]
+        varying = True
+    if hidden.get("nonlinear_creep", {}).get("form") == "time":
+        # creep that runs faster under a higher load (stress-accelerated retardation)
+        hm = 0.5 * (np.abs(h_after[:-1]) + np.abs(h_before[1:]))
+        factor = factor / (1.0 + hidden["nonlinear_creep"]["acceleration"] * hm / fs)[:, None]
+        varying = True
+    if "aging_retardation" in hidden:
+        factor = factor * _aging_factor(grid, u_after, hidden["aging_retardation"]["age"])[:, None]
+        varying = True
+    if varying:
         # steps at grid points: varying_lag_states takes the value after; a step inside a
         # fine step is at most one fine step late, which the fine spacing makes negligible
         lags = varying_lag_states(grid, h_after, np.array(taus)[None, :] * factor, hold="linear",
                                   initial=init)
     if "asymmetric_recovery" in hidden:
-        lags[:, 0] = _asymmetric_lag(grid, h_before, h_after, taus[0],
-                                     hidden["asymmetric_recovery"]["tau_recovery"], h_after[0])
+        p = hidden["asymmetric_recovery"]
+        if p.get("form", "state") == "direction":
+            lags[:, 0] = _direction_lag(grid, h_before, h_after, taus[0], p["tau_recovery"], h_after[0])
+        else:
+            lags[:, 0] = _asymmetric_lag(grid, h_before, h_after, taus[0], p["tau_recovery"], h_after[0])
     y = s_after + lags @ np.array(betas)
     if "viscous_flow" in hidden:
-        steps = 0.5 * (s_after[:-1] + s_before[1:]) * np.diff(grid)
-        y = y + hidden["viscous_flow"]["rate"] * np.concatenate([[0.0], np.cumsum(steps)])
+        p = hidden["viscous_flow"]
+        drive_a, drive_b = s_after, s_before
+        if p.get("form", "linear") == "norton":
+            n = p["exponent"]
+            drive_a = s_after * np.abs(s_after / fs) ** (n - 1.0)
+            drive_b = s_before * np.abs(s_before / fs) ** (n - 1.0)
+        steps = 0.5 * (drive_a[:-1] + drive_b[1:]) * np.diff(grid)
+        y = y + p["rate"] * np.concatenate([[0.0], np.cumsum(steps)])
     y = spec.offset + spec.gain * y
     if "thermal_drift" in hidden:
         p = hidden["thermal_drift"]
-        y = y + p["coefficient"] * (temp - p["reference_temperature"])
-    return np.interp(t_samples - delay, grid, y)
+        dT = temp - p["reference_temperature"]
+        if p.get("form", "linear") == "lagged":
+            dT = lag_states(grid, dT, [p["lag"]], hold="linear", initial="settled")[:, 0]
+        y = y + p["coefficient"] * dT
+    p = hidden.get("rate_independent_hysteresis")
+    if p is not None and p.get("form", "play") == "play":
+        y = y + p["weight"] * _plays(p, u_after, u_before)[1]
+    if "sensitivity_drift" in hidden:
+        rel = (grid - t_samples[0]) / max(t_samples[-1] - t_samples[0], 1e-12)
+        y = spec.offset + (y - spec.offset) * (1.0 + hidden["sensitivity_drift"]["change"] * rel)
+    if "periodic_disturbance" in hidden:
+        p = hidden["periodic_disturbance"]
+        y = y + p["amplitude"] * np.sin(2 * np.pi * grid / p["period"] + p["phase"])
+    out = np.interp(t_samples - delay, grid, y)
+    if "transition_overshoot" in hidden:
+        out = out + _overshoot(hidden["transition_overshoot"], program, t_samples)
+    if average:
+        k = int(hidden["time_offset"]["samples"])
+        out = np.mean([np.interp(t_samples - j / spec.rate, grid, y) for j in range(k)], axis=0)
+        if "transition_overshoot" in hidden:
+            out = out + _overshoot(hidden["transition_overshoot"], program, t_samples)
+    return out
+
+
+def play_loop(x, width: float, initial: float = 0.0) -> np.ndarray:
+    """A play (backlash) operator of dead-band ``width``, stepped sample by sample."""
+    r = 0.5 * width
+    y, out = initial, []
+    for v in np.asarray(x, float).tolist():
+        y = min(max(y, v - r), v + r)
+        out.append(y)
+    return np.array(out)
+
+
+def _plays(p: dict, u_after, u_before) -> np.ndarray:
+    """Mean of ``play(u) - u`` over the hidden operators' widths, before and after each grid
+    time (shape (2, N)); the grid holds every breakpoint, so the plays are exact there."""
+    widths = [p["width"]] if p.get("form", "play") == "play" else \
+        list(p["width"] * np.linspace(1.0 - p["spread"], 1.0 + p["spread"], 5))
+    # interleave before/after values so that steps at grid points are followed exactly
+    x = np.column_stack([u_before, u_after]).ravel()
+    acc = np.zeros_like(x)
+    for w in widths:
+        acc += play_loop(x, w) - x
+    acc /= len(widths)
+    return acc.reshape(-1, 2).T
+
+
+def _mullins(p: dict, u_after, u_before):
+    """Instantaneous response with first-cycle softening below the largest |load| so far."""
+    x = np.column_stack([u_before, u_after]).ravel()
+    m = np.maximum.accumulate(np.abs(x))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        r = np.where(m > 0, np.abs(x) / m, 1.0)
+    sigma = p["softening"]
+    if p.get("form", "chord") == "damage":
+        b = p["shape"]
+        factor = 1.0 - sigma * np.tanh((1.0 - r) / b) / np.tanh(1.0 / b)
+    else:
+        factor = 1.0 - sigma * (1.0 - r)
+    s = (x * factor).reshape(-1, 2).T
+    return s[1], s[0]
+
+
+def _aging_factor(grid, u, age: float) -> np.ndarray:
+    """Factor on the retardation time over each fine step: ``1 + (time since the last load
+    change) / age`` (the material stiffens as it rests under a load)."""
+    changed = np.concatenate([[True], np.abs(np.diff(u)) > 0])
+    last = np.maximum.accumulate(np.where(changed, np.arange(len(grid)), 0))
+    since = grid - grid[last]
+    return 1.0 + 0.5 * (since[:-1] + since[1:]) / age
+
+
+def _overshoot(p: dict, program: LoadProgram, t: np.ndarray) -> np.ndarray:
+    """Sum over the program's load changes of ``amplitude |dL| g(t - t_change)``; ramps are
+    cut into 32 changes each. ``g``: exp(-x/tau) or, stretched, exp(-(x/tau)^b)."""
+    bt, bu = np.array(program.times), np.array(program.loads)
+    times, sizes = [], []
+    for k in range(len(bt) - 1):
+        du = bu[k + 1] - bu[k]
+        if du == 0:
+            continue
+        if bt[k + 1] == bt[k]:
+            times.append(bt[k])
+            sizes.append(abs(du))
+        else:
+            pieces = 32
+            times += list(bt[k] + (np.arange(pieces) + 0.5) / pieces * (bt[k + 1] - bt[k]))
+            sizes += [abs(du) / pieces] * pieces
+    out = np.zeros(len(t))
+    tau, b = p["tau"], p.get("exponent", 1.0) if p.get("form") == "stretched" else 1.0
+    for tj, sj in zip(times, sizes):
+        after = t >= tj
+        x = (t[after] - tj) / tau
+        out[after] += p["amplitude"] * sj * np.exp(-x ** b)
+    return out
 
 
 def _static_function(p: dict, fs: float):
@@ -297,8 +483,29 @@ def _asymmetric_lag(grid, h_before, h_after, tau: float, tau_recovery: float, c0
         out.append(c)
     return np.array(out)
 
+def _direction_lag(grid, h_before, h_after, tau: float, tau_recovery: float, c0: float) -> np.ndarray:
+    """A lag that runs with ``tau_recovery`` from a fall of the load's magnitude until the
+    next rise, with ``tau`` otherwise (the mode switched by the load's direction)."""
+    t = grid.tolist()
+    hb, ha = h_before.tolist(), h_after.tolist()
+    out = [c0]
+    c, recovering = c0, False
+    for n in range(len(t) - 1):
+        # the load's last move, up to this step
+        for a, b in ((hb[n], ha[n]), (ha[n], hb[n + 1])):
+            if abs(b) < abs(a):
+                recovering = True
+            elif abs(b) > abs(a):
+                recovering = False
+        target = 0.5 * (ha[n] + hb[n + 1])
+        step = (t[n + 1] - t[n]) / (tau_recovery if recovering else tau)
+        c = target + (c - target) * math.exp(-step)
+        out.append(c)
+    return np.array(out)
+
+
 def detectability(spec: Spec, program: LoadProgram, t: np.ndarray, temperature_fn,
-                  clean: np.ndarray, noise: np.ndarray) -> float:
+                  clean: np.ndarray, noise: np.ndarray, with_rest: bool = False):
     """How far the hidden effects stand out of the noise: the held-out ``z`` (see
     :func:`creepcomp.fit.evidence.compare`) that the part of their signature the baseline cannot
     absorb would give with every parameter known. The signature (the noise-free record with
@@ -306,14 +513,77 @@ def detectability(spec: Spec, program: LoadProgram, t: np.ndarray, temperature_f
     values (offset, load, the lag, its derivative in tau, a free initial creep state); ``z``
     is its energy over twice the spread of its product with the noise (noise spectrum from
     ``noise``)."""
-    signature = clean - simulate_signal(replace(spec, hidden={}), program, t, temperature_fn)
+    plain = {k: v for k, v in spec.hidden.items() if k == "data_problem"}
+    signature = clean - simulate_signal(replace(spec, hidden=plain), program, t, temperature_fn)
     u = program.sample(t)
     tau = spec.tau[0]
     lag, lag_up = lag_states(t, u, [tau, 1.01 * tau], initial=np.full(2, u[0])).T
     directions = np.column_stack([np.ones_like(t), u, lag, (lag_up - lag) / 0.01,
                                   np.exp(-(t - t[0]) / tau)])
     coef, *_ = np.linalg.lstsq(directions, signature, rcond=None)
-    return heldout_z(signature - directions @ coef, noise)
+    rest = signature - directions @ coef
+    z = heldout_z(rest, noise)
+    return (z, rest) if with_rest else z
+
+
+def _baseline_misfit(t, load, clean, terms: int = 1) -> float:
+    """RMS residual of the baseline (one creep term, free initial state; or ``terms`` = 2 creep
+    terms) fitted to a noise-free record."""
+    from creepcomp.fit.data import prepare
+    from creepcomp.fit.solver import fit_structure
+    from creepcomp.fit.starts import extra_term_starts, one_term_starts
+    from creepcomp.fit.structure import Structure
+
+    data = prepare(Record(t, load, clean, source="noise-free record"))
+    fit = fit_structure(data, Structure(1), one_term_starts(data), with_cov=False)
+    if terms == 2:
+        two = Structure(2)
+        fit = fit_structure(data, two, extra_term_starts(data, fit, two), with_cov=False)
+    return fit.residual_rms
+
+
+def _quiet_indices(load: np.ndarray, margin: int) -> np.ndarray:
+    """Samples with no load change within ``margin`` samples either side."""
+    changed = np.concatenate([[False], np.diff(load) != 0])
+    near = np.convolve(changed.astype(float), np.ones(2 * margin + 1), mode="same") > 0
+    return np.flatnonzero(~near[margin:len(load) - margin]) + margin
+
+
+def _data_problem(p: dict, t, load, signal, clean, rng):
+    """The record with a data problem of kind ``p["form"]``, and the problem's truth (kind,
+    where)."""
+    kind = p.get("form", "jump")
+    y = signal.copy()
+    span = float(np.ptp(clean)) or 1.0
+    if kind == "jump":
+        quiet = _quiet_indices(load, 12)
+        quiet = quiet[(quiet > 0.1 * len(t)) & (quiet < 0.9 * len(t))]
+        at = np.sort(rng.choice(quiet, size=min(int(p.get("count", 1)), len(quiet)), replace=False))
+        sizes = []
+        for i in at:
+            size = float(rng.choice([-1, 1]) * p["size"] * span)
+            y[i:] += size
+            sizes.append(size)
+        return y, {"form": kind, "kind": kind, "where": [float(t[i]) for i in at], "size": sizes}
+    if kind == "clipping":
+        level = float(np.max(clean) - p["fraction"] * span)
+        y = np.minimum(y, level)
+        at = np.flatnonzero(y >= level)
+        return y, {"form": kind, "kind": kind, "level": level,
+                   "where": [float(t[at[0]]), float(t[at[-1]])] if len(at) else []}
+    if kind == "out_of_step":
+        # the signal channel repeats ``slip`` samples at one instant: later than the load after it
+        quiet = _quiet_indices(load, 12)
+        quiet = quiet[(quiet > 0.35 * len(t)) & (quiet < 0.65 * len(t))]
+        i = int(rng.choice(quiet))
+        k = int(p["slip"])
+        y = np.concatenate([y[:i], np.repeat(y[i], k), y[i:len(y) - k]])
+        return y, {"form": kind, "kind": kind, "where": [float(t[i])], "slip": k * float(np.median(np.diff(t)))}
+    if kind == "quantisation":
+        q = float(p["step"])
+        return np.round(signal / q) * q, {"form": kind, "kind": kind, "where": [float(t[0]), float(t[-1])],
+                                          "step": q}
+    raise InputError(f"data problem '{kind}': use one of {', '.join(DATA_PROBLEMS)}")
 
 
 def generate(spec: Spec) -> Synthetic:
@@ -327,7 +597,9 @@ def generate(spec: Spec) -> Synthetic:
     """
     rng = np.random.default_rng(spec.seed)
     program = make_program(spec.program, spec.duration, rng, spec.full_scale, spec.start_loaded,
-                           max(spec.tau), spec.start, unload="asymmetric_recovery" in spec.hidden,
+                           max(abs(t) for t in spec.tau), spec.start,
+                           unload=bool({"asymmetric_recovery", "transition_overshoot", "data_problem"}
+                                       & set(spec.hidden)),
                            one_sided="viscous_flow" in spec.hidden)
     t = sample_times(spec.duration, spec.rate, rng, spec.jitter, spec.gaps, spec.start)
     needs_temp = spec.temperature or any(k.startswith("thermal") for k in spec.hidden)
@@ -339,17 +611,30 @@ def generate(spec: Spec) -> Synthetic:
     spec = replace(spec, hidden=hidden)
     clean = simulate_signal(spec, program, t, temp_fn)
     noise = sample_noise(t, spec.noise, rng)
-    if spec.hidden and spec.detectable_z > 0:
-        z = detectability(spec, program, t, temp_fn, clean, noise)
-        if z < spec.detectable_z:
+    physical = {k: v for k, v in spec.hidden.items() if k != "data_problem"}
+    if physical and spec.detectable_z > 0:
+        z, rest = detectability(spec, program, t, temp_fn, clean, noise, with_rest=True)
+        f = min(1.0, z / spec.detectable_z)
+        if set(physical) & set(NO_TEMPLATE):
+            # and visible against the noise floor: the baseline fitted to the noise-free record
+            # misses it by VISIBLE_RATIO times the noise's RMS
+            # (aging creep against two creep terms: one further term must not absorb it either)
+            rms_rest = _baseline_misfit(t, program.sample(t), clean,
+                                        terms=2 if "aging_retardation" in physical else 1)
+            rms_noise = float(np.std(noise))
+            if rms_noise > 0:
+                f = min(f, rms_rest / (VISIBLE_RATIO * rms_noise))
+        if f < 1.0:
             # the same noise realisation, scaled (every component is linear in its size)
-            f = z / spec.detectable_z
             noise = noise * f
             spec = replace(spec, noise=scaled_noise(spec.noise, f))
     signal = clean + noise
     if spec.noise.lsb > 0:
         signal = np.round(signal / spec.noise.lsb) * spec.noise.lsb
     load = program.sample(t)
+    if "data_problem" in spec.hidden:
+        signal, problem = _data_problem(spec.hidden["data_problem"], t, load, signal, clean, rng)
+        spec = replace(spec, hidden={**spec.hidden, "data_problem": problem})
     metadata = {"units.load": "N", "units.signal": "V", "synth.seed": str(spec.seed),
                 "synth.program": spec.program}
     temperature = temp_fn(t) if needs_temp else None
@@ -372,16 +657,29 @@ PROGRAMS_FOR = {
     "thermal_retardation": ("staircase", "mixture", "random", "sweep"),
     "static_nonlinearity": ("staircase", "sweep", "mixture", "random"),
     "time_offset": ("staircase", "step", "mixture", "random", "sweep"),
+    "transition_overshoot": ("staircase", "step", "random", "cycles"),
+    "rate_independent_hysteresis": ("sweep", "staircase", "mixture", "cycles"),
+    "mullins_softening": ("cycles",),
+    "data_problem": ("staircase", "step", "cycles"),
+    "sensitivity_drift": ("staircase", "step", "mixture", "random", "sweep", "cycles"),
+    "periodic_disturbance": ALL_PROGRAMS,
+    "aging_retardation": ("staircase", "step", "cycles"),
     None: PROGRAMS,
 }
 
 
 def random_hidden(effect: str | None, rng: np.random.Generator, tau: float, rate: float,
-                  duration: float, beta: float, forms: bool = True, signal_scale: float = 1.0) -> dict:
+                  duration: float, beta: float, forms: bool = True, signal_scale: float = 1.0,
+                  form: str | None = None, gain: float = 1.0) -> dict:
     """Random parameters of a hidden effect, at sizes a designer would care about
-    (``signal_scale``: the full-scale signal, for effects in signal units)."""
+    (``signal_scale``: the full-scale signal, for effects in signal units; ``gain``: signal per
+    load unit). ``form``: one of :data:`FORMS` (default: the fitted template's, with the old
+    effects' random mixture of forms when ``forms``)."""
     if effect is None:
         return {}
+    if form is not None or effect in ("transition_overshoot", "rate_independent_hysteresis",
+                                      "mullins_softening", "data_problem") or effect in NO_TEMPLATE:
+        return {effect: _formulated(effect, form, rng, tau, rate, duration, beta, signal_scale, gain)}
     if effect == "extra_retardation":
         slow = tau * rng.uniform(4.0, 12.0)
         fast = tau / rng.uniform(4.0, 12.0)
@@ -417,12 +715,93 @@ def random_hidden(effect: str | None, rng: np.random.Generator, tau: float, rate
     raise InputError(f"unknown effect '{effect}' (known: {', '.join(EFFECTS)})")
 
 
+def _formulated(effect: str, form: str | None, rng, tau, rate, duration, beta, signal_scale, gain) -> dict:
+    """Random parameters of ``effect`` in the formulation ``form`` (first of :data:`FORMS` by default)."""
+    if effect in NO_TEMPLATE:
+        if effect == "sensitivity_drift":          # the gain changes by 2 ... 6 % over the record
+            return {"change": float(rng.choice([-1, 1]) * rng.uniform(0.02, 0.06))}
+        if effect == "periodic_disturbance":       # a slow pick-up, 0.2 ... 1 % of full scale
+            return {"amplitude": float(rng.uniform(0.002, 0.01) * signal_scale),
+                    "period": float(rng.uniform(0.04, 0.15) * duration), "phase": float(rng.uniform(0, 2 * np.pi))}
+        return {"age": float(tau * rng.uniform(0.5, 2.0))}       # aging_retardation
+    forms_of = FORMS.get(effect)
+    if forms_of is None:
+        raise InputError(f"unknown effect '{effect}' (known: {', '.join(EFFECTS + ('data_problem',) + NO_TEMPLATE)})")
+    form = form or forms_of[0]
+    if form not in forms_of:
+        raise InputError(f"{effect}: unknown form '{form}' (known: {', '.join(forms_of)})")
+    out = {"form": form}
+    if effect == "extra_retardation":
+        out.update(random_hidden(effect, rng, tau, rate, duration, beta, False)[effect])
+        if form == "spectrum":
+            out["spread"] = float(rng.uniform(0.15, 0.35))
+    elif effect == "viscous_flow":
+        out["rate"] = float(beta * rng.uniform(0.5, 3.0) / duration)
+        if form == "norton":
+            out["exponent"] = float(rng.uniform(1.5, 3.0))
+    elif effect == "nonlinear_creep":
+        if form == "linear":
+            out["growth"] = float(rng.uniform(0.6, 2.0))
+        elif form == "power":
+            out["exponent"] = float(rng.uniform(1.5, 2.5))
+        else:
+            out["acceleration"] = float(rng.uniform(1.0, 3.0))
+    elif effect == "asymmetric_recovery":
+        f = rng.uniform(2.5, 5.0)
+        out["tau_recovery"] = float(tau * (f if rng.uniform() < 0.5 else 1 / f))
+    elif effect == "thermal_drift":
+        out["coefficient"] = float(rng.choice([-1, 1]) * rng.uniform(2e-4, 1e-3) * signal_scale)
+        if form == "lagged":
+            out["lag"] = float(rng.uniform(0.01, 0.05) * duration)
+    elif effect == "thermal_retardation":
+        if form == "wlf":
+            out.update(c1=float(rng.uniform(8.0, 17.0)), c2=float(rng.uniform(50.0, 120.0)))
+        else:
+            out["activation"] = float(rng.uniform(60e3, 150e3) / 8.314)
+    elif effect == "static_nonlinearity":
+        if form == "tanh":
+            out["saturation"] = float(rng.uniform(0.15, 0.35))
+        else:
+            out.update(a2=float(rng.choice([-1, 1]) * rng.uniform(0.005, 0.02)),
+                       a3=float(rng.choice([-1, 1]) * rng.uniform(0.0, 0.02)))
+    elif effect == "time_offset":
+        if form == "average":
+            k = int(rng.integers(3, 9))
+            out.update(samples=k, delay=float((k - 1) / 2.0 / rate))
+        else:
+            out["delay"] = float(rng.uniform(2.0, 10.0) / rate)
+    elif effect == "transition_overshoot":
+        # 2 ... 8 % of the change, decaying 3 ... 30 times faster than the creep
+        out.update(amplitude=float(rng.choice([-1, 1], p=[0.3, 0.7]) * rng.uniform(0.02, 0.08) * abs(gain)),
+                   tau=float(max(tau / rng.uniform(3.0, 30.0), 8.0 / rate)))
+        if form == "stretched":
+            out["exponent"] = float(rng.uniform(0.6, 0.85))
+    elif effect == "rate_independent_hysteresis":
+        out.update(width=float(rng.uniform(0.05, 0.25) * signal_scale / abs(gain)),
+                   weight=float(rng.choice([-1, 1], p=[0.2, 0.8]) * rng.uniform(0.03, 0.1) * gain))
+        if form == "distributed":
+            out["spread"] = float(rng.uniform(0.3, 0.7))
+    elif effect == "mullins_softening":
+        out["softening"] = float(rng.uniform(0.1, 0.3))
+        if form == "damage":
+            out["shape"] = float(rng.uniform(0.2, 0.6))
+    elif effect == "data_problem":
+        if form == "jump":
+            out.update(size=float(rng.uniform(0.005, 0.03)), count=int(rng.integers(1, 4)))
+        elif form == "clipping":
+            out["fraction"] = float(rng.uniform(0.03, 0.1))
+        elif form == "out_of_step":
+            out["slip"] = int(rng.integers(2, 7))
+    return out
+
+
 def random_spec(effect: str | None, seed: int, rate: tuple = (2.0, 50.0),
                 duration: tuple = (900.0, 3600.0), noise: tuple = (2e-4, 2e-3),
                 irregular: float = 0.3, coloured: float = 0.3, drift: float = 0.2,
                 start_loaded: float = 0.2, forms: bool = True, programs=None,
                 max_samples: int | None = None, colour_scale: float = 1.0,
-                detectable_z: float = DETECTABLE_Z) -> Spec:
+                detectable_z: float = DETECTABLE_Z, form: str | None = None,
+                relaxation: bool = False) -> Spec:
     """A randomised :class:`Spec` hiding ``effect`` (None: a clean record).
 
     Parameters
@@ -450,9 +829,15 @@ def random_spec(effect: str | None, seed: int, rate: tuple = (2.0, 50.0),
         Multiplies the coloured noise and the drift (the wide benchmark uses 2).
     detectable_z : float
         The hidden effect's least :func:`detectability` (the noise is scaled down to reach it).
+    form : str, optional
+        Formulation of the hidden effect (:data:`FORMS`; for ``data_problem`` its kind).
+    relaxation : bool
+        The sensor relaxes (read under imposed displacement): beta < 0, and so has a hidden
+        further term.
     """
-    if effect is not None and effect not in EFFECTS:
-        raise InputError(f"unknown effect '{effect}' (known: {', '.join(EFFECTS)})")
+    known = EFFECTS + ("data_problem",) + NO_TEMPLATE
+    if effect is not None and effect not in known:
+        raise InputError(f"unknown effect '{effect}' (known: {', '.join(known)})")
     rng = np.random.default_rng(seed)
     r = float(np.exp(rng.uniform(np.log(rate[0]), np.log(rate[1]))))
     dur = float(rng.uniform(*duration))
@@ -469,8 +854,17 @@ def random_spec(effect: str | None, seed: int, rate: tuple = (2.0, 50.0),
                   drift=white * rng.uniform(0.2, 1.0) * colour_scale if rng.uniform() < drift else 0.0,
                   lsb=white * rng.uniform(0.1, 1.0) if rng.uniform() < 0.3 else 0.0)
     choices = list(programs or PROGRAMS_FOR[effect])
+    if effect == "data_problem" and form == "out_of_step" and not programs:
+        # a slip shows as a change of delay between load steps: programs with many of them
+        choices = ["staircase", "cycles"]
     irregular_now = rng.uniform() < irregular
-    hidden = random_hidden(effect, rng, tau, r, dur, beta, forms, abs(gain) * fs)
+    hidden = random_hidden(effect, rng, tau, r, dur, beta, forms, abs(gain) * fs, form, gain)
+    if effect == "data_problem" and hidden[effect]["form"] == "quantisation":
+        hidden[effect]["step"] = float(n.white * rng.uniform(5.0, 12.0))
+    if relaxation:
+        beta = -beta
+        if effect == "extra_retardation":
+            hidden[effect]["beta"] = -abs(hidden[effect]["beta"])
     if effect == "extra_retardation" and hidden[effect]["tau"] < tau and len(choices) > 1:
         # a fast further term shows after load steps, hardly in a slow sweep
         choices = [c for c in choices if c != "sweep"]
@@ -520,6 +914,14 @@ def reported_truth(synthetic: Synthetic) -> dict:
             out[name] = {"coefficient": p["coefficient"]}
         elif name == "time_offset":
             out[name] = {"delay": p["delay"]}
+        elif name == "transition_overshoot":
+            out[name] = {"amplitude": p["amplitude"], "tau": p["tau"]}
+        elif name == "rate_independent_hysteresis":
+            out[name] = {"width": p["width"], "weight": p["weight"]}
+        elif name == "mullins_softening":
+            out[name] = {"softening": p["softening"]}
+        elif name == "data_problem":
+            out[name] = {"kind": p["kind"], "where": p["where"]}
         else:
             out[name] = {}
     return out

@@ -185,7 +185,9 @@ REGISTRY: dict[str, Effect] = _discover()
 
 #: Order in which sensor-side effects are listed (contract vocabulary first).
 SENSOR_ORDER = ("extra_retardation", "viscous_flow", "nonlinear_creep", "asymmetric_recovery",
-                "thermal_drift", "thermal_retardation", "static_nonlinearity", "time_offset")
+                "thermal_drift", "thermal_retardation", "static_nonlinearity", "time_offset",
+                "transition_overshoot", "rate_independent_hysteresis", "mullins_softening",
+                "data_problem")
 
 
 def sensor_effects() -> list[Effect]:

@@ -1,8 +1,11 @@
-"""``nonlinear_creep``: the creep amplitude grows with the load level.
+"""``nonlinear_creep``: creep that depends on the load level.
 
 Model: the creep terms are driven by ``s (1 + growth |s| / load_scale)`` instead of ``s``,
 i.e. each ``beta_k`` becomes ``beta_k (1 + growth |s| / load_scale)``: ``growth`` is the
-relative increase of creep at full-scale load (``load_scale``, the record's largest |load|).
+relative increase of creep at full-scale load (``load_scale``, the record's largest |load|);
+and their retardation times are ``tau_k / (1 + acceleration |h| / load_scale)`` (creep that
+runs faster under a higher load: ``acceleration`` is the relative increase of the rate at
+full scale; 0 in model files that do not give it).
 """
 
 from __future__ import annotations
@@ -19,32 +22,41 @@ __all__ = ["NonlinearCreep", "EFFECT"]
 
 class NonlinearCreep(Effect):
     name = "nonlinear_creep"
-    parameters = ("growth",)
-    summary = "creep amplitude that grows with the load level"
+    parameters = ("growth", "acceleration")
+    changes_lags = True
+    summary = "creep whose amplitude or speed depends on the load level"
 
     def settings(self, data: Data, base: Fit) -> tuple:
         return (("load_scale", data.load_scale),)
 
     def nonlinear_params(self, data, applied):
-        return [Param("growth", -0.95, 50.0, scale=0.1)]
+        return [Param("growth", -0.95, 50.0, scale=0.1), Param("acceleration", -0.9, 20.0, scale=0.1)]
 
     def starts(self, data, base, applied):
-        return [{"growth": g} for g in (-0.5, 0.0, 0.5, 2.0)]
+        return [{"growth": g, "acceleration": 0.0} for g in (-0.5, 0.0, 0.5, 2.0)] + \
+            [{"growth": 0.0, "acceleration": a} for a in (1.0, 3.0)]
 
     def creep_input(self, data, h, p, applied):
         return h * (1.0 + p["growth"] * np.abs(h) / applied.setting("load_scale"))
 
+    def tau_factor(self, data, h, lags, taus, p, applied):
+        level = 0.5 * (np.abs(h[:-1]) + np.abs(h[1:])) / applied.setting("load_scale")
+        return np.repeat((1.0 / (1.0 + p.get("acceleration", 0.0) * level))[:, None], len(taus), axis=1)
+
     def report(self, fit: Fit, applied: Applied) -> dict:
         return {"growth": fit.estimate(lambda v: v["nonlinear_creep.growth"]),
+                "acceleration": fit.estimate(lambda v: v["nonlinear_creep.acceleration"]),
                 "load_scale": (applied.setting("load_scale"), 0.0)}
 
     def extension(self, fit: Fit, applied: Applied) -> dict:
         return {"growth": fit.values["nonlinear_creep.growth"],
+                "acceleration": fit.values["nonlinear_creep.acceleration"],
                 "load_scale": applied.setting("load_scale")}
 
     def restore(self, entry, model, data):
         return (Applied(self, (("load_scale", float(entry["load_scale"])),)),
-                {"nonlinear_creep.growth": float(entry["growth"])})
+                {"nonlinear_creep.growth": float(entry["growth"]),
+                 "nonlinear_creep.acceleration": float(entry.get("acceleration", 0.0))})
 
 
 EFFECT = NonlinearCreep()

@@ -1,0 +1,231 @@
+"""``data_problem``: the record itself is at fault.
+
+Four kinds, each found with ``where`` it is (times, s):
+
+- ``jump``: the signal steps where no load change explains it (a connector, a range switch,
+  a re-zeroed amplifier). Fitted: candidate times are found in the current model's residual
+  (a change of the local mean, ``JUMP_Z`` standard errors, away from load changes); each
+  gets a step column whose height is fitted, and the evidence (BIC and held-out prediction)
+  decides like for any effect. ``where``: the first sample after each jump; ``size``: the
+  heights (signal units).
+- ``clipping``: the signal sits at its largest or smallest value while the model says it
+  should go beyond (an amplifier or ADC at its rail). ``where``: [first, last] time of each
+  clipped run.
+- ``out_of_step``: the signal and load channels slip against each other part-way through
+  (a dropped or repeated sample in one channel): the delay between the load's changes and
+  the signal's changes is not the same before and after. ``where``: the interval in which
+  the slip happened; ``slip``: its size (s, signal later than load positive).
+- ``quantisation``: the signal's value grid is coarser than its noise (the quantisation's
+  step^2/12 is at least half the noise floor's variance): creep and effects smaller than a step are not measured.
+  ``where``: the record's span; ``step``: the grid step.
+
+The last three are screened from the record and the fitted model (:func:`screen`), not
+fitted: no column of a model can undo them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from creepcomp.errors import InputError
+from creepcomp.fit.data import Data
+from creepcomp.fit.noise import noise_floor, quantisation_step
+from creepcomp.fit.structure import Applied
+from creepcomp.fit.solver import Fit
+from creepcomp.diagnose.effects import Effect
+
+__all__ = ["JUMP_Z", "JUMP_WINDOW", "find_jumps", "screen", "DataProblem", "EFFECT"]
+
+#: Least size of a candidate jump in standard errors of the difference of local means.
+JUMP_Z = 8.0
+#: Samples on each side of a candidate jump whose means are compared.
+JUMP_WINDOW = 6
+#: A jump is explained by the load when the load moves by more than this fraction of full
+#: scale within the compared windows.
+LOAD_QUIET = 0.01
+#: Most jumps fitted.
+MAX_JUMPS = 10
+
+
+def _robust_sigma(x: np.ndarray) -> float:
+    d = np.diff(x)
+    return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0)) if len(d) else 0.0
+
+
+def find_jumps(data: Data, residual: np.ndarray, z: float = JUMP_Z, w: int = JUMP_WINDOW) -> list[int]:
+    """Indices of the first samples after steps of the residual's local mean that no load change
+    explains (largest first, at most :data:`MAX_JUMPS`, at least ``2 w`` apart)."""
+    r = np.asarray(residual, float)
+    n = len(r)
+    if n < 4 * w:
+        return []
+    sigma = _robust_sigma(r)
+    if sigma <= 0:
+        return []
+    c = np.concatenate([[0.0], np.cumsum(r)])
+    i = np.arange(w, n - w + 1)
+    d = (c[i + w] - c[i]) / w - (c[i] - c[i - w]) / w
+    score = np.abs(d) / (sigma * np.sqrt(2.0 / w))
+    # the load must be quiet around the jump
+    x = data.load
+    scale = data.load_scale
+    from numpy.lib.stride_tricks import sliding_window_view
+    win = sliding_window_view(x, 2 * w + 2)
+    moving = np.ptp(win, axis=1) > LOAD_QUIET * scale      # window starting at j covers j..j+2w+1
+    quiet = np.zeros(len(i), bool)
+    starts = i - w - 1
+    ok = (starts >= 0) & (starts < len(moving))
+    quiet[ok] = ~moving[starts[ok]]
+    # gaps in the sampling are not jumps of the signal's level between neighbours either
+    seg = data.segment
+    quiet &= seg[i - w] == seg[np.minimum(i + w - 1, n - 1)]
+    score = np.where(quiet, score, 0.0)
+    found = []
+    for k in np.argsort(-score):
+        if score[k] < z or len(found) >= MAX_JUMPS:
+            break
+        if all(abs(int(i[k]) - j) >= 2 * w for j in found):
+            found.append(int(i[k]))
+    return sorted(found)
+
+
+def screen(data: Data, fit: Fit) -> list[dict]:
+    """Data problems no model column can undo: clipping, channels out of step, quantisation
+    that dominates the noise. Each is ``{"kind", "where", ...}`` (times in s)."""
+    out = []
+    floor = noise_floor(data.signal, data.load, data.time)
+    clip = _clipping(data, fit, floor)
+    if clip:
+        out.append({"kind": "clipping", "where": clip})
+    slip = _out_of_step(data, fit)
+    if slip:
+        out.append(slip)
+    q = quantisation_step(data.signal)
+    if q > 0 and q * q / 12.0 >= QUANTISATION_SHARE * floor.rms ** 2:
+        out.append({"kind": "quantisation", "where": [data.t0, float(data.time[-1])], "step": q})
+    return out
+
+
+#: Quantisation dominates when its variance step^2/12 is at least this share of the noise floor's.
+QUANTISATION_SHARE = 0.5
+#: Least run of samples at the signal's extreme that can be a clipped stretch.
+CLIP_RUN = 3
+
+
+def _clipping(data: Data, fit: Fit, floor) -> list:
+    """[first, last] times of runs of :data:`CLIP_RUN` or more samples at the signal's largest
+    or smallest value. A noisy signal whose value grid is fine against its noise does not
+    repeat its extreme by chance; on a coarse grid the run counts only where the model goes
+    beyond the extreme by more than 3 noise floors on average."""
+    y = data.signal
+    tol = 1e-9 * max(float(np.max(np.abs(y))), 1e-300)
+    coarse = floor.quantisation_step >= floor.rms
+    runs = []
+    for level, sign in ((np.max(y), 1.0), (np.min(y), -1.0)):
+        at = np.abs(y - level) <= tol
+        if at.sum() < CLIP_RUN:
+            continue
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], at.astype(int), [0]])))
+        for a, b in zip(edges[::2], edges[1::2]):
+            if b - a < CLIP_RUN:
+                continue
+            if not coarse or np.mean(sign * (fit.prediction[a:b] - level)) > 3.0 * floor.rms:
+                runs.append([float(data.time[a]), float(data.time[b - 1])])
+    return sorted(runs)
+
+
+def _event_delays(data: Data, fit: Fit, half: int = 12):
+    """At each isolated load change, the shift (samples) that best aligns the signal's changes
+    with the model's predicted changes."""
+    x, y, p = data.load, data.signal, fit.prediction
+    dx = np.diff(x)
+    big = np.flatnonzero(np.abs(dx) > 0.05 * data.load_scale)
+    events = [int(k) for k in big
+              if half < k < len(x) - half - 1 and np.sum(np.abs(big - k) <= 2 * half) == 1]
+    out = []
+    dy, dp = np.diff(y), np.diff(p)
+    for k in events:
+        seg_p = dp[k - half:k + half + 1]
+        best, best_c = 0, -np.inf
+        for lag in range(-half // 2, half // 2 + 1):
+            seg_y = dy[k - half + lag:k + half + 1 + lag]
+            if len(seg_y) != len(seg_p):
+                continue
+            c = float(seg_y @ seg_p)
+            if c > best_c:
+                best, best_c = lag, c
+        out.append((k, best))
+    return out
+
+
+def _out_of_step(data: Data, fit: Fit) -> dict | None:
+    """A change of the delay between load changes and signal changes part-way through."""
+    delays = _event_delays(data, fit)
+    if len(delays) < 4:
+        return None
+    lags = np.array([d for _, d in delays])
+    best, best_odd = None, np.inf
+    for cut in range(2, len(lags) - 1):
+        before, after = lags[:cut], lags[cut:]
+        # each side consistent (at most a quarter odd events), and the two sides differ
+        b, a = np.median(before), np.median(after)
+        odd = np.sum(before != b) + np.sum(after != a)
+        if abs(a - b) >= 1 and np.sum(before != b) <= len(before) // 4 \
+                and np.sum(after != a) <= len(after) // 4 and odd < best_odd:
+            best, best_odd = (cut, a - b), odd
+    if best is None:
+        return None
+    cut, slip = best
+    t = data.time
+    return {"kind": "out_of_step", "where": [float(t[delays[cut - 1][0]]), float(t[delays[cut][0]])],
+            "slip": float(slip * data.dt_median)}
+
+
+class DataProblem(Effect):
+    name = "data_problem"
+    parameters = ("kind", "where")
+    summary = "the record itself is at fault (signal jumps no load explains, clipping, channels out of step, coarse quantisation)"
+
+    _override = None
+
+    def settings(self, data: Data, base: Fit) -> tuple:
+        if self._override is not None:
+            return self._override
+        jumps = tuple(find_jumps(data, base.residual))
+        return (("jumps", jumps), ("times", tuple(float(data.time[i]) for i in jumps)))
+
+    def fit_on(self, data: Data, base: Fit, refine: str = "all", start: dict | None = None) -> Fit:
+        applied = Applied(self, self.settings(data, base))
+        if not applied.setting("jumps"):
+            raise InputError("no signal jump that no load change explains")
+        fit = super().fit_on(data, base, refine, start)
+        # keep the jumps whose fitted height stands out of its uncertainty
+        keep = [j for j, i in enumerate(applied.setting("jumps"))
+                if abs(fit.values[f"data_problem.jump[{j}]"]) >= JUMP_Z * fit.uncertainty(
+                    lambda v, j=j: v[f"data_problem.jump[{j}]"])]
+        if fit.cov is None or len(keep) == len(applied.setting("jumps")) or not keep:
+            return fit
+        jumps = tuple(applied.setting("jumps")[j] for j in keep)
+        self._override = (("jumps", jumps), ("times", tuple(float(data.time[i]) for i in jumps)))
+        try:
+            return super().fit_on(data, base, refine, start)
+        finally:
+            self._override = None
+
+    def columns(self, data, s, h, lags, p, applied):
+        index = np.arange(data.n)
+        return {f"jump[{j}]": (index >= i).astype(float) for j, i in enumerate(applied.setting("jumps"))}
+
+    def report(self, fit: Fit, applied: Applied) -> dict:
+        jumps = applied.setting("jumps")
+        sizes = [fit.estimate(lambda v, j=j: v[f"data_problem.jump[{j}]"]) for j in range(len(jumps))]
+        return {"kind": ("jump", None),
+                "where": (list(applied.setting("times")), None),
+                "size": ([s for s, _ in sizes], [u for _, u in sizes])}
+
+    def extension(self, fit: Fit, applied: Applied) -> dict | None:
+        # a jump is in the record, not in the sensor: nothing to simulate or correct
+        return None
+
+
+EFFECT = DataProblem()
