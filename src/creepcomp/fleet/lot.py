@@ -17,15 +17,16 @@ ROBUST_Z_LIMIT = 3.5
 #: Fewest units with a value before outliers are judged.
 MIN_UNITS = 5
 
-#: ``(label, column or key, unit, log scale)`` of the parameters whose spread is shown and
-#: judged; ``tau_dominant`` is the retardation time of the term with the largest |beta|.
+#: ``(label, column or key, unit, log scale, judged for outliers)`` of the parameters whose
+#: spread is shown; ``tau_dominant`` is the retardation time of the term with the largest
+#: |beta|. The creep figures are judged against the spec, not against the lot.
 PARAMETERS = (
-    ("gain", "gain", "signal/load", False),
-    ("offset", "offset", "signal", False),
-    ("beta0 (total creep)", "beta0", "", False),
-    ("tau of the largest term", "tau_dominant", "s", True),
-    ("creep of a step, uncorrected", "creep_step", "FS", False),
-    ("residual creep after correction", "residual_creep", "FS", True),
+    ("gain", "gain", "signal/load", False, True),
+    ("offset", "offset", "signal", False, True),
+    ("beta0 (total creep)", "beta0", "", False, True),
+    ("tau of the largest term", "tau_dominant", "s", True, True),
+    ("creep of a step, uncorrected", "creep_step", "FS", False, False),
+    ("residual creep after correction", "residual_creep", "FS", False, False),
 )
 
 
@@ -95,7 +96,7 @@ def lot_summary(rows: list[dict], look_first: int = 20) -> dict:
         effects.update(names or ["none"])
     params, outliers = {}, []
     z_of: dict[str, dict[str, float]] = {}
-    for label, key, unit, log in PARAMETERS:
+    for label, key, unit, log, judged in PARAMETERS:
         vals = np.array([_value(r, key, log) for r in ok])
         finite = vals[np.isfinite(vals)]
         if finite.size == 0:
@@ -104,7 +105,7 @@ def lot_summary(rows: list[dict], look_first: int = 20) -> dict:
         params[label] = {"key": key, "unit": unit, "log": log, "values": shown.tolist(),
                          "median": float(np.median(shown)), "p5": float(np.percentile(shown, 5)),
                          "p95": float(np.percentile(shown, 95))}
-        if finite.size < MIN_UNITS:
+        if finite.size < MIN_UNITS or not judged:
             continue
         z = robust_z(vals)
         for r, zi, v in zip(ok, z, vals):

@@ -135,8 +135,9 @@ def lot_report_html(summary: dict, meta: dict) -> str:
                      (html_table(["unit", "parameter", "value", "z"],
                                  [[o["unit"], o["parameter"], format_cell(o["value"]), f"{o['z']:+.1f}"]
                                   for o in outliers]) if outliers else "<p>none</p>") +
-                     "<p class='note'>z = 0.6745 (x - median) / MAD over the processed units "
-                     "(tau and residual creep on a log scale); at least 5 units needed.</p>"))
+                     "<p class='note'>z = 0.6745 (x - median) / MAD over the processed units, "
+                     "for gain, offset, beta0 and tau (tau on a log scale); at least 5 units "
+                     "with a value needed. The creep figures are judged against the spec.</p>"))
     sections.append(("Units out of spec", _units_table(summary["out_of_spec"])
                      if summary["out_of_spec"] else "<p>none</p>"))
     if summary["not_judged"]:
