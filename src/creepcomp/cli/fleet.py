@@ -9,7 +9,7 @@ import typer
 from rich.table import Table
 
 from creepcomp.units import format_percent
-from creepcomp.cli.common import app, console, err_console, fail, print_json, quantity
+from creepcomp.cli.common import app, console, err_console, print_json, quantity
 
 
 @app.command("fleet")
@@ -38,9 +38,6 @@ def fleet_command(
 ) -> None:
     """Fit, diagnose (and correct) every record on Dask: one table, a lot report, resumable."""
     limit = quantity(spec, "fraction", "--spec", positive=True)
-    if workers is not None and workers < 1:
-        fail(f"--workers {workers}: use 1 or more")
-        raise typer.Exit(2)
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
     from creepcomp.fleet import run
@@ -56,14 +53,11 @@ def fleet_command(
             task = bar.add_task("fleet", total=total, last="")
         bar.update(task, completed=done, last=f"{row['unit']}: {row['cause'] or row['status']}")
 
-    try:
-        with bar:
-            result = run(records, output, workers=workers, scheduler=scheduler, spec=limit,
-                         correct=correct, unit_reports=unit_reports, progress=progress)
-    except KeyboardInterrupt:
-        fail(f"interrupted: units finished so far are kept in {output / 'units'}; the same "
-             "command resumes", 130)
-        raise typer.Exit(130) from None
+    # Ctrl-C: run() closes the cluster; the units finished are kept (the same command resumes)
+    # and the command line's entry point prints one line and exits with 130.
+    with bar:
+        result = run(records, output, workers=workers, scheduler=scheduler, spec=limit,
+                     correct=correct, unit_reports=unit_reports, progress=progress)
     if as_json:
         print_json(result.to_dict())
         return

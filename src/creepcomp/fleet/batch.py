@@ -132,9 +132,9 @@ def run(records: Iterable[str | Path], out_dir: str | Path, workers: int | None 
     if not (spec > 0):
         raise InputError(f"spec = {spec!r}: the creep limit must be positive")
     if workers is not None and workers < 1:
-        raise InputError(f"workers = {workers}: use 1 or more")
+        raise InputError(f"--workers {workers}: use 1 or more")
     if workers is not None and scheduler is not None:
-        raise InputError("workers is for the local cluster; an existing cluster (scheduler) "
+        raise InputError("--workers is for the local cluster; an existing cluster (--scheduler) "
                          "brings its own workers")
     paths = find_records(records)
     names = unit_names(paths)
