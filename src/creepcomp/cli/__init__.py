@@ -34,7 +34,7 @@ def main(argv: list[str] | None = None) -> int:
     os.environ.setdefault("MPLBACKEND", "Agg")
     command = typer.main.get_command(app)
     try:
-        command.main(args=argv, prog_name="creepcomp", standalone_mode=False)
+        status = command.main(args=argv, prog_name="creepcomp", standalone_mode=False)
     except TyperException as exc:
         return fail(exc.format_message(), getattr(exc, "exit_code", 2) or 2)
     except CreepcompError as exc:
@@ -42,6 +42,8 @@ def main(argv: list[str] | None = None) -> int:
     except Exit as exc:
         return exc.exit_code
     except (Abort, KeyboardInterrupt):
+        return fail("interrupted", 130)
+    if status == 130:  # Typer turns Ctrl-C into Exit(130) and, not standalone, returns its status
         return fail("interrupted", 130)
     return 0
 

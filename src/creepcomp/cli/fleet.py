@@ -44,7 +44,7 @@ def fleet_command(
 
     bar = Progress(TextColumn("fleet"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
                    TextColumn("{task.fields[last]}"), console=err_console, transient=True,
-                   disable=as_json)
+                   disable=as_json or not err_console.is_terminal)
     task = None
 
     def progress(done: int, total: int, row: dict) -> None:
