@@ -220,3 +220,9 @@ def test_help_does_not_import_dask_or_pyarrow():
                          env=dict(os.environ, PYTHONPATH=str(Path(__file__).parents[1] / "src")))
     loaded = set(json.loads(out.stdout.strip().splitlines()[-1]))
     assert not {"dask", "distributed", "pyarrow"} & loaded
+
+
+def test_every_column_is_documented():
+    text = (Path(__file__).parents[1] / "docs" / "fleet.md").read_text()
+    for name in COLUMN_NAMES:
+        assert f"`{name}`" in text or name in ("beta_2", "beta_3", "tau_2", "tau_3"), name
