@@ -12,6 +12,7 @@ import math
 from pathlib import Path
 
 import matplotlib.pyplot as plt
+from matplotlib.ticker import MaxNLocator
 import numpy as np
 
 from creepcomp.io.atomic import write_text_atomic
@@ -39,7 +40,12 @@ def parameter_figure(parameters: dict, spec: float | None = None):
     for ax, (name, p) in zip(axes.ravel(), items):
         scale = 100.0 if p["unit"] == "FS" else 1.0
         v = np.asarray(p["values"]) * scale
-        if p["log"]:
+        floor = None
+        if p["key"] == "residual_creep" and spec is not None:
+            # corrected creep spans decades down to rounding: log axis, tiny values at a floor
+            floor = spec * scale * 1e-3
+            v = np.maximum(v, floor)
+        if p["log"] or floor is not None:
             lo, hi = v.min(), v.max()
             bins = np.geomspace(lo, hi * 1.0001, 31) if hi > lo else 30
             ax.set_xscale("log")
@@ -51,8 +57,9 @@ def parameter_figure(parameters: dict, spec: float | None = None):
             ax.axvline(p[q] * scale, color="k", ls=":", lw=1)
         if spec is not None and p["key"] == "residual_creep":
             ax.axvline(spec * 100.0, color="#cc3311", lw=2, label="spec")
-        ax.set_xlabel(_label(name, p["unit"]))
+        ax.set_xlabel(_label(name, p["unit"]) + ("\n(below spec/1000 drawn at spec/1000)" if floor else ""))
         ax.set_ylabel("units")
+        ax.yaxis.set_major_locator(MaxNLocator(integer=True))
         ax.legend(fontsize=8)
     fig.tight_layout()
     return fig
