@@ -138,9 +138,9 @@ def run(records: Iterable[str | Path], out_dir: str | Path, workers: int | None 
     if workers is not None and scheduler is not None:
         raise InputError("--workers is for the local cluster; an existing cluster (--scheduler) "
                          "brings its own workers")
-    paths = find_records(records)
-    names = unit_names(paths)
     out = Path(out_dir)
+    paths = find_records(records, exclude=out)
+    names = unit_names(paths)
     if out.exists() and not out.is_dir():
         raise InputError(f"{out}: exists and is not a folder")
     (out / "units").mkdir(parents=True, exist_ok=True)

@@ -19,13 +19,16 @@ __all__ = ["RECORD_SUFFIXES", "find_records", "unit_names"]
 RECORD_SUFFIXES = (".csv", ".tsv", ".txt")
 
 
-def find_records(inputs: Iterable[str | Path]) -> list[Path]:
+def find_records(inputs: Iterable[str | Path], exclude: str | Path | None = None) -> list[Path]:
     """The record files named by ``inputs``: files, folders (their record files, recursively)
     and glob patterns (``lot7/*.csv``, ``lot*/**/*.csv``).
 
     Parameters
     ----------
     inputs : iterable of str or Path
+    exclude : str or Path, optional
+        A folder whose files are never records (a run's output folder inside the records'
+        folder: its tables and corrected records).
 
     Returns
     -------
@@ -43,6 +46,7 @@ def find_records(inputs: Iterable[str | Path]) -> list[Path]:
     given = list(inputs)
     if not given:
         raise InputError("no records given: name files, folders or glob patterns")
+    skip = Path(exclude).expanduser().resolve() if exclude is not None else None
     for item in given:
         text = str(item)
         path = Path(text).expanduser()
@@ -63,7 +67,11 @@ def find_records(inputs: Iterable[str | Path]) -> list[Path]:
         else:
             raise InputError(f"{text}: no such file or folder")
         for f in files:
-            found.setdefault(f.resolve(), None)
+            f = f.resolve()
+            if skip is None or skip not in f.parents:
+                found.setdefault(f, None)
+    if not found:
+        raise InputError(f"no records left outside the output folder {exclude}")
     return list(found)
 
 
