@@ -238,16 +238,25 @@ def _analyse(path: Path, folder: Path, row: dict, spec: float, correct: bool,
     write_text_atomic(folder / "extended-model.json", to_json(diagnosis.extended_model) + "\n")
     write_text_atomic(folder / "diagnosis.json", to_json(result) + "\n")
 
-    correcting = CreepModel.from_dict(model, where=f"{path}: fitted model")
     notes = []
+    correcting = None
     try:
-        actual = CreepModel.from_dict(diagnosis.extended_model, where=f"{path}: extended model")
+        # the fit may return a model no corrector can invert (e.g. beta0 <= -1 from two
+        # poorly separated terms of a short record): the unit is then reported, not judged
+        correcting = CreepModel.from_dict(model, where="fitted model")
+    except InputError as exc:
+        notes.append(f"no correction: {one_line(exc, 160)}")
+    try:
+        if correcting is None:
+            raise InputError("no correcting model")
+        actual = CreepModel.from_dict(diagnosis.extended_model, where="extended model")
         level = float(record.load[np.argmax(np.abs(record.load))])
         temp = float(np.mean(record.temperature)) if record.temperature is not None else None
         row["creep_step"], row["residual_creep"] = step_creep(correcting, actual, record.duration,
                                                               data.dt_median, level, temp)
     except (InputError, np.linalg.LinAlgError) as exc:
-        notes.append(f"step creep not computed: {one_line(exc, 160)}")
+        if correcting is not None:
+            notes.append(f"step creep not computed: {one_line(exc, 160)}")
     row["spec"] = spec
     if row["residual_creep"] is not None:
         if "unexplained" in row["findings"].split(","):
@@ -255,7 +264,7 @@ def _analyse(path: Path, folder: Path, row: dict, spec: float, correct: bool,
                          "explain, so its prediction of the step creep is not trusted")
         else:
             row["in_spec"] = bool(row["residual_creep"] <= spec)
-    if correct:
+    if correct and correcting is not None:
         initial = "relaxed" if record.load[0] == 0 else "settled"
         comp = compensate(record.time, record.signal, correcting, "subtractive", initial=initial,
                           hold=data.hold)
