@@ -92,6 +92,7 @@ def memory_child(records: str, out_dir: str) -> None:
     from creepcomp.fleet import run
 
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                      scheduler_kwargs={"dashboard_address": ":0"},
                       silence_logs=logging.ERROR) as cluster:
         t = time.perf_counter()
         r = run([records], out_dir, scheduler=cluster.scheduler_address)

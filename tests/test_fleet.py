@@ -46,6 +46,7 @@ def cluster():
     from dask.distributed import LocalCluster
 
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                      scheduler_kwargs={"dashboard_address": ":0"},
                       silence_logs=logging.CRITICAL) as c:
         yield c
 
