@@ -8,7 +8,7 @@ core), and whether each table equals the serial one (every column but ``seconds`
 
 (b) Memory: 50 and 500 short records (300-450 s at 1 Hz) are written, each batch is run in a
 fresh Python process on a local cluster of 2 workers, and the peak resident memory of that
-process (client and scheduler) and of each worker process is read (``ru_maxrss``) at the end.
+process (client and scheduler) and of each worker process is read (``VmHWM``) at the end.
 The folders are removed afterwards.
 
 The machine's load average is printed before and after each part: other work on the cores
@@ -17,6 +17,7 @@ slows the runs (wall times are then noisy; the equality checks are not affected)
 Usage::
 
     nice -n 10 python benchmarks/fleet.py [--units 200] [--skip-speed] [--skip-memory]
+    OPENBLAS_NUM_THREADS=1 nice -n 10 python benchmarks/fleet.py --unit-cost
 """
 
 from __future__ import annotations
@@ -82,6 +83,15 @@ def speed(n: int) -> dict:
         shutil.rmtree(base, ignore_errors=True)
 
 
+def peak_rss_mib() -> float:
+    """Peak resident memory of this process since it started its program (``VmHWM``; unlike
+    ``ru_maxrss`` it does not carry the peak of the process it was forked from)."""
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
 def memory_child(records: str, out_dir: str) -> None:
     """Run one batch on a local cluster of 2 workers; print the peak RSS (MiB) of this process
     and of each worker."""
@@ -98,8 +108,8 @@ def memory_child(records: str, out_dir: str) -> None:
         r = run([records], out_dir, scheduler=cluster.scheduler_address)
         wall = time.perf_counter() - t
         with Client(cluster) as client:
-            workers = client.run(lambda: resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
-    client_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+            workers = client.run(peak_rss_mib)
+    client_mib = peak_rss_mib()
     print(json.dumps({"n": r.n, "failed": len(r.failed), "wall_s": round(wall, 1),
                       "client_peak_mib": round(client_mib, 1),
                       "worker_peak_mib": sorted(round(v, 1) for v in workers.values())}))
@@ -121,11 +131,46 @@ def memory(sizes=(50, 500)) -> dict:
     return out
 
 
+def unit_cost() -> list:
+    """CPU time and peak memory of one unit (``process_unit``, in this process, one BLAS
+    thread as on a Dask worker) on production-sized records: 30 min at 10 Hz (three records,
+    those of ``benchmarks/diagnose_timing.py``) and 2 h at 12 Hz."""
+    from creepcomp import synth
+    from creepcomp.fleet.unit import process_unit
+    from creepcomp.io.records import write_record
+
+    cases = [("clean, 30 min at 10 Hz", {}, 10.0, 1800.0),
+             ("extra_retardation, 30 min at 10 Hz", {"extra_retardation": {"tau": 400.0, "beta": 0.015}}, 10.0, 1800.0),
+             ("asymmetric_recovery, 30 min at 10 Hz", {"asymmetric_recovery": {"tau_recovery": 150.0}}, 10.0, 1800.0),
+             ("extra_retardation, 2 h at 12 Hz", {"extra_retardation": {"tau": 400.0, "beta": 0.015}}, 12.0, 7200.0)]
+    base = Path(tempfile.mkdtemp(prefix="creepcomp-fleet-unit-"))
+    out = []
+    try:
+        for label, hidden, rate, duration in cases:
+            spec = synth.Spec(hidden=hidden, beta=(0.03,), tau=(45.0,), gain=1.0, rate=rate,
+                              duration=duration, program="staircase",
+                              noise=synth.NoiseSpec(white=5e-4), seed=30)
+            path = write_record(base / "u.csv", synth.generate(spec).record)
+            c0, w0 = time.process_time(), time.perf_counter()
+            row = process_unit(str(path), "u", str(base / "out"))
+            out.append({"record": label, "samples": row["n_samples"], "cause": row["cause"],
+                        "cpu_s": round(time.process_time() - c0, 2),
+                        "wall_s": round(time.perf_counter() - w0, 1),
+                        "peak_rss_mib": round(peak_rss_mib()), "load": round(os.getloadavg()[0], 1)})
+            print(out[-1], flush=True)
+    finally:
+        shutil.rmtree(base, ignore_errors=True)
+    return out
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--units", type=int, default=200)
     ap.add_argument("--skip-speed", action="store_true")
     ap.add_argument("--skip-memory", action="store_true")
+    ap.add_argument("--unit-cost", action="store_true",
+                    help="only the CPU time and memory of one unit on production-sized records "
+                         "(run it with OPENBLAS_NUM_THREADS=1)")
     ap.add_argument("--memory-child", nargs=2, metavar=("RECORDS", "OUT"), help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.memory_child:
@@ -133,6 +178,9 @@ def main(argv=None):
         return
     print(f"{os.cpu_count()} cores; {load()}")
     result = {}
+    if args.unit_cost:
+        print(json.dumps({"unit_cost": unit_cost()}, indent=1))
+        return
     if not args.skip_speed:
         result["speed"] = speed(args.units)
     if not args.skip_memory:
