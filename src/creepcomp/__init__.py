@@ -37,6 +37,7 @@ _API = {
     "verify_firmware": "creepcomp.digital.firmware_check",
     "prepare": "creepcomp.fit.data", "fit_prony": "creepcomp.fit.prony",
     "diagnose": "creepcomp.diagnose.sensor", "diagnose_circuit": "creepcomp.diagnose.circuit",
+    "FleetResult": "creepcomp.fleet.batch",
     "default_sensor": "creepcomp.data",
     "compare_program": "creepcomp.verify.compare", "compare_record": "creepcomp.verify.compare",
 }

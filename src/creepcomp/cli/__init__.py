@@ -25,6 +25,7 @@ from creepcomp.cli import simulate as _simulate  # noqa: E402,F401
 from creepcomp.cli import fit as _fit  # noqa: E402,F401
 from creepcomp.cli import diagnose as _diagnose  # noqa: E402,F401
 from creepcomp.cli import firmware as _firmware  # noqa: E402,F401
+from creepcomp.cli import fleet as _fleet  # noqa: E402,F401
 
 
 def main(argv: list[str] | None = None) -> int:
