@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from creepcomp.digital.firmware import firmware_bound, generate_firmware, naive_float32
-from creepcomp.digital.firmware_check import verify_firmware
+from creepcomp.digital.firmware_check import jittered_record, verify_firmware
 from creepcomp.model import CreepModel
 
 MODEL = CreepModel(beta=(0.01, 0.01, 0.015), tau=(5.0, 50.0, 500.0))
@@ -83,18 +83,8 @@ def three_term_table(samples: int) -> list[str]:
 
 
 def jittered_table(samples: int, max_interval: float = 0.04) -> list[str]:
-    rng = np.random.default_rng(0)
-    gaps = rng.uniform(0.5, 1.5, samples - 1) / RATE
-    gaps[rng.integers(0, samples - 1, 20)] = max_interval
-    t = np.concatenate([[0.0], np.cumsum(np.round(gaps * 1e6) / 1e6)])
-    load = np.zeros(samples)
-    i = samples // 20
-    while i < 3 * samples // 4:
-        hold = int(rng.integers(5, int(600 * RATE)))
-        load[i:i + hold] = rng.choice([-1.0, 1.0, rng.uniform(-1, 1)])
-        i += hold
-    load[3 * samples // 4:] = np.where(np.arange(samples - 3 * samples // 4) % 2 == 0, 1.0, -1.0)
-    signal = MODEL.response(t, load, hold="zero")
+    t, _, signal = jittered_record(MODEL, samples, seed=0, rate=RATE, max_interval=max_interval,
+                                   max_hold=600.0)
     fs = float(np.max(np.abs(signal - MODEL.offset)))
     rows = []
     for precision in ("float32", "q31"):

@@ -15,7 +15,7 @@ from hypothesis import given, settings, strategies as st
 
 from creepcomp.digital.firmware import firmware_bound, generate_firmware, naive_float32
 from creepcomp.digital.firmware_check import (STRICT_FLAGS, Verification, compile_object,
-                                              step_intervals, verify_firmware)
+                                              jittered_record, step_intervals, verify_firmware)
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import write_model
 from creepcomp.io.records import Record, write_record
@@ -152,25 +152,6 @@ def test_random_models_stay_within_their_bound(data):
 # --------------------------------------------------------------- irregular sampling (dt step)
 
 MAX_INTERVAL = 0.04
-
-
-def jittered_record(model: CreepModel, n: int, seed: int = 0, rate: float = RATE,
-                    max_interval: float = MAX_INTERVAL):
-    """Intervals uniform in [0.5, 1.5] / rate (whole microseconds) with 20 gaps of max_interval;
-    load steps between random levels (up to full scale) held up to 200 s, then full-scale swings."""
-    rng = np.random.default_rng(seed)
-    gaps = rng.uniform(0.5, 1.5, n - 1) / rate
-    gaps[rng.integers(0, n - 1, 20)] = max_interval
-    gaps = np.round(gaps * 1e6) / 1e6
-    t = np.concatenate([[0.0], np.cumsum(gaps)])
-    load = np.zeros(n)
-    i = n // 20
-    while i < 3 * n // 4:
-        hold = int(rng.integers(5, int(200 * rate)))
-        load[i:i + hold] = rng.choice([-1.0, 1.0, rng.uniform(-1, 1)])
-        i += hold
-    load[3 * n // 4:] = np.where(np.arange(n - 3 * n // 4) % 2 == 0, 1.0, -1.0)
-    return t, load, model.response(t, load, hold="zero")
 
 
 @pytest.fixture(scope="module")

@@ -596,8 +596,9 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
     scheme = None if max_interval is None else _dt_scheme(model, precision, max_interval)
     text = _FLOAT32 if precision == "float32" else _Q31
     if scheme is not None:
+        io = _FLOAT_IO if precision == "float32" else _Q31_IO
         text = _Texts(header=text.header, source=text.source,
-                      harness=_fill(_HARNESS_DT, _FLOAT_IO if precision == "float32" else _Q31_IO))
+                      harness=_fill(_HARNESS, {**io, "@HARNESS_DT@": "1"}))
     sub = _substitutions(model, method, precision, rate, full_scale, name, c, st, bound, scheme,
                          max_interval)
     header, source, harness = (_fill(t, sub) for t in (text.header, text.source, text.harness))
@@ -1002,16 +1003,38 @@ float @P@_step(@P@_state *s, float raw)
 """
 
 _HARNESS = """\
-/* Host harness (not for the target): reads N doubles (signal units), runs @P@_step over them
- * REPEATS times from the start given, writes the outputs (doubles, signal units) of the first
- * run and prints the best time per sample in nanoseconds (clock_gettime, CLOCK_MONOTONIC). */
+/* Host harness (not for the target): reads N doubles (signal units), and with HARNESS_DT N
+ * intervals (doubles: seconds for float32, ticks for q31; the first is any valid value), runs
+ * @P@_step (@P@_step_dt with HARNESS_DT) over them REPEATS times from the start given, writes the
+ * outputs (doubles, signal units) of the first run and prints the best time per sample in
+ * nanoseconds (clock_gettime, CLOCK_MONOTONIC). */
 #define _POSIX_C_SOURCE 199309L
+#define HARNESS_DT @HARNESS_DT@
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 #include "@P@.h"
+
+static double *read_doubles(const char *path, long *n)
+{
+    FILE *f = fopen(path, "rb");
+    double *buf;
+    long m;
+    if (!f) return NULL;
+    fseek(f, 0, SEEK_END);
+    m = ftell(f) / (long)sizeof(double);
+    fseek(f, 0, SEEK_SET);
+    buf = malloc((size_t)(m > 0 ? m : 1) * sizeof *buf);
+    if (buf && fread(buf, sizeof *buf, (size_t)m, f) != (size_t)m) {
+        free(buf);
+        buf = NULL;
+    }
+    fclose(f);
+    *n = m;
+    return buf;
+}
 
 int main(int argc, char **argv)
 {
@@ -1020,41 +1043,57 @@ int main(int argc, char **argv)
     int r, repeats, settled;
     double *buf, best = -1.0;
     @T@ *in, *out, *spare;
+#if HARNESS_DT
+    long n_gaps;
+    double *gap;
+    @DT_T@ *dts;
+#endif
     @P@_state s;
-    if (argc != 5) {
-        fprintf(stderr, "usage: %s IN OUT relaxed|settled REPEATS\\n", argv[0]);
+    if (argc != 5 + HARNESS_DT) {
+        fprintf(stderr, "usage: %s IN%s OUT relaxed|settled REPEATS\\n", argv[0], HARNESS_DT ? " DT" : "");
         return 2;
     }
-    settled = strcmp(argv[3], "settled") == 0;
-    repeats = atoi(argv[4]);
-    f = fopen(argv[1], "rb");
-    if (!f) return 3;
-    fseek(f, 0, SEEK_END);
-    n = ftell(f) / (long)sizeof(double);
-    fseek(f, 0, SEEK_SET);
-    buf = malloc((size_t)n * sizeof *buf);
+    settled = strcmp(argv[3 + HARNESS_DT], "settled") == 0;
+    repeats = atoi(argv[4 + HARNESS_DT]);
+    buf = read_doubles(argv[1], &n);
+    if (!buf) return 3;
     in = malloc((size_t)n * sizeof *in);
     out = malloc((size_t)n * sizeof *out);
     spare = malloc((size_t)n * sizeof *spare);
-    if (!buf || !in || !out || !spare || fread(buf, sizeof *buf, (size_t)n, f) != (size_t)n) return 3;
-    fclose(f);
+    if (!in || !out || !spare) return 3;
     for (i = 0; i < n; ++i)
         in[i] = @TO_WORD@;
+#if HARNESS_DT
+    gap = read_doubles(argv[2], &n_gaps);
+    dts = malloc((size_t)n * sizeof *dts);
+    if (!gap || !dts || n_gaps != n) return 3;
+    for (i = 0; i < n; ++i)
+        dts[i] = (@DT_T@)gap[i];
+#endif
     for (r = 0; r < repeats; ++r) {
         struct timespec t0, t1;
         double ns;
+        int bad = 0;
         @T@ *dst = r == 0 ? out : spare;
         if (settled) @P@_settle(&s, in[0]); else @P@_init(&s);
         clock_gettime(CLOCK_MONOTONIC, &t0);
         for (i = 0; i < n; ++i)
+#if HARNESS_DT
+            bad |= @P@_step_dt(&s, in[i], dts[i], &dst[i]);
+#else
             dst[i] = @P@_step(&s, in[i]);
+#endif
         clock_gettime(CLOCK_MONOTONIC, &t1);
+        if (bad) {
+            fprintf(stderr, "an interval was refused by @P@_step_dt\\n");
+            return 4;
+        }
         ns = ((double)(t1.tv_sec - t0.tv_sec) * 1e9 + (double)(t1.tv_nsec - t0.tv_nsec)) / (double)n;
         if (best < 0 || ns < best) best = ns;
     }
     for (i = 0; i < n; ++i)
         buf[i] = @FROM_WORD@;
-    f = fopen(argv[2], "wb");
+    f = fopen(argv[2 + HARNESS_DT], "wb");
     if (!f || fwrite(buf, sizeof *buf, (size_t)n, f) != (size_t)n) return 3;
     fclose(f);
     printf("%.6f\\n", best);
@@ -1211,80 +1250,6 @@ _DT = {
                             "int @P@_step_dt(@P@_state *s, int32_t x, uint32_t dt, int32_t *out);")},
 }
 
-_HARNESS_DT = """\
-/* Host harness (not for the target): reads N doubles (signal units) and N intervals (doubles:
- * seconds for float32, ticks for q31; the first is any valid value), runs @P@_step_dt over
- * them REPEATS times from the start given, writes the outputs (doubles, signal units) of the
- * first run and prints the best time per sample in nanoseconds (CLOCK_MONOTONIC). */
-#define _POSIX_C_SOURCE 199309L
-#include <math.h>
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
-#include <time.h>
-#include "@P@.h"
-
-int main(int argc, char **argv)
-{
-    FILE *f;
-    long n, i;
-    int r, repeats, settled;
-    double *buf, *gap, best = -1.0;
-    @T@ *in, *out, *spare;
-    @DT_T@ *dts;
-    @P@_state s;
-    if (argc != 6) {
-        fprintf(stderr, "usage: %s IN DT OUT relaxed|settled REPEATS\\n", argv[0]);
-        return 2;
-    }
-    settled = strcmp(argv[4], "settled") == 0;
-    repeats = atoi(argv[5]);
-    f = fopen(argv[1], "rb");
-    if (!f) return 3;
-    fseek(f, 0, SEEK_END);
-    n = ftell(f) / (long)sizeof(double);
-    fseek(f, 0, SEEK_SET);
-    buf = malloc((size_t)n * sizeof *buf);
-    gap = malloc((size_t)n * sizeof *gap);
-    in = malloc((size_t)n * sizeof *in);
-    out = malloc((size_t)n * sizeof *out);
-    spare = malloc((size_t)n * sizeof *spare);
-    dts = malloc((size_t)n * sizeof *dts);
-    if (!buf || !gap || !in || !out || !spare || !dts || fread(buf, sizeof *buf, (size_t)n, f) != (size_t)n) return 3;
-    fclose(f);
-    f = fopen(argv[2], "rb");
-    if (!f || fread(gap, sizeof *gap, (size_t)n, f) != (size_t)n) return 3;
-    fclose(f);
-    for (i = 0; i < n; ++i) {
-        in[i] = @TO_WORD@;
-        dts[i] = (@DT_T@)gap[i];
-    }
-    for (r = 0; r < repeats; ++r) {
-        struct timespec t0, t1;
-        double ns;
-        int bad = 0;
-        @T@ *dst = r == 0 ? out : spare;
-        if (settled) @P@_settle(&s, in[0]); else @P@_init(&s);
-        clock_gettime(CLOCK_MONOTONIC, &t0);
-        for (i = 0; i < n; ++i)
-            bad |= @P@_step_dt(&s, in[i], dts[i], &dst[i]);
-        clock_gettime(CLOCK_MONOTONIC, &t1);
-        if (bad) {
-            fprintf(stderr, "an interval was refused by @P@_step_dt\\n");
-            return 4;
-        }
-        ns = ((double)(t1.tv_sec - t0.tv_sec) * 1e9 + (double)(t1.tv_nsec - t0.tv_nsec)) / (double)n;
-        if (best < 0 || ns < best) best = ns;
-    }
-    for (i = 0; i < n; ++i)
-        buf[i] = @FROM_WORD@;
-    f = fopen(argv[3], "wb");
-    if (!f || fwrite(buf, sizeof *buf, (size_t)n, f) != (size_t)n) return 3;
-    fclose(f);
-    printf("%.6f\\n", best);
-    return 0;
-}
-"""
 
 _FLOAT_STATE = """
 /* State in signal units above the offset: c_k = hi[k] + lo[k]. Owned by the caller. */
@@ -1310,8 +1275,8 @@ float @P@_step(@P@_state *s, float raw);
 #endif
 """
 
-_FLOAT_IO = {"@T@": "float", "@DT_T@": "float", "@TO_WORD@": "(float)buf[i]", "@FROM_WORD@": "(double)out[i]"}
-_Q31_IO = {"@T@": "int32_t", "@DT_T@": "uint32_t",
+_FLOAT_IO = {"@HARNESS_DT@": "0", "@T@": "float", "@DT_T@": "float", "@TO_WORD@": "(float)buf[i]", "@FROM_WORD@": "(double)out[i]"}
+_Q31_IO = {"@HARNESS_DT@": "0", "@T@": "int32_t", "@DT_T@": "uint32_t",
            "@TO_WORD@": "(int32_t)llround((buf[i] - @PU@_OFFSET) / @PU@_FULL_SCALE * 1073741824.0)",
            "@FROM_WORD@": "@PU@_OFFSET + (double)out[i] * (@PU@_FULL_SCALE / 1073741824.0)"}
 

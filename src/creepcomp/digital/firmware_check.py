@@ -253,3 +253,26 @@ def _check_range(firmware, x) -> None:
         i = int(np.argmax(excess))
         raise InputError(f"signal sample {i} is {excess[i]:.6g} from the offset, beyond the full scale "
                          f"{firmware.full_scale:.6g} that the bound assumes: give a larger --full-scale")
+
+
+def jittered_record(model, n: int, seed: int = 0, rate: float = 100.0, max_interval: float = 0.04,
+                    max_hold: float = 200.0):
+    """A test record for the dt step: ``(time, load, signal)`` of ``n`` samples.
+
+    Intervals uniform in [0.5, 1.5] / ``rate`` (whole microseconds) with 20 gaps of
+    ``max_interval`` (s); load steps between random levels (up to full scale) held up to
+    ``max_hold`` (s) until three quarters of the record, then full-scale swings every sample.
+    """
+    rng = np.random.default_rng(seed)
+    gaps = rng.uniform(0.5, 1.5, n - 1) / rate
+    gaps[rng.integers(0, n - 1, 20)] = max_interval
+    gaps = np.round(gaps * 1e6) / 1e6
+    t = np.concatenate([[0.0], np.cumsum(gaps)])
+    load = np.zeros(n)
+    i = n // 20
+    while i < 3 * n // 4:
+        hold = int(rng.integers(5, int(max_hold * rate)))
+        load[i:i + hold] = rng.choice([-1.0, 1.0, rng.uniform(-1, 1)])
+        i += hold
+    load[3 * n // 4:] = np.where(np.arange(n - 3 * n // 4) % 2 == 0, 1.0, -1.0)
+    return t, load, model.response(t, load, hold="zero")
