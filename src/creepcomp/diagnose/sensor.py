@@ -398,9 +398,10 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
         Longer records are reduced to about this many samples first (None: never).
     """
     t_start = _time.perf_counter()
-    reduced = None
+    reduced = record.metadata.get("reduced")        # reduced already while read (fit.reduce)
     if max_samples is not None:
-        record, reduced = reduce_record(record, max_samples)
+        record, note = reduce_record(record, max_samples)
+        reduced = note or reduced
     data = prepare(record, initial=initial, load_step_at=load_step_at)
     pool = effects_pkg.sensor_effects() if candidates is None else [effects_pkg.get(c) for c in candidates]
     current = heldout(data, fit_structure(data, Structure(1), one_term_starts(data)))
