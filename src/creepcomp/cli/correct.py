@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Optional
 
-import numpy as np
 import typer
 from rich.table import Table
 
@@ -46,8 +45,7 @@ def correct_command(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ) -> None:
     """Remove creep from a record sample by sample, and report the creep error left."""
-    from creepcomp.digital.correctors import (compensate, creep_error, default_initial,
-                                              saturation_factor, uniform_interval)
+    from creepcomp.digital.correctors import default_initial, saturation_factor
 
     if model_file is None:
         raise InputError("give the sensor's creep model: --model FILE (a JSON object with 'beta' "
@@ -62,74 +60,106 @@ def correct_command(
                          "that model")
     model = read_model(model_file)
     warn_creep(model, str(model_file))
-    record = read_record(record_path, columns=parse_columns(columns))
-    record.require(n_samples=2, what="creep correction")
     start = default_initial(method) if initial is None else initial.strip().lower()
-    with progress_bar("correcting", total=len(record), disable=as_json) as update:
-        compensated = compensate(record.time, record.signal, model, method, initial=start,
-                                 hold=hold, progress=update)
-    before = creep_error(record.time, record.signal, record.load, model, method)
-    after = creep_error(record.time, compensated, record.load, model, method)
-    dt = uniform_interval(record.time)
-    unit = record.unit("signal")
-    notes = _notes(record, start, method, model)
+    out_meta = {"compensated.method": method, "compensated.initial": start, "compensated.hold": hold,
+                "compensated.model": str(model_file)}
+    done = None
+    if plot is None:
+        done = _correct_in_pieces(record_path, model, method, start, hold, output, out_meta,
+                                  parse_columns(columns), as_json)
+    if done is None:
+        done = _correct_whole(record_path, model, method, start, hold, output, out_meta,
+                              parse_columns(columns), plot, as_json)
+    scan, dt = done.scan, done.dt
+    before, after = done.before, done.after
+    unit = scan.unit("signal")
+    notes = _notes(scan, start, method, model)
     formula = "offset + gain * load" if method == "subtractive" else "offset + gain * (1 + beta0) * load"
     result = {
-        "record": str(record_path), "samples": len(record), "uniform": dt is not None,
+        "record": str(record_path), "samples": scan.samples, "uniform": dt is not None,
         "sample_interval": dt, "method": method, "initial": start, "hold": hold,
         "model": model.to_dict(), "reference": formula,
         "saturation_factor": saturation_factor(model, method),
-        "units": {"signal": unit, "load": record.unit("load")},
+        "units": {"signal": unit, "load": scan.unit("load")},
         "creep_error": {"before": before.to_dict(), "after": after.to_dict()},
         "reduction": (before.peak / after.peak) if after.peak > 0 else None,
-        "starts_loaded": _starts_loaded(record), "notes": notes,
+        "starts_loaded": _starts_loaded(scan), "notes": notes,
         "output": None if output is None else str(output), "plot": None if plot is None else str(plot),
     }
-    if output is not None:
-        with progress_bar(f"writing {output.name}", total=len(record), disable=as_json) as update:
-            write_record(output, record, extra={"compensated": compensated}, metadata={
-                "compensated.method": method, "compensated.initial": start, "compensated.hold": hold,
-                "compensated.model": str(model_file)}, progress=update)
-    if plot is not None:
-        from creepcomp.digital.correctors import reference
-        from creepcomp.report.digital import plot_correction
-
-        plot_correction(record.time, record.signal, compensated,
-                        reference(record.load, model, method), plot,
-                        title=f"{record_path.name}: {method} correction", signal_unit=unit,
-                        full_scale=after.full_scale or None)
     if as_json:
         print_json(result)
         return
-    _render(record_path, record, model, result, before, after, dt, unit, notes)
+    _render(record_path, scan, model, result, before, after, dt, unit, notes)
     if output is not None:
         console.print(f"corrected record written to {output}", soft_wrap=True)
     if plot is not None:
         console.print(f"plot written to {plot}", soft_wrap=True)
 
 
-def _starts_loaded(record) -> bool:
-    largest = float(np.max(np.abs(record.load)))
-    return largest > 0 and abs(float(record.load[0])) > LOADED_START * largest
+def _correct_in_pieces(record_path, model, method, start, hold, output, out_meta, mapping, quiet):
+    """The correction of a CSV record read and written in pieces, or None when the file is
+    one to read whole."""
+    from creepcomp.digital.record_file import correct_record_file
+    from creepcomp.io.records import NotStreamable
+
+    try:
+        with progress_bar(f"reading {record_path.name}", disable=quiet) as update:
+            return correct_record_file(record_path, model, method, initial=start, hold=hold,
+                                       output=output, output_metadata=out_meta, columns=mapping,
+                                       progress=update)
+    except NotStreamable:
+        return None
 
 
-def _notes(record, start: str, method: str, model) -> list[str]:
+def _correct_whole(record_path, model, method, start, hold, output, out_meta, mapping, plot, quiet):
+    """The correction of a record held whole (other files, and for the plot)."""
+    from creepcomp.digital.correctors import compensate, creep_error, uniform_interval
+    from creepcomp.digital.record_file import FileCorrection
+    from creepcomp.io.records import RecordScan
+
+    record = read_record(record_path, columns=mapping)
+    record.require(n_samples=2, what="creep correction")
+    with progress_bar("correcting", total=len(record), disable=quiet) as update:
+        compensated = compensate(record.time, record.signal, model, method, initial=start,
+                                 hold=hold, progress=update)
+    before = creep_error(record.time, record.signal, record.load, model, method)
+    after = creep_error(record.time, compensated, record.load, model, method)
+    if output is not None:
+        with progress_bar(f"writing {output.name}", total=len(record), disable=quiet) as update:
+            write_record(output, record, extra={"compensated": compensated}, metadata=out_meta,
+                         progress=update)
+    if plot is not None:
+        from creepcomp.digital.correctors import reference
+        from creepcomp.report.digital import plot_correction
+
+        plot_correction(record.time, record.signal, compensated,
+                        reference(record.load, model, method), plot,
+                        title=f"{record_path.name}: {method} correction",
+                        signal_unit=record.unit("signal"), full_scale=after.full_scale or None)
+    return FileCorrection(RecordScan.of(record), uniform_interval(record.time), before, after)
+
+
+def _starts_loaded(scan) -> bool:
+    return scan.largest_load > 0 and abs(scan.first_load) > LOADED_START * scan.largest_load
+
+
+def _notes(scan, start: str, method: str, model) -> list[str]:
     notes = []
     if model.extensions:
         notes.append(f"the model's extensions ({', '.join(map(str, model.extensions))}) are not used: "
                      "the digital correction inverts the Prony terms (beta, tau), gain and offset")
-    if _starts_loaded(record):
-        load0 = f"{record.load[0]:.4g} {record.unit('load')}".strip()
+    if _starts_loaded(scan):
+        load0 = f"{scan.first_load:.4g} {scan.unit('load')}".strip()
         if start == "relaxed":
-            notes.append(f"the record starts loaded (load {load0} at t = {record.time[0]:.4g} s); a "
+            notes.append(f"the record starts loaded (load {load0} at t = {scan.first_time:.4g} s); a "
                          "relaxed start assumes the sensor was unloaded before the first sample "
                          "(as when a creep test starts at its load step). If it had been held at "
                          "this load until its creep settled, use --initial settled.")
         else:
-            notes.append(f"the record starts loaded (load {load0} at t = {record.time[0]:.4g} s); a "
+            notes.append(f"the record starts loaded (load {load0} at t = {scan.first_time:.4g} s); a "
                          "settled start assumes its creep had saturated at that level. If the load "
                          "was applied just before, use --initial relaxed.")
-    if float(np.max(np.abs(record.load))) == 0:
+    if scan.largest_load == 0:
         notes.append("the load is zero throughout: errors cannot be given as a fraction of full scale")
     return notes
 
@@ -139,11 +169,11 @@ def _value(value: float, unit: str) -> str:
     return format_quantity(value, unit) if unit else f"{value:.4g}"
 
 
-def _render(path, record, model, result, before, after, dt, unit, notes) -> None:
+def _render(path, scan, model, result, before, after, dt, unit, notes) -> None:
     sampling = (f"uniform, every {format_quantity(dt, 's')}" if dt is not None else
-                f"irregular, steps {format_quantity(float(np.min(np.diff(record.time))), 's')} to "
-                f"{format_quantity(float(np.max(np.diff(record.time))), 's')}") if len(record) > 1 else "1 sample"
-    console.print(f"[bold]creepcomp correct[/bold]: {path}, {len(record)} samples ({sampling}); "
+                f"irregular, steps {format_quantity(scan.step_min, 's')} to "
+                f"{format_quantity(scan.step_max, 's')}") if scan.samples > 1 else "1 sample"
+    console.print(f"[bold]creepcomp correct[/bold]: {path}, {scan.samples} samples ({sampling}); "
                   f"{result['method']} method, {result['initial']} start, {HOLD_TEXT[result['hold']]}",
                   soft_wrap=True)
     console.print(f"model: {describe_model(model)}; gain {model.gain:.6g}, offset "

@@ -13,8 +13,8 @@ from creepcomp.io.jsonfiles import read_design
 from creepcomp.io.outputs import check_outputs
 from creepcomp.units import format_parameter, format_percent, format_quantity
 from creepcomp.cli.common import app, console, print_json, progress_bar
-from creepcomp.cli.fit import (COLUMNS_HELP, INITIAL_TEXT, describe_record, load_record,
-    record_options, reduce_for_fit, SHEET_OPTION, TAXEL_OPTION)
+from creepcomp.cli.fit import (COLUMNS_HELP, INITIAL_TEXT, describe_record,
+    load_reduced, record_options, SHEET_OPTION, TAXEL_OPTION)
 
 if TYPE_CHECKING:
     from creepcomp.diagnose import CircuitDiagnosis, Diagnosis
@@ -54,11 +54,14 @@ def diagnose_command(
 
     check_outputs(dirs={"-o": output}, inputs=[record_path, design])
     init, step = record_options(initial, load_step_at)
-    with progress_bar(f"reading {record_path.name}", disable=as_json) as update:
-        full = load_record(record_path, columns, delimiter, duplicate_times, taxel, sheet)
-        update(0, description="reducing the record")
-        record, reduction = reduce_for_fit(full)
-        del full
+    from creepcomp.diagnose.sensor import DIAGNOSE_MAX_SAMPLES
+    from creepcomp.fit.reduce import MAX_FIT_SAMPLES
+
+    # one reading, one reduction per side: the circuit side as a fit, the sensor side as the
+    # diagnosis would reduce the whole record
+    (full, full_reduction), (record, reduction) = load_reduced(
+        record_path, (MAX_FIT_SAMPLES, DIAGNOSE_MAX_SAMPLES), columns, delimiter, duplicate_times,
+        taxel, sheet, quiet=as_json)
     sensor_candidates, circuit_candidates = split_candidates(effects)
     circuit = None
     if record.corrected is not None or design is not None:
@@ -67,7 +70,10 @@ def diagnose_command(
                              "'corrected' column")
         nominal = read_design(record.design_path(design))
         with progress_bar("diagnosing the circuit side", disable=as_json):
-            circuit = diagnose_circuit(record, nominal, spice_check=spice_check, candidates=circuit_candidates)
+            circuit = diagnose_circuit(full, nominal, spice_check=spice_check, candidates=circuit_candidates)
+    else:
+        full_reduction = None
+    del full
     with progress_bar("diagnosing the sensor side", disable=as_json):
         result = diagnose(record, initial=init, load_step_at=step, candidates=sensor_candidates)
     units = {c: record.unit(c) for c in ("signal", "load")}
@@ -80,6 +86,8 @@ def diagnose_command(
         out = result.to_dict() if circuit is None else combine(result.to_dict(), circuit)
         if reduction:
             out["record_reduction"] = reduction
+        if full_reduction and full_reduction != reduction:
+            out["circuit_record_reduction"] = full_reduction
         if paths:
             out["files"] = {k: str(v) for k, v in paths.items()}
         print_json(out)
@@ -87,9 +95,11 @@ def diagnose_command(
     render_diagnosis(record, result)
     if circuit is not None:
         render_circuit(circuit, record.unit("signal"))
-    for note in (reduction, result.reduced):
+    for note in dict.fromkeys((reduction, result.reduced)):
         if note:
             console.print(f"[yellow]note:[/yellow] {note}", soft_wrap=True)
+    if full_reduction and full_reduction != reduction:
+        console.print(f"[yellow]note:[/yellow] circuit side: {full_reduction}", soft_wrap=True)
     for label, path in paths.items():
         console.print(f"{label.replace('_', ' ')} written to {path}")
 

@@ -25,26 +25,29 @@ TAXEL_OPTION = typer.Option(None, "--taxel", metavar="N", help="Taxel (0-279) of
 SHEET_OPTION = typer.Option(None, "--sheet", metavar="NAME", help="Sheet (specimen) of an .xlsx creep workbook.")
 
 
-def load_record(path: Path, columns: str | None, delimiter: str | None,
-                duplicate_times: str, taxel: int | None = None, sheet: str | None = None) -> Record:
-    """Read a record with the command line's mapping options (and, for insole ``.mat`` files
-    and creep ``.xlsx`` workbooks, their taxel or sheet)."""
-    from creepcomp.io.formats import read_any
-
+def _reader_options(delimiter: str | None, duplicate_times: str) -> tuple[str | None, str]:
+    """The command line's delimiter (names allowed) and duplicate-times mode, checked."""
     mode = duplicate_times.strip().lower()
     if mode not in ("error", "mean"):
         raise InputError(f"--duplicate-times '{duplicate_times}': use error or mean")
     delim = {"tab": "\t", "\\t": "\t", "comma": ",", "semicolon": ";"}.get(
         (delimiter or "").lower(), delimiter) or None
-    return read_any(path, parse_columns(columns), delimiter=delim, duplicate_times=mode,
-                    taxel=taxel, sheet=sheet)
+    return delim, mode
 
 
-def reduce_for_fit(record: Record) -> tuple[Record, str | None]:
-    """The record as the fit sees it: reduced when much longer than a fit needs."""
-    from creepcomp.fit.reduce import reduce_record
+def load_reduced(path: Path, max_samples: tuple[int, ...], columns: str | None,
+                 delimiter: str | None, duplicate_times: str, taxel: int | None = None,
+                 sheet: str | None = None, quiet: bool = False) -> list[tuple[Record, str | None]]:
+    """Read a record with the command line's mapping options (and, for insole ``.mat`` files
+    and creep ``.xlsx`` workbooks, their taxel or sheet), reduced to each of ``max_samples``
+    (:func:`creepcomp.fit.reduce.read_reduced`: a long CSV is never held whole), with a
+    progress bar."""
+    from creepcomp.fit.reduce import read_reduced
 
-    return reduce_record(record)
+    delim, mode = _reader_options(delimiter, duplicate_times)
+    with progress_bar(f"reading {path.name}", disable=quiet) as update:
+        return read_reduced(path, max_samples, parse_columns(columns), delimiter=delim,
+                            duplicate_times=mode, taxel=taxel, sheet=sheet, progress=update)
 
 
 def record_options(initial: str, load_step_at: str | None) -> tuple[str, float | None]:
@@ -101,11 +104,10 @@ def fit_command(
     """Fit gain, offset and creep terms to a record; the number of terms by evidence."""
     check_outputs({"-o": output, "--plot": plot}, inputs=[record_path])
     init, step = record_options(initial, load_step_at)
-    with progress_bar(f"reading {record_path.name}", disable=as_json) as update:
-        full = load_record(record_path, columns, delimiter, duplicate_times, taxel, sheet)
-        update(0, description="reducing the record")
-        record, reduction = reduce_for_fit(full)
-        del full
+    from creepcomp.fit.reduce import MAX_FIT_SAMPLES
+
+    [(record, reduction)] = load_reduced(record_path, (MAX_FIT_SAMPLES,), columns, delimiter,
+                                         duplicate_times, taxel, sheet, quiet=as_json)
     fixed = None
     if terms.strip().lower() != "auto":
         try:

@@ -395,11 +395,12 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
     correction : bool
         Measure the gain on the creep-corrected signal too.
     max_samples : int or None
-        Longer records are reduced to about this many samples first (None: never).
+        Longer records are reduced to about this many samples first (None: never); one
+        already reduced (``metadata["reduced"]``, :func:`~creepcomp.fit.reduce.read_reduced`) is not.
     """
     t_start = _time.perf_counter()
-    reduced = None
-    if max_samples is not None:
+    reduced = record.metadata.get("reduced")    # reduced once already, while read (fit.reduce)
+    if max_samples is not None and reduced is None:
         record, reduced = reduce_record(record, max_samples)
     data = prepare(record, initial=initial, load_step_at=load_step_at)
     pool = effects_pkg.sensor_effects() if candidates is None else [effects_pkg.get(c) for c in candidates]

@@ -52,7 +52,7 @@ from creepcomp.model import CreepModel
 
 __all__ = ["ERROR_CHUNK", "METHODS", "HOLDS", "INITIAL_STATES", "BLOCK", "PASS_SAMPLES", "default_initial",
            "saturation_factor", "Corrector", "check_invertible", "compensate", "uniform_interval",
-           "reference", "CreepError", "creep_error"]
+           "uniform_interval_of", "reference", "CreepError", "CreepErrorSum", "creep_error"]
 
 METHODS = ("subtractive", "supplemental")
 HOLDS = ("zero", "linear")
@@ -419,9 +419,18 @@ def uniform_interval(time, steps=None) -> float | None:
     if len(t) < 2:
         return None
     d = np.diff(t) if steps is None else steps
-    dt = (t[-1] - t[0]) / (len(t) - 1)
-    tolerance = UNIFORM_RTOL * dt + 4 * np.finfo(float).eps * max(abs(t[0]), abs(t[-1]))
-    if not (dt > 0 and float(d.max()) - dt <= tolerance and dt - float(d.min()) <= tolerance):
+    return uniform_interval_of(float(t[0]), float(t[-1]), len(t), float(d.min()), float(d.max()))
+
+
+def uniform_interval_of(first: float, last: float, samples: int, step_min: float,
+                        step_max: float) -> float | None:
+    """:func:`uniform_interval` from a record's first and last times, length and extreme
+    steps (as a pass over a record file gives them)."""
+    if samples < 2:
+        return None
+    dt = (last - first) / (samples - 1)
+    tolerance = UNIFORM_RTOL * dt + 4 * np.finfo(float).eps * max(abs(first), abs(last))
+    if not (dt > 0 and step_max - dt <= tolerance and dt - step_min <= tolerance):
         return None
     return float(dt)
 
@@ -472,29 +481,49 @@ class CreepError:
 ERROR_CHUNK = 1 << 20
 
 
+class CreepErrorSum:
+    """The creep error of a signal given piece by piece (running sum of squares, peak, full
+    scale): :func:`creep_error` of the whole, in the memory of one piece."""
+
+    def __init__(self, model: CreepModel, method: str = "subtractive"):
+        self.model, self.method = model, _check_method(method)
+        self.samples, self.squares, self.peak, self.peak_time, self.full_scale = 0, 0.0, -1.0, math.nan, 0.0
+
+    def add(self, time: np.ndarray, values: np.ndarray, load: np.ndarray) -> None:
+        """Take the next samples (times in s, values and load as :func:`creep_error`)."""
+        if len(time) == 0:
+            return
+        ref = reference(load, self.model, self.method)
+        err = values - ref
+        self.squares += float(np.sum(err ** 2))
+        k = int(np.argmax(np.abs(err)))
+        if abs(err[k]) > self.peak:
+            self.peak, self.peak_time = float(abs(err[k])), float(time[k])
+        self.full_scale = max(self.full_scale, float(np.max(np.abs(ref - self.model.offset))))
+        self.samples += len(time)
+
+    def result(self) -> CreepError:
+        """The error of all samples taken."""
+        return CreepError(rms=math.sqrt(self.squares / self.samples), peak=self.peak,
+                          peak_time=self.peak_time, full_scale=self.full_scale)
+
+
 def creep_error(time, values, load, model: CreepModel, method: str = "subtractive",
                 chunk: int = ERROR_CHUNK) -> CreepError:
     """Error of ``values`` (raw or compensated) against the method's load reference.
 
     The reference is :func:`reference` (instantaneous for subtractive, saturated for
     supplemental); full scale is its largest excursion from the offset in the record. Long
-    records are taken ``chunk`` samples at a time (running sum of squares, peak and full
-    scale), so memory does not grow with them.
+    records are taken ``chunk`` samples at a time (:class:`CreepErrorSum`), so memory does
+    not grow with them.
     """
     t = np.asarray(time, dtype=float)
     v = np.asarray(values, dtype=float)
     load = np.asarray(load, dtype=float)
     if v.shape != t.shape or load.shape != t.shape or t.ndim != 1 or len(t) == 0:
         raise InputError("time, values and load must be 1-D of equal, non-zero length")
-    squares, peak, peak_at, full_scale = 0.0, -1.0, 0, 0.0
+    total = CreepErrorSum(model, method)
     step = max(int(chunk), 1)
     for lo in range(0, len(t), step):
-        ref = reference(load[lo:lo + step], model, method)
-        err = v[lo:lo + step] - ref
-        squares += float(np.sum(err ** 2))
-        k = int(np.argmax(np.abs(err)))
-        if abs(err[k]) > peak:
-            peak, peak_at = float(abs(err[k])), lo + k
-        full_scale = max(full_scale, float(np.max(np.abs(ref - model.offset))))
-    return CreepError(rms=math.sqrt(squares / len(t)), peak=peak, peak_time=float(t[peak_at]),
-                      full_scale=full_scale)
+        total.add(t[lo:lo + step], v[lo:lo + step], load[lo:lo + step])
+    return total.result()

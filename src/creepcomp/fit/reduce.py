@@ -12,13 +12,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from pathlib import Path
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from creepcomp.io.records import COLUMNS, Record
+from creepcomp.io.records import (COLUMNS, STREAM_BYTES, NotStreamable, Record, read_record_chunks,
+                                  scan_record)
 from creepcomp.units import format_quantity
 
-__all__ = ["MAX_FIT_SAMPLES", "reduce_record"]
+__all__ = ["MAX_FIT_SAMPLES", "reduce_record", "read_reduced"]
 
 #: Samples a fit works on at most (more are reduced by :func:`reduce_record`).
 MAX_FIT_SAMPLES = 50_000
@@ -59,10 +62,28 @@ def reduce_record(record: Record, max_samples: int = MAX_FIT_SAMPLES) -> tuple[R
     max_samples = max(int(max_samples), 100)
     if n <= max_samples:
         return record, None
+    change = np.flatnonzero(record.load[1:] != record.load[:-1]) + 1
+    starts, note = _plan(n, record.duration, change, len(change), max_samples)
+    counts = np.diff(np.append(starts, n))
+    columns = {}
+    for name in COLUMNS:
+        values = getattr(record, name)
+        if values is not None:
+            columns[name] = np.add.reduceat(values, starts) / counts
+    metadata = dict(record.metadata)
+    metadata["reduced"] = note
+    return replace(record, metadata=metadata, **columns), note
+
+
+def _plan(n: int, duration: float, change: np.ndarray | None, change_count: int,
+          max_samples: int) -> tuple[np.ndarray, str]:
+    """First sample of every block of :func:`reduce_record`, and the note that says so.
+
+    ``change`` holds the samples where the load changes (None: more than ``max_samples // 2``
+    of them, ``change_count`` in all).
+    """
     k = math.ceil(n / max_samples)
-    load = record.load
-    change = np.flatnonzero(load[1:] != load[:-1]) + 1
-    if len(change) + 1 <= max_samples // 2:
+    if change is not None and change_count + 1 <= max_samples // 2:
         bounds = np.concatenate(([0], change, [n]))
         pieces = []
         for s, e in zip(bounds[:-1], bounds[1:]):
@@ -74,17 +95,90 @@ def reduce_record(record: Record, max_samples: int = MAX_FIT_SAMPLES) -> tuple[R
     else:
         starts = np.arange(0, n, k)
         how = (f"block means of {k} samples over the whole record (the load changes at "
-               f"{len(change)} samples: it is not held long enough to average within)")
-    counts = np.diff(np.append(starts, n))
-    columns = {}
-    for name in COLUMNS:
-        values = getattr(record, name)
-        if values is not None:
-            columns[name] = np.add.reduceat(values, starts) / counts
-    dt = record.duration / (n - 1)
+               f"{change_count} samples: it is not held long enough to average within)")
+    dt = duration / (n - 1)
     note = (f"record reduced from {n} to {len(starts)} samples for the fit by {how}: an "
             f"anti-aliasing filter; new interval about {format_quantity(k * dt, 's')} "
             f"(was {format_quantity(dt, 's')})")
-    metadata = dict(record.metadata)
-    metadata["reduced"] = note
-    return replace(record, metadata=metadata, **columns), note
+    return starts, note
+
+
+def read_reduced(path: str | Path, max_samples: Sequence[int] = (MAX_FIT_SAMPLES,),
+                 columns: Mapping[str, str] | None = None, delimiter: str | None = None,
+                 duplicate_times: str = "error", taxel: int | None = None, sheet: str | None = None,
+                 progress: Callable[..., None] | None = None,
+                 block_bytes: int = STREAM_BYTES) -> list[tuple[Record, str | None]]:
+    """Read a record file and reduce it (:func:`reduce_record`) to each of ``max_samples``.
+
+    A long plain CSV record is never held whole: one pass finds its length and load steps,
+    a second sums the blocks of every reduction while reading (the result equals
+    :func:`reduce_record` of the whole record to rounding). Other files, records no longer
+    than the largest of ``max_samples``, and anything the chunked reader leaves to the full
+    one (:class:`~creepcomp.io.records.NotStreamable`) are read whole
+    (:func:`creepcomp.io.formats.read_any`) and reduced.
+
+    Parameters
+    ----------
+    path : str or Path
+    max_samples : sequence of int
+        The reductions wanted.
+    columns, delimiter, duplicate_times, taxel, sheet
+        As :func:`creepcomp.io.formats.read_any`.
+    progress : callable, optional
+        Called as ``progress(rows_done, rows=None, description=None)``.
+
+    Returns
+    -------
+    list of (Record, str or None)
+        One reduced record and its note per entry of ``max_samples``.
+    """
+    from creepcomp.io.formats import read_any
+
+    targets = [max(int(m), 100) for m in max_samples]
+    if duplicate_times.strip().lower() == "error" and taxel is None and sheet is None:
+        try:
+            return _read_reduced_chunks(path, targets, columns, delimiter, progress, block_bytes)
+        except NotStreamable:
+            pass
+    record = read_any(path, columns, delimiter=delimiter, duplicate_times=duplicate_times,
+                      taxel=taxel, sheet=sheet)
+    return [reduce_record(record, m) for m in targets]
+
+
+def _read_reduced_chunks(path, targets, columns, delimiter, progress, block_bytes):
+    def rows_read(done):
+        if progress:
+            progress(done)
+
+    scan = scan_record(path, columns, delimiter, max_changes=max(targets) // 2, progress=rows_read,
+                       block_bytes=block_bytes)
+    n = scan.samples
+    if n <= max(targets):
+        raise NotStreamable(str(path))          # short enough to read whole
+    plans = [_plan(n, scan.last_time - scan.first_time, scan.load_changes, scan.load_change_count, m)
+             for m in targets]
+    sums = [{name: np.zeros(len(starts)) for name in scan.names} for starts, _ in plans]
+    if progress:
+        progress(0, n, "reducing the record")
+    lo = 0
+    for piece in read_record_chunks(path, columns, delimiter, block_bytes):
+        hi = lo + len(piece)
+        for (starts, _), total in zip(plans, sums):
+            first = int(np.searchsorted(starts, lo, side="right")) - 1
+            inner = starts[first + 1:np.searchsorted(starts, hi, side="left")]
+            local = np.concatenate(([0], inner - lo))
+            for name in scan.names:
+                total[name][first:first + len(local)] += np.add.reduceat(getattr(piece, name), local)
+        lo = hi
+        if progress:
+            progress(lo, n)
+    if lo != n:
+        raise NotStreamable(str(path))          # the file changed between the passes
+    out = []
+    for (starts, note), total in zip(plans, sums):
+        counts = np.diff(np.append(starts, n))
+        metadata = dict(scan.metadata)
+        metadata["reduced"] = note
+        out.append((Record(source=scan.source, metadata=metadata,
+                           **{name: total[name] / counts for name in scan.names}), note))
+    return out

@@ -14,19 +14,22 @@ as ``load=1``, is a constant column: a material test's single load step.
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Callable, Mapping
+from typing import Callable, Iterator, Mapping
 
 import numpy as np
 
 from creepcomp.errors import InputError
 
 __all__ = ["REQUIRED", "OPTIONAL", "COLUMNS", "TIME_UNITS_TO_SECONDS", "Record", "check_arrays",
-           "parse_columns", "read_record", "parse_record", "write_record", "WRITE_ROWS"]
+           "parse_columns", "read_record", "parse_record", "write_record", "WRITE_ROWS",
+           "NotStreamable", "STREAM_BYTES", "read_record_chunks", "record_writer", "RecordScan",
+           "scan_record"]
 
 REQUIRED = ("time", "load", "signal")
 OPTIONAL = ("temperature", "corrected")
@@ -299,17 +302,9 @@ def parse_record(text: str, source: str = "record", columns: Mapping[str, str] |
 def _finish(arrays: dict, metadata: dict, units_row, index: dict, source: str, header_at: int,
             duplicate_times: str) -> dict:
     """Units from a units row (time converted to seconds), the empty check, merged duplicates."""
-    if units_row is not None:
-        for name, col in index.items():
-            if not isinstance(col, float) and col < len(units_row) and units_row[col].strip():
-                metadata.setdefault(f"units.{name}", units_row[col].strip())
-        scale = TIME_UNITS_TO_SECONDS.get(metadata.get("units.time", "s").strip().lower())
-        if scale is None:
-            raise InputError(f"{source}: time unit '{metadata['units.time']}' is not one of "
-                             f"{', '.join(TIME_UNITS_TO_SECONDS)}")
-        if scale != 1.0:
-            arrays["time"] = arrays["time"] * scale
-            metadata["units.time"] = f"s (converted from {metadata['units.time']})"
+    scale = _apply_units(metadata, units_row, index, source)
+    if scale != 1.0:
+        arrays["time"] = arrays["time"] * scale
     if len(arrays["time"]) == 0:
         raise InputError(f"{source}: no data rows after the header (line {header_at + 1})")
     if duplicate_times == "mean":
@@ -321,12 +316,94 @@ def _finish(arrays: dict, metadata: dict, units_row, index: dict, source: str, h
     return arrays
 
 
+def _apply_units(metadata: dict, units_row, index: dict, source: str) -> float:
+    """Put a units row's units into ``metadata``; the factor that converts time to seconds."""
+    if units_row is None:
+        return 1.0
+    for name, col in index.items():
+        if not isinstance(col, float) and col < len(units_row) and units_row[col].strip():
+            metadata.setdefault(f"units.{name}", units_row[col].strip())
+    scale = TIME_UNITS_TO_SECONDS.get(metadata.get("units.time", "s").strip().lower())
+    if scale is None:
+        raise InputError(f"{source}: time unit '{metadata['units.time']}' is not one of "
+                         f"{', '.join(TIME_UNITS_TO_SECONDS)}")
+    if scale != 1.0:
+        metadata["units.time"] = f"s (converted from {metadata['units.time']})"
+    return scale
+
+
 class _Slow(Exception):
     """The fast reader met something it leaves to the line-by-line parser (and its message)."""
 
 
 #: Lines read before the header by the fast reader (beyond that the full parser takes over).
 FAST_HEADER_LINES = 10_000
+
+
+@dataclass
+class _FastHead:
+    """What the fast readers learn before the data: metadata, columns, where the data start."""
+
+    metadata: dict
+    header: list
+    index: dict
+    delimiter: str
+    header_at: int
+    units_row: list | None
+
+    @property
+    def wanted(self) -> dict[str, str]:
+        """Record column -> the name pyarrow gives the file's column."""
+        return {name: f"c{col}" for name, col in self.index.items() if not isinstance(col, float)}
+
+    def csv_options(self, block_size: int | None = None) -> dict:
+        """pyarrow CSV options that read the wanted columns as float64."""
+        import pyarrow as pa
+        import pyarrow.csv as pacsv
+
+        read = pacsv.ReadOptions(column_names=[f"c{k}" for k in range(len(self.header))],
+                                 **({"block_size": block_size} if block_size else {}))
+        return {"read_options": read, "parse_options": pacsv.ParseOptions(delimiter=self.delimiter),
+                "convert_options": pacsv.ConvertOptions(
+                    include_columns=sorted(set(self.wanted.values())),
+                    column_types={c: pa.float64() for c in self.wanted.values()})}
+
+
+def _fast_head(fh, source: str, mapping: dict, delimiter: str | None) -> _FastHead:
+    """Read up to the header (and a units row) from the binary file ``fh``, leaving it at the
+    first data line; :class:`_Slow` for anything the line parser should word."""
+    metadata: dict[str, str] = {}
+    header_at, header_line = None, None
+    for i in range(FAST_HEADER_LINES):
+        raw = fh.readline()
+        if not raw:
+            break
+        try:
+            line = raw.decode("utf-8-sig" if i == 0 else "utf-8")
+        except UnicodeDecodeError:
+            raise _Slow() from None
+        if len(line.splitlines()) > 1:
+            raise _Slow()               # separators other than newlines: leave to the parser
+        if _is_header(line, mapping, delimiter, metadata):
+            header_at, header_line = i, line
+            break
+    if header_at is None:
+        raise _Slow()
+    d = delimiter or _sniff_delimiter(header_line)
+    header = [h.strip() for h in next(csv.reader([header_line], delimiter=d))]
+    index = _resolve_columns(header, mapping, source, header_at)
+    start = fh.tell()
+    units_row = None
+    if mapping:
+        raw = fh.readline()
+        try:
+            row = next(csv.reader([raw.decode("utf-8")], delimiter=d), [])
+        except UnicodeDecodeError:
+            raise _Slow() from None
+        if not _row_is_numeric(row, index):
+            units_row, start = row, fh.tell()
+    fh.seek(start)
+    return _FastHead(metadata, header, index, d, header_at, units_row)
 
 
 def _read_fast(path: Path, mapping: dict, delimiter: str | None,
@@ -342,49 +419,13 @@ def _read_fast(path: Path, mapping: dict, delimiter: str | None,
     import pyarrow.csv as pacsv
 
     source = str(path)
-    metadata: dict[str, str] = {}
     with path.open("rb") as fh:
-        header_at, header_line = None, None
-        for i in range(FAST_HEADER_LINES):
-            raw = fh.readline()
-            if not raw:
-                break
-            try:
-                line = raw.decode("utf-8-sig" if i == 0 else "utf-8")
-            except UnicodeDecodeError:
-                raise _Slow() from None
-            if len(line.splitlines()) > 1:
-                raise _Slow()               # separators other than newlines: leave to the parser
-            if _is_header(line, mapping, delimiter, metadata):
-                header_at, header_line = i, line
-                break
-        if header_at is None:
-            raise _Slow()
-        d = delimiter or _sniff_delimiter(header_line)
-        header = [h.strip() for h in next(csv.reader([header_line], delimiter=d))]
-        index = _resolve_columns(header, mapping, source, header_at)
-        start = fh.tell()
-        units_row = None
-        if mapping:
-            raw = fh.readline()
-            try:
-                row = next(csv.reader([raw.decode("utf-8")], delimiter=d), [])
-            except UnicodeDecodeError:
-                raise _Slow() from None
-            if not _row_is_numeric(row, index):
-                units_row, start = row, fh.tell()
-        fh.seek(start)
-        wanted = {name: f"c{col}" for name, col in index.items() if not isinstance(col, float)}
+        head = _fast_head(fh, source, mapping, delimiter)
         try:
-            table = pacsv.read_csv(
-                fh, read_options=pacsv.ReadOptions(column_names=[f"c{k}" for k in range(len(header))]),
-                parse_options=pacsv.ParseOptions(delimiter=d),
-                convert_options=pacsv.ConvertOptions(
-                    include_columns=sorted(set(wanted.values())),
-                    column_types={c: pa.float64() for c in wanted.values()}))
+            table = pacsv.read_csv(fh, **head.csv_options())
         except (pa.ArrowException, ValueError):
             raise _Slow() from None
-    columns = {name: table.column(c) for name, c in wanted.items()}
+    columns = {name: table.column(c) for name, c in head.wanted.items()}
     n = table.num_rows
     del table
     if n == 0 or any(col.null_count for col in columns.values()):
@@ -396,13 +437,114 @@ def _read_fast(path: Path, mapping: dict, delimiter: str | None,
         del chunks
         if not np.isfinite(arrays[name]).all():
             raise _Slow()
-    for name, col in index.items():
+    for name, col in head.index.items():
         if isinstance(col, float):
             arrays[name] = np.full(n, col)
-    arrays = _finish(arrays, metadata, units_row, index, source, header_at, duplicate_times)
+    metadata = head.metadata
+    arrays = _finish(arrays, metadata, head.units_row, head.index, source, head.header_at,
+                     duplicate_times)
     if not np.all(np.diff(arrays["time"]) > 0):
         raise _Slow()
     return Record(source=source, metadata=metadata, **{name: arrays.get(name) for name in COLUMNS})
+
+
+class NotStreamable(Exception):
+    """A record :func:`read_record_chunks` leaves to :func:`read_record` (read whole): not a
+    plain CSV file, or something in it that the full reader words (a bad cell, time going
+    back), or repeated time stamps to average."""
+
+
+#: Bytes of CSV text per piece of :func:`read_record_chunks` (about 35 000 rows of 3 columns).
+#: Small on purpose: the resident memory of pyarrow's streaming reader grew to about 20
+#: times its block size (390 MB for 16 MB blocks on a 300 MB file; 118 MB for 1 MB blocks).
+STREAM_BYTES = 1 << 20
+
+
+def read_record_chunks(path: str | Path, columns: Mapping[str, str] | None = None,
+                       delimiter: str | None = None, block_bytes: int = STREAM_BYTES) -> Iterator[Record]:
+    """Read a record in consecutive pieces, each a :class:`Record` of some thousand rows.
+
+    Memory stays that of one piece whatever the record's length. The pieces hold exactly
+    what :func:`read_record` would read (same metadata, units and time conversion); every
+    piece's time follows the previous piece's.
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV file (not compressed).
+    columns, delimiter
+        As :func:`read_record`.
+    block_bytes : int
+        CSV text per piece.
+
+    Yields
+    ------
+    Record
+
+    Raises
+    ------
+    NotStreamable
+        When the file is not a plain, well-formed CSV record: read it with :func:`read_record`
+        instead (it words any problem). This can happen after some pieces were yielded.
+    InputError
+        For problems of the header (missing column, unknown time unit).
+    """
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    p = Path(path)
+    _check_delimiter(delimiter)
+    if p.suffix.lower() in (".gz", ".mat", ".xlsx") or not p.is_file():
+        raise NotStreamable(str(p))
+    source = str(p)
+    mapping = {k.lower(): v for k, v in (columns or {}).items()}
+    try:
+        fh = p.open("rb")
+    except OSError:
+        raise NotStreamable(source) from None
+    with fh:
+        try:
+            head = _fast_head(fh, source, mapping, delimiter)
+        except _Slow:
+            raise NotStreamable(source) from None
+        scale = _apply_units(head.metadata, head.units_row, head.index, source)
+        try:
+            reader = pacsv.open_csv(fh, **head.csv_options(block_bytes))
+        except (pa.ArrowException, ValueError):
+            raise NotStreamable(source) from None
+        last_time, rows = None, 0
+        while True:
+            try:
+                batch = reader.read_next_batch()
+            except StopIteration:
+                break
+            except (pa.ArrowException, ValueError):
+                raise NotStreamable(source) from None
+            n = batch.num_rows
+            if n == 0:
+                continue
+            arrays = {}
+            for name, c in head.wanted.items():
+                col = batch.column(c)
+                if col.null_count:
+                    raise NotStreamable(source)
+                arrays[name] = col.to_numpy(zero_copy_only=False)
+                if not np.isfinite(arrays[name]).all():
+                    raise NotStreamable(source)
+            for name, col in head.index.items():
+                if isinstance(col, float):
+                    arrays[name] = np.full(n, col)
+            if scale != 1.0:
+                arrays["time"] = arrays["time"] * scale
+            t = arrays["time"]
+            if not (np.all(np.diff(t) > 0) and (last_time is None or t[0] > last_time)):
+                raise NotStreamable(source)
+            last_time = float(t[-1])
+            rows += n
+            yield Record(source=source, metadata=dict(head.metadata),
+                         **{name: arrays.get(name) for name in COLUMNS})
+        if rows == 0:
+            raise NotStreamable(source)
 
 
 def _is_header(line: str, mapping: Mapping[str, str], delimiter: str | None,
@@ -488,6 +630,161 @@ def _row_is_numeric(row, index) -> bool:
     return True
 
 
+@dataclass(frozen=True)
+class RecordScan:
+    """What one pass over a record file learns without holding it (:func:`scan_record`).
+
+    Attributes
+    ----------
+    source : str
+    metadata : dict
+    names : tuple of str
+        The columns present, in contract order.
+    samples : int
+    first_time, last_time : float
+        Times of the first and last samples (s).
+    step_min, step_max : float
+        Smallest and largest time step (s; NaN for one sample).
+    first_load, largest_load : float
+        The first load and the largest ``|load|``.
+    load_change_count : int
+        Samples ``i`` where ``load[i] != load[i - 1]``.
+    load_changes : numpy.ndarray or None
+        Those ``i``; None when there are more than the scan kept.
+    """
+
+    source: str
+    metadata: dict
+    names: tuple
+    samples: int
+    first_time: float
+    last_time: float
+    step_min: float
+    step_max: float
+    first_load: float
+    largest_load: float
+    load_change_count: int
+    load_changes: np.ndarray | None
+
+    def unit(self, column: str) -> str:
+        """The unit named in metadata ``units.<column>``, or an empty string."""
+        return str(self.metadata.get(f"units.{column}", ""))
+
+    @classmethod
+    def of(cls, record: Record, pieces: Iterator[Record] | None = None,
+           max_changes: int = 0) -> "RecordScan":
+        """The scan of a record held in memory, or of its pieces (``record`` the first)."""
+        n, first, last = 0, float(record.time[0]), None
+        step_min, step_max, largest = math.inf, -math.inf, 0.0
+        count, changes, prev_load = 0, [], None
+        for piece in ([record] if pieces is None else pieces):
+            t, load = piece.time, piece.load
+            steps = np.diff(t) if last is None else np.diff(t, prepend=last)
+            if steps.size:
+                step_min, step_max = min(step_min, float(steps.min())), max(step_max, float(steps.max()))
+            jumps = np.flatnonzero(load[1:] != load[:-1]) + 1 + n
+            if prev_load is not None and load[0] != prev_load:
+                jumps = np.concatenate(([n], jumps))
+            count += len(jumps)
+            if count <= max_changes:
+                changes.append(jumps)
+            largest = max(largest, float(np.max(np.abs(load))))
+            n, last, prev_load = n + len(t), float(t[-1]), float(load[-1])
+        if n < 2:
+            step_min = step_max = math.nan
+        return cls(record.source, dict(record.metadata),
+                   tuple(name for name in COLUMNS if getattr(record, name) is not None), n, first,
+                   last, step_min, step_max, float(record.load[0]), largest, count,
+                   (np.concatenate(changes).astype(np.int64) if changes else np.zeros(0, np.int64))
+                   if count <= max_changes else None)
+
+
+def scan_record(path: str | Path, columns: Mapping[str, str] | None = None,
+                delimiter: str | None = None, max_changes: int = 0,
+                progress: Callable[[int], None] | None = None,
+                block_bytes: int = STREAM_BYTES) -> RecordScan:
+    """One pass over a record file in pieces (:func:`read_record_chunks`): its length, time
+    span and steps, load range and load changes, in the memory of one piece.
+
+    Parameters
+    ----------
+    path, columns, delimiter
+        As :func:`read_record_chunks`.
+    max_changes : int
+        Keep the indices of up to this many load changes (they are counted in any case).
+    progress : callable, optional
+        Called as ``progress(rows_read)``.
+
+    Raises
+    ------
+    NotStreamable
+        As :func:`read_record_chunks`.
+    """
+    pieces = read_record_chunks(path, columns, delimiter, block_bytes)
+    first = next(pieces)
+
+    def counted():
+        done = 0
+        for piece in _chain_first(first, pieces):
+            done += len(piece)
+            if progress:
+                progress(done)
+            yield piece
+
+    return RecordScan.of(first, counted(), max_changes)
+
+
+def _chain_first(first, rest):
+    yield first
+    yield from rest
+
+
+@contextlib.contextmanager
+def record_writer(path: str | Path, names: list[str], metadata: Mapping[str, str],
+                  digits: int | None = None) -> Iterator[Callable[[Mapping[str, np.ndarray]], None]]:
+    """Write a record piece by piece, atomically: the file appears, complete, when the block
+    ends, and not at all when it raises (:mod:`creepcomp.io.atomic`).
+
+    Parameters
+    ----------
+    path : str or Path
+    names : list of str
+        The columns, in order.
+    metadata : mapping
+        ``# key: value`` lines.
+    digits : int, optional
+        Write numbers rounded to this many significant digits (``%g``) instead of exactly
+        (shortest round-trip form: ``0.2`` stays ``0.2``).
+
+    Yields
+    ------
+    callable
+        ``write(columns)``: append rows, one array per name (equal lengths).
+    """
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    from creepcomp.io.atomic import atomic_path
+
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(p) as tmp, tmp.open("wb") as fh:
+        head = "".join(f"# {key}: {value}\n" for key, value in metadata.items()) + ",".join(names) + "\n"
+        fh.write(head.encode("utf-8"))
+        options = pacsv.WriteOptions(include_header=False)
+
+        def write(columns: Mapping[str, np.ndarray]) -> None:
+            for lo in range(0, len(columns[names[0]]), WRITE_ROWS):
+                part = {k: np.asarray(columns[k], dtype=float)[lo:lo + WRITE_ROWS] for k in names}
+                if digits is None:
+                    pacsv.write_csv(pa.table(part), fh, options)
+                else:
+                    np.savetxt(fh, np.column_stack(list(part.values())), delimiter=",",
+                               fmt=f"%.{int(digits)}g")
+
+        yield write
+
+
 def write_record(path: str | Path, record: Record, extra: Mapping[str, np.ndarray] | None = None,
                  metadata: Mapping[str, str] | None = None, digits: int | None = None,
                  progress: Callable[[int, int], None] | None = None) -> Path:
@@ -509,13 +806,6 @@ def write_record(path: str | Path, record: Record, extra: Mapping[str, np.ndarra
     progress : callable, optional
         Called as ``progress(rows_written, rows)`` while writing.
     """
-    import pyarrow as pa
-    import pyarrow.csv as pacsv
-
-    from creepcomp.io.atomic import atomic_path
-
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
     cols = dict(record.columns())
     for name, values in (extra or {}).items():
         values = np.asarray(values, dtype=float)
@@ -525,17 +815,10 @@ def write_record(path: str | Path, record: Record, extra: Mapping[str, np.ndarra
     meta = dict(record.metadata)
     meta.update(metadata or {})
     n = len(record)
-    with atomic_path(p) as tmp, tmp.open("wb") as fh:
-        head = "".join(f"# {key}: {value}\n" for key, value in meta.items()) + ",".join(cols) + "\n"
-        fh.write(head.encode("utf-8"))
-        options = pacsv.WriteOptions(include_header=False)
+    with record_writer(path, list(cols), meta, digits) as write:
         for lo in range(0, n, WRITE_ROWS):
             hi = min(lo + WRITE_ROWS, n)
-            if digits is None:
-                pacsv.write_csv(pa.table({k: v[lo:hi] for k, v in cols.items()}), fh, options)
-            else:
-                np.savetxt(fh, np.column_stack([v[lo:hi] for v in cols.values()]), delimiter=",",
-                           fmt=f"%.{int(digits)}g")
+            write({k: v[lo:hi] for k, v in cols.items()})
             if progress:
                 progress(hi, n)
-    return p
+    return Path(path)

@@ -1,0 +1,107 @@
+"""Creep correction of a record file in pieces: memory of one piece at any record length.
+
+Two passes over the file (:func:`creepcomp.io.records.read_record_chunks`): the first finds
+the sampling (uniform or not) and the load range, the second runs the :class:`Corrector`,
+whose state carries from piece to piece, takes the creep errors and writes the output
+pieces through the atomic writer. The result equals :func:`compensate` and
+:func:`creep_error` on the whole record (to rounding).
+"""
+
+from __future__ import annotations
+
+import contextlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Mapping
+
+from creepcomp.digital.correctors import (CreepError, CreepErrorSum, Corrector, default_initial,
+                                          uniform_interval_of)
+from creepcomp.io.records import (STREAM_BYTES, NotStreamable, RecordScan, read_record_chunks,
+                                  record_writer, scan_record)
+from creepcomp.model import CreepModel
+
+__all__ = ["FileCorrection", "correct_record_file"]
+
+
+@dataclass(frozen=True)
+class FileCorrection:
+    """What :func:`correct_record_file` did.
+
+    Attributes
+    ----------
+    scan : RecordScan
+        The record's length, sampling, load range and metadata.
+    dt : float or None
+        The uniform sampling interval (s), or None for irregular sampling.
+    before, after : CreepError
+        Creep error of the raw and the compensated signal.
+    """
+
+    scan: RecordScan
+    dt: float | None
+    before: CreepError
+    after: CreepError
+
+
+def correct_record_file(path: str | Path, model: CreepModel, method: str = "subtractive",
+                        initial=None, hold: str = "zero", output: str | Path | None = None,
+                        output_metadata: Mapping[str, str] | None = None,
+                        columns: Mapping[str, str] | None = None,
+                        progress: Callable[..., None] | None = None,
+                        block_bytes: int = STREAM_BYTES) -> FileCorrection:
+    """Compensate a record file piece by piece; optionally write its columns plus
+    ``compensated`` to ``output`` (atomically).
+
+    Parameters
+    ----------
+    path : str or Path
+        Record CSV.
+    model, method, initial, hold
+        As :func:`creepcomp.digital.correctors.compensate`.
+    output : str or Path, optional
+        The corrected record.
+    output_metadata : mapping, optional
+        ``# key: value`` lines added to the record's in the output.
+    columns : mapping, optional
+        Column mapping (:func:`creepcomp.io.records.read_record`).
+    progress : callable, optional
+        Called as ``progress(rows_done, rows=None, description=None)``.
+
+    Raises
+    ------
+    NotStreamable
+        For a file the chunked reader leaves to :func:`creepcomp.io.records.read_record`, or
+        fewer than 2 samples: correct the whole record instead. No output is left then.
+    """
+    def rows_read(done):
+        if progress:
+            progress(done)
+
+    scan = scan_record(path, columns, progress=rows_read, block_bytes=block_bytes)
+    if scan.samples < 2:
+        raise NotStreamable(str(path))
+    dt = uniform_interval_of(scan.first_time, scan.last_time, scan.samples, scan.step_min,
+                             scan.step_max)
+    start = default_initial(method) if initial is None else initial
+    corrector = Corrector(model, method, dt=dt, initial=start, hold=hold)
+    before, after = CreepErrorSum(model, method), CreepErrorSum(model, method)
+    if progress:
+        progress(0, scan.samples, "correcting")
+    writing = (record_writer(output, [*scan.names, "compensated"],
+                             {**scan.metadata, **(output_metadata or {})})
+               if output is not None else contextlib.nullcontext())
+    done = 0
+    with writing as write:
+        for piece in read_record_chunks(path, columns, block_bytes=block_bytes):
+            compensated = (corrector.process(piece.signal) if dt is not None
+                           else corrector.process(piece.signal, piece.time))
+            before.add(piece.time, piece.signal, piece.load)
+            after.add(piece.time, compensated, piece.load)
+            if write is not None:
+                write({**piece.columns(), "compensated": compensated})
+            done += len(piece)
+            if progress:
+                progress(done, scan.samples)
+        if done != scan.samples:
+            raise NotStreamable(str(path))          # the file changed between the passes
+    return FileCorrection(scan, dt, before.result(), after.result())
