@@ -6,17 +6,19 @@ serially (in this process, no Dask), on a local cluster of 1 worker and on one o
 wall time of each, speed-up, the mean processing time of a unit on its worker (throughput per
 core), and whether each table equals the serial one (every column but ``seconds``).
 
-(b) Memory: 50 and 500 short records (300-450 s at 1 Hz) are written, each batch is run in a
-fresh Python process on a local cluster of 2 workers, and the peak resident memory of that
-process (client and scheduler) and of each worker process is read (``VmHWM``) at the end.
-The folders are removed afterwards.
+(b) Memory (``--skip-speed``): 50 and 500 short records (300-450 s at 1 Hz) are written, each
+batch is run in a fresh Python process on a local cluster of 2 workers, and the peak resident
+memory of that process (client and scheduler) and of each worker process is read
+(``VmHWM``) at the end. The folders are removed afterwards.
+
+(c) ``--unit-cost``: CPU time and peak memory of one unit on production-sized records.
 
 The machine's load average is printed before and after each part: other work on the cores
 slows the runs (wall times are then noisy; the equality checks are not affected).
 
 Usage::
 
-    nice -n 10 python benchmarks/fleet.py [--units 200] [--skip-speed] [--skip-memory]
+    OPENBLAS_NUM_THREADS=1 nice -n 10 python benchmarks/fleet.py [--units 200] [--skip-speed] [--skip-memory]
     OPENBLAS_NUM_THREADS=1 nice -n 10 python benchmarks/fleet.py --unit-cost
 """
 
@@ -93,24 +95,23 @@ def peak_rss_mib() -> float:
 
 
 def memory_child(records: str, out_dir: str) -> None:
-    """Run one batch on a local cluster of 2 workers; print the peak RSS (MiB) of this process
-    and of each worker."""
-    import logging
+    """Run one batch on a local cluster of 2 workers (``creepcomp.fleet.local_cluster``, the one
+    ``run`` starts); print the peak RSS (MiB) of this process (client and scheduler) and of
+    each worker, and the size of the records on disk."""
+    from dask.distributed import Client
 
-    from dask.distributed import Client, LocalCluster
+    from creepcomp.fleet import local_cluster, run
 
-    from creepcomp.fleet import run
-
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                      scheduler_kwargs={"dashboard_address": ":0"},
-                      silence_logs=logging.ERROR) as cluster:
+    with local_cluster(2) as cluster:
         t = time.perf_counter()
         r = run([records], out_dir, scheduler=cluster.scheduler_address)
         wall = time.perf_counter() - t
         with Client(cluster) as client:
             workers = client.run(peak_rss_mib)
     client_mib = peak_rss_mib()
+    on_disk = sum(p.stat().st_size for p in Path(records).iterdir()) / 2 ** 20
     print(json.dumps({"n": r.n, "failed": len(r.failed), "wall_s": round(wall, 1),
+                      "records_on_disk_mib": round(on_disk, 1),
                       "client_peak_mib": round(client_mib, 1),
                       "worker_peak_mib": sorted(round(v, 1) for v in workers.values())}))
 

@@ -2,7 +2,6 @@
 record and a killed worker, a re-run skips what is done, and results equal a serial run."""
 
 import json
-import logging
 import os
 import signal
 import subprocess
@@ -15,7 +14,7 @@ import pytest
 
 from creepcomp.cli import main
 from creepcomp.errors import InputError
-from creepcomp.fleet import SERIAL, find_records, robust_z, run, unit_names
+from creepcomp.fleet import SERIAL, find_records, local_cluster, robust_z, run, unit_names
 from creepcomp.fleet.table import COLUMN_NAMES
 from creepcomp.fleet.unit import OIML_C3_CREEP, done_row, empty_row, row_from, run_settings
 from creepcomp.io.records import write_record
@@ -43,11 +42,7 @@ def serial(records, tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def cluster():
-    from dask.distributed import LocalCluster
-
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                      scheduler_kwargs={"dashboard_address": ":0"},
-                      silence_logs=logging.CRITICAL) as c:
+    with local_cluster(2) as c:
         yield c
 
 
@@ -95,24 +90,57 @@ def test_cluster_of_two_survives_a_killed_worker_and_matches_the_serial_run(seri
                                                                             tmp_path):
     from dask.distributed import Client
 
-    with Client(cluster) as client:
-        pids = client.run(os.getpid)
     killed = {}
+    with Client(cluster) as client:
+        client.wait_for_workers(2, timeout=60)
+        pids = client.run(os.getpid)
 
-    def progress(done, total, row):
-        if not killed:
-            # one worker dies mid-run (both are busy: more units are queued than workers)
-            victim = sorted(pids.values())[0]
-            os.kill(victim, signal.SIGKILL)
-            killed.update(pid=victim, done=done, total=total)
+        def progress(done, total, row):
+            if killed:
+                return
+            # mid-run, the worker of a unit still being processed dies with it
+            busy = {w: keys for w, keys in client.processing().items() if keys}
+            if not busy:
+                return
+            victim = sorted(busy)[0]
+            os.kill(pids[victim], signal.SIGKILL)
+            killed.update(pid=pids[victim], keys=busy[victim], done=done, total=total)
 
-    result = run([records], tmp_path, scheduler=cluster.scheduler_address, progress=progress, retries=1)
-    assert killed["done"] < killed["total"] - 1
-    assert result.workers >= 1 and result.scheduler == cluster.scheduler_address
+        result = run([records], tmp_path, scheduler=cluster.scheduler_address, progress=progress,
+                     retries=1)
+    assert killed and killed["done"] < killed["total"]
+    assert result.workers == 2 and result.scheduler == cluster.scheduler_address
+    rows = result.table.to_pylist()
+    # the units the dead worker held (task keys end with the unit's index) were run again
+    lost = [rows[int(key.rsplit("-", 1)[1])] for key in killed["keys"]]
+    assert lost and all(r["status"] == "ok" or r["unit"] == BROKEN[:-4] for r in lost)
+    # the broken record is one failed row, every other unit has its result: the serial run's
+    assert [r["unit"] for r in rows if r["status"] != "ok"] == [BROKEN[:-4]]
     assert compared(result.table) == compared(serial[0].table)
     with Client(cluster) as client:
         client.wait_for_workers(2, timeout=60)
         assert killed["pid"] not in client.run(os.getpid).values()
+
+
+def test_cluster_run_interrupted_then_run_again_skips_the_units_done(serial, records, cluster,
+                                                                     tmp_path):
+    def interrupt(done, total, row):
+        if done == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run([records], tmp_path, scheduler=cluster.scheduler_address, progress=interrupt)
+    results = sorted(tmp_path.glob("units/*/result.json"))
+    assert 2 <= len(results) < serial[0].n
+    written = {p.parent.name: p.stat().st_mtime_ns for p in results}
+    again = run([records], tmp_path, scheduler=cluster.scheduler_address)
+    assert len(written) <= again.skipped < again.n and again.workers == 2
+    assert compared(again.table) == compared(serial[0].table)
+    # the units done by the first run were not run again
+    assert {u: (tmp_path / "units" / u / "result.json").stat().st_mtime_ns for u in written} == written
+    third = run([records], tmp_path, scheduler=cluster.scheduler_address)
+    assert third.skipped == third.n and third.workers == 0
+    assert compared(third.table) == compared(serial[0].table)
 
 
 def test_second_run_skips_units_done_and_reruns_a_changed_record(serial, records):
@@ -143,6 +171,34 @@ def test_correct_writes_the_corrected_record_and_its_error(records, tmp_path):
     assert "compensated" in text.splitlines()[[not l.startswith("#") for l in text.splitlines()].index(True)]
     assert 0 < row["corrected_error_rms"] <= row["corrected_error_peak"] < 0.05
     assert "report" not in result.paths
+
+
+def test_a_fit_no_corrector_can_invert_is_reported_not_judged_and_says_why(records, tmp_path,
+                                                                           monkeypatch):
+    import creepcomp.fit
+
+    real = creepcomp.fit.fit_prony
+
+    class Uninvertible:
+        """The real fit with its terms replaced by two of beta0 = -1.2."""
+
+        def __init__(self, data):
+            self.fitted = real(data)
+
+        def to_dict(self):
+            return dict(self.fitted.to_dict(), beta=[-0.7, -0.5], tau=[20.0, 25.0])
+
+    monkeypatch.setattr(creepcomp.fit, "fit_prony", Uninvertible)
+    result = run([records / "S1.csv"], tmp_path, scheduler=SERIAL, correct=True, report=False)
+    row = result.table.to_pylist()[0]
+    assert row["status"] == "ok" and row["error"] is None and row["cause"]
+    assert row["beta0"] == pytest.approx(-1.2) and row["n_terms"] == 2
+    assert row["in_spec"] is None and row["residual_creep"] is None and row["creep_step"] is None
+    assert row["corrected_error_rms"] is None
+    assert not (tmp_path / "units" / "S1" / "corrected.csv").exists()
+    assert row["notes"].startswith("in_spec not judged: the fitted model has beta0 = -1.2 ")
+    assert "no corrector can invert" in row["notes"] and "\n" not in row["notes"]
+    assert result.summary["not_judged"][0]["notes"] == row["notes"]
 
 
 def test_cli_json_has_the_contract_keys(serial, records, capsys):

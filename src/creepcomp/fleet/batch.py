@@ -27,11 +27,18 @@ from creepcomp.fleet.discover import find_records, unit_names
 from creepcomp.fleet.table import arrow_table, write_table
 from creepcomp.fleet.unit import OIML_C3_CREEP, done_row, empty_row, one_line, process_unit, run_settings
 
-__all__ = ["SERIAL", "FleetResult", "run"]
+__all__ = ["SERIAL", "WORKER_CONFIG", "FleetResult", "run", "local_cluster"]
 
 #: ``scheduler`` value that runs every unit in this process, one after the other, without Dask
 #: (for debugging and as the reference a distributed run must reproduce).
 SERIAL = "serial"
+
+#: Dask settings of the workers of a local cluster. Dask's statistical profiler samples the
+#: running task's stack every 10 ms and keeps each second's call tree for the last 1000 s
+#: (``distributed.admin.low-level-log-length``), twice: the fit's deep numpy/scipy stacks make
+#: that about 0.7 MiB per busy second, so a worker's memory grew by about 1 MiB per unit
+#: (``docs/fleet.md``, Memory). Nothing of creepcomp reads the profile.
+WORKER_CONFIG = {"distributed.worker.profile.enabled": False}
 
 #: ``progress(done, total, row)``: called once per unit, ``row`` its table row.
 Progress = Callable[[int, int, dict], None]
@@ -200,25 +207,36 @@ def run(records: Iterable[str | Path], out_dir: str | Path, workers: int | None 
     return result
 
 
+def local_cluster(workers: int | None = None):
+    """A Dask cluster of ``workers`` single-threaded worker processes on this machine (default:
+    its cores), with :data:`WORKER_CONFIG`, no dashboard, quiet logs, and the workers deaf to
+    Ctrl-C. Close it (``with local_cluster(2) as cluster: ...``)."""
+    import dask
+    from dask.distributed import LocalCluster
+
+    # the workers start with Ctrl-C ignored (a disposition kept across the exec of a new
+    # process): a terminal's SIGINT reaches the whole process group, and only this process
+    # should react to it, by closing the cluster
+    main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+    try:
+        with dask.config.set(WORKER_CONFIG):  # each nanny keeps the configuration it starts with
+            return LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
+                                processes=True, dashboard_address=None,
+                                scheduler_kwargs={"dashboard_address": ":0"},
+                                silence_logs=logging.CRITICAL)
+    finally:
+        if main:
+            signal.signal(signal.SIGINT, previous)
+
+
 def _run_dask(paths, names, todo, args, workers, scheduler, window, retries, finished):
     """Submit the units by path, at most ``window`` in flight; returns (workers, threads, where)."""
-    from dask.distributed import Client, LocalCluster, as_completed
+    from dask.distributed import Client, as_completed
 
     cluster = None
     if scheduler is None:
-        # the workers start with Ctrl-C ignored (a disposition kept across the exec of a new
-        # process): a terminal's SIGINT reaches the whole process group, and only this process
-        # should react to it, by closing the cluster
-        main = threading.current_thread() is threading.main_thread()
-        previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
-        try:
-            cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                                   processes=True, dashboard_address=None,
-                                   scheduler_kwargs={"dashboard_address": ":0"},
-                                   silence_logs=logging.CRITICAL)
-        finally:
-            if main:
-                signal.signal(signal.SIGINT, previous)
+        cluster = local_cluster(workers)
         client = Client(cluster)
         where = "local"
     else:

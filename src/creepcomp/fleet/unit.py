@@ -23,7 +23,7 @@ from creepcomp.io.jsonfiles import to_json
 from creepcomp.model import CreepModel
 
 __all__ = ["OIML_C3_CREEP", "STEP_POINTS", "RESULT_FILE", "RESULT_VERSION", "run_settings", "empty_row", "row_from",
-           "step_creep", "process_unit", "done_row", "one_line"]
+           "step_creep", "process_unit", "done_row", "one_line", "uninvertible_note"]
 
 #: Default creep limit: OIML R60, accuracy class C (3000 intervals), as a fraction of the
 #: full-scale output (the figure the issue gives for class C3).
@@ -174,6 +174,19 @@ def done_row(path: str | Path, unit_dir: str | Path, settings: dict) -> dict | N
     return row
 
 
+def uninvertible_note(model: dict, error: Exception) -> str:
+    """The ``notes`` entry of a unit whose fitted model no corrector can use (the unit is
+    reported, not judged against the spec)."""
+    beta0 = _float(sum(model.get("beta") or [0.0]))
+    if beta0 is not None and beta0 <= -1:
+        return (f"in_spec not judged: the fitted model has beta0 = {beta0:.4g} (sum of beta; -1 "
+                "or less is a creep of -100 % or more, not a physical creep model), which no "
+                "corrector can invert, so no step creep, residual creep or correction was "
+                "computed (the terms are in model.json)")
+    return (f"in_spec not judged: the fitted model cannot be used for correction "
+            f"({one_line(error, 160)}): no step creep, residual creep or correction")
+
+
 def process_unit(path: str, unit: str, out_dir: str, spec: float = OIML_C3_CREEP,
                  correct: bool = False, unit_reports: bool = False) -> dict:
     """Process one record (this runs on a worker): read, fit, diagnose, the step creep
@@ -241,22 +254,20 @@ def _analyse(path: Path, folder: Path, row: dict, spec: float, correct: bool,
     notes = []
     correcting = None
     try:
-        # the fit may return a model no corrector can invert (e.g. beta0 <= -1 from two
-        # poorly separated terms of a short record): the unit is then reported, not judged
         correcting = CreepModel.from_dict(model, where="fitted model")
     except InputError as exc:
-        notes.append(f"no correction: {one_line(exc, 160)}")
-    try:
-        if correcting is None:
-            raise InputError("no correcting model")
-        actual = CreepModel.from_dict(diagnosis.extended_model, where="extended model")
-        level = float(record.load[np.argmax(np.abs(record.load))])
-        temp = float(np.mean(record.temperature)) if record.temperature is not None else None
-        row["creep_step"], row["residual_creep"] = step_creep(correcting, actual, record.duration,
-                                                              data.dt_median, level, temp)
-    except (InputError, np.linalg.LinAlgError) as exc:
-        if correcting is not None:
-            notes.append(f"step creep not computed: {one_line(exc, 160)}")
+        # the fit may return a model no corrector can invert: the unit is reported, not judged
+        notes.append(uninvertible_note(model, exc))
+    if correcting is not None:
+        try:
+            actual = CreepModel.from_dict(diagnosis.extended_model, where="extended model")
+            level = float(record.load[np.argmax(np.abs(record.load))])
+            temp = float(np.mean(record.temperature)) if record.temperature is not None else None
+            row["creep_step"], row["residual_creep"] = step_creep(
+                correcting, actual, record.duration, data.dt_median, level, temp)
+        except (InputError, np.linalg.LinAlgError) as exc:
+            notes.append(f"in_spec not judged: the step creep could not be computed "
+                         f"({one_line(exc, 160)})")
     row["spec"] = spec
     if row["residual_creep"] is not None:
         if "unexplained" in row["findings"].split(","):

@@ -2,8 +2,9 @@
 
 One module per report: ``design`` (residual creep and sweep of designs), ``tolerance`` (Monte
 Carlo report), ``spice`` (ngspice against python-control), ``digital`` (digital correction),
-``diagnosis`` and ``circuit_diagnosis`` (diagnose reports), and ``common`` (saving figures,
-HTML pages). Nothing is imported here, so that one report costs only its own imports.
+``diagnosis`` and ``circuit_diagnosis`` (diagnose reports), ``fleet`` (the lot report of
+``creepcomp fleet``), and ``common`` (saving figures, HTML pages). Nothing is imported here,
+so that one report costs only its own imports.
 """
 
 __all__: list[str] = []
