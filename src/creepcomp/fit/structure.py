@@ -143,12 +143,17 @@ class Basis:
 _SEGMENT = 4096
 
 
-def _state_dependent_lags(data: Data, h, taus, init, factor, effects, values):
+def _state_dependent_lags(data: Data, h, taus, init, factor, effects, values, cache: dict | None = None):
     """Lags whose time constants depend on their own state (modes such as creep and recovery),
     solved segment by segment: within a segment the modes are found by fixed-point iteration
     (modes from states, states from modes; the causal solution is its only fixed point), and
     the segment's last state starts the next one. Short segments hold few mode switches, so
-    the iteration converges in a few rounds whatever the whole record holds."""
+    the iteration converges in a few rounds whatever the whole record holds.
+
+    With a ``cache`` (one per fitting problem), the iteration starts from the modes the last
+    call converged to: an optimiser's next point, or a finite-difference step, nearly always
+    has the same modes, and then one solve confirms them instead of several rounds. The
+    fixed point, and so the result, is the same from any start."""
     t = data.time
     n, k = len(t), len(taus)
     out = np.empty((n, k))
@@ -161,8 +166,11 @@ def _state_dependent_lags(data: Data, h, taus, init, factor, effects, values):
         end = min(start + _SEGMENT, n - 1)
         seg_t, seg_h = t[start:end + 1], h[start:end + 1]
         base = factor[start:end]
-        seg = varying_lag_states(seg_t, seg_h, taus[None, :] * base, hold=data.hold, initial=c)
-        current = None
+        current = None if cache is None else cache.get(("modes", start))
+        if current is not None and current.shape != base.shape:
+            current = None
+        seg = varying_lag_states(seg_t, seg_h, taus[None, :] * base if current is None else
+                                 taus[None, :] * base * current, hold=data.hold, initial=c)
         for _ in range(_MODE_ITERATIONS):
             new = np.ones_like(base)
             for a in effects:
@@ -174,6 +182,8 @@ def _state_dependent_lags(data: Data, h, taus, init, factor, effects, values):
                                      initial=c)
         out[start:end + 1] = seg
         modes[start:end] = current
+        if cache is not None:
+            cache[("modes", start)] = current
         c = seg[-1]
         start = end
     return out, factor * modes
@@ -204,7 +214,7 @@ def basis(data: Data, structure: Structure, values: dict, cache: dict | None = N
             factor = factor * a.effect.tau_factor(data, h, lags, taus, a.own(values), a)
         states = [a for a in dynamic if a.effect.state_dependent]
         if states:
-            lags, factor = _state_dependent_lags(data, h, taus, init, factor, states, values)
+            lags, factor = _state_dependent_lags(data, h, taus, init, factor, states, values, cache)
         else:
             lags = varying_lag_states(t, h, taus[None, :] * factor, hold=data.hold, initial=init)
     cols, names = [], []
