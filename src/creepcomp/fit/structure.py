@@ -189,6 +189,36 @@ def _state_dependent_lags(data: Data, h, taus, init, factor, effects, values, ca
     return out, factor * modes
 
 
+def _lags(data: Data, h, taus, init, dynamic, values, cache) -> np.ndarray:
+    """States of the creep lags driven by ``h`` (time constants changed by ``dynamic`` effects)."""
+    t = data.time
+    static = [a for a in dynamic if not a.effect.state_dependent]
+    if not dynamic or static:
+        lags = lag_states(t, h, taus, hold=data.hold, initial=init)
+        if not dynamic:
+            return lags
+    factor = np.ones((len(t) - 1, len(taus)))
+    for a in static:
+        factor = factor * a.effect.tau_factor(data, h, lags, taus, a.own(values), a)
+    states = [a for a in dynamic if a.effect.state_dependent]
+    if states:
+        return _state_dependent_lags(data, h, taus, init, factor, states, values, cache)[0]
+    return varying_lag_states(t, h, taus[None, :] * factor, hold=data.hold, initial=init)
+
+
+def _same_lag_inputs(last, h, key) -> bool:
+    (h0, (taus0, init0, own0)), (taus, init, own) = last, key
+    if isinstance(init0, str) or isinstance(init, str):
+        same_init = isinstance(init0, str) and isinstance(init, str) and init0 == init
+    else:
+        same_init = np.array_equal(init0, init)
+    try:
+        same_own = bool(own0 == own)
+    except ValueError:          # an array-valued parameter: no reuse
+        same_own = False
+    return same_init and same_own and np.array_equal(taus0, taus) and np.array_equal(h0, h)
+
+
 def basis(data: Data, structure: Structure, values: dict, cache: dict | None = None) -> Basis:
     """Evaluate the model's linear basis for given nonlinear parameter values."""
     t = data.time
@@ -204,19 +234,18 @@ def basis(data: Data, structure: Structure, values: dict, cache: dict | None = N
         h = a.effect.creep_input(data, h, a.own(values), a)
     taus = taus_of(values, structure.n_terms)
     init = data.lag_initial(h, taus, values)
-    lags = lag_states(t, h, taus, hold=data.hold, initial=init)
     dynamic = [a for a in effects if a.effect.changes_lags]
-    factor = None
-    if dynamic:
-        static = [a for a in dynamic if not a.effect.state_dependent]
-        factor = np.ones((len(t) - 1, len(taus)))
-        for a in static:
-            factor = factor * a.effect.tau_factor(data, h, lags, taus, a.own(values), a)
-        states = [a for a in dynamic if a.effect.state_dependent]
-        if states:
-            lags, factor = _state_dependent_lags(data, h, taus, init, factor, states, values, cache)
-        else:
-            lags = varying_lag_states(t, h, taus[None, :] * factor, hold=data.hold, initial=init)
+    # the lags depend on h, taus, the initial state and the lag-changing effects' parameters
+    # only: a step in any other parameter (an effect's own columns, a finite-difference step)
+    # reuses the last ones
+    key = (taus, init, [a.own(values) for a in dynamic])
+    last = None if cache is None else cache.get("lags")
+    if last is not None and _same_lag_inputs(last[0], h, key):
+        lags = last[1]
+    else:
+        lags = _lags(data, h, taus, init, dynamic, values, cache)
+        if cache is not None:
+            cache["lags"] = ((h, key), lags)
     cols, names = [], []
     if not data.fixed_offset:
         cols.append(np.ones_like(t))
