@@ -66,6 +66,7 @@ def record_table(key: str, images: Path | None = None) -> None:
     if images is not None:
         _residual_image(result, record, images / f"real-{key.replace('_', '-')}-residual.png")
     b, e, g = d["baseline"], d["extended"], d["gain"]
+    spread = _floor_spread(result) if result.floor is not None and result.floor.rough else None
     rows = [
         ("record", f"{record.source.split('/')[-1]}: {len(record)} samples over "
                    f"{format_quantity(record.duration, 's')}"),
@@ -83,6 +84,10 @@ def record_table(key: str, images: Path | None = None) -> None:
         ("noise floor windows", f"{d.get('noise_floor_windows')}"
                                 + (f" (rough: fewer than {FEW_WINDOWS})"
                                    if (d.get("noise_floor_windows") or 0) < FEW_WINDOWS else "")),
+        *((("rough floor: 5 / 50 / 95 % of floor / true noise on this sampling",
+            " / ".join(f"{q:.2f}" for q in spread)
+            + f" ({FLOOR_DRAWS} records: the fitted baseline plus white noise at the floor, same sample times)"),)
+          if spread is not None else ()),
         ("misfit ratio, baseline / extended", f"{_num(b.get('misfit_ratio'))} / {_num(e.get('misfit_ratio'))}"),
         ("explained share", _num(d.get("explained_share"))),
         ("held-out RMS ratio", _num(g.get("heldout_rms_ratio"))),
@@ -92,6 +97,24 @@ def record_table(key: str, images: Path | None = None) -> None:
     print(f"\n### {title}\n\n| | |\n|---|---|")
     for k, v in rows:
         print(f"| {k} | {v} |")
+
+
+#: Synthetic records drawn to show how far a rough noise floor can be from the true noise.
+FLOOR_DRAWS = 400
+
+
+def _floor_spread(result) -> tuple[float, float, float]:
+    """5, 50 and 95 % points of the noise floor over the true noise on records sampled like this
+    one: its fitted baseline plus white noise of the floor's RMS."""
+    import numpy as np
+
+    from creepcomp.fit.noise import noise_floor
+
+    data, true = result.data, result.floor.rms
+    rng = np.random.default_rng(0)
+    ratios = [noise_floor(result.baseline.prediction + rng.normal(0.0, true, data.n), data.load, data.time).rms / true
+              for _ in range(FLOOR_DRAWS)]
+    return tuple(float(q) for q in np.percentile(ratios, [5, 50, 95]))
 
 
 def _residual_image(result, record, path: Path) -> None:
