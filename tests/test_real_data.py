@@ -287,3 +287,13 @@ def test_a_floor_from_many_windows_is_not_rough():
     assert floor.windows >= FEW_WINDOWS and not floor.rough
     assert floor.rms == pytest.approx(0.01, rel=0.15)
     assert "explains the record to its noise" in none_statement(floor)
+
+
+def test_report_cells_show_a_data_problems_kind_and_places():
+    """A ``data_problem`` finding's parameters are a kind and lists (the insole's jumps): the
+    HTML report writes them as the text output does, instead of failing."""
+    from creepcomp.report.common import format_named
+
+    assert format_named("data_problem.kind", "jump") == "jump"
+    assert format_named("data_problem.where", [29.28, 319.4]) == "29.28 s, 319.4 s"
+    assert format_named("data_problem.size", [-23.8, 22.51]) == "-23.8, 22.51"
