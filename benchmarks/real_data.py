@@ -88,6 +88,7 @@ def record_table(key: str, images: Path | None = None) -> None:
             " / ".join(f"{q:.2f}" for q in spread)
             + f" ({FLOOR_DRAWS} records: the fitted baseline plus white noise at the floor, same sample times)"),)
           if spread is not None else ()),
+        *((("readout (full record): held values and scatter", _readout(record)),) if key.startswith("insole") else ()),
         ("misfit ratio, baseline / extended", f"{_num(b.get('misfit_ratio'))} / {_num(e.get('misfit_ratio'))}"),
         ("explained share", _num(d.get("explained_share"))),
         ("held-out RMS ratio", _num(g.get("heldout_rms_ratio"))),
@@ -97,6 +98,23 @@ def record_table(key: str, images: Path | None = None) -> None:
     print(f"\n### {title}\n\n| | |\n|---|---|")
     for k, v in rows:
         print(f"| {k} | {v} |")
+
+
+def _readout(record) -> str:
+    """How the signal is read: the share of successive samples that are equal, the mean run
+    of one value, and the scatter of differences ``k`` samples apart (/ sqrt 2): flat from
+    ``k = 2`` on while ``k = 1`` is lower is white noise held for a few samples."""
+    import numpy as np
+
+    y, su = record.signal, record.unit("signal")
+    d = np.diff(y)
+    runs = np.diff(np.flatnonzero(np.concatenate([[True], d != 0, [True]])))
+    held = np.diff(record.time[np.flatnonzero(d != 0)])
+    scatter = {k: float(np.std(y[k:] - y[:-k]) / np.sqrt(2)) for k in (1, 2, 4, 8, 16, 32, 64)}
+    return (f"{np.mean(d == 0):.0%} of successive samples equal, a value held {runs.mean():.2f} samples on "
+            f"average (changes every {np.median(held) * 1e3:.0f} ms at the median); scatter of "
+            "differences k samples apart / sqrt 2: "
+            + ", ".join(f"k = {k}: {v:.2f}" for k, v in scatter.items()) + f" {su}")
 
 
 #: Synthetic records drawn to show how far a rough noise floor can be from the true noise.
