@@ -84,6 +84,8 @@ def main(argv: list[str] | None = None) -> int:
         for f in result.findings:
             print("    " + f.effect + ": " + "; ".join(f"{k} = {format_parameter(k, v)}"
                                                      for k, v in f.parameters.items()))
+            if f.note:
+                print(f"      note: {f.note}")
         print(f"    baseline residual RMS {b['residual_rms']:.3g} {su} "
               f"({format_percent(b['residual_rms_relative'])} of range), extended {e['residual_rms']:.3g} {su}")
         if d.get("noise_floor") is not None:

@@ -33,6 +33,7 @@ os.environ.setdefault("MPLBACKEND", "Agg")  # the plots go to files
 from creepcomp import data, diagnose
 from creepcomp.errors import InputError
 from creepcomp.fit import fit_prony, prepare, term_table
+from creepcomp.fit.noise import none_statement
 from creepcomp.report.diagnosis import plot_fit, write_report
 from creepcomp.units import format_parameter, format_percent, format_quantity
 
@@ -79,9 +80,16 @@ def main(argv: list[str] | None = None) -> int:
         for f in result.findings:
             print("  " + f.effect + ": " + "; ".join(f"{k} = {format_parameter(k, v)}"
                                                    for k, v in f.parameters.items()))
+            if f.note:
+                print(f"    note: {f.note}")
         print(f"  baseline residual RMS {b['residual_rms']:.3g} {r.unit('signal')} "
               f"({format_percent(b['residual_rms_relative'])} of range), extended {e['residual_rms']:.3g}; "
               f"held-out RMS ratio {g['heldout_rms_ratio']:.3g}")
+        print(f"  noise floor {d['noise_floor']:.3g} {r.unit('signal')} from {d['noise_floor_windows']} windows"
+              + (" (a rough estimate)" if result.floor.rough else "")
+              + f"; misfit ratio {b['misfit_ratio']:.3g} -> {e['misfit_ratio']:.3g}")
+        if not result.findings:
+            print(f"  {none_statement(result.floor)}")
         paths = write_report(result, args.out / f"wood-{level}", {"signal": r.unit("signal"), "load": r.unit("load")})
         print(f"  written: {args.out / f'wood-{level}-fit.png'}, {paths['report']}")
     return 0

@@ -16,6 +16,7 @@ from scipy.io import savemat
 from creepcomp import data
 from creepcomp.errors import InputError
 from creepcomp.fit import fit_prony, prepare, term_table
+from creepcomp.fit.noise import FEW_WINDOWS, noise_floor, none_statement
 from creepcomp.io.formats import read_any
 from creepcomp.io.insole import (rank_taxels, read_insole, read_insole_file, taxel_problems)
 from creepcomp.io.wood import LR_ELASTIC_MODULUS_MPA, read_wood, read_wood_sheet
@@ -265,3 +266,34 @@ def test_a_fit_on_each_wood_record_creeps(level):
     assert fit.estimate(lambda v: v["gain"])[0] > 0
     assert all(np.isfinite(t["beta"]) and t["beta"] > 0 and np.isfinite(t["tau"]) for t in terms)
     assert fit.residual_rms / np.ptp(r.signal) < 0.1
+
+
+# ----------------------------------------------------------------------------- the noise floor of sparse records
+
+def test_the_floor_of_a_sparse_wood_record_is_called_rough():
+    """25 samples over 60 h give 3 windows: the floor says it is rough, and a diagnosis with no
+    finding does not claim that the model explains the record to its noise."""
+    r = data.wood_creep(0.5)
+    floor = noise_floor(r.signal, r.load, r.time)
+    assert floor.windows < FEW_WINDOWS and floor.rough
+    assert "rough estimate" in floor.method and floor.to_dict()["noise_floor_windows"] == floor.windows
+    assert "too sparse" in none_statement(floor) and "explains the record" not in none_statement(floor)
+
+
+def test_a_floor_from_many_windows_is_not_rough():
+    rng = np.random.default_rng(3)
+    t = np.arange(2000.0)
+    floor = noise_floor(1.0 - np.exp(-t / 300.0) + rng.normal(0, 0.01, t.size), np.ones_like(t), t)
+    assert floor.windows >= FEW_WINDOWS and not floor.rough
+    assert floor.rms == pytest.approx(0.01, rel=0.15)
+    assert "explains the record to its noise" in none_statement(floor)
+
+
+def test_report_cells_show_a_data_problems_kind_and_places():
+    """A ``data_problem`` finding's parameters are a kind and lists (the insole's jumps): the
+    HTML report writes them as the text output does, instead of failing."""
+    from creepcomp.report.common import format_named
+
+    assert format_named("data_problem.kind", "jump") == "jump"
+    assert format_named("data_problem.where", [29.28, 319.4]) == "29.28 s, 319.4 s"
+    assert format_named("data_problem.size", [-23.8, 22.51]) == "-23.8, 22.51"

@@ -423,7 +423,10 @@ def varying_lag_states(time, u, taus, hold: str = "linear", initial="relaxed") -
     decay = np.zeros((n, k))
     np.cumsum(rates, axis=0, out=decay[1:])
     # blocks of bounded decay for every lag at once: the decay of the fastest lag at each step
-    bound = np.concatenate([[0.0], np.cumsum(rates.max(axis=1))])
+    fastest = rates[:, 0].copy()
+    for j in range(1, k):            # column by column: far faster than max(axis=1) on few columns
+        np.maximum(fastest, rates[:, j], out=fastest)
+    bound = np.concatenate([[0.0], np.cumsum(fastest)])
     block = np.floor(bound / _BLOCK_DECAY).astype(np.int64)
     starts = np.flatnonzero(np.diff(block, prepend=block[0] - 1))
     ends = np.append(starts[1:], n)

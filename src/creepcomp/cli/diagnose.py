@@ -153,8 +153,9 @@ def render_diagnosis(record, d: Diagnosis) -> None:
             if f.note:
                 console.print(f"{f.effect}: {f.note}")
     else:
-        console.print("no effect is supported by the evidence, and the baseline's misfit is consistent "
-                      "with the noise floor: the paper's model explains the record to its noise")
+        from creepcomp.fit.noise import none_statement
+
+        console.print(none_statement(d.floor))
     t = Table(title=f"Candidates (accepted: ΔBIC <= -{BIC_STRONG:g} and held-out z >= {HELDOUT_Z:g})",
               title_justify="left")
     for col in ("step", "effect", "ΔBIC", "held-out z", "outcome"):

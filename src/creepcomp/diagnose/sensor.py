@@ -199,6 +199,7 @@ class Diagnosis:
             "extended": self.residual_summary(self.extended),
             "noise_floor": self.floor.rms if self.floor else None,
             "noise_floor_method": self.floor.method if self.floor else None,
+            "noise_floor_windows": self.floor.windows if self.floor else None,
             "quantisation_step": (self.floor.quantisation_step or None) if self.floor else None,
             "explained_share": self.explained_share,
             "gain": self.gain,

@@ -108,7 +108,8 @@ def jacobian(data: Data, fit: Fit) -> np.ndarray:
     """Derivatives of the fitted signal by every nonlinear parameter (search coordinates, by
     central differences) and by the linear coefficients (the basis), all samples."""
     values = fit.values
-    b = basis(data, fit.structure, values)
+    cache: dict = {}
+    b = basis(data, fit.structure, values, cache)
     coef = np.array([values[n] for n in b.names])
     cols = []
     for p in fit.params:
@@ -116,8 +117,8 @@ def jacobian(data: Data, fit: Fit) -> np.ndarray:
         h = 1e-6 * max(1.0, abs(x))
         plus = dict(values, **{p.name: p.from_search(x + h)})
         minus = dict(values, **{p.name: p.from_search(x - h)})
-        cols.append((basis(data, fit.structure, plus).columns @ coef
-                     - basis(data, fit.structure, minus).columns @ coef) / (2 * h))
+        cols.append((basis(data, fit.structure, plus, cache).columns @ coef
+                     - basis(data, fit.structure, minus, cache).columns @ coef) / (2 * h))
     return np.column_stack(cols + [b.columns])
 
 

@@ -14,7 +14,8 @@ from creepcomp.fit.data import Data
 
 __all__ = ["MAX_AR_ORDER", "ARNoise", "rows_for", "whiten", "fit_noise", "ljung_box",
            "autocorrelation", "spectral_variance", "gaussian_bic", "FLOOR_WINDOW", "FEW_WINDOWS", "MISFIT_LIMIT",
-           "NoiseFloor", "noise_floor", "quantisation_step", "misfit_ratio", "explained_share"]
+           "NoiseFloor", "noise_floor", "quantisation_step", "misfit_ratio", "explained_share",
+           "none_statement"]
 
 #: Largest order of the autoregressive noise model.
 MAX_AR_ORDER = 5
@@ -184,10 +185,16 @@ class NoiseFloor:
     quantisation_step: float
     windows: int
 
+    @property
+    def rough(self) -> bool:
+        """Fewer than :data:`FEW_WINDOWS` windows: the floor, and every misfit ratio over it, is
+        a rough estimate."""
+        return self.windows < FEW_WINDOWS
+
     def to_dict(self) -> dict:
         """JSON form."""
         return {"noise_floor": self.rms, "noise_floor_method": self.method,
-                "quantisation_step": self.quantisation_step or None}
+                "noise_floor_windows": self.windows, "quantisation_step": self.quantisation_step or None}
 
 
 def quantisation_step(y: np.ndarray) -> float:
@@ -266,6 +273,18 @@ def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW) -> Noi
         var = q * q / 12.0
         method += f"; raised to the quantisation floor step^2/12 (step {q:.4g})"
     return NoiseFloor(float(np.sqrt(var)), method, q, len(variances))
+
+
+def none_statement(floor: NoiseFloor | None) -> str:
+    """What a diagnosis with no finding says: that the model explains the record to its noise,
+    unless the floor is too rough (few windows) to show it."""
+    if floor is not None and floor.rough:
+        return (f"no effect is supported by the evidence, and the baseline's misfit ratio is under "
+                f"{MISFIT_LIMIT:g}; but the noise floor rests on only {floor.windows} windows (a rough "
+                f"estimate, fewer than {FEW_WINDOWS}): the record is too sparse to show that the paper's "
+                f"model explains it to its noise")
+    return ("no effect is supported by the evidence, and the baseline's misfit is consistent with the "
+            "noise floor: the paper's model explains the record to its noise")
 
 
 def misfit_ratio(residual_rms: float, floor: NoiseFloor | float) -> float | None:

@@ -370,15 +370,15 @@ def _covariance(problem: Problem, x, coef, noise: ARNoise) -> np.ndarray | None:
     """Covariance of the least-squares estimates under AR noise (sandwich):
     ``(J^T J)^-1 J^T Sigma J (J^T J)^-1`` with ``Sigma = sigma^2 W^-1 W^-T``."""
     data, rows = problem.data, problem.rows
-    b = basis(data, problem.structure, problem.values(x))
+    b = basis(data, problem.structure, problem.values(x), problem.cache)
     cols = []
     for j in range(len(x)):
         h = 1e-6 * max(1.0, abs(x[j]))
         xp, xm = x.copy(), x.copy()
         xp[j] += h
         xm[j] -= h
-        bp = basis(data, problem.structure, problem.values(xp)).columns @ coef
-        bm = basis(data, problem.structure, problem.values(xm)).columns @ coef
+        bp = basis(data, problem.structure, problem.values(xp), problem.cache).columns @ coef
+        bm = basis(data, problem.structure, problem.values(xm), problem.cache).columns @ coef
         cols.append((bp - bm) / (2 * h))
     full = np.column_stack(cols + [b.columns]) if cols else b.columns
     held = [len(x) + i for i, n in enumerate(b.names) if n in problem.fixed]

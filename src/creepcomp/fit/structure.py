@@ -143,12 +143,17 @@ class Basis:
 _SEGMENT = 4096
 
 
-def _state_dependent_lags(data: Data, h, taus, init, factor, effects, values):
+def _state_dependent_lags(data: Data, h, taus, init, factor, effects, values, cache: dict | None = None):
     """Lags whose time constants depend on their own state (modes such as creep and recovery),
     solved segment by segment: within a segment the modes are found by fixed-point iteration
     (modes from states, states from modes; the causal solution is its only fixed point), and
     the segment's last state starts the next one. Short segments hold few mode switches, so
-    the iteration converges in a few rounds whatever the whole record holds."""
+    the iteration converges in a few rounds whatever the whole record holds.
+
+    With a ``cache`` (one per fitting problem), the iteration starts from the modes the last
+    call converged to: an optimiser's next point, or a finite-difference step, nearly always
+    has the same modes, and then one solve confirms them instead of several rounds. The
+    fixed point, and so the result, is the same from any start."""
     t = data.time
     n, k = len(t), len(taus)
     out = np.empty((n, k))
@@ -161,8 +166,11 @@ def _state_dependent_lags(data: Data, h, taus, init, factor, effects, values):
         end = min(start + _SEGMENT, n - 1)
         seg_t, seg_h = t[start:end + 1], h[start:end + 1]
         base = factor[start:end]
-        seg = varying_lag_states(seg_t, seg_h, taus[None, :] * base, hold=data.hold, initial=c)
-        current = None
+        current = None if cache is None else cache.get(("modes", start))
+        if current is not None and current.shape != base.shape:
+            current = None
+        seg = varying_lag_states(seg_t, seg_h, taus[None, :] * base if current is None else
+                                 taus[None, :] * base * current, hold=data.hold, initial=c)
         for _ in range(_MODE_ITERATIONS):
             new = np.ones_like(base)
             for a in effects:
@@ -174,9 +182,41 @@ def _state_dependent_lags(data: Data, h, taus, init, factor, effects, values):
                                      initial=c)
         out[start:end + 1] = seg
         modes[start:end] = current
+        if cache is not None:
+            cache[("modes", start)] = current
         c = seg[-1]
         start = end
     return out, factor * modes
+
+
+def _lags(data: Data, h, taus, init, dynamic, values, cache) -> np.ndarray:
+    """States of the creep lags driven by ``h`` (time constants changed by ``dynamic`` effects)."""
+    t = data.time
+    static = [a for a in dynamic if not a.effect.state_dependent]
+    if not dynamic or static:
+        lags = lag_states(t, h, taus, hold=data.hold, initial=init)
+        if not dynamic:
+            return lags
+    factor = np.ones((len(t) - 1, len(taus)))
+    for a in static:
+        factor = factor * a.effect.tau_factor(data, h, lags, taus, a.own(values), a)
+    states = [a for a in dynamic if a.effect.state_dependent]
+    if states:
+        return _state_dependent_lags(data, h, taus, init, factor, states, values, cache)[0]
+    return varying_lag_states(t, h, taus[None, :] * factor, hold=data.hold, initial=init)
+
+
+def _same_lag_inputs(last, h, key) -> bool:
+    (h0, (taus0, init0, own0)), (taus, init, own) = last, key
+    if isinstance(init0, str) or isinstance(init, str):
+        same_init = isinstance(init0, str) and isinstance(init, str) and init0 == init
+    else:
+        same_init = np.array_equal(init0, init)
+    try:
+        same_own = bool(own0 == own)
+    except ValueError:          # an array-valued parameter: no reuse
+        same_own = False
+    return same_init and same_own and np.array_equal(taus0, taus) and np.array_equal(h0, h)
 
 
 def basis(data: Data, structure: Structure, values: dict, cache: dict | None = None) -> Basis:
@@ -194,19 +234,18 @@ def basis(data: Data, structure: Structure, values: dict, cache: dict | None = N
         h = a.effect.creep_input(data, h, a.own(values), a)
     taus = taus_of(values, structure.n_terms)
     init = data.lag_initial(h, taus, values)
-    lags = lag_states(t, h, taus, hold=data.hold, initial=init)
     dynamic = [a for a in effects if a.effect.changes_lags]
-    factor = None
-    if dynamic:
-        static = [a for a in dynamic if not a.effect.state_dependent]
-        factor = np.ones((len(t) - 1, len(taus)))
-        for a in static:
-            factor = factor * a.effect.tau_factor(data, h, lags, taus, a.own(values), a)
-        states = [a for a in dynamic if a.effect.state_dependent]
-        if states:
-            lags, factor = _state_dependent_lags(data, h, taus, init, factor, states, values)
-        else:
-            lags = varying_lag_states(t, h, taus[None, :] * factor, hold=data.hold, initial=init)
+    # the lags depend on h, taus, the initial state and the lag-changing effects' parameters
+    # only: a step in any other parameter (an effect's own columns, a finite-difference step)
+    # reuses the last ones
+    key = (taus, init, [a.own(values) for a in dynamic])
+    last = None if cache is None else cache.get("lags")
+    if last is not None and _same_lag_inputs(last[0], h, key):
+        lags = last[1]
+    else:
+        lags = _lags(data, h, taus, init, dynamic, values, cache)
+        if cache is not None:
+            cache["lags"] = ((h, key), lags)
     cols, names = [], []
     if not data.fixed_offset:
         cols.append(np.ones_like(t))

@@ -49,8 +49,10 @@ def format_cell(x, unit: str | None = None) -> str:
 def format_named(name: str, value) -> str:
     """A value with the unit its name implies: resistors and resistances (``R1``,
     ``source_resistance``) in Ω, capacitors (``C1``) in F, absorption ratios and ``beta`` in
-    percent, times (``tau``, ``..._tau``, ``delay``) in s; else
-    :func:`creepcomp.units.format_parameter`."""
+    percent, times (``tau``, ``..._tau``, ``delay``) in s; else (and a kind or a list, such as
+    a data problem's ``where``) :func:`creepcomp.units.format_parameter`."""
+    if isinstance(value, (str, list, tuple)):
+        return html.escape(format_parameter(name.split(".")[-1], value))
     if value is None or not np.isfinite(value):
         return "–"
     key = name.split(".")[-1]

@@ -12,7 +12,7 @@ import numpy as np
 from creepcomp.io.atomic import write_text_atomic
 from creepcomp.io.jsonfiles import to_json, write_design, write_json
 from creepcomp.fit.data import Data
-from creepcomp.fit.noise import autocorrelation
+from creepcomp.fit.noise import autocorrelation, none_statement
 from creepcomp.fit.solver import Fit
 from creepcomp.report.common import format_cell, format_named, png_base64, save_figure, thin
 
@@ -199,8 +199,7 @@ def render_html(diagnosis, units: dict, title: str = "creepcomp diagnose",
                     f"<td>{format_cell(ev.heldout_z)}</td><td>{html.escape(f.note or '')}</td></tr>")
     findings = ("<table><tr><th>effect</th><th>parameters (± 1 sigma)</th><th>ΔBIC</th>"
                 "<th>held-out RMS ratio</th><th>held-out z</th><th>note</th></tr>" + "".join(rows) + "</table>"
-                if rows else "<p>No effect is supported, and the baseline's misfit is consistent with the noise "
-                "floor: the paper's model explains the record to its noise.</p>")
+                if rows else f"<p>{html.escape(_sentence(none_statement(d.floor)))}</p>")
     floor_section = _floor_html(d, result, units.get("signal", ""))
     tried = "".join(f"<tr><td>{t.step}</td><td>{html.escape(t.effect)}</td><td>{format_cell(t.delta_bic)}</td>"
                     f"<td>{format_cell(t.evidence.heldout_rms_ratio if t.evidence else None)}</td>"
@@ -281,6 +280,9 @@ def _floor_html(d, result: dict, su: str) -> str:
     else:
         verdict = (f"The extended model still misses the record by {format_cell(e)} times the noise floor: "
                    "part of the record is not explained (see <i>unexplained</i> in the findings).")
+    if d.floor.rough:
+        verdict += (f" The floor rests on only {d.floor.windows} windows: a rough estimate, and so are the "
+                    "misfit ratios over it.")
     return f"""<h3>Noise floor and misfit</h3>
 <table><tr><th></th><th>value</th></tr>
 <tr><td>noise floor (RMS, measured without the model)</td><td>{format_cell(d.floor.rms)}{unit}</td></tr>
@@ -291,6 +293,10 @@ def _floor_html(d, result: dict, su: str) -> str:
 <tr><td>explained share of the baseline's excess misfit</td><td>{'–' if share is None else f'{100 * share:.1f} %'}</td></tr>
 </table>
 <p>{verdict}</p>"""
+
+
+def _sentence(text: str) -> str:
+    return text[:1].upper() + text[1:] + "."
 
 
 def write_report(diagnosis, out_dir, units: dict | None = None, circuit=None) -> dict[str, Path]:
