@@ -337,7 +337,10 @@ def _restart_taus(data: Data, fit: Fit) -> Fit:
                 best, best_cost = trial, c
     if best is None or best_cost > 0.999 * here:
         return fit
-    alt = fit_structure(data, fit.structure, [best], n_refine=1)
+    try:
+        alt = fit_structure(data, fit.structure, [best], n_refine=1)
+    except (InputError, np.linalg.LinAlgError, ValueError):
+        return fit
     return alt if alt.bic < fit.bic else fit
 
 
