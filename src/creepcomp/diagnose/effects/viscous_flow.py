@@ -55,7 +55,7 @@ class ViscousFlow(Effect):
     def columns(self, data, s, h, lags, p, applied):
         m = p.get("exponent", 1.0)
         if m != 1.0:
-            s = s * np.abs(s / applied.setting("load_scale")) ** (m - 1.0)
+            s = s * np.abs(s / applied.setting("load_scale")) ** max(m - 1.0, 0.0)
         return {"flow": integral(data, s)}
 
     def unphysical(self, fit: Fit, applied: Applied) -> str | None:
