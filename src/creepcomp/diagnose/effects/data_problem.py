@@ -45,6 +45,8 @@ JUMP_WINDOW = 6
 LOAD_QUIET = 0.01
 #: Most jumps fitted.
 MAX_JUMPS = 10
+#: Least slip (samples) of a single event against all the others for channels out of step.
+SLIP_ALONE = 2
 
 
 def _robust_sigma(x: np.ndarray) -> float:
@@ -165,11 +167,16 @@ def _out_of_step(data: Data, fit: Fit) -> dict | None:
         return None
     lags = np.array([d for _, d in delays])
     best, best_odd = None, np.inf
-    for cut in range(2, len(lags) - 1):
+    for cut in range(1, len(lags)):
         before, after = lags[:cut], lags[cut:]
         # each side consistent (at most a quarter odd events), and the two sides differ
         b, a = np.median(before), np.median(after)
         odd = np.sum(before != b) + np.sum(after != a)
+        if min(cut, len(lags) - cut) == 1:
+            # a slip before the first or after the last event but one: the lone event must
+            # differ by SLIP_ALONE samples or more from at least three that agree exactly
+            if len(lags) < 4 or odd > 0 or abs(a - b) < SLIP_ALONE:
+                continue
         if abs(a - b) >= 1 and np.sum(before != b) <= len(before) // 4 \
                 and np.sum(after != a) <= len(after) // 4 and odd < best_odd:
             best, best_odd = (cut, a - b), odd

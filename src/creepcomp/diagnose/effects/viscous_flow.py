@@ -44,6 +44,13 @@ class ViscousFlow(Effect):
     def settings(self, data: Data, base: Fit) -> tuple:
         return (("span", data.span), ("load_scale", data.load_scale))
 
+    def fit_on(self, data, base, refine="all", start=None):
+        if refine == "own" and start is None:
+            # a long creep term of the base absorbs flow (and its exponent costs a parameter):
+            # the screening frees the base's time constants too, or flow never ranks
+            refine = "all"
+        return super().fit_on(data, base, refine, start)
+
     def nonlinear_params(self, data, applied):
         if applied.setting("load_scale") is None:
             return []
