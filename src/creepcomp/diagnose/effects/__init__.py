@@ -93,15 +93,23 @@ class Effect:
         """Start values of the effect's own nonlinear parameters (names without prefix)."""
         return [{}]
 
-    def fit_on(self, data: Data, base: Fit, refine: str = "all", start: dict | None = None) -> Fit:
+    def plain_settings(self, data: Data, base: Fit) -> tuple | None:
+        """Settings of the plain form of the template, nested in the fitted one (its shape
+        parameters at their plain values: no lag, a Newtonian dashpot), tried when the shaped
+        form is not supported; None: the template has no shape parameter."""
+        return None
+
+    def fit_on(self, data: Data, base: Fit, refine: str = "all", start: dict | None = None,
+               settings: tuple | None = None) -> Fit:
         """Fit the base model extended by this effect (its likelihood with its own AR noise).
 
         ``refine``: ``all`` (every nonlinear parameter refined together), ``own`` (the
         base's held, the effect's own refined: a quick screening) or ``none`` (the best
         start kept, only the linear part solved). ``start``: start values of every
         nonlinear parameter (default: the base's values and the effect's own start grid).
+        ``settings``: other than :meth:`settings` (e.g. :meth:`plain_settings`).
         """
-        applied = Applied(self, self.settings(data, base))
+        applied = Applied(self, self.settings(data, base) if settings is None else settings)
         structure = self.extend(base.structure, applied)
         known = {p.name: base.values[p.name] for p in base.params}
         starts = [start] if start is not None else []

@@ -16,6 +16,8 @@ from creepcomp.diagnose.effects import Effect
 
 __all__ = ["shifted", "averaged", "TimeOffset", "EFFECT"]
 
+#: A window narrower than this share of the shortest sample step is a plain delay.
+NARROW = 1e-3
 #: Widest averaging window fitted, in sample steps.
 MAX_WIDTH_SAMPLES = 32
 
@@ -42,9 +44,10 @@ def _integral_at(time, values, at) -> np.ndarray:
 def averaged(time, values, delay: float, width: float) -> np.ndarray:
     """``values`` averaged over ``[t - delay - width/2, t - delay + width/2]`` (``width`` 0: the
     plain delay, :func:`shifted`)."""
-    if width <= 0 or len(time) < 2:
-        return shifted(time, values, delay)
     t = np.asarray(time, float)
+    if len(t) < 2 or width <= NARROW * float(np.min(np.diff(t))):
+        # the difference of two integrals over a narrow window loses its digits
+        return shifted(t, values, delay)
     hi = _integral_at(t, values, t - delay + 0.5 * width)
     lo = _integral_at(t, values, t - delay - 0.5 * width)
     return (hi - lo) / width
@@ -55,10 +58,18 @@ class TimeOffset(Effect):
     parameters = ("delay", "width")
     summary = "signal and load sampled at different instants (or the signal averaged over a window)"
 
+    def settings(self, data, base):
+        return (("window", True),)
+
+    def plain_settings(self, data, base):
+        return ()
+
     def nonlinear_params(self, data, applied):
         limit = min(0.1 * data.duration, 500.0 * data.dt_median)
-        return [Param("delay", -limit, limit, scale=data.dt_median),
-                Param("width", 0.0, MAX_WIDTH_SAMPLES * data.dt_median, scale=data.dt_median)]
+        delay = Param("delay", -limit, limit, scale=data.dt_median)
+        if not applied.setting("window", False):
+            return [delay]
+        return [delay, Param("width", 0.0, MAX_WIDTH_SAMPLES * data.dt_median, scale=data.dt_median)]
 
     def starts(self, data, base, applied):
         dt = data.dt_median
@@ -68,18 +79,18 @@ class TimeOffset(Effect):
         boxes = [{"delay": 0.5 * k * dt, "width": k * dt} for k in (2, 4, 7) if k * dt < limit]
         return plain + boxes
 
-    def fit_on(self, data, base, refine="all", start=None):
-        fit = super().fit_on(data, base, refine, start)
+    def fit_on(self, data, base, refine="all", start=None, settings=None):
+        fit = super().fit_on(data, base, refine, start, settings)
         if refine == "none" or start is not None or base.structure.n_terms != 1 or base.structure.effects:
             return fit
         # a delay of a few samples is mimicked by a fast creep term of large beta, which the
         # baseline may have fitted: fit the effect with the creep term started afresh as well
-        applied = Applied(self, self.settings(data, base))
+        applied = Applied(self, self.settings(data, base) if settings is None else settings)
         structure = self.extend(base.structure, applied)
         fresh = [dict(t, **{self._key(applied, k): v for k, v in own.items()})
                  for t in one_term_starts(data) for own in self.starts(data, base, applied)]
         try:
-            alt = fit_structure(data, structure, fresh, n_refine=1, with_cov=refine == "all")
+            alt = fit_structure(data, structure, fresh, n_refine=4, with_cov=refine == "all")
         except (InputError, np.linalg.LinAlgError, ValueError):
             return fit
         return alt if alt.bic < fit.bic else fit
@@ -88,15 +99,20 @@ class TimeOffset(Effect):
         return averaged(data.time, x, p["delay"], p.get("width", 0.0))
 
     def report(self, fit: Fit, applied: Applied) -> dict:
-        return {"delay": fit.estimate(lambda v: v["time_offset.delay"]),
-                "width": fit.estimate(lambda v: v["time_offset.width"])}
+        out = {"delay": fit.estimate(lambda v: v["time_offset.delay"])}
+        if "time_offset.width" in fit.values:
+            out["width"] = fit.estimate(lambda v: v["time_offset.width"])
+        return out
 
     def extension(self, fit: Fit, applied: Applied) -> dict:
-        return {"delay": fit.values["time_offset.delay"], "width": fit.values["time_offset.width"]}
+        return {"delay": fit.values["time_offset.delay"], "width": fit.values.get("time_offset.width", 0.0)}
 
     def restore(self, entry, model, data):
-        return Applied(self, ()), {"time_offset.delay": float(entry["delay"]),
-                                   "time_offset.width": float(entry.get("width", 0.0))}
+        values = {"time_offset.delay": float(entry["delay"])}
+        if float(entry.get("width", 0.0)) > 0:
+            values["time_offset.width"] = float(entry["width"])
+            return Applied(self, (("window", True),)), values
+        return Applied(self, ()), values
 
     def precondition(self, data, delta, load, values, applied):
         # the adjoint of the window (shift back, average again): a window's response turns

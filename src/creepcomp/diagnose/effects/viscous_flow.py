@@ -44,12 +44,15 @@ class ViscousFlow(Effect):
     def settings(self, data: Data, base: Fit) -> tuple:
         return (("span", data.span), ("load_scale", data.load_scale))
 
-    def fit_on(self, data, base, refine="all", start=None):
+    def fit_on(self, data, base, refine="all", start=None, settings=None):
         if refine == "own" and start is None:
             # a long creep term of the base absorbs flow (and its exponent costs a parameter):
             # the screening frees the base's time constants too, or flow never ranks
             refine = "all"
-        return super().fit_on(data, base, refine, start)
+        return super().fit_on(data, base, refine, start, settings)
+
+    def plain_settings(self, data, base):
+        return (("span", data.span),)
 
     def nonlinear_params(self, data, applied):
         if applied.setting("load_scale") is None:
@@ -57,6 +60,8 @@ class ViscousFlow(Effect):
         return [Param("exponent", 1.0, 5.0)]
 
     def starts(self, data, base, applied):
+        if applied.setting("load_scale") is None:
+            return [{}]
         return [{"exponent": m} for m in (1.0, 2.0, 3.0)]
 
     def columns(self, data, s, h, lags, p, applied):
