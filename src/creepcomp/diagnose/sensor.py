@@ -480,7 +480,7 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
         current = f
     if base is None:
         base = current
-    floor = noise_floor(data.signal, data.load, data.time)
+    floor = noise_floor(data.signal, data.load, data.time, follows_lag=True)
     generic = _generic(data, current)
     catch = None
     unexplained = None

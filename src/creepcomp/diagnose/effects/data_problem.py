@@ -95,7 +95,7 @@ def screen(data: Data, fit: Fit) -> list[dict]:
     """Data problems no model column can undo: clipping, channels out of step, quantisation
     that dominates the noise. Each is ``{"kind", "where", ...}`` (times in s)."""
     out = []
-    floor = noise_floor(data.signal, data.load, data.time)
+    floor = noise_floor(data.signal, data.load, data.time, follows_lag=True)
     clip = _clipping(data, fit, floor)
     if clip:
         out.append({"kind": "clipping", "where": clip})
