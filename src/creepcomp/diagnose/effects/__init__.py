@@ -121,6 +121,26 @@ class Effect:
                              n_refine=2 if refine == "own" else 1, refine=refine != "none",
                              frozen=known if refine == "own" else None, with_cov=refine == "all")
 
+    def with_fresh_term(self, data: Data, base: Fit, fit: Fit, refine: str, start: dict | None,
+                        settings: tuple | None) -> Fit:
+        """``fit`` (this effect on a one-term ``base``), or the effect fitted with the creep
+        term started afresh from a grid of time constants when that fits better: for effects
+        that the base's one term may have mimicked (a delay by a fast term of large beta, flow
+        by a term longer than the record), whose fit from the base's values then stays there."""
+        if refine == "none" or start is not None or base.structure.n_terms != 1 or base.structure.effects:
+            return fit
+        from creepcomp.fit.starts import one_term_starts
+
+        applied = Applied(self, self.settings(data, base) if settings is None else settings)
+        structure = self.extend(base.structure, applied)
+        fresh = [dict(t, **{self._key(applied, k): v for k, v in own.items()})
+                 for t in one_term_starts(data) for own in self.starts(data, base, applied)]
+        try:
+            alt = fit_structure(data, structure, fresh, n_refine=4, with_cov=refine == "all")
+        except (InputError, np.linalg.LinAlgError, ValueError):
+            return fit
+        return alt if alt.bic < fit.bic else fit
+
     @staticmethod
     def _key(applied: Applied, name: str) -> str:
         return name if name.startswith("tau[") else f"{applied.name}.{name}"

@@ -8,10 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from creepcomp.errors import InputError
 from creepcomp.fit.structure import Applied, Param
-from creepcomp.fit.solver import Fit, fit_structure
-from creepcomp.fit.starts import one_term_starts
+from creepcomp.fit.solver import Fit
 from creepcomp.diagnose.effects import Effect
 
 __all__ = ["shifted", "averaged", "TimeOffset", "EFFECT"]
@@ -80,20 +78,10 @@ class TimeOffset(Effect):
         return plain + boxes
 
     def fit_on(self, data, base, refine="all", start=None, settings=None):
-        fit = super().fit_on(data, base, refine, start, settings)
-        if refine == "none" or start is not None or base.structure.n_terms != 1 or base.structure.effects:
-            return fit
         # a delay of a few samples is mimicked by a fast creep term of large beta, which the
         # baseline may have fitted: fit the effect with the creep term started afresh as well
-        applied = Applied(self, self.settings(data, base) if settings is None else settings)
-        structure = self.extend(base.structure, applied)
-        fresh = [dict(t, **{self._key(applied, k): v for k, v in own.items()})
-                 for t in one_term_starts(data) for own in self.starts(data, base, applied)]
-        try:
-            alt = fit_structure(data, structure, fresh, n_refine=4, with_cov=refine == "all")
-        except (InputError, np.linalg.LinAlgError, ValueError):
-            return fit
-        return alt if alt.bic < fit.bic else fit
+        fit = super().fit_on(data, base, refine, start, settings)
+        return self.with_fresh_term(data, base, fit, refine, start, settings)
 
     def load_transform(self, data, x, p, applied):
         return averaged(data.time, x, p["delay"], p.get("width", 0.0))

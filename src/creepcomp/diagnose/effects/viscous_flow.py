@@ -49,7 +49,8 @@ class ViscousFlow(Effect):
             # a long creep term of the base absorbs flow (and its exponent costs a parameter):
             # the screening frees the base's time constants too, or flow never ranks
             refine = "all"
-        return super().fit_on(data, base, refine, start, settings)
+        fit = super().fit_on(data, base, refine, start, settings)
+        return self.with_fresh_term(data, base, fit, refine, start, settings)
 
     def plain_settings(self, data, base):
         return (("span", data.span),)
