@@ -112,13 +112,27 @@ def screen(data: Data, fit: Fit) -> list[dict]:
 QUANTISATION_SHARE = 0.5
 #: Least run of samples at the signal's extreme that can be a clipped stretch.
 CLIP_RUN = 3
+#: On a coarse value grid, a run at the extreme is clipping when it is this many times longer
+#: than the longest run of one value elsewhere.
+CLIP_LONGER = 5.0
+
+
+def _longest_run(y: np.ndarray, tol: float) -> int:
+    """The most successive samples of one value (NaN samples break runs)."""
+    same = np.abs(np.diff(y)) <= tol          # NaN compares False
+    if not same.any():
+        return 1
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], same.astype(int), [0]])))
+    return int(np.max(edges[1::2] - edges[::2])) + 1
 
 
 def _clipping(data: Data, fit: Fit, floor) -> list:
     """[first, last] times of runs of :data:`CLIP_RUN` or more samples at the signal's largest
     or smallest value. A noisy signal whose value grid is fine against its noise does not
-    repeat its extreme by chance; on a coarse grid the run counts only where the model goes
-    beyond the extreme by more than 3 noise floors on average."""
+    repeat its extreme by chance. On a coarse grid a run counts where the model goes beyond
+    the extreme by more than 3 noise floors on average, or where it is :data:`CLIP_LONGER`
+    times longer than any run of one value elsewhere in the record (a signal that dithers
+    between grid values elsewhere does not sit on one by chance)."""
     y = data.signal
     tol = 1e-9 * max(float(np.max(np.abs(y))), 1e-300)
     coarse = floor.quantisation_step >= floor.rms
@@ -128,10 +142,13 @@ def _clipping(data: Data, fit: Fit, floor) -> list:
         if at.sum() < CLIP_RUN:
             continue
         edges = np.flatnonzero(np.diff(np.concatenate([[0], at.astype(int), [0]])))
+        longest = _longest_run(np.where(at, np.nan, y), tol)
         for a, b in zip(edges[::2], edges[1::2]):
             if b - a < CLIP_RUN:
                 continue
-            if not coarse or np.mean(sign * (fit.prediction[a:b] - level)) > 3.0 * floor.rms:
+            beyond = np.mean(sign * (fit.prediction[a:b] - level)) > 3.0 * floor.rms
+            unlikely = b - a > CLIP_LONGER * max(longest, 1)
+            if not coarse or beyond or unlikely:
                 runs.append([float(data.time[a]), float(data.time[b - 1])])
     return sorted(runs)
 
