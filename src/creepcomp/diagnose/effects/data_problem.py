@@ -68,14 +68,15 @@ def find_jumps(data: Data, residual: np.ndarray, z: float = JUMP_Z, w: int = JUM
     i = np.arange(w, n - w + 1)
     d = (c[i + w] - c[i]) / w - (c[i] - c[i - w]) / w
     score = np.abs(d) / (sigma * np.sqrt(2.0 / w))
-    # the load must be quiet around the jump
+    # the load must be quiet around the jump, and for twice the window before it: a load
+    # change a few samples earlier explains a step of a signal that lags the load
     x = data.load
     scale = data.load_scale
     from numpy.lib.stride_tricks import sliding_window_view
-    win = sliding_window_view(x, 2 * w + 2)
-    moving = np.ptp(win, axis=1) > LOAD_QUIET * scale      # window starting at j covers j..j+2w+1
+    win = sliding_window_view(x, 3 * w + 3)
+    moving = np.ptp(win, axis=1) > LOAD_QUIET * scale      # window starting at j covers j..j+3w+2
     quiet = np.zeros(len(i), bool)
-    starts = i - w - 1
+    starts = i - 2 * w - 2
     ok = (starts >= 0) & (starts < len(moving))
     quiet[ok] = ~moving[starts[ok]]
     # gaps in the sampling are not jumps of the signal's level between neighbours either
