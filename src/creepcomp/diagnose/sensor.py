@@ -338,7 +338,10 @@ def _restart_taus(data: Data, fit: Fit) -> Fit:
                 best, best_cost = trial, c
     if best is None or best_cost > 0.999 * here:
         return fit
-    alt = fit_structure(data, fit.structure, [best], n_refine=1)
+    try:
+        alt = fit_structure(data, fit.structure, [best], n_refine=1)
+    except (InputError, np.linalg.LinAlgError, ValueError):
+        return fit
     return alt if alt.bic < fit.bic else fit
 
 
@@ -376,6 +379,25 @@ def _candidates(data: Data, current: Fit, pool, step: int, trials: list) -> list
             continue
         fitted.append((f.bic - current.bic, effect, f))
     return sorted(fitted, key=lambda x: x[0])
+
+
+def _plain_form(data: Data, current: Fit, effect: Effect, f: Fit, ev: Evidence, delta_bic: float):
+    """When an effect's shaped template is not supported, its plain form
+    (:meth:`~creepcomp.diagnose.effects.Effect.plain_settings`) in its place if that is:
+    a free shape parameter can trade off against others (a thermal lag against flow) and
+    predict held-out data worse than the plain template."""
+    plain = effect.plain_settings(data, current)
+    if plain is None:
+        return f, ev, delta_bic
+    try:
+        g = effect.fit_on(data, current, refine="all", settings=plain)
+        if g.bic - current.bic > -BIC_STRONG or effect.unphysical(g, _applied_of(g, effect)):
+            return f, ev, delta_bic
+        g = heldout(data, _restart_taus(data, g))
+    except (InputError, np.linalg.LinAlgError, ValueError):
+        return f, ev, delta_bic
+    ev_plain = _evidence(data, current, g)
+    return (g, ev_plain, g.bic - current.bic) if ev_plain.supported else (f, ev, delta_bic)
 
 
 def diagnose(record: Record, initial: str = "free", load_step_at: float | None = None,
@@ -431,6 +453,8 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
             f = heldout(data, _restart_taus(data, f))
             ev = _evidence(data, current, f)
             if not ev.supported:
+                f, ev, delta_bic = _plain_form(data, current, effect, f, ev, delta_bic)
+            if not ev.supported:
                 trials.append(Trial(step, effect.name, delta_bic, ev, "not supported (held-out)"))
                 continue
             if accepted is not None:
@@ -458,7 +482,7 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
         current = f
     if base is None:
         base = current
-    floor = noise_floor(data.signal, data.load, data.time)
+    floor = noise_floor(data.signal, data.load, data.time, follows_lag=True)
     generic = _generic(data, current)
     catch = None
     unexplained = None

@@ -11,6 +11,7 @@ import numpy as np
 from scipy import linalg
 
 from creepcomp.fit.data import Data
+from creepcomp.lti import lag_states
 
 __all__ = ["MAX_AR_ORDER", "ARNoise", "rows_for", "whiten", "fit_noise", "ljung_box",
            "autocorrelation", "spectral_variance", "gaussian_bic", "FLOOR_WINDOW", "FEW_WINDOWS", "MISFIT_LIMIT",
@@ -211,7 +212,8 @@ def quantisation_step(y: np.ndarray) -> float:
     return q if np.mean(on_grid) >= 0.99 else 0.0
 
 
-def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW) -> NoiseFloor:
+def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW,
+                follows_lag: bool = False) -> NoiseFloor:
     """The measurement noise's RMS from the record alone (no creep model).
 
     The record is cut into windows of ``window`` samples (not across gaps in the sampling);
@@ -229,6 +231,10 @@ def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW) -> Noi
     time : array_like, optional
         Sample times (default: sample numbers).
     window : int
+    follows_lag : bool
+        The signal may follow the load through lags (creep): in windows where the load
+        changes, two more columns, the load times time and the load through a lag of a quarter
+        of the window's span, so that creep after a turn of a sweep does not count as noise.
 
     Returns
     -------
@@ -251,6 +257,10 @@ def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW) -> Noi
             cols = [np.ones(w), tt / span, (tt / span) ** 2]
             if x is not None and np.ptp(x[sl]) > 0:
                 cols.append(x[sl] - x[sl].mean())
+                if follows_lag:
+                    cols.append(cols[-1] * tt / span)
+                    lagged = lag_states(t[sl], x[sl], [0.25 * span], initial="settled")[:, 0]
+                    cols.append(lagged - lagged.mean())
             a_ = np.column_stack(cols)
             coef, *_ = np.linalg.lstsq(a_, y[sl], rcond=None)
             r = y[sl] - a_ @ coef
@@ -265,7 +275,8 @@ def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW) -> Noi
     else:
         var = 0.0
     method = (f"median over {len(variances)} windows of {w} samples of the residual variance "
-              f"of a local quadratic in time plus the load")
+              f"of a local quadratic in time plus the load"
+              + (" (and the load times time and through a lag of a quarter window)" if follows_lag else ""))
     if len(variances) < FEW_WINDOWS:
         method += (f" (only {len(variances)} windows of {w} samples: a rough estimate, and on a sparse "
                    f"record a window spans enough time for creep to bend within it)")

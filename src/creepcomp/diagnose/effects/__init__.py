@@ -93,15 +93,23 @@ class Effect:
         """Start values of the effect's own nonlinear parameters (names without prefix)."""
         return [{}]
 
-    def fit_on(self, data: Data, base: Fit, refine: str = "all", start: dict | None = None) -> Fit:
+    def plain_settings(self, data: Data, base: Fit) -> tuple | None:
+        """Settings of the plain form of the template, nested in the fitted one (its shape
+        parameters at their plain values: no lag, a Newtonian dashpot), tried when the shaped
+        form is not supported; None: the template has no shape parameter."""
+        return None
+
+    def fit_on(self, data: Data, base: Fit, refine: str = "all", start: dict | None = None,
+               settings: tuple | None = None) -> Fit:
         """Fit the base model extended by this effect (its likelihood with its own AR noise).
 
         ``refine``: ``all`` (every nonlinear parameter refined together), ``own`` (the
         base's held, the effect's own refined: a quick screening) or ``none`` (the best
         start kept, only the linear part solved). ``start``: start values of every
         nonlinear parameter (default: the base's values and the effect's own start grid).
+        ``settings``: other than :meth:`settings` (e.g. :meth:`plain_settings`).
         """
-        applied = Applied(self, self.settings(data, base))
+        applied = Applied(self, self.settings(data, base) if settings is None else settings)
         structure = self.extend(base.structure, applied)
         known = {p.name: base.values[p.name] for p in base.params}
         starts = [start] if start is not None else []
@@ -112,6 +120,26 @@ class Effect:
         return fit_structure(data, structure, starts,
                              n_refine=2 if refine == "own" else 1, refine=refine != "none",
                              frozen=known if refine == "own" else None, with_cov=refine == "all")
+
+    def with_fresh_term(self, data: Data, base: Fit, fit: Fit, refine: str, start: dict | None,
+                        settings: tuple | None) -> Fit:
+        """``fit`` (this effect on a one-term ``base``), or the effect fitted with the creep
+        term started afresh from a grid of time constants when that fits better: for effects
+        that the base's one term may have mimicked (a delay by a fast term of large beta, flow
+        by a term longer than the record), whose fit from the base's values then stays there."""
+        if refine == "none" or start is not None or base.structure.n_terms != 1 or base.structure.effects:
+            return fit
+        from creepcomp.fit.starts import one_term_starts
+
+        applied = Applied(self, self.settings(data, base) if settings is None else settings)
+        structure = self.extend(base.structure, applied)
+        fresh = [dict(t, **{self._key(applied, k): v for k, v in own.items()})
+                 for t in one_term_starts(data) for own in self.starts(data, base, applied)]
+        try:
+            alt = fit_structure(data, structure, fresh, n_refine=4, with_cov=refine == "all")
+        except (InputError, np.linalg.LinAlgError, ValueError):
+            return fit
+        return alt if alt.bic < fit.bic else fit
 
     @staticmethod
     def _key(applied: Applied, name: str) -> str:

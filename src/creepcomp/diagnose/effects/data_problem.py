@@ -45,6 +45,8 @@ JUMP_WINDOW = 6
 LOAD_QUIET = 0.01
 #: Most jumps fitted.
 MAX_JUMPS = 10
+#: Least slip (samples) of a single event against all the others for channels out of step.
+SLIP_ALONE = 2
 
 
 def _robust_sigma(x: np.ndarray) -> float:
@@ -66,14 +68,15 @@ def find_jumps(data: Data, residual: np.ndarray, z: float = JUMP_Z, w: int = JUM
     i = np.arange(w, n - w + 1)
     d = (c[i + w] - c[i]) / w - (c[i] - c[i - w]) / w
     score = np.abs(d) / (sigma * np.sqrt(2.0 / w))
-    # the load must be quiet around the jump
+    # the load must be quiet around the jump, and for twice the window before it: a load
+    # change a few samples earlier explains a step of a signal that lags the load
     x = data.load
     scale = data.load_scale
     from numpy.lib.stride_tricks import sliding_window_view
-    win = sliding_window_view(x, 2 * w + 2)
-    moving = np.ptp(win, axis=1) > LOAD_QUIET * scale      # window starting at j covers j..j+2w+1
+    win = sliding_window_view(x, 3 * w + 3)
+    moving = np.ptp(win, axis=1) > LOAD_QUIET * scale      # window starting at j covers j..j+3w+2
     quiet = np.zeros(len(i), bool)
-    starts = i - w - 1
+    starts = i - 2 * w - 2
     ok = (starts >= 0) & (starts < len(moving))
     quiet[ok] = ~moving[starts[ok]]
     # gaps in the sampling are not jumps of the signal's level between neighbours either
@@ -93,7 +96,7 @@ def screen(data: Data, fit: Fit) -> list[dict]:
     """Data problems no model column can undo: clipping, channels out of step, quantisation
     that dominates the noise. Each is ``{"kind", "where", ...}`` (times in s)."""
     out = []
-    floor = noise_floor(data.signal, data.load, data.time)
+    floor = noise_floor(data.signal, data.load, data.time, follows_lag=True)
     clip = _clipping(data, fit, floor)
     if clip:
         out.append({"kind": "clipping", "where": clip})
@@ -110,13 +113,27 @@ def screen(data: Data, fit: Fit) -> list[dict]:
 QUANTISATION_SHARE = 0.5
 #: Least run of samples at the signal's extreme that can be a clipped stretch.
 CLIP_RUN = 3
+#: On a coarse value grid, a run at the extreme is clipping when it is this many times longer
+#: than the longest run of one value elsewhere.
+CLIP_LONGER = 5.0
+
+
+def _longest_run(y: np.ndarray, tol: float) -> int:
+    """The most successive samples of one value (NaN samples break runs)."""
+    same = np.abs(np.diff(y)) <= tol          # NaN compares False
+    if not same.any():
+        return 1
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], same.astype(int), [0]])))
+    return int(np.max(edges[1::2] - edges[::2])) + 1
 
 
 def _clipping(data: Data, fit: Fit, floor) -> list:
     """[first, last] times of runs of :data:`CLIP_RUN` or more samples at the signal's largest
     or smallest value. A noisy signal whose value grid is fine against its noise does not
-    repeat its extreme by chance; on a coarse grid the run counts only where the model goes
-    beyond the extreme by more than 3 noise floors on average."""
+    repeat its extreme by chance. On a coarse grid a run counts where the model goes beyond
+    the extreme by more than 3 noise floors on average, or where it is :data:`CLIP_LONGER`
+    times longer than any run of one value elsewhere in the record (a signal that dithers
+    between grid values elsewhere does not sit on one by chance)."""
     y = data.signal
     tol = 1e-9 * max(float(np.max(np.abs(y))), 1e-300)
     coarse = floor.quantisation_step >= floor.rms
@@ -126,10 +143,13 @@ def _clipping(data: Data, fit: Fit, floor) -> list:
         if at.sum() < CLIP_RUN:
             continue
         edges = np.flatnonzero(np.diff(np.concatenate([[0], at.astype(int), [0]])))
+        longest = _longest_run(np.where(at, np.nan, y), tol)
         for a, b in zip(edges[::2], edges[1::2]):
             if b - a < CLIP_RUN:
                 continue
-            if not coarse or np.mean(sign * (fit.prediction[a:b] - level)) > 3.0 * floor.rms:
+            beyond = np.mean(sign * (fit.prediction[a:b] - level)) > 3.0 * floor.rms
+            unlikely = b - a > CLIP_LONGER * max(longest, 1)
+            if not coarse or beyond or unlikely:
                 runs.append([float(data.time[a]), float(data.time[b - 1])])
     return sorted(runs)
 
@@ -165,11 +185,16 @@ def _out_of_step(data: Data, fit: Fit) -> dict | None:
         return None
     lags = np.array([d for _, d in delays])
     best, best_odd = None, np.inf
-    for cut in range(2, len(lags) - 1):
+    for cut in range(1, len(lags)):
         before, after = lags[:cut], lags[cut:]
         # each side consistent (at most a quarter odd events), and the two sides differ
         b, a = np.median(before), np.median(after)
         odd = np.sum(before != b) + np.sum(after != a)
+        if min(cut, len(lags) - cut) == 1:
+            # a slip before the first or after the last event but one: the lone event must
+            # differ by SLIP_ALONE samples or more from at least three that agree exactly
+            if len(lags) < 4 or odd > 0 or abs(a - b) < SLIP_ALONE:
+                continue
         if abs(a - b) >= 1 and np.sum(before != b) <= len(before) // 4 \
                 and np.sum(after != a) <= len(after) // 4 and odd < best_odd:
             best, best_odd = (cut, a - b), odd

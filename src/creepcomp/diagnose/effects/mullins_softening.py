@@ -5,6 +5,12 @@ Model: with ``m`` the largest |load| seen so far, the instantaneous response (lo
 the load itself on the virgin curve (``|x| = m``) and ``x (1 - softening (1 - |x| / m))``
 below it: reloading responds less by the fraction ``softening`` near zero load and joins the
 virgin curve at the past maximum. Creep acts on the response as on a linear one.
+
+The reloading curve's shape is fitted too: the factor is ``1 - softening g(1 - |x| / m)`` with
+``g(z) = (1 - exp(-shape z)) / (1 - exp(-shape))`` (``shape`` 0: ``g(z) = z``, the chord above;
+above 0 the softening saturates away from the past maximum and fades only close to it, as
+damage models of filled rubber have it; reported beside ``softening``, 0 in model files that
+do not give it). When the shaped form is not supported, the chord is tried.
 """
 
 from __future__ import annotations
@@ -28,6 +34,17 @@ def _below(x, m):
     return np.where(m > 0, 1.0 - np.abs(x) / np.where(m > 0, m, 1.0), 0.0)
 
 
+#: A shape closer to 0 than this is the chord (``g(z) = z``).
+_CHORD = 1e-6
+
+
+def _shaped(z, shape: float):
+    """``g(z)``, the reloading curve's shape, and its derivative, for ``z`` in [0, 1]."""
+    if abs(shape) < _CHORD:
+        return z, np.ones_like(z)
+    return np.expm1(-shape * z) / np.expm1(-shape), -shape * np.exp(-shape * z) / np.expm1(-shape)
+
+
 class MullinsSoftening(Effect):
     name = "mullins_softening"
     parameters = ("softening",)
@@ -42,27 +59,51 @@ class MullinsSoftening(Effect):
             return "the load never returns below its largest value so far: no reloading to compare"
         return None
 
+    def settings(self, data, base):
+        return (("shaped", True),)
+
+    def plain_settings(self, data, base):
+        return ()
+
     def nonlinear_params(self, data, applied):
-        return [Param("softening", -0.9, 0.9, scale=0.1)]
+        out = [Param("softening", -0.9, 0.9, scale=0.1)]
+        if applied.setting("shaped", False):
+            out.append(Param("shape", -5.0, 20.0))
+        return out
 
     def starts(self, data, base, applied):
-        return [{"softening": f} for f in (-0.1, 0.0, 0.1, 0.3)]
+        plain = [{"softening": f, "shape": 0.0} for f in (-0.1, 0.0, 0.1, 0.3)]
+        if not applied.setting("shaped", False):
+            return plain
+        return plain + [{"softening": f, "shape": a} for f in (0.1, 0.3) for a in (2.0, 6.0)]
 
     def instant(self, data, s, p, applied):
-        return s * (1.0 - p["softening"] * _below(s, past_maximum(s)))
+        return s * (1.0 - p["softening"] * _shaped(_below(s, past_maximum(s)), p.get("shape", 0.0))[0])
 
     def report(self, fit: Fit, applied: Applied) -> dict:
-        return {"softening": fit.estimate(lambda v: v["mullins_softening.softening"])}
+        out = {"softening": fit.estimate(lambda v: v["mullins_softening.softening"])}
+        if "mullins_softening.shape" in fit.values:
+            out["shape"] = fit.estimate(lambda v: v["mullins_softening.shape"])
+        return out
 
     def extension(self, fit: Fit, applied: Applied) -> dict:
-        return {"softening": fit.values["mullins_softening.softening"]}
+        return {"softening": fit.values["mullins_softening.softening"],
+                "shape": fit.values.get("mullins_softening.shape", 0.0)}
 
     def restore(self, entry, model, data):
-        return Applied(self, ()), {"mullins_softening.softening": float(entry["softening"])}
+        values = {"mullins_softening.softening": float(entry["softening"])}
+        if float(entry.get("shape", 0.0)) != 0.0:
+            values["mullins_softening.shape"] = float(entry["shape"])
+            return Applied(self, (("shaped", True),)), values
+        return Applied(self, ()), values
 
     def precondition(self, data, delta, load, values, applied):
         m = past_maximum(load)
-        slope = 1.0 - values["mullins_softening.softening"] * (2.0 * _below(load, m) - 1.0)
+        z = _below(load, m)
+        g, dg = _shaped(z, values.get("mullins_softening.shape", 0.0))
+        sigma = values["mullins_softening.softening"]
+        # d/dx of x (1 - sigma g(z)), z = 1 - |x| / m
+        slope = 1.0 - sigma * g + sigma * (1.0 - z) * dg
         slope = np.where(np.abs(load) >= m, 1.0, slope)
         return delta / np.maximum(slope, 0.1)
 

@@ -19,6 +19,9 @@ from creepcomp.diagnose.effects import Effect
 
 __all__ = ["NonlinearCreep", "EFFECT"]
 
+#: Least relative speed of creep under load (a time constant at most this many times longer).
+_SLOWEST = 0.1
+
 
 class NonlinearCreep(Effect):
     name = "nonlinear_creep"
@@ -41,7 +44,10 @@ class NonlinearCreep(Effect):
 
     def tau_factor(self, data, h, lags, taus, p, applied):
         level = 0.5 * (np.abs(h[:-1]) + np.abs(h[1:])) / applied.setting("load_scale")
-        return np.repeat((1.0 / (1.0 + p.get("acceleration", 0.0) * level))[:, None], len(taus), axis=1)
+        # a slowing (acceleration < 0) saturates: the creep input may exceed full scale (growth,
+        # a clipped or overshooting record), and a time constant never reaches zero or below
+        speed = np.maximum(1.0 + p.get("acceleration", 0.0) * level, _SLOWEST)
+        return np.repeat((1.0 / speed)[:, None], len(taus), axis=1)
 
     def report(self, fit: Fit, applied: Applied) -> dict:
         return {"growth": fit.estimate(lambda v: v["nonlinear_creep.growth"]),

@@ -1,6 +1,8 @@
 """``time_offset``: signal and load are not sampled at the same instant; ``delay`` in s,
 signal later than load. The load the sensor saw at ``t`` is the load record at ``t - delay``
-(interpolated linearly; held at its first value before the record)."""
+(interpolated linearly; held at its first value before the record), averaged over a window of
+``width`` s centred there (an averaging converter, a filter of finite impulse response: its
+group delay is ``delay``; ``width`` 0, the default, is a plain delay)."""
 
 from __future__ import annotations
 
@@ -10,7 +12,12 @@ from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
 from creepcomp.diagnose.effects import Effect
 
-__all__ = ["shifted", "TimeOffset", "EFFECT"]
+__all__ = ["shifted", "averaged", "TimeOffset", "EFFECT"]
+
+#: A window narrower than this share of the shortest sample step is a plain delay.
+NARROW = 1e-3
+#: Widest averaging window fitted, in sample steps.
+MAX_WIDTH_SAMPLES = 32
 
 
 def shifted(time, values, delay: float) -> np.ndarray:
@@ -18,35 +25,87 @@ def shifted(time, values, delay: float) -> np.ndarray:
     return np.interp(np.asarray(time) - delay, time, values)
 
 
+def _integral_at(time, values, at) -> np.ndarray:
+    """Integral from ``time[0]`` to ``at`` of ``values`` interpolated linearly (held flat
+    beyond the ends), exact."""
+    t = np.asarray(time, float)
+    x = np.asarray(values, float)
+    at = np.asarray(at, float)
+    cum = np.concatenate([[0.0], np.cumsum(0.5 * (x[:-1] + x[1:]) * np.diff(t))])
+    i = np.clip(np.searchsorted(t, at, side="right") - 1, 0, len(t) - 2)
+    u = np.clip(at, t[0], t[-1]) - t[i]
+    slope = (x[i + 1] - x[i]) / (t[i + 1] - t[i])
+    inside = cum[i] + x[i] * u + 0.5 * slope * u ** 2
+    return inside + x[0] * np.minimum(at - t[0], 0.0) + x[-1] * np.maximum(at - t[-1], 0.0)
+
+
+def averaged(time, values, delay: float, width: float) -> np.ndarray:
+    """``values`` averaged over ``[t - delay - width/2, t - delay + width/2]`` (``width`` 0: the
+    plain delay, :func:`shifted`)."""
+    t = np.asarray(time, float)
+    if len(t) < 2 or width <= NARROW * float(np.min(np.diff(t))):
+        # the difference of two integrals over a narrow window loses its digits
+        return shifted(t, values, delay)
+    hi = _integral_at(t, values, t - delay + 0.5 * width)
+    lo = _integral_at(t, values, t - delay - 0.5 * width)
+    return (hi - lo) / width
+
+
 class TimeOffset(Effect):
     name = "time_offset"
-    parameters = ("delay",)
-    summary = "signal and load sampled at different instants"
+    parameters = ("delay", "width")
+    summary = "signal and load sampled at different instants (or the signal averaged over a window)"
+
+    def settings(self, data, base):
+        return (("window", True),)
+
+    def plain_settings(self, data, base):
+        return ()
 
     def nonlinear_params(self, data, applied):
         limit = min(0.1 * data.duration, 500.0 * data.dt_median)
-        return [Param("delay", -limit, limit, scale=data.dt_median)]
+        delay = Param("delay", -limit, limit, scale=data.dt_median)
+        if not applied.setting("window", False):
+            return [delay]
+        return [delay, Param("width", 0.0, MAX_WIDTH_SAMPLES * data.dt_median, scale=data.dt_median)]
 
     def starts(self, data, base, applied):
         dt = data.dt_median
         limit = min(0.1 * data.duration, 500.0 * dt)
         steps = [0.3, 1, 2, 4, 8, 16, 32, 64, 128]
-        return [{"delay": sign * f * dt} for f in steps for sign in (1, -1) if f * dt < limit]
+        plain = [{"delay": sign * f * dt, "width": 0.0} for f in steps for sign in (1, -1) if f * dt < limit]
+        boxes = [{"delay": 0.5 * k * dt, "width": k * dt} for k in (2, 4, 7) if k * dt < limit]
+        return plain + boxes
+
+    def fit_on(self, data, base, refine="all", start=None, settings=None):
+        # a delay of a few samples is mimicked by a fast creep term of large beta, which the
+        # baseline may have fitted: fit the effect with the creep term started afresh as well
+        fit = super().fit_on(data, base, refine, start, settings)
+        return self.with_fresh_term(data, base, fit, refine, start, settings)
 
     def load_transform(self, data, x, p, applied):
-        return shifted(data.time, x, p["delay"])
+        return averaged(data.time, x, p["delay"], p.get("width", 0.0))
 
     def report(self, fit: Fit, applied: Applied) -> dict:
-        return {"delay": fit.estimate(lambda v: v["time_offset.delay"])}
+        out = {"delay": fit.estimate(lambda v: v["time_offset.delay"])}
+        if "time_offset.width" in fit.values:
+            out["width"] = fit.estimate(lambda v: v["time_offset.width"])
+        return out
 
     def extension(self, fit: Fit, applied: Applied) -> dict:
-        return {"delay": fit.values["time_offset.delay"]}
+        return {"delay": fit.values["time_offset.delay"], "width": fit.values.get("time_offset.width", 0.0)}
 
     def restore(self, entry, model, data):
-        return Applied(self, ()), {"time_offset.delay": float(entry["delay"])}
+        values = {"time_offset.delay": float(entry["delay"])}
+        if float(entry.get("width", 0.0)) > 0:
+            values["time_offset.width"] = float(entry["width"])
+            return Applied(self, (("window", True),)), values
+        return Applied(self, ()), values
 
     def precondition(self, data, delta, load, values, applied):
-        return shifted(data.time, delta, -values["time_offset.delay"])
+        # the adjoint of the window (shift back, average again): a window's response turns
+        # negative at some frequencies, where dividing by it, or ignoring it, would not converge
+        return averaged(data.time, delta, -values["time_offset.delay"], values.get("time_offset.width", 0.0))
 
 
 EFFECT = TimeOffset()

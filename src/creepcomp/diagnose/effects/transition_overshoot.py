@@ -6,11 +6,18 @@ Model: with ``v(t)`` the load's total variation (the sum of |load changes| so fa
 play operator of 0.1 % of full scale so that noise on a measured load does not count), the
 signal gets ``amplitude * (v - lag_tau(v))``: after a change of size ``dL`` a transient
 ``amplitude * |dL| * exp(-t / tau)``. ``amplitude`` is in signal units per unit load change.
+
+The decay may be stretched, ``exp(-(t / tau)^exponent)`` with ``exponent`` fitted (1: the plain
+exponential; below 1 a decay over a spread of times, as the re-forming of a filler network has
+it), computed as a sum of exponentials whose weights fit the stretched decay
+(:func:`stretched_weights`). When the stretched form is not supported, the plain one is tried.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from scipy.optimize import nnls
 
 from creepcomp.fit.data import Data
 from creepcomp.fit.structure import Applied, Param
@@ -19,7 +26,7 @@ from creepcomp.lti import lag_states
 from creepcomp.diagnose.effects import Effect
 from creepcomp.diagnose.effects.rate_independent_hysteresis import one_way_reason, play
 
-__all__ = ["DEAD_BAND", "total_variation", "TransitionOvershoot", "EFFECT"]
+__all__ = ["DEAD_BAND", "total_variation", "stretched_weights", "TransitionOvershoot", "EFFECT"]
 
 #: Load changes smaller than this fraction of full scale (back and forth) do not count.
 DEAD_BAND = 1e-3
@@ -32,6 +39,20 @@ def total_variation(x, dead_band: float = 0.0) -> np.ndarray:
     return np.concatenate([[0.0], np.cumsum(np.abs(np.diff(p)))])
 
 
+#: Time constants (relative to ``tau``) of the exponentials that make up a stretched decay.
+STRETCH_GRID = np.geomspace(1e-3, 1e2, 21)
+
+
+def stretched_weights(exponent: float) -> np.ndarray:
+    """Non-negative weights ``w`` of :data:`STRETCH_GRID` with ``sum_i w_i exp(-x / g_i)`` close
+    to ``exp(-x^exponent)`` for ``x`` (time over ``tau``) from 1e-3 to 30 (least squares on a log
+    grid of ``x``; the weights sum to about 1, the decay's start)."""
+    x = np.concatenate([[0.0], np.geomspace(1e-3, 30.0, 120)])
+    a = np.exp(-x[:, None] / STRETCH_GRID[None, :])
+    w, _ = nnls(a, np.exp(-x ** exponent))
+    return w
+
+
 class TransitionOvershoot(Effect):
     name = "transition_overshoot"
     parameters = ("amplitude", "tau")
@@ -42,34 +63,64 @@ class TransitionOvershoot(Effect):
         return super().applicable(data, structure) or one_way_reason(data)
 
     def settings(self, data: Data, base: Fit) -> tuple:
+        return (("load_scale", data.load_scale), ("stretched", True))
+
+    def plain_settings(self, data: Data, base: Fit) -> tuple:
         return (("load_scale", data.load_scale),)
+
+    def fit_on(self, data, base, refine="all", start=None, settings=None):
+        if refine == "own" and settings is None:
+            # the screening fits the plain exponential (a stretched decay costs a dozen lags
+            # per evaluation); the full fit starts from it with the exponent free
+            settings = self.plain_settings(data, base)
+        return super().fit_on(data, base, refine, start, settings)
 
     def nonlinear_params(self, data, applied):
         lo, hi = data.tau_limits()
-        return [Param("tau", lo, hi, log=True)]
+        out = [Param("tau", lo, hi, log=True)]
+        if applied.setting("stretched", False):
+            out.append(Param("exponent", 0.3, 1.0, default=1.0))
+        return out
 
     def starts(self, data, base, applied):
         lo, hi = data.tau_limits()
-        return [{"tau": float(t)} for t in np.geomspace(2 * lo, min(hi, data.span) / 3, 7)]
+        shapes = (1.0, 0.7) if applied.setting("stretched", False) else (1.0,)
+        return [{"tau": float(t), "exponent": b} for t in np.geomspace(2 * lo, min(hi, data.span) / 3, 7)
+                for b in shapes]
 
     def columns(self, data, s, h, lags, p, applied):
         v = total_variation(s, DEAD_BAND * applied.setting("load_scale"))
-        return {"amplitude": v - lag_states(data.time, v, [p["tau"]], hold=data.hold,
-                                            initial="settled")[:, 0]}
+        b = p.get("exponent", 1.0)
+        if b >= 1.0:
+            decay = v - lag_states(data.time, v, [p["tau"]], hold=data.hold, initial="settled")[:, 0]
+        else:
+            w = stretched_weights(b)
+            used = w > 1e-9
+            taus = p["tau"] * STRETCH_GRID[used]
+            decay = (v[:, None] - lag_states(data.time, v, taus, hold=data.hold, initial="settled")) @ w[used]
+        return {"amplitude": decay}
 
     def report(self, fit: Fit, applied: Applied) -> dict:
-        return {"amplitude": fit.estimate(lambda v: v["transition_overshoot.amplitude"]),
-                "tau": fit.estimate(lambda v: v["transition_overshoot.tau"])}
+        out = {"amplitude": fit.estimate(lambda v: v["transition_overshoot.amplitude"]),
+               "tau": fit.estimate(lambda v: v["transition_overshoot.tau"])}
+        if "transition_overshoot.exponent" in fit.values:
+            out["exponent"] = fit.estimate(lambda v: v["transition_overshoot.exponent"])
+        return out
 
     def extension(self, fit: Fit, applied: Applied) -> dict:
         return {"amplitude": fit.values["transition_overshoot.amplitude"],
                 "tau": fit.values["transition_overshoot.tau"],
+                "exponent": fit.values.get("transition_overshoot.exponent", 1.0),
                 "load_scale": applied.setting("load_scale")}
 
     def restore(self, entry, model, data):
-        return Applied(self, (("load_scale", float(entry.get("load_scale", data.load_scale))),)), {
-            "transition_overshoot.amplitude": float(entry["amplitude"]),
-            "transition_overshoot.tau": float(entry["tau"])}
+        scale = ("load_scale", float(entry.get("load_scale", data.load_scale)))
+        values = {"transition_overshoot.amplitude": float(entry["amplitude"]),
+                  "transition_overshoot.tau": float(entry["tau"])}
+        if float(entry.get("exponent", 1.0)) < 1.0:
+            values["transition_overshoot.exponent"] = float(entry["exponent"])
+            return Applied(self, (scale, ("stretched", True))), values
+        return Applied(self, (scale,)), values
 
 
 EFFECT = TransitionOvershoot()

@@ -1,12 +1,18 @@
 """``viscous_flow``: creep that never saturates and is not recovered (Burgers: a dashpot in
-series), ``rate`` in 1/s relative to the instantaneous signal."""
+series), ``rate`` in 1/s relative to the instantaneous signal.
+
+The dashpot may be Newtonian (flow rate proportional to the load) or follow a power law
+(Norton: proportional to ``s |s / L|^(exponent - 1)``, ``L`` the record's full-scale load,
+so that ``rate`` is the rate at full scale). The diagnosis fits the ``exponent`` (1 to 5);
+a plain Burgers fit (``creepcomp fit --flow``) applies the effect without settings, Newtonian.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
 from creepcomp.fit.data import Data
-from creepcomp.fit.structure import Applied
+from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
 from creepcomp.diagnose.effects import Effect
 
@@ -36,29 +42,63 @@ class ViscousFlow(Effect):
     summary = "creep that never saturates (a dashpot in series: Burgers model)"
 
     def settings(self, data: Data, base: Fit) -> tuple:
+        return (("span", data.span), ("load_scale", data.load_scale))
+
+    def fit_on(self, data, base, refine="all", start=None, settings=None):
+        if refine == "own" and start is None:
+            # a long creep term of the base absorbs flow (and its exponent costs a parameter):
+            # the screening frees the base's time constants too, or flow never ranks
+            refine = "all"
+        fit = super().fit_on(data, base, refine, start, settings)
+        return self.with_fresh_term(data, base, fit, refine, start, settings)
+
+    def plain_settings(self, data, base):
         return (("span", data.span),)
 
+    def nonlinear_params(self, data, applied):
+        if applied.setting("load_scale") is None:
+            return []
+        return [Param("exponent", 1.0, 5.0)]
+
+    def starts(self, data, base, applied):
+        if applied.setting("load_scale") is None:
+            return [{}]
+        return [{"exponent": m} for m in (1.0, 2.0, 3.0)]
+
     def columns(self, data, s, h, lags, p, applied):
+        m = p.get("exponent", 1.0)
+        if m != 1.0:
+            s = s * np.abs(s / applied.setting("load_scale")) ** max(m - 1.0, 0.0)
         return {"flow": integral(data, s)}
 
     def unphysical(self, fit: Fit, applied: Applied) -> str | None:
         rate = fit.values["viscous_flow.flow"] / fit.gain
         # flow of either sign (creep, or relaxation under imposed displacement); but a held
         # load's response cannot flow through zero within the record
-        held = 1.0 + float(np.sum(fit.betas)) + rate * applied.setting("span")
+        held = 1.0 + float(np.sum(fit.betas)) + rate * (applied.setting("span") or 0.0)
         if held <= 0:
             return (f"rate = {rate:.3g} /s: under a held load the response would flow through zero "
                     f"within the record, which no passive material does")
         return None
 
     def report(self, fit: Fit, applied: Applied) -> dict:
-        return {"rate": fit.estimate(lambda v: v["viscous_flow.flow"] / v["gain"])}
+        out = {"rate": fit.estimate(lambda v: v["viscous_flow.flow"] / v["gain"])}
+        if "viscous_flow.exponent" in fit.values:
+            out["exponent"] = fit.estimate(lambda v: v["viscous_flow.exponent"])
+        return out
 
     def extension(self, fit: Fit, applied: Applied) -> dict:
-        return {"rate": fit.values["viscous_flow.flow"] / fit.gain}
+        out = {"rate": fit.values["viscous_flow.flow"] / fit.gain}
+        if "viscous_flow.exponent" in fit.values:
+            out.update(exponent=fit.values["viscous_flow.exponent"], load_scale=applied.setting("load_scale"))
+        return out
 
     def restore(self, entry, model, data):
-        return Applied(self, ()), {"viscous_flow.flow": model.gain * float(entry["rate"])}
+        values = {"viscous_flow.flow": model.gain * float(entry["rate"])}
+        if "exponent" in entry:
+            values["viscous_flow.exponent"] = float(entry["exponent"])
+            return Applied(self, (("load_scale", float(entry["load_scale"])),)), values
+        return Applied(self, ()), values
 
     def linear_terms(self, values, applied, data):
         tau = _EQUIVALENT_LENGTHS * max(data.duration, float(np.median(np.diff(data.time))))
