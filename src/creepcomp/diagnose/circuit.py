@@ -44,18 +44,22 @@ from creepcomp.diagnose import effects as effects_pkg
 from creepcomp.fit.circuit import (CircuitData, CircuitFit, fit_model, halves, prepare, uncertainty,
     with_heldout)
 from creepcomp.fit.evidence import BIC_STRONG, HELDOUT_Z, Evidence, compare, compare_with_halves
-from creepcomp.fit.noise import (MISFIT_LIMIT, NoiseFloor, autocorrelation, explained_share, fit_noise,
-    ljung_box, misfit_ratio, noise_floor, rows_for, whiten)
+from creepcomp.fit.noise import (FLOOR_WINDOW, MISFIT_LIMIT, NoiseFloor, autocorrelation, explained_share,
+    fit_noise, ljung_box, misfit_ratio, noise_floor, rows_for, whiten)
 from creepcomp.fit.structure import Applied
 from creepcomp.io.jsonfiles import Design
 from creepcomp.io.records import Record
 from creepcomp.units import format_quantity
 
-__all__ = ["MAX_EFFECTS", "EQUIVALENT_BIC", "MISMATCH_RATIO", "PART_FACTOR", "FAULT_PRIOR", "evidence",
+__all__ = ["SLOW_SHARE", "slow_share", "MAX_EFFECTS", "EQUIVALENT_BIC", "MISMATCH_RATIO", "PART_FACTOR", "FAULT_PRIOR", "evidence",
            "circuit_noise_floor", "implausible", "equivalent", "most_probable", "separating_measurement",
            "CircuitFinding", "CircuitTrial", "CircuitDiagnosis", "circuit_effects", "diagnose_circuit",
            "choose", "at_bound", "ngspice_check", "combine"]
 
+#: A misfit left unexplained is called slow (a drift of the measuring chain would look like it)
+#: when at least this share of its excess variance over the floor is slower than the floor's
+#: windows (:func:`slow_share`).
+SLOW_SHARE = 0.8
 #: Most circuit effects added one after the other.
 MAX_EFFECTS = 3
 #: Two explanations fit a record as well when their BIC differ by less than this (below
@@ -318,6 +322,22 @@ def circuit_noise_floor(data: CircuitData) -> NoiseFloor:
                                  "measured signal: " + floor.method)
 
 
+def slow_share(residual: np.ndarray, floor: NoiseFloor) -> float | None:
+    """Share of a residual's variance above the noise floor that is slower than the floor's
+    windows: the variance of its moving average over a window (less the floor's part that
+    passes the average, ``floor**2 / window``) over its excess variance ``rms**2 - floor**2``,
+    clipped to [0, 1] (None when there is no excess). The floor takes up everything that
+    slow within its windows (a drift of the measuring chain too), so a misfit above the floor
+    that is mostly this slow is drift or a slow fault, not faster structure."""
+    excess = float(np.mean(residual ** 2)) - floor.rms ** 2
+    w = int(min(FLOOR_WINDOW, max(8, len(residual) // 4)))
+    if excess <= 0 or len(residual) < 2 * w:
+        return None
+    average = np.convolve(residual, np.ones(w) / w, mode="valid")
+    slow = float(np.mean(average ** 2)) - floor.rms ** 2 / w
+    return float(min(1.0, max(0.0, slow / excess)))
+
+
 def implausible(effect: str, values: dict, design: Design, part: str | None = None,
                 cell: int | None = None) -> str | None:
     """Why a fitted circuit fault is not one a built network of this design can hold (see
@@ -485,11 +505,18 @@ def diagnose_circuit(record: Record, design: Design, spice_check: bool = True,
         current = baseline
     elif catch_ev.supported or (left is not None and left > MISFIT_LIMIT):
         params = {"misfit_ratio": left}
+        note = ""
         if catch_ev.supported:
             params.update({"tau": catch.generic[1], "gain": catch.generic[0]})
-        findings.append(CircuitFinding("unexplained", params, catch_ev,
-                                       note="" if catch_ev.supported else
-                                       "misfit above the noise floor that no circuit effect explains"))
+        else:
+            slow = slow_share(current.residual, floor)
+            params["slow_share"] = slow
+            note = "misfit above the noise floor that no circuit effect explains"
+            if slow is not None and slow >= SLOW_SHARE:
+                note += (f"; {100 * slow:.0f} % of it is slower than the floor's windows and nothing "
+                         f"driven by the signal follows it: a drift of the output's measuring chain "
+                         f"would look like this (re-zero or log the output channel's offset to tell)")
+        findings.append(CircuitFinding("unexplained", params, catch_ev, note=note))
     model = design.model
     named = any(f.effect != "unexplained" for f in findings)
     fixes = tuple(suggest_fixes(current.network, model, resistor_series, capacitor_series)) if named else ()
