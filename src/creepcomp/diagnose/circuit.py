@@ -391,9 +391,19 @@ def equivalent(data: CircuitData, chosen: tuple, rival: tuple) -> bool:
     """True when the record cannot tell ``rival`` from ``chosen`` (both ``(applied, fit,
     evidence, ...)`` of one step): their BIC differ by less than :data:`EQUIVALENT_BIC`,
     neither predicts the held-out blocks better by :data:`~creepcomp.fit.evidence.HELDOUT_Z`
-    standard deviations, nor each half of the record from the other."""
+    standard deviations, nor each half of the record from the other. Two faults that change
+    the network's transfer function in exactly the same way
+    (:func:`~creepcomp.analog.faults.exact_equivalents`: ``R1 || leakage``, ``R2 || load``)
+    need only the BIC: no record tells them apart, and the held-out tests would measure the
+    one-step refits of two parametrisations of one network (a leakage far above R1 moves the
+    output little per unit of its logarithm), not the record (three benchmark leakages came
+    back as a wrong R1 with no alternative that way)."""
     if abs(rival[2].delta_bic - chosen[2].delta_bic) >= EQUIVALENT_BIC:
         return False
+    design = data.design
+    if (rival[0].name, _part(rival[0], design)) in exact_equivalents(design.network, chosen[0].name,
+                                                                      _part(chosen[0], design)):
+        return True
     if abs(compare(chosen[1], rival[1]).heldout_z) >= HELDOUT_Z:
         return False
     return not (_predicts_better(data, chosen[1], rival[1]) or _predicts_better(data, rival[1], chosen[1]))
