@@ -237,3 +237,21 @@ def test_a_load_resistance_is_not_taken_for_a_source_resistance():
     assert d.cause == "load_impedance"
     assert "better than source_impedance" in " ".join(t.outcome for t in d.trials)
     assert d.findings[0].parameters["R"] == pytest.approx(spec.hidden["load_impedance"]["R"], rel=0.01)
+
+
+def test_slow_share_tells_a_drift_from_fast_misfit():
+    """A random walk on top of white noise at the floor is nearly all slower than the floor's
+    windows; a misfit that alternates every few samples is not; no excess, no share."""
+    from creepcomp.diagnose.circuit import SLOW_SHARE, slow_share
+    from creepcomp.fit.noise import noise_floor
+
+    rng = np.random.default_rng(3)
+    n = 20000
+    white = rng.normal(0.0, 1.0, n)
+    drift = np.cumsum(rng.normal(0.0, 0.05, n))
+    drift -= drift.mean()
+    floor = noise_floor(white)
+    assert slow_share(white + drift, floor) >= SLOW_SHARE
+    fast = 1.5 * np.sin(2 * np.pi * np.arange(n) / 7.0)
+    assert slow_share(white + fast, floor) < 0.1
+    assert slow_share(0.5 * white, floor) is None

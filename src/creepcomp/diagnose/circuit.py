@@ -44,18 +44,23 @@ from creepcomp.diagnose import effects as effects_pkg
 from creepcomp.fit.circuit import (CircuitData, CircuitFit, fit_model, halves, prepare, uncertainty,
     with_heldout)
 from creepcomp.fit.evidence import BIC_STRONG, HELDOUT_Z, Evidence, compare, compare_with_halves
-from creepcomp.fit.noise import (MISFIT_LIMIT, NoiseFloor, autocorrelation, explained_share, fit_noise,
-    ljung_box, misfit_ratio, noise_floor, rows_for, whiten)
+from creepcomp.fit.noise import (FEW_WINDOWS, FLOOR_WINDOW, MISFIT_LIMIT, NoiseFloor, autocorrelation,
+    explained_share, fit_noise, ljung_box, misfit_ratio, noise_floor, rows_for, whiten)
 from creepcomp.fit.structure import Applied
 from creepcomp.io.jsonfiles import Design
 from creepcomp.io.records import Record
 from creepcomp.units import format_quantity
 
-__all__ = ["MAX_EFFECTS", "EQUIVALENT_BIC", "MISMATCH_RATIO", "PART_FACTOR", "FAULT_PRIOR", "evidence",
+__all__ = ["SLOW_SHARE", "slow_share", "floor_window",
+           "MAX_EFFECTS", "EQUIVALENT_BIC", "MISMATCH_RATIO", "PART_FACTOR", "FAULT_PRIOR", "evidence",
            "circuit_noise_floor", "implausible", "equivalent", "most_probable", "separating_measurement",
            "CircuitFinding", "CircuitTrial", "CircuitDiagnosis", "circuit_effects", "diagnose_circuit",
            "choose", "at_bound", "ngspice_check", "combine"]
 
+#: A misfit left unexplained is called slow (a drift of the measuring chain would look like it)
+#: when at least this share of its excess variance over the floor is slower than the floor's
+#: windows (:func:`slow_share`).
+SLOW_SHARE = 0.8
 #: Most circuit effects added one after the other.
 MAX_EFFECTS = 3
 #: Two explanations fit a record as well when their BIC differ by less than this (below
@@ -311,11 +316,42 @@ def circuit_noise_floor(data: CircuitData) -> NoiseFloor:
     is the output's measurement noise and, where the built network saw the sensor's
     continuous signal, the signal's measurement noise as the simulation passes it; both are
     in that difference, and neither in ``corrected`` alone. Slow misfit (a wrong part) is
-    what each window's quadratic takes up."""
+    what each window's quadratic takes up.
+
+    The windows span half the network's fastest time constant (at least
+    :data:`~creepcomp.fit.noise.FLOOR_WINDOW` samples, and at most what leaves
+    2 x :data:`~creepcomp.fit.noise.FEW_WINDOWS` windows): within that a quadratic follows any
+    response of the network, nominal or faulty, to a few parts in a thousand, and noise of
+    the measuring chain correlated over seconds (coloured noise of a fast-sampled record)
+    stays in the floor instead of being taken for misfit. A drift over the whole record is
+    still not in it."""
     nominal = data.design.network.lag_expansion().simulate(data.time, data.signal, initial="settled")
-    floor = noise_floor(data.corrected - nominal, None, data.time)
+    floor = noise_floor(data.corrected - nominal, None, data.time, floor_window(data))
     return replace(floor, method="the measured corrected minus the nominal network's simulation on the "
                                  "measured signal: " + floor.method)
+
+
+def floor_window(data: CircuitData) -> int:
+    """Samples per window of the circuit side's noise floor (see :func:`circuit_noise_floor`)."""
+    taus = data.design.network.lag_expansion().taus
+    span = 0.5 * min(taus) / data.dt_median if taus else 0.0
+    return int(min(max(round(span), FLOOR_WINDOW), max(data.n // (2 * FEW_WINDOWS), FLOOR_WINDOW)))
+
+
+def slow_share(residual: np.ndarray, floor: NoiseFloor, window: int = FLOOR_WINDOW) -> float | None:
+    """Share of a residual's variance above the noise floor that is slower than the floor's
+    windows: the variance of its moving average over a window (less the floor's part that
+    passes the average, ``floor**2 / window``) over its excess variance ``rms**2 - floor**2``,
+    clipped to [0, 1] (None when there is no excess; ``window``: the floor's, in samples). The
+    floor takes up everything that slow within its windows (a drift of the measuring chain too), so a misfit above the floor
+    that is mostly this slow is drift or a slow fault, not faster structure."""
+    excess = float(np.mean(residual ** 2)) - floor.rms ** 2
+    w = int(min(window, max(8, len(residual) // 4)))
+    if excess <= 0 or len(residual) < 2 * w:
+        return None
+    average = np.convolve(residual, np.ones(w) / w, mode="valid")
+    slow = float(np.mean(average ** 2)) - floor.rms ** 2 / w
+    return float(min(1.0, max(0.0, slow / excess)))
 
 
 def implausible(effect: str, values: dict, design: Design, part: str | None = None,
@@ -355,9 +391,19 @@ def equivalent(data: CircuitData, chosen: tuple, rival: tuple) -> bool:
     """True when the record cannot tell ``rival`` from ``chosen`` (both ``(applied, fit,
     evidence, ...)`` of one step): their BIC differ by less than :data:`EQUIVALENT_BIC`,
     neither predicts the held-out blocks better by :data:`~creepcomp.fit.evidence.HELDOUT_Z`
-    standard deviations, nor each half of the record from the other."""
+    standard deviations, nor each half of the record from the other. Two faults that change
+    the network's transfer function in exactly the same way
+    (:func:`~creepcomp.analog.faults.exact_equivalents`: ``R1 || leakage``, ``R2 || load``)
+    need only the BIC: no record tells them apart, and the held-out tests would measure the
+    one-step refits of two parametrisations of one network (a leakage far above R1 moves the
+    output little per unit of its logarithm), not the record (three benchmark leakages came
+    back as a wrong R1 with no alternative that way)."""
     if abs(rival[2].delta_bic - chosen[2].delta_bic) >= EQUIVALENT_BIC:
         return False
+    design = data.design
+    if (rival[0].name, _part(rival[0], design)) in exact_equivalents(design.network, chosen[0].name,
+                                                                      _part(chosen[0], design)):
+        return True
     if abs(compare(chosen[1], rival[1]).heldout_z) >= HELDOUT_Z:
         return False
     return not (_predicts_better(data, chosen[1], rival[1]) or _predicts_better(data, rival[1], chosen[1]))
@@ -485,11 +531,18 @@ def diagnose_circuit(record: Record, design: Design, spice_check: bool = True,
         current = baseline
     elif catch_ev.supported or (left is not None and left > MISFIT_LIMIT):
         params = {"misfit_ratio": left}
+        note = ""
         if catch_ev.supported:
             params.update({"tau": catch.generic[1], "gain": catch.generic[0]})
-        findings.append(CircuitFinding("unexplained", params, catch_ev,
-                                       note="" if catch_ev.supported else
-                                       "misfit above the noise floor that no circuit effect explains"))
+        else:
+            slow = slow_share(current.residual, floor, floor_window(data))
+            params["slow_share"] = slow
+            note = "misfit above the noise floor that no circuit effect explains"
+            if slow is not None and slow >= SLOW_SHARE:
+                note += (f"; {100 * slow:.0f} % of it is slower than the floor's windows and nothing "
+                         f"driven by the signal follows it: a drift of the output's measuring chain "
+                         f"would look like this (re-zero or log the output channel's offset to tell)")
+        findings.append(CircuitFinding("unexplained", params, catch_ev, note=note))
     model = design.model
     named = any(f.effect != "unexplained" for f in findings)
     fixes = tuple(suggest_fixes(current.network, model, resistor_series, capacitor_series)) if named else ()
