@@ -553,20 +553,38 @@ def _correction_notes(data: Data, base: Fit, findings: list[Finding]) -> list[Fi
         ratio = corr.get("ratio") if corr else None
         f = replace(f, correction_error_ratio=ratio)
         if f.worsens_correction:
-            f = replace(f, note=(f"fits the signal better but makes the creep-corrected signal worse "
-                                 f"against the load (correction-error ratio {ratio:.3g}): it does not "
-                                 f"describe how the signal follows the load"))
+            f = replace(f, note=_worse_note(data, before, f, corr))
         out.append(f)
         before = f.fit
     return out + [f for f in findings if f.effect == "unexplained"]
 
 
+def _worse_note(data: Data, before: Fit, finding: Finding, corr: dict) -> str:
+    """The note of a finding that makes the creep-corrected signal worse (its effect's words);
+    for a fault of the record, with the ratio measured with the fault taken out of the signal."""
+    effect = effects_pkg.get(finding.effect)
+    fault = effect.record_fault(finding.fit, _applied_of(finding.fit, effect), data)
+    without = None
+    if fault is not None:
+        fixed = correction_errors(data.with_signal(data.signal - fault), before, finding.fit,
+                                  _extensions(finding.fit))
+        if fixed and fixed["extended_rms"] > 0:
+            without = corr["baseline_rms"] / fixed["extended_rms"]
+    return effect.worse_correction_note(corr["ratio"], without)
+
+
 def _ordered(findings: list[Finding], unexplained: Finding | None) -> list[Finding]:
-    """Named findings by importance, those that make the correction worse after the others;
-    ``unexplained`` last (first when no named finding improves the correction)."""
+    """Named findings by importance, extensions that make the correction worse after the
+    others; ``unexplained`` last (first when no named finding improves the correction). A fault
+    of the record (``describes_record``) keeps its place whatever it does to the correction:
+    it is a statement about the record, and its note says what the correction makes of it."""
     named = [f for f in findings if f.effect != "unexplained"]
-    good = sorted((f for f in named if not f.worsens_correction), key=lambda f: -f.importance)
-    worse = sorted((f for f in named if f.worsens_correction), key=lambda f: -f.importance)
+
+    def demoted(f: Finding) -> bool:
+        return f.worsens_correction and not effects_pkg.get(f.effect).describes_record
+
+    good = sorted((f for f in named if not demoted(f)), key=lambda f: -f.importance)
+    worse = sorted((f for f in named if demoted(f)), key=lambda f: -f.importance)
     if unexplained is None:
         return good + worse
     if not good:
