@@ -512,7 +512,7 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
                 findings = _correction_notes(data, base, findings)
     # data problems no model column undoes (clipping, channels out of step, coarse quantisation)
     from creepcomp.diagnose.effects.data_problem import screen
-    for problem in screen(data, current):
+    for problem in screen(data, current, base):
         findings.append(Finding("data_problem", problem, dict.fromkeys(problem), Evidence(float("nan"), float("nan"), float("nan")),
                                 0.0 if problem["kind"] == "quantisation" else float("inf")))
     findings = _ordered(findings, unexplained)

@@ -106,15 +106,21 @@ def find_jumps(data: Data, residual: np.ndarray, z: float = JUMP_Z, w: int = JUM
     return sorted(found)
 
 
-def screen(data: Data, fit: Fit) -> list[dict]:
+def screen(data: Data, fit: Fit, base: Fit | None = None) -> list[dict]:
     """Data problems no model column can undo: clipping, channels out of step, quantisation
-    that dominates the noise. Each is ``{"kind", "where", ...}`` (times in s)."""
+    that dominates the noise. Each is ``{"kind", "where", ...}`` (times in s).
+
+    Channels out of step are looked for against ``fit`` and, when given, the ``base`` model
+    (before any effect: one that follows a delay, fitted to a record whose delay changes,
+    takes up part of the change)."""
     out = []
     floor = noise_floor(data.signal, data.load, data.time, follows_lag=True)
     clip = _clipping(data, fit, floor)
     if clip:
         out.append({"kind": "clipping", "where": clip})
     slip = _out_of_step(data, fit)
+    if slip is None and base is not None and base is not fit:
+        slip = _out_of_step(data, base)
     if slip:
         out.append(slip)
     q = quantisation_step(data.signal)
@@ -201,16 +207,21 @@ def _out_of_step(data: Data, fit: Fit) -> dict | None:
     best, best_odd = None, np.inf
     for cut in range(1, len(lags)):
         before, after = lags[:cut], lags[cut:]
-        # each side consistent (at most a quarter odd events), and the two sides differ
+        # each side consistent (at most a quarter odd events), and the two sides differ; an
+        # event is odd when it lies half-way to the other side's delay or beyond (a slip of
+        # 3 samples or more stands out of the +-1 sample scatter of jittered sampling)
         b, a = np.median(before), np.median(after)
-        odd = np.sum(before != b) + np.sum(after != a)
+        half_way = max(abs(a - b) / 2.0, 0.5)
+        odd_before = np.sum(np.abs(before - b) >= half_way)
+        odd_after = np.sum(np.abs(after - a) >= half_way)
+        odd = odd_before + odd_after
         if min(cut, len(lags) - cut) == 1:
             # a slip before the first or after the last event but one: the lone event must
             # differ by SLIP_ALONE samples or more from at least three that agree exactly
-            if len(lags) < 4 or odd > 0 or abs(a - b) < SLIP_ALONE:
+            if len(lags) < 4 or np.sum(before != b) + np.sum(after != a) > 0 or abs(a - b) < SLIP_ALONE:
                 continue
-        if abs(a - b) >= 1 and np.sum(before != b) <= len(before) // 4 \
-                and np.sum(after != a) <= len(after) // 4 and odd < best_odd:
+        if abs(a - b) >= 1 and odd_before <= len(before) // 4 \
+                and odd_after <= len(after) // 4 and odd < best_odd:
             best, best_odd = (cut, a - b), odd
     if best is None:
         return None
