@@ -220,8 +220,11 @@ def _out_of_step(data: Data, fit: Fit) -> dict | None:
             # differ by SLIP_ALONE samples or more from at least three that agree exactly
             if len(lags) < 4 or np.sum(before != b) + np.sum(after != a) > 0 or abs(a - b) < SLIP_ALONE:
                 continue
-        if abs(a - b) >= 1 and odd_before <= len(before) // 4 \
-                and odd_after <= len(after) // 4 and odd < best_odd:
+        # a delay between two sample counts scatters the lags over both: a change of one
+        # sample counts only when no event on either side is odd
+        allowed = (lambda m: m // 4) if abs(a - b) >= 2 else (lambda m: 0)
+        if abs(a - b) >= 1 and odd_before <= allowed(len(before)) \
+                and odd_after <= allowed(len(after)) and odd < best_odd:
             best, best_odd = (cut, a - b), odd
     if best is None:
         return None
