@@ -513,8 +513,18 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
     # data problems no model column undoes (clipping, channels out of step, coarse quantisation)
     from creepcomp.diagnose.effects.data_problem import screen
     for problem in screen(data, current, base):
-        findings.append(Finding("data_problem", problem, dict.fromkeys(problem), Evidence(float("nan"), float("nan"), float("nan")),
-                                0.0 if problem["kind"] == "quantisation" else float("inf")))
+        importance = float("inf")
+        if problem["kind"] == "quantisation":
+            importance = 0.0
+            # on a grid coarser than the noise, what the named effects add together nowhere
+            # reaching half a step is not measured by the record: the grid is the cause
+            reach = float(np.max(np.abs(current.prediction - base.prediction)))
+            if reach < 0.5 * problem["step"] and any(f.effect != "unexplained" for f in findings):
+                importance = float("inf")
+                findings = [replace(f, note=_below_step_note(reach, problem["step"]))
+                            if f.effect != "unexplained" else f for f in findings]
+        findings.append(Finding("data_problem", problem, dict.fromkeys(problem),
+                                Evidence(float("nan"), float("nan"), float("nan")), importance))
     findings = _ordered(findings, unexplained)
     return Diagnosis(data, base, current, tuple(findings), tuple(trials), catch, gain,
                      _time.perf_counter() - t_start, extended_model, baseline_model, corr, floor,
@@ -535,6 +545,11 @@ def _remaining(fit: Fit, floor: NoiseFloor) -> dict:
     ratio = ratio_to_floor(fit.residual_rms, floor)
     excess = float(np.sqrt(max(fit.residual_rms ** 2 - floor.rms ** 2, 0.0)))
     return {"misfit_ratio": ratio, "excess_rms": excess}
+
+
+def _below_step_note(reach: float, step: float) -> str:
+    return (f"the named effects change the model by {reach:.3g} signal units at most, less than half "
+            f"the record's quantisation step ({step:.3g}): the record does not measure them")
 
 
 def _misfit_note(fit: Fit, floor: NoiseFloor) -> str:
