@@ -5,18 +5,28 @@ the load (creep under loading) and with ``tau_recovery`` while it shrinks (recov
 unloading): over each sample step the term is recovering when
 ``sign(c) * (h - c) < 0``. The mode depends on the state, so the lag is solved by iteration
 (:func:`creepcomp.lti.varying_lag_states`).
+
+The mode may instead be switched by the load's direction (``switch = "direction"``): the
+term recovers from a fall of the load's magnitude until its next rise, whether or not the
+state has caught up with the load. The two agree where the state settles before the load
+turns; a partial unloading during creep tells them apart. Both are fitted, the better kept.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
 from creepcomp.diagnose.effects import Effect
 
 __all__ = ["AsymmetricRecovery", "EFFECT"]
+
+#: What switches the term to recovery: its state's magnitude shrinking, or the load's last
+#: move being a fall of its magnitude.
+_SWITCHES = ("state", "direction")
 
 
 class AsymmetricRecovery(Effect):
@@ -28,6 +38,14 @@ class AsymmetricRecovery(Effect):
 
     def settings(self, data: Data, base: Fit) -> tuple:
         return (("term", int(np.argmax(np.abs(base.betas)))),)
+
+    def fit_on(self, data, base, refine="all", start=None, settings=None):
+        if settings is not None:
+            return super().fit_on(data, base, refine, start, settings)
+        term = self.settings(data, base)
+        fit = Effect.fit_on
+        return min((fit(self, data, base, refine, start, term + (("switch", switch),)) for switch in _SWITCHES),
+                   key=lambda f: f.bic)
 
     def nonlinear_params(self, data, applied):
         lo, hi = data.tau_limits()
@@ -45,6 +63,8 @@ class AsymmetricRecovery(Effect):
         # flipping modes (and the fixed-point iteration from never settling)
         band = 1e-9 * max(float(np.max(np.abs(h))), 1e-300)
         recovering = np.sign(c) * (target - c) < -band
+        if applied.setting("switch") == "direction":
+            recovering = _after_fall(h, band, recovering)
         factor = np.ones((len(h) - 1, len(taus)))
         factor[recovering, k] = p["tau_recovery"] / taus[k]
         return factor
@@ -52,16 +72,37 @@ class AsymmetricRecovery(Effect):
     def report(self, fit: Fit, applied: Applied) -> dict:
         k = applied.setting("term")
         return {"tau_recovery": fit.estimate(lambda v: v["asymmetric_recovery.tau_recovery"]),
-                "tau": fit.estimate(lambda v: v[f"tau[{k}]"])}
+                "tau": fit.estimate(lambda v: v[f"tau[{k}]"]),
+                "switch": (applied.setting("switch", "state"), None)}
 
     def extension(self, fit: Fit, applied: Applied) -> dict:
         k = applied.setting("term")
-        return {"tau": float(fit.taus[k]), "tau_recovery": fit.values["asymmetric_recovery.tau_recovery"]}
+        out = {"tau": float(fit.taus[k]), "tau_recovery": fit.values["asymmetric_recovery.tau_recovery"]}
+        if applied.setting("switch", "state") != "state":
+            out["switch"] = applied.setting("switch")
+        return out
 
     def restore(self, entry, model, data):
         taus = np.array(model.tau)
         k = int(np.argmin(np.abs(np.log(taus / float(entry["tau"])))))
-        return Applied(self, (("term", k),)), {"asymmetric_recovery.tau_recovery": float(entry["tau_recovery"])}
+        switch = entry.get("switch", "state")
+        if switch not in _SWITCHES:
+            raise InputError(f"model extension 'asymmetric_recovery': unknown switch '{switch}' "
+                             f"(known: {', '.join(_SWITCHES)})")
+        return (Applied(self, (("term", k), ("switch", switch))),
+                {"asymmetric_recovery.tau_recovery": float(entry["tau_recovery"])})
 
 
 EFFECT = AsymmetricRecovery()
+
+
+def _after_fall(h: np.ndarray, band: float, before_any_move: np.ndarray) -> np.ndarray:
+    """Steps after which the load's magnitude last fell (recovery switched by the load's
+    direction): each step takes the direction of the last change of ``|h|`` up to its end;
+    steps before the first change keep ``before_any_move`` (the segment's history is unknown)."""
+    move = np.diff(np.abs(h))
+    direction = np.where(move < -band, -1.0, np.where(move > band, 1.0, np.nan))
+    index = np.where(np.isnan(direction), 0, np.arange(len(direction)))
+    last = np.maximum.accumulate(index)
+    moved = ~np.isnan(direction[last])
+    return np.where(moved, direction[last] < 0, before_any_move)
