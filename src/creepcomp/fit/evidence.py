@@ -128,9 +128,14 @@ def _undetermined(jac: np.ndarray, keep: np.ndarray, names: list, values: dict) 
     def variances(rows):
         j = jac[rows]
         norms = np.sqrt(np.sum(j ** 2, axis=0))
-        norms[norms == 0] = 1.0
+        # a parameter these rows do not move at all (a start state whose decay is all held
+        # out) is undetermined, not known exactly: infinite variance, not pinvh's zero
+        absent = norms == 0
+        norms[absent] = 1.0
         inv = linalg.pinvh((j / norms).T @ (j / norms))
-        return np.diag(inv)[:len(names)] / norms[:len(names)] ** 2
+        out = np.diag(inv)[:len(names)] / norms[:len(names)] ** 2
+        out[absent[:len(names)]] = np.inf
+        return out
     full = variances(slice(None))
     part = variances(keep)
     out = {n: values[n] for n, vf, vp in zip(names, full, part)
