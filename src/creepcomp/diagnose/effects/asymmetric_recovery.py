@@ -21,6 +21,7 @@ from creepcomp.fit.data import Data
 from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
 from creepcomp.diagnose.effects import Effect
+from creepcomp.lti import lag_states
 
 __all__ = ["AsymmetricRecovery", "EFFECT"]
 
@@ -43,8 +44,9 @@ class AsymmetricRecovery(Effect):
         if settings is not None:
             return super().fit_on(data, base, refine, start, settings)
         term = self.settings(data, base)
+        switches = _SWITCHES if _switches_differ(data, float(base.taus[term[0][1]])) else _SWITCHES[:1]
         fit = Effect.fit_on
-        return min((fit(self, data, base, refine, start, term + (("switch", switch),)) for switch in _SWITCHES),
+        return min((fit(self, data, base, refine, start, term + (("switch", switch),)) for switch in switches),
                    key=lambda f: f.bic)
 
     def nonlinear_params(self, data, applied):
@@ -57,14 +59,9 @@ class AsymmetricRecovery(Effect):
 
     def tau_factor(self, data, h, lags, taus, p, applied):
         k = applied.setting("term")
-        c = lags[:-1, k]
-        target = 0.5 * (h[:-1] + h[1:])
-        # a state at its target is in neither mode: a small dead band keeps rounding from
-        # flipping modes (and the fixed-point iteration from never settling)
-        band = 1e-9 * max(float(np.max(np.abs(h))), 1e-300)
-        recovering = np.sign(c) * (target - c) < -band
+        recovering = _shrinking(h, lags[:, k])
         if applied.setting("switch") == "direction":
-            recovering = _after_fall(h, band, recovering)
+            recovering = _after_fall(h, recovering)
         factor = np.ones((len(h) - 1, len(taus)))
         factor[recovering, k] = p["tau_recovery"] / taus[k]
         return factor
@@ -96,10 +93,37 @@ class AsymmetricRecovery(Effect):
 EFFECT = AsymmetricRecovery()
 
 
-def _after_fall(h: np.ndarray, band: float, before_any_move: np.ndarray) -> np.ndarray:
+#: Share of the sample steps on which the two switches must disagree (for the base's creep
+#: term driven by the load) for the direction switch to be fitted as well: where the state
+#: settles before the load turns, they are the same template.
+_DIFFERENT_STEPS = 0.01
+
+
+def _band(h: np.ndarray) -> float:
+    # a state at its target is in neither mode: a small dead band keeps rounding from
+    # flipping modes (and the fixed-point iteration from never settling)
+    return 1e-9 * max(float(np.max(np.abs(h))), 1e-300)
+
+
+def _shrinking(h: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Steps over which the state ``c`` shrinks in magnitude towards the input ``h``."""
+    target = 0.5 * (h[:-1] + h[1:])
+    return np.sign(c[:-1]) * (target - c[:-1]) < -_band(h)
+
+
+def _switches_differ(data: Data, tau: float) -> bool:
+    """Whether the two switches put a creep term of time constant ``tau``, driven by the
+    load, in different modes on more than :data:`_DIFFERENT_STEPS` of the steps."""
+    c = lag_states(data.time, data.load, [tau], hold=data.hold, initial="settled")[:, 0]
+    by_state = _shrinking(data.load, c)
+    return float(np.mean(by_state != _after_fall(data.load, by_state))) > _DIFFERENT_STEPS
+
+
+def _after_fall(h: np.ndarray, before_any_move: np.ndarray) -> np.ndarray:
     """Steps after which the load's magnitude last fell (recovery switched by the load's
     direction): each step takes the direction of the last change of ``|h|`` up to its end;
     steps before the first change keep ``before_any_move`` (the segment's history is unknown)."""
+    band = _band(h)
     move = np.diff(np.abs(h))
     direction = np.where(move < -band, -1.0, np.where(move > band, 1.0, np.nan))
     index = np.where(np.isnan(direction), 0, np.arange(len(direction)))
