@@ -35,9 +35,19 @@ class NonlinearCreep(Effect):
     def nonlinear_params(self, data, applied):
         return [Param("growth", -0.95, 50.0, scale=0.1), Param("acceleration", -0.9, 20.0, scale=0.1)]
 
+    def fit_on(self, data, base, refine="all", start=None, settings=None):
+        if refine == "own" and start is None:
+            # the base's time constants sit where the loaded speeds average: faster creep
+            # under load is found only with them free (its starts move them, see starts)
+            refine = "all"
+        return super().fit_on(data, base, refine, start, settings)
+
     def starts(self, data, base, applied):
+        # acceleration a at the record's mean load level leaves the base's average speed
+        level = float(np.mean(np.abs(data.load))) / applied.setting("load_scale")
         return [{"growth": g, "acceleration": 0.0} for g in (-0.5, 0.0, 0.5, 2.0)] + \
-            [{"growth": 0.0, "acceleration": a} for a in (1.0, 3.0)]
+            [dict({f"tau[{k}]": float(t) * (1.0 + a * level) for k, t in enumerate(base.taus)},
+                  growth=0.0, acceleration=a) for a in (1.0, 3.0)]
 
     def creep_input(self, data, h, p, applied):
         return h * (1.0 + p["growth"] * np.abs(h) / applied.setting("load_scale"))
