@@ -150,3 +150,17 @@ def test_varying_lag_states_never_overflow_when_lags_alternate_fast_and_slow():
     taus = np.column_stack([fast_slow, 1000.0 - fast_slow + 0.02])
     c = varying_lag_states(t, u, taus)
     assert np.all(np.isfinite(c)) and np.max(np.abs(c)) <= 1.0
+
+
+def test_a_parameter_the_kept_samples_do_not_move_is_undetermined():
+    """A start state whose decay lies wholly in the held-out samples has a zero column there:
+    it is held at the full fit's value (pinvh alone would call its variance zero)."""
+    from creepcomp.fit.evidence import _undetermined
+
+    rng = np.random.default_rng(0)
+    jac = rng.normal(size=(200, 3))
+    jac[50:, 1] = 0.0                       # parameter 'c0' moves only the first 50 samples
+    keep = np.arange(200) >= 50
+    values = {"tau": 3.0, "c0": 0.5}
+    assert _undetermined(jac, keep, ["tau", "c0"], values) == {"c0": 0.5}
+    assert _undetermined(jac, np.ones(200, bool), ["tau", "c0"], values) is None
