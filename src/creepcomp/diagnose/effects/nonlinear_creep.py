@@ -27,6 +27,10 @@ __all__ = ["NonlinearCreep", "EFFECT"]
 #: The parameters left free in each shape of the template (the others at 0).
 _SHAPES = (("growth", "acceleration"), ("growth",), ("acceleration",))
 
+#: Least share of the record with the load between levels (10 ... 90 % of its largest
+#: magnitude) for a dependence on the level to be told apart (a step program has about none).
+_LEVELS_SHARE = 0.1
+
 #: Least relative speed of creep under load (a time constant at most this many times longer).
 _SLOWEST = 0.1
 
@@ -36,6 +40,16 @@ class NonlinearCreep(Effect):
     parameters = ("growth", "acceleration")
     changes_lags = True
     summary = "creep whose amplitude or speed depends on the load level"
+
+    def applicable(self, data, structure):
+        reason = super().applicable(data, structure)
+        if reason is None and _between_levels(data) < _LEVELS_SHARE:
+            # with the load at zero or at one level, creep that depends on the level is
+            # creep of one speed under load and another unloaded: asymmetric recovery
+            return (f"the load is at zero or at its one level for all but "
+                    f"{100 * _between_levels(data):.2g} % of the record: a dependence on the load "
+                    f"level cannot be told from recovery at another speed")
+        return reason
 
     def settings(self, data: Data, base: Fit) -> tuple:
         return (("load_scale", data.load_scale),)
@@ -93,6 +107,12 @@ class NonlinearCreep(Effect):
         return (Applied(self, (("load_scale", float(entry["load_scale"])),)),
                 {"nonlinear_creep.growth": float(entry["growth"]),
                  "nonlinear_creep.acceleration": float(entry.get("acceleration", 0.0))})
+
+
+def _between_levels(data: Data) -> float:
+    """Share of the samples whose load is between 10 and 90 % of the largest magnitude."""
+    level = np.abs(data.load) / data.load_scale
+    return float(np.mean((level > 0.1) & (level < 0.9)))
 
 
 def _estimate(fit: Fit, name: str) -> tuple[float, float]:
