@@ -148,3 +148,15 @@ def test_recovery_switched_by_the_load_direction_matches_the_generator():
     with pytest.raises(InputError, match="unknown switch"):
         simulate_extended(CreepModel((0.04,), (40.0,), gain=1.5, offset=0.2,
                                      extensions={"asymmetric_recovery": dict(entry, switch="moon")}), t, u)
+
+
+def test_nonlinear_creep_needs_more_than_one_load_level():
+    """Between zero and one level, creep that depends on the level is recovery at another
+    speed: the template is not tried; a staircase through several levels allows it."""
+    from creepcomp.fit.structure import Structure
+
+    t = np.arange(0, 820, 0.25)
+    one = programs.staircase([2.0, 0.0, 2.0, 0.0], hold=160.0, start=20.0).sample(t)
+    effect = effects.get("nonlinear_creep")
+    assert "one level" in effect.applicable(effects.arrays_data(t, one), Structure(1))
+    assert effect.applicable(effects.arrays_data(t, _staircase(t)[1]), Structure(1)) is None
