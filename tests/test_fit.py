@@ -164,3 +164,16 @@ def test_a_parameter_the_kept_samples_do_not_move_is_undetermined():
     values = {"tau": 3.0, "c0": 0.5}
     assert _undetermined(jac, keep, ["tau", "c0"], values) == {"c0": 0.5}
     assert _undetermined(jac, np.ones(200, bool), ["tau", "c0"], values) is None
+
+
+def test_a_fit_with_every_linear_coefficient_held_keeps_them():
+    """A held-out refit may hold every linear coefficient (none determined by what is kept)."""
+    t = np.arange(0, 600, 0.5)
+    model = CreepModel((0.03,), (40.0,), gain=2.0, offset=0.1)
+    prog = programs.staircase([1, 2, 0], hold=180, start=30)
+    data = prepare(_record(model, prog, t, 0.004))
+    full = fit_structure(data, Structure(1), one_term_starts(data))
+    linear = {n: full.values[n] for n in ("offset", "gain", "a[0]")}
+    held = fit_structure(data, Structure(1), [full.values], fixed=linear, mask=t < 300)
+    assert {n: held.values[n] for n in linear} == linear
+    assert np.sqrt(np.mean(held.residual ** 2)) < 2 * 0.004
