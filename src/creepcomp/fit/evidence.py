@@ -156,13 +156,13 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
     for each of ``folds`` folds its (interleaved) blocks are left out, the model is refitted on the rest
     (from the fit's own values, same noise model) and simulated from the load over them.
 
-    Directions the remaining data leave undetermined keep the full fit's values: weakly
-    (gain against offset when the rest has one load level,
-    :data:`~creepcomp.fit.solver.ANCHOR_WEIGHT`), and exactly for every parameter, nonlinear
-    or linear, whose variance the rest of the record would multiply by more than
-    :data:`UNDETERMINED_VARIANCE_RATIO` (the initial creep state once the start is held out, a
-    recovery time when the rest has no unloading, a fast term's amplitude when the rest has
-    no load change).
+    Directions the remaining data leave undetermined keep the full fit's values: linear ones
+    weakly (gain against offset when the rest has one load level,
+    :data:`~creepcomp.fit.solver.ANCHOR_WEIGHT`), nonlinear ones whose variance the rest of
+    the record would multiply by more than :data:`UNDETERMINED_VARIANCE_RATIO` (the initial
+    creep state once the start is held out, a recovery time when the rest has no unloading),
+    and with a creep term's time constant its amplitude (a fast term when the rest holds no
+    load change).
     A held-out error then measures what the model predicts, not an extrapolation of what
     nothing constrained.
     """
@@ -170,12 +170,13 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
     start = {p.name: fit.values[p.name] for p in fit.params}
     anchor = {n: v for n, v in fit.values.items() if n not in start}
     jac = jacobian(data, fit) if refine and start else None
-    names = list(start) + list(basis(data, fit.structure, fit.values).names) if jac is not None else []
 
     def refit(keep: np.ndarray) -> np.ndarray:
-        held = (_undetermined(jac, keep, names, fit.values) or {}) if jac is not None else {}
-        frozen = {n: v for n, v in held.items() if n in start} or None
-        fixed = {n: v for n, v in held.items() if n not in start} or None
+        frozen = _undetermined(jac, keep, list(start), start) if jac is not None else None
+        # a term whose time constant the kept samples leave undetermined has no amplitude
+        # they determine either (a fast term where the rest holds no load change)
+        fixed = {f"a[{k}]": fit.values[f"a[{k}]"] for k in range(fit.structure.n_terms)
+                 if f"tau[{k}]" in (frozen or {}) and f"a[{k}]" in fit.values} or None
         try:  # (refit from the fit's own values, same noise model)
             return fit_structure(data, fit.structure, [start], noise=fit.noise, mask=keep,
                                  max_nfev=3, with_cov=False, anchor=anchor, refine=refine,
