@@ -119,14 +119,41 @@ def _switches_differ(data: Data, tau: float) -> bool:
     return float(np.mean(by_state != _after_fall(data.load, by_state))) > _DIFFERENT_STEPS
 
 
+#: Least change of the load's magnitude, relative to its largest, that turns its direction:
+#: the creep correction simulates the model from a load estimated from a noisy signal, whose
+#: sample-to-sample wiggles must not switch the mode at every sample.
+_TURN = 0.01
+
+#: Directions of recent inputs (the fit evaluates the same load many times).
+_directions: dict = {}
+
+
+def _falling(h: np.ndarray) -> np.ndarray:
+    """Direction of ``|h|`` after each step: 1 falling, -1 rising, 0 not yet moved by
+    :data:`_TURN` of its largest value (a dead band: it turns only on a move that large)."""
+    key = (h.shape, hash(h.tobytes()))
+    if key not in _directions:
+        a = np.abs(h).tolist()
+        turn = _TURN * max(max(a), 1e-300)
+        out = [0] * (len(a) - 1)
+        state, high, low = 0, a[0], a[0]
+        for n in range(1, len(a)):
+            x = a[n]
+            high, low = (max(high, x) if state != 1 else high), (min(low, x) if state != -1 else low)
+            if state != 1 and x < high - turn:
+                state, low = 1, x
+            elif state != -1 and x > low + turn:
+                state, high = -1, x
+            out[n - 1] = state
+        if len(_directions) > 16:
+            _directions.clear()
+        _directions[key] = np.array(out, dtype=np.int8)
+    return _directions[key]
+
+
 def _after_fall(h: np.ndarray, before_any_move: np.ndarray) -> np.ndarray:
     """Steps after which the load's magnitude last fell (recovery switched by the load's
-    direction): each step takes the direction of the last change of ``|h|`` up to its end;
-    steps before the first change keep ``before_any_move`` (the segment's history is unknown)."""
-    band = _band(h)
-    move = np.diff(np.abs(h))
-    direction = np.where(move < -band, -1.0, np.where(move > band, 1.0, np.nan))
-    index = np.where(np.isnan(direction), 0, np.arange(len(direction)))
-    last = np.maximum.accumulate(index)
-    moved = ~np.isnan(direction[last])
-    return np.where(moved, direction[last] < 0, before_any_move)
+    direction, :func:`_falling`); steps before its first move keep ``before_any_move`` (the
+    segment's history is unknown)."""
+    direction = _falling(h)
+    return np.where(direction == 0, before_any_move, direction > 0)
