@@ -152,20 +152,6 @@ def test_varying_lag_states_never_overflow_when_lags_alternate_fast_and_slow():
     assert np.all(np.isfinite(c)) and np.max(np.abs(c)) <= 1.0
 
 
-def test_a_parameter_the_kept_samples_do_not_move_is_undetermined():
-    """A start state whose decay lies wholly in the held-out samples has a zero column there:
-    it is held at the full fit's value (pinvh alone would call its variance zero)."""
-    from creepcomp.fit.evidence import _undetermined
-
-    rng = np.random.default_rng(0)
-    jac = rng.normal(size=(200, 3))
-    jac[50:, 1] = 0.0                       # parameter 'c0' moves only the first 50 samples
-    keep = np.arange(200) >= 50
-    values = {"tau": 3.0, "c0": 0.5}
-    assert _undetermined(jac, keep, ["tau", "c0"], values) == {"c0": 0.5}
-    assert _undetermined(jac, np.ones(200, bool), ["tau", "c0"], values) is None
-
-
 def test_a_fit_with_every_linear_coefficient_held_keeps_them():
     """A held-out refit may hold every linear coefficient (none determined by what is kept)."""
     t = np.arange(0, 600, 0.5)

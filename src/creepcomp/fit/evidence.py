@@ -128,14 +128,9 @@ def _undetermined(jac: np.ndarray, keep: np.ndarray, names: list, values: dict) 
     def variances(rows):
         j = jac[rows]
         norms = np.sqrt(np.sum(j ** 2, axis=0))
-        # a parameter these rows do not move at all (a start state whose decay is all held
-        # out) is undetermined, not known exactly: infinite variance, not pinvh's zero
-        absent = norms == 0
-        norms[absent] = 1.0
+        norms[norms == 0] = 1.0
         inv = linalg.pinvh((j / norms).T @ (j / norms))
-        out = np.diag(inv)[:len(names)] / norms[:len(names)] ** 2
-        out[absent[:len(names)]] = np.inf
-        return out
+        return np.diag(inv)[:len(names)] / norms[:len(names)] ** 2
     full = variances(slice(None))
     part = variances(keep)
     out = {n: values[n] for n, vf, vp in zip(names, full, part)
@@ -160,9 +155,7 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
     weakly (gain against offset when the rest has one load level,
     :data:`~creepcomp.fit.solver.ANCHOR_WEIGHT`), nonlinear ones whose variance the rest of
     the record would multiply by more than :data:`UNDETERMINED_VARIANCE_RATIO` (the initial
-    creep state once the start is held out, a recovery time when the rest has no unloading),
-    and with a creep term's time constant its amplitude (a fast term when the rest holds no
-    load change).
+    creep state once the start is held out, a recovery time when the rest has no unloading).
     A held-out error then measures what the model predicts, not an extrapolation of what
     nothing constrained.
     """
@@ -173,14 +166,10 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
 
     def refit(keep: np.ndarray) -> np.ndarray:
         frozen = _undetermined(jac, keep, list(start), start) if jac is not None else None
-        # a term whose time constant the kept samples leave undetermined has no amplitude
-        # they determine either (a fast term where the rest holds no load change)
-        fixed = {f"a[{k}]": fit.values[f"a[{k}]"] for k in range(fit.structure.n_terms)
-                 if f"tau[{k}]" in (frozen or {}) and f"a[{k}]" in fit.values} or None
         try:  # (refit from the fit's own values, same noise model)
             return fit_structure(data, fit.structure, [start], noise=fit.noise, mask=keep,
                                  max_nfev=3, with_cov=False, anchor=anchor, refine=refine,
-                                 frozen=frozen, fixed=fixed).residual
+                                 frozen=frozen).residual
         except InputError:
             return fit.residual
 
