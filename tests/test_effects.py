@@ -126,3 +126,37 @@ def test_extension_written_by_a_fit_reads_back(tmp_path):
     decay = fit.values["a[0]"] * fit.values["c0[0]"] * np.exp(-(t - t[0]) / fit.values["tau[0]"])
     np.testing.assert_allclose(simulate_extended(back, t, syn.record.load) + decay, fit.prediction,
                                atol=1e-9 * np.ptp(fit.prediction))
+
+
+def test_recovery_switched_by_the_load_direction_matches_the_generator():
+    """A partial unloading while the state still creeps up: the state's switch keeps creeping,
+    the load's direction switches to recovery; the model file's ``switch`` picks the latter."""
+    t = np.arange(0, 200, 0.25)
+    prog = programs.staircase([2.0, 1.5, 1.8, 0.0], hold=20.0, start=20.0)
+    u = prog.sample(t)
+    spec = synth.Spec(hidden={"asymmetric_recovery": {"form": "direction", "tau_recovery": 120.0}},
+                      beta=(0.04,), tau=(40.0,), gain=1.5, offset=0.2, rate=4.0, full_scale=2.0)
+    ref = synth.simulate_signal(spec, prog, t)
+    entry = {"tau": 40.0, "tau_recovery": 120.0}
+    by_state, by_direction = (simulate_extended(CreepModel((0.04,), (40.0,), gain=1.5, offset=0.2,
+                                                           extensions={"asymmetric_recovery": e}), t, u)
+                              for e in (entry, dict(entry, switch="direction")))
+    steps = np.array(prog.times)[np.flatnonzero(np.diff(prog.times) == 0)]
+    away = np.all(np.abs(t[:, None] - steps[None, :]) > 1.0, axis=1)
+    assert np.max(np.abs(by_direction - ref)[away]) < 3e-4 * np.ptp(ref)
+    assert np.max(np.abs(by_state - ref)[away]) > 10 * np.max(np.abs(by_direction - ref)[away])
+    with pytest.raises(InputError, match="unknown switch"):
+        simulate_extended(CreepModel((0.04,), (40.0,), gain=1.5, offset=0.2,
+                                     extensions={"asymmetric_recovery": dict(entry, switch="moon")}), t, u)
+
+
+def test_nonlinear_creep_needs_more_than_one_load_level():
+    """Between zero and one level, creep that depends on the level is recovery at another
+    speed: the template is not tried; a staircase through several levels allows it."""
+    from creepcomp.fit.structure import Structure
+
+    t = np.arange(0, 820, 0.25)
+    one = programs.staircase([2.0, 0.0, 2.0, 0.0], hold=160.0, start=20.0).sample(t)
+    effect = effects.get("nonlinear_creep")
+    assert "one level" in effect.applicable(effects.arrays_data(t, one), Structure(1))
+    assert effect.applicable(effects.arrays_data(t, _staircase(t)[1]), Structure(1)) is None

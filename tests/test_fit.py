@@ -150,3 +150,16 @@ def test_varying_lag_states_never_overflow_when_lags_alternate_fast_and_slow():
     taus = np.column_stack([fast_slow, 1000.0 - fast_slow + 0.02])
     c = varying_lag_states(t, u, taus)
     assert np.all(np.isfinite(c)) and np.max(np.abs(c)) <= 1.0
+
+
+def test_a_fit_with_every_linear_coefficient_held_keeps_them():
+    """A held-out refit may hold every linear coefficient (none determined by what is kept)."""
+    t = np.arange(0, 600, 0.5)
+    model = CreepModel((0.03,), (40.0,), gain=2.0, offset=0.1)
+    prog = programs.staircase([1, 2, 0], hold=180, start=30)
+    data = prepare(_record(model, prog, t, 0.004))
+    full = fit_structure(data, Structure(1), one_term_starts(data))
+    linear = {n: full.values[n] for n in ("offset", "gain", "a[0]")}
+    held = fit_structure(data, Structure(1), [full.values], fixed=linear, mask=t < 300)
+    assert {n: held.values[n] for n in linear} == linear
+    assert np.sqrt(np.mean(held.residual ** 2)) < 2 * 0.004

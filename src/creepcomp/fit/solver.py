@@ -237,7 +237,8 @@ class Problem:
         prior = None
         if self.anchor:
             prior = np.array([float(self.anchor.get(n, 0.0)) for n in b.names])[~held]
-        coef[~held] = _solve(a[:, ~held], target, prior)
+        if not held.all():
+            coef[~held] = _solve(a[:, ~held], target, prior)
         return b, coef, self.y - a @ coef
 
     def residual(self, x: np.ndarray) -> np.ndarray:

@@ -907,7 +907,13 @@ def reported_truth(synthetic: Synthetic) -> dict:
         if name == "extra_retardation":
             out[name] = {"tau": p["tau"], "beta": p["beta"]}
         elif name == "viscous_flow":
-            out[name] = {"rate": p["rate"]}
+            rate = p["rate"]
+            if p.get("form") == "norton":
+                # the diagnosis gives the rate at the record's largest load, not at the
+                # generator's full scale
+                largest = float(np.max(np.abs(synthetic.record.load)))
+                rate *= (largest / synthetic.spec.full_scale) ** (p["exponent"] - 1.0)
+            out[name] = {"rate": rate}
         elif name == "asymmetric_recovery":
             out[name] = {"tau_recovery": p["tau_recovery"]}
         elif name == "thermal_drift":
