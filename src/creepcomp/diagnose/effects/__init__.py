@@ -178,6 +178,11 @@ class Effect:
         """Reported parameters: name -> (value, standard deviation)."""
         return {}
 
+    def note(self, fit: Fit, applied: Applied) -> str | None:
+        """What the user must know about the reported parameters (e.g. which the record does
+        not determine), or None."""
+        return None
+
     def extension(self, fit: Fit, applied: Applied) -> dict | None:
         """The entry of the model file's ``extensions`` (None: the change is in the terms)."""
         return None

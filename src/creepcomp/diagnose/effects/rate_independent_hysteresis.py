@@ -7,6 +7,13 @@ reverses within the band. The model adds ``weight * (play(x) - x)`` to the signa
 in signal per load unit): on a branch that follows the load the slope is the gain, in the
 dead band after a reversal it is ``gain - weight``; loading and unloading branches lie
 ``weight * width`` apart. The play starts from a virgin state at zero load.
+
+A load that changes only by steps larger than the width (a staircase, load cycles) moves the
+play by half the width after every step whatever the width is: the column is then the width
+times a fixed shape, and only the loop height ``weight * width`` is determined. The widths
+for which that holds are found from the load alone (:func:`undetermined_width`); a fitted
+width among them is reported as not determined, with the loop height and the largest width
+the record cannot tell apart. A sweep or small reversals (within the dead band) separate them.
 """
 
 from __future__ import annotations
@@ -18,7 +25,7 @@ from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
 from creepcomp.diagnose.effects import Effect
 
-__all__ = ["REVERSAL_SHARE", "play", "one_way_reason", "RateIndependentHysteresis", "EFFECT"]
+__all__ = ["REVERSAL_SHARE", "play", "one_way_reason", "undetermined_width", "RateIndependentHysteresis", "EFFECT"]
 
 #: A load history "changes both ways" when its smaller direction (rises or falls, through a play of
 #: 1 % of full scale) makes at least this share of its larger one.
@@ -58,6 +65,23 @@ def one_way_reason(data: Data) -> str | None:
     return None
 
 
+def undetermined_width(x, scale: float) -> float:
+    """The largest width (load units) up to which the play's column ``play(x, w) - x`` is ``w``
+    times one fixed shape for the load ``x`` (0: none), searched on a log grid from 1e-3 to 2
+    times ``scale``: every width up to it fits the record equally with the weight scaled by
+    its inverse."""
+    x = np.asarray(x, float)
+    grid = np.geomspace(1e-3, 2.0, 61) * scale
+    shape = (play(x, grid[0]) - x) / grid[0]
+    size = float(np.max(np.abs(shape))) or 1.0
+    out = 0.0
+    for w in grid[1:]:
+        if np.max(np.abs((play(x, w) - x) / w - shape)) > 1e-6 * size:
+            break
+        out = float(w)
+    return out
+
+
 class RateIndependentHysteresis(Effect):
     name = "rate_independent_hysteresis"
     parameters = ("width", "weight")
@@ -67,7 +91,8 @@ class RateIndependentHysteresis(Effect):
         return super().applicable(data, structure) or one_way_reason(data)
 
     def settings(self, data: Data, base: Fit) -> tuple:
-        return (("load_scale", data.load_scale),)
+        return (("load_scale", data.load_scale),
+                ("undetermined_width", undetermined_width(data.load, data.load_scale)))
 
     def nonlinear_params(self, data, applied):
         scale = applied.setting("load_scale")
@@ -81,8 +106,29 @@ class RateIndependentHysteresis(Effect):
         return {"weight": play(s, p["width"]) - s}
 
     def report(self, fit: Fit, applied: Applied) -> dict:
+        height = fit.estimate(lambda v: v["rate_independent_hysteresis.width"]
+                              * v["rate_independent_hysteresis.weight"])
+        bound = applied.setting("undetermined_width", 0.0)
+        if self.width_undetermined(fit, applied):
+            return {"width": (None, None), "weight": (None, None), "loop_height": height,
+                    "width_at_most": (bound, None)}
         return {"width": fit.estimate(lambda v: v["rate_independent_hysteresis.width"]),
-                "weight": fit.estimate(lambda v: v["rate_independent_hysteresis.weight"])}
+                "weight": fit.estimate(lambda v: v["rate_independent_hysteresis.weight"]),
+                "loop_height": height}
+
+    def width_undetermined(self, fit: Fit, applied: Applied) -> bool:
+        """The fitted width is among those the record cannot tell apart (:func:`undetermined_width`)."""
+        bound = applied.setting("undetermined_width", 0.0)
+        return bool(bound) and fit.values["rate_independent_hysteresis.width"] <= bound * (1.0 + 1e-9)
+
+    def note(self, fit: Fit, applied: Applied) -> str | None:
+        if not self.width_undetermined(fit, applied):
+            return None
+        bound = applied.setting("undetermined_width", 0.0)
+        return (f"the load changes only by steps larger than {bound:.4g} load units: every play width up to "
+                f"that fits equally, so only the loop height (weight x width, the distance between the "
+                f"loading and unloading branches) is determined; a sweep or small reversals would "
+                f"separate width and weight")
 
     def extension(self, fit: Fit, applied: Applied) -> dict:
         return {"width": fit.values["rate_independent_hysteresis.width"],
