@@ -7,6 +7,12 @@ mean): ``kappa`` > 0 means faster creep when warmer (an Arrhenius law linearised
 always speeds up with temperature (Arrhenius and WLF shift factors), and a negative value
 would only be another effect (e.g. recovery slower than creep) seen through a temperature
 history that happens to differ between loading and unloading.
+
+A strong temperature dependence (a WLF material near its glass transition: the time
+constant changes by a decade over a few kelvin) can leave the baseline with a retardation
+time where temperature cannot act (one far slower than the record, standing in for creep
+whose speed follows temperature); the fit therefore also starts from a grid of retardation
+times and ``kappa`` values, cheaply screened, and keeps that fit when it is better.
 """
 
 from __future__ import annotations
@@ -15,10 +21,15 @@ import numpy as np
 
 from creepcomp.fit.data import Data
 from creepcomp.fit.structure import Applied, Param
-from creepcomp.fit.solver import Fit
+from creepcomp.fit.solver import Fit, fit_structure
+from creepcomp.fit.starts import tau_grid
 from creepcomp.diagnose.effects import Effect
 
-__all__ = ["ThermalRetardation", "EFFECT"]
+__all__ = ["RESTART_KAPPAS", "ThermalRetardation", "EFFECT"]
+
+
+#: ``kappa`` values (1/K) of the restarts from a grid of retardation times.
+RESTART_KAPPAS = (0.05, 0.15, 0.45)
 
 
 class ThermalRetardation(Effect):
@@ -37,6 +48,23 @@ class ThermalRetardation(Effect):
 
     def starts(self, data, base, applied):
         return [{"kappa": k} for k in (0.005, 0.02, 0.06, 0.15)]
+
+    def fit_on(self, data, base, refine="all", start=None, settings=None):
+        fit = super().fit_on(data, base, refine, start, settings)
+        if start is not None or refine == "none":
+            return fit
+        applied = Applied(self, self.settings(data, base) if settings is None else settings)
+        structure = self.extend(base.structure, applied)
+        known = {p.name: base.values[p.name] for p in base.params}
+        starts = [dict(known, **{f"tau[{k}]": float(tau), "thermal_retardation.kappa": kappa})
+                  for k in range(base.structure.n_terms) for tau in tau_grid(data, per_decade=2)
+                  for kappa in RESTART_KAPPAS]
+        screened = fit_structure(data, structure, starts, refine=False, with_cov=False)
+        if screened.bic >= fit.bic:
+            return fit
+        values = {p.name: screened.values[p.name] for p in screened.params}
+        alt = fit_structure(data, structure, [values], n_refine=1, with_cov=refine == "all")
+        return alt if alt.bic < fit.bic else fit
 
     def tau_factor(self, data, h, lags, taus, p, applied):
         temp = 0.5 * (data.temperature[:-1] + data.temperature[1:])
