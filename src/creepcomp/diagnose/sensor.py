@@ -23,7 +23,8 @@ the gain.
 3. A catch-all extension (generic load-, rate-, direction- and temperature-driven terms) is
    tried on top: if the evidence supports it, structure remains that no named effect
    explains, and the answer includes ``unexplained``; it is ordered with the named findings
-   by how much each improves the held-out prediction. With no finding the answer is
+   by how much each improves the held-out prediction. Misfit above the noise floor adds it too
+   (:data:`REMAINING_LIMIT` after named findings, ``MISFIT_LIMIT`` with none). With no finding the answer is
    ``none``: the baseline explains the data to its noise (coloured noise is reported as the
    noise model, not as a cause).
 4. The gain: held-out residual RMS, and the error of the creep-corrected signal (digital
@@ -71,8 +72,7 @@ CORRECTION_WORSE = 0.98
 #: not predict held-out blocks): tighter than ``MISFIT_LIMIT``, which must also allow for the
 #: floor's miss of strongly coloured noise on its own; with a named finding whose template
 #: only approximates the record (creep that ages, fitted as further terms) the rest is
-#: structure. On records whose hidden effect the named finding describes the extended misfit
-#: ratio stays at or below 1.23 (``docs/benchmarks.md``).
+#: structure (``docs/diagnosis.md``, "The verdict").
 REMAINING_LIMIT = 1.3
 
 
