@@ -21,8 +21,7 @@ import numpy as np
 
 from creepcomp.fit.data import Data
 from creepcomp.fit.structure import Applied, Param
-from creepcomp.fit.solver import Fit, fit_structure
-from creepcomp.fit.starts import tau_grid
+from creepcomp.fit.solver import Fit
 from creepcomp.diagnose.effects import Effect
 
 __all__ = ["RESTART_KAPPAS", "ThermalRetardation", "EFFECT"]
@@ -53,18 +52,7 @@ class ThermalRetardation(Effect):
         fit = super().fit_on(data, base, refine, start, settings)
         if start is not None or refine == "none":
             return fit
-        applied = Applied(self, self.settings(data, base) if settings is None else settings)
-        structure = self.extend(base.structure, applied)
-        known = {p.name: base.values[p.name] for p in base.params}
-        starts = [dict(known, **{f"tau[{k}]": float(tau), "thermal_retardation.kappa": kappa})
-                  for k in range(base.structure.n_terms) for tau in tau_grid(data, per_decade=2)
-                  for kappa in RESTART_KAPPAS]
-        screened = fit_structure(data, structure, starts, refine=False, with_cov=False)
-        if screened.bic >= fit.bic:
-            return fit
-        values = {p.name: screened.values[p.name] for p in screened.params}
-        alt = fit_structure(data, structure, [values], n_refine=1, with_cov=refine == "all")
-        return alt if alt.bic < fit.bic else fit
+        return self.with_tau_restarts(data, base, fit, [{"kappa": k} for k in RESTART_KAPPAS], settings)
 
     def tau_factor(self, data, h, lags, taus, p, applied):
         temp = 0.5 * (data.temperature[:-1] + data.temperature[1:])
