@@ -23,8 +23,9 @@ the gain.
 3. A catch-all extension (generic load-, rate-, direction- and temperature-driven terms) is
    tried on top: if the evidence supports it, structure remains that no named effect
    explains, and the answer includes ``unexplained``; it is ordered with the named findings
-   by how much each improves the held-out prediction. Misfit above the noise floor adds it too
-   (:data:`REMAINING_LIMIT` after named findings, ``MISFIT_LIMIT`` with none). With no finding the answer is
+   by how much each improves the held-out prediction. Misfit above the noise floor adds it
+   too (:data:`REMAINING_LIMIT` after named findings, ``MISFIT_LIMIT`` with none). With no
+   finding the answer is
    ``none``: the baseline explains the data to its noise (coloured noise is reported as the
    noise model, not as a cause).
 4. The gain: held-out residual RMS, and the error of the creep-corrected signal (digital
