@@ -526,9 +526,19 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
                 findings = _correction_notes(data, base, findings)
     # data problems no model column undoes (clipping, channels out of step, coarse quantisation)
     from creepcomp.diagnose.effects.data_problem import screen
-    for problem in screen(data, current):
-        findings.append(Finding("data_problem", problem, dict.fromkeys(problem), Evidence(float("nan"), float("nan"), float("nan")),
-                                0.0 if problem["kind"] == "quantisation" else float("inf")))
+    for problem in screen(data, current, base):
+        importance = float("inf")
+        if problem["kind"] == "quantisation":
+            importance = 0.0
+            # on a grid coarser than the noise, what the named effects add together nowhere
+            # reaching half a step is not measured by the record: the grid is the cause
+            reach = float(np.max(np.abs(current.prediction - base.prediction)))
+            if reach < 0.5 * problem["step"] and any(f.effect != "unexplained" for f in findings):
+                importance = float("inf")
+                findings = [replace(f, note=_below_step_note(reach, problem["step"]))
+                            if f.effect != "unexplained" else f for f in findings]
+        findings.append(Finding("data_problem", problem, dict.fromkeys(problem),
+                                Evidence(float("nan"), float("nan"), float("nan")), importance))
     findings = _ordered(findings, unexplained)
     return Diagnosis(data, base, current, tuple(findings), tuple(trials), catch, gain,
                      _time.perf_counter() - t_start, extended_model, baseline_model, corr, floor,
@@ -551,6 +561,11 @@ def _remaining(fit: Fit, floor: NoiseFloor) -> dict:
     return {"misfit_ratio": ratio, "excess_rms": excess}
 
 
+def _below_step_note(reach: float, step: float) -> str:
+    return (f"the named effects change the model by {reach:.3g} signal units at most, less than half "
+            f"the record's quantisation step ({step:.3g}): the record does not measure them")
+
+
 def _misfit_note(fit: Fit, floor: NoiseFloor) -> str:
     return (f"the model misses the record by {fit.residual_rms / floor.rms:.3g} times the noise floor "
             f"(residual RMS {fit.residual_rms:.4g}, floor {floor.rms:.4g} signal units): structure no "
@@ -567,21 +582,39 @@ def _correction_notes(data: Data, base: Fit, findings: list[Finding]) -> list[Fi
         ratio = corr.get("ratio") if corr else None
         f = replace(f, correction_error_ratio=ratio)
         if f.worsens_correction:
-            worse = (f"fits the signal better but makes the creep-corrected signal worse against the "
-                     f"load (correction-error ratio {ratio:.3g}): it does not describe how the signal "
-                     f"follows the load")
+            worse = _worse_note(data, before, f, corr)
             f = replace(f, note=f"{f.note}; {worse}" if f.note else worse)
         out.append(f)
         before = f.fit
     return out + [f for f in findings if f.effect == "unexplained"]
 
 
+def _worse_note(data: Data, before: Fit, finding: Finding, corr: dict) -> str:
+    """The note of a finding that makes the creep-corrected signal worse (its effect's words);
+    for a fault of the record, with the ratio measured with the fault taken out of the signal."""
+    effect = effects_pkg.get(finding.effect)
+    fault = effect.record_fault(finding.fit, _applied_of(finding.fit, effect), data)
+    without = None
+    if fault is not None:
+        fixed = correction_errors(data.with_signal(data.signal - fault), before, finding.fit,
+                                  _extensions(finding.fit))
+        if fixed and fixed["extended_rms"] > 0:
+            without = corr["baseline_rms"] / fixed["extended_rms"]
+    return effect.worse_correction_note(corr["ratio"], without)
+
+
 def _ordered(findings: list[Finding], unexplained: Finding | None) -> list[Finding]:
-    """Named findings by importance, those that make the correction worse after the others;
-    ``unexplained`` last (first when no named finding improves the correction)."""
+    """Named findings by importance, extensions that make the correction worse after the
+    others; ``unexplained`` last (first when no named finding improves the correction). A fault
+    of the record (``describes_record``) keeps its place whatever it does to the correction:
+    it is a statement about the record, and its note says what the correction makes of it."""
     named = [f for f in findings if f.effect != "unexplained"]
-    good = sorted((f for f in named if not f.worsens_correction), key=lambda f: -f.importance)
-    worse = sorted((f for f in named if f.worsens_correction), key=lambda f: -f.importance)
+
+    def demoted(f: Finding) -> bool:
+        return f.worsens_correction and not effects_pkg.get(f.effect).describes_record
+
+    good = sorted((f for f in named if not demoted(f)), key=lambda f: -f.importance)
+    worse = sorted((f for f in named if demoted(f)), key=lambda f: -f.importance)
     if unexplained is None:
         return good + worse
     if not good:

@@ -56,6 +56,9 @@ class Effect:
         Its ``tau_factor`` depends on the lag states (solved by iteration).
     summary : str
         One line for reports.
+    describes_record : bool
+        A statement about the record (a fault of it), not an extension of the model: it may
+        stay the cause when it makes the creep-corrected signal worse, its note says why.
     """
 
     name = ""
@@ -66,6 +69,7 @@ class Effect:
     changes_lags = False
     state_dependent = False
     summary = ""
+    describes_record = False
 
     # -- applicability and fitting -------------------------------------------------------
     def applicable(self, data: Data, structure: Structure) -> str | None:
@@ -211,6 +215,19 @@ class Effect:
     def extension(self, fit: Fit, applied: Applied) -> dict | None:
         """The entry of the model file's ``extensions`` (None: the change is in the terms)."""
         return None
+
+    def record_fault(self, fit: Fit, applied: Applied, data: Data) -> np.ndarray | None:
+        """What a fault of the record adds to the signal (signal units), where it can be taken
+        out of it (None: it cannot, or the effect is no fault of the record)."""
+        return None
+
+    def worse_correction_note(self, ratio: float, without_fault: float | None) -> str:
+        """The note of a finding whose addition makes the creep-corrected signal worse
+        (``ratio``: correction-error ratio, model before it / with it; ``without_fault``: the
+        same with :meth:`record_fault` taken out of the signal, None when there is none)."""
+        return (f"fits the signal better but makes the creep-corrected signal worse against the "
+                f"load (correction-error ratio {ratio:.3g}): it does not describe how the signal "
+                f"follows the load")
 
     def restore(self, entry: dict, model: CreepModel, data: Data) -> tuple[Applied, dict]:
         """Inverse of :meth:`extension`: the applied effect and its values (prefixed names)."""

@@ -43,6 +43,9 @@ JUMP_WINDOW = 6
 #: A jump is explained by the load when the load moves by more than this fraction of full
 #: scale within the compared windows.
 LOAD_QUIET = 0.01
+#: A load that moves more than that still does not explain a step when its movement could move
+#: the signal by less than this share of the step.
+LOAD_SHARE = 0.25
 #: Most jumps fitted.
 MAX_JUMPS = 10
 #: Least slip (samples) of a single event against all the others for channels out of step.
@@ -54,9 +57,16 @@ def _robust_sigma(x: np.ndarray) -> float:
     return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0)) if len(d) else 0.0
 
 
-def find_jumps(data: Data, residual: np.ndarray, z: float = JUMP_Z, w: int = JUMP_WINDOW) -> list[int]:
+def find_jumps(data: Data, residual: np.ndarray, z: float = JUMP_Z, w: int = JUMP_WINDOW,
+               sensitivity: float | None = None) -> list[int]:
     """Indices of the first samples after steps of the residual's local mean that no load change
-    explains (largest first, at most :data:`MAX_JUMPS`, at least ``2 w`` apart)."""
+    explains (largest first, at most :data:`MAX_JUMPS`, at least ``2 w`` apart).
+
+    The load explains a step when it moves by more than :data:`LOAD_QUIET` of full scale around
+    it, unless ``sensitivity`` (the model's largest signal per unit load, instantaneous plus
+    creep) is given and the load's movement times it is less than :data:`LOAD_SHARE` of the
+    step: a noisy or slowly ramping load cannot explain a step it could move the signal by only
+    a fraction of."""
     r = np.asarray(residual, float)
     n = len(r)
     if n < 4 * w:
@@ -74,11 +84,15 @@ def find_jumps(data: Data, residual: np.ndarray, z: float = JUMP_Z, w: int = JUM
     scale = data.load_scale
     from numpy.lib.stride_tricks import sliding_window_view
     win = sliding_window_view(x, 3 * w + 3)
-    moving = np.ptp(win, axis=1) > LOAD_QUIET * scale      # window starting at j covers j..j+3w+2
+    movement = np.ptp(win, axis=1)                       # window starting at j covers j..j+3w+2
     quiet = np.zeros(len(i), bool)
     starts = i - 2 * w - 2
-    ok = (starts >= 0) & (starts < len(moving))
-    quiet[ok] = ~moving[starts[ok]]
+    ok = (starts >= 0) & (starts < len(movement))
+    moved = movement[starts[ok]]
+    small = moved <= LOAD_QUIET * scale
+    if sensitivity is not None:
+        small |= moved * abs(sensitivity) < LOAD_SHARE * np.abs(d[ok])
+    quiet[ok] = small
     # gaps in the sampling are not jumps of the signal's level between neighbours either
     seg = data.segment
     quiet &= seg[i - w] == seg[np.minimum(i + w - 1, n - 1)]
@@ -92,15 +106,21 @@ def find_jumps(data: Data, residual: np.ndarray, z: float = JUMP_Z, w: int = JUM
     return sorted(found)
 
 
-def screen(data: Data, fit: Fit) -> list[dict]:
+def screen(data: Data, fit: Fit, base: Fit | None = None) -> list[dict]:
     """Data problems no model column can undo: clipping, channels out of step, quantisation
-    that dominates the noise. Each is ``{"kind", "where", ...}`` (times in s)."""
+    that dominates the noise. Each is ``{"kind", "where", ...}`` (times in s).
+
+    Channels out of step are looked for against ``fit`` and, when given, the ``base`` model
+    (before any effect: one that follows a delay, fitted to a record whose delay changes,
+    takes up part of the change)."""
     out = []
     floor = noise_floor(data.signal, data.load, data.time, follows_lag=True)
     clip = _clipping(data, fit, floor)
     if clip:
         out.append({"kind": "clipping", "where": clip})
     slip = _out_of_step(data, fit)
+    if slip is None and base is not None and base is not fit:
+        slip = _out_of_step(data, base)
     if slip:
         out.append(slip)
     q = quantisation_step(data.signal)
@@ -187,16 +207,24 @@ def _out_of_step(data: Data, fit: Fit) -> dict | None:
     best, best_odd = None, np.inf
     for cut in range(1, len(lags)):
         before, after = lags[:cut], lags[cut:]
-        # each side consistent (at most a quarter odd events), and the two sides differ
+        # each side consistent (at most a quarter odd events), and the two sides differ; an
+        # event is odd when it lies half-way to the other side's delay or beyond (a slip of
+        # 3 samples or more stands out of the +-1 sample scatter of jittered sampling)
         b, a = np.median(before), np.median(after)
-        odd = np.sum(before != b) + np.sum(after != a)
+        half_way = max(abs(a - b) / 2.0, 0.5)
+        odd_before = np.sum(np.abs(before - b) >= half_way)
+        odd_after = np.sum(np.abs(after - a) >= half_way)
+        odd = odd_before + odd_after
         if min(cut, len(lags) - cut) == 1:
             # a slip before the first or after the last event but one: the lone event must
             # differ by SLIP_ALONE samples or more from at least three that agree exactly
-            if len(lags) < 4 or odd > 0 or abs(a - b) < SLIP_ALONE:
+            if len(lags) < 4 or np.sum(before != b) + np.sum(after != a) > 0 or abs(a - b) < SLIP_ALONE:
                 continue
-        if abs(a - b) >= 1 and np.sum(before != b) <= len(before) // 4 \
-                and np.sum(after != a) <= len(after) // 4 and odd < best_odd:
+        # a delay between two sample counts scatters the lags over both: a change of one
+        # sample counts only when no event on either side is odd
+        allowed = (lambda m: m // 4) if abs(a - b) >= 2 else (lambda m: 0)
+        if abs(a - b) >= 1 and odd_before <= allowed(len(before)) \
+                and odd_after <= allowed(len(after)) and odd < best_odd:
             best, best_odd = (cut, a - b), odd
     if best is None:
         return None
@@ -206,17 +234,24 @@ def _out_of_step(data: Data, fit: Fit) -> dict | None:
             "slip": float(slip * data.dt_median)}
 
 
+def _sensitivity(fit: Fit) -> float:
+    """The largest signal per unit load the model gives: its gain times one plus the sum of
+    its creep terms' magnitudes."""
+    return abs(fit.gain) * (1.0 + float(np.sum(np.abs(fit.betas))))
+
+
 class DataProblem(Effect):
     name = "data_problem"
     parameters = ("kind", "where")
     summary = "the record itself is at fault (signal jumps no load explains, clipping, channels out of step, coarse quantisation)"
+    describes_record = True
 
     _override = None
 
     def settings(self, data: Data, base: Fit) -> tuple:
         if self._override is not None:
             return self._override
-        jumps = tuple(find_jumps(data, base.residual))
+        jumps = tuple(find_jumps(data, base.residual, sensitivity=_sensitivity(base)))
         return (("jumps", jumps), ("times", tuple(float(data.time[i]) for i in jumps)))
 
     def fit_on(self, data: Data, base: Fit, refine: str = "all", start: dict | None = None) -> Fit:
@@ -251,6 +286,24 @@ class DataProblem(Effect):
     def extension(self, fit: Fit, applied: Applied) -> dict | None:
         # a jump is in the record, not in the sensor: nothing to simulate or correct
         return None
+
+    def worse_correction_note(self, ratio: float, without_fault: float | None) -> str:
+        text = (f"the signal jumps are in the record, not in the sensor: the creep correction does "
+                f"not remove them, and with the creep model fitted around them the corrected signal "
+                f"is further from the load than with the baseline's, whose creep terms took up part "
+                f"of the jumps (correction-error ratio {ratio:.3g})")
+        if without_fault is None:
+            return text
+        return (f"{text}; with the fitted jumps taken out of the signal first, the ratio is "
+                f"{without_fault:.3g} (the baseline's on the record as it is)")
+
+    def record_fault(self, fit: Fit, applied: Applied, data: Data) -> np.ndarray:
+        """The fitted jumps: the steps they add to the signal (signal units)."""
+        index = np.arange(data.n)
+        out = np.zeros(data.n)
+        for j, i in enumerate(applied.setting("jumps")):
+            out += fit.values[f"data_problem.jump[{j}]"] * (index >= i)
+        return out
 
 
 EFFECT = DataProblem()
