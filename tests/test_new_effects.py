@@ -10,7 +10,7 @@ from creepcomp import synth
 from creepcomp.diagnose import effects
 from creepcomp.diagnose.effects import simulate_extended
 from creepcomp.diagnose.effects.data_problem import find_jumps, screen
-from creepcomp.diagnose.effects.rate_independent_hysteresis import play
+from creepcomp.diagnose.effects.rate_independent_hysteresis import PlayShapes, play
 from creepcomp.diagnose.sensor import diagnose
 from creepcomp.fit.data import prepare
 from creepcomp.fit.solver import fit_structure
@@ -127,6 +127,29 @@ def test_relaxation_records_have_negative_creep():
     spec = synth.random_spec("extra_retardation", 4, relaxation=True, **SHORT)
     assert spec.beta[0] < 0 and spec.hidden["extra_retardation"]["beta"] < 0
     assert effects.get("mullins_softening").parameters == ("softening",)
+
+
+def test_steps_larger_than_the_play_leave_its_width_undetermined():
+    # a staircase whose smallest step is 0.5: every width below it gives the same column shape
+    x = np.repeat([0.0, 1.0, 0.4, 0.9, 0.0, 0.6], 50)
+    lo, hi = PlayShapes(x, 1.0).as_good(0.2, 0.05, 1e-3)
+    assert lo < 0.01 and 0.45 < hi < 0.5
+    # a sweep moves the play through its dead band at every reversal: the width shows
+    sweep = np.concatenate([np.linspace(0, 1, 200), np.linspace(1, 0, 200)] * 3)
+    lo, hi = PlayShapes(sweep, 1.0).as_good(0.2, 0.05, 1e-3)
+    assert 0.18 < lo <= 0.2 <= hi < 0.22
+
+
+def test_hysteresis_on_load_steps_reports_the_loop_height_not_a_width():
+    syn = synth.generate(synth.random_spec("rate_independent_hysteresis", 4, programs=("staircase",), **SHORT))
+    d = diagnose(syn.record, correction=False)
+    f = next(f for f in d.findings if f.effect == "rate_independent_hysteresis")
+    truth = synth.reported_truth(syn)["rate_independent_hysteresis"]
+    assert f.parameters["width"] is None and f.parameters["weight"] is None, f.parameters
+    lo, hi = f.parameters["width_range"]
+    assert lo <= truth["width"] <= hi and hi > 1.2 * lo
+    assert f.parameters["loop_height"] == pytest.approx(truth["loop_height"], rel=0.2)
+    assert "loop height" in f.note
 
 
 def test_jumps_on_a_noisy_ramping_load_are_found_when_the_load_cannot_explain_them():

@@ -23,7 +23,9 @@ the gain.
 3. A catch-all extension (generic load-, rate-, direction- and temperature-driven terms) is
    tried on top: if the evidence supports it, structure remains that no named effect
    explains, and the answer includes ``unexplained``; it is ordered with the named findings
-   by how much each improves the held-out prediction. With no finding the answer is
+   by how much each improves the held-out prediction. Misfit above the noise floor adds it
+   too (:data:`REMAINING_LIMIT` after named findings, ``MISFIT_LIMIT`` with none). With no
+   finding the answer is
    ``none``: the baseline explains the data to its noise (coloured noise is reported as the
    noise model, not as a cause).
 4. The gain: held-out residual RMS, and the error of the creep-corrected signal (digital
@@ -54,7 +56,7 @@ from creepcomp.fit.reduce import reduce_record
 from creepcomp.lti import lag_states
 from creepcomp.io.records import Record
 
-__all__ = ["MAX_EFFECTS", "REFINED", "CORRECTION_WORSE", "Finding", "Trial", "Diagnosis", "CatchAll",
+__all__ = ["MAX_EFFECTS", "REFINED", "CORRECTION_WORSE", "REMAINING_LIMIT", "Finding", "Trial", "Diagnosis", "CatchAll",
            "CATCH_ALL", "diagnose", "correction_errors", "DIAGNOSE_MAX_SAMPLES"]
 
 #: Most effects added one after the other.
@@ -66,6 +68,13 @@ DIAGNOSE_MAX_SAMPLES = 10_000
 #: A correction-error ratio below this: the extension makes the creep-corrected signal worse
 #: (the ratio of two RMS errors of the same record moves by a percent or so without any change).
 CORRECTION_WORSE = 0.98
+#: Named findings that leave a misfit ratio above this get ``unexplained`` added when the
+#: catch-all lowers BIC strongly (structure it follows in the fitted samples, even if it does
+#: not predict held-out blocks): tighter than ``MISFIT_LIMIT``, which must also allow for the
+#: floor's miss of strongly coloured noise on its own; with a named finding whose template
+#: only approximates the record (creep that ages, fitted as further terms) the rest is
+#: structure (``docs/diagnosis.md``, "The verdict").
+REMAINING_LIMIT = 1.3
 
 
 @dataclass(frozen=True)
@@ -213,6 +222,7 @@ class Diagnosis:
             "catch_all": self.catch_all.to_dict() if self.catch_all else None,
             "decision_rule": {"delta_bic_at_most": -BIC_STRONG, "heldout_z_at_least": HELDOUT_Z,
                               "none_when_misfit_ratio_at_most": MISFIT_LIMIT,
+                              "named_leave_unexplained_above": REMAINING_LIMIT,
                               "correction_worse_below": CORRECTION_WORSE},
             "extended_model": self.extended_model,
             "seconds": self.seconds,
@@ -290,7 +300,8 @@ def _finding(effect: Effect, applied: Applied, fit: Fit, evidence: Evidence, bef
     reported = effect.report(fit, applied)
     params = {k: _plain(v[0]) for k, v in reported.items()}
     sigma = {k: _plain(v[1]) for k, v in reported.items()}
-    return Finding(effect.name, params, sigma, evidence, _heldout_sse(before) - _heldout_sse(fit), fit)
+    return Finding(effect.name, params, sigma, evidence, _heldout_sse(before) - _heldout_sse(fit), fit,
+                   note=effect.note(fit, applied))
 
 
 def _applied_of(fit: Fit, effect: Effect) -> Applied:
@@ -491,7 +502,10 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
         if catch.supported:
             unexplained = Finding("unexplained", _remaining(current, floor), {}, catch,
                                   _heldout_sse(current) - _heldout_sse(wide), wide)
-    if unexplained is None and current.residual_rms > MISFIT_LIMIT * floor.rms:
+    limit = MISFIT_LIMIT
+    if findings and catch is not None and catch.delta_bic <= -BIC_STRONG:
+        limit = REMAINING_LIMIT
+    if unexplained is None and current.residual_rms > limit * floor.rms:
         # the floor says the misfit is not noise, whatever the evidence for a candidate
         unexplained = Finding("unexplained", _remaining(current, floor), {},
                               catch or Evidence(float("nan"), float("nan"), float("nan")), 0.0, None,
@@ -568,7 +582,8 @@ def _correction_notes(data: Data, base: Fit, findings: list[Finding]) -> list[Fi
         ratio = corr.get("ratio") if corr else None
         f = replace(f, correction_error_ratio=ratio)
         if f.worsens_correction:
-            f = replace(f, note=_worse_note(data, before, f, corr))
+            worse = _worse_note(data, before, f, corr)
+            f = replace(f, note=f"{f.note}; {worse}" if f.note else worse)
         out.append(f)
         before = f.fit
     return out + [f for f in findings if f.effect == "unexplained"]

@@ -923,7 +923,7 @@ def reported_truth(synthetic: Synthetic) -> dict:
         elif name == "transition_overshoot":
             out[name] = {"amplitude": p["amplitude"], "tau": p["tau"]}
         elif name == "rate_independent_hysteresis":
-            out[name] = {"width": p["width"], "weight": p["weight"]}
+            out[name] = {"width": p["width"], "weight": p["weight"], "loop_height": p["width"] * p["weight"]}
         elif name == "mullins_softening":
             out[name] = {"softening": p["softening"]}
         elif name == "data_problem":

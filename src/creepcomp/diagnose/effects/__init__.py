@@ -125,6 +125,31 @@ class Effect:
                              n_refine=2 if refine == "own" else 1, refine=refine != "none",
                              frozen=known if refine == "own" else None, with_cov=refine == "all")
 
+    def with_tau_restarts(self, data: Data, base: Fit, fit: Fit, own: list[dict],
+                          settings: tuple | None = None) -> Fit:
+        """``fit`` (this effect on ``base``), or a better one started from a log grid of each
+        retardation time (2 per decade) crossed with the effect's own start values ``own``
+        (names without prefix), screened by their linear fit alone and the best refined: the
+        base's time constants may have mimicked this effect (a fast relaxing term standing in
+        for a hysteresis, a very slow one for creep whose speed follows temperature), and the
+        effect alone cannot move them away."""
+        from creepcomp.fit.starts import tau_grid
+
+        applied = Applied(self, self.settings(data, base) if settings is None else settings)
+        structure = self.extend(base.structure, applied)
+        known = {p.name: base.values[p.name] for p in base.params}
+        starts = [dict(known, **{f"tau[{k}]": float(tau)},
+                       **{self._key(applied, name): v for name, v in values.items()})
+                  for k in range(base.structure.n_terms) for tau in tau_grid(data, per_decade=2)
+                  for values in own]
+        screened = fit_structure(data, structure, starts, refine=False, with_cov=False)
+        if screened.bic >= fit.bic:
+            return fit
+        # every parameter refined, with its covariance: it may be kept as the candidate's full fit
+        alt = fit_structure(data, structure, [{p.name: screened.values[p.name] for p in screened.params}],
+                            n_refine=1)
+        return alt if alt.bic < fit.bic else fit
+
     def with_fresh_term(self, data: Data, base: Fit, fit: Fit, refine: str, start: dict | None,
                         settings: tuple | None) -> Fit:
         """``fit`` (this effect on a one-term ``base``), or the effect fitted with the creep
@@ -181,6 +206,11 @@ class Effect:
     def report(self, fit: Fit, applied: Applied) -> dict:
         """Reported parameters: name -> (value, standard deviation)."""
         return {}
+
+    def note(self, fit: Fit, applied: Applied) -> str | None:
+        """What the user must know about the reported parameters (e.g. which the record does
+        not determine), or None."""
+        return None
 
     def extension(self, fit: Fit, applied: Applied) -> dict | None:
         """The entry of the model file's ``extensions`` (None: the change is in the terms)."""

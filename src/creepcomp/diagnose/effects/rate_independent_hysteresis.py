@@ -7,6 +7,14 @@ reverses within the band. The model adds ``weight * (play(x) - x)`` to the signa
 in signal per load unit): on a branch that follows the load the slope is the gain, in the
 dead band after a reversal it is ``gain - weight``; loading and unloading branches lie
 ``weight * width`` apart. The play starts from a virgin state at zero load.
+
+A load that changes only by steps larger than the width (a staircase, load cycles) moves the
+play by half the width after every step whatever the width is: the column is then the width
+times a fixed shape, and only the loop height ``weight * width`` is determined. The widths
+that fit as well as the fitted one are found from the load's column shapes
+(:class:`PlayShapes`); when they reach beyond 20 % either way, the width and the weight are
+reported as not determined, with the loop height and the range of widths that fit as well.
+A sweep or small reversals (within the dead band) separate them.
 """
 
 from __future__ import annotations
@@ -18,7 +26,7 @@ from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
 from creepcomp.diagnose.effects import Effect
 
-__all__ = ["REVERSAL_SHARE", "play", "one_way_reason", "RateIndependentHysteresis", "EFFECT"]
+__all__ = ["REVERSAL_SHARE", "WIDTH_CHI2", "WIDTH_DETERMINED", "play", "one_way_reason", "PlayShapes", "RateIndependentHysteresis", "EFFECT"]
 
 #: A load history "changes both ways" when its smaller direction (rises or falls, through a play of
 #: 1 % of full scale) makes at least this share of its larger one.
@@ -58,6 +66,40 @@ def one_way_reason(data: Data) -> str | None:
     return None
 
 
+#: Widths whose column, at the fitted loop height and with nothing else refitted, moves the
+#: fit's sum of squares by at most this many noise variances fit the record as well.
+WIDTH_CHI2 = 4.0
+#: A fitted width is reported when the widths that fit as well stay within this factor of it.
+WIDTH_DETERMINED = 1.2
+
+
+class PlayShapes:
+    """The play's column per unit width, ``(play(x, w) - x) / w``, on one load history over a
+    log grid of widths from 1e-3 to 2 times ``scale`` (about 8 % apart; computed when first
+    asked). A load that changes only by steps larger than ``w`` gives the same shape for
+    every such ``w``: the column is the width times it."""
+
+    def __init__(self, load, scale: float):
+        self.load = np.asarray(load, float)
+        self.widths = np.geomspace(1e-3, 2.0, 97) * scale
+        self._shapes = None
+
+    def shape(self, width: float) -> np.ndarray:
+        """The column per unit width at one width."""
+        return (play(self.load, width) - self.load) / width
+
+    def as_good(self, width: float, height: float, sigma: float) -> tuple[float, float]:
+        """The smallest and largest grid width (or ``width``) whose column of the same loop
+        height ``height`` differs from the fitted one by at most :data:`WIDTH_CHI2` noise
+        variances ``sigma**2`` in sum of squares (an upper bound: nothing else refitted)."""
+        if self._shapes is None:
+            self._shapes = np.array([self.shape(w) for w in self.widths])
+        change = height ** 2 * np.sum((self._shapes - self.shape(width)) ** 2, axis=1)
+        close = self.widths[change <= WIDTH_CHI2 * sigma ** 2]
+        return (float(min(width, close.min())) if len(close) else width,
+                float(max(width, close.max())) if len(close) else width)
+
+
 class RateIndependentHysteresis(Effect):
     name = "rate_independent_hysteresis"
     parameters = ("width", "weight")
@@ -67,7 +109,8 @@ class RateIndependentHysteresis(Effect):
         return super().applicable(data, structure) or one_way_reason(data)
 
     def settings(self, data: Data, base: Fit) -> tuple:
-        return (("load_scale", data.load_scale),)
+        return (("load_scale", data.load_scale),
+                ("shapes", PlayShapes(data.load, data.load_scale)))
 
     def nonlinear_params(self, data, applied):
         scale = applied.setting("load_scale")
@@ -77,12 +120,49 @@ class RateIndependentHysteresis(Effect):
         scale = applied.setting("load_scale")
         return [{"width": f * scale} for f in (0.02, 0.05, 0.1, 0.2, 0.4, 0.8)]
 
+    def fit_on(self, data, base, refine="all", start=None, settings=None):
+        fit = super().fit_on(data, base, refine, start, settings)
+        if start is not None or refine == "none" or base.structure.effects:
+            return fit
+        # on the baseline alone: its one term may have taken the hysteresis's place (a play of
+        # negative weight on a sweep looks like a fast relaxing term)
+        own = self.starts(data, base, Applied(self, (("load_scale", data.load_scale),)))
+        return self.with_tau_restarts(data, base, fit, own, settings)
+
     def columns(self, data, s, h, lags, p, applied):
         return {"weight": play(s, p["width"]) - s}
 
     def report(self, fit: Fit, applied: Applied) -> dict:
+        height = fit.estimate(lambda v: v["rate_independent_hysteresis.width"]
+                              * v["rate_independent_hysteresis.weight"])
+        span = self.widths_as_good(fit, applied)
+        if span is not None:
+            return {"width": (None, None), "weight": (None, None), "loop_height": height,
+                    "width_range": ([span[0], span[1]], None)}
         return {"width": fit.estimate(lambda v: v["rate_independent_hysteresis.width"]),
-                "weight": fit.estimate(lambda v: v["rate_independent_hysteresis.weight"])}
+                "weight": fit.estimate(lambda v: v["rate_independent_hysteresis.weight"]),
+                "loop_height": height}
+
+    def widths_as_good(self, fit: Fit, applied: Applied) -> tuple[float, float] | None:
+        """The range of widths that fit the record as well as the fitted one
+        (:meth:`PlayShapes.as_good`) when it reaches beyond :data:`WIDTH_DETERMINED` times it
+        either way (the width is not determined), else None."""
+        shapes = applied.setting("shapes")
+        if shapes is None:
+            return None
+        width = fit.values["rate_independent_hysteresis.width"]
+        height = width * fit.values["rate_independent_hysteresis.weight"]
+        lo, hi = shapes.as_good(width, height, fit.residual_rms)
+        return (lo, hi) if lo < width / WIDTH_DETERMINED or hi > width * WIDTH_DETERMINED else None
+
+    def note(self, fit: Fit, applied: Applied) -> str | None:
+        span = self.widths_as_good(fit, applied)
+        if span is None:
+            return None
+        return (f"only the loop height (weight x width, the distance between the loading and unloading "
+                f"branches) is determined: any play width from {span[0]:.4g} to {span[1]:.4g} load units "
+                f"fits as well (the load moves by steps larger than the dead band, so the play only "
+                f"shifts by half its width); a sweep or small reversals would separate width and weight")
 
     def extension(self, fit: Fit, applied: Applied) -> dict:
         return {"width": fit.values["rate_independent_hysteresis.width"],

@@ -7,6 +7,12 @@ mean): ``kappa`` > 0 means faster creep when warmer (an Arrhenius law linearised
 always speeds up with temperature (Arrhenius and WLF shift factors), and a negative value
 would only be another effect (e.g. recovery slower than creep) seen through a temperature
 history that happens to differ between loading and unloading.
+
+A strong temperature dependence (a WLF material near its glass transition: the time
+constant changes by a decade over a few kelvin) can leave the baseline with a retardation
+time where temperature cannot act (one far slower than the record, standing in for creep
+whose speed follows temperature); the fit therefore also starts from a grid of retardation
+times and ``kappa`` values, cheaply screened, and keeps that fit when it is better.
 """
 
 from __future__ import annotations
@@ -18,7 +24,11 @@ from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
 from creepcomp.diagnose.effects import Effect
 
-__all__ = ["ThermalRetardation", "EFFECT"]
+__all__ = ["RESTART_KAPPAS", "ThermalRetardation", "EFFECT"]
+
+
+#: ``kappa`` values (1/K) of the restarts from a grid of retardation times.
+RESTART_KAPPAS = (0.05, 0.15, 0.45)
 
 
 class ThermalRetardation(Effect):
@@ -37,6 +47,12 @@ class ThermalRetardation(Effect):
 
     def starts(self, data, base, applied):
         return [{"kappa": k} for k in (0.005, 0.02, 0.06, 0.15)]
+
+    def fit_on(self, data, base, refine="all", start=None, settings=None):
+        fit = super().fit_on(data, base, refine, start, settings)
+        if start is not None or refine == "none":
+            return fit
+        return self.with_tau_restarts(data, base, fit, [{"kappa": k} for k in RESTART_KAPPAS], settings)
 
     def tau_factor(self, data, h, lags, taus, p, applied):
         temp = 0.5 * (data.temperature[:-1] + data.temperature[1:])
