@@ -111,6 +111,7 @@ def run_one(args):
             "misfit_baseline": out["baseline"]["misfit_ratio"], "misfit_extended": out["extended"]["misfit_ratio"],
             "mismatch": d.mismatch, "pairs": pairs, "misfit_without_drift": without_drift, "slow_share": slow,
             "findings": [f.effect for f in d.findings], "errors": errors, "part_ok": part_ok,
+            "output_drift": out["output_drift"],
             "cells": len(cells), "gain": d.gain,
             "seconds": seconds, "n": len(syn.record), "program": spec.program, "rate": spec.rate,
             "drive": spec.drive, "noise_factor": syn.noise_factor, "spice_check": check,
@@ -222,6 +223,15 @@ def report(results, effects, wall):
                   + "; misfit ratios without / with the drift: "
                   + ", ".join(f"{x['misfit_without_drift']:.3g}/{x['misfit_baseline']:.3g}" for x in drifting
                               if x.get("misfit_without_drift") is not None))
+    counted = [x for x in results if x.get("output_drift")]
+    if counted:
+        print(f"\nA drift of the output channel counted in the noise floor (cause 'none'): {len(counted)} records "
+              f"({sum(x['effect'] == 'none' for x in counted)} clean, of them "
+              f"{sum(x['effect'] == 'none' and x['output_noise'] == 'drift' for x in counted)} with a drifting output; "
+              f"{sum(x['effect'] != 'none' for x in counted)} faulty); misfit ratio over the white floor / once the "
+              f"drift is taken out: " + ", ".join(
+                  f"{x['output_drift']['misfit_ratio_over_white_floor']:.3g}/"
+                  f"{x['output_drift']['misfit_ratio_without_drift']:.3g}" for x in counted))
     print("\nNamed correctly by the output's noise (all rows)")
     for kind in ("white", "coloured", "drift"):
         sub = [x for x in results if x["output_noise"] == kind]

@@ -93,6 +93,16 @@ def test_screened_data_problems_are_found_where_they_are(kind):
         assert where.min() >= truth[0] - 1e-9 and where.max() <= truth[-1] + 1e-9
 
 
+def test_a_quantised_record_at_its_minimum_is_not_clipped():
+    """A relaxing record on a 0.11 grid with noise correlated over about 5 samples (0.25 s at
+    21 Hz, benchmark record relaxation+extra_retardation 203006) holds its smallest value for 3
+    samples where the model stays inside: no clipping (it was named the cause before)."""
+    spec = synth.random_spec("extra_retardation", 203006, relaxation=True, max_samples=5000)
+    syn = synth.generate(spec)
+    assert syn.spec.noise.lsb > 0 and np.sum(syn.record.signal == syn.record.signal.min()) >= 3
+    assert "clipping" not in _screened(syn)
+
+
 def test_clean_records_are_not_screened():
     for seed in range(3):
         assert _screened(synth.random_record(None, seed, **SHORT)) == {}

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import linalg
+from scipy.interpolate import make_lsq_spline
 
 from creepcomp.fit.data import Data
 from creepcomp.lti import lag_states
@@ -16,7 +17,7 @@ from creepcomp.lti import lag_states
 __all__ = ["MAX_AR_ORDER", "ARNoise", "rows_for", "whiten", "fit_noise", "ljung_box",
            "autocorrelation", "spectral_variance", "gaussian_bic", "FLOOR_WINDOW", "FEW_WINDOWS", "MISFIT_LIMIT",
            "NoiseFloor", "noise_floor", "quantisation_step", "misfit_ratio", "explained_share",
-           "none_statement"]
+           "slow_drift", "none_statement"]
 
 #: Largest order of the autoregressive noise model.
 MAX_AR_ORDER = 5
@@ -284,6 +285,31 @@ def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW,
         var = q * q / 12.0
         method += f"; raised to the quantisation floor step^2/12 (step {q:.4g})"
     return NoiseFloor(float(np.sqrt(var)), method, q, len(variances))
+
+
+def slow_drift(residual: np.ndarray, time: np.ndarray, spacing: float) -> np.ndarray:
+    """The slow part of a residual: its least-squares cubic spline with knots ``spacing``
+    seconds apart (at most one knot interval per 8 samples), evaluated at ``time``.
+
+    Parameters
+    ----------
+    residual, time : numpy.ndarray
+        Residual and its (increasing) sample times, s.
+    spacing : float
+        Knot spacing, s.
+
+    Returns
+    -------
+    numpy.ndarray
+        The spline at ``time``.
+    """
+    t = np.asarray(time, float)
+    span = float(t[-1] - t[0])
+    intervals = int(max(1, min(round(span / max(spacing, 1e-300)), len(t) // 8)))
+    # knots at quantiles of the sample times: every interval holds samples (Schoenberg-Whitney)
+    inner = np.quantile(t, np.linspace(0.0, 1.0, intervals + 1)[1:-1]) if intervals > 1 else np.zeros(0)
+    knots = np.r_[[t[0]] * 4, inner, [t[-1]] * 4]
+    return make_lsq_spline(t, np.asarray(residual, float), knots, 3)(t)
 
 
 def none_statement(floor: NoiseFloor | None) -> str:

@@ -63,6 +63,9 @@ def circuit_figures(cd, units: dict) -> list[tuple[str, str]]:
     axr.plot(t, base.residual[idx], ".", ms=2, color="C3", label=f"nominal, RMS {base.rms:.3g} {su}")
     if ext is not base:
         axr.plot(t, ext.residual[idx], ".", ms=2, color="C0", label=f"as built, RMS {ext.rms:.3g} {su}")
+    if cd.drift is not None and cd.drift.curve is not None:
+        axr.plot(t, cd.drift.curve[idx], "-", lw=1.5, color="k",
+                 label=f"output channel's drift (in the noise floor), RMS {cd.drift.rms:.3g} {su}")
     axr.axhline(0, color="0.3", lw=0.8)
     axr.set_ylabel(f"measured - simulated ({su})" if su else "measured - simulated")
     axr.set_xlabel(xlabel)

@@ -149,14 +149,14 @@ def _longest_run(y: np.ndarray, tol: float) -> int:
 
 def _clipping(data: Data, fit: Fit, floor) -> list:
     """[first, last] times of runs of :data:`CLIP_RUN` or more samples at the signal's largest
-    or smallest value. A noisy signal whose value grid is fine against its noise does not
-    repeat its extreme by chance. On a coarse grid a run counts where the model goes beyond
-    the extreme by more than 3 noise floors on average, or where it is :data:`CLIP_LONGER`
-    times longer than any run of one value elsewhere in the record (a signal that dithers
-    between grid values elsewhere does not sit on one by chance)."""
+    or smallest value. A signal on no value grid does not repeat its extreme by chance. On a
+    grid (however fine: noise correlated over a few samples repeats grid values) a run counts
+    where the model goes beyond the extreme by more than 3 noise floors on average, or where
+    it is :data:`CLIP_LONGER` times longer than any run of one value elsewhere in the record
+    (a signal that dithers between grid values elsewhere does not sit on one by chance)."""
     y = data.signal
     tol = 1e-9 * max(float(np.max(np.abs(y))), 1e-300)
-    coarse = floor.quantisation_step >= floor.rms
+    on_grid = floor.quantisation_step > 0
     runs = []
     for level, sign in ((np.max(y), 1.0), (np.min(y), -1.0)):
         at = np.abs(y - level) <= tol
@@ -169,7 +169,7 @@ def _clipping(data: Data, fit: Fit, floor) -> list:
                 continue
             beyond = np.mean(sign * (fit.prediction[a:b] - level)) > 3.0 * floor.rms
             unlikely = b - a > CLIP_LONGER * max(longest, 1)
-            if not coarse or beyond or unlikely:
+            if not on_grid or beyond or unlikely:
                 runs.append([float(data.time[a]), float(data.time[b - 1])])
     return sorted(runs)
 
