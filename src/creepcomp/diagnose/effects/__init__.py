@@ -113,8 +113,7 @@ class Effect:
         nonlinear parameter (default: the base's values and the effect's own start grid).
         ``settings``: other than :meth:`settings` (e.g. :meth:`plain_settings`).
         """
-        applied = Applied(self, self.settings(data, base) if settings is None else settings)
-        structure = self.extend(base.structure, applied)
+        applied, structure = self._on(data, base, settings)
         known = {p.name: base.values[p.name] for p in base.params}
         starts = [start] if start is not None else []
         for own in ([] if start is not None else self.starts(data, base, applied)):
@@ -124,6 +123,12 @@ class Effect:
         return fit_structure(data, structure, starts,
                              n_refine=2 if refine == "own" else 1, refine=refine != "none",
                              frozen=known if refine == "own" else None, with_cov=refine == "all")
+
+    def _on(self, data: Data, base: Fit, settings: tuple | None) -> tuple:
+        """This effect applied to ``base`` (its :meth:`settings` unless ``settings`` is given)
+        and the extended structure: ``(applied, structure)``."""
+        applied = Applied(self, self.settings(data, base) if settings is None else settings)
+        return applied, self.extend(base.structure, applied)
 
     def with_tau_restarts(self, data: Data, base: Fit, fit: Fit, own: list[dict],
                           settings: tuple | None = None) -> Fit:
@@ -135,8 +140,7 @@ class Effect:
         effect alone cannot move them away."""
         from creepcomp.fit.starts import tau_grid
 
-        applied = Applied(self, self.settings(data, base) if settings is None else settings)
-        structure = self.extend(base.structure, applied)
+        applied, structure = self._on(data, base, settings)
         known = {p.name: base.values[p.name] for p in base.params}
         starts = [dict(known, **{f"tau[{k}]": float(tau)},
                        **{self._key(applied, name): v for name, v in values.items()})
@@ -160,8 +164,7 @@ class Effect:
             return fit
         from creepcomp.fit.starts import one_term_starts
 
-        applied = Applied(self, self.settings(data, base) if settings is None else settings)
-        structure = self.extend(base.structure, applied)
+        applied, structure = self._on(data, base, settings)
         fresh = [dict(t, **{self._key(applied, k): v for k, v in own.items()})
                  for t in one_term_starts(data) for own in self.starts(data, base, applied)]
         try:
