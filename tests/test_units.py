@@ -40,3 +40,12 @@ def test_parse_numbers_pass_through_but_not_nan():
 ])
 def test_format(value, unit, expected):
     assert format_quantity(value, unit) == expected
+
+
+def test_where_keeps_an_absolute_instant_to_a_tenth_of_a_second():
+    """A data problem's ``where`` on a record whose clock reads 193 ks (the left insole file)
+    tells its two jumps 290 s apart to 0.1 s, not as 193.2 ks and 193.5 ks."""
+    from creepcomp.units import format_parameter
+
+    assert format_parameter("where", [193229.366837, 193519.395]) == "193.2294 ks, 193.5194 ks"
+    assert format_parameter("tau", 193229.366837) == "193.2 ks"

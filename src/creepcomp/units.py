@@ -153,7 +153,7 @@ def format_percent(x: float | None, digits: int = 3) -> str:
 
 def format_parameter(name: str, value: float | None) -> str:
     """A diagnosis parameter with its unit, by its name: times (``tau*``, ``delay``) in
-    seconds, ``beta`` in percent, ``rate`` per second, others as plain numbers; a kind as it
+    seconds (instants, ``where``, to 7 digits), ``beta`` in percent, ``rate`` per second, others as plain numbers; a kind as it
     is, and a list item by item (an interval ``[a, b]`` as ``a to b``)."""
     if isinstance(value, str):
         return value
@@ -163,7 +163,11 @@ def format_parameter(name: str, value: float | None) -> str:
         return ", ".join(items) if items else "-"
     if value is None or not math.isfinite(value):
         return "n/a"
-    if name.startswith("tau") or name in ("delay", "where", "slip"):
+    if name == "where":
+        # an instant on the record's own clock, which may be absolute (days of seconds): to
+        # 0.1 s there, not to 4 digits
+        return format_quantity(value, "s", digits=7)
+    if name.startswith("tau") or name in ("delay", "slip"):
         return format_quantity(value, "s")
     if name == "beta":
         return format_percent(value)
