@@ -290,11 +290,11 @@ def run_monte_carlo(design: Design, spec: ToleranceSpec, n: int, seed: int = 0,
                 first_values, first_metrics = values, metrics
     except BaseException:
         if pool is not None:
-            # Ctrl-C (or an error): stop the workers now rather than after their queued batches
-            processes = list((getattr(pool, "_processes", None) or {}).values())
-            pool.shutdown(wait=False, cancel_futures=True)
-            for proc in processes:
-                proc.terminate()
+            # Ctrl-C (or an error): drop the queued batches and let each worker finish the one
+            # it holds (a chunk: tens of ms). Terminating a worker while it writes its result
+            # left the pool's result thread waiting for the rest of the message, and the
+            # interpreter's exit waiting for that thread: a hang after "interrupted".
+            pool.shutdown(wait=True, cancel_futures=True)
         raise
     if pool is not None:
         pool.shutdown()
