@@ -100,13 +100,18 @@ def test_clean_record_is_at_its_noise_floor():
     white = 5e-4
     syn = synth.generate(synth.Spec(duration=1500, rate=5, program="staircase", seed=8,
                                     noise=synth.NoiseSpec(white=white)))
-    d = diagnose(syn.record)
+    d = diagnose(syn.record, max_samples=None)
     out = d.to_dict()
     assert out["cause"] == "none"
     assert out["noise_floor"] == pytest.approx(white, rel=0.1)
     assert "window" in out["noise_floor_method"]
     assert 0.9 < out["baseline"]["misfit_ratio"] < 1.1
     assert out["explained_share"] is None or out["explained_share"] <= 1.0
+    # 7,501 samples, above DIAGNOSE_MAX_SAMPLES: diagnosed as means of pairs, whose floor it gives
+    reduced = diagnose(syn.record).to_dict()
+    assert reduced["record"]["n_samples"] < 0.55 * len(syn.record)
+    assert reduced["cause"] == "none"
+    assert reduced["noise_floor"] == pytest.approx(white / np.sqrt(2), rel=0.1)
 
 
 def test_relaxation_record_fits_and_is_none():

@@ -163,3 +163,19 @@ def test_a_fit_with_every_linear_coefficient_held_keeps_them():
     held = fit_structure(data, Structure(1), [full.values], fixed=linear, mask=t < 300)
     assert {n: held.values[n] for n in linear} == linear
     assert np.sqrt(np.mean(held.residual ** 2)) < 2 * 0.004
+
+
+def test_load_halves_give_each_part_a_load_change():
+    from creepcomp.fit.evidence import half_blocks, load_halves
+    n = 1000
+    step = np.zeros(n)
+    step[100:300] = 1.0                         # a step and its release, both in the first half
+    parts = load_halves(step)
+    for b in (0, 1):
+        assert np.any(np.diff(step[parts == b]) != 0)
+    assert np.all(np.diff(parts) >= 0)          # two contiguous parts
+    stairs = np.repeat([0.0, 1.0, 2.0, 1.0], n // 4)   # changes on both sides of the middle
+    np.testing.assert_array_equal(load_halves(stairs), half_blocks(n))
+    one = np.where(np.arange(n) >= 100, 1.0, 0.0)      # one change: no split gives both one
+    np.testing.assert_array_equal(load_halves(one), half_blocks(n))
+

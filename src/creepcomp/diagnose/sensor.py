@@ -63,8 +63,11 @@ __all__ = ["MAX_EFFECTS", "REFINED", "CORRECTION_WORSE", "REMAINING_LIMIT", "Fin
 MAX_EFFECTS = 4
 #: Samples the diagnosis works on at most: a longer record is reduced by block means within
 #: constant-load stretches (:func:`~creepcomp.fit.reduce.reduce_record`), which keeps its load
-#: steps sharp and everything slower than a few new sample intervals.
-DIAGNOSE_MAX_SAMPLES = 10_000
+#: steps sharp and everything slower than a few new sample intervals. 6,000: above the 5,001
+#: samples of the confusion benchmark's records (``docs/benchmarks.md``), and a 30-minute
+#: record at 10 Hz (4,500 samples after reduction) diagnosed within 10 s (a search of four
+#: steps over 10,000 samples took up to 23 s).
+DIAGNOSE_MAX_SAMPLES = 6_000
 #: A correction-error ratio below this: the extension makes the creep-corrected signal worse
 #: (the ratio of two RMS errors of the same record moves by a percent or so without any change).
 CORRECTION_WORSE = 0.98

@@ -26,7 +26,7 @@ from creepcomp.fit.structure import basis
 
 __all__ = ["BIC_STRONG", "HELDOUT_Z", "FOLDS", "BLOCKS", "MIN_BLOCK_SAMPLES",
            "UNDETERMINED_VARIANCE_RATIO", "SLOW_NOISE_RATIO", "HeldOut", "block_index",
-           "half_blocks", "predict_held_out", "jacobian", "halves", "heldout", "Evidence",
+           "half_blocks", "load_halves", "predict_held_out", "jacobian", "halves", "heldout", "Evidence",
            "compare", "slow_noise_ratio", "compare_with_halves"]
 
 #: BIC difference that counts as strong evidence (Kass & Raftery 1995: 2 ln B > 10 is
@@ -138,11 +138,29 @@ def _undetermined(jac: np.ndarray, keep: np.ndarray, names: list, values: dict) 
     return out or None
 
 
+def load_halves(load: np.ndarray) -> np.ndarray:
+    """Two parts of a record as blocks 0 and 1, each with a load change when it can be:
+    its two halves (:func:`half_blocks`), unless every load change falls in one of them (a
+    single step and its release, early in a long record); then the split between two
+    consecutive load changes nearest the middle. A part without any load change does not
+    determine the load's gain against the offset, nor any term that only a load change
+    excites: across halves it would test an extrapolation, not the structure."""
+    n = len(load)
+    blocks = half_blocks(n)
+    changes = np.flatnonzero(np.diff(load) != 0) + 1
+    if len(changes) < 2 or (changes[0] < n // 2 <= changes[-1]):
+        return blocks
+    splits = (changes[:-1] + changes[1:]) // 2
+    at = int(splits[np.argmin(np.abs(splits - n / 2))])
+    return (np.arange(n) >= at).astype(int)
+
+
 def halves(data: Data, fit: Fit, refine: bool = True) -> HeldOut:
-    """Held-out prediction across the record's two halves: fitted on one half, simulated over
-    the other. Slow noise (drift) that interleaved blocks would let a slow extension
-    interpolate is not predictable across halves; structure driven by the load is."""
-    return heldout(data, fit, folds=2, refine=refine, blocks=half_blocks(data.n)).heldout
+    """Held-out prediction across the record's two parts (:func:`load_halves`): fitted on
+    one, simulated over the other. Slow noise (drift) that interleaved blocks would let a
+    slow extension interpolate is not predictable across halves; structure driven by the
+    load is."""
+    return heldout(data, fit, folds=2, refine=refine, blocks=load_halves(data.load)).heldout
 
 
 def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
