@@ -178,4 +178,6 @@ def test_load_halves_give_each_part_a_load_change():
     np.testing.assert_array_equal(load_halves(stairs), half_blocks(n))
     one = np.where(np.arange(n) >= 100, 1.0, 0.0)      # one change: no split gives both one
     np.testing.assert_array_equal(load_halves(one), half_blocks(n))
-
+    early = np.zeros(n)
+    early[2:4] = 1.0                            # a part of 3 samples would predict nothing
+    np.testing.assert_array_equal(load_halves(early), half_blocks(n))

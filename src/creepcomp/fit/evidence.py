@@ -144,7 +144,9 @@ def load_halves(load: np.ndarray) -> np.ndarray:
     single step and its release, early in a long record); then the split between two
     consecutive load changes nearest the middle. A part without any load change does not
     determine the load's gain against the offset, nor any term that only a load change
-    excites: across halves it would test an extrapolation, not the structure."""
+    excites: across halves it would test an extrapolation, not the structure. A part would
+    be shorter than a tenth of the record: the halves (a part too short to fit on predicts
+    nothing)."""
     n = len(load)
     blocks = half_blocks(n)
     changes = np.flatnonzero(np.diff(load) != 0) + 1
@@ -152,6 +154,8 @@ def load_halves(load: np.ndarray) -> np.ndarray:
         return blocks
     splits = (changes[:-1] + changes[1:]) // 2
     at = int(splits[np.argmin(np.abs(splits - n / 2))])
+    if min(at, n - at) < n // 10:
+        return blocks
     return (np.arange(n) >= at).astype(int)
 
 
