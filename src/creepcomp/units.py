@@ -153,8 +153,9 @@ def format_percent(x: float | None, digits: int = 3) -> str:
 
 def format_parameter(name: str, value: float | None) -> str:
     """A diagnosis parameter with its unit, by its name: times (``tau*``, ``delay``) in
-    seconds (instants, ``where``, to 7 digits), ``beta`` in percent, ``rate`` per second, others as plain numbers; a kind as it
-    is, and a list item by item (an interval ``[a, b]`` as ``a to b``)."""
+    seconds (instants, ``where``, to 7 digits), ``beta`` in percent, ``rate`` per second,
+    others as plain numbers; a kind as it is, and a list item by item (an interval ``[a, b]``
+    as ``a to b``)."""
     if isinstance(value, str):
         return value
     if isinstance(value, (list, tuple)):

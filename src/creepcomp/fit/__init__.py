@@ -10,7 +10,8 @@ from creepcomp.fit.circuit import CircuitData, CircuitFit
 from creepcomp.fit.data import CONSTANT_LOAD_TOLERANCE, GAP_FACTOR, Data, gaps, prepare
 from creepcomp.fit.evidence import (BIC_STRONG, BLOCKS, FOLDS, HELDOUT_Z, MIN_BLOCK_SAMPLES,
     SLOW_NOISE_RATIO, UNDETERMINED_VARIANCE_RATIO, Evidence, HeldOut, block_index, compare,
-    compare_with_halves, half_blocks, halves, load_halves, heldout, jacobian, predict_held_out, slow_noise_ratio)
+    compare_with_halves, half_blocks, halves, heldout, jacobian, load_halves, predict_held_out,
+    slow_noise_ratio)
 from creepcomp.fit.noise import (MAX_AR_ORDER, ARNoise, autocorrelation, fit_noise, gaussian_bic,
     ljung_box, rows_for, spectral_variance, whiten)
 from creepcomp.fit.prony import (OrderStep, PronyResult, fit_prony, fit_summary, fit_terms,

@@ -144,9 +144,9 @@ def load_halves(load: np.ndarray) -> np.ndarray:
     single step and its release, early in a long record); then the split between two
     consecutive load changes nearest the middle. A part without any load change does not
     determine the load's gain against the offset, nor any term that only a load change
-    excites: across halves it would test an extrapolation, not the structure. A part would
-    be shorter than a tenth of the record: the halves (a part too short to fit on predicts
-    nothing)."""
+    excites: across halves it would test an extrapolation, not the structure. When that
+    split would leave a part shorter than a tenth of the record, the halves again (a part too
+    short to fit on predicts nothing)."""
     n = len(load)
     blocks = half_blocks(n)
     changes = np.flatnonzero(np.diff(load) != 0) + 1
