@@ -181,3 +181,43 @@ def test_load_halves_give_each_part_a_load_change():
     early = np.zeros(n)
     early[2:4] = 1.0                            # a part of 3 samples would predict nothing
     np.testing.assert_array_equal(load_halves(early), half_blocks(n))
+
+
+def test_halves_only_for_noise_that_carries_from_block_to_block():
+    from dataclasses import dataclass
+    from creepcomp.fit.evidence import (BLOCK_MEMORY, SLOW_NOISE_RATIO, HeldOut, block_memory,
+                                        compare_with_halves, slow_noise_ratio)
+    from creepcomp.synth.common import NoiseSpec, sample_noise
+    rng = np.random.default_rng(3)
+    t = np.arange(5000) * 0.1                   # 40 blocks of 12.5 s
+    short = sample_noise(t, NoiseSpec(white=0.0, coloured=1.0, correlation_time=2.0), rng)
+    walk = sample_noise(t, NoiseSpec(white=0.2, drift=3.0), rng)
+    # both are slow by the spectrum; only the walk carries over into the next block
+    assert slow_noise_ratio(short) > SLOW_NOISE_RATIO and slow_noise_ratio(walk) > SLOW_NOISE_RATIO
+    assert block_memory(short) < BLOCK_MEMORY < block_memory(walk)
+    assert abs(block_memory(rng.normal(size=5000))) < BLOCK_MEMORY
+    blocks = np.arange(5000) // 125
+    signature = np.sin(2 * np.pi * t / 37.0)
+
+    @dataclass(frozen=True)
+    class Fitted:                               # what the evidence reads of a fit
+        bic: float
+        residual: np.ndarray
+        heldout: HeldOut
+
+    def fits(noise):
+        return (Fitted(0.0, noise + signature, HeldOut(noise + signature, blocks)),
+                Fitted(-100.0, noise, HeldOut(noise, blocks)))
+
+    asked = []
+
+    def across(simple, rich):
+        def run():
+            asked.append(True)
+            return simple.heldout, rich.heldout
+        return run
+    for noise, expected in ((short, False), (walk, True)):
+        asked.clear()
+        simple, rich = fits(noise)
+        assert compare_with_halves(simple, rich, across(simple, rich)).supported
+        assert bool(asked) is expected

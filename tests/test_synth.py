@@ -97,6 +97,19 @@ def test_a_hidden_effect_is_kept_detectable_by_scaling_the_noise():
     assert synth.generate(clear).spec.noise.white == 1e-4
 
 
+def test_detectable_beyond_what_the_refitted_baseline_absorbs():
+    # a load-dependent retardation time: the fitted baseline's tau moves far from the true
+    # one and absorbs much more than the linearisation at the truth says (benchmark record
+    # 210006: z 14 linearised, 4 with the baseline refitted, before the refit counted)
+    from creepcomp.synth.common import DETECTABLE_Z, heldout_z
+    from creepcomp.synth.sensor import _baseline_residual
+    syn = synth.generate(synth.random_spec("nonlinear_creep", 210006, form="time", max_samples=5000))
+    clean = synth.simulate_signal(syn.spec, syn.program, syn.record.time, None)
+    noise = syn.record.signal - clean
+    absorbed = _baseline_residual(syn.record.time, syn.record.load, clean)
+    assert heldout_z(absorbed, noise) > 0.9 * DETECTABLE_Z
+
+
 def test_a_circuit_fault_is_kept_detectable_distinct_and_measurable():
     base = synth.CircuitSpec(hidden={"dielectric_absorption": {"fraction": 0.01, "tau": 60.0, "cell": 0}},
                              rate=4.0, duration=1200.0, noise=synth.NoiseSpec(white=1e-3),

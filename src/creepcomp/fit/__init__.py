@@ -8,8 +8,9 @@ measured output (:mod:`.circuit`, the circuit side of the diagnosis).
 
 from creepcomp.fit.circuit import CircuitData, CircuitFit
 from creepcomp.fit.data import CONSTANT_LOAD_TOLERANCE, GAP_FACTOR, Data, gaps, prepare
-from creepcomp.fit.evidence import (BIC_STRONG, BLOCKS, FOLDS, HELDOUT_Z, MIN_BLOCK_SAMPLES,
-    SLOW_NOISE_RATIO, UNDETERMINED_VARIANCE_RATIO, Evidence, HeldOut, block_index, compare,
+from creepcomp.fit.evidence import (BIC_STRONG, BLOCK_MEMORY, BLOCKS, FOLDS, HELDOUT_Z,
+    MIN_BLOCK_SAMPLES, SLOW_NOISE_RATIO, UNDETERMINED_VARIANCE_RATIO, Evidence, HeldOut, block_index,
+    block_memory, compare,
     compare_with_halves, half_blocks, halves, heldout, jacobian, load_halves, predict_held_out,
     slow_noise_ratio)
 from creepcomp.fit.noise import (MAX_AR_ORDER, ARNoise, autocorrelation, fit_noise, gaussian_bic,
@@ -23,8 +24,9 @@ from creepcomp.fit.structure import Applied, Basis, Param, Structure, basis, tau
 __all__ = [
     "CircuitData", "CircuitFit",
     "CONSTANT_LOAD_TOLERANCE", "GAP_FACTOR", "Data", "gaps", "prepare",
-    "BIC_STRONG", "BLOCKS", "FOLDS", "HELDOUT_Z", "MIN_BLOCK_SAMPLES", "SLOW_NOISE_RATIO",
-    "UNDETERMINED_VARIANCE_RATIO", "Evidence", "HeldOut", "block_index", "compare",
+    "BIC_STRONG", "BLOCK_MEMORY", "BLOCKS", "FOLDS", "HELDOUT_Z", "MIN_BLOCK_SAMPLES",
+    "SLOW_NOISE_RATIO", "UNDETERMINED_VARIANCE_RATIO", "Evidence", "HeldOut", "block_index",
+    "block_memory", "compare",
     "compare_with_halves", "half_blocks", "halves", "load_halves", "heldout", "jacobian", "predict_held_out",
     "slow_noise_ratio",
     "MAX_AR_ORDER", "ARNoise", "autocorrelation", "fit_noise", "gaussian_bic", "ljung_box",

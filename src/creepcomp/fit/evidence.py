@@ -27,7 +27,7 @@ from creepcomp.fit.structure import basis
 __all__ = ["BIC_STRONG", "HELDOUT_Z", "FOLDS", "BLOCKS", "MIN_BLOCK_SAMPLES",
            "UNDETERMINED_VARIANCE_RATIO", "SLOW_NOISE_RATIO", "HeldOut", "block_index",
            "half_blocks", "load_halves", "predict_held_out", "jacobian", "halves", "heldout", "Evidence",
-           "compare", "slow_noise_ratio", "compare_with_halves"]
+           "compare", "slow_noise_ratio", "BLOCK_MEMORY", "block_memory", "compare_with_halves"]
 
 #: BIC difference that counts as strong evidence (Kass & Raftery 1995: 2 ln B > 10 is
 #: "very strong"; a Bayes factor above ~150). With white-noise likelihoods this is a
@@ -275,18 +275,40 @@ def slow_noise_ratio(residual: np.ndarray, blocks: int = BLOCKS) -> float:
     return float(low / mid) if mid > 0 else float("inf")
 
 
+#: Correlation of neighbouring held-out blocks' mean residuals above which slow noise spans
+#: blocks: white noise, or coloured noise whose memory is shorter than a block, gives about 0
+#: (+-0.16 over 40 blocks); a random walk close to 1.
+BLOCK_MEMORY = 0.3
+
+
+def block_memory(residual: np.ndarray) -> float:
+    """Lag-1 correlation of the residual's means over the held-out blocks
+    (:func:`block_index`): how far noise carries from one block into the next."""
+    n = len(residual)
+    blocks = max(FOLDS, min(BLOCKS, n // MIN_BLOCK_SAMPLES))
+    index = np.minimum(np.arange(n) * blocks // n, blocks - 1)
+    means = np.bincount(index, residual) / np.bincount(index)
+    means = means - np.mean(means)
+    power = float(np.sum(means ** 2))
+    return float(np.sum(means[1:] * means[:-1]) / power) if power > 0 else 0.0
+
+
 def compare_with_halves(simple, rich, across: Callable[[], tuple[HeldOut, HeldOut]],
                         always_halves: bool = False) -> Evidence:
     """Evidence for ``rich`` over ``simple`` (:func:`compare`); and when it is supported and
-    the richer model's residual holds slow noise (drift that spans held-out blocks,
-    :func:`slow_noise_ratio`), also the prediction of each half of the record from the other
-    (``across()``: the two fits' held-out predictions across halves): drift that a slow
-    extension follows between interleaved blocks is not predictable across halves, structure
-    driven by the input is. The weaker of the two held-out results counts.
+    the richer model's residual holds slow noise that carries from block to block (drift:
+    :func:`slow_noise_ratio` and :func:`block_memory`), also the prediction of each half of the
+    record from the other (``across()``: the two fits' held-out predictions across halves):
+    drift that a slow extension follows between interleaved blocks is not predictable across
+    halves, structure driven by the input is. The weaker of the two held-out results counts.
+    Coloured noise whose memory is shorter than a block is not followed between blocks, and
+    the interleaved blocks' test already counts its spectrum.
     ``always_halves``: test across halves in any case (a catch-all, whose slow terms follow
     drift easily)."""
     ev = compare(simple, rich)
-    if ev.supported and (always_halves or slow_noise_ratio(rich.residual) > SLOW_NOISE_RATIO):
+    slow = (slow_noise_ratio(rich.residual) > SLOW_NOISE_RATIO
+            and block_memory(rich.residual) > BLOCK_MEMORY)
+    if ev.supported and (always_halves or slow):
         held_simple, held_rich = across()
         other = compare(replace(simple, heldout=held_simple), replace(rich, heldout=held_rich))
         if not other.supported_heldout:
