@@ -74,8 +74,13 @@ def block_index(data, blocks: int = BLOCKS) -> np.ndarray:
     """Contiguous blocks of equal numbers of samples (fewer blocks when the record is short);
     equal counts rather than equal durations keep log-spaced material tests balanced.
     ``data``: any prepared record (its number of samples ``n``)."""
-    blocks = max(FOLDS, min(blocks, data.n // MIN_BLOCK_SAMPLES))
-    return np.minimum(np.arange(data.n) * blocks // data.n, blocks - 1)
+    return _blocks_of(data.n, blocks)
+
+
+def _blocks_of(n: int, blocks: int = BLOCKS) -> np.ndarray:
+    """Block of each of ``n`` samples (see :func:`block_index`)."""
+    blocks = max(FOLDS, min(blocks, n // MIN_BLOCK_SAMPLES))
+    return np.minimum(np.arange(n) * blocks // n, blocks - 1)
 
 
 def half_blocks(n: int) -> np.ndarray:
@@ -284,9 +289,7 @@ BLOCK_MEMORY = 0.3
 def block_memory(residual: np.ndarray) -> float:
     """Lag-1 correlation of the residual's means over the held-out blocks
     (:func:`block_index`): how far noise carries from one block into the next."""
-    n = len(residual)
-    blocks = max(FOLDS, min(BLOCKS, n // MIN_BLOCK_SAMPLES))
-    index = np.minimum(np.arange(n) * blocks // n, blocks - 1)
+    index = _blocks_of(len(residual))
     means = np.bincount(index, residual) / np.bincount(index)
     means = means - np.mean(means)
     power = float(np.sum(means ** 2))
