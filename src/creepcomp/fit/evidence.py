@@ -309,9 +309,8 @@ def compare_with_halves(simple, rich, across: Callable[[], tuple[HeldOut, HeldOu
     ``always_halves``: test across halves in any case (a catch-all, whose slow terms follow
     drift easily)."""
     ev = compare(simple, rich)
-    slow = (slow_noise_ratio(rich.residual) > SLOW_NOISE_RATIO
-            and block_memory(rich.residual) > BLOCK_MEMORY)
-    if ev.supported and (always_halves or slow):
+    if ev.supported and (always_halves or (slow_noise_ratio(rich.residual) > SLOW_NOISE_RATIO
+                                           and block_memory(rich.residual) > BLOCK_MEMORY)):
         held_simple, held_rich = across()
         other = compare(replace(simple, heldout=held_simple), replace(rich, heldout=held_rich))
         if not other.supported_heldout:

@@ -505,7 +505,7 @@ def _direction_lag(grid, h_before, h_after, tau: float, tau_recovery: float, c0:
 
 
 def detectability(spec: Spec, program: LoadProgram, t: np.ndarray, temperature_fn,
-                  clean: np.ndarray, noise: np.ndarray, with_rest: bool = False):
+                  clean: np.ndarray, noise: np.ndarray) -> float:
     """How far the hidden effects stand out of the noise: the held-out ``z`` (see
     :func:`creepcomp.fit.evidence.compare`) that the part of their signature the baseline cannot
     absorb would give with every parameter known. The signature (the noise-free record with
@@ -524,12 +524,7 @@ def detectability(spec: Spec, program: LoadProgram, t: np.ndarray, temperature_f
                                   np.exp(-(t - t[0]) / tau)])
     coef, *_ = np.linalg.lstsq(directions, signature, rcond=None)
     rest = signature - directions @ coef
-    z = heldout_z(rest, noise)
-    absorbed = _baseline_residual(t, u, clean)
-    z_fitted = heldout_z(absorbed, noise)
-    if z_fitted < z:
-        z, rest = z_fitted, absorbed
-    return (z, rest) if with_rest else z
+    return min(heldout_z(rest, noise), heldout_z(_baseline_residual(t, u, clean), noise))
 
 
 def _baseline_misfit(t, load, clean, terms: int = 1) -> float:
@@ -624,7 +619,7 @@ def generate(spec: Spec) -> Synthetic:
     noise = sample_noise(t, spec.noise, rng)
     physical = {k: v for k, v in spec.hidden.items() if k != "data_problem"}
     if physical and spec.detectable_z > 0:
-        z, rest = detectability(spec, program, t, temp_fn, clean, noise, with_rest=True)
+        z = detectability(spec, program, t, temp_fn, clean, noise)
         f = min(1.0, z / spec.detectable_z)
         if set(physical) & set(NO_TEMPLATE):
             # and visible against the noise floor: the baseline fitted to the noise-free record
