@@ -1,5 +1,6 @@
-# The two commands a user needs: `make demo` and `make test`.
-# Both set up whatever is missing first: Debian's ngspice, a virtual environment, the package.
+# The two commands a user needs: `make demo` and `make test` (`make test-all` adds the tests
+# marked slow; CI runs it). Each sets up whatever is missing first: Debian's
+# ngspice, a virtual environment, the package.
 VENV    ?= .venv
 PY      := $(VENV)/bin/python
 STAMP   := $(VENV)/.installed
@@ -7,13 +8,20 @@ DEBS    := ngspice libngspice0 libngspice0-dev gcc
 SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 DEMO_OUT ?= demo-output
 
-.PHONY: demo test docs setup system-deps netlists bench clean
+.PHONY: demo test test-all docs setup system-deps netlists bench clean
 
 demo: setup
 	$(VENV)/bin/creepcomp demo --out $(DEMO_OUT)
 
+# Tests run on every core (pytest-xdist), a test file to a worker so that its module fixtures
+# are made once; `slow` marks the tests over 4 s there (see pyproject.toml).
+PYTEST  := $(PY) -m pytest -q -n auto --dist loadfile
+
 test: setup
-	$(PY) -m pytest -q
+	$(PYTEST) -m "not slow"
+
+test-all: setup
+	$(PYTEST)
 
 setup: system-deps $(STAMP)
 

@@ -7,8 +7,8 @@ record, and of ``mc --n 100000000`` (docs/benchmarks.md, "Big records").
 Each command runs in its own process, one at a time; peak memory is that process's maximum
 resident set, ``VmHWM`` of ``/proc/self/status`` read when it exits. (Not ``getrusage``: on
 Linux a child's ``ru_maxrss`` keeps the resident size of the parent it was forked from, here
-the benchmark holding the 10 M-sample arrays it wrote, about 500 MB, which earlier runs of
-this script reported as the floor of every peak.) The record and all outputs are written to a
+the benchmark holding the 10 M-sample arrays it wrote, about 500 MB, which would be the
+floor of every peak.) The record and all outputs are written to a
 temporary folder that is removed at the end.
 """
 

@@ -1,4 +1,4 @@
-"""The three cases of issue 17's "Why": a correct design built with one wrong resistor.
+"""Three cases of a correct design built with one wrong resistor.
 
 The default sensor (3 % creep, 45 s) and its exact network snapped to E24/E6 parts
 (R1 3 Mohm, C1 15 uF, R2 100 Mohm); the network as built has R2 15 % low, R1 20 % low or
@@ -6,8 +6,7 @@ R1 20 % high. The record holds ``signal`` and ``corrected`` sampled every 0.1 s 
 through a staircase of load steps, each channel with white noise of 2e-4 of the step; the
 network is driven by the sampled signal. Each record is diagnosed against the nominal
 design; printed: the cause, its part and parameters, the alternatives, and the misfit ratios
-(where the library reports them). Only stable APIs are used, so the same script runs on
-earlier commits (the "before" of the issue).
+(where the library reports them).
 
 Usage::
 

@@ -49,8 +49,8 @@ from dataclasses import replace
 import numpy as np
 
 from creepcomp import synth
-from creepcomp.analog.faults import CIRCUIT_EFFECTS, fault_part
-from creepcomp.diagnose.circuit import circuit_noise_floor, diagnose_circuit, ngspice_check
+from creepcomp.diagnose.circuit import CIRCUIT_EFFECTS, diagnose_circuit, fault_part, ngspice_check
+from creepcomp.diagnose.output_drift import circuit_noise_floor
 from creepcomp.fit.circuit import fit_model, prepare
 from creepcomp.fit.noise import MISFIT_LIMIT, misfit_ratio
 

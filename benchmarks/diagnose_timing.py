@@ -36,7 +36,7 @@ CASES = {
 }
 
 #: (sample rate in Hz, duration in s, goal in s): a 30-minute record at 10 Hz, and 100,000
-#: samples (issue 12).
+#: samples.
 SIZES = ((10.0, 1800.0, 10.0), (50.0, 1999.98, 30.0))
 
 #: Kinds of random record: (label, effect for random_spec, form).

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from creepcomp.errors import InputError
-from creepcomp.io.records import (NotStreamable, Record, RecordScan, read_record,
-                                  read_record_chunks, scan_record, write_record)
+from creepcomp.io.records import (NotStreamable, Record, RecordScan, open_record_stream,
+                                  parse_record, read_record, read_record_chunks, record_writer,
+                                  scan_record, write_record)
 from creepcomp.model import CreepModel
 
 #: CSV text per piece in these tests: some hundred rows, so that every record is many pieces.
@@ -59,6 +60,11 @@ def test_a_bad_cell_late_in_the_file_goes_to_the_full_reader(tmp_path):
     with pytest.raises(NotStreamable):
         for _ in read_record_chunks(path, block_bytes=SMALL):
             pass
+    stream = open_record_stream(path, block_bytes=SMALL)
+    assert stream.whole_reason is None
+    pieces = list(stream)
+    assert 0 < sum(len(p) for p in pieces) < 1800 and "after row" in stream.whole_reason
+    assert stream.scan() is None
     from creepcomp.fit.reduce import read_reduced
 
     with pytest.raises(InputError, match="line 1801, column 'load'"):
@@ -148,3 +154,81 @@ def test_diagnose_reduces_once_from_the_whole_record(run_cli, tmp_path):
     assert out["record_reduction"].startswith(f"record reduced from {len(t)} to ")
     assert out["record"]["reduced"] == out["record_reduction"]
     assert out["record"]["n_samples"] <= DIAGNOSE_MAX_SAMPLES + 10
+
+
+#: Faults of a long record and the message every reader gives for each.
+FAULTS = {
+    "text": (lambda row: row.replace(",", ",x", 1), "column 'load': 'x0' is not a number"),
+    "infinite": (lambda row: "inf" + row[row.index(","):], "column 'time': 'inf' is not a finite number"),
+    "blank": (lambda row: row[:row.index(",") + 1] + row[row.rindex(","):], "column 'load': '' is not a number"),
+    "short": (lambda row: row[:row.rindex(",")], "column 'signal' is missing (the row has 2 fields)"),
+    "back": (lambda row: "0.5" + row[row.index(","):], "column 'time': 0.5 is earlier than the previous time"),
+    "repeat": (lambda row: None, "column 'time': 89.9 repeats the previous time (89.9)"),
+}
+
+
+@pytest.mark.parametrize("fault", list(FAULTS))
+def test_every_reader_gives_the_same_message_for_the_same_fault(tmp_path, fault):
+    from creepcomp.digital.record_file import correct_record_file
+    from creepcomp.fit.reduce import read_reduced
+
+    t, load, signal = _staircase(2000)
+    path = write_record(tmp_path / "rec.csv", Record(t, load, signal))
+    lines = path.read_text().splitlines()
+    change, needle = FAULTS[fault]
+    lines[1800] = lines[1799] if change(lines[1800]) is None else change(lines[1800])
+    text = "\n".join(lines) + "\n"
+    path.write_text(text)
+    messages = set()
+    for read in (lambda: parse_record(text, str(path)), lambda: read_record(path),
+                 lambda: read_reduced(path, (500,), block_bytes=SMALL)):
+        with pytest.raises(InputError) as info:
+            read()
+        messages.add(str(info.value))
+    [message] = messages
+    assert message.startswith(f"{path}, line 1801")
+    assert needle in message
+    # the piecewise readers leave the file to the whole reader, which words the fault
+    assert correct_record_file(path, MODEL, block_bytes=SMALL) is None
+    assert open_record_stream(path, block_bytes=SMALL).scan() is None
+
+
+def test_a_file_not_to_stream_says_why_before_any_piece(tmp_path):
+    gz = tmp_path / "rec.csv.gz"
+    gz.write_bytes(b"\x1f\x8b")
+    comments = tmp_path / "comments.csv"
+    comments.write_text("# a: b\n")
+    for path, why in ((gz, "'.gz' file"), (comments, "header"), (tmp_path / "none.csv", "not a file")):
+        stream = open_record_stream(path)
+        assert why in stream.whole_reason and list(stream) == [] and stream.scan() is None
+    with pytest.raises(InputError, match="missing required column 'signal'"):
+        (tmp_path / "two.csv").write_text("time,load\n0,1\n")
+        open_record_stream(tmp_path / "two.csv")
+
+
+def test_correct_in_pieces_leaves_no_output_when_the_file_grows_between_passes(tmp_path):
+    from creepcomp.digital.record_file import correct_record_file
+
+    t, load, signal = _staircase(3000)
+    path = write_record(tmp_path / "rec.csv", Record(t, load, signal))
+
+    def append_rows_after_the_first_pass(done, rows=None, description=None):
+        if description == "correcting":
+            with path.open("a") as fh:
+                fh.write("1000,0,0\n1001,0,0\n")
+
+    out = tmp_path / "out.csv"
+    assert correct_record_file(path, MODEL, output=out, progress=append_rows_after_the_first_pass,
+                               block_bytes=SMALL) is None
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rec.csv"]
+
+
+def test_a_discarded_record_writer_leaves_no_file(tmp_path):
+    out = tmp_path / "out.csv"
+    with record_writer(out, ["time", "load"], {}) as write:
+        write({"time": np.arange(3.0), "load": np.zeros(3)})
+        write.discard()
+    assert list(tmp_path.iterdir()) == []
+    with record_writer(out, ["time", "load"], {"k": "v"}) as write:
+        write({"time": np.arange(3.0), "load": np.zeros(3)})
+    assert out.read_text().splitlines()[:3] == ["# k: v", "time,load", "0,0"]

@@ -1,7 +1,8 @@
 import numpy as np
 import pytest
 
-from creepcomp.analog.faults import CIRCUIT_EFFECTS, apply_fault, exact_equivalents, resistor_parts, suggest_fixes
+from creepcomp.analog.faults import resistor_parts, suggest_fixes
+from creepcomp.diagnose.circuit import CIRCUIT_EFFECTS, apply_fault, exact_equivalents
 from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 from creepcomp.network import Branch, Cell, Network

@@ -1,5 +1,5 @@
 """A built network with one wrong resistor, the explanations its record cannot tell apart,
-and a design that does not match the record (issue 17's three cases and issue 16's)."""
+and a design that does not match the record."""
 
 from __future__ import annotations
 

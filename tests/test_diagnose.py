@@ -8,8 +8,6 @@ confusion matrix is ``benchmarks/diagnose_confusion.py``.
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
 
 from creepcomp import synth
 from creepcomp.diagnose.sensor import diagnose
@@ -33,15 +31,16 @@ def _check(effect, seed):
     return d
 
 
-@pytest.mark.parametrize("effect", synth.EFFECTS)
-@settings(max_examples=1)
-@given(seed=st.integers(0, 2**31 - 1))
-def test_hidden_effect_is_named_and_its_parameters_recovered(effect, seed):
-    _check(effect, seed)
+SLOW_EFFECTS = ("extra_retardation", "nonlinear_creep", "time_offset", "mullins_softening")
 
 
-@settings(max_examples=3)
-@given(seed=st.integers(0, 2**31 - 1))
+@pytest.mark.parametrize("effect", [pytest.param(e, marks=pytest.mark.slow) if e in SLOW_EFFECTS else e
+                                    for e in synth.EFFECTS])
+def test_hidden_effect_is_named_and_its_parameters_recovered(effect):
+    _check(effect, seed=0)
+
+
+@pytest.mark.parametrize("seed", [0, 255, 64286])
 def test_clean_record_is_none(seed):
     syn = synth.random_record(None, seed, **SMALL)
     d = diagnose(syn.record)
@@ -67,6 +66,7 @@ def test_json_follows_the_contract():
     assert out["extended_model"]["extensions"]["viscous_flow"]["rate"] == pytest.approx(4e-5, rel=0.1)
 
 
+@pytest.mark.slow
 def test_two_effects_added_one_at_a_time():
     # (sizes within the generator's ranges: a drift 4x larger drags the one-term baseline
     # to a slow negative term that hides both; see docs/benchmarks.md, known limitations)

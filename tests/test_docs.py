@@ -16,6 +16,7 @@ ROOT = Path(__file__).resolve().parents[1]
 CITATION = re.compile(r"(?<![\w.-])((?:[\w.-]+/)*)([\w-]+\.md)\b")
 
 
+@pytest.mark.slow
 def test_the_site_builds_without_warnings(tmp_path):
     env = dict(os.environ, NO_MKDOCS_2_WARNING="1")
     run = subprocess.run(

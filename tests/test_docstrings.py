@@ -1,8 +1,11 @@
 """Every public function and class of the package says what it does (numpydoc summary line)."""
 
+import doctest
 import importlib
 import inspect
 import pkgutil
+
+import pytest
 
 import creepcomp
 
@@ -21,3 +24,37 @@ def public_objects():
 def test_public_api_is_documented():
     missing = [name for name, obj in public_objects() if not (inspect.getdoc(obj) or "").strip()]
     assert missing == []
+
+
+#: The public entry points whose docstrings carry a worked example.
+WITH_EXAMPLES = ("creepcomp.analog.sizing.size", "creepcomp.digital.correctors.compensate",
+                 "creepcomp.fit.prony.fit_prony", "creepcomp.diagnose.sensor.diagnose",
+                 "creepcomp.verify.montecarlo.run_monte_carlo", "creepcomp.io.records.read_record")
+
+
+def _resolve(dotted: str):
+    module, _, name = dotted.rpartition(".")
+    return getattr(importlib.import_module(module), name)
+
+
+@pytest.mark.parametrize("dotted", WITH_EXAMPLES)
+def test_public_api_has_an_example(dotted):
+    doc = inspect.getdoc(_resolve(dotted)) or ""
+    assert "Examples\n--------" in doc and ">>>" in doc
+
+
+def _doctests():
+    finder = doctest.DocTestFinder(exclude_empty=True)
+    for info in pkgutil.walk_packages(creepcomp.__path__, "creepcomp."):
+        module = importlib.import_module(info.name)
+        for test in finder.find(module):
+            if test.examples:
+                yield pytest.param(test, id=test.name)
+
+
+@pytest.mark.parametrize("test", list(_doctests()))
+def test_docstring_examples_run(test):
+    report: list[str] = []
+    runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    result = runner.run(test, out=report.append)
+    assert result.failed == 0, "".join(report)

@@ -138,6 +138,7 @@ def test_correct_record(tmp_path):
     assert float(streamed.group(1)) < 1e-12
 
 
+@pytest.mark.slow
 def test_diagnose_record_finds_the_hidden_effect(tmp_path):
     stdout = run_example("diagnose_record", tmp_path)
     written(tmp_path, "report.html", "diagnosis.json", "model.json", "baseline-model.json", "fit.png")
@@ -151,6 +152,7 @@ def test_diagnose_record_finds_the_hidden_effect(tmp_path):
     assert json.loads((tmp_path / "diagnosis.json").read_text())["cause"] == effect
 
 
+@pytest.mark.slow
 def test_diagnose_built_network_finds_the_fault_and_the_fix(tmp_path):
     stdout = run_example("diagnose_built_network", tmp_path)
     written(tmp_path, "report.html", "diagnosis.json", "model.json", "baseline-model.json",
@@ -186,6 +188,7 @@ def test_firmware_corrector_sketch_within_its_bound(tmp_path):
     assert re.search(r"[0-9.]+ ns per sample \(gcc -O2\), object \d+ bytes", stdout)
 
 
+@pytest.mark.slow
 def test_real_insole(tmp_path):
     stdout = run_example("real_insole", tmp_path)
     for name, taxel in (("left", 128), ("right", 123)):
@@ -199,6 +202,7 @@ def test_real_insole(tmp_path):
     assert "--fast: every 4th sample" in stdout
 
 
+@pytest.mark.slow
 def test_real_wood(tmp_path):
     stdout = run_example("real_wood", tmp_path)
     for level in ("0.3", "0.5"):

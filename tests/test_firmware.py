@@ -9,6 +9,7 @@ import re
 import shutil
 import subprocess
 
+import jinja2
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
@@ -23,7 +24,7 @@ from creepcomp.model import CreepModel
 
 needs_gcc = pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc is not installed")
 
-#: The issue's 3-term model (beta 1 %, 1 %, 1.5 %; tau 5 s, 50 s, 500 s), with an offset.
+#: A 3-term model (beta 1 %, 1 %, 1.5 %; tau 5 s, 50 s, 500 s), with an offset.
 MODEL = CreepModel(beta=(0.01, 0.01, 0.015), tau=(5.0, 50.0, 500.0), gain=2e-3, offset=1e-3)
 RATE = 100.0
 VARIANTS = [(p, m) for p in ("float32", "q31") for m in ("subtractive", "supplemental")]
@@ -295,6 +296,53 @@ def test_bad_arguments_are_refused_with_a_message():
         generate_firmware(MODEL, name="my-scale")
     with pytest.raises(InputError, match="C identifier"):
         generate_firmware(MODEL, name="")
+
+
+# -------------------------------------------------------------------------------- the templates
+
+def test_a_template_missing_a_value_fails():
+    from creepcomp.digital import firmware
+
+    with pytest.raises(RuntimeError, match="harness.c.j2 has no value for irregular"):
+        firmware._render("harness.c.j2", name="creep", NAME="CREEP", precision="float32")
+    with pytest.raises(jinja2.UndefinedError, match="irregular"):
+        firmware._environment().get_template("harness.c.j2").render(
+            name="creep", NAME="CREEP", precision="float32")
+
+
+def test_a_value_the_template_does_not_use_fails():
+    from creepcomp.digital import firmware
+
+    harness = firmware._render("harness.c.j2", name="creep", NAME="CREEP", precision="q31",
+                               irregular=True)
+    assert "#define HARNESS_DT 1" in harness and "uint32_t *dts;" in harness
+    with pytest.raises(RuntimeError, match="harness.c.j2 does not use rate"):
+        firmware._render("harness.c.j2", name="creep", NAME="CREEP", precision="q31",
+                         irregular=True, rate="100.0")
+
+
+def test_every_template_file_is_used(monkeypatch):
+    from importlib import resources
+
+    from creepcomp.digital import firmware
+
+    rendered = []
+    render = firmware._render
+
+    def recording(template, **values):
+        rendered.append(template)
+        return render(template, **values)
+
+    monkeypatch.setattr(firmware, "_render", recording)
+    for precision in ("float32", "q31"):
+        for max_interval in (None, 0.04):
+            generate_firmware(MODEL, "supplemental", precision, RATE, 1.0,
+                              max_interval=max_interval)
+    naive_float32(MODEL)
+    used = set().union(*(firmware._template_tree(t) for t in rendered))
+    files = {f.name for f in resources.files("creepcomp.digital").joinpath("templates").iterdir()
+             if f.is_file()}
+    assert used == files
 
 
 # ------------------------------------------------------------------------------- command line

@@ -51,6 +51,7 @@ def compared(table):
     return table.drop_columns(["seconds"]).to_pylist()
 
 
+@pytest.mark.slow
 def test_broken_record_is_one_failed_row_and_the_others_have_results(serial, records):
     result, out = serial
     rows = {r["unit"]: r for r in result.table.to_pylist()}
@@ -86,6 +87,7 @@ def test_broken_record_is_one_failed_row_and_the_others_have_results(serial, rec
     assert page.count("data:image/png;base64,") >= 2
 
 
+@pytest.mark.slow
 def test_cluster_of_two_survives_a_killed_worker_and_matches_the_serial_run(serial, records, cluster,
                                                                             tmp_path):
     from dask.distributed import Client
@@ -122,6 +124,7 @@ def test_cluster_of_two_survives_a_killed_worker_and_matches_the_serial_run(seri
         assert killed["pid"] not in client.run(os.getpid).values()
 
 
+@pytest.mark.slow
 def test_cluster_run_interrupted_then_run_again_skips_the_units_done(serial, records, cluster,
                                                                      tmp_path):
     def interrupt(done, total, row):
@@ -143,6 +146,7 @@ def test_cluster_run_interrupted_then_run_again_skips_the_units_done(serial, rec
     assert compared(third.table) == compared(serial[0].table)
 
 
+@pytest.mark.slow
 def test_second_run_skips_units_done_and_reruns_a_changed_record(serial, records):
     result, out = serial
     again = run([records], out, scheduler=SERIAL)
@@ -201,6 +205,7 @@ def test_a_fit_no_corrector_can_invert_is_reported_not_judged_and_says_why(recor
     assert result.summary["not_judged"][0]["notes"] == row["notes"]
 
 
+@pytest.mark.slow
 def test_cli_json_has_the_contract_keys(serial, records, capsys):
     _, out = serial
     assert main(["fleet", str(records), "-o", str(out), "--scheduler", SERIAL, "--json"]) == 0
@@ -211,6 +216,7 @@ def test_cli_json_has_the_contract_keys(serial, records, capsys):
     assert [f["file"] for f in d["failed"]] == [str(records / BROKEN)] and d["failed"][0]["reason"]
 
 
+@pytest.mark.slow
 def test_cli_readable_summary(serial, records, capsys):
     _, out = serial
     assert main(["fleet", str(records / "S*.csv"), "-o", str(out), "--scheduler", SERIAL]) == 0

@@ -140,3 +140,95 @@ def test_modules_declare_their_public_names():
     missing = [n for n, p in MODULES.items()
                if "__all__" not in p.read_text(encoding="utf-8") and not n.startswith("creepcomp.cli")]
     assert missing == []
+
+
+LAYOUT_DOC = PACKAGE.parents[1] / "docs" / "layout.md"
+
+
+def documented_in_layout(name: str, text: str, package: bool = False) -> bool:
+    """A module is documented when ``docs/layout.md`` names it in backticks, or names its
+    package with a wildcard (``cli.*``); a package, also when it names a module of it."""
+    parts = name.split(".")[1:]
+    if not parts:
+        return True
+    names = {f"`{'.'.join(parts)}`"} | {f"`{'.'.join(parts[:i])}.*`" for i in range(1, len(parts))}
+    if package:
+        names.add(f"`{'.'.join(parts)}.")
+    return any(n in text for n in names)
+
+
+def test_every_module_is_in_the_layout_doc():
+    text = LAYOUT_DOC.read_text(encoding="utf-8")
+    missing = sorted(n for n, p in MODULES.items()
+                     if not documented_in_layout(n, text, package=p.name == "__init__.py"))
+    assert missing == []
+
+
+def test_the_layout_check_sees_a_missing_module():
+    assert documented_in_layout("creepcomp.cli.fit", "`cli.*`")
+    assert documented_in_layout("creepcomp.fit.reduce", "| `fit.reduce` |")
+    assert not documented_in_layout("creepcomp.fit.reduce", "`fit.prony`, `fit.reducer`")
+    assert documented_in_layout("creepcomp.fit", "`fit.prony`", package=True)
+    assert not documented_in_layout("creepcomp.fit", "`fitting.prony`", package=True)
+
+
+EFFECTS_PACKAGE = PACKAGE / "diagnose" / "effects"
+
+
+def strings_in_code(source: str) -> list[str]:
+    """The string constants of a module's code: docstrings excepted, f-strings' literal parts
+    included."""
+    tree = ast.parse(source)
+    docstrings = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
+            body = node.body
+            if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
+                docstrings.add(id(body[0].value))
+    return [node.value for node in ast.walk(tree)
+            if isinstance(node, ast.Constant) and isinstance(node.value, str)
+            and id(node) not in docstrings]
+
+
+def names_an_effect(strings: list[str], effects) -> set[str]:
+    """The effect identifiers that occur as words in ``strings``."""
+    import re
+
+    return {e for e in effects for s in strings if re.search(rf"\b{re.escape(e)}\b", s)}
+
+
+def test_no_module_outside_the_effects_names_an_effect():
+    from creepcomp.diagnose.effects import REGISTRY
+
+    offenders = {}
+    for name, path in MODULES.items():
+        if EFFECTS_PACKAGE in path.parents:
+            continue
+        found = names_an_effect(strings_in_code(path.read_text(encoding="utf-8")), REGISTRY)
+        if found:
+            offenders[name] = sorted(found)
+    assert offenders == {}
+
+
+def test_the_effect_name_check_sees_code_not_docstrings():
+    source = '"""Mentions viscous_flow."""\nx = {"viscous_flow": 1}\ny = f"{x} time_offset"\n'
+    assert names_an_effect(strings_in_code(source), ("viscous_flow", "time_offset", "other")) == \
+        {"viscous_flow", "time_offset"}
+    assert names_an_effect(strings_in_code('"""Only viscous_flow here."""\n'), ("viscous_flow",)) == set()
+
+
+#: The longest a function of the diagnosis may be: its decision loops are short named steps.
+DIAGNOSE_MAX_LINES = 80
+
+
+def test_no_function_in_the_diagnosis_is_over_80_lines():
+    long = []
+    for name, path in MODULES.items():
+        if not name.startswith("creepcomp.diagnose"):
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                lines = node.end_lineno - node.lineno + 1
+                if lines > DIAGNOSE_MAX_LINES:
+                    long.append(f"{name}.{node.name}: {lines} lines")
+    assert long == []

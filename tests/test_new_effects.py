@@ -1,4 +1,4 @@
-"""The effects of issue 12: transition overshoot, rate-independent hysteresis (play operator),
+"""Transition overshoot, rate-independent hysteresis (play operator),
 Mullins softening and data problems, hidden by the generator in short records: named, their
 parameters near the truth, their extension read back from the model file; records with an
 effect no template describes are not called ``none``."""
@@ -29,7 +29,7 @@ def test_play_operator_is_the_sample_by_sample_backlash():
 
 
 @pytest.mark.parametrize("effect, seed", [("transition_overshoot", 1), ("rate_independent_hysteresis", 1),
-                                          ("mullins_softening", 0)])
+                                          pytest.param("mullins_softening", 0, marks=pytest.mark.slow)])
 def test_new_effect_is_named_recovered_and_read_back(effect, seed, tmp_path):
     syn = synth.random_record(effect, seed, **SHORT)
     d = diagnose(syn.record, correction=False)
@@ -108,8 +108,8 @@ def test_clean_records_are_not_screened():
         assert _screened(synth.random_record(None, seed, **SHORT)) == {}
 
 
-@pytest.mark.parametrize("kind, seed", [("sensitivity_drift", 1), ("periodic_disturbance", 1),
-                                        ("aging_retardation", 2)])
+@pytest.mark.parametrize("kind, seed", [pytest.param("sensitivity_drift", 1, marks=pytest.mark.slow),
+                                        ("periodic_disturbance", 1), ("aging_retardation", 2)])
 def test_a_record_no_template_describes_is_not_none(kind, seed):
     # (aging_retardation seed 1 is 'none'-free but lacks 'unexplained': its fast creep, 4.6 s,
     # after 20 steps lifts the noise floor to 13 times the true noise; see the report)

@@ -107,3 +107,55 @@ def test_write_and_read_back_exactly(tmp_path):
     np.testing.assert_array_equal(back.signal, r.signal)
     assert back.unit("load") == "N"
     assert "compensated" in p.read_text().splitlines()[1]
+
+
+def test_the_record_rules_and_their_messages_live_in_one_module():
+    import creepcomp.io.record_check as check
+    import creepcomp.io.records as records
+
+    rules = Path(check.__file__).read_text(encoding="utf-8")
+    readers = Path(records.__file__).read_text(encoding="utf-8")
+    for phrase in ("is not a number", "is not a finite number", "time must be strictly increasing",
+                   "missing required column", "is not one of", "no data rows", "no header line",
+                   "(the row has"):
+        assert phrase in rules and phrase not in readers, phrase
+
+
+def test_a_mapped_column_is_read_or_constant():
+    from creepcomp.io.record_check import resolve_columns
+
+    cols = resolve_columns(["Time", "Out", "Temp"], {"time": "Time", "signal": "out", "load": "2.5"},
+                           "r.csv", 0)
+    assert cols.read == {"time": 0, "signal": 1} and cols.constants == {"load": 2.5}
+    # a number that names a column of the file is that column, not a constant
+    cols = resolve_columns(["time", "1", "signal"], {"load": "1"}, "r.csv", 0)
+    assert cols.read == {"time": 0, "load": 1, "signal": 2} and cols.constants == {}
+
+
+def test_an_unknown_time_unit_is_reported_before_the_cells(tmp_path):
+    text = "Step time,Force,Out\nyears,N,V\n0,1,1\n1,x,1\n"
+    cols = {"time": "Step time", "load": "Force", "signal": "Out"}
+    path = tmp_path / "units.csv"
+    path.write_text(text)
+    for read in (lambda: parse_record(text, str(path), cols), lambda: read_record(path, cols)):
+        with pytest.raises(InputError, match=r"units.csv: time unit 'years' is not one of s, sec"):
+            read()
+
+
+def test_a_file_that_cannot_be_read_is_reported_with_its_cause(tmp_path, monkeypatch):
+    from creepcomp.io.records import open_record_stream
+
+    path = tmp_path / "locked.csv"
+    path.write_text("time,load,signal\n0,0,0\n1,1,1\n")
+    real_open = Path.open
+
+    def refusing_open(self, *args, **kwargs):
+        if self.name == "locked.csv":
+            raise PermissionError(13, "Permission denied", str(self))
+        return real_open(self, *args, **kwargs)
+
+    monkeypatch.setattr(Path, "open", refusing_open)
+    for read in (read_record, open_record_stream):
+        with pytest.raises(InputError) as info:
+            read(path)
+        assert str(info.value) == f"record {path}: cannot read it (Permission denied)"

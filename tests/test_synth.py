@@ -7,7 +7,8 @@ from hypothesis import strategies as st
 
 from creepcomp import synth
 from creepcomp.diagnose.circuit import diagnose_circuit
-from creepcomp.fit.circuit import prepare, residual_at
+from creepcomp.fit.circuit import prepare
+from creepcomp.synth.circuit import residual_at
 from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 

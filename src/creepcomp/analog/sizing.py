@@ -277,6 +277,20 @@ def size(model: CreepModel, rule: str = "exact", resistor_series: str | None = "
     Returns
     -------
     SizingReport
+
+    Examples
+    --------
+    The default sensor, 3 % of creep at a retardation time of 45 s, with E24 resistors and
+    E6 capacitors:
+
+    >>> from creepcomp.model import CreepModel
+    >>> from creepcomp.analog.sizing import size
+    >>> report = size(CreepModel(beta=(0.03,), tau=(45.0,)))
+    >>> cell = report.chosen.cells[0]
+    >>> print(f"R1 = {cell.R:.3g} ohm, C1 = {cell.C:.3g} F, R2 = {report.chosen.R2:.3g} ohm")
+    R1 = 3e+06 ohm, C1 = 1.5e-05 F, R2 = 1e+08 ohm
+    >>> report.chosen_quality.residual_creep_peak < 1e-12
+    True
     """
     check_time_constants(model)
     def quality(net):

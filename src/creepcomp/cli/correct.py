@@ -100,15 +100,11 @@ def _correct_in_pieces(record_path, model, method, start, hold, output, out_meta
     """The correction of a CSV record read and written in pieces, or None when the file is
     one to read whole."""
     from creepcomp.digital.record_file import correct_record_file
-    from creepcomp.io.records import NotStreamable
 
-    try:
-        with progress_bar(f"reading {record_path.name}", disable=quiet) as update:
-            return correct_record_file(record_path, model, method, initial=start, hold=hold,
-                                       output=output, output_metadata=out_meta, columns=mapping,
-                                       progress=update)
-    except NotStreamable:
-        return None
+    with progress_bar(f"reading {record_path.name}", disable=quiet) as update:
+        return correct_record_file(record_path, model, method, initial=start, hold=hold,
+                                   output=output, output_metadata=out_meta, columns=mapping,
+                                   progress=update)
 
 
 def _correct_whole(record_path, model, method, start, hold, output, out_meta, mapping, plot, quiet):

@@ -121,7 +121,7 @@ def fit_command(
 
     with progress_bar("fitting", disable=as_json):
         data = prepare(record, initial=init, load_step_at=step)
-        extra = (Applied(effects.get("viscous_flow")),) if flow else ()
+        extra = (Applied(effects.flow_effect()),) if flow else ()
         result = fit_prony(data, max_terms=max_terms, n_terms=fixed, effects=extra)
     model = result.to_dict()
     if reduction:
@@ -146,6 +146,7 @@ def fit_command(
 
 def render_fit(record: Record, result: PronyResult, fixed: int | None) -> None:
     """Print the order search and the chosen model."""
+    from creepcomp.diagnose.effects import flow_effect
     from creepcomp.fit import BIC_STRONG, HELDOUT_Z, term_table
 
     data, fit = result.data, result.fit
@@ -180,8 +181,9 @@ def render_fit(record: Record, result: PronyResult, fixed: int | None) -> None:
     for k, t in enumerate(terms):
         t2.add_row(f"beta[{k}]", format_percent(t["beta"], 4), format_percent(t["beta_sigma"], 2))
         t2.add_row(f"tau[{k}]", format_quantity(t["tau"], "s"), format_quantity(t["tau_sigma"], "s", 2))
-    if fit.structure.has("viscous_flow"):
-        rate = fit.estimate(lambda v: v["viscous_flow.flow"] / v["gain"])
+    flow = flow_effect()
+    if fit.structure.has(flow.name):
+        rate = flow.rate(fit)
         t2.add_row("viscous flow rate (1/s, of the instantaneous signal)", f"{rate[0]:.4g}", f"{rate[1]:.2g}")
     console.print(t2)
     scale = data.signal_scale

@@ -41,7 +41,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from creepcomp.diagnose import effects as effects_pkg
-from creepcomp.diagnose.effects import Effect, compensate_extended
+from creepcomp.diagnose.effects import Effect, SensorEffect, compensate_extended
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data, prepare
 from creepcomp.fit.structure import Applied, Structure
@@ -56,7 +56,8 @@ from creepcomp.fit.reduce import reduce_record
 from creepcomp.lti import lag_states
 from creepcomp.io.records import Record
 
-__all__ = ["MAX_EFFECTS", "REFINED", "CORRECTION_WORSE", "REMAINING_LIMIT", "Finding", "Trial", "Diagnosis", "CatchAll",
+__all__ = ["MAX_EFFECTS", "REFINED", "CORRECTION_WORSE", "REMAINING_LIMIT", "Finding", "Trial", "Candidate",
+           "Search", "Generic", "Diagnosis", "CatchAll",
            "CATCH_ALL", "diagnose", "correction_errors", "DIAGNOSE_MAX_SAMPLES"]
 
 #: Most effects added one after the other.
@@ -359,59 +360,225 @@ def _restart_taus(data: Data, fit: Fit) -> Fit:
     return alt if alt.bic < fit.bic else fit
 
 
-def _candidates(data: Data, current: Fit, pool, step: int, trials: list) -> list:
+@dataclass(frozen=True)
+class Candidate:
+    """A candidate effect fitted on top of the current model at one step of the search.
+
+    Attributes
+    ----------
+    effect : Effect
+    fit : Fit
+        The current model extended by the effect.
+    delta_bic : float
+        Its BIC minus the current model's.
+    evidence : Evidence or None
+        Against the current model, once tested on held-out data.
+    trial : int or None
+        Index of its entry among the trials, once accepted.
+    """
+
+    effect: Effect
+    fit: Fit
+    delta_bic: float
+    evidence: Evidence | None = None
+    trial: int | None = None
+
+
+@dataclass
+class Search:
+    """The state of the search for effects, step by step.
+
+    Attributes
+    ----------
+    current : Fit
+        The model found so far (the baseline before any effect).
+    base : Fit or None
+        The baseline (as refitted at the first step).
+    findings : list of Finding
+        The effects accepted, in order.
+    trials : list of Trial
+        Every candidate tried.
+    """
+
+    current: Fit
+    base: Fit | None = None
+    findings: list = field(default_factory=list)
+    trials: list = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class Generic:
+    """The catch-all on top of a model, and its evidence against it."""
+
+    fit: Fit
+    evidence: Evidence
+
+
+def _no_evidence() -> Evidence:
+    return Evidence(float("nan"), float("nan"), float("nan"))
+
+
+def _quick(data: Data, current: Fit, effect: Effect, step: int, trials: list) -> Candidate | None:
+    """The effect on top of ``current``, its own parameters fitted (the current model's held);
+    None when it cannot be tried (the trial says why)."""
+    reason = effect.applicable(data, current.structure)
+    if reason:
+        if step == 1:
+            trials.append(Trial(step, effect.name, None, None, f"not tried: {reason}"))
+        return None
+    try:
+        f = effect.fit_on(data, current, refine="own")
+    except (InputError, np.linalg.LinAlgError, ValueError) as exc:
+        trials.append(Trial(step, effect.name, None, None, f"fit failed: {exc}"))
+        return None
+    return Candidate(effect, f, f.bic - current.bic)
+
+
+def _refined(data: Data, current: Fit, candidate: Candidate) -> Candidate:
+    """The candidate with every parameter fitted together, when that fits better."""
+    f = candidate.fit
+    try:
+        full = candidate.effect.fit_on(data, current, refine="all",
+                                       start={p.name: f.values[p.name] for p in f.params})
+    except (InputError, np.linalg.LinAlgError, ValueError):
+        return candidate
+    return Candidate(candidate.effect, full, full.bic - current.bic) if full.bic < f.bic else candidate
+
+
+def _screen(data: Data, current: Fit, pool, step: int, trials: list) -> list[Candidate]:
     """Every applicable candidate fitted on top of ``current``: a quick fit of its own
     parameters first (the current model's held); then all parameters together for the
-    :data:`REFINED` best and for any that already lower BIC."""
-    quick = []
-    for effect in pool:
-        reason = effect.applicable(data, current.structure)
-        if reason:
-            if step == 1:
-                trials.append(Trial(step, effect.name, None, None, f"not tried: {reason}"))
-            continue
-        try:
-            f = effect.fit_on(data, current, refine="own")
-        except (InputError, np.linalg.LinAlgError, ValueError) as exc:
-            trials.append(Trial(step, effect.name, None, None, f"fit failed: {exc}"))
-            continue
-        quick.append((f.bic - current.bic, effect, f))
-    quick.sort(key=lambda x: x[0])
+    :data:`REFINED` best and for any that already lower BIC. Best first."""
+    quick = [c for c in (_quick(data, current, effect, step, trials) for effect in pool) if c is not None]
+    quick.sort(key=lambda c: c.delta_bic)
     fitted = []
-    for rank, (delta, effect, f) in enumerate(quick):
-        if rank < REFINED or delta < 0:
-            try:
-                full = effect.fit_on(data, current, refine="all",
-                                     start={p.name: f.values[p.name] for p in f.params})
-                if full.bic < f.bic:
-                    f = full
-            except (InputError, np.linalg.LinAlgError, ValueError):
-                pass
-        reason = effect.unphysical(f, _applied_of(f, effect))
+    for rank, candidate in enumerate(quick):
+        if rank < REFINED or candidate.delta_bic < 0:
+            candidate = _refined(data, current, candidate)
+        effect = candidate.effect
+        reason = effect.unphysical(candidate.fit, _applied_of(candidate.fit, effect))
         if reason:
-            trials.append(Trial(step, effect.name, f.bic - current.bic, None, f"unphysical: {reason}"))
+            trials.append(Trial(step, effect.name, candidate.delta_bic, None, f"unphysical: {reason}"))
             continue
-        fitted.append((f.bic - current.bic, effect, f))
-    return sorted(fitted, key=lambda x: x[0])
+        fitted.append(candidate)
+    return sorted(fitted, key=lambda c: c.delta_bic)
 
 
-def _plain_form(data: Data, current: Fit, effect: Effect, f: Fit, ev: Evidence, delta_bic: float):
+def _polished(data: Data, search: Search, fitted: list[Candidate]) -> list[Candidate]:
+    """When the best candidate lowers BIC strongly, the current model refitted from its values
+    (:func:`_polish`), and the candidates' BIC against that."""
+    if not (fitted and fitted[0].delta_bic <= -BIC_STRONG):
+        return fitted
+    polished = _polish(data, search.current, fitted[0].fit)
+    if polished is search.current:
+        return fitted
+    search.current = polished
+    return sorted((replace(c, delta_bic=c.fit.bic - polished.bic) for c in fitted), key=lambda c: c.delta_bic)
+
+
+def _plain_form(data: Data, current: Fit, candidate: Candidate) -> Candidate:
     """When an effect's shaped template is not supported, its plain form
-    (:meth:`~creepcomp.diagnose.effects.Effect.plain_settings`) in its place if that is:
+    (:meth:`~creepcomp.diagnose.effects.SensorEffect.plain_settings`) in its place if that is:
     a free shape parameter can trade off against others (a thermal lag against flow) and
     predict held-out data worse than the plain template."""
+    effect = candidate.effect
     plain = effect.plain_settings(data, current)
     if plain is None:
-        return f, ev, delta_bic
+        return candidate
     try:
         g = effect.fit_on(data, current, refine="all", settings=plain)
         if g.bic - current.bic > -BIC_STRONG or effect.unphysical(g, _applied_of(g, effect)):
-            return f, ev, delta_bic
+            return candidate
         g = heldout(data, _restart_taus(data, g))
     except (InputError, np.linalg.LinAlgError, ValueError):
-        return f, ev, delta_bic
+        return candidate
     ev_plain = _evidence(data, current, g)
-    return (g, ev_plain, g.bic - current.bic) if ev_plain.supported else (f, ev, delta_bic)
+    return Candidate(effect, g, g.bic - current.bic, ev_plain) if ev_plain.supported else candidate
+
+
+def _tested(data: Data, current: Fit, candidate: Candidate) -> Candidate:
+    """The candidate refitted from a grid of retardation times, with its held-out evidence
+    (its plain form in its place when only that is supported)."""
+    f = heldout(data, _restart_taus(data, candidate.fit))
+    candidate = replace(candidate, fit=f, evidence=_evidence(data, current, f))
+    return candidate if candidate.evidence.supported else _plain_form(data, current, candidate)
+
+
+def _not_tested(candidate: Candidate, accepted: Candidate | None, current: Fit) -> str | None:
+    """Why a candidate is not tested on held-out data (its BIC), or None."""
+    if candidate.delta_bic > -BIC_STRONG:
+        return "not supported (BIC)"
+    # a simpler alternative to the accepted one, if it explains at least half as much
+    if accepted is not None and not (candidate.fit.n_params < accepted.fit.n_params and
+                                     candidate.delta_bic <= 0.5 * (accepted.fit.bic - current.bic)):
+        return "weaker than the accepted one"
+    return None
+
+
+def _generic_better(data: Data, current: Fit, fit: Fit) -> bool:
+    """The catch-all on top of ``current`` predicts held-out data clearly better than ``fit``
+    (then the structure is not what the candidate says)."""
+    wide = _generic(data, current)
+    return (wide is not None and wide.evidence.supported and wide.fit.bic < fit.bic
+            and _evidence(data, fit, wide.fit, refine=False, always_halves=True).supported_heldout)
+
+
+def _choose(data: Data, current: Fit, fitted: list[Candidate], step: int, trials: list) -> Candidate | None:
+    """The candidate accepted at this step (best first; a simpler one that explains at least
+    half as much and predicts held-out data as well replaces it), or None; every candidate
+    tried gets its trial."""
+    accepted = None
+    for candidate in fitted:
+        name = candidate.effect.name
+        why_not = _not_tested(candidate, accepted, current)
+        if why_not:
+            trials.append(Trial(step, name, candidate.delta_bic, None, why_not))
+            continue
+        candidate = _tested(data, current, candidate)
+        ev = candidate.evidence
+        if not ev.supported:
+            trials.append(Trial(step, name, candidate.delta_bic, ev, "not supported (held-out)"))
+            continue
+        if accepted is None:
+            if _generic_better(data, current, candidate.fit):
+                trials.append(Trial(step, name, candidate.delta_bic, ev,
+                                    "the generic extension predicts clearly better"))
+                break
+        elif compare(candidate.fit, accepted.fit).supported_heldout:
+            # parsimony: the richer one must predict held-out data better than this simpler one
+            trials.append(Trial(step, name, candidate.delta_bic, ev,
+                                f"supported, but {accepted.effect.name} predicts better"))
+            continue
+        else:
+            trials[accepted.trial] = Trial(step, accepted.effect.name, accepted.delta_bic, accepted.evidence,
+                                           f"supported, but not better on held-out data than the simpler {name}")
+        accepted = replace(candidate, trial=len(trials))
+        trials.append(Trial(step, name, candidate.delta_bic, ev, "accepted"))
+    return accepted
+
+
+def _record(search: Search, accepted: Candidate) -> None:
+    """The accepted candidate becomes a finding, its fit the current model."""
+    effect, f = accepted.effect, accepted.fit
+    search.findings.append(_finding(effect, _applied_of(f, effect), f, accepted.evidence, search.current))
+    search.current = f
+
+
+def _search(data: Data, pool, max_effects: int) -> Search:
+    """Effects added one at a time while a candidate is supported (steps 1 and 2 of the
+    module's description)."""
+    search = Search(heldout(data, fit_structure(data, Structure(1), one_term_starts(data))))
+    for step in range(1, max_effects + 1):
+        fitted = _polished(data, search, _screen(data, search.current, pool, step, search.trials))
+        if search.base is None:
+            search.base = search.current
+        accepted = _choose(data, search.current, fitted, step, search.trials)
+        if accepted is None:
+            break
+        _record(search, accepted)
+    if search.base is None:
+        search.base = search.current
+    return search
 
 
 def diagnose(record: Record, initial: str = "free", load_step_at: float | None = None,
@@ -434,6 +601,22 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
     max_samples : int or None
         Longer records are reduced to about this many samples first (None: never); one
         already reduced (``metadata["reduced"]``, :func:`~creepcomp.fit.reduce.read_reduced`) is not.
+
+    Returns
+    -------
+    Diagnosis
+
+    Examples
+    --------
+    The bundled record hides a recovery slower than its creep:
+
+    >>> from creepcomp import data
+    >>> from creepcomp.diagnose.sensor import diagnose
+    >>> result = diagnose(data.hidden_effect())
+    >>> result.cause
+    'asymmetric_recovery'
+    >>> round(result.findings[0].parameters["tau_recovery"], -1)
+    150.0
     """
     t_start = _time.perf_counter()
     reduced = record.metadata.get("reduced")    # reduced once already, while read (fit.reduce)
@@ -441,109 +624,64 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
         record, reduced = reduce_record(record, max_samples)
     data = prepare(record, initial=initial, load_step_at=load_step_at)
     pool = effects_pkg.sensor_effects() if candidates is None else [effects_pkg.get(c) for c in candidates]
-    current = heldout(data, fit_structure(data, Structure(1), one_term_starts(data)))
-    base = None
-    findings: list[Finding] = []
-    trials: list[Trial] = []
-    for step in range(1, max_effects + 1):
-        fitted = _candidates(data, current, pool, step, trials)
-        if fitted and fitted[0][0] <= -BIC_STRONG:
-            polished = _polish(data, current, fitted[0][2])
-            if polished is not current:
-                current = polished
-                fitted = sorted(((f.bic - current.bic, e, f) for _, e, f in fitted), key=lambda x: x[0])
-        if base is None:
-            base = current
-        accepted, wide = None, None
-        for delta_bic, effect, f in fitted:
-            # a simpler alternative to the accepted one, if it explains at least half as much
-            simpler = (accepted is not None and f.n_params < accepted[1].n_params
-                       and delta_bic <= 0.5 * (accepted[1].bic - current.bic))
-            if delta_bic > -BIC_STRONG or (accepted is not None and not simpler):
-                trials.append(Trial(step, effect.name, delta_bic, None,
-                                    "not supported (BIC)" if delta_bic > -BIC_STRONG else
-                                    "weaker than the accepted one"))
-                continue
-            f = heldout(data, _restart_taus(data, f))
-            ev = _evidence(data, current, f)
-            if not ev.supported:
-                f, ev, delta_bic = _plain_form(data, current, effect, f, ev, delta_bic)
-            if not ev.supported:
-                trials.append(Trial(step, effect.name, delta_bic, ev, "not supported (held-out)"))
-                continue
-            if accepted is not None:
-                # parsimony: the richer one must predict held-out data better than this simpler one
-                if compare(f, accepted[1]).supported_heldout:
-                    trials.append(Trial(step, effect.name, delta_bic, ev,
-                                        f"supported, but {accepted[0].name} predicts better"))
-                    continue
-                trials[accepted[3]] = Trial(step, accepted[0].name, trials[accepted[3]].delta_bic,
-                                            accepted[2], f"supported, but not better on held-out "
-                                                         f"data than the simpler {effect.name}")
-            else:
-                wide = _generic(data, current)
-                if wide is not None and wide[1].supported and wide[0].bic < f.bic \
-                        and _evidence(data, f, wide[0], refine=False, always_halves=True).supported_heldout:
-                    trials.append(Trial(step, effect.name, delta_bic, ev,
-                                        "the generic extension predicts clearly better"))
-                    break
-            accepted = (effect, f, ev, len(trials))
-            trials.append(Trial(step, effect.name, delta_bic, ev, "accepted"))
-        if accepted is None:
-            break
-        effect, f, ev, _ = accepted
-        findings.append(_finding(effect, _applied_of(f, effect), f, ev, current))
-        current = f
-    if base is None:
-        base = current
-    floor = noise_floor(data.signal, data.load, data.time, follows_lag=True)
+    search = _search(data, pool, max_effects)
+    return _verdict(data, search, correction, reduced, t_start)
+
+
+def _unexplained(data: Data, current: Fit, findings: list, floor: NoiseFloor) -> tuple:
+    """The catch-all's evidence on top of the model found (None: it could not be fitted) and
+    the ``unexplained`` finding (None: none), step 3 of the module's description."""
     generic = _generic(data, current)
-    catch = None
+    catch = generic.evidence if generic is not None else None
     unexplained = None
-    if generic is not None:
-        wide, catch = generic
-        if catch.supported:
-            unexplained = Finding("unexplained", _remaining(current, floor), {}, catch,
-                                  _heldout_sse(current) - _heldout_sse(wide), wide)
+    if generic is not None and catch.supported:
+        unexplained = Finding("unexplained", _remaining(current, floor), {}, catch,
+                              _heldout_sse(current) - _heldout_sse(generic.fit), generic.fit)
     limit = MISFIT_LIMIT
     if findings and catch is not None and catch.delta_bic <= -BIC_STRONG:
         limit = REMAINING_LIMIT
     if unexplained is None and current.residual_rms > limit * floor.rms:
         # the floor says the misfit is not noise, whatever the evidence for a candidate
-        unexplained = Finding("unexplained", _remaining(current, floor), {},
-                              catch or Evidence(float("nan"), float("nan"), float("nan")), 0.0, None,
+        unexplained = Finding("unexplained", _remaining(current, floor), {}, catch or _no_evidence(), 0.0, None,
                               note=_misfit_note(current, floor))
+    return catch, unexplained
+
+
+def _screened(data: Data, current: Fit, base: Fit, findings: list[Finding]) -> list[Finding]:
+    """The findings with the faults of the record that no model column undoes (clipping,
+    channels out of step, coarse quantisation), screened by the sensor effects."""
+    for effect in effects_pkg.sensor_effects():
+        if not isinstance(effect, SensorEffect):
+            continue
+        for problem in effect.screen(data, current, base):
+            named = any(f.effect != "unexplained" for f in findings)
+            importance, note = effect.screened_importance(problem, current, base, named)
+            if note is not None:
+                findings = [replace(f, note=note) if f.effect != "unexplained" else f for f in findings]
+            findings.append(Finding(effect.name, problem, dict.fromkeys(problem), _no_evidence(), importance))
+    return findings
+
+
+def _verdict(data: Data, search: Search, correction: bool, reduced, t_start: float) -> Diagnosis:
+    """The verdict on the search's model (step 3 and 4 of the module's description): the
+    catch-all, the gain, the faults of the record, the findings in order."""
+    current, base, findings = search.current, search.base, list(search.findings)
+    floor = noise_floor(data.signal, data.load, data.time, follows_lag=True)
+    catch, unexplained = _unexplained(data, current, findings, floor)
     extensions = _extensions(current)
     extended_model = model_file_dict(data, current, extensions=extensions)
     baseline_model = model_file_dict(data, base)
     gain = {"heldout_rms_ratio": base.heldout.rms / current.heldout.rms if current.heldout.rms > 0 else None,
             "correction_error_ratio": None}
-    corr = {}
-    if correction:
-        corr = correction_errors(data, base, current, extensions)
-        if corr:
-            gain["correction_error_ratio"] = corr["ratio"]
-            gain["correction_error_baseline"] = corr["baseline_rms"]
-            gain["correction_error_extended"] = corr["extended_rms"]
-            if corr["ratio"] is not None and corr["ratio"] < CORRECTION_WORSE:
-                findings = _correction_notes(data, base, findings)
-    # data problems no model column undoes (clipping, channels out of step, coarse quantisation)
-    from creepcomp.diagnose.effects.data_problem import screen
-    for problem in screen(data, current, base):
-        importance = float("inf")
-        if problem["kind"] == "quantisation":
-            importance = 0.0
-            # on a grid coarser than the noise, what the named effects add together nowhere
-            # reaching half a step is not measured by the record: the grid is the cause
-            reach = float(np.max(np.abs(current.prediction - base.prediction)))
-            if reach < 0.5 * problem["step"] and any(f.effect != "unexplained" for f in findings):
-                importance = float("inf")
-                findings = [replace(f, note=_below_step_note(reach, problem["step"]))
-                            if f.effect != "unexplained" else f for f in findings]
-        findings.append(Finding("data_problem", problem, dict.fromkeys(problem),
-                                Evidence(float("nan"), float("nan"), float("nan")), importance))
-    findings = _ordered(findings, unexplained)
-    return Diagnosis(data, base, current, tuple(findings), tuple(trials), catch, gain,
+    corr = correction_errors(data, base, current, extensions) if correction else {}
+    if corr:
+        gain["correction_error_ratio"] = corr["ratio"]
+        gain["correction_error_baseline"] = corr["baseline_rms"]
+        gain["correction_error_extended"] = corr["extended_rms"]
+        if corr["ratio"] is not None and corr["ratio"] < CORRECTION_WORSE:
+            findings = _correction_notes(data, base, findings)
+    findings = _ordered(_screened(data, current, base, findings), unexplained)
+    return Diagnosis(data, base, current, tuple(findings), tuple(search.trials), catch, gain,
                      _time.perf_counter() - t_start, extended_model, baseline_model, corr, floor,
                      reduced)
 
@@ -562,11 +700,6 @@ def _remaining(fit: Fit, floor: NoiseFloor) -> dict:
     ratio = ratio_to_floor(fit.residual_rms, floor)
     excess = float(np.sqrt(max(fit.residual_rms ** 2 - floor.rms ** 2, 0.0)))
     return {"misfit_ratio": ratio, "excess_rms": excess}
-
-
-def _below_step_note(reach: float, step: float) -> str:
-    return (f"the named effects change the model by {reach:.3g} signal units at most, less than half "
-            f"the record's quantisation step ({step:.3g}): the record does not measure them")
 
 
 def _misfit_note(fit: Fit, floor: NoiseFloor) -> str:
@@ -637,16 +770,16 @@ def _evidence(data: Data, current: Fit, rich: Fit, refine: bool = True,
                                always_halves)
 
 
-def _generic(data: Data, current: Fit) -> tuple[Fit, Evidence] | None:
+def _generic(data: Data, current: Fit) -> Generic | None:
     """The catch-all on top of ``current`` with its evidence (held out only when BIC
     supports it)."""
     wide = _catch_all(data, current)
     if wide is None:
         return None
     if wide.bic - current.bic > -BIC_STRONG:
-        return wide, Evidence(wide.bic - current.bic, float("nan"), float("nan"))
+        return Generic(wide, Evidence(wide.bic - current.bic, float("nan"), float("nan")))
     wide = heldout(data, wide, refine=False)
-    return wide, _evidence(data, current, wide, refine=False, always_halves=True)
+    return Generic(wide, _evidence(data, current, wide, refine=False, always_halves=True))
 
 
 def correction_errors(data: Data, base: Fit, extended: Fit, extensions: dict) -> dict:

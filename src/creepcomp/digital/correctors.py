@@ -377,6 +377,23 @@ def compensate(time, signal, model: CreepModel, method: str = "subtractive", ini
     -------
     numpy.ndarray
         The compensated signal in signal units.
+
+    Examples
+    --------
+    A load step at 10 s seen by a sensor with 3 % of creep at 45 s, corrected back to the load:
+
+    >>> import numpy as np
+    >>> from creepcomp.lti import lag_states
+    >>> from creepcomp.model import CreepModel
+    >>> from creepcomp.digital.correctors import compensate
+    >>> t = np.arange(0.0, 600.0, 0.1)
+    >>> load = np.where(t >= 10.0, 1.0, 0.0)
+    >>> signal = load + 0.03 * lag_states(t, load, [45.0], hold="zero")[:, 0]
+    >>> corrected = compensate(t, signal, CreepModel(beta=(0.03,), tau=(45.0,)))
+    >>> print(f"creep before: {np.max(np.abs(signal - load)):.3f} of the step")
+    creep before: 0.030 of the step
+    >>> bool(np.max(np.abs(corrected - load)) < 1e-12)
+    True
     """
     t = np.asarray(time, dtype=float)
     x = np.asarray(signal, dtype=float)

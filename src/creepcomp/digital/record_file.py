@@ -1,6 +1,6 @@
 """Creep correction of a record file in pieces: memory of one piece at any record length.
 
-Two passes over the file (:func:`creepcomp.io.records.read_record_chunks`): the first finds
+Two passes over the file (:class:`creepcomp.io.records.RecordStream`): the first finds
 the sampling (uniform or not) and the load range, the second runs the :class:`Corrector`,
 whose state carries from piece to piece, takes the creep errors and writes the output
 pieces through the atomic writer. The result equals :func:`compensate` and
@@ -16,8 +16,7 @@ from typing import Callable, Mapping
 
 from creepcomp.digital.correctors import (CreepError, CreepErrorSum, Corrector, default_initial,
                                           uniform_interval_of)
-from creepcomp.io.records import (STREAM_BYTES, NotStreamable, RecordScan, read_record_chunks,
-                                  record_writer, scan_record)
+from creepcomp.io.records import STREAM_BYTES, RecordScan, open_record_stream, record_writer
 from creepcomp.model import CreepModel
 
 __all__ = ["FileCorrection", "correct_record_file"]
@@ -48,7 +47,7 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
                         output_metadata: Mapping[str, str] | None = None,
                         columns: Mapping[str, str] | None = None,
                         progress: Callable[..., None] | None = None,
-                        block_bytes: int = STREAM_BYTES) -> FileCorrection:
+                        block_bytes: int = STREAM_BYTES) -> FileCorrection | None:
     """Compensate a record file piece by piece; optionally write its columns plus
     ``compensated`` to ``output`` (atomically).
 
@@ -67,19 +66,21 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
     progress : callable, optional
         Called as ``progress(rows_done, rows=None, description=None)``.
 
-    Raises
-    ------
-    NotStreamable
-        For a file the chunked reader leaves to :func:`creepcomp.io.records.read_record`, or
-        fewer than 2 samples: correct the whole record instead. No output is left then.
+    Returns
+    -------
+    FileCorrection or None
+        None for a file the chunked reader leaves to :func:`creepcomp.io.records.read_record`
+        (:attr:`~creepcomp.io.records.RecordStream.whole_reason`), or fewer than 2 samples:
+        correct the whole record instead. No output is left then.
     """
     def rows_read(done):
         if progress:
             progress(done)
 
-    scan = scan_record(path, columns, progress=rows_read, block_bytes=block_bytes)
-    if scan.samples < 2:
-        raise NotStreamable(str(path))
+    stream = open_record_stream(path, columns, block_bytes=block_bytes)
+    scan = stream.scan(progress=rows_read)
+    if scan is None or scan.samples < 2:
+        return None
     dt = uniform_interval_of(scan.first_time, scan.last_time, scan.samples, scan.step_min,
                              scan.step_max)
     start = default_initial(method) if initial is None else initial
@@ -92,7 +93,7 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
                if output is not None else contextlib.nullcontext())
     done = 0
     with writing as write:
-        for piece in read_record_chunks(path, columns, block_bytes=block_bytes):
+        for piece in stream:
             compensated = (corrector.process(piece.signal) if dt is not None
                            else corrector.process(piece.signal, piece.time))
             before.add(piece.time, piece.signal, piece.load)
@@ -102,6 +103,8 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
             done += len(piece)
             if progress:
                 progress(done, scan.samples)
-        if done != scan.samples:
-            raise NotStreamable(str(path))          # the file changed between the passes
+        if stream.whole_reason is not None or done != scan.samples:
+            if write is not None:
+                write.discard()
+            return None                             # the file changed between the passes
     return FileCorrection(scan, dt, before.result(), after.result())

@@ -29,7 +29,6 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy import ndimage, optimize
 
-from creepcomp.analog.faults import apply_fault
 from creepcomp.errors import InputError
 from creepcomp.fit.data import gaps
 from creepcomp.fit.evidence import FOLDS, HeldOut, block_index, half_blocks, predict_held_out
@@ -42,7 +41,7 @@ from creepcomp.lti import lag_states
 from creepcomp.network import Network
 
 __all__ = ["MAX_BREAKS", "USED_SHARE", "CircuitData", "prepare", "noise_level", "input_breaks",
-           "CircuitFit", "network_of", "residual_at", "model_params", "fit_model",
+           "CircuitFit", "network_of", "residual_of", "model_params", "fit_model",
            "generic_tau_range", "with_heldout", "halves", "uncertainty"]
 
 
@@ -185,7 +184,7 @@ class CircuitFit:
         return float(np.sqrt(np.mean(self.residual ** 2)))
 
     def describe(self) -> str:
-        """Short text, e.g. ``nominal + capacitor_value``."""
+        """Short text: ``nominal`` and the applied effects' identifiers, e.g. ``nominal + generic lag``."""
         names = [a.name for a in self.applied] + (["generic lag"] if self.generic else [])
         return " + ".join(["nominal"] + names)
 
@@ -283,12 +282,10 @@ def _project(data: CircuitData, net: Network, generic_tau: float | None, mask=No
     return target - cols @ coef, dict(zip(names, coef))
 
 
-def residual_at(data: CircuitData, effect: str, values: dict, cell: int | None = None) -> np.ndarray:
-    """Residual of the nominal network with one circuit effect at ``values`` (natural units;
-    ``cell``: its capacitor, by default the largest; see
-    :func:`creepcomp.analog.faults.apply_fault`), the linear terms (offset, decays) solved as
-    in every fit."""
-    return _project(data, apply_fault(data.design.network, effect, values, cell), None)[0]
+def residual_of(data: CircuitData, network: Network) -> np.ndarray:
+    """Residual of a given (e.g. faulted) network's output against the record, the linear
+    terms (offset, decays) solved as in every fit."""
+    return _project(data, network, None)[0]
 
 
 def model_params(data: CircuitData, applied: tuple) -> list[Param]:

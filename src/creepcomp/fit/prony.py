@@ -79,6 +79,24 @@ def fit_prony(data: Data, max_terms: int = 6, n_terms: int | None = None,
     Each model's likelihood has its own AR noise (its parameters counted by BIC).
     ``effects`` are applied to every model (e.g. ``(Applied(effects.get("viscous_flow")),)``
     for the Burgers model).
+
+    Examples
+    --------
+    A load step at 20 s on a sensor with 3 % of creep at 45 s, sampled at 2 Hz with noise of
+    0.01 % of the step:
+
+    >>> import numpy as np
+    >>> from creepcomp.io.records import Record
+    >>> from creepcomp.lti import lag_states
+    >>> from creepcomp.fit.data import prepare
+    >>> from creepcomp.fit.prony import fit_prony
+    >>> t = np.arange(0.0, 900.0, 0.5)
+    >>> load = np.where(t >= 20.0, 1.0, 0.0)
+    >>> noise = np.random.default_rng(0).normal(0.0, 1e-4, t.size)
+    >>> signal = load + 0.03 * lag_states(t, load, [45.0])[:, 0] + noise
+    >>> model = fit_prony(prepare(Record(t, load, signal), initial="relaxed")).model()
+    >>> print(f"{model.n_terms} term: beta = {model.beta[0]:.3f}, tau = {model.tau[0]:.0f} s")
+    1 term: beta = 0.030, tau = 45 s
     """
     steps: list[OrderStep] = []
     chosen = 0

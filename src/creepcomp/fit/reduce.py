@@ -17,8 +17,7 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from creepcomp.io.records import (COLUMNS, STREAM_BYTES, NotStreamable, Record, read_record_chunks,
-                                  scan_record)
+from creepcomp.io.records import COLUMNS, STREAM_BYTES, Record, open_record_stream
 from creepcomp.units import format_quantity
 
 __all__ = ["MAX_FIT_SAMPLES", "reduce_record", "read_reduced"]
@@ -114,7 +113,7 @@ def read_reduced(path: str | Path, max_samples: Sequence[int] = (MAX_FIT_SAMPLES
     a second sums the blocks of every reduction while reading (the result equals
     :func:`reduce_record` of the whole record to rounding). Other files, records no longer
     than the largest of ``max_samples``, and anything the chunked reader leaves to the full
-    one (:class:`~creepcomp.io.records.NotStreamable`) are read whole
+    one (:attr:`~creepcomp.io.records.RecordStream.whole_reason`) are read whole
     (:func:`creepcomp.io.formats.read_any`) and reduced.
 
     Parameters
@@ -136,32 +135,32 @@ def read_reduced(path: str | Path, max_samples: Sequence[int] = (MAX_FIT_SAMPLES
 
     targets = [max(int(m), 100) for m in max_samples]
     if duplicate_times.strip().lower() == "error" and taxel is None and sheet is None:
-        try:
-            return _read_reduced_chunks(path, targets, columns, delimiter, progress, block_bytes)
-        except NotStreamable:
-            pass
+        reduced = _read_reduced_chunks(path, targets, columns, delimiter, progress, block_bytes)
+        if reduced is not None:
+            return reduced
     record = read_any(path, columns, delimiter=delimiter, duplicate_times=duplicate_times,
                       taxel=taxel, sheet=sheet)
     return [reduce_record(record, m) for m in targets]
 
 
 def _read_reduced_chunks(path, targets, columns, delimiter, progress, block_bytes):
+    """The reductions made while reading the file in pieces, or None for a file to read whole."""
     def rows_read(done):
         if progress:
             progress(done)
 
-    scan = scan_record(path, columns, delimiter, max_changes=max(targets) // 2, progress=rows_read,
-                       block_bytes=block_bytes)
+    stream = open_record_stream(path, columns, delimiter, block_bytes)
+    scan = stream.scan(max_changes=max(targets) // 2, progress=rows_read)
+    if scan is None or scan.samples <= max(targets):
+        return None                             # not streamable, or short enough to read whole
     n = scan.samples
-    if n <= max(targets):
-        raise NotStreamable(str(path))          # short enough to read whole
     plans = [_plan(n, scan.last_time - scan.first_time, scan.load_changes, scan.load_change_count, m)
              for m in targets]
     sums = [{name: np.zeros(len(starts)) for name in scan.names} for starts, _ in plans]
     if progress:
         progress(0, n, "reducing the record")
     lo = 0
-    for piece in read_record_chunks(path, columns, delimiter, block_bytes):
+    for piece in stream:
         hi = lo + len(piece)
         for (starts, _), total in zip(plans, sums):
             first = int(np.searchsorted(starts, lo, side="right")) - 1
@@ -172,8 +171,8 @@ def _read_reduced_chunks(path, targets, columns, delimiter, progress, block_byte
         lo = hi
         if progress:
             progress(lo, n)
-    if lo != n:
-        raise NotStreamable(str(path))          # the file changed between the passes
+    if stream.whole_reason is not None or lo != n:
+        return None                             # the file changed between the passes
     out = []
     for (starts, note), total in zip(plans, sums):
         counts = np.diff(np.append(starts, n))

@@ -26,7 +26,7 @@ __all__ = ["OIML_C3_CREEP", "STEP_POINTS", "RESULT_FILE", "RESULT_VERSION", "run
            "step_creep", "process_unit", "done_row", "one_line", "uninvertible_note"]
 
 #: Default creep limit: OIML R60, accuracy class C (3000 intervals), as a fraction of the
-#: full-scale output (the figure the issue gives for class C3).
+#: full-scale output (class C3).
 OIML_C3_CREEP = 0.000245
 
 #: Most samples of the simulated load step (longer records are sampled more coarsely).

@@ -10,6 +10,12 @@ the first line holding all the mapped names, so an instrument export's preamble 
 a units row right under such a header is read as units (a time column in ``min``, ``ms`` or
 ``h`` is converted to seconds). A mapped value that is a number and not a column name, such
 as ``load=1``, is a constant column: a material test's single load step.
+
+Three readers share the checks of :mod:`creepcomp.io.record_check`: the line reader
+(:func:`parse_record`), which words every fault; pyarrow reading a whole file
+(:func:`read_record`), which leaves a file to the line reader when its head or data are not
+plain; and pyarrow reading a file in pieces (:func:`open_record_stream`), which says when a
+file is to be read whole instead.
 """
 
 from __future__ import annotations
@@ -17,6 +23,7 @@ from __future__ import annotations
 import contextlib
 import csv
 import io
+import itertools
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -25,18 +32,27 @@ from typing import Callable, Iterator, Mapping
 import numpy as np
 
 from creepcomp.errors import InputError
+from creepcomp.io.record_check import (COLUMNS, OPTIONAL, REQUIRED, TIME_UNITS_TO_SECONDS,
+                                       RecordHead, all_finite, apply_units, check_arrays,
+                                       check_delimiter, check_time_order, finish_arrays,
+                                       lower_keys, no_header_error, resolve_columns, row_values,
+                                       sniff_delimiter, take_header_line, time_increases)
 
 __all__ = ["REQUIRED", "OPTIONAL", "COLUMNS", "TIME_UNITS_TO_SECONDS", "Record", "check_arrays",
            "parse_columns", "read_record", "parse_record", "write_record", "WRITE_ROWS",
-           "NotStreamable", "STREAM_BYTES", "read_record_chunks", "record_writer", "RecordScan",
-           "scan_record"]
+           "NotStreamable", "STREAM_BYTES", "RecordStream", "open_record_stream",
+           "read_record_chunks", "record_writer", "RecordScan", "scan_record"]
 
-REQUIRED = ("time", "load", "signal")
-OPTIONAL = ("temperature", "corrected")
-COLUMNS = REQUIRED + OPTIONAL
 #: Rows per block when writing a record (bounds the memory of the text being written).
 WRITE_ROWS = 500_000
-TIME_UNITS_TO_SECONDS = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "min": 60.0, "h": 3600.0, "hr": 3600.0}
+#: Lines read before the header by the pyarrow readers (beyond that the line reader takes over).
+FAST_HEADER_LINES = 10_000
+#: Bytes of CSV text per piece of :func:`open_record_stream` (about 35 000 rows of 3 columns).
+#: Small on purpose: the resident memory of pyarrow's streaming reader grew to about 20
+#: times its block size (390 MB for 16 MB blocks on a 300 MB file; 118 MB for 1 MB blocks).
+STREAM_BYTES = 1 << 20
+#: Files the piecewise reader leaves to other readers (:func:`creepcomp.io.formats.read_any`).
+NOT_STREAMED_SUFFIXES = (".gz", ".mat", ".xlsx")
 
 
 @dataclass(frozen=True)
@@ -138,28 +154,6 @@ class Record:
         return {name: getattr(self, name) for name in COLUMNS if getattr(self, name) is not None}
 
 
-def check_arrays(record: Record) -> None:
-    """Shape, finiteness and time-order checks of a record built from arrays."""
-    n = len(record.time)
-    for name in COLUMNS:
-        value = getattr(record, name)
-        if value is None:
-            continue
-        if value.ndim != 1 or len(value) != n:
-            raise InputError(f"{record.source}: column '{name}' has {value.size} values for "
-                             f"{n} time points")
-        bad = np.flatnonzero(~np.isfinite(value))
-        if bad.size:
-            raise InputError(f"{record.source}: column '{name}', sample {bad[0]}: "
-                             f"{value[bad[0]]} is not a finite number")
-    dt = np.diff(record.time)
-    bad = np.flatnonzero(dt <= 0)
-    if bad.size:
-        i = bad[0] + 1
-        kind = "repeats" if dt[bad[0]] == 0 else "goes back from"
-        raise InputError(f"{record.source}: time is not strictly increasing: sample {i} "
-                         f"({record.time[i]:g} s) {kind} the previous one ({record.time[i - 1]:g} s)")
-
 
 def parse_columns(text: str | None) -> dict[str, str]:
     """Parse ``time=tR,load=P,signal=Ri`` into a mapping; names must be record columns."""
@@ -179,26 +173,14 @@ def parse_columns(text: str | None) -> dict[str, str]:
     return out
 
 
-def _sniff_delimiter(line: str) -> str:
-    for d in (",", "\t", ";"):
-        if d in line:
-            return d
-    return ","
-
-
-def _number(text: str) -> float:
-    return float(text.strip())
-
-
-def _check_delimiter(delimiter: str | None) -> None:
-    if delimiter is not None and (len(delimiter) != 1 or delimiter in "\r\n\"" or delimiter.isalnum()):
-        raise InputError(f"delimiter {delimiter!r}: give one character such as ',', ';' or a "
-                         "tab ('tab'), not a letter, digit, quote or line break")
-
 
 def read_record(path: str | Path, columns: Mapping[str, str] | None = None,
                 delimiter: str | None = None, duplicate_times: str = "error") -> Record:
     """Read and check a measured record.
+
+    A plain file is read by pyarrow; a file whose head or data are not plain (a blank or
+    non-numeric cell, a short row, time not increasing ...) by the line reader
+    (:func:`parse_record`), which names the line and column of the first problem.
 
     Parameters
     ----------
@@ -220,253 +202,316 @@ def read_record(path: str | Path, columns: Mapping[str, str] | None = None,
     Raises
     ------
     InputError
-        Naming the file, line and column of the first problem.
+        Naming the file, line and column of the first problem; or the file and the reason
+        when it cannot be read.
+
+    Examples
+    --------
+    The force-sensor record that ships with the package:
+
+    >>> from creepcomp.data import path
+    >>> record = read_record(path("hidden_effect.csv"))
+    >>> len(record), list(record.columns())
+    (3001, ['time', 'load', 'signal'])
+    >>> record.unit("load"), record.unit("signal"), record.duration
+    ('N', 'V', 1500.0)
     """
     p = Path(path)
-    _check_delimiter(delimiter)
+    check_delimiter(delimiter)
     if p.is_file():
-        try:
-            return _read_fast(p, {k.lower(): v for k, v in (columns or {}).items()}, delimiter,
-                              duplicate_times)
-        except _Slow:
-            pass
-        except OSError:
-            pass                            # the full reader below words the message
+        record = _read_fast(p, lower_keys(columns), delimiter, duplicate_times)
+        if record is not None:
+            return record
     try:
         text = p.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise InputError(f"record {p}: no such file") from None
     except UnicodeDecodeError as exc:
         raise InputError(f"record {p}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
     except OSError as exc:
-        raise InputError(f"record {p}: cannot read it ({exc.strerror})") from None
+        raise _read_error(p, exc) from None
     return parse_record(text, source=str(p), columns=columns, delimiter=delimiter,
                         duplicate_times=duplicate_times)
 
 
+def _read_error(path: Path, exc: OSError) -> InputError:
+    """The message for a record file that cannot be opened or read."""
+    if isinstance(exc, FileNotFoundError):
+        return InputError(f"record {path}: no such file")
+    return InputError(f"record {path}: cannot read it ({exc.strerror})")
+
+
+def _open(path: Path):
+    """``path`` opened for reading bytes; an :class:`InputError` when it cannot be."""
+    try:
+        return path.open("rb")
+    except OSError as exc:
+        raise _read_error(path, exc) from None
+
+
 def parse_record(text: str, source: str = "record", columns: Mapping[str, str] | None = None,
                  delimiter: str | None = None, duplicate_times: str = "error") -> Record:
-    """Parse record text (see :func:`read_record`)."""
-    _check_delimiter(delimiter)
-    mapping = {k.lower(): v for k, v in (columns or {}).items()}
+    """Parse record text line by line (see :func:`read_record`).
+
+    Faults are found in this order: the header (a missing or unmapped column, an unknown
+    time unit), the cells row by row, no data, the time order.
+    """
+    check_delimiter(delimiter)
+    mapping = lower_keys(columns)
     lines = text.splitlines()
     metadata: dict[str, str] = {}
-    header_at = None
-    for i, line in enumerate(lines):
-        if _is_header(line, mapping, delimiter, metadata):
-            header_at = i
-            break
+    header_at = next((i for i, line in enumerate(lines)
+                      if take_header_line(line, mapping, delimiter, metadata)), None)
     if header_at is None:
-        if mapping:
-            raise InputError(f"{source}: no header line holds the mapped columns "
-                             f"{', '.join(repr(v) for v in mapping.values() if not _is_number(v))}")
-        raise InputError(f"{source}: no header line (the file is empty or all comments)")
-    d = delimiter or _sniff_delimiter(lines[header_at])
+        raise no_header_error(source, mapping)
+    d = delimiter or sniff_delimiter(lines[header_at])
     reader = csv.reader(io.StringIO("\n".join(lines[header_at:])), delimiter=d)
     header = [h.strip() for h in next(reader)]
-    index = _resolve_columns(header, mapping, source, header_at)
+    column_map = resolve_columns(header, mapping, source, header_at)
     rows = list(reader)
-    first_data = header_at + 2
-    units_row = None
-    if mapping and rows and not _row_is_numeric(rows[0], index):
-        units_row, rows, first_data = rows[0], rows[1:], first_data + 1
-    values = {name: [] for name in index}
+    units_row = rows[0] if mapping and rows and column_map.is_units_row(rows[0]) else None
+    head = RecordHead(source, metadata, column_map, d, header_at, units_row)
+    if units_row is not None:
+        rows = rows[1:]
+    time_scale = apply_units(head)
+    values: list[list[float]] = [[] for _ in column_map.read]
+    line_of_sample = []
     for offset, row in enumerate(rows):
-        line_no = first_data + offset
-        if not row or all(not f.strip() for f in row):
+        line_no = head.first_data_line + offset
+        row_of_values = row_values(row, head, line_no)
+        if row_of_values is None:
             continue
-        for name, col in index.items():
-            if isinstance(col, float):
-                values[name].append(col)
-                continue
-            if col >= len(row):
-                raise InputError(f"{source}, line {line_no}: column '{header[col]}' is missing "
-                                 f"(the row has {len(row)} fields)")
-            cell = row[col].strip()
-            try:
-                x = _number(cell)
-            except ValueError:
-                raise InputError(f"{source}, line {line_no}, column '{header[col]}': "
-                                 f"'{cell}' is not a number") from None
-            if not math.isfinite(x):
-                raise InputError(f"{source}, line {line_no}, column '{header[col]}': "
-                                 f"'{cell}' is not a finite number")
-            values[name].append(x)
-    arrays = {name: np.array(v, dtype=float) for name, v in values.items()}
-    arrays = _finish(arrays, metadata, units_row, index, source, header_at, duplicate_times)
-    _check_time_order(arrays["time"], source, first_data, rows)
-    return Record(source=source, metadata=metadata,
-                  **{name: arrays.get(name) for name in COLUMNS})
+        for column, x in zip(values, row_of_values):
+            column.append(x)
+        line_of_sample.append(line_no)
+    arrays = {name: np.array(v, dtype=float) for name, v in zip(column_map.read, values)}
+    arrays.update(column_map.constant_arrays(len(line_of_sample)))
+    arrays = finish_arrays(arrays, head, time_scale, duplicate_times)
+    check_time_order(arrays["time"], source, line_of_sample.__getitem__)
+    return Record(source=source, metadata=metadata, **{name: arrays.get(name) for name in COLUMNS})
 
 
-def _finish(arrays: dict, metadata: dict, units_row, index: dict, source: str, header_at: int,
-            duplicate_times: str) -> dict:
-    """Units from a units row (time converted to seconds), the empty check, merged duplicates."""
-    scale = _apply_units(metadata, units_row, index, source)
-    if scale != 1.0:
-        arrays["time"] = arrays["time"] * scale
-    if len(arrays["time"]) == 0:
-        raise InputError(f"{source}: no data rows after the header (line {header_at + 1})")
-    if duplicate_times == "mean":
-        arrays, merged = _merge_duplicate_times(arrays)
-        if merged:
-            metadata["merged_duplicate_times"] = str(merged)
-    elif duplicate_times != "error":
-        raise InputError(f"duplicate_times '{duplicate_times}': use 'error' or 'mean'")
-    return arrays
-
-
-def _apply_units(metadata: dict, units_row, index: dict, source: str) -> float:
-    """Put a units row's units into ``metadata``; the factor that converts time to seconds."""
-    if units_row is None:
-        return 1.0
-    for name, col in index.items():
-        if not isinstance(col, float) and col < len(units_row) and units_row[col].strip():
-            metadata.setdefault(f"units.{name}", units_row[col].strip())
-    scale = TIME_UNITS_TO_SECONDS.get(metadata.get("units.time", "s").strip().lower())
-    if scale is None:
-        raise InputError(f"{source}: time unit '{metadata['units.time']}' is not one of "
-                         f"{', '.join(TIME_UNITS_TO_SECONDS)}")
-    if scale != 1.0:
-        metadata["units.time"] = f"s (converted from {metadata['units.time']})"
-    return scale
-
-
-class _Slow(Exception):
-    """The fast reader met something it leaves to the line-by-line parser (and its message)."""
-
-
-#: Lines read before the header by the fast reader (beyond that the full parser takes over).
-FAST_HEADER_LINES = 10_000
-
-
-@dataclass
-class _FastHead:
-    """What the fast readers learn before the data: metadata, columns, where the data start."""
-
-    metadata: dict
-    header: list
-    index: dict
-    delimiter: str
-    header_at: int
-    units_row: list | None
-
-    @property
-    def wanted(self) -> dict[str, str]:
-        """Record column -> the name pyarrow gives the file's column."""
-        return {name: f"c{col}" for name, col in self.index.items() if not isinstance(col, float)}
-
-    def csv_options(self, block_size: int | None = None) -> dict:
-        """pyarrow CSV options that read the wanted columns as float64."""
-        import pyarrow as pa
-        import pyarrow.csv as pacsv
-
-        read = pacsv.ReadOptions(column_names=[f"c{k}" for k in range(len(self.header))],
-                                 **({"block_size": block_size} if block_size else {}))
-        return {"read_options": read, "parse_options": pacsv.ParseOptions(delimiter=self.delimiter),
-                "convert_options": pacsv.ConvertOptions(
-                    include_columns=sorted(set(self.wanted.values())),
-                    column_types={c: pa.float64() for c in self.wanted.values()})}
-
-
-def _fast_head(fh, source: str, mapping: dict, delimiter: str | None) -> _FastHead:
-    """Read up to the header (and a units row) from the binary file ``fh``, leaving it at the
-    first data line; :class:`_Slow` for anything the line parser should word."""
+def _read_head(fh, source: str, mapping: dict, delimiter: str | None) -> RecordHead | None:
+    """The head of the binary file ``fh`` (up to the header and a units row), leaving ``fh``
+    at the first data line; None when the head is for the line reader: a line that is not
+    UTF-8 or holds other line separators, or no header in the first
+    :data:`FAST_HEADER_LINES` lines. Raise for a missing column."""
     metadata: dict[str, str] = {}
     header_at, header_line = None, None
     for i in range(FAST_HEADER_LINES):
         raw = fh.readline()
         if not raw:
             break
-        try:
-            line = raw.decode("utf-8-sig" if i == 0 else "utf-8")
-        except UnicodeDecodeError:
-            raise _Slow() from None
-        if len(line.splitlines()) > 1:
-            raise _Slow()               # separators other than newlines: leave to the parser
-        if _is_header(line, mapping, delimiter, metadata):
+        line = _decode(raw, "utf-8-sig" if i == 0 else "utf-8")
+        if line is None or len(line.splitlines()) > 1:
+            return None
+        if take_header_line(line, mapping, delimiter, metadata):
             header_at, header_line = i, line
             break
     if header_at is None:
-        raise _Slow()
-    d = delimiter or _sniff_delimiter(header_line)
+        return None
+    d = delimiter or sniff_delimiter(header_line)
     header = [h.strip() for h in next(csv.reader([header_line], delimiter=d))]
-    index = _resolve_columns(header, mapping, source, header_at)
+    column_map = resolve_columns(header, mapping, source, header_at)
     start = fh.tell()
     units_row = None
     if mapping:
-        raw = fh.readline()
-        try:
-            row = next(csv.reader([raw.decode("utf-8")], delimiter=d), [])
-        except UnicodeDecodeError:
-            raise _Slow() from None
-        if not _row_is_numeric(row, index):
+        line = _decode(fh.readline(), "utf-8")
+        if line is None:
+            return None
+        row = next(csv.reader([line], delimiter=d), [])
+        if column_map.is_units_row(row):
             units_row, start = row, fh.tell()
     fh.seek(start)
-    return _FastHead(metadata, header, index, d, header_at, units_row)
+    return RecordHead(source, metadata, column_map, d, header_at, units_row)
 
 
-def _read_fast(path: Path, mapping: dict, delimiter: str | None,
-               duplicate_times: str) -> Record:
-    """Read a well-formed record with pyarrow's CSV reader (fast, little memory).
+def _decode(raw: bytes, encoding: str) -> str | None:
+    try:
+        return raw.decode(encoding)
+    except UnicodeDecodeError:
+        return None
 
-    Only the lines up to the header (and a units row) are parsed in Python; the data go to
-    pyarrow as float64. Anything unusual (a blank or non-numeric cell, a short row, a
-    non-finite value, time not increasing, a non-UTF-8 byte) raises :class:`_Slow`, and the
-    line-by-line parser, which names the line and column, reads the file instead.
-    """
+
+def _csv_options(head: RecordHead, block_size: int | None = None) -> dict:
+    """pyarrow CSV options that read the head's file columns as float64 (named ``c<index>``)."""
     import pyarrow as pa
     import pyarrow.csv as pacsv
 
-    source = str(path)
-    with path.open("rb") as fh:
-        head = _fast_head(fh, source, mapping, delimiter)
-        try:
-            table = pacsv.read_csv(fh, **head.csv_options())
-        except (pa.ArrowException, ValueError):
-            raise _Slow() from None
-    columns = {name: table.column(c) for name, c in head.wanted.items()}
-    n = table.num_rows
-    del table
-    if n == 0 or any(col.null_count for col in columns.values()):
-        raise _Slow()
+    wanted = sorted({f"c{index}" for index in head.columns.read.values()})
+    read = pacsv.ReadOptions(column_names=[f"c{k}" for k in range(len(head.columns.header))],
+                             **({"block_size": block_size} if block_size else {}))
+    return {"read_options": read, "parse_options": pacsv.ParseOptions(delimiter=head.delimiter),
+            "convert_options": pacsv.ConvertOptions(include_columns=wanted,
+                                                    column_types={c: pa.float64() for c in wanted})}
+
+
+def _columns_of(table, head: RecordHead) -> dict:
+    """Record column -> its pyarrow column in ``table`` (read with :func:`_csv_options`)."""
+    return {name: table.column(f"c{index}") for name, index in head.columns.read.items()}
+
+
+def _plain_arrays(columns: dict, head: RecordHead, n: int) -> dict[str, np.ndarray] | None:
+    """The record's columns from pyarrow's float64 columns (each released once converted, to
+    bound memory) and its constants; None when a cell is blank or a value is not finite."""
+    if any(column.null_count for column in columns.values()):
+        return None
     arrays = {}
     for name in list(columns):
         chunks = columns.pop(name).chunks
         arrays[name] = np.concatenate([c.to_numpy(zero_copy_only=False) for c in chunks])
         del chunks
-        if not np.isfinite(arrays[name]).all():
-            raise _Slow()
-    for name, col in head.index.items():
-        if isinstance(col, float):
-            arrays[name] = np.full(n, col)
-    metadata = head.metadata
-    arrays = _finish(arrays, metadata, head.units_row, head.index, source, head.header_at,
-                     duplicate_times)
-    if not np.all(np.diff(arrays["time"]) > 0):
-        raise _Slow()
-    return Record(source=source, metadata=metadata, **{name: arrays.get(name) for name in COLUMNS})
+    if not all_finite(arrays):
+        return None
+    arrays.update(head.columns.constant_arrays(n))
+    return arrays
+
+
+def _read_fast(path: Path, mapping: dict, delimiter: str | None,
+               duplicate_times: str) -> Record | None:
+    """Read a plain record with pyarrow's CSV reader (fast, little memory); None when the
+    file is for the line reader, which names the line and column of a problem.
+
+    Only the lines up to the header (and a units row) are parsed in Python; the data go to
+    pyarrow as float64. A blank or non-numeric cell, a short or long row, no data, a
+    non-finite value, time not increasing or a head the line reader must read
+    (:func:`_read_head`) leave the file to the line reader.
+    """
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    source = str(path)
+    with _open(path) as fh:
+        head = _read_head(fh, source, mapping, delimiter)
+        if head is None:
+            return None
+        time_scale = apply_units(head)
+        try:
+            table = pacsv.read_csv(fh, **_csv_options(head))
+        except (pa.ArrowException, ValueError):
+            return None
+    n = table.num_rows
+    arrays = _plain_arrays(_columns_of(table, head), head, n) if n else None
+    del table
+    if arrays is None:
+        return None
+    arrays = finish_arrays(arrays, head, time_scale, duplicate_times)
+    if not time_increases(arrays["time"]):
+        return None
+    return Record(source=source, metadata=head.metadata,
+                  **{name: arrays.get(name) for name in COLUMNS})
 
 
 class NotStreamable(Exception):
-    """A record :func:`read_record_chunks` leaves to :func:`read_record` (read whole): not a
-    plain CSV file, or something in it that the full reader words (a bad cell, time going
-    back), or repeated time stamps to average."""
+    """Raised by :func:`read_record_chunks` and :func:`scan_record` for a record to read
+    whole (:func:`read_record`) instead: :attr:`RecordStream.whole_reason` says why."""
 
 
-#: Bytes of CSV text per piece of :func:`read_record_chunks` (about 35 000 rows of 3 columns).
-#: Small on purpose: the resident memory of pyarrow's streaming reader grew to about 20
-#: times its block size (390 MB for 16 MB blocks on a 300 MB file; 118 MB for 1 MB blocks).
-STREAM_BYTES = 1 << 20
+class RecordStream:
+    """A record file read in consecutive pieces, each a :class:`Record` of some thousand
+    rows, in the memory of one piece (:func:`open_record_stream`).
+
+    The pieces hold exactly what :func:`read_record` would read (same metadata, units and
+    time conversion); every piece's time follows the previous piece's. A file that is not
+    a plain CSV record is read whole instead: :attr:`whole_reason` says so, before any
+    piece, or when a piece holds something only the line reader words (a bad cell, time
+    going back); the iteration then ends early. The stream can be iterated more than once
+    (each pass reads the file again).
+
+    Attributes
+    ----------
+    source : str
+        The file.
+    """
+
+    def __init__(self, path: Path, head: RecordHead | None, data_start: int, block_bytes: int,
+                 refused: str | None = None):
+        self.source = str(path)
+        self._path, self._head, self._data_start = path, head, data_start
+        self._block_bytes = block_bytes
+        self._refused, self._stopped = refused, None
+        self._time_scale = apply_units(head) if head is not None else 1.0
+
+    @property
+    def whole_reason(self) -> str | None:
+        """Why the file is to be read whole (:func:`read_record`), or None while its pieces
+        are all a plain record."""
+        return self._refused or self._stopped
+
+    def __iter__(self) -> Iterator[Record]:
+        import pyarrow as pa
+        import pyarrow.csv as pacsv
+
+        self._stopped = None
+        if self._refused is not None:
+            return
+        head = self._head
+        with _open(self._path) as fh:
+            fh.seek(self._data_start)
+            try:
+                reader = pacsv.open_csv(fh, **_csv_options(head, self._block_bytes))
+            except (pa.ArrowException, ValueError) as exc:
+                self._stopped = f"pyarrow cannot read it as CSV ({exc})"
+                return
+            last_time, rows = None, 0
+            while True:
+                try:
+                    batch = reader.read_next_batch()
+                except StopIteration:
+                    break
+                except (pa.ArrowException, ValueError) as exc:
+                    self._stopped = f"pyarrow cannot read the rows after row {rows} ({exc})"
+                    return
+                n = batch.num_rows
+                if n == 0:
+                    continue
+                arrays = _plain_arrays(_columns_of(pa.Table.from_batches([batch]), head), head, n)
+                if arrays is None:
+                    self._stopped = f"a blank cell or a value that is not finite after row {rows}"
+                    return
+                if self._time_scale != 1.0:
+                    arrays["time"] = arrays["time"] * self._time_scale
+                if not time_increases(arrays["time"], last_time):
+                    self._stopped = f"time not strictly increasing after row {rows}"
+                    return
+                last_time = float(arrays["time"][-1])
+                rows += n
+                yield Record(source=self.source, metadata=dict(head.metadata),
+                             **{name: arrays.get(name) for name in COLUMNS})
+        if rows == 0:
+            self._stopped = "nothing after the header"
+
+    def scan(self, max_changes: int = 0,
+             progress: Callable[[int], None] | None = None) -> RecordScan | None:
+        """One pass over the pieces (:class:`RecordScan`); None when the file is to be read
+        whole (:attr:`whole_reason`).
+
+        Parameters
+        ----------
+        max_changes : int
+            Keep the indices of up to this many load changes (they are counted in any case).
+        progress : callable, optional
+            Called as ``progress(rows_read)``.
+        """
+        pieces = iter(self)
+        first = next(pieces, None)
+        if first is None:
+            return None
+
+        def counted():
+            done = 0
+            for piece in itertools.chain([first], pieces):
+                done += len(piece)
+                if progress:
+                    progress(done)
+                yield piece
+
+        scan = RecordScan.of(first, counted(), max_changes)
+        return None if self.whole_reason is not None else scan
 
 
-def read_record_chunks(path: str | Path, columns: Mapping[str, str] | None = None,
-                       delimiter: str | None = None, block_bytes: int = STREAM_BYTES) -> Iterator[Record]:
-    """Read a record in consecutive pieces, each a :class:`Record` of some thousand rows.
-
-    Memory stays that of one piece whatever the record's length. The pieces hold exactly
-    what :func:`read_record` would read (same metadata, units and time conversion); every
-    piece's time follows the previous piece's.
+def open_record_stream(path: str | Path, columns: Mapping[str, str] | None = None,
+                       delimiter: str | None = None,
+                       block_bytes: int = STREAM_BYTES) -> RecordStream:
+    """A record file to read in pieces (:class:`RecordStream`), or to read whole.
 
     Parameters
     ----------
@@ -477,6 +522,44 @@ def read_record_chunks(path: str | Path, columns: Mapping[str, str] | None = Non
     block_bytes : int
         CSV text per piece.
 
+    Returns
+    -------
+    RecordStream
+        Its :attr:`~RecordStream.whole_reason` is set already for a file that is not a plain
+        CSV file (compressed, missing, a head that is not plain UTF-8 lines).
+
+    Raises
+    ------
+    InputError
+        For problems of the header (missing column, unknown time unit), or a file that
+        cannot be opened.
+    """
+    p = Path(path)
+    check_delimiter(delimiter)
+    if p.suffix.lower() in NOT_STREAMED_SUFFIXES:
+        return RecordStream(p, None, 0, block_bytes, f"a '{p.suffix}' file, not a plain CSV file")
+    if not p.is_file():
+        return RecordStream(p, None, 0, block_bytes, "not a file")
+    with _open(p) as fh:
+        head = _read_head(fh, str(p), lower_keys(columns), delimiter)
+        start = fh.tell()
+    if head is None:
+        return RecordStream(p, None, 0, block_bytes,
+                            "its head is not plain UTF-8 lines with a header in the first "
+                            f"{FAST_HEADER_LINES} lines")
+    return RecordStream(p, head, start, block_bytes)
+
+
+def read_record_chunks(path: str | Path, columns: Mapping[str, str] | None = None,
+                       delimiter: str | None = None, block_bytes: int = STREAM_BYTES) -> Iterator[Record]:
+    """The pieces of a record file (:class:`RecordStream`), raising at the end of a file to
+    read whole.
+
+    Parameters
+    ----------
+    path, columns, delimiter, block_bytes
+        As :func:`open_record_stream`.
+
     Yields
     ------
     Record
@@ -484,150 +567,15 @@ def read_record_chunks(path: str | Path, columns: Mapping[str, str] | None = Non
     Raises
     ------
     NotStreamable
-        When the file is not a plain, well-formed CSV record: read it with :func:`read_record`
-        instead (it words any problem). This can happen after some pieces were yielded.
+        When the file is to be read with :func:`read_record` instead (it words any
+        problem). This can happen after some pieces were yielded.
     InputError
         For problems of the header (missing column, unknown time unit).
     """
-    import pyarrow as pa
-    import pyarrow.csv as pacsv
-
-    p = Path(path)
-    _check_delimiter(delimiter)
-    if p.suffix.lower() in (".gz", ".mat", ".xlsx") or not p.is_file():
-        raise NotStreamable(str(p))
-    source = str(p)
-    mapping = {k.lower(): v for k, v in (columns or {}).items()}
-    try:
-        fh = p.open("rb")
-    except OSError:
-        raise NotStreamable(source) from None
-    with fh:
-        try:
-            head = _fast_head(fh, source, mapping, delimiter)
-        except _Slow:
-            raise NotStreamable(source) from None
-        scale = _apply_units(head.metadata, head.units_row, head.index, source)
-        try:
-            reader = pacsv.open_csv(fh, **head.csv_options(block_bytes))
-        except (pa.ArrowException, ValueError):
-            raise NotStreamable(source) from None
-        last_time, rows = None, 0
-        while True:
-            try:
-                batch = reader.read_next_batch()
-            except StopIteration:
-                break
-            except (pa.ArrowException, ValueError):
-                raise NotStreamable(source) from None
-            n = batch.num_rows
-            if n == 0:
-                continue
-            arrays = {}
-            for name, c in head.wanted.items():
-                col = batch.column(c)
-                if col.null_count:
-                    raise NotStreamable(source)
-                arrays[name] = col.to_numpy(zero_copy_only=False)
-                if not np.isfinite(arrays[name]).all():
-                    raise NotStreamable(source)
-            for name, col in head.index.items():
-                if isinstance(col, float):
-                    arrays[name] = np.full(n, col)
-            if scale != 1.0:
-                arrays["time"] = arrays["time"] * scale
-            t = arrays["time"]
-            if not (np.all(np.diff(t) > 0) and (last_time is None or t[0] > last_time)):
-                raise NotStreamable(source)
-            last_time = float(t[-1])
-            rows += n
-            yield Record(source=source, metadata=dict(head.metadata),
-                         **{name: arrays.get(name) for name in COLUMNS})
-        if rows == 0:
-            raise NotStreamable(source)
-
-
-def _is_header(line: str, mapping: Mapping[str, str], delimiter: str | None,
-               metadata: dict) -> bool:
-    """True for the header line; a ``# key: value`` line before it goes into ``metadata``."""
-    stripped = line.strip()
-    if stripped.startswith("#"):
-        body = stripped.lstrip("#").strip()
-        if ":" in body:
-            key, value = body.split(":", 1)
-            metadata[key.strip()] = value.strip()
-        return False
-    if not stripped:
-        return False
-    if not mapping:
-        return True
-    d = delimiter or _sniff_delimiter(line)
-    fields = [f.strip() for f in next(csv.reader([line], delimiter=d))]
-    wanted = [v for v in mapping.values() if not _is_number(v)]
-    return all(any(f.lower() == w.lower() for f in fields) for w in wanted)
-
-
-def _resolve_columns(header: list[str], mapping: Mapping[str, str], source: str,
-                     header_at: int) -> dict[str, int | float]:
-    """Record column -> index in the header (or a constant value); raise for missing ones."""
-    lowered = [h.lower() for h in header]
-    index: dict[str, int | float] = {}
-    for name in COLUMNS:
-        wanted = mapping.get(name, name if name not in mapping else None)
-        if name in mapping and _is_number(mapping[name]) and mapping[name].lower() not in lowered:
-            index[name] = float(mapping[name])
-            continue
-        if wanted is not None and wanted.lower() in lowered:
-            index[name] = lowered.index(wanted.lower())
-        elif name in mapping:
-            raise InputError(f"{source}, line {header_at + 1}: mapped column '{mapping[name]}' for "
-                             f"'{name}' not found; columns found: {', '.join(header)}")
-    missing = [c for c in REQUIRED if c not in index]
-    if missing:
-        raise InputError(f"{source}, line {header_at + 1}: missing required column"
-                         f"{'s' if len(missing) > 1 else ''} {', '.join(repr(m) for m in missing)}; "
-                         f"columns found: {', '.join(header)} (map others with --columns)")
-    return index
-
-
-def _merge_duplicate_times(arrays: dict) -> tuple[dict, int]:
-    """Average the rows of each run of equal time stamps (time must not go backwards)."""
-    t = arrays["time"]
-    if np.any(np.diff(t) < 0):
-        return arrays, 0           # going backwards stays an error, reported by the caller
-    starts = np.flatnonzero(np.diff(t, prepend=np.nan) != 0)
-    counts = np.diff(np.append(starts, len(t)))
-    merged = {name: np.add.reduceat(v, starts) / counts for name, v in arrays.items()}
-    return merged, int(len(t) - len(starts))
-
-
-def _check_time_order(t: np.ndarray, source: str, first_data: int, rows) -> None:
-    dt = np.diff(t)
-    bad = np.flatnonzero(dt <= 0)
-    if bad.size:
-        k = bad[0] + 1
-        nonblank = [i for i, r in enumerate(rows) if r and any(f.strip() for f in r)]
-        line_no = first_data + nonblank[k]
-        what = "repeats the previous time" if dt[bad[0]] == 0 else "is earlier than the previous time"
-        raise InputError(f"{source}, line {line_no}, column 'time': {t[k]:g} {what} "
-                         f"({t[k - 1]:g}); time must be strictly increasing")
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
-
-
-def _row_is_numeric(row, index) -> bool:
-    for col in index.values():
-        if isinstance(col, float) or col >= len(row):
-            continue
-        if not _is_number(row[col].strip()):
-            return False
-    return True
+    stream = open_record_stream(path, columns, delimiter, block_bytes)
+    yield from stream
+    if stream.whole_reason is not None:
+        raise NotStreamable(stream.source)
 
 
 @dataclass(frozen=True)
@@ -699,17 +647,18 @@ class RecordScan:
                    if count <= max_changes else None)
 
 
+
 def scan_record(path: str | Path, columns: Mapping[str, str] | None = None,
                 delimiter: str | None = None, max_changes: int = 0,
                 progress: Callable[[int], None] | None = None,
                 block_bytes: int = STREAM_BYTES) -> RecordScan:
-    """One pass over a record file in pieces (:func:`read_record_chunks`): its length, time
+    """One pass over a record file in pieces (:meth:`RecordStream.scan`): its length, time
     span and steps, load range and load changes, in the memory of one piece.
 
     Parameters
     ----------
-    path, columns, delimiter
-        As :func:`read_record_chunks`.
+    path, columns, delimiter, block_bytes
+        As :func:`open_record_stream`.
     max_changes : int
         Keep the indices of up to this many load changes (they are counted in any case).
     progress : callable, optional
@@ -718,32 +667,21 @@ def scan_record(path: str | Path, columns: Mapping[str, str] | None = None,
     Raises
     ------
     NotStreamable
-        As :func:`read_record_chunks`.
+        For a file to read whole (:attr:`RecordStream.whole_reason`).
     """
-    pieces = read_record_chunks(path, columns, delimiter, block_bytes)
-    first = next(pieces)
-
-    def counted():
-        done = 0
-        for piece in _chain_first(first, pieces):
-            done += len(piece)
-            if progress:
-                progress(done)
-            yield piece
-
-    return RecordScan.of(first, counted(), max_changes)
-
-
-def _chain_first(first, rest):
-    yield first
-    yield from rest
+    stream = open_record_stream(path, columns, delimiter, block_bytes)
+    scan = stream.scan(max_changes, progress)
+    if scan is None:
+        raise NotStreamable(stream.source)
+    return scan
 
 
 @contextlib.contextmanager
 def record_writer(path: str | Path, names: list[str], metadata: Mapping[str, str],
                   digits: int | None = None) -> Iterator[Callable[[Mapping[str, np.ndarray]], None]]:
     """Write a record piece by piece, atomically: the file appears, complete, when the block
-    ends, and not at all when it raises (:mod:`creepcomp.io.atomic`).
+    ends, and not at all when it raises or the writer was discarded
+    (:mod:`creepcomp.io.atomic`).
 
     Parameters
     ----------
@@ -759,30 +697,55 @@ def record_writer(path: str | Path, names: list[str], metadata: Mapping[str, str
     Yields
     ------
     callable
-        ``write(columns)``: append rows, one array per name (equal lengths).
+        ``write(columns)``: append rows, one array per name (equal lengths);
+        ``write.discard()``: leave no file when the block ends.
     """
-    import pyarrow as pa
-    import pyarrow.csv as pacsv
-
     from creepcomp.io.atomic import atomic_path
 
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(p) as tmp, tmp.open("wb") as fh:
-        head = "".join(f"# {key}: {value}\n" for key, value in metadata.items()) + ",".join(names) + "\n"
-        fh.write(head.encode("utf-8"))
-        options = pacsv.WriteOptions(include_header=False)
+    try:
+        with atomic_path(p) as tmp, tmp.open("wb") as fh:
+            head = "".join(f"# {key}: {value}\n" for key, value in metadata.items()) + ",".join(names) + "\n"
+            fh.write(head.encode("utf-8"))
+            writer = _PieceWriter(fh, list(names), digits)
+            yield writer
+            if writer.discarded:
+                raise _Discarded()        # atomic_path removes its file when the block raises
+    except _Discarded:
+        pass
 
-        def write(columns: Mapping[str, np.ndarray]) -> None:
-            for lo in range(0, len(columns[names[0]]), WRITE_ROWS):
-                part = {k: np.asarray(columns[k], dtype=float)[lo:lo + WRITE_ROWS] for k in names}
-                if digits is None:
-                    pacsv.write_csv(pa.table(part), fh, options)
-                else:
-                    np.savetxt(fh, np.column_stack(list(part.values())), delimiter=",",
-                               fmt=f"%.{int(digits)}g")
 
-        yield write
+class _Discarded(Exception):
+    """A discarded :func:`record_writer` block: its file is removed, nothing is reported."""
+
+
+class _PieceWriter:
+    """The ``write`` of :func:`record_writer`."""
+
+    def __init__(self, fh, names: list[str], digits: int | None):
+        import pyarrow.csv as pacsv
+
+        self._fh, self._names, self._digits = fh, names, digits
+        self._options = pacsv.WriteOptions(include_header=False)
+        self.discarded = False
+
+    def __call__(self, columns: Mapping[str, np.ndarray]) -> None:
+        import pyarrow as pa
+        import pyarrow.csv as pacsv
+
+        names = self._names
+        for lo in range(0, len(columns[names[0]]), WRITE_ROWS):
+            part = {k: np.asarray(columns[k], dtype=float)[lo:lo + WRITE_ROWS] for k in names}
+            if self._digits is None:
+                pacsv.write_csv(pa.table(part), self._fh, self._options)
+            else:
+                np.savetxt(self._fh, np.column_stack(list(part.values())), delimiter=",",
+                           fmt=f"%.{int(self._digits)}g")
+
+    def discard(self) -> None:
+        """Leave no file when the writer's block ends."""
+        self.discarded = True
 
 
 def write_record(path: str | Path, record: Record, extra: Mapping[str, np.ndarray] | None = None,

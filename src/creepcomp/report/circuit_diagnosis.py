@@ -8,7 +8,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from creepcomp.report.common import format_cell, format_named, png_base64, thin
-from creepcomp.diagnose.circuit import FAULT_PRIOR
+from creepcomp.diagnose.circuit import fault_prior
 from creepcomp.fit.noise import MISFIT_LIMIT, autocorrelation
 from creepcomp.units import format_quantity
 
@@ -98,8 +98,10 @@ def circuit_figures(cd, units: dict) -> list[tuple[str, str]]:
 
 
 def _prior_table() -> str:
+    """The circuit faults' prior (:func:`~creepcomp.diagnose.circuit.fault_prior`, from the
+    effects' modules) as an HTML table."""
     rows = "".join(f"<tr><td>{html.escape(e)}</td><td>{100 * p['rate']:.3g} %</td><td>{html.escape(p['plausible'])}</td>"
-                   f"<td>{html.escape(p['why'])}</td></tr>" for e, p in FAULT_PRIOR.items())
+                   f"<td>{html.escape(p['why'])}</td></tr>" for e, p in fault_prior().items())
     return ("<table><tr><th>fault</th><th>share of built networks (assumed)</th><th>plausible values</th>"
             "<th>why</th></tr>" + rows + "</table>")
 

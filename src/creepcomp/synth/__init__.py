@@ -1,6 +1,9 @@
 """Synthetic records with known hidden effects, for tests, the demo and benchmarks: of a sensor
-(:mod:`~creepcomp.synth.sensor`) and of a built correction network (:mod:`~creepcomp.synth.circuit`),
-with the noise and detectability rules they share (:mod:`~creepcomp.synth.common`)."""
+(:mod:`~creepcomp.synth.sensor`, its load programs in :mod:`~creepcomp.synth.loads`, the effects
+no diagnosis template describes in :mod:`~creepcomp.synth.untemplated`; every other hidden effect
+is the generator side of a registered sensor effect) and of a built correction network
+(:mod:`~creepcomp.synth.circuit`), with the noise and detectability rules they share
+(:mod:`~creepcomp.synth.common`)."""
 
 from creepcomp.synth import common, sensor, circuit
 from creepcomp.synth.common import *  # noqa: F401,F403

@@ -15,11 +15,11 @@ from pathlib import Path
 
 import numpy as np
 
-from creepcomp.analog.faults import (CIRCUIT_EFFECTS, apply_fault, capacitor_cells, exact_equivalents,
-                                     fault_part, resistor_parts)
 from creepcomp.analog.sizing import size
+from creepcomp.diagnose.circuit import circuit_effect, circuit_effects, exact_equivalents
+from creepcomp.diagnose.effects.capacitor_value import EFFECT as CAPACITOR_VALUE
 from creepcomp.errors import InputError
-from creepcomp.fit.circuit import prepare, residual_at
+from creepcomp.fit.circuit import prepare, residual_of
 from creepcomp.fit.noise import spectral_variance
 from creepcomp.io.jsonfiles import Design, write_design
 from creepcomp.io.records import Record, write_record
@@ -30,7 +30,7 @@ from creepcomp.synth.common import (DETECTABLE_Z, DISTINCT_Z, PRECISE_TO, NoiseS
 from creepcomp.synth.sensor import PROGRAMS, make_program, sample_times
 
 __all__ = ["CircuitSpec", "CircuitSynthetic", "generate_circuit", "circuit_detectability",
-           "alternative_faults", "fault_parts", "scaled_part", "circuit_precision", "random_fault",
+           "alternative_faults", "fault_parts", "scaled_part", "residual_at", "circuit_precision", "random_fault",
            "random_circuit_spec", "DEMO_CIRCUIT_SPEC", "demo_circuit_record", "write_demo_circuit"]
 
 
@@ -90,7 +90,7 @@ def generate_circuit(spec: CircuitSpec) -> CircuitSynthetic:
     built = design.network
     for effect, params in spec.hidden.items():
         params = dict(params)
-        built = apply_fault(built, effect, params, params.pop("cell", None))
+        built = circuit_effect(effect).apply_fault(built, params, params.pop("cell", None))
     program = make_program(spec.program, spec.duration, rng, 1.0, False, max(spec.tau), 0.0, unload=True)
     t = sample_times(spec.duration, spec.rate, rng, spec.jitter, 0, 0.0)
     g = model.lag_expansion()
@@ -127,7 +127,7 @@ def generate_circuit(spec: CircuitSpec) -> CircuitSynthetic:
             raise ValueError("distinct_z and precise_to judge one hidden fault: the spec has "
                              f"{len(spec.hidden)}")
         (effect, params), *_ = spec.hidden.items()
-        where = fault_part(design.network, effect, params.get("cell"), params.get("part"))
+        where = circuit_effect(effect).fault_part(design.network, params.get("cell"), params.get("part"))
         if spec.detectable_z > 0:
             z = circuit_detectability(t, signature, nominal.taus, residual_noise)
             factors["detectability"] = min(1.0, z / spec.detectable_z)
@@ -180,68 +180,47 @@ def circuit_detectability(t: np.ndarray, signature: np.ndarray, taus, noise: np.
     return heldout_z(signature - directions @ coef, noise)
 
 
-def alternative_faults(network, effect: str, duration: float, size: float = 1e-3,
+def alternative_faults(network, effect, duration: float, size: float = 1e-3,
                        part: str | None = None) -> list:
     """Small faults of every other circuit kind (each capacitor or resistor where it applies):
     each one's signature is what that effect would explain of a fault's signature to first
     order. An absorption stands for the family of its time constants by three of them (0.7,
     2.2 and 7 times the cell's R C, at most half the ``duration``, s), as in
-    :func:`random_fault`. Faults exactly equivalent to ``effect`` on ``part`` (see
-    :func:`creepcomp.analog.faults.exact_equivalents`) are left out: no record tells them
+    :func:`random_fault` (each effect's
+    :meth:`~creepcomp.diagnose.effects._network.NetworkEffect.small_faults`; ``effect``:
+    identifier or object). Faults exactly equivalent to ``effect`` on ``part`` (see
+    :func:`creepcomp.diagnose.circuit.exact_equivalents`) are left out: no record tells them
     apart, the diagnosis lists them as alternatives."""
-    level = network.R2 if network.R2 is not None else sum(c.R for c in network.cells)
-    same = set(exact_equivalents(network, effect, part))
+    me = circuit_effect(effect)
+    same = set(exact_equivalents(network, me, part))
     out = []
-    for other in CIRCUIT_EFFECTS:
-        if other == effect and other != "resistor_value":
+    for other in circuit_effects():
+        if other is me and not other.alternatives_on_other_parts:
             continue
-        if other == "resistor_value":
-            out.extend(apply_fault(network, other, {"R": r * (1.0 + size), "part": label})
-                       for label, r in resistor_parts(network).items()
-                       if (other, label) not in same and not (effect == other and label == part))
-            continue
-        if (other, None) in same:
-            continue
-        if other == "source_impedance":
-            out.append(apply_fault(network, other, {"R": size * level}))
-            continue
-        if other == "load_impedance":
-            out.append(apply_fault(network, other, {"R": level / size}))
-            continue
-        for k in capacitor_cells(network):
-            cell = network.cells[k]
-            if (other, fault_part(network, other, k)) in same or (other == effect and fault_part(network, other, k) == part):
-                continue
-            if other == "capacitor_value":
-                out.append(apply_fault(network, other, {"C": cell.C * (1.0 + size)}, k))
-            elif other == "capacitor_leakage":
-                out.append(apply_fault(network, other, {"R": cell.R / size}, k))
-            else:
-                out.extend(apply_fault(network, other, {"fraction": size,
-                                                        "tau": min(f * cell.R * cell.C, duration / 2)}, k)
-                           for f in (0.7, 2.2, 7.0))
+        out.extend(net for where, net in other.small_faults(network, size, duration)
+                   if (other.name, where) not in same and not (other is me and where == part))
     return out
 
 
-def fault_parts(effect: str) -> tuple:
-    """The parts a circuit fault's parameters describe, as the diagnosis reports them: ``C``
-    of a capacitor off its value, ``R`` of a resistor off its value, of a source, load or
-    leakage resistance, ``C`` and ``R`` of an absorption branch."""
-    return {"capacitor_value": ("C",), "dielectric_absorption": ("C", "R")}.get(effect, ("R",))
+def fault_parts(effect) -> tuple:
+    """The parts a circuit fault's parameters describe, as the diagnosis reports them
+    (:attr:`~creepcomp.diagnose.effects._network.NetworkEffect.fault_parts`; ``effect``:
+    identifier or object): ``C`` of a capacitor off its value, ``R`` of a resistance, ``C``
+    and ``R`` of an absorption branch."""
+    return tuple(circuit_effect(effect).fault_parts)
 
 
-def scaled_part(effect: str, params: dict, part: str, h: float) -> dict:
+def scaled_part(effect, params: dict, part: str, h: float) -> dict:
     """A fault's parameters with one of its parts (see :func:`fault_parts`) multiplied by
-    ``exp(h)``: an absorption branch's ``C`` is ``fraction`` times the capacitor, its ``R``
-    is ``tau / C``."""
-    out = dict(params)
-    if effect == "dielectric_absorption":
-        out["tau"] = params["tau"] * math.exp(h)
-        if part == "C":
-            out["fraction"] = params["fraction"] * math.exp(h)
-    else:
-        out[part] = params[part] * math.exp(h)
-    return out
+    ``exp(h)`` (:meth:`~creepcomp.diagnose.effects._network.NetworkEffect.scaled_part`)."""
+    return circuit_effect(effect).scaled_part(params, part, h)
+
+
+def residual_at(data, effect, values: dict, cell: int | None = None) -> np.ndarray:
+    """Residual of the nominal network with one circuit fault at ``values`` (natural units;
+    ``cell``: its capacitor, by default the largest), the linear terms solved as in every
+    fit (:func:`creepcomp.fit.circuit.residual_of`)."""
+    return residual_of(data, circuit_effect(effect).apply_fault(data.design.network, values, cell))
 
 
 def circuit_precision(residual, parts: tuple, noise: np.ndarray) -> dict:
@@ -256,49 +235,24 @@ def circuit_precision(residual, parts: tuple, noise: np.ndarray) -> dict:
     return {p: math.sqrt(max(spectral_variance(w, noise), 0.0)) for p, w in zip(parts, weights)}
 
 
-def random_fault(effect: str | None, rng: np.random.Generator, design: Design, duration: float) -> dict:
-    """A random fault of a kind, large enough to matter at the record's noise (see
-    :func:`random_circuit_spec`), with its physical parameters; a capacitor's fault names
-    its ``cell`` (a random one of the network's capacitors), a resistor's its ``part`` (a
-    random one of its resistors, 8-25 % off either way). An absorption's time constant is at
-    most half the record's ``duration`` (s), so the record shows it."""
+def random_fault(effect, rng: np.random.Generator, design: Design, duration: float) -> dict:
+    """A random fault of a kind (identifier or effect object; None: no fault), large enough
+    to matter at the record's noise (see :func:`random_circuit_spec`), with its physical
+    parameters (:meth:`~creepcomp.diagnose.effects._network.NetworkEffect.random_fault`): a
+    capacitor's fault names its ``cell`` (a random one of the network's capacitors), a
+    resistor's its ``part``. An absorption's time constant is at most half the record's
+    ``duration`` (s), so the record shows it."""
     if effect is None:
         return {}
-    net = design.network
-    if effect == "resistor_value":
-        parts = resistor_parts(net)
-        label = str(rng.choice(sorted(parts)))
-        sign = rng.choice([-1.0, 1.0])
-        return {"R": parts[label] * (1.0 + sign * rng.uniform(0.08, 0.25)), "part": label}
-    k = int(rng.choice(capacitor_cells(net)))
-    cell = net.cells[k]
-    level = net.R2 if net.R2 is not None else sum(c.R for c in net.cells)
-    if effect == "capacitor_value":
-        sign = rng.choice([-1.0, 1.0])
-        return {"C": cell.C * (1.0 + sign * rng.uniform(0.05, 0.25)), "cell": k}
-    if effect == "source_impedance":
-        return {"R": level * math.exp(rng.uniform(math.log(0.01), math.log(0.2)))}
-    if effect == "load_impedance":
-        return {"R": level * math.exp(rng.uniform(math.log(1.5), math.log(30.0)))}
-    if effect == "dielectric_absorption":
-        # film capacitors absorb 0.05-0.25 % (docs/physics.md): a fault is a dielectric that
-        # absorbs more, as ceramic X7R does (0.6-2.5 %). Its memory is slow: from 0.7 to 7
-        # times the cell's own R C (absorption much faster than that only adds capacitance,
-        # and is told apart from a larger capacitor by nothing in the output)
-        return {"fraction": math.exp(rng.uniform(math.log(0.005), math.log(0.03))),
-                "tau": min(cell.R * cell.C * math.exp(rng.uniform(math.log(0.7), math.log(7.0))), duration / 2),
-                "cell": k}
-    if effect == "capacitor_leakage":
-        return {"R": cell.R * math.exp(rng.uniform(math.log(5.0), math.log(100.0))), "cell": k}
-    raise ValueError(f"unknown circuit effect {effect}")
+    return circuit_effect(effect).random_fault(rng, design.network, duration)
 
 
 def random_circuit_spec(effect: str | None, seed: int, rate: tuple = (2.0, 50.0),
                         duration: tuple = (600.0, 3600.0), distinct_z: float = DISTINCT_Z,
                         precise_to: float = PRECISE_TO) -> CircuitSpec:
     """A randomised record: sensor creep (one term, or two and a two-cell network in 30 % of
-    the records; for ``resistor_value``, an overshooting sensor and its lag network in 30 %
-    of them), sampling ``rate`` (Hz, log-uniform), ``duration`` (s), any load program,
+    the records; for a fault that also sits in lag networks, a wrong resistor, an overshooting
+    sensor and its lag network in 30 % of them), sampling ``rate`` (Hz, log-uniform), ``duration`` (s), any load program,
     white noise 1e-5 to 3e-4 of the step on the signal and within a factor e of it on
     ``corrected`` (plus, each in a third of the records, coloured noise of 0.5-2 times that
     level with a correlation time of 0.5-20 s, and a random-walk drift of 1-10 times it per
@@ -311,10 +265,11 @@ def random_circuit_spec(effect: str | None, seed: int, rate: tuple = (2.0, 50.0)
     if rng.uniform() < 0.3:  # a two-term sensor and its two-cell Foster network
         tau += (tau[0] * float(rng.uniform(5.0, 20.0)),)
         beta += (float(rng.uniform(0.005, 0.03)),)
-    # a wrong resistor is drawn in lag networks too (an overshooting sensor, beta < 0): the
-    # other faults sit on a series capacitor, which a lag network does not have (drawn only
-    # for this fault, so that the other faults' records stay as they were)
-    if effect == "resistor_value" and rng.uniform() < 0.3:
+    # a fault that can sit in a lag network (a wrong resistor) is drawn in lag networks too
+    # (an overshooting sensor, beta < 0): the other faults sit on a series capacitor, which a
+    # lag network does not have (drawn only for such faults, so that the other faults' records
+    # stay as they were)
+    if effect is not None and circuit_effect(effect).in_lag_networks and rng.uniform() < 0.3:
         beta = tuple(-b for b in beta)
     try:
         design = Design(CreepModel(beta, tau), size(CreepModel(beta, tau)).chosen)
@@ -344,7 +299,7 @@ def random_circuit_spec(effect: str | None, seed: int, rate: tuple = (2.0, 50.0)
 
 #: The demo's built network: the default sensor (3 %, 45 s) read at 5 Hz for 30 minutes
 #: through a staircase, its network built with a capacitor 12 % below its nominal value.
-DEMO_CIRCUIT_SPEC = CircuitSpec(hidden={"capacitor_value": {"C": 0.88 * 15e-6}}, beta=(0.03,), tau=(45.0,),
+DEMO_CIRCUIT_SPEC = CircuitSpec(hidden={CAPACITOR_VALUE.name: {"C": 0.88 * 15e-6}}, beta=(0.03,), tau=(45.0,),
                                 gain=1e-4, offset=2e-6, corrected_offset=-1e-6, rate=5.0, duration=1800.0,
                                 program="staircase", noise=NoiseSpec(white=2e-9),
                                 corrected_noise=NoiseSpec(white=2e-9), seed=2009)

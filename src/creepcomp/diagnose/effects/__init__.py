@@ -12,15 +12,30 @@ evaluates (every stage defaults to "no change")::
     load --load_transform--> x --instant--> s --creep_input--> h --lags (tau_factor)--> c_k
     signal = offset + gain * s + sum_k gain * beta_k * c_k + free decays + columns(...)
 
-Circuit-side effects (a later issue) implement :meth:`Effect.fit_on` and
-:meth:`Effect.simulate` against a record's ``corrected`` column and a design instead.
+A sensor-side effect is a :class:`SensorEffect`: the same module also holds its true forward
+model for the synthetic-record generator (at the stages of the generator's signal path), its
+parameter sampler and formulations, the load programs that let it show, its truth under the
+reported names (:class:`~creepcomp.diagnose.effects._sensor.Simulated`) and its place in the
+vocabulary (``vocabulary_index``). The sensor diagnosis (:mod:`creepcomp.diagnose.sensor`) and
+the generator (:mod:`creepcomp.synth.sensor`) iterate over :func:`sensor_effects` and name none.
+
+Circuit-side effects (``side = "circuit"``: a resistor's or a capacitor's value, a capacitor's
+leakage, the source and load impedances, dielectric absorption) are changes of the built
+network itself, subclasses of ``_network.NetworkEffect``: each says how it changes a network,
+which part it sits on, how it is fitted against a record's ``corrected`` column (the network
+driven by ``signal``), its prior and how the generator draws it. The circuit diagnosis
+(:mod:`creepcomp.diagnose.circuit`) and generator (:mod:`creepcomp.synth.circuit`) iterate over
+``_network.circuit_effects()``.
+
+An effect defined elsewhere (a plug-in, a test) joins at run time through :func:`register`.
 """
 
 from __future__ import annotations
 
+import abc
 import importlib
+import math
 import pkgutil
-from dataclasses import replace
 
 import numpy as np
 
@@ -29,12 +44,14 @@ from creepcomp.fit.data import Data
 from creepcomp.fit.structure import Applied, Param, Structure, basis
 from creepcomp.fit.solver import Fit, fit_structure
 from creepcomp.model import CreepModel
+from creepcomp.diagnose.effects._sensor import Scales, SignalPath, Simulated
 
-__all__ = ["Effect", "REGISTRY", "SENSOR_ORDER", "sensor_effects", "get", "arrays_data",
-           "model_structure", "simulate_extended", "compensate_extended"]
+__all__ = ["Effect", "SensorEffect", "Scales", "SignalPath", "Simulated", "REGISTRY", "register",
+           "unregister", "sensor_effects", "flow_effect", "get", "arrays_data", "model_structure",
+           "simulate_extended", "compensate_extended"]
 
 
-class Effect:
+class Effect(abc.ABC):
     """Interface of a candidate effect (subclass it; override what the effect changes).
 
     Attributes
@@ -59,6 +76,8 @@ class Effect:
     describes_record : bool
         A statement about the record (a fault of it), not an extension of the model: it may
         stay the cause when it makes the creep-corrected signal worse, its note says why.
+    vocabulary_index : float
+        Position in its side's table of ``docs/diagnosis.md`` (effects without one come last, by name).
     """
 
     name = ""
@@ -70,6 +89,7 @@ class Effect:
     state_dependent = False
     summary = ""
     describes_record = False
+    vocabulary_index: float = math.inf
 
     # -- applicability and fitting -------------------------------------------------------
     def applicable(self, data: Data, structure: Structure) -> str | None:
@@ -97,12 +117,6 @@ class Effect:
         """Start values of the effect's own nonlinear parameters (names without prefix)."""
         return [{}]
 
-    def plain_settings(self, data: Data, base: Fit) -> tuple | None:
-        """Settings of the plain form of the template, nested in the fitted one (its shape
-        parameters at their plain values: no lag, a Newtonian dashpot), tried when the shaped
-        form is not supported; None: the template has no shape parameter."""
-        return None
-
     def fit_on(self, data: Data, base: Fit, refine: str = "all", start: dict | None = None,
                settings: tuple | None = None) -> Fit:
         """Fit the base model extended by this effect (its likelihood with its own AR noise).
@@ -111,7 +125,7 @@ class Effect:
         base's held, the effect's own refined: a quick screening) or ``none`` (the best
         start kept, only the linear part solved). ``start``: start values of every
         nonlinear parameter (default: the base's values and the effect's own start grid).
-        ``settings``: other than :meth:`settings` (e.g. :meth:`plain_settings`).
+        ``settings``: other than :meth:`settings` (e.g. :meth:`SensorEffect.plain_settings`).
         """
         applied, structure = self._on(data, base, settings)
         known = {p.name: base.values[p.name] for p in base.params}
@@ -129,49 +143,6 @@ class Effect:
         and the extended structure: ``(applied, structure)``."""
         applied = Applied(self, self.settings(data, base) if settings is None else settings)
         return applied, self.extend(base.structure, applied)
-
-    def with_tau_restarts(self, data: Data, base: Fit, fit: Fit, own: list[dict],
-                          settings: tuple | None = None) -> Fit:
-        """``fit`` (this effect on ``base``), or a better one started from a log grid of each
-        retardation time (2 per decade) crossed with the effect's own start values ``own``
-        (names without prefix), screened by their linear fit alone and the best refined: the
-        base's time constants may have mimicked this effect (a fast relaxing term standing in
-        for a hysteresis, a very slow one for creep whose speed follows temperature), and the
-        effect alone cannot move them away."""
-        from creepcomp.fit.starts import tau_grid
-
-        applied, structure = self._on(data, base, settings)
-        known = {p.name: base.values[p.name] for p in base.params}
-        starts = [dict(known, **{f"tau[{k}]": float(tau)},
-                       **{self._key(applied, name): v for name, v in values.items()})
-                  for k in range(base.structure.n_terms) for tau in tau_grid(data, per_decade=2)
-                  for values in own]
-        screened = fit_structure(data, structure, starts, refine=False, with_cov=False)
-        if screened.bic >= fit.bic:
-            return fit
-        # every parameter refined, with its covariance: it may be kept as the candidate's full fit
-        alt = fit_structure(data, structure, [{p.name: screened.values[p.name] for p in screened.params}],
-                            n_refine=1)
-        return alt if alt.bic < fit.bic else fit
-
-    def with_fresh_term(self, data: Data, base: Fit, fit: Fit, refine: str, start: dict | None,
-                        settings: tuple | None) -> Fit:
-        """``fit`` (this effect on a one-term ``base``), or the effect fitted with the creep
-        term started afresh from a grid of time constants when that fits better: for effects
-        that the base's one term may have mimicked (a delay by a fast term of large beta, flow
-        by a term longer than the record), whose fit from the base's values then stays there."""
-        if refine == "none" or start is not None or base.structure.n_terms != 1 or base.structure.effects:
-            return fit
-        from creepcomp.fit.starts import one_term_starts
-
-        applied, structure = self._on(data, base, settings)
-        fresh = [dict(t, **{self._key(applied, k): v for k, v in own.items()})
-                 for t in one_term_starts(data) for own in self.starts(data, base, applied)]
-        try:
-            alt = fit_structure(data, structure, fresh, n_refine=4, with_cov=refine == "all")
-        except (InputError, np.linalg.LinAlgError, ValueError):
-            return fit
-        return alt if alt.bic < fit.bic else fit
 
     @staticmethod
     def _key(applied: Applied, name: str) -> str:
@@ -219,19 +190,6 @@ class Effect:
         """The entry of the model file's ``extensions`` (None: the change is in the terms)."""
         return None
 
-    def record_fault(self, fit: Fit, applied: Applied, data: Data) -> np.ndarray | None:
-        """What a fault of the record adds to the signal (signal units), where it can be taken
-        out of it (None: it cannot, or the effect is no fault of the record)."""
-        return None
-
-    def worse_correction_note(self, ratio: float, without_fault: float | None) -> str:
-        """The note of a finding whose addition makes the creep-corrected signal worse
-        (``ratio``: correction-error ratio, model before it / with it; ``without_fault``: the
-        same with :meth:`record_fault` taken out of the signal, None when there is none)."""
-        return (f"fits the signal better but makes the creep-corrected signal worse against the "
-                f"load (correction-error ratio {ratio:.3g}): it does not describe how the signal "
-                f"follows the load")
-
     def restore(self, entry: dict, model: CreepModel, data: Data) -> tuple[Applied, dict]:
         """Inverse of :meth:`extension`: the applied effect and its values (prefixed names)."""
         raise InputError(f"extension '{self.name}' cannot be read back")
@@ -248,6 +206,104 @@ class Effect:
         return []
 
 
+class SensorEffect(Effect, Simulated):
+    """A sensor-side effect, one complete unit: its diagnosis template (the stages of
+    :class:`Effect`) and its generator side (:class:`Simulated`: forward model, sampler,
+    formulations, programs, truth).
+
+    Every sensor effect gives ``name``, its place in the vocabulary (:attr:`vocabulary_index`), its
+    formulations (:attr:`~Simulated.forms`) and its sampler (:meth:`~Simulated.draw`); the
+    rest are optional hooks with defaults.
+
+    Attributes
+    ----------
+    flow : bool
+        The effect is the model's viscous flow (what ``creepcomp fit --flow`` adds).
+    """
+
+    side = "sensor"
+    flow = False
+
+    @property
+    @abc.abstractmethod
+    def vocabulary_index(self) -> float:
+        """Position in the sensor table (``docs/diagnosis.md``)."""
+
+    # -- the diagnosis's search --------------------------------------------------------------
+    def plain_settings(self, data: Data, base: Fit) -> tuple | None:
+        """Settings of the plain form of the template, nested in the fitted one (its shape
+        parameters at their plain values: no lag, a Newtonian dashpot), tried when the shaped
+        form is not supported; None: the template has no shape parameter."""
+        return None
+
+    def with_tau_restarts(self, data: Data, base: Fit, fit: Fit, own: list[dict],
+                          settings: tuple | None = None) -> Fit:
+        """``fit`` (this effect on ``base``), or a better one started from a log grid of each
+        retardation time (2 per decade) crossed with the effect's own start values ``own``
+        (names without prefix), screened by their linear fit alone and the best refined: the
+        base's time constants may have mimicked this effect (a fast relaxing term standing in
+        for a hysteresis, a very slow one for creep whose speed follows temperature), and the
+        effect alone cannot move them away."""
+        from creepcomp.fit.starts import tau_grid
+
+        applied, structure = self._on(data, base, settings)
+        known = {p.name: base.values[p.name] for p in base.params}
+        starts = [dict(known, **{f"tau[{k}]": float(tau)},
+                       **{self._key(applied, name): v for name, v in values.items()})
+                  for k in range(base.structure.n_terms) for tau in tau_grid(data, per_decade=2)
+                  for values in own]
+        screened = fit_structure(data, structure, starts, refine=False, with_cov=False)
+        if screened.bic >= fit.bic:
+            return fit
+        # every parameter refined, with its covariance: it may be kept as the candidate's full fit
+        alt = fit_structure(data, structure, [{p.name: screened.values[p.name] for p in screened.params}],
+                            n_refine=1)
+        return alt if alt.bic < fit.bic else fit
+
+    def with_fresh_term(self, data: Data, base: Fit, fit: Fit, refine: str, start: dict | None,
+                        settings: tuple | None) -> Fit:
+        """``fit`` (this effect on a one-term ``base``), or the effect fitted with the creep
+        term started afresh from a grid of time constants when that fits better: for effects
+        that the base's one term may have mimicked (a delay by a fast term of large beta, flow
+        by a term longer than the record), whose fit from the base's values then stays there."""
+        if refine == "none" or start is not None or base.structure.n_terms != 1 or base.structure.effects:
+            return fit
+        from creepcomp.fit.starts import one_term_starts
+
+        applied, structure = self._on(data, base, settings)
+        fresh = [dict(t, **{self._key(applied, k): v for k, v in own.items()})
+                 for t in one_term_starts(data) for own in self.starts(data, base, applied)]
+        try:
+            alt = fit_structure(data, structure, fresh, n_refine=4, with_cov=refine == "all")
+        except (InputError, np.linalg.LinAlgError, ValueError):
+            return fit
+        return alt if alt.bic < fit.bic else fit
+
+    def record_fault(self, fit: Fit, applied: Applied, data: Data) -> np.ndarray | None:
+        """What a fault of the record adds to the signal (signal units), where it can be taken
+        out of it (None: it cannot, or the effect is no fault of the record)."""
+        return None
+
+    def worse_correction_note(self, ratio: float, without_fault: float | None) -> str:
+        """The note of a finding whose addition makes the creep-corrected signal worse
+        (``ratio``: correction-error ratio, model before it / with it; ``without_fault``: the
+        same with :meth:`record_fault` taken out of the signal, None when there is none)."""
+        return (f"fits the signal better but makes the creep-corrected signal worse against the "
+                f"load (correction-error ratio {ratio:.3g}): it does not describe how the signal "
+                f"follows the load")
+
+    def screen(self, data: Data, fit: Fit, base: Fit) -> list[dict]:
+        """Faults of the record found outside the model search (no model column undoes
+        them), each the parameters of a finding; ``fit``: the model found, ``base``: the
+        baseline."""
+        return []
+
+    def screened_importance(self, problem: dict, fit: Fit, base: Fit, named: bool) -> tuple:
+        """The importance of a finding of :meth:`screen` and a note for the named findings
+        (None: none): ``named`` tells whether there are any."""
+        return math.inf, None
+
+
 def _discover() -> dict[str, Effect]:
     found = {}
     for info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
@@ -258,21 +314,38 @@ def _discover() -> dict[str, Effect]:
     return found
 
 
-#: Every effect found in this package, by identifier.
+#: Every effect found in this package, by identifier (and any :func:`register` added).
 REGISTRY: dict[str, Effect] = _discover()
 
-#: Order in which sensor-side effects are listed (contract vocabulary first).
-SENSOR_ORDER = ("extra_retardation", "viscous_flow", "nonlinear_creep", "asymmetric_recovery",
-                "thermal_drift", "thermal_retardation", "static_nonlinearity", "time_offset",
-                "transition_overshoot", "rate_independent_hysteresis", "mullins_softening",
-                "data_problem")
+
+def register(effect: Effect) -> Effect:
+    """Add an effect defined outside this package (a plug-in, a test) to :data:`REGISTRY`."""
+    if not isinstance(effect, Effect):
+        raise InputError(f"cannot register {effect!r}: not an Effect")
+    if not effect.name:
+        raise InputError("cannot register an effect without a name")
+    if effect.name in REGISTRY:
+        raise InputError(f"an effect named '{effect.name}' is registered already")
+    REGISTRY[effect.name] = effect
+    return effect
+
+
+def unregister(name: str) -> Effect:
+    """Remove an effect from :data:`REGISTRY` (the inverse of :func:`register`)."""
+    return REGISTRY.pop(get(name).name)
 
 
 def sensor_effects() -> list[Effect]:
     """The sensor-side effects, in vocabulary order (then any others by name)."""
-    known = [REGISTRY[n] for n in SENSOR_ORDER if n in REGISTRY]
-    rest = [e for n, e in sorted(REGISTRY.items()) if e.side == "sensor" and n not in SENSOR_ORDER]
-    return known + rest
+    return sorted((e for e in REGISTRY.values() if e.side == "sensor"), key=lambda e: (e.vocabulary_index, e.name))
+
+
+def flow_effect() -> SensorEffect:
+    """The effect that is the model's viscous flow (:attr:`SensorEffect.flow`)."""
+    found = [e for e in sensor_effects() if getattr(e, "flow", False)]
+    if not found:
+        raise InputError("no registered effect provides viscous flow")
+    return found[0]
 
 
 def get(name: str) -> Effect:

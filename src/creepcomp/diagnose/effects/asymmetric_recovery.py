@@ -14,13 +14,15 @@ turns; a partial unloading during creep tells them apart. Both are fitted, the b
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
-from creepcomp.diagnose.effects import Effect
+from creepcomp.diagnose.effects import SensorEffect
 from creepcomp.lti import lag_states
 
 __all__ = ["AsymmetricRecovery", "EFFECT"]
@@ -30,8 +32,13 @@ __all__ = ["AsymmetricRecovery", "EFFECT"]
 _SWITCHES = ("state", "direction")
 
 
-class AsymmetricRecovery(Effect):
+class AsymmetricRecovery(SensorEffect):
     name = "asymmetric_recovery"
+    vocabulary_index = 4
+    # switched by the state's magnitude; by the load's direction
+    forms = ("state", "direction")
+    programs = ("staircase", "step", "mixture", "random")
+    unloads = True
     parameters = ("tau_recovery",)
     changes_lags = True
     state_dependent = True
@@ -45,7 +52,7 @@ class AsymmetricRecovery(Effect):
             return super().fit_on(data, base, refine, start, settings)
         term = self.settings(data, base)
         switches = _SWITCHES if _switches_differ(data, float(base.taus[term[0][1]])) else _SWITCHES[:1]
-        fit = Effect.fit_on
+        fit = SensorEffect.fit_on
         return min((fit(self, data, base, refine, start, term + (("switch", switch),)) for switch in switches),
                    key=lambda f: f.bic)
 
@@ -88,6 +95,23 @@ class AsymmetricRecovery(Effect):
                              f"(known: {', '.join(_SWITCHES)})")
         return (Applied(self, (("term", k), ("switch", switch))),
                 {"asymmetric_recovery.tau_recovery": float(entry["tau_recovery"])})
+
+    # -- generator ---------------------------------------------------------------------------
+    def draw_default(self, rng, scales, mixture):
+        f = rng.uniform(2.5, 5.0)
+        return {"tau_recovery": float(scales.tau * (f if rng.uniform() < 0.5 else 1 / f))}
+
+    def draw(self, rng, scales, form):
+        return self.draw_default(rng, scales, False)
+
+    def truth(self, p, synthetic):
+        return {"tau_recovery": p["tau_recovery"]}
+
+    def sim_lags(self, path, p, lags):
+        lag = _direction_lag if p.get("form", "state") == "direction" else _asymmetric_lag
+        lags[:, 0] = lag(path.grid, path.h_before, path.h_after, path.taus[0], p["tau_recovery"],
+                         path.h_after[0])
+        return lags
 
 
 EFFECT = AsymmetricRecovery()
@@ -157,3 +181,42 @@ def _after_fall(h: np.ndarray, before_any_move: np.ndarray) -> np.ndarray:
     segment's history is unknown)."""
     direction = _falling(h)
     return np.where(direction == 0, before_any_move, direction > 0)
+
+
+def _asymmetric_lag(grid, h_before, h_after, tau: float, tau_recovery: float, c0: float) -> np.ndarray:
+    """A lag that relaxes with ``tau`` while its state grows in magnitude and with
+    ``tau_recovery`` while it shrinks, stepped exactly on the generator's fine grid with the
+    input held at each step's midpoint (a plain sequential loop, independent of the fitted
+    discretisation)."""
+    t = grid.tolist()
+    hb, ha = h_before.tolist(), h_after.tolist()
+    out = [c0]
+    c = c0
+    for n in range(len(t) - 1):
+        target = 0.5 * (ha[n] + hb[n + 1])
+        shrinking = (c > 0 and target < c) or (c < 0 and target > c)
+        step = (t[n + 1] - t[n]) / (tau_recovery if shrinking else tau)
+        c = target + (c - target) * math.exp(-step)
+        out.append(c)
+    return np.array(out)
+
+
+def _direction_lag(grid, h_before, h_after, tau: float, tau_recovery: float, c0: float) -> np.ndarray:
+    """A lag that runs with ``tau_recovery`` from a fall of the load's magnitude until the
+    next rise, with ``tau`` otherwise (the mode switched by the load's direction)."""
+    t = grid.tolist()
+    hb, ha = h_before.tolist(), h_after.tolist()
+    out = [c0]
+    c, recovering = c0, False
+    for n in range(len(t) - 1):
+        # the load's last move, up to this step
+        for a, b in ((hb[n], ha[n]), (ha[n], hb[n + 1])):
+            if abs(b) < abs(a):
+                recovering = True
+            elif abs(b) > abs(a):
+                recovering = False
+        target = 0.5 * (ha[n] + hb[n + 1])
+        step = (t[n + 1] - t[n]) / (tau_recovery if recovering else tau)
+        c = target + (c - target) * math.exp(-step)
+        out.append(c)
+    return np.array(out)

@@ -25,6 +25,8 @@ fitted: no column of a model can undo them.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from creepcomp.errors import InputError
@@ -32,7 +34,7 @@ from creepcomp.fit.data import Data
 from creepcomp.fit.noise import noise_floor, quantisation_step
 from creepcomp.fit.structure import Applied
 from creepcomp.fit.solver import Fit
-from creepcomp.diagnose.effects import Effect
+from creepcomp.diagnose.effects import SensorEffect
 
 __all__ = ["JUMP_Z", "JUMP_WINDOW", "find_jumps", "screen", "DataProblem", "EFFECT"]
 
@@ -240,8 +242,14 @@ def _sensitivity(fit: Fit) -> float:
     return abs(fit.gain) * (1.0 + float(np.sum(np.abs(fit.betas))))
 
 
-class DataProblem(Effect):
+class DataProblem(SensorEffect):
     name = "data_problem"
+    vocabulary_index = 12
+    # the kinds the generator makes
+    forms = ("jump", "clipping", "out_of_step", "quantisation")
+    programs = ("staircase", "step", "cycles")
+    unloads = True
+    record_problem = True
     parameters = ("kind", "where")
     summary = "the record itself is at fault (signal jumps no load explains, clipping, channels out of step, coarse quantisation)"
     describes_record = True
@@ -304,6 +312,94 @@ class DataProblem(Effect):
         for j, i in enumerate(applied.setting("jumps")):
             out += fit.values[f"data_problem.jump[{j}]"] * (index >= i)
         return out
+
+    def screen(self, data: Data, fit: Fit, base: Fit) -> list[dict]:
+        return screen(data, fit, base)
+
+    def screened_importance(self, problem: dict, fit: Fit, base: Fit, named: bool) -> tuple:
+        if problem["kind"] != "quantisation":
+            return math.inf, None
+        # on a grid coarser than the noise, what the named effects add together nowhere
+        # reaching half a step is not measured by the record: the grid is the cause
+        reach = float(np.max(np.abs(fit.prediction - base.prediction)))
+        if reach < 0.5 * problem["step"] and named:
+            return math.inf, _below_step_note(reach, problem["step"])
+        return 0.0, None
+
+    # -- generator ---------------------------------------------------------------------------
+    def draw(self, rng, scales, form):
+        if form == "jump":
+            return dict(size=float(rng.uniform(0.005, 0.03)), count=int(rng.integers(1, 4)))
+        if form == "clipping":
+            return {"fraction": float(rng.uniform(0.03, 0.1))}
+        if form == "out_of_step":
+            return {"slip": int(rng.integers(2, 7))}
+        return {}
+
+    def finish_draw(self, p, rng, noise):
+        if p["form"] == "quantisation":
+            p["step"] = float(noise.white * rng.uniform(5.0, 12.0))
+
+    def program_choices(self, p, tau, choices, given):
+        if p["form"] == "out_of_step" and not given:
+            # a slip shows as a change of delay between load steps: programs with many of them
+            return ["staircase", "cycles"]
+        return choices
+
+    def truth(self, p, synthetic):
+        return {"kind": p["kind"], "where": p["where"]}
+
+    def damage(self, p, t, load, signal, clean, rng):
+        return _damaged(p, t, load, signal, clean, rng)
+
+
+def _below_step_note(reach: float, step: float) -> str:
+    return (f"the named effects change the model by {reach:.3g} signal units at most, less than half "
+            f"the record's quantisation step ({step:.3g}): the record does not measure them")
+
+
+def _quiet_indices(load: np.ndarray, margin: int) -> np.ndarray:
+    """Samples with no load change within ``margin`` samples either side."""
+    changed = np.concatenate([[False], np.diff(load) != 0])
+    near = np.convolve(changed.astype(float), np.ones(2 * margin + 1), mode="same") > 0
+    return np.flatnonzero(~near[margin:len(load) - margin]) + margin
+
+
+def _damaged(p: dict, t, load, signal, clean, rng):
+    """The generator's record with a data problem of kind ``p["form"]``, and the problem's
+    truth (kind, where)."""
+    kind = p.get("form", "jump")
+    y = signal.copy()
+    span = float(np.ptp(clean)) or 1.0
+    if kind == "jump":
+        quiet = _quiet_indices(load, 12)
+        quiet = quiet[(quiet > 0.1 * len(t)) & (quiet < 0.9 * len(t))]
+        at = np.sort(rng.choice(quiet, size=min(int(p.get("count", 1)), len(quiet)), replace=False))
+        sizes = []
+        for i in at:
+            size = float(rng.choice([-1, 1]) * p["size"] * span)
+            y[i:] += size
+            sizes.append(size)
+        return y, {"form": kind, "kind": kind, "where": [float(t[i]) for i in at], "size": sizes}
+    if kind == "clipping":
+        level = float(np.max(clean) - p["fraction"] * span)
+        y = np.minimum(y, level)
+        at = np.flatnonzero(y >= level)
+        return y, {"form": kind, "kind": kind, "level": level,
+                   "where": [float(t[at[0]]), float(t[at[-1]])] if len(at) else []}
+    if kind == "out_of_step":
+        # the signal channel repeats ``slip`` samples at one instant: later than the load after it
+        quiet = _quiet_indices(load, 12)
+        quiet = quiet[(quiet > 0.35 * len(t)) & (quiet < 0.65 * len(t))]
+        i = int(rng.choice(quiet))
+        k = int(p["slip"])
+        y = np.concatenate([y[:i], np.repeat(y[i], k), y[i:len(y) - k]])
+        return y, {"form": kind, "kind": kind, "where": [float(t[i])], "slip": k * float(np.median(np.diff(t)))}
+    if kind == "quantisation":
+        q = float(p["step"])
+        return np.round(signal / q) * q, {"form": kind, "kind": kind, "where": [float(t[0]), float(t[-1])],
+                                          "step": q}
+    raise InputError(f"data problem '{kind}': use one of {', '.join(DataProblem.forms)}")
 
 
 EFFECT = DataProblem()

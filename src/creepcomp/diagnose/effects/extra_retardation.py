@@ -11,13 +11,16 @@ from creepcomp.fit.data import Data
 from creepcomp.fit.structure import Applied, Structure
 from creepcomp.fit.solver import Fit, fit_structure
 from creepcomp.fit.starts import extra_term_starts
-from creepcomp.diagnose.effects import Effect
+from creepcomp.diagnose.effects import SensorEffect
 
 __all__ = ["ExtraRetardation", "EFFECT"]
 
 
-class ExtraRetardation(Effect):
+class ExtraRetardation(SensorEffect):
     name = "extra_retardation"
+    vocabulary_index = 1
+    # one term; a log-normal band of terms
+    forms = ("exponential", "spectrum")
     parameters = ("tau", "beta")
     repeatable = True
     summary = "a further exponential creep term (Prony term), faster or slower than the others"
@@ -79,6 +82,41 @@ class ExtraRetardation(Effect):
 
     def restore(self, entry, model, data):
         return Applied(self, ()), {}
+
+    # -- generator ---------------------------------------------------------------------------
+    def draw_default(self, rng, scales, mixture):
+        s = scales
+        slow = s.tau * rng.uniform(4.0, 12.0)
+        fast = s.tau / rng.uniform(4.0, 12.0)
+        t2 = slow if (rng.uniform() < 0.5 and slow <= s.duration / 3.0) or fast < 10.0 / s.rate else fast
+        t2 = min(t2, s.duration / 3.0)
+        return {"tau": float(t2), "beta": float(s.beta * rng.uniform(0.4, 1.0))}
+
+    def draw(self, rng, scales, form):
+        out = self.draw_default(rng, scales, False)
+        if form == "spectrum":
+            out["spread"] = float(rng.uniform(0.15, 0.35))
+        return out
+
+    def relax(self, p):
+        p["beta"] = -abs(p["beta"])
+
+    def program_choices(self, p, tau, choices, given):
+        if p["tau"] < tau and len(choices) > 1:
+            # a fast further term shows after load steps, hardly in a slow sweep
+            return [c for c in choices if c != "sweep"]
+        return choices
+
+    def truth(self, p, synthetic):
+        return {"tau": p["tau"], "beta": p["beta"]}
+
+    def sim_terms(self, p):
+        if p.get("form", "exponential") == "spectrum":
+            # a band of retardation times, log-normal weights over +-spread decades
+            grid_tau = float(p["tau"]) * 10.0 ** np.linspace(-p["spread"], p["spread"], 7)
+            w = np.exp(-0.5 * (np.linspace(-2.0, 2.0, 7)) ** 2)
+            return list(grid_tau), list(float(p["beta"]) * w / w.sum())
+        return [float(p["tau"])], [float(p["beta"])]
 
 
 EFFECT = ExtraRetardation()

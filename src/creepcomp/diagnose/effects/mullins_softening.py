@@ -19,7 +19,7 @@ import numpy as np
 
 from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
-from creepcomp.diagnose.effects import Effect
+from creepcomp.diagnose.effects import SensorEffect
 
 __all__ = ["past_maximum", "MullinsSoftening", "EFFECT"]
 
@@ -45,8 +45,12 @@ def _shaped(z, shape: float):
     return np.expm1(-shape * z) / np.expm1(-shape), -shape * np.exp(-shape * z) / np.expm1(-shape)
 
 
-class MullinsSoftening(Effect):
+class MullinsSoftening(SensorEffect):
     name = "mullins_softening"
+    vocabulary_index = 11
+    # linear reloading curve; tanh-shaped damage
+    forms = ("chord", "damage")
+    programs = ("cycles",)
     parameters = ("softening",)
     summary = "reloading below the largest load so far responds differently (first-cycle softening)"
 
@@ -106,6 +110,31 @@ class MullinsSoftening(Effect):
         slope = 1.0 - sigma * g + sigma * (1.0 - z) * dg
         slope = np.where(np.abs(load) >= m, 1.0, slope)
         return delta / np.maximum(slope, 0.1)
+
+    # -- generator ---------------------------------------------------------------------------
+    def draw(self, rng, scales, form):
+        out = {"softening": float(rng.uniform(0.1, 0.3))}
+        if form == "damage":
+            out["shape"] = float(rng.uniform(0.2, 0.6))
+        return out
+
+    def truth(self, p, synthetic):
+        return {"softening": p["softening"]}
+
+    def sim_instant(self, path, p, s_after, s_before):
+        # the response to the load itself, softened below the largest |load| so far
+        x = np.column_stack([path.u_before, path.u_after]).ravel()
+        m = np.maximum.accumulate(np.abs(x))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            r = np.where(m > 0, np.abs(x) / m, 1.0)
+        sigma = p["softening"]
+        if p.get("form", "chord") == "damage":
+            b = p["shape"]
+            factor = 1.0 - sigma * np.tanh((1.0 - r) / b) / np.tanh(1.0 / b)
+        else:
+            factor = 1.0 - sigma * (1.0 - r)
+        s = (x * factor).reshape(-1, 2).T
+        return s[1], s[0]
 
 
 EFFECT = MullinsSoftening()

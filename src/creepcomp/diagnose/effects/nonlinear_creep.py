@@ -19,7 +19,7 @@ import numpy as np
 from creepcomp.fit.data import Data
 from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
-from creepcomp.diagnose.effects import Effect
+from creepcomp.diagnose.effects import SensorEffect
 from creepcomp.errors import InputError
 
 __all__ = ["NonlinearCreep", "EFFECT"]
@@ -35,8 +35,12 @@ _LEVELS_SHARE = 0.1
 _SLOWEST = 0.1
 
 
-class NonlinearCreep(Effect):
+class NonlinearCreep(SensorEffect):
     name = "nonlinear_creep"
+    vocabulary_index = 3
+    # amplitude ~ load; ~ |load|^m; load-dependent time
+    forms = ("linear", "power", "time")
+    programs = ("staircase", "mixture", "random", "sweep")
     parameters = ("growth", "acceleration")
     changes_lags = True
     summary = "creep whose amplitude or speed depends on the load level"
@@ -107,6 +111,38 @@ class NonlinearCreep(Effect):
         return (Applied(self, (("load_scale", float(entry["load_scale"])),)),
                 {"nonlinear_creep.growth": float(entry["growth"]),
                  "nonlinear_creep.acceleration": float(entry.get("acceleration", 0.0))})
+
+    # -- generator ---------------------------------------------------------------------------
+    def draw_default(self, rng, scales, mixture):
+        if mixture and rng.uniform() < 0.3:
+            return {"form": "power", "exponent": float(rng.uniform(1.5, 2.5))}
+        return {"growth": float(rng.choice([-1, 1]) * rng.uniform(0.5, 1.0)
+                                if rng.uniform() < 0.2 else rng.uniform(0.6, 2.0))}
+
+    def draw(self, rng, scales, form):
+        if form == "linear":
+            return {"growth": float(rng.uniform(0.6, 2.0))}
+        if form == "power":
+            return {"exponent": float(rng.uniform(1.5, 2.5))}
+        return {"acceleration": float(rng.uniform(1.0, 3.0))}
+
+    def sim_creep_input(self, path, p, h_after, h_before):
+        form = p.get("form", "linear")
+        if form == "time":
+            return h_after, h_before
+        fs = path.full_scale
+        if form == "linear":
+            c = p["growth"]
+            return h_after * (1.0 + c * np.abs(h_after) / fs), h_before * (1.0 + c * np.abs(h_before) / fs)
+        m = p["exponent"]                                 # power law: creep ~ |s|^m
+        return fs * np.sign(h_after) * np.abs(h_after / fs) ** m, fs * np.sign(h_before) * np.abs(h_before / fs) ** m
+
+    def sim_tau_factor(self, path, p, factor):
+        if p.get("form") != "time":
+            return None
+        # creep that runs faster under a higher load (stress-accelerated retardation)
+        hm = 0.5 * (np.abs(path.h_after[:-1]) + np.abs(path.h_before[1:]))
+        return factor / (1.0 + p["acceleration"] * hm / path.full_scale)[:, None]
 
 
 def _between_levels(data: Data) -> float:

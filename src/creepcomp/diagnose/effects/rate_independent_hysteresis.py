@@ -24,9 +24,9 @@ import numpy as np
 from creepcomp.fit.data import Data
 from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
-from creepcomp.diagnose.effects import Effect
+from creepcomp.diagnose.effects import SensorEffect
 
-__all__ = ["REVERSAL_SHARE", "WIDTH_CHI2", "WIDTH_DETERMINED", "play", "one_way_reason", "PlayShapes", "RateIndependentHysteresis", "EFFECT"]
+__all__ = ["REVERSAL_SHARE", "WIDTH_CHI2", "WIDTH_DETERMINED", "play", "play_loop", "one_way_reason", "PlayShapes", "RateIndependentHysteresis", "EFFECT"]
 
 #: A load history "changes both ways" when its smaller direction (rises or falls, through a play of
 #: 1 % of full scale) makes at least this share of its larger one.
@@ -100,8 +100,12 @@ class PlayShapes:
                 float(max(width, close.max())) if len(close) else width)
 
 
-class RateIndependentHysteresis(Effect):
+class RateIndependentHysteresis(SensorEffect):
     name = "rate_independent_hysteresis"
+    vocabulary_index = 10
+    # one play on the output; several on the load, before creep
+    forms = ("play", "distributed")
+    programs = ("sweep", "staircase", "mixture", "cycles")
     parameters = ("width", "weight")
     summary = "output that depends on the direction of the load history, not on time (play operator)"
 
@@ -180,5 +184,55 @@ class RateIndependentHysteresis(Effect):
         ratio = values["rate_independent_hysteresis.weight"] / values["gain"]
         return delta / max(1.0 - 0.5 * ratio, 0.1)
 
+    # -- generator ---------------------------------------------------------------------------
+    def draw(self, rng, scales, form):
+        s = scales
+        out = dict(width=float(rng.uniform(0.05, 0.25) * s.signal_scale / abs(s.gain)),
+                   weight=float(rng.choice([-1, 1], p=[0.2, 0.8]) * rng.uniform(0.03, 0.1) * s.gain))
+        if form == "distributed":
+            out["spread"] = float(rng.uniform(0.3, 0.7))
+        return out
+
+    def truth(self, p, synthetic):
+        return {"width": p["width"], "weight": p["weight"], "loop_height": p["width"] * p["weight"]}
+
+    def sim_instant(self, path, p, s_after, s_before):
+        if p.get("form") != "distributed":
+            return s_after, s_before
+        # friction in the mechanics: several plays on the load, before creep
+        extra = p["weight"] / path.gain * _plays(p, path.u_after, path.u_before)
+        return s_after + extra[1], s_before + extra[0]
+
+    def sim_output(self, path, p, y):
+        if p.get("form", "play") != "play":
+            return y
+        return y + p["weight"] * _plays(p, path.u_after, path.u_before)[1]
+
 
 EFFECT = RateIndependentHysteresis()
+
+
+def play_loop(x, width: float, initial: float = 0.0) -> np.ndarray:
+    """A play (backlash) operator of dead-band ``width``, stepped sample by sample (the
+    generator's reference for :func:`play`)."""
+    r = 0.5 * width
+    y, out = initial, []
+    for v in np.asarray(x, float).tolist():
+        y = min(max(y, v - r), v + r)
+        out.append(y)
+    return np.array(out)
+
+
+def _plays(p: dict, u_after, u_before) -> np.ndarray:
+    """The generator's hysteresis: the mean of ``play(u) - u`` over the hidden operators'
+    widths, before and after each grid time (shape (2, N)); the grid holds every breakpoint,
+    so the plays are exact there."""
+    widths = [p["width"]] if p.get("form", "play") == "play" else \
+        list(p["width"] * np.linspace(1.0 - p["spread"], 1.0 + p["spread"], 5))
+    # interleave before/after values so that steps at grid points are followed exactly
+    x = np.column_stack([u_before, u_after]).ravel()
+    acc = np.zeros_like(x)
+    for w in widths:
+        acc += play_loop(x, w) - x
+    acc /= len(widths)
+    return acc.reshape(-1, 2).T

@@ -12,7 +12,7 @@ import numpy as np
 from creepcomp.fit.data import Data
 from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
-from creepcomp.diagnose.effects import Effect
+from creepcomp.diagnose.effects import SensorEffect
 
 __all__ = ["deviation", "StaticNonlinearity", "EFFECT"]
 
@@ -23,8 +23,12 @@ def deviation(x, a2: float, a3: float, scale: float):
     return scale * (a2 * r ** 2 + a3 * r ** 3)
 
 
-class StaticNonlinearity(Effect):
+class StaticNonlinearity(SensorEffect):
     name = "static_nonlinearity"
+    vocabulary_index = 7
+    # polynomial; saturating
+    forms = ("poly", "tanh")
+    programs = ("staircase", "sweep", "mixture", "random")
     parameters = ("a2", "a3")
     summary = "an instantaneous response that is not linear in load"
 
@@ -58,6 +62,25 @@ class StaticNonlinearity(Effect):
         r = load / applied.setting("load_scale")
         slope = 1.0 + 2 * a2 * r + 3 * a3 * r ** 2
         return delta / np.where(np.abs(slope) > 0.1, slope, 0.1)
+
+    # -- generator ---------------------------------------------------------------------------
+    def draw_default(self, rng, scales, mixture):
+        if mixture and rng.uniform() < 0.3:
+            return {"form": "tanh", "saturation": float(rng.uniform(0.15, 0.35))}
+        return self.draw(rng, scales, "poly")
+
+    def draw(self, rng, scales, form):
+        if form == "tanh":
+            return {"saturation": float(rng.uniform(0.15, 0.35))}
+        return dict(a2=float(rng.choice([-1, 1]) * rng.uniform(0.005, 0.02)),
+                    a3=float(rng.choice([-1, 1]) * rng.uniform(0.0, 0.02)))
+
+    def sim_instant(self, path, p, s_after, s_before):
+        fs = path.full_scale
+        if p.get("form", "poly") == "poly":
+            return tuple(u + deviation(u, p["a2"], p["a3"], fs) for u in (path.u_after, path.u_before))
+        k = p["saturation"]               # tanh: compressive, 1 - tanh(k) / k at full scale
+        return tuple(fs * np.tanh(k * u / fs) / k for u in (path.u_after, path.u_before))
 
 
 EFFECT = StaticNonlinearity()

@@ -16,7 +16,7 @@ from creepcomp.fit.data import Data
 from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
 from creepcomp.lti import lag_states
-from creepcomp.diagnose.effects import Effect
+from creepcomp.diagnose.effects import SensorEffect
 
 __all__ = ["ThermalDrift", "EFFECT"]
 
@@ -26,8 +26,11 @@ def _shortest(data: Data) -> float:
     return 0.1 * data.dt_median
 
 
-class ThermalDrift(Effect):
+class ThermalDrift(SensorEffect):
     name = "thermal_drift"
+    vocabulary_index = 5
+    # offset ~ T; ~ T through the sensor's thermal lag
+    forms = ("linear", "lagged")
     parameters = ("coefficient", "lag")
     needs = ("temperature",)
     summary = "an offset that follows temperature (possibly through a thermal lag)"
@@ -75,6 +78,26 @@ class ThermalDrift(Effect):
             values["thermal_drift.lag"] = lag
             return Applied(self, (reference, ("lagged", True))), values
         return Applied(self, (reference,)), values
+
+    # -- generator ---------------------------------------------------------------------------
+    def draw_default(self, rng, scales, mixture):
+        # 0.02 ... 0.1 % of full scale per K
+        return {"coefficient": float(rng.choice([-1, 1]) * rng.uniform(2e-4, 1e-3) * scales.signal_scale)}
+
+    def draw(self, rng, scales, form):
+        out = self.draw_default(rng, scales, False)
+        if form == "lagged":
+            out["lag"] = float(rng.uniform(0.01, 0.05) * scales.duration)
+        return out
+
+    def truth(self, p, synthetic):
+        return {"coefficient": p["coefficient"]}
+
+    def sim_output(self, path, p, y):
+        dT = path.temperature - p["reference_temperature"]
+        if p.get("form", "linear") == "lagged":
+            dT = lag_states(path.grid, dT, [p["lag"]], hold="linear", initial="settled")[:, 0]
+        return y + p["coefficient"] * dT
 
 
 EFFECT = ThermalDrift()

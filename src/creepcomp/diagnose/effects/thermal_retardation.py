@@ -22,7 +22,7 @@ import numpy as np
 from creepcomp.fit.data import Data
 from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
-from creepcomp.diagnose.effects import Effect
+from creepcomp.diagnose.effects import SensorEffect
 
 __all__ = ["RESTART_KAPPAS", "ThermalRetardation", "EFFECT"]
 
@@ -31,8 +31,12 @@ __all__ = ["RESTART_KAPPAS", "ThermalRetardation", "EFFECT"]
 RESTART_KAPPAS = (0.05, 0.15, 0.45)
 
 
-class ThermalRetardation(Effect):
+class ThermalRetardation(SensorEffect):
     name = "thermal_retardation"
+    vocabulary_index = 6
+    # shift factor Arrhenius; Williams-Landel-Ferry
+    forms = ("arrhenius", "wlf")
+    programs = ("staircase", "mixture", "random", "sweep")
     parameters = ("kappa",)
     needs = ("temperature",)
     changes_lags = True
@@ -70,6 +74,25 @@ class ThermalRetardation(Effect):
     def restore(self, entry, model, data):
         return (Applied(self, (("reference_temperature", float(entry["reference_temperature"])),)),
                 {"thermal_retardation.kappa": float(entry["kappa"])})
+
+    # -- generator ---------------------------------------------------------------------------
+    def draw_default(self, rng, scales, mixture):
+        # activation energy 60 ... 150 kJ/mol: tau changes 7 ... 17 % per K near 300 K
+        return {"activation": float(rng.uniform(60e3, 150e3) / 8.314)}
+
+    def draw(self, rng, scales, form):
+        if form == "wlf":
+            return dict(c1=float(rng.uniform(8.0, 17.0)), c2=float(rng.uniform(50.0, 120.0)))
+        return self.draw_default(rng, scales, False)
+
+    def sim_tau_factor(self, path, p, factor):
+        tm = 0.5 * (path.temperature[:-1] + path.temperature[1:])
+        if p.get("form", "arrhenius") == "wlf":
+            dT = tm - p["reference_temperature"]
+            return factor * (10.0 ** (-p["c1"] * dT / (p["c2"] + dT)))[:, None]
+        tk = tm + 273.15
+        tref = p["reference_temperature"] + 273.15
+        return factor * np.exp(p["activation"] * (1.0 / tk - 1.0 / tref))[:, None]
 
 
 EFFECT = ThermalRetardation()

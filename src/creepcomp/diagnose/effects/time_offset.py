@@ -10,7 +10,7 @@ import numpy as np
 
 from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
-from creepcomp.diagnose.effects import Effect
+from creepcomp.diagnose.effects import SensorEffect
 
 __all__ = ["shifted", "averaged", "TimeOffset", "EFFECT"]
 
@@ -51,8 +51,12 @@ def averaged(time, values, delay: float, width: float) -> np.ndarray:
     return (hi - lo) / width
 
 
-class TimeOffset(Effect):
+class TimeOffset(SensorEffect):
     name = "time_offset"
+    vocabulary_index = 8
+    # a delay; a boxcar-averaging ADC (group delay)
+    forms = ("delay", "average")
+    programs = ("staircase", "step", "mixture", "random", "sweep")
     parameters = ("delay", "width")
     summary = "signal and load sampled at different instants (or the signal averaged over a window)"
 
@@ -106,6 +110,30 @@ class TimeOffset(Effect):
         # the adjoint of the window (shift back, average again): a window's response turns
         # negative at some frequencies, where dividing by it, or ignoring it, would not converge
         return averaged(data.time, delta, -values["time_offset.delay"], values.get("time_offset.width", 0.0))
+
+    # -- generator ---------------------------------------------------------------------------
+    def draw_default(self, rng, scales, mixture):
+        dt = 1.0 / scales.rate
+        return {"delay": float(dt * rng.uniform(2.0, 10.0))}
+
+    def draw(self, rng, scales, form):
+        if form == "average":
+            k = int(rng.integers(3, 9))
+            return dict(samples=k, delay=float((k - 1) / 2.0 / scales.rate))
+        return {"delay": float(rng.uniform(2.0, 10.0) / scales.rate)}
+
+    def truth(self, p, synthetic):
+        return {"delay": p["delay"]}
+
+    def sim_lead(self, p):
+        return 0.0 if p.get("form") == "average" else float(p.get("delay", 0.0))
+
+    def sim_sample(self, path, p, y):
+        t = path.t_samples
+        if p.get("form") == "average":
+            k = int(p["samples"])
+            return np.mean([np.interp(t - j / path.rate, path.grid, y) for j in range(k)], axis=0)
+        return np.interp(t - self.sim_lead(p), path.grid, y)
 
 
 EFFECT = TimeOffset()

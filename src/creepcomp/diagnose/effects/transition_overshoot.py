@@ -23,7 +23,7 @@ from creepcomp.fit.data import Data
 from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
 from creepcomp.lti import lag_states
-from creepcomp.diagnose.effects import Effect
+from creepcomp.diagnose.effects import SensorEffect
 from creepcomp.diagnose.effects.rate_independent_hysteresis import one_way_reason, play
 
 __all__ = ["DEAD_BAND", "total_variation", "stretched_weights", "TransitionOvershoot", "EFFECT"]
@@ -53,8 +53,13 @@ def stretched_weights(exponent: float) -> np.ndarray:
     return w
 
 
-class TransitionOvershoot(Effect):
+class TransitionOvershoot(SensorEffect):
     name = "transition_overshoot"
+    vocabulary_index = 9
+    # exp(-t/tau); exp(-(t/tau)^b)
+    forms = ("exponential", "stretched")
+    programs = ("staircase", "step", "random", "cycles")
+    unloads = True
     parameters = ("amplitude", "tau")
     summary = "a decaying transient of one sign after every load change, up or down"
 
@@ -122,5 +127,47 @@ class TransitionOvershoot(Effect):
             return Applied(self, (scale, ("stretched", True))), values
         return Applied(self, (scale,)), values
 
+    # -- generator ---------------------------------------------------------------------------
+    def draw(self, rng, scales, form):
+        s = scales
+        # 2 ... 8 % of the change, decaying 3 ... 30 times faster than the creep
+        out = dict(amplitude=float(rng.choice([-1, 1], p=[0.3, 0.7]) * rng.uniform(0.02, 0.08) * abs(s.gain)),
+                   tau=float(max(s.tau / rng.uniform(3.0, 30.0), 8.0 / s.rate)))
+        if form == "stretched":
+            out["exponent"] = float(rng.uniform(0.6, 0.85))
+        return out
+
+    def truth(self, p, synthetic):
+        return {"amplitude": p["amplitude"], "tau": p["tau"]}
+
+    def sim_sampled(self, path, p, out):
+        return out + _overshoot(p, path.program, path.t_samples)
+
 
 EFFECT = TransitionOvershoot()
+
+
+def _overshoot(p: dict, program, t: np.ndarray) -> np.ndarray:
+    """The generator's transient: the sum over the program's load changes of
+    ``amplitude |dL| g(t - t_change)``; ramps are cut into 32 changes each. ``g``: exp(-x/tau)
+    or, stretched, exp(-(x/tau)^b)."""
+    bt, bu = np.array(program.times), np.array(program.loads)
+    times, sizes = [], []
+    for k in range(len(bt) - 1):
+        du = bu[k + 1] - bu[k]
+        if du == 0:
+            continue
+        if bt[k + 1] == bt[k]:
+            times.append(bt[k])
+            sizes.append(abs(du))
+        else:
+            pieces = 32
+            times += list(bt[k] + (np.arange(pieces) + 0.5) / pieces * (bt[k + 1] - bt[k]))
+            sizes += [abs(du) / pieces] * pieces
+    out = np.zeros(len(t))
+    tau, b = p["tau"], p.get("exponent", 1.0) if p.get("form") == "stretched" else 1.0
+    for tj, sj in zip(times, sizes):
+        after = t >= tj
+        x = (t[after] - tj) / tau
+        out[after] += p["amplitude"] * sj * np.exp(-x ** b)
+    return out

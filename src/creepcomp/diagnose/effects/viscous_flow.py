@@ -14,7 +14,7 @@ import numpy as np
 from creepcomp.fit.data import Data
 from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
-from creepcomp.diagnose.effects import Effect
+from creepcomp.diagnose.effects import SensorEffect
 
 __all__ = ["integral", "ViscousFlow", "EFFECT"]
 
@@ -36,8 +36,13 @@ def integral(data: Data, s: np.ndarray) -> np.ndarray:
     return out
 
 
-class ViscousFlow(Effect):
+class ViscousFlow(SensorEffect):
     name = "viscous_flow"
+    vocabulary_index = 2
+    flow = True
+    # Newtonian dashpot; power-law (Norton) flow
+    forms = ("linear", "norton")
+    one_sided = True
     parameters = ("rate",)
     summary = "creep that never saturates (a dashpot in series: Burgers model)"
 
@@ -81,8 +86,13 @@ class ViscousFlow(Effect):
                     f"within the record, which no passive material does")
         return None
 
+    def rate(self, fit: Fit) -> tuple[float, float]:
+        """The fitted flow rate (1/s, relative to the instantaneous signal) and its standard
+        deviation."""
+        return fit.estimate(lambda v: v["viscous_flow.flow"] / v["gain"])
+
     def report(self, fit: Fit, applied: Applied) -> dict:
-        out = {"rate": fit.estimate(lambda v: v["viscous_flow.flow"] / v["gain"])}
+        out = {"rate": self.rate(fit)}
         if "viscous_flow.exponent" in fit.values:
             out["exponent"] = fit.estimate(lambda v: v["viscous_flow.exponent"])
         return out
@@ -103,6 +113,36 @@ class ViscousFlow(Effect):
     def linear_terms(self, values, applied, data):
         tau = _EQUIVALENT_LENGTHS * max(data.duration, float(np.median(np.diff(data.time))))
         return [(values["viscous_flow.flow"] / values["gain"] * tau, tau)]
+
+    # -- generator ---------------------------------------------------------------------------
+    def draw_default(self, rng, scales, mixture):
+        # flow that adds 0.5 ... 3 times the creep over the record
+        return {"rate": float(scales.beta * rng.uniform(0.5, 3.0) / scales.duration)}
+
+    def draw(self, rng, scales, form):
+        out = self.draw_default(rng, scales, False)
+        if form == "norton":
+            out["exponent"] = float(rng.uniform(1.5, 3.0))
+        return out
+
+    def truth(self, p, synthetic):
+        rate = p["rate"]
+        if p.get("form") == "norton":
+            # the diagnosis gives the rate at the record's largest load, not at the
+            # generator's full scale
+            largest = float(np.max(np.abs(synthetic.record.load)))
+            rate *= (largest / synthetic.spec.full_scale) ** (p["exponent"] - 1.0)
+        return {"rate": rate}
+
+    def sim_response(self, path, p, y):
+        fs = path.full_scale
+        drive_a, drive_b = path.s_after, path.s_before
+        if p.get("form", "linear") == "norton":
+            n = p["exponent"]
+            drive_a = path.s_after * np.abs(path.s_after / fs) ** (n - 1.0)
+            drive_b = path.s_before * np.abs(path.s_before / fs) ** (n - 1.0)
+        steps = 0.5 * (drive_a[:-1] + drive_b[1:]) * np.diff(path.grid)
+        return y + p["rate"] * np.concatenate([[0.0], np.cumsum(steps)])
 
 
 EFFECT = ViscousFlow()

@@ -1,0 +1,475 @@
+"""The proven worst-case error of the generated C corrector against the exact one.
+
+The C code (:mod:`creepcomp.digital.firmware`) stores rounded coefficients and rounds every
+operation. Each rounding and each stored coefficient's error is a local error; the state errors
+obey ``d[n+1] = M d[n] + a eps[n] + eta[n]`` with ``M = I - diag(a) - a beta^T`` (the corrector's
+own recursion), so a local error reaches the output through the impulse response of that
+recursion, whose l1 norm is bounded by the geometric sums ``sum_i |l_i r_i| / (1 - |lambda_i|)``
+over the eigenvalues of ``M``. For the dt step (irregular sampling) a componentwise invariant
+over all allowed intervals takes the place of the eigenvalues. ``docs/firmware.md`` has the
+derivation.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from creepcomp.errors import InputError
+from creepcomp.model import CreepModel
+
+__all__ = ["PRECISIONS", "FULL_SCALE_WORD", "REFERENCE_ALLOWANCE", "MIN_INTERVAL", "TICK",
+           "ErrorBound", "firmware_bound", "check_arguments", "check_interval",
+           "exact_coefficients", "stored_coefficients", "dt_scheme", "float32_value"]
+
+PRECISIONS = ("float32", "q31")
+#: q31: the input word of a full-scale signal (the words keep one bit of headroom).
+FULL_SCALE_WORD = 2 ** 30
+#: Allowance (fraction of full scale) for the float64 reference corrector's own rounding; it is
+#: near 1e-14 for the models here, so the bound is against exact arithmetic plus this.
+REFERENCE_ALLOWANCE = 1e-12
+
+_U32 = 2.0 ** -24                  # unit roundoff of IEEE binary32
+_Q_IN = 2.0 ** -31                 # half a q31 word (fraction of full scale)
+_Q_STATE = 2.0 ** -61              # half a step of the 64-bit states
+_MARGIN = 1.0 + 1e-6               # second-order terms (products of roundings), float64 evaluation
+_METHODS = ("subtractive", "supplemental")
+#: Shortest interval the dt step accepts (s); also the q31 step's tick: dt is in microseconds.
+MIN_INTERVAL = 1e-6
+TICK = 1e-6
+
+
+@dataclass(frozen=True)
+class ErrorBound:
+    """Worst-case difference between the generated corrector and the exact float64 one.
+
+    Attributes
+    ----------
+    total_fs : float
+        The bound, as a fraction of full scale.
+    terms : dict
+        Its parts (fractions of full scale, already multiplied by their gains), by cause.
+    full_scale : float
+        The input range it assumes: ``|raw - offset| <= full_scale`` (signal units).
+    peak_fs : float
+        Largest ``|S|`` the exact corrector can output for inputs in that range (fraction of
+        full scale): the l1 norm of its impulse response.
+    gains : dict
+        ``sample``: gain from a local error of ``S`` to the output error; ``state``: one per
+        creep term, gain from a local error of its state (both l1 norms).
+    """
+
+    total_fs: float
+    terms: dict
+    full_scale: float
+    peak_fs: float
+    gains: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        """JSON form."""
+        return {"bound_fs": self.total_fs, "terms": dict(self.terms), "full_scale": self.full_scale,
+                "peak_fs": self.peak_fs, "gains": dict(self.gains)}
+
+
+# ----------------------------------------------------------------------------------- checks
+
+def check_arguments(model: CreepModel, method: str, precision: str, rate: float,
+                    full_scale: float, name: str) -> None:
+    """Refuse bad arguments of the generator and the bound with an InputError.
+
+    An unknown method or precision, a rate or full scale that is not positive and finite, a name
+    that is not a C identifier, or a model the corrector cannot invert.
+    """
+    from creepcomp.digital.correctors import check_invertible
+
+    if method not in _METHODS:
+        raise InputError(f"method '{method}': use 'subtractive' or 'supplemental'")
+    if precision not in PRECISIONS:
+        raise InputError(f"precision '{precision}': use 'float32' or 'q31'")
+    if not (rate > 0 and math.isfinite(rate)):
+        raise InputError(f"rate = {rate!r}: the sample rate must be positive and finite (Hz)")
+    if not (full_scale > 0 and math.isfinite(full_scale)):
+        raise InputError(f"full scale = {full_scale!r}: must be positive and finite (signal units)")
+    if not (name and name.isascii() and name.replace("_", "a").isalnum() and not name[0].isdigit()):
+        raise InputError(f"name '{name}': a C identifier is needed (letters, digits, '_'; "
+                         "not starting with a digit)")
+    check_invertible(model)
+
+
+def check_interval(max_interval: float) -> None:
+    """Raise InputError unless the dt step can accept intervals up to ``max_interval`` (s)."""
+    if not (math.isfinite(max_interval) and max_interval >= MIN_INTERVAL):
+        raise InputError(f"max interval = {max_interval!r}: must be finite and at least "
+                         f"{MIN_INTERVAL:g} s (the shortest interval the dt step accepts)")
+
+
+def exact_coefficients(model: CreepModel, rate: float) -> dict:
+    """The recursion's exact coefficients at ``rate`` (float64).
+
+    Keys ``T``, ``beta``, ``tau``, ``a``, ``e = 1 - a``, ``sigma = 1 + beta0``,
+    ``w = 1/sigma`` and ``offset``.
+    """
+    taus = np.array(model.tau)
+    x = (1.0 / rate) / taus
+    return {"T": 1.0 / rate, "beta": np.array(model.beta), "tau": taus, "a": -np.expm1(-x),
+            "e": np.exp(-x), "sigma": 1.0 + model.beta0, "w": 1.0 / (1.0 + model.beta0),
+            "offset": model.offset}
+
+
+# ------------------------------------------------------------------------------ the gains
+
+def _modes(a: np.ndarray, beta: np.ndarray):
+    """Eigen-decomposition of ``N = diag(a) + a beta^T``; ``M = I - N`` is the error recursion.
+
+    Returns ``mu`` (eigenvalues of N), ``V`` and ``V^-1``. N is decomposed, not M, so that
+    ``1 - lambda = mu`` keeps its relative accuracy when ``a`` is tiny.
+    """
+    n = np.diag(a) + np.outer(a, beta)
+    mu, v = np.linalg.eig(n)
+    return mu, v, np.linalg.inv(v)
+
+
+def _decay(mu: np.ndarray) -> np.ndarray:
+    """``1 - |1 - mu|`` without cancellation: ``(2 Re mu - |mu|^2) / (1 + |1 - mu|)``."""
+    return (2 * mu.real - np.abs(mu) ** 2) / (1 + np.abs(1 - mu))
+
+
+def _gains(a: np.ndarray, beta: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """l1 gains of the corrector's recursion ``d[n+1] = M d[n] + g u[n]``, output ``beta . d``.
+
+    Returns ``L_sample`` (``1 + sum_m |beta^T M^m a|``: from a local error of ``S``, and from
+    the input to ``S``), ``L_state[k]`` (``sum_m |beta^T M^m e_k|``) and ``G_state[k]``
+    (``sup_m |beta^T M^m e_k|``, for an error of the start state). Each is bounded by its modal
+    expansion, ``sum_i |l_i r_i| / (1 - |lambda_i|)`` (``sum_i |l_i r_i|`` for the supremum).
+    """
+    mu, v, vinv = _modes(a, beta)
+    decay = _decay(mu)
+    if np.any(decay <= 0):
+        raise InputError("the sampled corrector is unstable at this rate (an eigenvalue of its "
+                         "recursion is on or outside the unit circle); sample faster")
+    left = beta @ v                                  # l_i
+    weights = np.abs(left[:, None] * vinv)           # |l_i r_ik| for g = e_k, shape (K modes, K)
+    l_state = (weights / decay[:, None]).sum(axis=0)
+    g_state = weights.sum(axis=0)
+    l_sample = 1.0 + float(np.sum(np.abs(left * (vinv @ a)) / decay))
+    return l_sample * _MARGIN, l_state * _MARGIN, g_state * _MARGIN
+
+
+# ---------------------------------------------------------------------- stored coefficients
+
+def float32_value(value: float) -> float:
+    """``value`` rounded to IEEE binary32 (as a Python float)."""
+    return float(np.float32(value))
+
+
+def _mantissa(value: float, what: str) -> tuple[int, int]:
+    """``value = m * 2**-(31 + s)`` with ``2**30 <= |m| < 2**31`` and ``s >= 0``."""
+    f, exp = math.frexp(abs(value))
+    m, s = round(f * 2 ** 31), -exp
+    if m == 2 ** 31:
+        m, s = 2 ** 30, s - 1
+    if s < 0 or s > 60:
+        raise InputError(f"{what} = {value:g} cannot be stored as a q31 mantissa with a right shift "
+                         "(|value| must be below 1 and above 2^-61)")
+    return (m if value > 0 else -m), s
+
+
+def stored_coefficients(c: dict, precision: str) -> dict:
+    """The coefficients as the C code stores them, and their values (float64, exact)."""
+    beta, a = c["beta"], c["a"]
+    if precision == "float32":
+        return {"beta": np.array([float32_value(b) for b in beta]),
+                "a": np.array([float32_value(x) for x in a]), "offset": float32_value(c["offset"]),
+                "sigma": float32_value(c["sigma"]), "w": float32_value(c["w"])}
+    bm = [_mantissa(b, f"beta[{k}]") for k, b in enumerate(beta)]
+    am = [_mantissa(x, f"a[{k}] = 1 - exp(-T/tau[{k}])") for k, x in enumerate(a)]
+    sigma_q, w_q = round(c["sigma"] * FULL_SCALE_WORD), round(c["w"] * FULL_SCALE_WORD)
+    if not (0 < sigma_q < 2 ** 31 and 0 < w_q < 2 ** 31):
+        raise InputError(f"beta0 = {c['sigma'] - 1:g}: q31 needs -0.5 < beta0 < 1 "
+                         "(1 + beta0 and 1/(1 + beta0) are stored with 30 fraction bits)")
+    return {"beta": np.array([m * 2.0 ** -(31 + s) for m, s in bm]),
+            "a": np.array([m * 2.0 ** -(31 + s) for m, s in am]),
+            "beta_q": bm, "a_q": am, "sigma_q": sigma_q, "w_q": w_q,
+            "offset": c["offset"], "sigma": sigma_q / FULL_SCALE_WORD, "w": w_q / FULL_SCALE_WORD}
+
+
+# ------------------------------------------------------------------------------- the bound
+
+def firmware_bound(model: CreepModel, method: str = "subtractive", precision: str = "float32",
+                   rate: float = 100.0, full_scale: float = 1.0,
+                   max_interval: float | None = None) -> ErrorBound:
+    """Proven worst-case difference between the generated C corrector and the exact one.
+
+    Parameters
+    ----------
+    model : CreepModel
+        Creep terms and offset.
+    method : {"subtractive", "supplemental"}
+    precision : {"float32", "q31"}
+    rate : float
+        Sample rate (Hz).
+    full_scale : float
+        Input range the bound assumes: ``|raw - offset| <= full_scale`` (signal units).
+    max_interval : float, optional
+        The dt step (irregular sampling): the bound holds for every sequence of intervals
+        ``MIN_INTERVAL <= dt <= max_interval`` (s); ``rate`` is then not used.
+
+    Returns
+    -------
+    ErrorBound
+        Bound on ``|C output - exact output| / full_scale`` for every sample of every input
+        sequence in the range, from a relaxed or a settled start. float32 assumes IEEE binary32
+        rounding to nearest with no excess precision (the C code refuses to compile otherwise).
+    """
+    if max_interval is not None:
+        check_interval(max_interval)
+        check_arguments(model, method, precision, 1.0 / max_interval, full_scale, "x")
+        return _irregular_bound(model, method, precision, max_interval, full_scale)
+    check_arguments(model, method, precision, rate, full_scale, "x")
+    c = exact_coefficients(model, rate)
+    st = stored_coefficients(c, precision)
+    beta, a = c["beta"], c["a"]
+    l_sample, l_state, g_state = _gains(a, beta)
+    peak = l_sample                                   # max |S| / FS of the exact corrector
+    sigma = c["sigma"] if method == "supplemental" else 1.0
+    sum_beta = float(np.sum(np.abs(beta)))
+    k = len(beta)
+    # Everything below is in units of full scale. C bounds |computed state| and |computed S|;
+    # it is checked (and raised if needed) after the error is known.
+    cmax = peak * (1.0 + 1e-3)
+    for _ in range(8):
+        terms, b_s, eta_over_a = _local_terms(precision, st, c, k, cmax, full_scale, l_sample,
+                                              l_state, g_state, sum_beta, sigma, method)
+        if cmax >= peak + b_s + eta_over_a:
+            break
+        cmax = 2 * (peak + b_s + eta_over_a)
+    else:  # pragma: no cover - only for a corrector whose error is of the order of its signal
+        raise InputError("the corrector's rounding error is of the order of its signal at this "
+                         "rate and precision: no useful bound")
+    if precision == "q31":
+        _check_q31_range(peak, cmax, sigma, method)
+    terms["float64 reference (allowance)"] = REFERENCE_ALLOWANCE
+    total = sum(terms.values()) * _MARGIN
+    return ErrorBound(total_fs=float(total), terms={n: float(v) for n, v in terms.items()},
+                      full_scale=float(full_scale), peak_fs=float(peak),
+                      gains={"sample": float(l_sample), "state": [float(g) for g in l_state]})
+
+
+def _sample_errors(precision, st, c, k, cmax, fs, sum_beta, method):
+    """Local errors of ``S`` per sample, of a settled start and of the output (fractions of FS).
+
+    Returns ``(eps, start, out_offset, out_scale)``; see the table in docs/firmware.md.
+    """
+    beta = c["beta"]
+    beta_err = float(np.sum(np.abs(st["beta"] - beta)))
+    sum_beta_hat = float(np.sum(np.abs(st["beta"])))
+    if precision == "float32":
+        u = _U32
+        offset = abs(c["offset"]) / fs
+        offset_err = abs(st["offset"] - c["offset"]) / fs
+        raw_max = offset + 1.0
+        x_err = u * raw_max + offset_err + u * (1.0 + u * raw_max + offset_err)
+        gamma = k * u / (1 - k * u)
+        c_hi = cmax * (1 + u)
+        eps = {"input": x_err,
+               "coefficients beta": beta_err * c_hi + sum_beta * u * c_hi,
+               "sum beta.c": gamma * sum_beta_hat * c_hi + u * (1.0 + x_err + sum_beta_hat * c_hi * (1 + gamma))}
+        start = x_err * abs(st["w"]) + abs(st["w"] - c["w"]) + u * (1.0 + x_err) * abs(st["w"])
+        out_offset = offset_err + u * (offset + offset_err + abs(st["sigma"] if method == "supplemental" else 1.0) * cmax * (1 + u))
+        out_scale = (abs(st["sigma"] - c["sigma"]) * cmax + u * abs(st["sigma"]) * cmax
+                     if method == "supplemental" else 0.0)
+    else:
+        x_err = _Q_IN
+        c_q = cmax + _Q_IN
+        eps = {"input": x_err,
+               "coefficients beta": beta_err * c_q,
+               "sum beta.c": sum_beta_hat * _Q_IN + k * _Q_STATE + _Q_IN}
+        start = x_err * st["w"] + abs(st["w"] - c["w"])
+        out_offset = 0.0
+        out_scale = (abs(st["sigma"] - c["sigma"]) * cmax + _Q_IN) if method == "supplemental" else 0.0
+    return eps, start, out_offset, out_scale
+
+
+def _local_terms(precision, st, c, k, cmax, fs, l_sample, l_state, g_state, sum_beta, sigma,
+                 method):
+    """Local errors times their gains (fractions of full scale); see docs/firmware.md."""
+    a = c["a"]
+    a_err = np.abs(st["a"] - a)
+    d = 2 * cmax                                            # |S - c_k|
+    eps, start, out_offset, out_scale = _sample_errors(precision, st, c, k, cmax, fs, sum_beta, method)
+    if precision == "float32":
+        u = _U32
+        c_hi = cmax * (1 + u)
+        eta = a_err * d * (1 + u) ** 3 + a * d * ((1 + u) ** 3 - 1) + a * u * c_hi + u * u * c_hi
+        eta_coef = a_err * d * (1 + u) ** 3
+    else:
+        eta = a_err * d + st["a"] * _Q_IN + _Q_STATE
+        eta_coef = a_err * d
+    eps_total = sum(eps.values())
+    state_terms = l_state * eta
+    b_s = l_sample * eps_total + float(np.sum(state_terms)) + float(np.sum(g_state)) * start
+    terms = {f"{name} (per sample, x{l_sample:.4g})": sigma * l_sample * v for name, v in eps.items()}
+    coef_part = l_state * eta_coef
+    terms["coefficients a_k (state updates)"] = sigma * float(np.sum(coef_part))
+    terms["state updates rounding"] = sigma * float(np.sum(state_terms - coef_part))
+    terms["settled start"] = sigma * float(np.sum(g_state)) * start
+    terms["output"] = out_offset + out_scale
+    return terms, b_s, float(np.max(eta / a))
+
+
+# ------------------------------------------------------------- irregular sampling (dt step)
+
+def _series_terms(x_max: float, target: float) -> int:
+    """Fewest Taylor terms N of ``a = x t(x)`` with truncation ``x^N/(N+1)! <= target``."""
+    n = 2
+    while x_max ** n / math.factorial(n + 1) > target:
+        n += 1
+    return n
+
+
+def dt_scheme(model: CreepModel, precision: str, max_interval: float) -> dict:
+    """How the dt step computes ``a_k(dt) = 1 - exp(-dt/tau_k)``, and its worst relative error.
+
+    float32: ``x = dt * (1/tau_k)``, halved ``m`` times until ``x <= 1/8``, ``a = x t(x)`` with
+    the Taylor series of ``t = (1 - exp(-x))/x`` in Horner form, then ``a <- a (2 - a)`` ``m``
+    times (``1 - a(2y) = (1 - a(y))^2``). q31: ``x = dt_ticks * m_k 2^-E_k`` exactly (``m_k`` the
+    31-bit mantissa of ``tick/tau_k``), ``t(x)`` in Q31 (``x <= 1/2``, no range reduction), and
+    the increment ``(S - c_k) a`` as ``((S - c_k) t) m_k dt 2^-E_k`` with two shifts.
+    """
+    taus = np.array(model.tau)
+    if precision == "float32":
+        u = _U32
+        dt_max = max(max_interval, float32_value(max_interval))
+        dt_min = min(MIN_INTERVAL, float32_value(MIN_INTERVAL))
+        inv_tau = np.array([float32_value(1.0 / tau) for tau in taus])
+        delta_x = np.abs(inv_tau * taus - 1.0) + u * (1 + 1e-6)        # stored 1/tau, product
+        x_hi = dt_max * inv_tau * (1 + u)
+        halvings = np.array([max(0, math.ceil(math.log2(x / 0.125))) if x > 0.125 else 0
+                             for x in x_hi], dtype=int)
+        n = _series_terms(0.125, 2.0 ** -30)
+        # Horner with x <= 1/8: relative error <= 18u/14 (each level damps the inner one by
+        # x/(j+1) <= 1/16), then the product x t: 2.5u in all; each doubling adds (1+u)^2.
+        rel_series = 0.125 ** n / math.factorial(n + 1) / (1 - 0.0625) + 2.5 * u
+        rel_a = (1 + delta_x) * (1 + rel_series) * (1 + u) ** (2 * halvings) - 1
+        return {"dt_min": dt_min, "dt_max": dt_max, "inv_tau": inv_tau, "halvings": halvings,
+                "n": n, "inv_next": [float32_value(1.0 / (j + 1)) for j in range(n)],
+                "rel_a": rel_a, "extra": np.zeros(len(taus)), "nu": np.full(len(taus), u * u),
+                "limit_f": float32_value(max_interval), "min_f": float32_value(MIN_INTERVAL)}
+    max_ticks = math.floor(max_interval / TICK + 1e-6)
+    if not 1 <= max_ticks < 2 ** 31:
+        raise InputError(f"max interval {max_interval:g} s: q31 counts the interval in uint32 ticks "
+                         f"of {TICK:g} s; give 1 tick to 2^31 - 1 ticks")
+    ms = [_mantissa(TICK / tau, f"tick/tau[{k}]") for k, tau in enumerate(taus)]
+    mant = np.array([m for m, _ in ms], dtype=float)
+    exps = np.array([31 + sh for _, sh in ms], dtype=int)
+    x_max = float(np.max(max_ticks * mant * 2.0 ** -exps))
+    if x_max > 0.5 or np.any(exps < 32):
+        raise InputError(f"max interval {max_interval:g} s is more than half the shortest time "
+                         f"constant ({min(taus):g} s): the q31 dt step needs dt <= tau/2; use "
+                         "float32 or a shorter --max-interval")
+    rel_m = np.abs(mant * 2.0 ** -exps / (TICK / taus) - 1.0)
+    n = _series_terms(0.5, 2.0 ** -34)
+    t_min = -math.expm1(-x_max) / x_max
+    # t in Q31: each Horner level rounds twice (0.75 + 0.5 units) and damps the inner error by
+    # x/(j+1) <= 1/4, so |t error| <= 1.7 units; x's rounding adds 0.25: 3 units of 2^-31.
+    rel_t = (3 * 2.0 ** -31 + 0.5 ** n / math.factorial(n + 1)) / t_min
+    r1 = math.ceil(math.log2(max_ticks + 1)) + 1
+    r2 = exps - 30 - r1
+    if np.any(r2 < 0):  # pragma: no cover - excluded by x_max <= 1/2
+        raise InputError("the q31 dt step cannot scale this model's coefficients")
+    extra = (2.0 ** -31 + 2.0 ** -31 / t_min + 2.0 ** (r1 - 61) / t_min) * np.ones(len(taus))
+    return {"dt_min": TICK, "dt_max": max_ticks * TICK, "max_ticks": max_ticks, "m": ms,
+            "exps": exps, "n": n, "inv_next": [round(2 ** 31 / (j + 1)) for j in range(n)],
+            "r1": r1, "r2": r2, "rel_a": (1 + rel_m) * (1 + rel_t) - 1, "extra": extra,
+            "nu": np.where(r2 >= 1, _Q_STATE, 0.0)}
+
+
+def _invariant_gains(beta: np.ndarray, a_max: np.ndarray):
+    """Componentwise invariant of ``|d[n+1]| <= |M(dt)| |d[n]| + a(dt) w`` for all allowed dt.
+
+    With ``M(dt) = I - diag(a) - a beta^T`` row ``k`` of ``|M|`` applied to ``z`` is
+    ``|1 - a_k(1 + beta_k)| z_k + a_k sum_{j != k} |beta_j| z_j``: convex in ``a_k`` and equal
+    to ``z_k`` at ``a_k = 0``, so ``|M| z + a w <= z`` holds for every ``0 < a_k <= a_max_k``
+    when it holds at ``a_max``. That is ``z = G z + h w``, solved as ``z = Z w``; returns
+    ``Z`` (``Z >= 0``) and the largest row sum of ``|M(a_max)|`` (at most 1, checked).
+    """
+    b = np.abs(beta)
+    one_plus = 1.0 + beta
+    big = a_max * one_plus > 1.0
+    if np.any(one_plus <= 0) or np.any(a_max * one_plus >= 2.0):
+        raise InputError("the corrector's recursion is unstable at the longest interval; give "
+                         "a shorter --max-interval")
+    h = np.where(big, a_max / np.where(big, 2.0 - a_max * one_plus, 1.0), 1.0 / one_plus)
+    g = h[:, None] * b[None, :]
+    np.fill_diagonal(g, 0.0)
+    rows = np.abs(1 - a_max * one_plus) + a_max * (b.sum() - b)
+    if np.max(np.abs(np.linalg.eigvals(g))) >= 1.0 or np.max(rows) > 1.0:
+        raise InputError("no error bound for irregular sampling: the creep terms' coupling "
+                         "(sum of |beta|) is too strong for the invariant used; use the fixed rate")
+    z = np.linalg.solve(np.eye(len(b)) - g, np.diag(h)) * _MARGIN
+    if np.any(z < 0):  # pragma: no cover - G >= 0 with spectral radius < 1 gives Z >= 0
+        raise InputError("no error bound for irregular sampling for this model")
+    return z, float(np.max(rows))
+
+
+def _irregular_bound(model: CreepModel, method: str, precision: str, max_interval: float,
+                     full_scale: float) -> ErrorBound:
+    c = exact_coefficients(model, 1.0 / max_interval)
+    st = stored_coefficients(c, precision)
+    sch = dt_scheme(model, precision, max_interval)
+    beta, taus = c["beta"], c["tau"]
+    a_max = -np.expm1(-sch["dt_max"] / taus)
+    a_min = -np.expm1(-sch["dt_min"] / taus)
+    zmat, _ = _invariant_gains(beta, a_max)
+    b = np.abs(beta)
+    sum_beta = float(b.sum())
+    gain_state = b @ zmat                          # output error per unit of w_k (per unit a)
+    gain_sample = 1.0 + float(gain_state.sum())   # from a local error of S
+    z_peak = zmat @ np.ones(len(b))               # |c_k| of the exact corrector, |x| <= 1
+    z_peak = z_peak + max(0.0, abs(c["w"]) - float(np.min(z_peak)))     # settled start
+    peak = 1.0 + float(b @ z_peak)                # |S| of the exact corrector
+    sigma = c["sigma"] if method == "supplemental" else 1.0
+    k = len(beta)
+    u = _U32
+    cmax = max(peak, float(np.max(z_peak))) * (1.0 + 1e-3)
+    for _ in range(8):
+        d = 2 * cmax
+        eps, start, out_offset, out_scale = _sample_errors(precision, st, c, k, cmax, full_scale,
+                                                           sum_beta, method)
+        eps_total = sum(eps.values())
+        if precision == "float32":
+            coef = sch["rel_a"] * d * (1 + u) ** 3
+            rounding = d * ((1 + u) ** 3 - 1) + u * cmax * (1 + u) + sch["nu"] * cmax * (1 + u) / a_min
+        else:
+            coef = sch["rel_a"] * d
+            rounding = sch["extra"] + sch["nu"] / a_min
+        w = eps_total + coef + rounding            # per unit a: |state error| grows by a w
+        z_err = zmat @ w + start
+        s_max = eps_total + float(b @ z_err)
+        if cmax >= max(peak + s_max, float(np.max(z_peak + z_err))):
+            break
+        cmax = 2 * max(peak + s_max, float(np.max(z_peak + z_err)))
+    else:  # pragma: no cover
+        raise InputError("the corrector's rounding error is of the order of its signal: no useful bound")
+    if precision == "q31":
+        _check_q31_range(peak, cmax, sigma, method)
+    terms = {f"{name} (per sample, x{gain_sample:.4g})": sigma * gain_sample * v for name, v in eps.items()}
+    terms["coefficients a_k(dt) (series, stored 1/tau)"] = sigma * float(gain_state @ coef)
+    terms["state updates rounding"] = sigma * float(gain_state @ rounding)
+    terms["settled start"] = sigma * sum_beta * start
+    terms["output"] = out_offset + out_scale
+    terms["float64 reference (allowance)"] = REFERENCE_ALLOWANCE
+    total = sum(terms.values()) * _MARGIN
+    return ErrorBound(total_fs=float(total), terms={n: float(v) for n, v in terms.items()},
+                      full_scale=float(full_scale), peak_fs=float(peak),
+                      gains={"sample": float(gain_sample), "state": [float(g) for g in gain_state]})
+
+
+def _check_q31_range(peak: float, cmax: float, sigma: float, method: str) -> None:
+    """Every word and product of the q31 code fits its integer type."""
+    out = sigma * cmax if method == "supplemental" else cmax
+    if cmax * FULL_SCALE_WORD + 2 >= 2 ** 31 or out * FULL_SCALE_WORD + 2 >= 2 ** 31:
+        raise InputError(f"the corrected signal can reach {max(cmax, out):.4g} x full scale, beyond "
+                         "the q31 words' one bit of headroom (2 x full scale); use float32")
