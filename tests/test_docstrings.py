@@ -10,15 +10,20 @@ import pytest
 import creepcomp
 
 
-def public_objects():
+def package_modules():
+    """Every module of the package, imported."""
     for info in pkgutil.walk_packages(creepcomp.__path__, "creepcomp."):
-        module = importlib.import_module(info.name)
-        yield info.name, module
+        yield importlib.import_module(info.name)
+
+
+def public_objects():
+    for module in package_modules():
+        yield module.__name__, module
         for name, obj in vars(module).items():
             if name.startswith("_") or getattr(obj, "__module__", None) != module.__name__:
                 continue
             if inspect.isfunction(obj) or inspect.isclass(obj):
-                yield f"{info.name}.{name}", obj
+                yield f"{module.__name__}.{name}", obj
 
 
 def test_public_api_is_documented():
@@ -45,8 +50,7 @@ def test_public_api_has_an_example(dotted):
 
 def _doctests():
     finder = doctest.DocTestFinder(exclude_empty=True)
-    for info in pkgutil.walk_packages(creepcomp.__path__, "creepcomp."):
-        module = importlib.import_module(info.name)
+    for module in package_modules():
         for test in finder.find(module):
             if test.examples:
                 yield pytest.param(test, id=test.name)

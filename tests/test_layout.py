@@ -2,6 +2,7 @@
 module imports the command line. Every import counts, including those inside functions."""
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -192,8 +193,6 @@ def strings_in_code(source: str) -> list[str]:
 
 def names_an_effect(strings: list[str], effects) -> set[str]:
     """The effect identifiers that occur as words in ``strings``."""
-    import re
-
     return {e for e in effects for s in strings if re.search(rf"\b{re.escape(e)}\b", s)}
 
 
