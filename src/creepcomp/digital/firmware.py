@@ -328,7 +328,9 @@ def _bound_lines(bound: ErrorBound, full_scale: float) -> list[str]:
     return lines
 
 
+@functools.cache
 def _version() -> str:
+    """The installed creepcomp's version (read once: both the header and the source print it)."""
     from importlib import metadata
 
     try:
@@ -376,8 +378,10 @@ def _template_tree(template: str) -> frozenset[str]:
     return frozenset(found)
 
 
+@functools.cache
 def _template_variables(template: str) -> frozenset[str]:
-    """The values a template needs: the undeclared variables of its tree."""
+    """The values a template needs: the undeclared variables of its tree (found once: the walk
+    of the tree's syntax costs more than the rendering)."""
     return frozenset().union(*(meta.find_undeclared_variables(_parsed(t))
                                for t in _template_tree(template)))
 
