@@ -73,12 +73,8 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
         (:attr:`~creepcomp.io.records.RecordStream.whole_reason`), or fewer than 2 samples:
         correct the whole record instead. No output is left then.
     """
-    def rows_read(done):
-        if progress:
-            progress(done)
-
     stream = open_record_stream(path, columns, block_bytes=block_bytes)
-    scan = stream.scan(progress=rows_read)
+    scan = stream.scan(progress=progress)
     if scan is None or scan.samples < 2:
         return None
     dt = uniform_interval_of(scan.first_time, scan.last_time, scan.samples, scan.step_min,

@@ -145,12 +145,8 @@ def read_reduced(path: str | Path, max_samples: Sequence[int] = (MAX_FIT_SAMPLES
 
 def _read_reduced_chunks(path, targets, columns, delimiter, progress, block_bytes):
     """The reductions made while reading the file in pieces, or None for a file to read whole."""
-    def rows_read(done):
-        if progress:
-            progress(done)
-
     stream = open_record_stream(path, columns, delimiter, block_bytes)
-    scan = stream.scan(max_changes=max(targets) // 2, progress=rows_read)
+    scan = stream.scan(max_changes=max(targets) // 2, progress=progress)
     if scan is None or scan.samples <= max(targets):
         return None                             # not streamable, or short enough to read whole
     n = scan.samples

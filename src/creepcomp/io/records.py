@@ -154,7 +154,6 @@ class Record:
         return {name: getattr(self, name) for name in COLUMNS if getattr(self, name) is not None}
 
 
-
 def parse_columns(text: str | None) -> dict[str, str]:
     """Parse ``time=tR,load=P,signal=Ri`` into a mapping; names must be record columns."""
     if not text:
@@ -171,7 +170,6 @@ def parse_columns(text: str | None) -> dict[str, str]:
             raise InputError(f"--columns: no column name given for '{key}'")
         out[key] = value
     return out
-
 
 
 def read_record(path: str | Path, columns: Mapping[str, str] | None = None,
@@ -645,7 +643,6 @@ class RecordScan:
                    last, step_min, step_max, float(record.load[0]), largest, count,
                    (np.concatenate(changes).astype(np.int64) if changes else np.zeros(0, np.int64))
                    if count <= max_changes else None)
-
 
 
 def scan_record(path: str | Path, columns: Mapping[str, str] | None = None,
