@@ -22,7 +22,7 @@ from creepcomp.fit.structure import Param
 from creepcomp.diagnose.effects import Effect
 
 __all__ = ["PART_FACTOR", "FaultPrior", "NetworkEffect", "CapacitorFault", "circuit_effects", "circuit_effect",
-           "apply_fault", "fault_part", "exact_equivalents", "positive", "off_design", "log_param", "geometric",
+           "apply_fault", "fault_part", "exact_equivalents", "positive", "off_design", "log_param",
            "resistance_scale", "resistance_level"]
 
 #: A part (resistor or capacitor) off its nominal value by more than this factor either way
@@ -287,11 +287,6 @@ def off_design(value: float, nominal: float, what: str) -> str | None:
 def log_param(name: str, lower: float, upper: float, default: float) -> Param:
     """A positive parameter searched on its logarithm."""
     return Param(name, lower, upper, log=True, default=default)
-
-
-def geometric(center: float, factors) -> list[float]:
-    """Start values around ``center``."""
-    return [center * f for f in factors]
 
 
 def resistance_scale(network) -> float:
