@@ -340,13 +340,13 @@ def _detectable(spec: Spec, program: LoadProgram, t, temp_fn, clean, noise) -> t
 # Randomised cases
 # --------------------------------------------------------------------------------------------
 
-def _programs_for(name: str | None) -> tuple:
-    unit = _unit(name)
+def _programs_for(unit: Simulated | None) -> tuple:
+    """The kinds of load program that let ``unit`` show (None: a clean record)."""
     return PROGRAMS if unit is None or unit.programs is None else tuple(unit.programs)
 
 
 #: Load programs that let each effect show (e.g. load-dependent effects need several levels).
-PROGRAMS_FOR = {**{u.name: _programs_for(u.name) for u in hidden_units()}, None: PROGRAMS}
+PROGRAMS_FOR = {**{u.name: _programs_for(u) for u in hidden_units()}, None: PROGRAMS}
 
 
 def random_hidden(effect: str | None, rng: np.random.Generator, tau: float, rate: float,
@@ -424,10 +424,10 @@ def random_spec(effect: str | None, seed: int, rate: tuple = (2.0, 50.0),
                   correlation_time=float(rng.uniform(2.0, 20.0) / r),
                   drift=white * rng.uniform(0.2, 1.0) * colour_scale if rng.uniform() < drift else 0.0,
                   lsb=white * rng.uniform(0.1, 1.0) if rng.uniform() < 0.3 else 0.0)
-    choices = list(programs or _programs_for(effect))
+    unit = _unit(effect)
+    choices = list(programs or _programs_for(unit))
     irregular_now = rng.uniform() < irregular
     hidden = random_hidden(effect, rng, tau, r, dur, beta, forms, abs(gain) * fs, form, gain)
-    unit = _unit(effect)
     if unit is not None:
         unit.finish_draw(hidden[effect], rng, n)
     if relaxation:
