@@ -124,15 +124,13 @@ class MullinsSoftening(SensorEffect):
     def sim_instant(self, path, p, s_after, s_before):
         # the response to the load itself, softened below the largest |load| so far
         x = np.column_stack([path.u_before, path.u_after]).ravel()
-        m = np.maximum.accumulate(np.abs(x))
-        with np.errstate(invalid="ignore", divide="ignore"):
-            r = np.where(m > 0, np.abs(x) / m, 1.0)
+        below = _below(x, past_maximum(x))
         sigma = p["softening"]
         if p.get("form", "chord") == "damage":
             b = p["shape"]
-            factor = 1.0 - sigma * np.tanh((1.0 - r) / b) / np.tanh(1.0 / b)
+            factor = 1.0 - sigma * np.tanh(below / b) / np.tanh(1.0 / b)
         else:
-            factor = 1.0 - sigma * (1.0 - r)
+            factor = 1.0 - sigma * below
         s = (x * factor).reshape(-1, 2).T
         return s[1], s[0]
 
