@@ -16,6 +16,7 @@ template describes (:mod:`creepcomp.synth.untemplated`).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -50,8 +51,14 @@ def _unit(name: str | None) -> Simulated | None:
 
 
 def _active(hidden: dict) -> list[tuple[Simulated, dict]]:
-    """The hidden effects the generator knows and their parameters, in its order."""
-    return [(u, hidden[u.name]) for u in hidden_units() if u.name in hidden]
+    """The hidden effects the generator knows and their parameters, in the order their stages
+    act (:attr:`~creepcomp.diagnose.effects.Simulated.stage_order`)."""
+    units = sorted((u for u in hidden_units() if u.name in hidden), key=_stage_order)
+    return [(u, hidden[u.name]) for u in units]
+
+
+def _stage_order(unit: Simulated) -> float:
+    return unit.stage_order if unit.stage_order is not None else getattr(unit, "vocabulary_index", math.inf)
 
 
 def _physical_names() -> tuple[str, ...]:

@@ -5,7 +5,7 @@ A sensor effect is one complete unit: besides its template for the diagnosis (th
 stages of the generator's signal path (:func:`creepcomp.synth.sensor.simulate_signal`), its
 parameter sampler and formulations, the load programs that let it show, and its truth under
 the names the diagnosis reports. The generator's signal path, stage by stage (each stage
-defaults to "no change" and is applied by every hidden effect in vocabulary order)::
+defaults to "no change" and is applied by every hidden effect, in :attr:`Simulated.stage_order`)::
 
     sim_lead, sim_terms                 fine grid (how far before the first sample), creep terms
     u --sim_instant--> s --sim_creep_input--> h --lags (sim_tau_factor, sim_lags)--> c_k
@@ -119,6 +119,9 @@ class Simulated(abc.ABC):
         describes is kept visible against it).
     record_problem : bool
         A fault of the record itself (:meth:`damage`), made after the noise.
+    stage_order : float or None
+        Where the effect acts at each stage of the signal path among a record's hidden effects
+        (None: at its ``vocabulary_index``; effects with neither act last, in the generator's order).
     """
 
     name = ""
@@ -129,6 +132,7 @@ class Simulated(abc.ABC):
     templated = True
     baseline_terms = 1
     record_problem = False
+    stage_order: float | None = None
 
     # -- parameters ----------------------------------------------------------------------------
     @property

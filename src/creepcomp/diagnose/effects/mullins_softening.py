@@ -51,6 +51,8 @@ class MullinsSoftening(SensorEffect):
     # linear reloading curve; tanh-shaped damage
     forms = ("chord", "damage")
     programs = ("cycles",)
+    # the generator softens the load's own response before a distributed hysteresis adds to it
+    stage_order = 9.5
     parameters = ("softening",)
     summary = "reloading below the largest load so far responds differently (first-cycle softening)"
 

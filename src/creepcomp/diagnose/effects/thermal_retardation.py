@@ -37,6 +37,8 @@ class ThermalRetardation(SensorEffect):
     # shift factor Arrhenius; Williams-Landel-Ferry
     forms = ("arrhenius", "wlf")
     programs = ("staircase", "mixture", "random", "sweep")
+    # the generator's factor on the retardation times comes before a load-dependent one's
+    stage_order = 2.5
     parameters = ("kappa",)
     needs = ("temperature",)
     changes_lags = True
