@@ -88,6 +88,15 @@ def test_registering_refuses_a_duplicate_and_cleans_up(ratchet):
         effects.register(effects.get("viscous_flow"))
 
 
+def test_a_sensor_side_effect_must_be_a_sensor_effect():
+    class Plain(effects.Effect):
+        name = "plain_sensor_effect"
+
+    with pytest.raises(InputError, match="a sensor-side effect is a SensorEffect"):
+        effects.register(Plain())
+    assert "plain_sensor_effect" not in effects.REGISTRY
+
+
 def test_the_plugin_leaves_no_trace():
     assert NAME not in effects.REGISTRY
     with pytest.raises(InputError, match="unknown effect"):

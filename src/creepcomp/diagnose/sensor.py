@@ -41,7 +41,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from creepcomp.diagnose import effects as effects_pkg
-from creepcomp.diagnose.effects import Effect, SensorEffect, compensate_extended
+from creepcomp.diagnose.effects import Effect, compensate_extended
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data, prepare
 from creepcomp.fit.structure import Applied, Structure
@@ -651,8 +651,6 @@ def _screened(data: Data, current: Fit, base: Fit, findings: list[Finding]) -> l
     """The findings with the faults of the record that no model column undoes (clipping,
     channels out of step, coarse quantisation), screened by the sensor effects."""
     for effect in effects_pkg.sensor_effects():
-        if not isinstance(effect, SensorEffect):
-            continue
         for problem in effect.screen(data, current, base):
             named = any(f.effect != "unexplained" for f in findings)
             importance, note = effect.screened_importance(problem, current, base, named)

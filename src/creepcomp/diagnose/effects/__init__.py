@@ -47,7 +47,7 @@ from creepcomp.model import CreepModel
 from creepcomp.diagnose.effects._sensor import Scales, SignalPath, Simulated
 
 __all__ = ["Effect", "SensorEffect", "Scales", "SignalPath", "Simulated", "REGISTRY", "register",
-           "unregister", "sensor_effects", "flow_effect", "get", "arrays_data", "model_structure",
+           "unregister", "effects_on", "sensor_effects", "flow_effect", "get", "arrays_data", "model_structure",
            "simulate_extended", "compensate_extended"]
 
 
@@ -324,6 +324,8 @@ def register(effect: Effect) -> Effect:
         raise InputError(f"cannot register {effect!r}: not an Effect")
     if not effect.name:
         raise InputError("cannot register an effect without a name")
+    if effect.side == "sensor" and not isinstance(effect, SensorEffect):
+        raise InputError(f"cannot register '{effect.name}': a sensor-side effect is a SensorEffect")
     if effect.name in REGISTRY:
         raise InputError(f"an effect named '{effect.name}' is registered already")
     REGISTRY[effect.name] = effect
@@ -335,9 +337,15 @@ def unregister(name: str) -> Effect:
     return REGISTRY.pop(get(name).name)
 
 
-def sensor_effects() -> list[Effect]:
-    """The sensor-side effects, in vocabulary order (then any others by name)."""
-    return sorted((e for e in REGISTRY.values() if e.side == "sensor"), key=lambda e: (e.vocabulary_index, e.name))
+def effects_on(side: str) -> list[Effect]:
+    """The registered effects of one side (``sensor`` or ``circuit``), in vocabulary order
+    (then by name)."""
+    return sorted((e for e in REGISTRY.values() if e.side == side), key=lambda e: (e.vocabulary_index, e.name))
+
+
+def sensor_effects() -> list[SensorEffect]:
+    """The sensor-side effects, in vocabulary order (then by name)."""
+    return effects_on("sensor")
 
 
 def flow_effect() -> SensorEffect:

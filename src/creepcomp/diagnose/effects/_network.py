@@ -225,10 +225,9 @@ class CapacitorFault(NetworkEffect):
 
 def circuit_effects() -> list[NetworkEffect]:
     """The circuit-side effects of the registry, in vocabulary order."""
-    from creepcomp.diagnose import effects
+    from creepcomp.diagnose.effects import effects_on
 
-    found = [e for e in effects.REGISTRY.values() if e.side == "circuit"]
-    return sorted(found, key=lambda e: (e.vocabulary_index, e.name))
+    return effects_on("circuit")
 
 
 def circuit_effect(effect) -> NetworkEffect:
