@@ -185,15 +185,18 @@ class Network:
             raise InputError(f"{where}: the network has no capacitor ({zero}): it cannot correct "
                              "creep; give each cell's capacitance in farad (C > 0)")
 
+    def cell_label(self, kind: str, cell: int) -> str:
+        """The designator of a cell's resistor (``kind`` ``"R"``) or capacitor (``"C"``):
+        ``R1``/``C1``, or ``R1.k``/``C1.k`` (``k = cell + 1``) in a network of several cells."""
+        return f"{kind}1.{cell + 1}" if len(self.cells) > 1 else f"{kind}1"
+
     def parts(self) -> list[tuple[str, str, float]]:
         """The parts as ``(label, kind, value)``, kind ``"R"`` or ``"C"``, in circuit order."""
         out = []
-        many = len(self.cells) > 1
-        for k, c in enumerate(self.cells, 1):
-            suffix = f".{k}" if many else ""
-            out.append((f"R1{suffix}", "R", c.R))
+        for k, c in enumerate(self.cells):
+            out.append((self.cell_label("R", k), "R", c.R))
             if c.C > 0:
-                out.append((f"C1{suffix}", "C", c.C))
+                out.append((self.cell_label("C", k), "C", c.C))
         if self.R2 is not None:
             out.append(("R2", "R", self.R2))
         for j, b in enumerate(self.shunt, 1):

@@ -52,12 +52,12 @@ def resistor_parts(network: Network) -> dict[str, float]:
 
 def capacitor_label(network: Network, cell: int) -> str:
     """The designator of ``cell``'s capacitor: ``C1``, or ``C1.k`` in a network of several cells."""
-    return "C1" if len(network.cells) == 1 else f"C1.{cell + 1}"
+    return network.cell_label("C", cell)
 
 
 def series_resistor_label(network: Network, cell: int) -> str:
     """The designator of ``cell``'s resistor: ``R1``, or ``R1.k`` in a network of several cells."""
-    return "R1" if len(network.cells) == 1 else f"R1.{cell + 1}"
+    return network.cell_label("R", cell)
 
 
 @dataclass(frozen=True)

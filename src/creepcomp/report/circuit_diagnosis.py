@@ -31,12 +31,11 @@ def elements(network) -> dict:
     """Every element of a network by name, with its value (ohm or farad; None: absent),
     including the capacitors' leakage and absorption and the source and load resistances."""
     out = {label: (kind, v) for label, kind, v in network.parts()}
-    many = len(network.cells) > 1
-    for k, c in enumerate(network.cells, 1):
-        suffix = f".{k}" if many else ""
-        out[f"C1{suffix} leakage"] = ("R", c.leakage)
-        out[f"C1{suffix} absorption R"] = ("R", c.absorption_R)
-        out[f"C1{suffix} absorption C"] = ("C", c.absorption_C)
+    for k, c in enumerate(network.cells):
+        label = network.cell_label("C", k)
+        out[f"{label} leakage"] = ("R", c.leakage)
+        out[f"{label} absorption R"] = ("R", c.absorption_R)
+        out[f"{label} absorption C"] = ("C", c.absorption_C)
     out["source resistance"] = ("R", network.source_resistance or None)
     out["load resistance"] = ("R", network.load_resistance)
     return out

@@ -242,11 +242,10 @@ def _imperfections(net: Network, parts, matrix, values, dielectric: Dielectric, 
     col = {label: j for j, (label, _, _) in enumerate(parts)}
     insulation = dielectric.insulation_time(temperature)
     leak, r_da, c_da = (np.repeat(a, n, axis=0) for a in net.imperfection_arrays())
-    many = len(net.cells) > 1
     for k, cell in enumerate(net.cells):
         if cell.C <= 0:
             continue
-        label = f"C1.{k + 1}" if many else "C1"
+        label = net.cell_label("C", k)
         c = matrix[:, col[label]]
         leak[:, k] = insulation / c
         frac = values.get(f"{label}.absorption", np.full(n, np.mean(dielectric.absorption)))
