@@ -12,7 +12,8 @@ from typing import Any, Mapping, TYPE_CHECKING
 import numpy as np
 
 from creepcomp.errors import InputError
-from creepcomp.lti import LagExpansion
+from creepcomp.lti import LagExpansion, varying_lag_states
+from creepcomp.temperature import TemperatureLaw, step_temperatures
 
 if TYPE_CHECKING:
     import control
@@ -28,6 +29,12 @@ def _check_number(value, name: str) -> float:
     if not math.isfinite(x):
         raise InputError(f"{name} = {value!r} is not a finite number")
     return x
+
+
+def _without_beta_law(law: TemperatureLaw) -> TemperatureLaw:
+    """The same shift law with no per-term amplitude law (for another number of terms)."""
+    return TemperatureLaw(law.reference, law.law, law.activation_energy, law.c1, law.c2, (),
+                          dict(law.uncertainty))
 
 
 @dataclass(frozen=True)
@@ -46,6 +53,9 @@ class CreepModel:
         Signal at zero load.
     extensions : mapping
         Fitted extensions of the model (see ``docs/diagnosis.md``), kept as given.
+    temperature : TemperatureLaw, optional
+        How ``beta`` and ``tau`` follow temperature; they hold at its reference. Without it
+        the model has one temperature.
     """
 
     beta: tuple[float, ...]
@@ -53,6 +63,7 @@ class CreepModel:
     gain: float = 1.0
     offset: float = 0.0
     extensions: Mapping[str, Any] = field(default_factory=dict, compare=False)
+    temperature: TemperatureLaw | None = None
 
     def __post_init__(self):
         beta = self.beta if isinstance(self.beta, (list, tuple, np.ndarray)) else [self.beta]
@@ -80,6 +91,10 @@ class CreepModel:
         object.__setattr__(self, "offset", _check_number(self.offset, "offset"))
         if self.gain == 0:
             raise InputError("gain = 0: the sensor would not respond to load")
+        law = self.temperature
+        if law is not None and law.beta_per_kelvin and len(law.beta_per_kelvin) != len(b):
+            raise InputError(f"temperature: beta_per_kelvin has {len(law.beta_per_kelvin)} entries "
+                             f"for {len(b)} creep terms")
 
     @classmethod
     def voigt(cls, beta0: float, tau: float) -> "CreepModel":
@@ -123,7 +138,35 @@ class CreepModel:
 
         return np.sort_complex(control.zeros(self.transfer_function().minreal()))
 
-    def response(self, time, load, hold: str = "linear", initial="relaxed") -> np.ndarray:
+    def at_temperature(self, temperature: float) -> "CreepModel":
+        """The model at one temperature (°C): ``tau_k a_T``, ``beta_k (1 + b_k dT)``, no law.
+
+        A model without a temperature law is returned as it is.
+        """
+        law = self.temperature
+        if law is None:
+            return self
+        a_t = float(law.shift(temperature))
+        factor = law.beta_factor(float(temperature), self.n_terms)
+        return CreepModel(tuple(np.array(self.beta) * factor), tuple(np.array(self.tau) * a_t),
+                          self.gain, self.offset, dict(self.extensions))
+
+    def step_lags(self, temperature) -> tuple[np.ndarray, np.ndarray]:
+        """Retardation times over each sample step and amplitudes at each sample.
+
+        ``tau_k`` over the step ``[t_n, t_n+1]`` follows the temperature at the step's middle;
+        ``beta_k`` the temperature at the sample. Shapes ``(N-1, K)`` and ``(N, K)``.
+        """
+        t = np.asarray(temperature, dtype=float)
+        law = self.temperature
+        if law is None:
+            raise InputError("the model has no temperature law: it cannot follow a temperature")
+        taus = np.array(self.tau) * law.shift(step_temperatures(t))[:, None]
+        betas = np.array(self.beta) * law.beta_factor(t, self.n_terms)
+        return taus, betas
+
+    def response(self, time, load, hold: str = "linear", initial="relaxed",
+                 temperature=None) -> np.ndarray:
         """Raw sensor signal for a load history, ``offset + gain * G(s)[load]``.
 
         Parameters
@@ -138,21 +181,46 @@ class CreepModel:
         initial : {"relaxed", "settled"} or array_like
             ``relaxed``: unloaded before ``time[0]``; ``settled``: held at ``load[0]`` long
             enough for creep to saturate; or the creep states ``c_k`` in load units.
+        temperature : array_like, optional
+            Temperature (°C) at each sample, for a model with a temperature law (see
+            :meth:`step_lags`). Without it the model is at its reference temperature.
 
         Returns
         -------
         numpy.ndarray
         """
-        creep = self.lag_expansion().simulate(time, load, hold=hold, initial=initial)
-        return self.offset + self.gain * creep
+        if temperature is None or self.temperature is None:
+            if temperature is not None:
+                raise InputError("a temperature was given but the model has no temperature law")
+            creep = self.lag_expansion().simulate(time, load, hold=hold, initial=initial)
+            return self.offset + self.gain * creep
+        u = np.asarray(load, dtype=float)
+        temp = np.asarray(temperature, dtype=float)
+        if temp.shape != u.shape:
+            raise InputError(f"temperature has {temp.size} samples and load {u.size}")
+        taus, betas = self.step_lags(temp)
+        states = varying_lag_states(time, u, taus, hold=hold, initial=initial)
+        return self.offset + self.gain * (u + np.sum(states * betas, axis=1))
 
     def with_terms(self, beta, tau) -> "CreepModel":
         """A copy with other Prony terms and the same gain, offset and extensions."""
-        return CreepModel(tuple(beta), tuple(tau), self.gain, self.offset, dict(self.extensions))
+        law = self.temperature
+        if law is not None and law.beta_per_kelvin and len(law.beta_per_kelvin) != len(beta):
+            law = _without_beta_law(law)
+        return CreepModel(tuple(beta), tuple(tau), self.gain, self.offset, dict(self.extensions), law)
+
+    def creep_block(self) -> dict:
+        """A design file's ``creep`` block: ``beta``, ``tau`` and the temperature law if any."""
+        out = {"beta": list(self.beta), "tau": list(self.tau)}
+        if self.temperature is not None:
+            out["temperature"] = self.temperature.to_dict()
+        return out
 
     def to_dict(self) -> dict:
         """Model-file form: ``beta``, ``tau``, ``gain``, ``offset`` and any extensions."""
         out = {"beta": list(self.beta), "tau": list(self.tau), "gain": self.gain, "offset": self.offset}
+        if self.temperature is not None:
+            out["temperature"] = self.temperature.to_dict()
         if self.extensions:
             out["extensions"] = dict(self.extensions)
         return out
@@ -175,8 +243,11 @@ class CreepModel:
         beta, tau = data["beta"], data["tau"]
         if not isinstance(beta, list) or not isinstance(tau, list):
             raise InputError(f"{where}: 'beta' and 'tau' must be lists, one entry per creep term")
+        law = None
+        if data.get("temperature") is not None:
+            law = TemperatureLaw.from_dict(data["temperature"], where=f"{where}: 'temperature'")
         try:
             return cls(tuple(beta), tuple(tau), data.get("gain", 1.0), data.get("offset", 0.0),
-                       dict(data.get("extensions", {}) or {}))
+                       dict(data.get("extensions", {}) or {}), law)
         except InputError as exc:
             raise InputError(f"{where}: {exc}") from None

@@ -217,7 +217,7 @@ class SizingReport:
 
     def design_dict(self) -> dict:
         """The design file (``docs/design-file.md``) of the chosen parts."""
-        out = {"creep": {"beta": list(self.model.beta), "tau": list(self.model.tau)}}
+        out = {"creep": self.model.creep_block()}
         out.update(self.chosen.to_dict())
         out["rule"] = self.rule
         out["series"] = {"resistors": self.resistor_series, "capacitors": self.capacitor_series}

@@ -92,7 +92,7 @@ class Design:
 
     def to_dict(self) -> dict:
         """Design-file form."""
-        out = {"creep": {"beta": list(self.model.beta), "tau": list(self.model.tau)}}
+        out = {"creep": self.model.creep_block()}
         out.update(self.network.to_dict())
         out.update({k: v for k, v in self.extra.items() if k not in out})
         return out
