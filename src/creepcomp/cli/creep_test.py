@@ -62,14 +62,14 @@ def creep_test_command(
     """The OIML R 60 creep test: full load held 30 min, then removed; creep, creep from 20 to
     30 min and dead-load output return at each temperature against the class's limits."""
     from creepcomp.io.outputs import check_outputs
-    from creepcomp.verify.creep_test import (TestProgram, design_test, digital_test, model_test,
+    from creepcomp.verify.creep_test import (CreepTestProgram, design_test, digital_test, model_test,
                                              parse_class)
 
     if plot is not None and plot.suffix.lower() not in (".png", ".svg"):
         raise InputError(f"--plot {plot}: use a .png or .svg file")
     check_outputs({"--plot": plot}, inputs=[target])
     limits = parse_class(accuracy_class, n_max)
-    program = TestProgram(loading_time=quantity(loading_time, "second", "--loading-time", positive=True))
+    program = CreepTestProgram(loading_time=quantity(loading_time, "second", "--loading-time", positive=True))
     kind, obj = _read_target(target, digital)
     model = obj.model if kind == "design" else obj
     temps = parse_temperatures(temperatures)
@@ -96,7 +96,13 @@ def creep_test_command(
         console.print(f"plot written to {plot}")
 
 
+#: Readings below this (fraction of FS) are round-off, shown as 0.
+SHOWN_ZERO = 1e-12
+
+
 def _cell(value: float, n_max: int) -> str:
+    if abs(value) < SHOWN_ZERO:
+        return "0 % (0 v)"
     return f"{100 * value:.3g} % ({value * n_max:.3g} v)"
 
 

@@ -21,7 +21,7 @@ the test report):
 With the load at full scale ``E_max = n_max v``, every limit is a fraction of the full-scale
 output: for C3, ``0.7 x 0.7 x 1.5 v / (3000 v) = 2.45e-4`` (0.0245 % of FS).
 
-The test program (:class:`TestProgram`): the load ramps linearly from 0 to full scale over the
+The test program (:class:`CreepTestProgram`): the load ramps linearly from 0 to full scale over the
 loading time (R 60-2, 2.8.3.2 and Table 1: about 5 s for a 10 kg step, 20 s for 1 500 kg;
 default here 10 s), and the initial reading is taken when it ends; it is held for 30 min
 (readings at 20 and 30 min after the initial one), then ramps back to 0 over the same time,
@@ -51,7 +51,7 @@ from creepcomp.network import Cell, Network
 
 __all__ = ["ACCURACY_CLASSES", "CREEP_APPORTIONING", "CREEP_FRACTION", "CREEP_20_30_FRACTION",
            "DR_INTERVALS", "C3_CREEP_LIMIT", "AccuracyClass", "CreepLimits", "creep_limits",
-           "parse_class", "TestProgram", "Readings", "trapezoid_lag_response", "lag_readings",
+           "parse_class", "CreepTestProgram", "Readings", "trapezoid_lag_response", "lag_readings",
            "CreepTestResult", "model_test", "digital_test", "design_at", "design_test",
            "variant_readings", "creep_test_yield", "DIGITAL_RATE"]
 
@@ -191,7 +191,7 @@ C3_CREEP_LIMIT = creep_limits("C", 3000).creep_30min
 
 
 @dataclass(frozen=True)
-class TestProgram:
+class CreepTestProgram:
     """The load program of the test: ramp up over ``loading_time``, hold ``hold`` after the
     initial reading, ramp down, follow the return for ``recovery`` (all seconds)."""
 
@@ -220,7 +220,7 @@ class TestProgram:
         L = self.loading_time
         return np.clip(t / L, 0, 1) - np.clip((t - self.unload_start) / L, 0, 1)
 
-    def hold_times(self, points: int = 240) -> np.ndarray:
+    def hold_times(self, points: int = 120) -> np.ndarray:
         """Times after the initial reading (s) at which the hold is read: log-spaced near the
         start (fast network poles), uniform beyond, 20 and 30 min included."""
         grid = np.concatenate([[0.0], np.geomspace(1e-3, self.hold, points // 2),
@@ -238,7 +238,7 @@ class TestProgram:
                 "late_reading": self.late_reading, "dr_read_after_unloading": 0.0, "start": "relaxed"}
 
 
-def trapezoid_lag_response(q, program: TestProgram, t) -> np.ndarray:
+def trapezoid_lag_response(q, program: CreepTestProgram, t) -> np.ndarray:
     """Output of first-order lags ``1 / (1 + s q)`` (relaxed) driven by the test's load, exact.
 
     A ramp from 0 to 1 over ``L`` then held gives ``t/L - (q/L)(1 - e^{-t/q})`` while it ramps and
@@ -248,9 +248,9 @@ def trapezoid_lag_response(q, program: TestProgram, t) -> np.ndarray:
     ----------
     q : array_like, shape (B, M)
         Time constants (s).
-    program : TestProgram
-    t : array_like, shape (T,)
-        Times from the start of loading (s).
+    program : CreepTestProgram
+    t : array_like, shape (T,) or (B, T)
+        Times from the start of loading (s): one grid for all, or one per unit.
 
     Returns
     -------
@@ -260,11 +260,24 @@ def trapezoid_lag_response(q, program: TestProgram, t) -> np.ndarray:
     t = np.asarray(t, dtype=float)
     L = program.loading_time
 
+    def rising(s):
+        return s / L + (q / L) * np.expm1(-np.clip(s, 0, None) / q)
+
+    def held(s):
+        return 1.0 + (q / L) * np.exp(-np.clip(s - L, 0, None) / q) * np.expm1(-L / q)
+
     def ramp_held(s):
-        s = np.broadcast_to(s, q.shape[:-1] + s.shape)
-        rising = s / L + (q / L) * np.expm1(-np.clip(s, 0, None) / q)
-        held = 1.0 + (q / L) * np.exp(-np.clip(s - L, 0, None) / q) * np.expm1(-L / q)
-        return np.where(s <= 0, 0.0, np.where(s <= L, rising, held))
+        if s.ndim == 1:
+            # one grid for all: each formula only on its own times (most are after the ramp)
+            out = np.zeros(q.shape[:-1] + s.shape)
+            up, after = (s > 0) & (s <= L), s > L
+            if up.any():
+                out[..., up] = rising(s[up])
+            if after.any():
+                out[..., after] = held(s[after])
+            return out
+        s = s[:, None, :]
+        return np.where(s <= 0, 0.0, np.where(s <= L, rising(s), held(s)))
 
     return ramp_held(t) - ramp_held(t - program.unload_start)
 
@@ -284,12 +297,39 @@ class Readings:
                 & (self.dr <= limits.dr))
 
 
-def _lag_output(rel, q, program: TestProgram, t) -> np.ndarray:
-    """Normalised output ``u + sum rel_m lag_m[u]`` (B, T) of targets in sum-of-lags form."""
-    return program.load(t)[None, :] + np.einsum("bm,bmt->bt", rel, trapezoid_lag_response(q, program, t))
+def _lag_output(rel, q, program: CreepTestProgram, t) -> np.ndarray:
+    """Normalised output ``u + sum rel_m lag_m[u]`` (B, T) of targets in sum-of-lags form, at
+    times ``t`` (T,) or (B, T)."""
+    load = program.load(t)
+    return np.atleast_2d(load) + np.einsum("bm,bmt->bt", rel, trapezoid_lag_response(q, program, t))
 
 
-def lag_readings(rel, q, program: TestProgram, chunk: int = 4096) -> Readings:
+#: Points of each zoom of the largest change between grid neighbours (two zooms: the grid's
+#: spacing there shrinks 64-fold, the largest change's error about 4000-fold).
+ZOOM_POINTS = 17
+
+
+def _largest_change(rel, q, program: CreepTestProgram, times, change) -> np.ndarray:
+    """Largest |change from the initial reading| over the hold: the grid's largest, refined by
+    zooming twice into the interval around it."""
+    k = np.argmax(np.abs(change), axis=1)
+    rows = np.arange(len(change))
+    best = np.abs(change[rows, k])
+    lo, hi = times[np.maximum(k - 1, 0)], times[np.minimum(k + 1, len(times) - 1)]
+    start = _lag_output(rel, q, program, np.full((len(rel), 1), times[0]))[:, 0]
+    for _ in range(2):
+        fine = lo[:, None] + (hi - lo)[:, None] * np.linspace(0.0, 1.0, ZOOM_POINTS)[None, :]
+        v = np.abs(_lag_output(rel, q, program, fine) - start[:, None])
+        j = np.argmax(v, axis=1)
+        best = np.maximum(best, v[rows, j])
+        step = (hi - lo) / (ZOOM_POINTS - 1)
+        lo, hi = fine[rows, j] - step, fine[rows, j] + step
+        lo = np.maximum(lo, times[0])
+        hi = np.minimum(hi, times[-1])
+    return best
+
+
+def lag_readings(rel, q, program: CreepTestProgram, chunk: int = 4096) -> Readings:
     """The R 60 readings of targets whose output is ``1 + sum_m rel_m / (1 + s q_m)`` times the
     ideal (the sensor: ``rel = beta``, ``q = tau``; sensor and network: the cascade's lags over
     its high-frequency gain), vectorised over units.
@@ -298,7 +338,7 @@ def lag_readings(rel, q, program: TestProgram, chunk: int = 4096) -> Readings:
     ----------
     rel, q : array_like, shape (B, M)
         Relative gains and time constants (s) of the lags.
-    program : TestProgram
+    program : CreepTestProgram
     chunk : int
         Units evaluated at once (bounds memory: ``chunk x M x`` about 300 times).
 
@@ -313,9 +353,10 @@ def lag_readings(rel, q, program: TestProgram, chunk: int = 4096) -> Readings:
     times = np.concatenate([hold, [program.dr_time, program.dr_time + program.recovery]])
     out = [np.empty(len(rel)) for _ in range(4)]
     for lo in range(0, len(rel), chunk):
-        y = _lag_output(rel[lo:lo + chunk], q[lo:lo + chunk], program, times)
+        r, qq = rel[lo:lo + chunk], q[lo:lo + chunk]
+        y = _lag_output(r, qq, program, times)
         change = y[:, :len(hold)] - y[:, :1]
-        out[0][lo:lo + chunk] = np.abs(change).max(axis=1)
+        out[0][lo:lo + chunk] = _largest_change(r, qq, program, hold, change)
         out[1][lo:lo + chunk] = np.abs(change[:, len(hold) - 1] - change[:, late])
         out[2][lo:lo + chunk] = np.abs(y[:, -2])
         out[3][lo:lo + chunk] = np.abs(y[:, -1])
@@ -333,7 +374,7 @@ class CreepTestResult:
 
     target: str
     limits: CreepLimits
-    program: TestProgram
+    program: CreepTestProgram
     rows: list
     curves: dict
     notes: list = field(default_factory=list)
@@ -366,12 +407,12 @@ def _row(temperature: float, creep: float, late: float, dr: float, dr_30: float,
             "margin": {k: float(v) for k, v in margin.items()}}
 
 
-def _curve(y_hold, y_return, program: TestProgram) -> dict:
+def _curve(y_hold, y_return, program: CreepTestProgram) -> dict:
     return {"hold_time": program.hold_times(), "change": y_hold - y_hold[0],
             "return_time": program.recovery_times(), "return": y_return}
 
 
-def _lag_test(target: str, lags: dict, limits: CreepLimits, program: TestProgram) -> CreepTestResult:
+def _lag_test(target: str, lags: dict, limits: CreepLimits, program: CreepTestProgram) -> CreepTestResult:
     """The test of targets given as ``{temperature: (rel, q)}`` in sum-of-lags form."""
     rows, curves = [], {}
     hold = program.loading_time + program.hold_times()
@@ -392,9 +433,9 @@ def _law_note(model: CreepModel) -> list:
 
 
 def model_test(model: CreepModel, temperatures: Sequence[float], limits: CreepLimits,
-               program: TestProgram | None = None) -> CreepTestResult:
+               program: CreepTestProgram | None = None) -> CreepTestResult:
     """The creep test of the uncorrected sensor: its output, the model at each temperature."""
-    program = program or TestProgram()
+    program = program or CreepTestProgram()
     lags = {float(T): (np.array([m.beta]), np.array([m.tau]))
             for T, m in ((T, model.at_temperature(T)) for T in temperatures)}
     result = _lag_test("sensor", lags, limits, program)
@@ -402,7 +443,7 @@ def model_test(model: CreepModel, temperatures: Sequence[float], limits: CreepLi
     return result
 
 
-def _digital_readings(sensor: CreepModel, corrector_model: CreepModel, program: TestProgram,
+def _digital_readings(sensor: CreepModel, corrector_model: CreepModel, program: CreepTestProgram,
                       rate: float) -> tuple[dict, np.ndarray, np.ndarray]:
     """Readings of the digital corrector (``corrector_model``) on ``sensor``'s output sampled at
     ``rate`` (sample times on the program's breakpoints)."""
@@ -427,7 +468,7 @@ def _digital_readings(sensor: CreepModel, corrector_model: CreepModel, program: 
 
 
 def digital_test(model: CreepModel, temperatures: Sequence[float], limits: CreepLimits,
-                 program: TestProgram | None = None, rate: float = DIGITAL_RATE) -> CreepTestResult:
+                 program: CreepTestProgram | None = None, rate: float = DIGITAL_RATE) -> CreepTestResult:
     """The creep test of the digital corrector (:func:`creepcomp.digital.correctors.compensate`,
     subtractive, zero hold) on the sensor's output sampled at ``rate`` Hz.
 
@@ -435,7 +476,7 @@ def digital_test(model: CreepModel, temperatures: Sequence[float], limits: Creep
     comes from sampling only); the variant ``corrector_at_reference`` keeps the model at its
     reference temperature (what a corrector without a temperature input does).
     """
-    program = program or TestProgram()
+    program = program or CreepTestProgram()
     if not rate > 0:
         raise InputError(f"rate {rate!r} Hz: must be positive")
     reference = model.temperature.reference if model.temperature is not None else None
@@ -487,12 +528,12 @@ def _cascade_form(model: CreepModel, network: Network) -> tuple[np.ndarray, np.n
 
 
 def design_test(design, temperatures: Sequence[float], limits: CreepLimits,
-                program: TestProgram | None = None) -> CreepTestResult:
+                program: CreepTestProgram | None = None) -> CreepTestResult:
     """The creep test of an analog design: the sensor at each temperature followed by its
     network at that temperature (:func:`design_at`)."""
     from creepcomp.analog.parts import plan_of
 
-    program = program or TestProgram()
+    program = program or CreepTestProgram()
     lags = {float(T): _cascade_form(*design_at(design, T)) for T in temperatures}
     result = _lag_test("design", lags, limits, program)
     plan = plan_of(design)
@@ -502,7 +543,7 @@ def design_test(design, temperatures: Sequence[float], limits: CreepLimits,
 
 
 def variant_readings(design, values: Mapping[str, np.ndarray], temperature: float,
-                     dielectric: str | None, n: int, program: TestProgram | None = None) -> Readings:
+                     dielectric: str | None, n: int, program: CreepTestProgram | None = None) -> Readings:
     """R 60 readings of Monte Carlo variants of a design at one temperature, vectorised.
 
     ``values`` are the drawn factors (:func:`creepcomp.verify.tolerances.draw`): part values
@@ -516,7 +557,7 @@ def variant_readings(design, values: Mapping[str, np.ndarray], temperature: floa
     from creepcomp.io.jsonfiles import Design
     from creepcomp.verify.variants import residual_lags
 
-    program = program or TestProgram()
+    program = program or CreepTestProgram()
     model_t = design.model.at_temperature(temperature)
     net_t = network_at(design.network, plan_of(design), temperature)
     moved = dict(values)
@@ -534,7 +575,7 @@ def variant_readings(design, values: Mapping[str, np.ndarray], temperature: floa
 
 def creep_test_yield(design, values: Mapping[str, np.ndarray], temperatures: Sequence[float],
                      limits: CreepLimits, dielectric: str | None = None,
-                     program: TestProgram | None = None) -> dict:
+                     program: CreepTestProgram | None = None) -> dict:
     """Yield of Monte Carlo variants against the R 60 creep test.
 
     Returns
