@@ -178,8 +178,11 @@ def test_mc_reports_the_creep_test_yield(run_cli, tmp_path):
     path.write_text(json.dumps(Design(SENSOR, FIXED, {"parts": PartsPlan().to_dict()}).to_dict()))
     status, out, err = run_cli("mc", path, "--n", "2000", "--creep-test", "C3", "--temperature", "20",
                                "--cap-tol", "1%", "--dielectric", "polypropylene", "--spot-check", "0",
-                               "--sensitivity-n", "0", "--no-worst-case", "--json")
+                               "--sensitivity-n", "0", "--no-worst-case", "--json", "--report",
+                               tmp_path / "mc.html")
     assert status == 0, err
     ct = json.loads(out)["creep_test"]
+    page = (tmp_path / "mc.html").read_text()
+    assert "OIML R 60 creep test" in page and f"{100 * ct['yield']:.2f} %" in page
     assert ct["class"] == "C3" and ct["n"] == 2000 and 0.0 < ct["yield"] < 1.0
     assert ct["temperatures"][0]["temperature"] == 20.0
