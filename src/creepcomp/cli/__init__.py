@@ -20,6 +20,7 @@ from creepcomp.cli import size as _size  # noqa: E402,F401
 from creepcomp.cli import demo as _demo  # noqa: E402,F401
 from creepcomp.cli import correct as _correct  # noqa: E402,F401
 from creepcomp.cli import mc as _mc  # noqa: E402,F401
+from creepcomp.cli import creep_test as _creep_test  # noqa: E402,F401
 from creepcomp.cli import netlist as _netlist  # noqa: E402,F401
 from creepcomp.cli import simulate as _simulate  # noqa: E402,F401
 from creepcomp.cli import fit as _fit  # noqa: E402,F401

@@ -84,6 +84,9 @@ def mc_command(
                                       help="Samples for the part-alone and tighter-part runs (0: skip)."),
     spot_check: int = typer.Option(20, "--spot-check", metavar="N",
                                    help="Run the first N samples through ngspice and compare (0: skip)."),
+    creep_test: Optional[str] = typer.Option(None, "--creep-test", metavar="CLASS",
+                                             help="Yield against the OIML R 60 creep test, e.g. C3 "
+                                                  "(sensor and parts at --temperature)."),
     report: Optional[Path] = typer.Option(None, "--report", metavar="FILE.html",
                                           help="Write the HTML report."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
@@ -109,6 +112,11 @@ def mc_command(
         tau=_tolerance(tau_spread, "--tau-spread", distribution) if tau_spread else None,
     )
     limit = quantity(spec, "fraction", "--spec", positive=True)
+    test_limits = None
+    if creep_test is not None:
+        from creepcomp.verify.creep_test import parse_class
+
+        test_limits = parse_class(creep_test)
     period = quantity(sweep_period, "second", "--sweep-period", positive=True)
     with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                   TimeElapsedColumn(), console=err_console, transient=True,
@@ -132,6 +140,8 @@ def mc_command(
 
         result = analyse(design, tspec, n, seed, metric, limit, period, worst, sensitivity_n, progress,
                          spot_check_samples=spot_check)
+    if test_limits is not None:
+        result = _with_creep_test(result, test_limits, [temperature])
     if report is not None:
         from creepcomp.report.tolerance import tolerance_report_html
 
@@ -145,6 +155,17 @@ def mc_command(
     render(result)
     if report is not None:
         console.print(f"report written to {report}")
+
+
+def _with_creep_test(result: ToleranceReport, limits, temperatures) -> ToleranceReport:
+    """The report with the yield of its Monte Carlo's kept samples against the R 60 creep test."""
+    from dataclasses import replace
+
+    from creepcomp.verify.creep_test import creep_test_yield
+
+    r = result.result
+    figures = creep_test_yield(r.design, r.values, temperatures, limits, r.spec.dielectric)
+    return replace(result, creep_test=figures)
 
 
 def _range(text, option, allow_zero=False):
@@ -196,7 +217,21 @@ def render(report: ToleranceReport) -> None:
                       f"{sc['agreement_max_abs']:.2e} of the step ({1e3 * sc['seconds_per_transient']:.1f} ms "
                       f"per ngspice transient, {1e6 * r.seconds / r.n:.2f} µs per engine sample: "
                       f"{sc['seconds_per_transient'] / (r.seconds / r.n):,.0f}x)")
+    if report.creep_test is not None:
+        render_creep_test(report.creep_test)
     for t in report.tightenings:
         part = f"{t.factor} at {100 * t.tolerance_to:.3g} %" + (f" {t.dielectric}" if t.dielectric else "")
         console.print(f"{part} (now {100 * t.tolerance_from:.3g} %): p99 from {format_percent(t.p99_from)} to "
                       f"{format_percent(t.p99_to)} ({report.sensitivity_samples} samples each)")
+
+
+def render_creep_test(figures: dict) -> None:
+    """Print the yield against the OIML R 60 creep test."""
+    lim = figures["limits"]
+    per = "; ".join(f"{row['temperature']:g} °C: {100 * row['yield']:.2f} % (p99 creep "
+                    f"{format_percent(row['p99']['creep_30min'])}, DR {format_percent(row['p99']['dr'])})"
+                    for row in figures["temperatures"])
+    console.print(f"OIML R 60 creep test {figures['class']} (creep ≤ {format_percent(lim['creep_30min'])}, "
+                  f"20-30 min ≤ {format_percent(lim['creep_20_30min'])}, DR ≤ {format_percent(lim['dr'])} "
+                  f"of FS) over {figures['n']:,} samples: {per}; passing at every temperature: "
+                  f"[bold]{100 * figures['yield']:.2f} %[/bold] (± {100 * figures['yield_standard_error']:.2f} %)")

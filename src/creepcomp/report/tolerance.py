@@ -60,6 +60,8 @@ def tolerance_report_html(report, path: str | Path) -> Path:
     sections.append(("Sensitivity", f"<img alt='sensitivity chart' src='{sens_png}'>" +
                      html_table(["factor", "share of spread", "p99 when only it varies"],
                                 [[s.factor, f"{100 * s.share:.1f} %", pct(s.p99_alone)] for s in sens])))
+    if getattr(report, "creep_test", None) is not None:
+        sections.append(("OIML R 60 creep test", _creep_test_section(report.creep_test, pct)))
     if report.tightenings:
         sections.append(("What a tighter part buys", html_table(
             ["part", "tolerance", "p99 now", "p99 with it"],
@@ -91,3 +93,17 @@ def tolerance_report_html(report, path: str | Path) -> Path:
     out.parent.mkdir(parents=True, exist_ok=True)
     write_text_atomic(out, html_page("creepcomp tolerance analysis", sections))
     return out
+
+
+def _creep_test_section(figures: dict, pct) -> str:
+    """The yield against the OIML R 60 creep test: limits with their derivation, per temperature."""
+    lim = figures["limits"]
+    rows = [[f"{row['temperature']:g} °C", f"{100 * row['yield']:.2f} %", pct(row["p99"]["creep_30min"]),
+             pct(row["p99"]["creep_20_30min"]), pct(row["p99"]["dr"])] for row in figures["temperatures"]]
+    rows.append(["limit", "", pct(lim["creep_30min"]), pct(lim["creep_20_30min"]), pct(lim["dr"])])
+    derivation = "".join(f"<li>{html.escape(k)}: {html.escape(v)}</li>" for k, v in lim["derivation"].items())
+    return (f"<p>Class {html.escape(figures['class'])}: units passing at every temperature: "
+            f"<b>{100 * figures['yield']:.2f} %</b> of {figures['n']:,} "
+            f"(± {100 * figures['yield_standard_error']:.2f} %).</p>"
+            + html_table(["temperature", "yield", "creep 30 min, p99", "creep 20-30 min, p99", "DR, p99"], rows)
+            + f"<ul class='note'>{derivation}</ul>")
