@@ -13,7 +13,7 @@ from decimal import Decimal
 from creepcomp.errors import InputError
 
 __all__ = ["PREFIXES", "UNITS", "TIME_UNITS", "parse_quantity", "format_quantity", "format_percent",
-           "format_parameter"]
+           "format_parameter", "format_time"]
 
 # prefix -> power of ten (decimal arithmetic keeps "2.7%" and "4.7u" exact to the last digit)
 PREFIXES = {
@@ -139,6 +139,20 @@ def format_quantity(value: float | None, unit: str = "", digits: int = 4) -> str
             break
     text = f"{value / scale:.{digits}g}"
     return f"{text} {prefix}{unit}".strip()
+
+
+#: Units of :func:`format_time`, largest first: a time is told in the largest one it reaches.
+_CLOCK_UNITS = ((86400.0, "d"), (3600.0, "h"), (60.0, "min"))
+
+
+def format_time(seconds: float, digits: int = 4) -> str:
+    """A time as people say it: ``30 s``, ``20 min``, ``1.5 h``, ``2 d``; below a minute with an
+    SI prefix (``150 ms``); the units :func:`parse_quantity` reads back."""
+    if seconds is not None and math.isfinite(seconds):
+        for size, unit in _CLOCK_UNITS:
+            if abs(seconds) >= size:
+                return f"{seconds / size:.{digits}g} {unit}"
+    return format_quantity(seconds, "s", digits)
 
 
 def format_percent(x: float | None, digits: int = 3) -> str:

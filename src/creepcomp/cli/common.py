@@ -40,6 +40,33 @@ def quantity(text: str | None, kind: str, option: str, allow_none: bool = False,
     return value
 
 
+def count(text: str | int, option: str, minimum: int = 1, maximum: int | None = None) -> int:
+    """Parse a count in engineering notation (``1e7``, ``20k``): a whole number from
+    ``minimum`` to ``maximum``."""
+    value = parse_quantity(text, "number", option)
+    if value != round(value) or value < minimum:
+        raise InputError(f"{option} = '{text}': a count is a whole number >= {minimum}")
+    if maximum is not None and value > maximum:
+        raise InputError(f"{option} = '{text}': at most {maximum}")
+    return int(round(value))
+
+
+def count_option(option: str, minimum: int = 1, maximum: int | None = None):
+    """A Typer ``parser=`` for a count option (:func:`count`); bad values fail with one line
+    naming the option."""
+
+    def parse(text):
+        try:
+            return count(text, option, minimum, maximum)
+        except InputError as exc:
+            # a ValueError would be reduced by click to "Invalid value: TEXT"; a usage error
+            # keeps the message
+            message = str(exc).removeprefix(f"{option} = ").removeprefix(f"{option}: ")
+            raise typer.BadParameter(message) from None
+
+    return parse
+
+
 def value_range(text: str, kind: str, option: str) -> tuple[float, float]:
     """Parse ``LOW:HIGH`` (e.g. ``1u:100u``) into an ordered, positive pair."""
     parts = str(text).split(":")

@@ -16,7 +16,7 @@ from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_design
 from creepcomp.io.outputs import check_outputs
 from creepcomp.units import format_percent
-from creepcomp.cli.common import (app, console, err_console, print_json, quantity,
+from creepcomp.cli.common import (app, console, count_option, err_console, print_json, quantity,
     value_range)
 
 
@@ -52,8 +52,10 @@ def _duration(seconds: float) -> str:
 @app.command("mc")
 def mc_command(
     design_file: Path = typer.Argument(..., metavar="DESIGN", help="Design file (creepcomp size -o)."),
-    n: int = typer.Option(100_000, "--n", help="Number of Monte Carlo samples."),
-    seed: int = typer.Option(0, "--seed", help="Random seed (same seed, same numbers)."),
+    n: int = typer.Option(100_000, "--n", metavar="N", parser=count_option("--n"),
+                          help="Number of Monte Carlo samples, e.g. 100k or 1e7."),
+    seed: int = typer.Option(0, "--seed", metavar="S", parser=count_option("--seed", 0),
+                             help="Random seed (same seed, same numbers)."),
     res_tol: str = typer.Option("1%", "--res-tol", metavar="TOL", help="Resistor tolerance."),
     cap_tol: Optional[str] = typer.Option(None, "--cap-tol", metavar="TOL",
                                           help="Capacitor tolerance (default 5 %, or the dielectric's tightest)."),
@@ -80,9 +82,11 @@ def mc_command(
     sweep_period: Optional[str] = typer.Option(None, "--sweep-period", metavar="TIME",
                                                help="Hysteresis sweep period."),
     worst: bool = typer.Option(True, "--worst-case/--no-worst-case", help="Search the worst case."),
-    sensitivity_n: int = typer.Option(20_000, "--sensitivity-n",
+    sensitivity_n: int = typer.Option(20_000, "--sensitivity-n", metavar="N",
+                                      parser=count_option("--sensitivity-n", 0),
                                       help="Samples for the part-alone and tighter-part runs (0: skip)."),
     spot_check: int = typer.Option(20, "--spot-check", metavar="N",
+                                   parser=count_option("--spot-check", 0),
                                    help="Run the first N samples through ngspice and compare (0: skip)."),
     report: Optional[Path] = typer.Option(None, "--report", metavar="FILE.html",
                                           help="Write the HTML report."),
