@@ -8,7 +8,7 @@ import sys
 import typer
 from rich.console import Console
 
-from creepcomp.errors import InputError
+from creepcomp.errors import CreepcompError, InputError
 from creepcomp.io.jsonfiles import to_json
 from creepcomp.units import parse_quantity
 
@@ -45,24 +45,25 @@ def count(text: str | int, option: str, minimum: int = 1, maximum: int | None = 
     ``minimum`` to ``maximum``."""
     value = parse_quantity(text, "number", option)
     if value != round(value) or value < minimum:
-        raise InputError(f"{option} = '{text}': a count is a whole number >= {minimum}")
+        raise InputError(f"{option} {text}: a count is a whole number >= {minimum}")
     if maximum is not None and value > maximum:
-        raise InputError(f"{option} = '{text}': at most {maximum}")
+        raise InputError(f"{option} {text}: at most {maximum}")
     return int(round(value))
 
 
+class OptionValueError(CreepcompError):
+    """A bad option value found while the options are parsed (not a ValueError: click would
+    reduce its message to "Invalid value")."""
+
+
 def count_option(option: str, minimum: int = 1, maximum: int | None = None):
-    """A Typer ``parser=`` for a count option (:func:`count`); bad values fail with one line
-    naming the option."""
+    """A Typer ``parser=`` for a count option (:func:`count`)."""
 
     def parse(text):
         try:
             return count(text, option, minimum, maximum)
         except InputError as exc:
-            # a ValueError would be reduced by click to "Invalid value: TEXT"; a usage error
-            # keeps the message
-            message = str(exc).removeprefix(f"{option} = ").removeprefix(f"{option}: ")
-            raise typer.BadParameter(message) from None
+            raise OptionValueError(str(exc)) from None
 
     return parse
 

@@ -15,7 +15,7 @@ from creepcomp.verify.tolerances import DIELECTRICS, Tolerance, ToleranceSpec
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_design
 from creepcomp.io.outputs import check_outputs
-from creepcomp.units import format_percent
+from creepcomp.units import format_parameter, format_percent
 from creepcomp.cli.common import (app, console, count_option, err_console, print_json, quantity,
     value_range)
 
@@ -139,14 +139,14 @@ def mc_command(
     if report is not None:
         from creepcomp.report.tolerance import tolerance_report_html
 
-        tolerance_report_html(result, report)
+        tolerance_report_html(result, report, design_file=design_file)
     if as_json:
         out = result.to_dict()
         if report is not None:
             out["report"] = str(report)
         print_json(out)
         return
-    render(result)
+    render(result, design_file)
     if report is not None:
         console.print(f"report written to {report}")
 
@@ -159,12 +159,16 @@ def _range(text, option, allow_zero=False):
     return value_range(text, "ohm", option)
 
 
-def render(report: ToleranceReport) -> None:
-    """Print a tolerance report as tables."""
+def render(report: ToleranceReport, design_file: Path | str | None = None) -> None:
+    """Print a tolerance report as tables (``design_file``: the design file it read)."""
     r = report.result
     names = {"peak": "residual creep, peak", "final": "residual creep, final (abs)", "hysteresis": "hysteresis"}
-    console.print(f"[bold]creepcomp mc[/bold]: {r.n} samples, seed {r.seed}, {r.seconds:.2f} s "
-                  f"({1e6 * r.seconds / r.n:.2f} µs per sample)")
+    spec = r.spec
+    where = f"{design_file}: " if design_file is not None else ""
+    capacitors = (f"{spec.dielectric} capacitors at {spec.temperature:g} °C" if spec.dielectric
+                  else "ideal capacitors (no --dielectric)")
+    console.print(f"[bold]creepcomp mc[/bold]: {where}{r.n:,} samples, seed {r.seed}, {r.seconds:.2f} s "
+                  f"({1e6 * r.seconds / r.n:.2f} µs per sample); {capacitors}", markup=True, highlight=False)
     table = Table(title="Distribution (% of FS)", title_justify="left")
     for col in ("", "nominal", "p50", "p95", "p99", "max"):
         table.add_column(col, justify="right" if col else "left")
@@ -181,7 +185,7 @@ def render(report: ToleranceReport) -> None:
                       f"[bold]{100 * y:.2f} %[/bold] (± {100 * se:.2f} %)")
     if report.worst is not None:
         w = report.worst
-        at = ", ".join(f"{k} = {v:.4g}" for k, v in w.at.items())
+        at = ", ".join(f"{k} = {format_parameter(k, v)}" for k, v in w.at.items())
         console.print(f"worst case of {names[w.metric]}: [bold]{format_percent(w.value)}[/bold] at {at} ({w.method})")
     if report.sensitivities:
         sens = Table(title="Sensitivity", title_justify="left")
@@ -197,7 +201,7 @@ def render(report: ToleranceReport) -> None:
         err_console.print(f"note: no ngspice spot-check: {sc['error']}", markup=False)
     elif sc is not None:
         console.print(f"ngspice spot-check: {sc['n']} samples agree with the engine to "
-                      f"{sc['agreement_max_abs']:.2e} of the step ({1e3 * sc['seconds_per_transient']:.1f} ms "
+                      f"{format_percent(sc['agreement_max_abs'])} of the step ({1e3 * sc['seconds_per_transient']:.1f} ms "
                       f"per ngspice transient, {1e6 * r.seconds / r.n:.2f} µs per engine sample: "
                       f"{sc['seconds_per_transient'] / (r.seconds / r.n):,.0f}x)")
     for t in report.tightenings:
