@@ -57,7 +57,7 @@ def _version(value: bool) -> None:
         try:
             number = version("creepcomp")
         except PackageNotFoundError:        # run from a source tree that is not installed
-            from creepcomp import __version__ as number
+            number = "(not installed: no package metadata)"
         typer.echo(f"creepcomp {number}")
         raise Exit(0)
 
