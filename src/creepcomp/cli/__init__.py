@@ -78,6 +78,7 @@ def main(argv: list[str] | None = None) -> int:
     # Plots go to files: the command line chooses matplotlib's file backend (before any import
     # of pyplot); the library itself never chooses one.
     os.environ.setdefault("MPLBACKEND", "Agg")
+    _group_commands()       # again: a command module imported after this one is grouped too
     command = typer.main.get_command(app)
     try:
         # a command may end with typer.Exit(status) (firmware --verify: 3 when the bound fails)
