@@ -131,7 +131,7 @@ def tolerance_report_html(report, path: str | Path, design_file: str | Path | No
             spot = f"<p>No ngspice spot-check: {html.escape(sc['error'])}</p>"
         else:
             per = sc.get("seconds_per_transient")
-            spot = html_table(["", ""], [
+            spot = html_table(["quantity", "value (with its unit)"], [
                 ["samples run through ngspice (a load step each)", str(sc["n"])],
                 ["largest difference from the engine (of the step)", pct(sc["agreement_max_abs"])],
                 ["time, all transients", format_quantity(sc["seconds"], "s")],
