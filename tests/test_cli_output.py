@@ -31,8 +31,9 @@ def test_parameters_are_printed_with_their_unit(name, value, text):
     assert format_parameter(name, value) == text
 
 
-@pytest.mark.parametrize("seconds,text", [(30.0, "30 s"), (1200.0, "20 min"), (5400.0, "1.5 h"),
-                                          (172800.0, "2 d"), (0.15, "150 ms")])
+@pytest.mark.parametrize("seconds,text", [(30.0, "30 s"), (113.6, "113.6 s"), (1200.0, "20 min"),
+                                          (5400.0, "90 min"), (9000.0, "2.5 h"), (259200.0, "3 d"),
+                                          (0.15, "150 ms")])
 def test_times_are_told_in_clock_units_that_read_back(seconds, text):
     assert format_time(seconds) == text
     assert parse_quantity(text.replace(" ", ""), "second") == pytest.approx(seconds)

@@ -146,11 +146,12 @@ _CLOCK_UNITS = ((86400.0, "d"), (3600.0, "h"), (60.0, "min"))
 
 
 def format_time(seconds: float, digits: int = 4) -> str:
-    """A time as people say it: ``30 s``, ``20 min``, ``1.5 h``, ``2 d``; below a minute with an
-    SI prefix (``150 ms``); the units :func:`parse_quantity` reads back."""
+    """A time as people say it: in the largest of days, hours and minutes of which it makes at
+    least two (``20 min``, ``90 min``, ``2.5 h``, ``3 d``), else in seconds with an SI prefix
+    (``113.6 s``, ``150 ms``); the units :func:`parse_quantity` reads back."""
     if seconds is not None and math.isfinite(seconds):
         for size, unit in _CLOCK_UNITS:
-            if abs(seconds) >= size:
+            if abs(seconds) >= 2 * size:
                 return f"{seconds / size:.{digits}g} {unit}"
     return format_quantity(seconds, "s", digits)
 
