@@ -70,6 +70,7 @@ def _options(
     pass
 
 
+# after every command module's import above (a module imported later would be listed last)
 _group_commands()
 
 
@@ -78,7 +79,6 @@ def main(argv: list[str] | None = None) -> int:
     # Plots go to files: the command line chooses matplotlib's file backend (before any import
     # of pyplot); the library itself never chooses one.
     os.environ.setdefault("MPLBACKEND", "Agg")
-    _group_commands()       # again: a command module imported after this one is grouped too
     command = typer.main.get_command(app)
     try:
         # a command may end with typer.Exit(status) (firmware --verify: 3 when the bound fails)
