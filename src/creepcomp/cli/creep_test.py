@@ -59,8 +59,11 @@ def creep_test_command(
                                         help="Plot the creep curves and the return."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ) -> None:
-    """The OIML R 60 creep test: full load held 30 min, then removed; creep, creep from 20 to
-    30 min and dead-load output return at each temperature against the class's limits."""
+    """The OIML R 60 load-cell creep test at each temperature, against the class's limits.
+
+    Full load held 30 min, then removed: the creep over 30 min, from 20 to 30 min, and the
+    dead-load output return.
+    """
     from creepcomp.io.outputs import check_outputs
     from creepcomp.verify.creep_test import (CreepTestProgram, design_test, digital_test, model_test,
                                              parse_class)
