@@ -150,6 +150,8 @@ def test_cli_correct_with_the_column_and_with_a_constant(run_cli, ramp_files):
     status, out, err = run_cli("correct", plain, "--model", plain_model, "--temperature", "25")
     assert status == 2 and "no temperature law" in err
     status, out, err = run_cli("correct", record, "--model", plain_model, "--json")
-    assert status == 0 and any("not used" in n for n in json.loads(out)["notes"])
+    assert status == 0 and json.loads(out)["temperature"]["source"] == "unused"
+    status, out, err = run_cli("correct", record, "--model", plain_model)
+    assert status == 0 and "'temperature' column is not used" in out
     status, out, err = run_cli("correct", plain, "--model", model_file, "--temperature", "hot")
     assert status == 2 and "°C" in err

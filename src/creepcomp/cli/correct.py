@@ -99,9 +99,12 @@ def correct_command(
     before, after = done.before, done.after
     unit = scan.unit("signal")
     notes = _notes(scan, start, method, model)
-    if model.temperature is None and "temperature" in scan.names:
-        notes.append("the record's 'temperature' column is not used: the model has no "
-                     "temperature law")
+    temperature_used = None
+    if done.temperature is not None:
+        temperature_used = {"source": done.temperature, "constant_C": constant}
+    elif "temperature" in scan.names:
+        temperature_used = {"source": "unused", "constant_C": None,
+                            "why": "the model has no temperature law"}
     formula = "offset + gain * load" if method == "subtractive" else "offset + gain * (1 + beta0) * load"
     result = {
         "record": str(record_path), "samples": scan.samples, "uniform": dt is not None,
@@ -113,8 +116,7 @@ def correct_command(
         "reduction": (before.peak / after.peak) if after.peak > 0 else None,
         "starts_loaded": _starts_loaded(scan), "notes": notes,
         "output": None if output is None else str(output), "plot": None if plot is None else str(plot),
-        "temperature": (None if done.temperature is None else
-                        {"source": done.temperature, "constant_C": constant}),
+        "temperature": temperature_used,
     }
     if as_json:
         print_json(result)
@@ -209,7 +211,10 @@ def _render(path, scan, model, result, before, after, dt, unit, notes) -> None:
                   soft_wrap=True)
     console.print(f"model: {describe_model(model)}; gain {model.gain:.6g}, offset "
                   f"{_value(model.offset, unit)}", soft_wrap=True)
-    if result["temperature"] is not None:
+    if result["temperature"] is not None and result["temperature"]["source"] == "unused":
+        console.print("temperature: the record's 'temperature' column is not used (the model has "
+                      "no temperature law)", soft_wrap=True)
+    elif result["temperature"] is not None:
         law = model.temperature
         where = ("the record's 'temperature' column" if result["temperature"]["source"] == "column"
                  else f"{result['temperature']['constant_C']:g} °C throughout")
