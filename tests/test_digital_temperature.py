@@ -1,12 +1,17 @@
 """Digital correction over temperature: each step with its own tau_k(T), exact."""
 
 import json
+import re
+import shutil
+import subprocess
 
 import numpy as np
 import pytest
 
 from creepcomp.data import default_sensor
 from creepcomp.digital.correctors import Corrector, compensate
+from creepcomp.digital.firmware import generate_firmware
+from creepcomp.digital.firmware_check import compile_object, run_firmware, verify_firmware
 from creepcomp.digital.record_file import correct_record_file
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import write_model
@@ -89,7 +94,7 @@ def test_streaming_in_pieces_equals_the_batch():
     np.testing.assert_allclose(np.concatenate(pieces), whole, rtol=0, atol=1e-13 * model.gain * FULL_LOAD)
 
 
-def test_a_time_invariant_model_gives_the_same_numbers_as_before():
+def test_a_law_that_never_shifts_gives_the_time_invariant_numbers():
     model = CreepModel((0.02, 0.01), (5.0, 80.0), 2e-4, 0.01)
     t = np.arange(0.0, 200.0, 0.1)
     load = np.where(t > 5, 50.0, 0.0)
@@ -155,3 +160,125 @@ def test_cli_correct_with_the_column_and_with_a_constant(run_cli, ramp_files):
     assert status == 0 and "'temperature' column is not used" in out
     status, out, err = run_cli("correct", plain, "--model", model_file, "--temperature", "hot")
     assert status == 2 and "°C" in err
+
+
+# ------------------------------------------------------------------------ firmware over temperature
+
+needs_gcc = pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc is not installed")
+
+
+@needs_gcc
+@pytest.mark.parametrize("method", ["subtractive", "supplemental"])
+def test_firmware_on_the_ramp_record_is_within_its_bound(method):
+    model = ramp_sensor()
+    t, load, temperature = ramp_record(seed=3, noise=True)
+    signal = model.response(t, load, hold="zero", temperature=temperature)
+    fw = generate_firmware(model, method, "float32", 10.0, float(np.max(np.abs(signal))), "creep")
+    check = verify_firmware(fw, t, signal, repeats=1, temperature=temperature)
+    assert check.passed and check.max_error_fs <= fw.bound.total_fs
+    assert fw.bound.total_fs < 1e-6 and check.max_error_fs > 1e-9      # float32: a real error
+    assert fw.temperature_range == (-40.0, 85.0)
+    assert "-40 to 85 °C" in fw.header and "clamps" in fw.header
+
+
+@needs_gcc
+def test_firmware_on_random_jumps_across_the_range_three_terms_and_wlf():
+    rng = np.random.default_rng(4)
+    laws = [(TemperatureLaw.arrhenius(80000.0, 25.0), (-40.0, 85.0)),
+            (TemperatureLaw(20.0, "wlf", c1=8.86, c2=101.6), (0.0, 60.0))]
+    for law, (low, high) in laws:
+        model = CreepModel((0.02, 0.015, 0.01), (0.5, 30.0, 3000.0), 1.0, 0.3, temperature=law)
+        n = 20_000
+        t = np.arange(n) / 100.0
+        load = np.repeat(rng.uniform(-1.0, 1.0, n // 50 + 1), 50)[:n]
+        temperature = np.where(rng.random(n) < 0.5, low, high)
+        temperature[n // 2:] = rng.uniform(low, high, n - n // 2)
+        signal = model.response(t, load, hold="zero", temperature=temperature)
+        fw = generate_firmware(model, "subtractive", "float32", 100.0,
+                               float(np.max(np.abs(signal - model.offset))), temperature_range=(low, high))
+        check = verify_firmware(fw, t, signal, repeats=1, temperature=temperature)
+        assert check.passed, (law.law, check.max_error_fs, fw.bound.total_fs)
+
+
+@needs_gcc
+def test_firmware_compiles_strictly_without_libm_clamps_and_keeps_a_nan(tmp_path):
+    model = ramp_sensor()
+    fw = generate_firmware(model, "subtractive", "float32", 10.0, 100.0, temperature_range=(0.0, 50.0))
+    obj = compile_object(fw, tmp_path, flags=("-O0",))
+    undefined = set(subprocess.run(["nm", "-u", obj], capture_output=True, text=True,
+                                   check=True).stdout.split()) - {"U"}
+    assert undefined <= {"memcpy"}, undefined
+    code = re.sub(r"/\*.*?\*/", "", fw.source, flags=re.S)
+    for banned in ("math.h", "exp(", "double"):
+        assert banned not in code, banned
+    n = 3000
+    signal = np.where(np.arange(n) > 10, 80.0, 0.0)
+    hot = np.full(n, 50.0)
+    out_hot, _, _ = run_firmware(fw, signal, "relaxed", 1, temperatures=hot)
+    out_above, _, _ = run_firmware(fw, signal, "relaxed", 1, temperatures=np.full(n, 120.0))
+    with_nan = hot.copy()
+    with_nan[100::7] = np.nan
+    out_nan, _, _ = run_firmware(fw, signal, "relaxed", 1, temperatures=with_nan)
+    np.testing.assert_array_equal(out_above, out_hot)        # clamped to the range's top
+    np.testing.assert_array_equal(out_nan, out_hot)          # a NaN keeps the last temperature
+    cold, _, _ = run_firmware(fw, signal, "relaxed", 1, temperatures=np.full(n, 0.0))
+    assert np.max(np.abs(cold - out_hot)) > 1e-3             # the temperature is used
+
+
+@needs_gcc
+def test_inverse_shift_without_libm_is_within_its_stated_error(tmp_path):
+    model = CreepModel((0.03,), (45.0,), temperature=TemperatureLaw.arrhenius(120000.0, 20.0))
+    fw = generate_firmware(model, "subtractive", "float32", 10.0, 1.0)
+    fw.write(tmp_path)
+    (tmp_path / "probe.c").write_text(
+        '#include <stdio.h>\n#include "creep.c"\nint main(void) { float t; '
+        'while (scanf("%f", &t) == 1) printf("%.9e\\n", (double)creep_inverse_shift(t)); return 0; }\n')
+    subprocess.run(["gcc", "-std=c99", "-O2", "-I", tmp_path, tmp_path / "probe.c", "-o",
+                    tmp_path / "probe"], check=True)
+    temps = np.linspace(-40.0, 85.0, 4001).astype(np.float32).astype(float)
+    out = subprocess.run([tmp_path / "probe"], input="\n".join(f"{x:.9g}" for x in temps),
+                         capture_output=True, text=True, check=True).stdout.split()
+    exact = 1.0 / model.temperature.shift(temps)
+    relative = np.abs(np.array(out, dtype=float) / exact - 1.0)
+    assert np.max(relative) <= fw.coefficients["shift_relative_error"]
+    assert np.max(exact) / np.min(exact) > 1e8               # 120 kJ/mol: far beyond one octave
+
+
+def test_firmware_refusals_name_the_reason():
+    model = ramp_sensor()
+    with pytest.raises(InputError, match="q31 .*integer-only"):
+        generate_firmware(model, precision="q31", rate=10.0)
+    with pytest.raises(InputError, match="dt step does not take a temperature"):
+        generate_firmware(model, max_interval=0.1)
+    with pytest.raises(InputError, match="no temperature law"):
+        generate_firmware(default_sensor(), rate=10.0, temperature_range=(0.0, 40.0))
+    with pytest.raises(InputError, match="beta_per_kelvin"):
+        generate_firmware(ramp_sensor(beta_per_kelvin=(0.001,)), rate=10.0)
+    with pytest.raises(InputError, match="narrow --temperature-range"):
+        wlf = CreepModel((0.03,), (45.0,), temperature=TemperatureLaw(20.0, "wlf", c1=8.86, c2=101.6))
+        generate_firmware(wlf, rate=100.0, temperature_range=(-40.0, 85.0))
+
+
+def test_firmware_of_a_model_without_a_law_is_unchanged_by_the_temperature_step():
+    plain = generate_firmware(default_sensor(), rate=10.0, full_scale=100.0)
+    assert "temperature" not in plain.header + plain.source + plain.harness
+    assert plain.temperature_range is None
+
+
+@needs_gcc
+def test_cli_firmware_verify_on_a_ramp_record(run_cli, ramp_files):
+    tmp, model, model_file, record, plain, load = ramp_files
+    status, out, err = run_cli("firmware", model_file, "--verify", record, "--json",
+                               "--temperature-range", "0:50", "-o", tmp / "fw")
+    assert status == 0, err
+    data = json.loads(out)
+    assert data["temperature_range"] == [0.0, 50.0] and data["within_bound"]
+    assert data["max_error_fs"] <= data["bound_fs"]
+    assert "float temperature_c" in (tmp / "fw" / "creep.h").read_text()
+    status, out, err = run_cli("firmware", model_file, "--verify", plain)
+    assert status == 2 and "'temperature' column" in err
+    status, out, err = run_cli("firmware", model_file, "--verify", record, "--temperature-range", "20:30")
+    assert status == 2 and "wider --temperature-range" in err
+    status, out, err = run_cli("firmware", model_file, "--rate", "10", "--full-scale", "1",
+                               "--temperature-range", "50:0")
+    assert status == 2 and "LOW must be below HIGH" in err

@@ -218,8 +218,9 @@ def _render(path, scan, model, result, before, after, dt, unit, notes) -> None:
         law = model.temperature
         where = ("the record's 'temperature' column" if result["temperature"]["source"] == "column"
                  else f"{result['temperature']['constant_C']:g} °C throughout")
+        amplitudes = ", each sample with its own beta_k(T)" if law.beta_per_kelvin else ""
         console.print(f"temperature: {where}; {law.law} law about {law.reference:g} °C, each step "
-                      "with its own tau_k(T), each sample with its own beta_k(T)", soft_wrap=True)
+                      f"with its own tau_k(T){amplitudes}", soft_wrap=True)
     console.print(f"reference: {result['reference']} "
                   f"({'instantaneous' if result['method'] == 'subtractive' else 'saturated'} signal); "
                   f"full scale {_value(after.full_scale, unit)}")

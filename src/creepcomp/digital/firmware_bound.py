@@ -520,8 +520,14 @@ def temperature_bound(model: CreepModel, method: str, rate: float, full_scale: f
                     "float32", rate, full_scale, "x")
     c = exact_coefficients(model, rate)
     st = stored_coefficients(c, "float32")
-    return _invariant_bound(c, st, scheme, scheme["a_max"], scheme["a_min"], method, "float32",
-                            full_scale, "coefficients a_k(T) (a_T and exp without libm)")
+    try:
+        return _invariant_bound(c, st, scheme, scheme["a_max"], scheme["a_min"], method,
+                                "float32", full_scale, "coefficients a_k(T) (a_T and exp without libm)")
+    except InputError as exc:
+        slowest = float(np.max(scheme["tau_range"][0]))
+        raise InputError(f"{exc} over {scheme['low']:g} to {scheme['high']:g} °C (the slowest "
+                         f"retardation time reaches {slowest:.3g} s, {slowest * rate:.3g} samples): "
+                         "narrow --temperature-range") from None
 
 
 def _invariant_gains(beta: np.ndarray, a_max: np.ndarray):
