@@ -282,3 +282,30 @@ def test_cli_firmware_verify_on_a_ramp_record(run_cli, ramp_files):
     status, out, err = run_cli("firmware", model_file, "--rate", "10", "--full-scale", "1",
                                "--temperature-range", "50:0")
     assert status == 2 and "LOW must be below HIGH" in err
+
+
+@needs_gcc
+def test_random_models_laws_and_temperature_histories_stay_within_the_bound():
+    rng = np.random.default_rng(2024)
+    for case in range(5):
+        k = int(rng.integers(1, 4))
+        taus = np.sort(10.0 ** rng.uniform(-0.5, 3.5, k))
+        betas = rng.uniform(0.002, 0.05, k) * rng.choice([1.0, -0.3], k, p=[0.8, 0.2])
+        low = float(rng.uniform(-40.0, 10.0))
+        high = low + float(rng.uniform(15.0, 100.0))
+        law = (TemperatureLaw.arrhenius(float(rng.uniform(20e3, 120e3)), float(rng.uniform(low, high)))
+               if case % 2 == 0 else TemperatureLaw(20.0, "wlf", c1=8.86, c2=float(rng.uniform(120.0, 200.0))))
+        model = CreepModel(tuple(betas), tuple(taus), 1.0, float(rng.uniform(-2, 2)), temperature=law)
+        rate = float(rng.choice([10.0, 100.0, 1000.0]))
+        n = 6000
+        t = np.arange(n) / rate
+        load = np.repeat(rng.uniform(-1.0, 1.0, n // 40 + 1), 40)[:n]
+        temperature = np.clip(np.cumsum(rng.normal(0.0, 3.0, n)) + rng.uniform(low, high), low, high)
+        temperature[rng.random(n) < 0.05] = rng.choice([low, high])
+        signal = model.response(t, load, hold="zero", temperature=temperature)
+        method = "supplemental" if case % 3 == 1 else "subtractive"
+        fw = generate_firmware(model, method, "float32", rate,
+                               float(np.max(np.abs(signal - model.offset))), temperature_range=(low, high))
+        check = verify_firmware(fw, t, signal, repeats=1, temperature=temperature)
+        assert check.passed, (case, check.max_error_fs, fw.bound.total_fs)
+        assert fw.bound.total_fs < 1e-5

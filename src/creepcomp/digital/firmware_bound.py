@@ -415,10 +415,10 @@ def _exp_horner_error(f_max: float, n: int) -> float:
     u = _U32
     top = math.exp(f_max)
     err = 0.0
+    grow = (1 + u) ** 3                               # stored 1/i, the two products
     for i in range(n, 0, -1):
-        g = f_max / i * (1 + u)                       # |f * stored 1/i|
-        err = u * (1 + g * (1 + u) ** 2 * (top + err)) + g * ((1 + u) ** 2 * err
-                                                                + ((1 + u) ** 2 - 1) * top)
+        g = f_max / i
+        err = u * (1 + g * grow * (top + err)) + g * (grow * err + (grow - 1) * top)
     return err / math.exp(-f_max)
 
 
