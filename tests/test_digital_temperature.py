@@ -11,7 +11,7 @@ import pytest
 from creepcomp.data import default_sensor
 from creepcomp.digital.correctors import Corrector, compensate
 from creepcomp.digital.firmware import generate_firmware
-from creepcomp.digital.firmware_check import compile_object, run_firmware, verify_firmware
+from creepcomp.digital.firmware_check import STRICT_FLAGS, compile_object, run_firmware, verify_firmware
 from creepcomp.digital.record_file import correct_record_file
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import write_model
@@ -168,15 +168,17 @@ needs_gcc = pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc is not i
 
 
 @needs_gcc
+@pytest.mark.parametrize("precision", ["float32", "q31"])
 @pytest.mark.parametrize("method", ["subtractive", "supplemental"])
-def test_firmware_on_the_ramp_record_is_within_its_bound(method):
+def test_firmware_on_the_ramp_record_is_within_its_bound(method, precision):
     model = ramp_sensor()
     t, load, temperature = ramp_record(seed=3, noise=True)
     signal = model.response(t, load, hold="zero", temperature=temperature)
-    fw = generate_firmware(model, method, "float32", 10.0, float(np.max(np.abs(signal))), "creep")
+    fw = generate_firmware(model, method, precision, 10.0, float(np.max(np.abs(signal))), "creep")
     check = verify_firmware(fw, t, signal, repeats=1, temperature=temperature)
     assert check.passed and check.max_error_fs <= fw.bound.total_fs
-    assert fw.bound.total_fs < 1e-6 and check.max_error_fs > 1e-9      # float32: a real error
+    limit = 1e-6 if precision == "float32" else 5e-9
+    assert fw.bound.total_fs < limit and check.max_error_fs > limit / 100   # a real error, bounded
     assert fw.temperature_range == (-40.0, 85.0)
     assert "-40 to 85 °C" in fw.header and "clamps" in fw.header
 
@@ -198,6 +200,27 @@ def test_firmware_on_random_jumps_across_the_range_three_terms_and_wlf():
                                float(np.max(np.abs(signal - model.offset))), temperature_range=(low, high))
         check = verify_firmware(fw, t, signal, repeats=1, temperature=temperature)
         assert check.passed, (law.law, check.max_error_fs, fw.bound.total_fs)
+
+
+@needs_gcc
+def test_q31_firmware_is_integer_only_and_clamps(tmp_path):
+    model = ramp_sensor()
+    fw = generate_firmware(model, "subtractive", "q31", 10.0, 100.0, temperature_range=(0.0, 50.0))
+    assert "int32_t temperature_q8" in fw.header and "#define CREEP_TEMPERATURE_HIGH_Q8 (12800)" in fw.header
+    obj = compile_object(fw, tmp_path, flags=("-O0",))
+    undefined = set(subprocess.run(["nm", "-u", obj], capture_output=True, text=True,
+                                   check=True).stdout.split()) - {"U"}
+    assert not undefined, undefined
+    code = re.sub(r"/\*.*?\*/", "", fw.source, flags=re.S)
+    for banned in ("float", "double", "math.h"):
+        assert banned not in code, banned
+    n = 3000
+    signal = np.where(np.arange(n) > 10, 80.0, 0.0)
+    out_hot, _, _ = run_firmware(fw, signal, "relaxed", 1, temperatures=np.full(n, 50.0))
+    out_above, _, _ = run_firmware(fw, signal, "relaxed", 1, temperatures=np.full(n, 120.0))
+    np.testing.assert_array_equal(out_above, out_hot)
+    cold, _, _ = run_firmware(fw, signal, "relaxed", 1, temperatures=np.full(n, 0.0))
+    assert np.max(np.abs(cold - out_hot)) > 1e-3
 
 
 @needs_gcc
@@ -246,8 +269,8 @@ def test_inverse_shift_without_libm_is_within_its_stated_error(tmp_path):
 
 def test_firmware_refusals_name_the_reason():
     model = ramp_sensor()
-    with pytest.raises(InputError, match="q31 .*integer-only"):
-        generate_firmware(model, precision="q31", rate=10.0)
+    with pytest.raises(InputError, match="q31 temperature step needs T/tau_k <= 1/2 at 85 °C"):
+        generate_firmware(model, precision="q31", rate=0.5)
     with pytest.raises(InputError, match="dt step does not take a temperature"):
         generate_firmware(model, max_interval=0.1)
     with pytest.raises(InputError, match="no temperature law"):
@@ -304,8 +327,53 @@ def test_random_models_laws_and_temperature_histories_stay_within_the_bound():
         temperature[rng.random(n) < 0.05] = rng.choice([low, high])
         signal = model.response(t, load, hold="zero", temperature=temperature)
         method = "supplemental" if case % 3 == 1 else "subtractive"
-        fw = generate_firmware(model, method, "float32", rate,
-                               float(np.max(np.abs(signal - model.offset))), temperature_range=(low, high))
-        check = verify_firmware(fw, t, signal, repeats=1, temperature=temperature)
-        assert check.passed, (case, check.max_error_fs, fw.bound.total_fs)
-        assert fw.bound.total_fs < 1e-5
+        for precision in ("float32", "q31"):
+            try:
+                fw = generate_firmware(model, method, precision, rate,
+                                       float(np.max(np.abs(signal - model.offset))),
+                                       temperature_range=(low, high))
+            except InputError as exc:              # q31 needs T/tau <= 1/2 over the range
+                assert precision == "q31" and "T/tau_k <= 1/2" in str(exc)
+                continue
+            check = verify_firmware(fw, t, signal, repeats=1, temperature=temperature)
+            assert check.passed, (case, precision, check.max_error_fs, fw.bound.total_fs)
+            assert fw.bound.total_fs < 1e-5
+
+
+SAVE_RESTORE_OVER_TEMPERATURE = r"""
+#include <stdio.h>
+#include "creep.h"
+int main(void)
+{
+    creep_state a, b;
+    creep_saved block;
+    int i, bad = 0, r;
+    creep_init(&a);
+    for (i = 0; i < 5000; ++i) (void)creep_step(&a, (kind)(i < 100 ? 0 : INPUT), (temp)(COLD + i % 7));
+    creep_save(&a, &block);
+    creep_init(&b);
+    if (creep_restore(&b, &block) != 0) return 10;
+    for (i = 0; i < 3000; ++i)
+        bad |= creep_step(&a, (kind)INPUT, (temp)(COLD + i % 5)) != creep_step(&b, (kind)INPUT, (temp)(COLD + i % 5));
+    block.w[2 + 2 * CREEP_TERMS] ^= 1u;          /* the saved temperature */
+    r = creep_restore(&b, &block);
+    printf("%d %d\n", bad, r);
+    return 0;
+}
+"""
+
+
+@needs_gcc
+@pytest.mark.parametrize("precision", ["float32", "q31"])
+def test_state_and_temperature_saved_and_restored(tmp_path, precision):
+    fw = generate_firmware(ramp_sensor(), "subtractive", precision, 10.0, 1.0)
+    obj = compile_object(fw, tmp_path)
+    kind, value, temp, cold = (("float", "0.9f", "float", "-30.0f") if precision == "float32"
+                               else ("int32_t", "900000000", "int32_t", "(-30 * 256)"))
+    (tmp_path / "main.c").write_text(SAVE_RESTORE_OVER_TEMPERATURE.replace("(kind)", f"({kind})")
+                                     .replace("INPUT", value).replace("(temp)", f"({temp})")
+                                     .replace("COLD", cold))
+    exe = tmp_path / "main"
+    subprocess.run(["gcc", *STRICT_FLAGS, "-I", tmp_path, tmp_path / "main.c", obj, "-o", exe], check=True)
+    out = subprocess.run([exe], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["0", "-2"]          # identical continuation (the temperature is saved too); corrupted

@@ -341,8 +341,10 @@ def test_every_template_file_is_used(monkeypatch):
     naive_float32(MODEL)
     from creepcomp.temperature import TemperatureLaw
 
-    generate_firmware(CreepModel(MODEL.beta, MODEL.tau, MODEL.gain, MODEL.offset,
-                                 temperature=TemperatureLaw.arrhenius(43000.0)), rate=RATE)
+    for precision in ("float32", "q31"):
+        generate_firmware(CreepModel(MODEL.beta, MODEL.tau, MODEL.gain, MODEL.offset,
+                                     temperature=TemperatureLaw.arrhenius(43000.0)),
+                          precision=precision, rate=RATE)
     used = set().union(*(firmware._template_tree(t) for t in rendered))
     files = {f.name for f in resources.files("creepcomp.digital").joinpath("templates").iterdir()
              if f.is_file()}

@@ -39,7 +39,9 @@ def firmware_command(
     temperature_range: Optional[str] = typer.Option(None, "--temperature-range", metavar="LOW:HIGH",
                                                     help="For a model with a temperature law: "
                                                          "the range (°C) the step clamps to and "
-                                                         "its bound holds over. Default -40:85."),
+                                                         "its bound holds over. Default -40:85. "
+                                                         "The step then takes the temperature with "
+                                                         "every sample (float32: °C; q31: °C x 256)."),
     name: str = typer.Option("creep", "--name", metavar="NAME",
                              help="Prefix of the C identifiers and the file names."),
     verify_record: Optional[Path] = typer.Option(None, "--verify", metavar="RECORD",

@@ -21,7 +21,9 @@ For a model with a temperature law the step takes the sensor's temperature (°C)
 sample and computes ``a_k = 1 - exp(-(T / tau_k) / a_T)`` per sample without libm, ``tau_k``
 following the temperature at the middle of the step
 (:func:`~creepcomp.digital.firmware_bound.temperature_scheme`); the bound then holds over a
-declared temperature range, to which the step clamps (float32 only).
+declared temperature range, to which the step clamps. float32 takes the temperature as a
+float in °C; q31, integer-only, as an ``int32_t`` in units of 1/256 °C
+(:func:`~creepcomp.digital.firmware_bound.q31_temperature_scheme`).
 
 The C text is in the Jinja2 templates of ``creepcomp/digital/templates`` (one leaf template per
 file kind and variant, sharing a base, includes and macros); this module computes the values
@@ -40,16 +42,17 @@ import jinja2
 from jinja2 import meta
 
 from creepcomp.digital.firmware_bound import (DEFAULT_TEMPERATURE_RANGE, FULL_SCALE_WORD,
-                                              MIN_INTERVAL, PRECISIONS, REFERENCE_ALLOWANCE, TICK,
-                                              ErrorBound, check_arguments, check_interval,
-                                              dt_scheme, exact_coefficients, firmware_bound,
-                                              float32_value, stored_coefficients,
+                                              MIN_INTERVAL, PRECISIONS, REFERENCE_ALLOWANCE,
+                                              TEMPERATURE_STEP_Q, TICK, ErrorBound,
+                                              check_arguments, check_interval, dt_scheme,
+                                              exact_coefficients, firmware_bound, float32_value,
+                                              q31_temperature_scheme, stored_coefficients,
                                               temperature_bound, temperature_scheme)
 from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 
 __all__ = ["PRECISIONS", "FULL_SCALE_WORD", "REFERENCE_ALLOWANCE", "MIN_INTERVAL", "TICK",
-           "DEFAULT_TEMPERATURE_RANGE", "ErrorBound", "Firmware", "firmware_bound", "generate_firmware", "naive_float32"]
+           "DEFAULT_TEMPERATURE_RANGE", "TEMPERATURE_STEP_Q", "ErrorBound", "Firmware", "firmware_bound", "generate_firmware", "naive_float32"]
 
 
 @dataclass(frozen=True)
@@ -172,7 +175,7 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
                      bound_fs=f"{bound.total_fs:.3e}")
     source = _render(f"{precision}_dt.c.j2" if irregular else f"{precision}.c.j2",
                      name=name, NAME=name.upper(), version=_version(), method=method,
-                     irregular=irregular, **({"temperature": False} if precision == "float32" else {}),
+                     irregular=irregular, temperature=False,
                      **_coefficient_values(precision, st, scheme))
     harness = _render("harness.c.j2", name=name, NAME=name.upper(), precision=precision,
                       irregular=irregular, temperature=False)
@@ -215,42 +218,39 @@ def _temperature_firmware(model, method, precision, rate, full_scale, name, max_
     if law is None:
         raise InputError("a temperature range was given but the model has no temperature law "
                          "(no 'temperature' block): its corrector takes no temperature")
-    if precision != "float32":
-        raise InputError("--precision q31 with a temperature law: not available. The q31 "
-                         "corrector is integer-only, and a_T per sample would need a fixed-point "
-                         "exp with its own proven bound, which it does not have; use float32")
     if max_interval is not None:
         raise InputError("--max-interval with a temperature law: the dt step does not take a "
                          "temperature; use the fixed rate (--rate)")
     low, high = DEFAULT_TEMPERATURE_RANGE if temperature_range is None else temperature_range
     check_arguments(CreepModel(model.beta, model.tau, model.gain, model.offset), method,
                     precision, rate, full_scale, name)
-    scheme = temperature_scheme(model, rate, float(low), float(high))
-    bound = temperature_bound(model, method, rate, full_scale, scheme)
+    if precision == "float32":
+        scheme = temperature_scheme(model, rate, float(low), float(high))
+    else:
+        scheme = q31_temperature_scheme(model, rate, float(low), float(high))
+    bound = temperature_bound(model, method, rate, full_scale, scheme, precision)
     c = exact_coefficients(model, rate)
     st = stored_coefficients(c, precision)
     values = _header_values(model, method, precision, rate, full_scale, name, c, None, None)
     values["command"] += f" --temperature-range {low:g}:{high:g}"
     identity = (values["model_id"], law.to_dict(), scheme["low"], scheme["high"])
-    values.update(irregular=True, temperature=True, model_id=f"0x{_fnv1a(repr(identity)):08x}u",
-                  temperature_low=_c_float(scheme["low"]), temperature_high=_c_float(scheme["high"]),
-                  temperature_reference=_c_float(scheme["reference"]))
-    header = _render("float32_temperature.h.j2", **values,
-                     derivation=_temperature_derivation(model, method, rate, full_scale, c, st, scheme),
+    values.update(irregular=True, temperature=True, model_id=f"0x{_fnv1a(repr(identity)):08x}u")
+    if precision == "float32":
+        values.update(temperature_low=_c_float(scheme["low"]), temperature_high=_c_float(scheme["high"]),
+                      temperature_reference=_c_float(scheme["reference"]))
+    else:
+        values.update(temperature_low=str(scheme["low_q"]), temperature_high=str(scheme["high_q"]),
+                      temperature_reference=str(scheme["reference_q"]))
+    header = _render(f"{precision}_temperature.h.j2", **values,
+                     derivation=_temperature_derivation(model, method, precision, rate, full_scale,
+                                                        c, st, scheme),
                      bound=_bound_lines(bound, full_scale)
                      + [f"The bound holds for temperatures in {scheme['low']:g} to {scheme['high']:g} °C; "
                         "outside, the step clamps the temperature to that range."],
                      bound_fs=f"{bound.total_fs:.3e}")
-    coefficients = _coefficient_values("float32", st, None)
-    del coefficients["a"]
-    source = _render("float32_temperature.c.j2", name=name, NAME=name.upper(), version=_version(),
-                     method=method, irregular=True, temperature=True, **coefficients,
-                     dt_over_tau=[_c_float(x) for x in scheme["dt_over_tau"]],
-                     inv_next=[_c_float(x) for x in scheme["inv_next"]], series_terms=str(scheme["n"]),
-                     exp_next=[_c_float(x) for x in scheme["exp_next"]],
-                     exp_terms=str(scheme["exp_terms"]), curve_c=_c_float(scheme["curve_c"]),
-                     curve_d=_c_float(scheme["curve_d"]), log2e=_c_float(scheme["log2e"]),
-                     ln2_head=_c_float(scheme["ln2_head"]), ln2_tail=_c_float(scheme["ln2_tail"]))
+    source = _render(f"{precision}_temperature.c.j2", name=name, NAME=name.upper(),
+                     version=_version(), method=method, irregular=True, temperature=True,
+                     **_temperature_values(precision, st, scheme))
     harness = _render("harness.c.j2", name=name, NAME=name.upper(), precision=precision,
                       irregular=False, temperature=True)
     table = _coefficient_table(c, st, precision)
@@ -392,7 +392,28 @@ def _dt_derivation(model, method, precision, full_scale, c, st, scheme) -> list[
     return lines
 
 
-def _temperature_derivation(model, method, rate, full_scale, c, st, scheme) -> list[str]:
+def _temperature_values(precision: str, st: dict, scheme: dict) -> dict:
+    """The temperature step's stored coefficients as C literals."""
+    coefficients = _coefficient_values(precision, st, None)
+    if precision == "float32":
+        del coefficients["a"]
+        return {**coefficients, "dt_over_tau": [_c_float(x) for x in scheme["dt_over_tau"]],
+                "inv_next": [_c_float(x) for x in scheme["inv_next"]], "series_terms": str(scheme["n"]),
+                "exp_next": [_c_float(x) for x in scheme["exp_next"]],
+                "exp_terms": str(scheme["exp_terms"]), "curve_c": _c_float(scheme["curve_c"]),
+                "curve_d": _c_float(scheme["curve_d"]), "log2e": _c_float(scheme["log2e"]),
+                "ln2_head": _c_float(scheme["ln2_head"]), "ln2_tail": _c_float(scheme["ln2_tail"])}
+    del coefficients["a_mantissas"], coefficients["a_shifts"]
+    return {**coefficients, "dt_mantissas": [str(m) for m, _ in scheme["m"]],
+            "dt_exponents": [str(int(e)) for e in scheme["exps"]],
+            "inv_next": [str(v) for v in scheme["inv_next"]], "series_terms": str(scheme["n"]),
+            "exp_next": [str(v) for v in scheme["exp_next"]], "exp_terms": str(scheme["exp_terms"]),
+            "curve_c": str(scheme["curve_c_q"]), "curve_d": str(scheme["curve_d_q"]),
+            "reference": str(scheme["reference_d"]),
+            "log2e": str(scheme["log2e_q"]), "ln2": str(scheme["ln2_q"])}
+
+
+def _temperature_derivation(model, method, precision, rate, full_scale, c, st, scheme) -> list[str]:
     """The temperature step's law, its computation without libm and its errors, as comment lines."""
     law = model.temperature
     unit = "signal units"
@@ -400,25 +421,36 @@ def _temperature_derivation(model, method, rate, full_scale, c, st, scheme) -> l
              if law.law == "arrhenius" else f"log10 a_T = -c1 d / (c2 + d), c1 = {law.c1:.6g}, c2 = {law.c2:.6g} K")
     y_lo, y_hi = scheme["y_range"]
     lines = [f"Model: {model.n_terms} creep term(s), beta0 = {model.beta0:.6g}, offset = "
-             f"{model.offset:.9g} {unit}; method {method}; precision float32.",
+             f"{model.offset:.9g} {unit}; method {method}; precision {precision}.",
              f"Sample interval T = 1 / {_qty(rate, 'Hz')} = {_qty(c['T'], 's')}; load held between samples.",
              f"Full scale FS = {full_scale:.9g} {unit}: the inputs satisfy |raw - offset| <= FS.",
              f"Temperature law ({law.law}, reference T_ref = {law.reference:g} °C): tau_k(T) = tau_k a_T, {shape}.",
              f"Temperature range {scheme['low']:g} to {scheme['high']:g} °C (clamped): "
              f"ln(1/a_T) from {y_lo:.6g} to {y_hi:.6g}.",
              "Per sample, tau_k over the step follows the temperature at its middle, "
-             "Tm = (T_prev + T)/2; without libm:",
-             f"  y = ln(1/a_T) = C d / (D0 + d), d = Tm - T_ref, C = {scheme['curve_c']:.9g}, D0 = {scheme['curve_d']:.9g};",
-             f"  1/a_T = 2^j exp(f), j = round(y / ln 2), |f| <= ln2/2, exp(f) by {scheme['exp_terms']} Taylor terms;",
-             f"  a_k = 1 - exp(-x_k), x_k = (T/tau_k) / a_T, as the dt step ({scheme['n']} terms of (1 - exp(-x))/x).",
-             f"Relative error of the computed 1/a_T <= {scheme['rel_shift']:.2e} (temperature, y, f, polynomial)."]
+             "Tm = (T_prev + T)/2; without libm:"]
+    if precision == "float32":
+        lines += [f"  y = ln(1/a_T) = C d / (D0 + d), d = Tm - T_ref, C = {scheme['curve_c']:.9g}, D0 = {scheme['curve_d']:.9g};",
+                  f"  1/a_T = 2^j exp(f), j = round(y / ln 2), |f| <= ln2/2, exp(f) by {scheme['exp_terms']} Taylor terms;",
+                  f"  a_k = 1 - exp(-x_k), x_k = (T/tau_k) / a_T, as the dt step ({scheme['n']} terms of (1 - exp(-x))/x)."]
+    else:
+        lines += ["  temperatures in 1/256 °C (int32_t), so Tm is exact;",
+                  f"  y = ln(1/a_T) = C d / (D0 + d) in Q28, d = Tm - T_ref in 2^-19 K, C = {scheme['curve_c_q']} * 2^-28, "
+                  f"D0 = {scheme['curve_d_q']} * 2^-19 K (one 64-bit division);",
+                  f"  1/a_T = p 2^j, j = round(y / ln 2), p = exp(f) in Q31 by {scheme['exp_terms']} Taylor terms;",
+                  f"  a_k = x t(x), x = (T/tau_k) p 2^j, t = (1 - exp(-x))/x in Q31 ({scheme['n']} terms), as the q31 dt step."]
+    lines.append(f"Relative error of the computed 1/a_T <= {scheme['rel_shift']:.2e} (temperature, y, f, polynomial).")
     lo_tau, hi_tau = scheme["tau_range"]
     for k in range(model.n_terms):
         lines.append(f"term {k}: beta = {c['beta'][k]:.9g}, tau = {_qty(c['tau'][k], 's')} at T_ref, "
                      f"{_qty(hi_tau[k], 's')} to {_qty(lo_tau[k], 's')} over the range; a from "
                      f"{scheme['a_min'][k]:.6g} to {scheme['a_max'][k]:.6g}, relative error of computed a <= "
                      f"{scheme['rel_a'][k]:.2e}")
-        lines.append(f"  stored T/tau = {scheme['dt_over_tau'][k]:.9e}, beta = {st['beta'][k]:.9e}")
+        if precision == "float32":
+            lines.append(f"  stored T/tau = {scheme['dt_over_tau'][k]:.9e}, beta = {st['beta'][k]:.9e}")
+        else:
+            m, sh = scheme["m"][k]
+            lines.append(f"  T/tau = {m} * 2^-{31 + sh}; beta = {st['beta_q'][k][0]} * 2^-{31 + st['beta_q'][k][1]}")
     lines.append(f"1 + beta0 = {c['sigma']:.12g} (supplemental scale); 1/(1 + beta0) = {c['w']:.12g} "
                  "(settled start: c_k = x / (1 + beta0))")
     return lines

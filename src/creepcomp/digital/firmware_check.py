@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from creepcomp.errors import CreepcompError, InputError
-from creepcomp.digital.firmware import Firmware
+from creepcomp.digital.firmware import TEMPERATURE_STEP_Q, Firmware
 
 __all__ = ["STRICT_FLAGS", "Verification", "find_compiler", "compile_object", "run_firmware",
            "step_intervals", "verify_firmware"]
@@ -121,7 +121,8 @@ def run_firmware(firmware: Firmware, signal, start: str, repeats: int = 5,
         For the dt step: the interval passed with each sample (seconds for float32, ticks for
         q31), exactly representable in the step's argument type.
     temperatures : array_like, optional
-        For the temperature step: the temperature (°C) passed with each sample.
+        For the temperature step: the temperature (°C) of each sample (q31 passes it rounded
+        to 1/256 °C).
 
     Returns
     -------
@@ -138,7 +139,8 @@ def run_firmware(firmware: Firmware, signal, start: str, repeats: int = 5,
     if firmware.temperature_range is not None:
         if temperatures is None or len(temperatures) != len(x):
             raise InputError("the temperature step needs one temperature per sample")
-        intervals = temperatures
+        intervals = (np.asarray(temperatures, dtype=float) if firmware.precision == "float32"
+                     else np.round(np.asarray(temperatures, dtype=float) / TEMPERATURE_STEP_Q))
     cc = find_compiler(compiler)
     with tempfile.TemporaryDirectory(prefix="creepcomp-firmware-") as tmp:
         folder = Path(tmp)
@@ -167,8 +169,8 @@ def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler
     full scale (the range the bound assumes). Both start as the method's default (relaxed for subtractive,
     settled for supplemental), with the load held between samples. The temperature step
     (a model with a temperature law) takes ``temperature`` (°C, one per sample, within its
-    range); the float64 corrector gets the same temperatures, rounded to float32 as the step
-    receives them.
+    range); the float64 corrector gets the same temperatures, rounded as the step receives them
+    (to float32, or to 1/256 °C for q31).
 
     Returns
     -------
@@ -200,7 +202,7 @@ def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler
 
 
 def _temperatures(firmware: Firmware, temperature, n: int) -> np.ndarray | None:
-    """The temperatures of the temperature step as it receives them (float32), checked."""
+    """The temperatures (°C) the temperature step receives (float32, or q31's 1/256 °C), checked."""
     if firmware.temperature_range is None:
         if temperature is not None:
             raise InputError("a temperature was given but the firmware's model has no temperature "
@@ -212,7 +214,10 @@ def _temperatures(firmware: Firmware, temperature, n: int) -> np.ndarray | None:
     temps = np.asarray(temperature, dtype=float).reshape(-1)
     if len(temps) != n:
         raise InputError(f"{len(temps)} temperatures for {n} samples")
-    temps = temps.astype(np.float32).astype(float)
+    if firmware.precision == "float32":
+        temps = temps.astype(np.float32).astype(float)
+    else:
+        temps = np.round(temps / TEMPERATURE_STEP_Q) * TEMPERATURE_STEP_Q
     low, high = firmware.temperature_range
     outside = np.flatnonzero(~((temps >= low) & (temps <= high)))
     if outside.size:
