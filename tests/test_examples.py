@@ -183,9 +183,21 @@ def test_firmware_corrector_sketch_within_its_bound(tmp_path):
     measured = float(re.search(r"largest difference from the float64 corrector (\S+) of full scale",
                                stdout).group(1))
     assert measured <= bound
-    raw, corrected = (float(g) for g in re.findall(r"(\d+\.\d+) g ", stdout))
+    grams = [float(g) for g in re.findall(r"(\d+\.\d+) g ", stdout)]
+    raw, corrected = grams[:2]
     assert corrected < raw / 100
     assert re.search(r"[0-9.]+ ns per sample \(gcc -O2\), object \d+ bytes", stdout)
+    # over temperature: both sketches (thermistor, NAU7802's own sensor) within the float32 bound
+    written(tmp_path, "record-temperature.csv", "hx711_scale_temperature/creep.c",
+            "nau7802_scale/nau7802_scale.ino")
+    bound_t = float(re.search(r"temperature per sample, .*?proven worst-case error (\S+) of full scale",
+                              stdout).group(1))
+    sketches = re.findall(r"(HX711|NAU7802) sketch, .*?largest difference from the float64 corrector "
+                          r"(\S+) of full scale", stdout)
+    assert [name for name, _ in sketches] == ["HX711", "NAU7802"]
+    assert all(float(measured) <= bound_t for _, measured in sketches) and bound_t <= 1e-6
+    raw_t, ignored, corrected_t = grams[2:5]
+    assert ignored > raw_t / 20 and corrected_t < ignored / 100
 
 
 @pytest.mark.slow
