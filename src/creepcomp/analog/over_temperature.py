@@ -313,6 +313,7 @@ def size_ntc_tracking(model: CreepModel, low: float, high: float, plan: PartsPla
     tau_mid = model.at_temperature(mid).tau[0]
     cands = []                      # (part a, R_s, part b, R_p or inf, C1)
     shaping = {t.r25: _shaping_values(t.r25, resistor_series) for t in thermistors}
+    cap_values = eseries.values_in_range(capacitor_series, 1e-12, 10.0)
     for a, b in itertools.product(thermistors, repeat=2):
         for rs in [0.0] + shaping[a.r25]:
             r1 = rs + float(ntc_resistance(a.r25, a.b, mid))
@@ -322,7 +323,8 @@ def size_ntc_tracking(model: CreepModel, low: float, high: float, plan: PartsPla
                 if not 0.5 < r1 / (r2 * beta) < 2.0:
                     continue
                 c_match = tau_mid * (1.0 + beta) / (1.0 + r1 / r2) / r1
-                cands.extend((a, rs, b, rp, c) for c in eseries.neighbours(c_match, capacitor_series, 1))
+                k = int(np.searchsorted(cap_values, c_match))
+                cands.extend((a, rs, b, rp, c) for c in cap_values[max(k - 1, 0):k + 1])
     if not cands:
         raise InputError("--tracking ntc: no pair of catalogue thermistors gives R1/R2 near beta0")
     a_r25, a_b, rs, b_r25, b_b, rp, caps = (np.array(col, dtype=float) for col in zip(
