@@ -9,10 +9,11 @@ residual creep of a full-scale step is the project's exact prediction
 
 Three designs over a range:
 
-- :func:`size_fixed_for_range`: fixed parts. The ideal network is sized at the *effective
-  temperature* whose worst case over the range is smallest (a one-dimensional search), and
-  the same E-series candidates the sizing screens around it are ranked by their worst case
-  over the range (closed-form screen, then the exact prediction on the best few);
+- :func:`size_fixed_for_range`: fixed parts. The ideal network is sized for the sensor at an
+  *effective temperature*, its amplitudes times a factor, both chosen so that the ideal's
+  worst case over the range is smallest (:func:`effective_sizing`); the same E-series
+  candidates the sizing screens around it are ranked by their worst case over the range
+  (closed-form screen, then the exact prediction on the best few);
 - :func:`size_ntc_tracking`: the time-setting resistors of a one-cell lead network (``R1``
   and ``R2``; both, since ``R1 / R2`` sets the gain of the correction) made of catalogue NTC
   thermistors, shaped by a fixed resistor in series with ``R1`` and one across ``R2``.
@@ -39,7 +40,7 @@ from creepcomp.temperature import temperature_grid
 from creepcomp.units import format_quantity
 
 __all__ = ["OverTemperature", "network_over", "over_temperature", "worst_case",
-           "effective_temperature", "size_fixed_for_range", "TrackingDesign", "size_ntc_tracking",
+           "effective_sizing", "size_fixed_for_range", "TrackingDesign", "size_ntc_tracking",
            "TRACKING_RECHECKS", "TRACKING_SHORTLIST",
            "RangeDesign", "RangeComparison", "compare_over_range"]
 
@@ -173,27 +174,42 @@ def _drift_factors(network: Network, plan: PartsPlan, temperature: float) -> np.
     return np.array([plan.value_at(label, kind, 1.0, temperature) for label, kind, _ in network.parts()])
 
 
-def effective_temperature(model: CreepModel, temperatures, plan: PartsPlan | None = None,
-                          rule: str = "exact", source_resistance: float = 0.0,
-                          load_resistance: float | None = None) -> float:
-    """The temperature (°C) at which to size the ideal network so that its worst peak residual
-    creep over ``temperatures`` is smallest (golden-section search over the range)."""
+def effective_sizing(model: CreepModel, temperatures, plan: PartsPlan | None = None,
+                     rule: str = "exact", source_resistance: float = 0.0,
+                     load_resistance: float | None = None) -> tuple[float, float]:
+    """The model to size a fixed network for so that its worst peak residual creep over
+    ``temperatures`` is smallest: the model at an *effective temperature* (°C), its amplitudes
+    times a factor (a network that undercorrects a little balances the range's two ends).
+
+    Golden-section search over the temperature with the amplitudes as they are, then both
+    together (Nelder-Mead). A model without a temperature law gives its reference and 1.
+
+    Returns
+    -------
+    temperature : float
+    amplitude_factor : float
+    """
+    from scipy.optimize import minimize
+
     plan = plan or PartsPlan()
     temps = np.asarray(temperatures, dtype=float)
     if model.temperature is None or temps[-1] == temps[0]:
-        return float(model.temperature.reference if model.temperature else temps[0])
+        return float(model.temperature.reference if model.temperature else temps[0]), 1.0
+    lo, hi = float(temps[0]), float(temps[-1])
 
-    def worst(t_eff: float) -> float:
-        net = ideal_network(model.at_temperature(t_eff), rule, 10e-6, source_resistance, load_resistance)
+    def worst(t_eff: float, factor: float = 1.0) -> float:
+        sensor = model.at_temperature(min(max(t_eff, lo), hi))
+        sensor = sensor.with_terms(np.array(sensor.beta) * factor, sensor.tau)
+        net = ideal_network(sensor, rule, 10e-6, source_resistance, load_resistance)
         values = np.array([[v for _, _, v in net.parts()]])
         return float(_screen_over(model, temps, lambda t: (
             network_over(net, plan, t), values * _drift_factors(net, plan, t)))[0])
 
     ratio = (math.sqrt(5.0) - 1.0) / 2.0
-    a, b = float(temps[0]), float(temps[-1])
+    a, b = lo, hi
     c, d = b - ratio * (b - a), a + ratio * (b - a)
     fc, fd = worst(c), worst(d)
-    while b - a > 0.05:
+    while b - a > 0.1:
         if fc <= fd:
             b, d, fd = d, c, fc
             c = b - ratio * (b - a)
@@ -202,7 +218,12 @@ def effective_temperature(model: CreepModel, temperatures, plan: PartsPlan | Non
             a, c, fc = c, d, fd
             d = a + ratio * (b - a)
             fd = worst(d)
-    return c if fc <= fd else d
+    t0 = c if fc <= fd else d
+    best = minimize(lambda x: worst(x[0], math.exp(x[1])), [t0, 0.0], method="Nelder-Mead",
+                    options={"initial_simplex": [[t0, 0.0], [t0 + 2.0, 0.0], [t0, -0.1]],
+                             "xatol": 1e-3, "fatol": 1e-7, "maxiter": 200})
+    t_eff, factor = min(max(float(best.x[0]), lo), hi), math.exp(float(best.x[1]))
+    return (t_eff, factor) if best.fun < min(fc, fd) else (t0, 1.0)
 
 
 def size_fixed_for_range(model: CreepModel, low: float, high: float, plan: PartsPlan | None = None,
@@ -213,7 +234,7 @@ def size_fixed_for_range(model: CreepModel, low: float, high: float, plan: Parts
                          capacitance: float | None = None):
     """Fixed E-series parts whose worst peak residual creep over ``low .. high`` °C is smallest.
 
-    The ideal network is sized at :func:`effective_temperature`; around it, at every capacitor
+    The ideal network is sized for :func:`effective_sizing`; around it, at every capacitor
     value of the series in ``cap_range`` (or at ``capacitance`` only), the sizing's neighbouring series values of every
     other part are ranked by their worst case over the range (closed form), and the best few
     re-checked with the exact prediction.
@@ -222,18 +243,20 @@ def size_fixed_for_range(model: CreepModel, low: float, high: float, plan: Parts
     -------
     network : Network
         The chosen parts (values at their catalogue temperature).
-    effective : float
-        The effective temperature (°C) of the ideal network.
+    effective : (float, float)
+        The effective temperature (°C) and amplitude factor of the ideal network.
     candidates : int
         Part combinations ranked.
     """
     plan = plan or PartsPlan()
     grid = temperature_grid(low, high)
-    t_eff = effective_temperature(model, grid, plan, rule, source_resistance, load_resistance)
+    t_eff, factor = effective_sizing(model, grid, plan, rule, source_resistance, load_resistance)
     sensor = model.at_temperature(t_eff)
+    sensor = sensor.with_terms(np.array(sensor.beta) * factor, sensor.tau)
     series_of = {"R": resistor_series, "C": capacitor_series}
     screened, count = [], 0
-    levels = [capacitance] if capacitance else eseries.values_in_range(capacitor_series, *cap_range)
+    levels = [capacitance] if capacitance else [float(f"{c:.12g}") for c in
+                                                 eseries.values_in_range(capacitor_series, *cap_range)]
     for c in levels:
         try:
             ideal = ideal_network(sensor, rule, c, source_resistance, load_resistance)
@@ -252,7 +275,7 @@ def size_fixed_for_range(model: CreepModel, low: float, high: float, plan: Parts
     screened.sort(key=lambda x: x[0])
     best = min((net for _, net in screened[:TRACKING_RECHECKS]),
                key=lambda net: worst_case(model, net, plan, grid))
-    return best, t_eff, count
+    return best, (t_eff, factor), count
 
 
 @dataclass(frozen=True)
@@ -398,6 +421,7 @@ class RangeComparison:
     designs: tuple[RangeDesign, ...]
     chosen: str
     effective_temperature: float
+    amplitude_factor: float
     candidates: int
 
     def design(self, key: str) -> RangeDesign:
@@ -413,6 +437,7 @@ class RangeComparison:
         """The comparison: every design's parts and figures, which one is written and why."""
         return {"range": [self.low, self.high], "chosen": self.chosen,
                 "effective_temperature": self.effective_temperature,
+                "amplitude_factor": self.amplitude_factor,
                 "candidates_evaluated": self.candidates,
                 "designs": {d.key: d.to_dict() for d in self.designs}}
 
@@ -437,13 +462,14 @@ def compare_over_range(model: CreepModel, reference: Network, low: float, high: 
     # near the reference's impedance level: two capacitor values either side of its own
     c_ref = max(v for _, k, v in reference.parts() if k == "C")
     levels = eseries.neighbours(c_ref, capacitor_series, 2)
-    fixed, t_eff, count = size_fixed_for_range(
+    fixed, (t_eff, factor), count = size_fixed_for_range(
         model, low, high, plan, rule, resistor_series, capacitor_series,
         cap_range=(float(min(levels)), float(max(levels))), res_range=res_range,
         source_resistance=reference.source_resistance, load_resistance=reference.load_resistance)
     designs = [RangeDesign("reference", "(a) fixed parts sized at the reference", reference, plan,
                            over_temperature(model, reference, plan, low, high), tuple(reference_warnings)),
-               RangeDesign("range", f"(b) fixed parts sized for the range (at {t_eff:.1f} °C)", fixed, plan,
+               RangeDesign("range", f"(b) fixed parts sized for the range ({t_eff:.1f} °C, "
+                           f"{factor:.2f} beta)", fixed, plan,
                            over_temperature(model, fixed, plan, low, high))]
     if tracking == "ntc":
         ntc = size_ntc_tracking(model, low, high, plan, resistor_series, capacitor_series,
@@ -451,4 +477,5 @@ def compare_over_range(model: CreepModel, reference: Network, low: float, high: 
                                 load_resistance=reference.load_resistance)
         designs.append(RangeDesign("ntc", "(c) NTC thermistor tracking", ntc.network, ntc.plan,
                                    over_temperature(model, ntc.network, ntc.plan, low, high), ntc.warnings))
-    return RangeComparison(low, high, tuple(designs), "ntc" if tracking == "ntc" else "range", t_eff, count)
+    return RangeComparison(low, high, tuple(designs), "ntc" if tracking == "ntc" else "range", t_eff,
+                           factor, count)
