@@ -468,8 +468,9 @@ def compare_over_range(model: CreepModel, reference: Network, low: float, high: 
         source_resistance=reference.source_resistance, load_resistance=reference.load_resistance)
     designs = [RangeDesign("reference", "(a) fixed parts sized at the reference", reference, plan,
                            over_temperature(model, reference, plan, low, high), tuple(reference_warnings)),
-               RangeDesign("range", f"(b) fixed parts sized for the range ({t_eff:.1f} °C, "
-                           f"{factor:.2f} beta)", fixed, plan,
+               RangeDesign("range", "(b) fixed parts sized for the range "
+                           + (f"({t_eff:.1f} °C, {factor:.2f} beta)" if model.temperature is not None
+                              else "(the parts' drift only)"), fixed, plan,
                            over_temperature(model, fixed, plan, low, high))]
     if tracking == "ntc":
         ntc = size_ntc_tracking(model, low, high, plan, resistor_series, capacitor_series,
