@@ -140,3 +140,21 @@ def test_activation_energy_with_a_model_that_has_its_own_law(run_cli, tmp_path):
     model.write_text(json.dumps(SENSOR.to_dict()))
     status, _, err = run_cli("size", "--model", model, "--activation-energy", "43k")
     assert status == 2 and "own temperature block" in err
+
+
+@pytest.mark.slow
+def test_size_tracking_ntc_writes_the_thermistors_and_the_plot(run_cli, tmp_path):
+    out, plot = tmp_path / "d.json", tmp_path / "sizing.png"
+    status, stdout, err = run_cli("size", "--beta0", "3%", "--tau", "45s", "--activation-energy", "43k",
+                                  "--temperature-range", "-10:40", "--tracking", "ntc", "--json",
+                                  "-o", out, "--plot", plot)
+    assert status == 0, err
+    data = json.loads(stdout)
+    tracking = data["over_temperature"]["tracking"]
+    assert tracking["kind"] == "ntc" and set(tracking["thermistors"]) == {"R1", "R2"}
+    assert all(t["R25"] > 0 and t["B"] > 3000 for t in tracking["thermistors"].values())
+    designs = data["temperature_designs"]["designs"]
+    assert data["over_temperature"]["worst"] == designs["ntc"]["worst"] <= designs["reference"]["worst"] / 4
+    written = json.loads(out.read_text())
+    assert written["parts"]["thermistors"] == tracking["thermistors"]
+    assert (tmp_path / "sizing-over-temperature.png").stat().st_size > 10_000
