@@ -158,3 +158,9 @@ def test_size_tracking_ntc_writes_the_thermistors_and_the_plot(run_cli, tmp_path
     written = json.loads(out.read_text())
     assert written["parts"]["thermistors"] == tracking["thermistors"]
     assert (tmp_path / "sizing-over-temperature.png").stat().st_size > 10_000
+
+
+def test_tracking_refuses_a_model_of_two_terms_before_sizing(run_cli):
+    status, out, err = run_cli("size", "--term", "1%@10s", "--term", "2%@60s", "--activation-energy",
+                               "43k", "--temperature-range", "-10:40", "--tracking", "ntc")
+    assert status == 2 and not out and "one creep term" in err

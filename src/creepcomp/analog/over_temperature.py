@@ -39,10 +39,10 @@ from creepcomp.network import Cell, Network, modal_form, parallel, state_matrice
 from creepcomp.temperature import temperature_grid
 from creepcomp.units import format_quantity
 
-__all__ = ["OverTemperature", "network_over", "over_temperature", "worst_case",
-           "effective_sizing", "size_fixed_for_range", "TrackingDesign", "size_ntc_tracking",
-           "TRACKING_RECHECKS", "TRACKING_SHORTLIST",
-           "RangeDesign", "RangeComparison", "compare_over_range"]
+__all__ = ["OverTemperature", "network_over", "over_temperature", "worst_case", "effective_sizing",
+           "size_fixed_for_range", "TrackingDesign", "check_tracking", "size_ntc_tracking",
+           "TRACKING_RECHECKS", "TRACKING_SHORTLIST", "RangeDesign", "RangeComparison",
+           "compare_over_range"]
 
 #: Candidates re-checked with the exact prediction after the closed-form screen.
 TRACKING_RECHECKS = 6
@@ -309,6 +309,15 @@ def _shaping_values(r25: float, series: str) -> list[float]:
     return [float(v) for v in eseries.values_in_range(series, r25 / 30.0, r25 * 30.0)]
 
 
+def check_tracking(model: CreepModel, tracking: str) -> None:
+    """Refuse a tracking this module cannot size for ``model``, naming the way out."""
+    if tracking not in ("none", "ntc"):
+        raise InputError(f"--tracking {tracking!r}: expected none or ntc")
+    if tracking == "ntc" and (model.n_terms != 1 or model.beta[0] <= 0):
+        raise InputError("--tracking ntc: sized for one creep term with beta0 > 0 (a one-cell "
+                         "lead network); use fixed parts or the digital correction")
+
+
 def size_ntc_tracking(model: CreepModel, low: float, high: float, plan: PartsPlan | None = None,
                       resistor_series: str = "E24", capacitor_series: str = "E6",
                       thermistors=NTC_THERMISTORS, source_resistance: float = 0.0,
@@ -327,9 +336,7 @@ def size_ntc_tracking(model: CreepModel, low: float, high: float, plan: PartsPla
     InputError
         For a model of several terms or of negative creep (no one-cell lead network).
     """
-    if model.n_terms != 1 or model.beta[0] <= 0:
-        raise InputError("--tracking ntc: sized for one creep term with beta0 > 0 (a one-cell "
-                         "lead network); use fixed parts or the digital correction")
+    check_tracking(model, "ntc")
     plan = plan or PartsPlan()
     grid = temperature_grid(low, high)
     beta, mid = model.beta[0], 0.5 * (low + high)
@@ -456,8 +463,7 @@ def compare_over_range(model: CreepModel, reference: Network, low: float, high: 
     InputError
         For a tracking other than ``none`` or ``ntc``.
     """
-    if tracking not in ("none", "ntc"):
-        raise InputError(f"--tracking {tracking!r}: expected none or ntc")
+    check_tracking(model, tracking)
     plan = plan or PartsPlan()
     # near the reference's impedance level: two capacitor values either side of its own
     c_ref = max(v for _, k, v in reference.parts() if k == "C")

@@ -130,6 +130,10 @@ def size_command(
     model = model_from_options(beta0, tau, model_file, terms)
     model = with_temperature_law(model, activation_energy, reference_temperature)
     span = temperature_span(temperature_range, tracking)
+    if span is not None:
+        from creepcomp.analog.over_temperature import check_tracking
+
+        check_tracking(model, tracking.strip().lower())
     warn_creep(model, str(model_file) if model_file is not None else "--term" if terms else "--beta0")
     rule = rule.strip().lower()
     report = size(
