@@ -235,9 +235,9 @@ def size_fixed_for_range(model: CreepModel, low: float, high: float, plan: Parts
     """Fixed E-series parts whose worst peak residual creep over ``low .. high`` °C is smallest.
 
     The ideal network is sized for :func:`effective_sizing`; around it, at every capacitor
-    value of the series in ``cap_range`` (or at ``capacitance`` only), the sizing's neighbouring series values of every
-    other part are ranked by their worst case over the range (closed form), and the best few
-    re-checked with the exact prediction.
+    value of the series in ``cap_range`` (or at ``capacitance`` only), the sizing's
+    neighbouring series values of every other part are ranked by their worst case over the
+    range (closed form), and the best few re-checked with the exact prediction.
 
     Returns
     -------
@@ -343,7 +343,8 @@ def size_ntc_tracking(model: CreepModel, low: float, high: float, plan: PartsPla
     tau_mid = model.at_temperature(mid).tau[0]
     cands = []                      # (part a, R_s, part b, R_p or inf, C1)
     shaping = {t.r25: _shaping_values(t.r25, resistor_series) for t in thermistors}
-    cap_values = eseries.values_in_range(capacitor_series, 1e-12, 10.0)
+    cap_values = np.array([float(f"{c:.12g}")
+                           for c in eseries.values_in_range(capacitor_series, 1e-12, 10.0)])
     for a, b in itertools.product(thermistors, repeat=2):
         for rs in [0.0] + shaping[a.r25]:
             r1 = rs + float(ntc_resistance(a.r25, a.b, mid))
