@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
 SCRIPTS = ("size_network", "ngspice_proof", "tolerance_report", "correct_record",
            "diagnose_record", "diagnose_built_network", "firmware_corrector", "real_insole",
-           "real_wood")
+           "real_wood", "over_temperature")
 #: A percentage as the examples print it, e.g. ``0.029 %``, ``-0.0262 %``, ``2.22e-14 %``.
 PERCENT = r"(-?[0-9.]+(?:e[-+]\d+)?) %"
 #: A value with an SI prefix and a unit, e.g. ``1.2 MΩ``, ``501.5 nV``.
@@ -223,3 +223,14 @@ def test_real_wood(tmp_path):
     assert len(betas) == 2 and all(0 < b < 100 for b in betas)          # creep, not relaxation
     compliances = [float(j) for j in re.findall(r"J_c\(50 h\) = (\S+) 1/MPa", stdout)]
     assert len(compliances) == 2 and all(1e-6 < j < 1e-3 for j in compliances)
+
+
+def test_over_temperature(tmp_path):
+    stdout = run_example("over_temperature", tmp_path)
+    written(tmp_path, "design.json", "over-temperature.png")
+    worst = [percent(rf"\({k}\) [^:]+: worst", stdout)[0] for k in "abc"]
+    assert worst[2] < worst[1] < worst[0]
+    assert worst[2] < worst[0] / 3.5                        # E12 in --fast; E24 gives a quarter
+    design = read_design(tmp_path / "design.json")
+    assert set(design.extra["parts"]["thermistors"]) == {"R1", "R2"}
+    assert design.extra["over_temperature"]["worst"] == pytest.approx(worst[2], rel=5e-3)
