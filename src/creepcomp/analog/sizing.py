@@ -60,7 +60,15 @@ EXACT_RECHECKS = 5
 
 class NoNetworkInRange(InputError):
     """No network of the rule has its parts in the ranges searched (with this source and
-    load resistance)."""
+    load resistance).
+
+    ``fixable`` is True when parts that are made would do (the message says which options
+    reach them), False when no capacitor of the plan's dielectric would.
+    """
+
+    def __init__(self, message: str, fixable: bool = True):
+        super().__init__(message)
+        self.fixable = fixable
 
 
 def explain_unrealisable(model: CreepModel) -> str:
@@ -332,10 +340,11 @@ def size(model: CreepModel, rule: str = "exact", resistor_series: str | None = "
     if not ideals:
         made = DIELECTRICS[plan.capacitor]
         advice = "use a larger capacitor"
-        if problems[-1].endswith(advice) and max(levels) >= made.value_range[1]:
+        fixable = not (problems[-1].endswith(advice) and max(levels) >= made.value_range[1])
+        if not fixable:
             problems[-1] = (problems[-1][:-len(advice)] + f"and {made.name} capacitors are not "
                             f"made above {format_quantity(made.value_range[1], 'F')}")
-        raise NoNetworkInRange(problems[-1])
+        raise NoNetworkInRange(problems[-1], fixable)
     series_of = {"R": resistor_series, "C": capacitor_series}
     candidates, origin = [], []
     for net in ideals:
@@ -348,10 +357,11 @@ def size(model: CreepModel, rule: str = "exact", resistor_series: str | None = "
                             if kind == "R" and not res_range[0] <= v <= res_range[1])
         c0 = max(v for _, k, v in net.parts() if k == "C")
         made = DIELECTRICS[plan.capacitor]
+        advice, fixable = _capacitance_needed(net, c0, res_range, made.value_range, made.name)
         raise NoNetworkInRange(f"at C = {format_quantity(c0, 'F')} the {rule} rule needs {outside}, "
                                f"outside the resistor range {format_quantity(res_range[0], 'Ω')} .. "
-                               f"{format_quantity(res_range[1], 'Ω')} (--res-range); "
-                               + _capacitance_needed(net, c0, res_range, made.value_range, made.name))
+                               f"{format_quantity(res_range[1], 'Ω')} (--res-range); " + advice,
+                               fixable)
     # Snapping keeps the rule's behaviour: closest to the rule's ideal step response (for the
     # exact rule, that is the smallest residual creep; for the paper's, its own residual).
     reference = None if rule == "exact" else ideals[0]
@@ -395,9 +405,9 @@ def check_time_constants(model: CreepModel) -> None:
 
 def _capacitance_needed(net: Network, c0: float, res_range: tuple[float, float],
                         made: tuple[float, float] = FILM_CAP_RANGE,
-                        dielectric: str = "film") -> str:
+                        dielectric: str = "film") -> tuple[str, bool]:
     """Advice for an infeasible size: the capacitance, among those made, that brings every
-    resistor into range.
+    resistor into range; and whether there is one (False: no capacitor made would do).
 
     The network's time constants are fixed by the creep, so its resistors scale as ``1/C``
     (the source and load resistances aside).
@@ -406,18 +416,18 @@ def _capacitance_needed(net: Network, c0: float, res_range: tuple[float, float],
     low, high = c0 * max(rs) / res_range[1], c0 * min(rs) / res_range[0]
     if low > high:
         return (f"no single capacitance brings all resistors into range (their ratio "
-                f"{max(rs) / min(rs):.3g} exceeds the range's): widen --res-range")
+                f"{max(rs) / min(rs):.3g} exceeds the range's): widen --res-range"), True
     low_made, high_made = max(low, made[0]), min(high, made[1])
     if low_made > high_made:
         return (f"only a capacitor of {format_quantity(low, 'F', 3)} .. {format_quantity(high, 'F', 3)} "
                 f"would bring every resistor into range, and {dielectric} capacitors are made "
                 f"only in {format_quantity(made[0], 'F')} .. {format_quantity(made[1], 'F')}: "
                 "buffer the output, correct fewer terms, or use the digital corrector "
-                "(creepcomp firmware)")
+                "(creepcomp firmware)"), False
     text = format_quantity(low_made, 'F', 3)
     return (f"a capacitor of {text} .. {format_quantity(high_made, 'F', 3)} "
             f"brings every resistor into range: e.g. --capacitance {text.replace(' ', '')}, "
-            "or --cap-range; or widen --res-range")
+            "or --cap-range; or widen --res-range"), True
 
 
 def nearest_snap(model: CreepModel, rule: str, resistor_series: str, capacitor_series: str,

@@ -131,7 +131,7 @@ def size_command(
     try:
         report = size(model, plan=plan, **options)
     except NoNetworkInRange as exc:
-        if allow_impractical:
+        if allow_impractical or exc.fixable:
             raise
         refuse(model, options, plan, (str(exc),), None, given, as_json)
     from creepcomp.analog.practicality import judge
