@@ -168,7 +168,7 @@ def test_way_out_command_is_complete_and_practical(run_cli, tmp_path):
     command = text.strip().splitlines()[2].split()
     # the buffer: no --load-resistance (infinite, the default)
     assert command == ["creepcomp", "size", "--beta0", "3%", "--tau", "45s"]
-    status, text, _ = run_cli(*command[2:], "--json")
+    status, text, _ = run_cli(*command[1:], "--json")
     assert status == 0 and json.loads(text)["practical"] is True
 
 
