@@ -152,6 +152,12 @@ def test_impractical_design_exits_3_with_the_way_out(run_cli, tmp_path):
     lines = text.strip().splitlines()
     assert lines[0].startswith("impractical: load resistance 1 MΩ is too low")
     assert lines[2].strip() == f"creepcomp firmware {model} --rate 10Hz --full-scale 1 -o {tmp_path / 'firmware'}"
+
+
+def test_impractical_json_and_allow_impractical(run_cli, tmp_path):
+    model = tmp_path / "lc.json"
+    model.write_text(json.dumps({"beta": [0.0005, 0.0002], "tau": [1200, 30]}))
+    out = tmp_path / "d.json"
     status, text, _ = run_cli("size", "--model", model, "--source-resistance", "10k",
                               "--res-range", "10:100G", "--json")
     data = json.loads(text)
@@ -208,3 +214,174 @@ def test_schematic_draws_every_part_and_thermistors(tmp_path):
         assert text in svg, text
     png = draw_network(Network((Cell(1e6, 0.0),), None, (Branch(1e5, 1e-5),)), tmp_path / "n.png")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+# --- the network for other simulators -----------------------------------------------------
+
+NETWORKS = {
+    "one cell, source and load": Network((Cell(3e6, 1.5e-5),), 1e8, (), 1e4, 1e9),
+    "three cells": Network((Cell(3e6, 1e-6), Cell(3e6, 1e-5), Cell(3e6, 1e-4)), 3e8),
+    "lag network": Network((Cell(1e6, 0.0),), None, (Branch(1e5, 1e-5), Branch(2e5, 1e-6)), 1e3),
+}
+#: ngspice's tolerances in the benches written here (its defaults allow 1e-3 of the step).
+BENCH_OPTIONS = ".options reltol=1e-7 trtol=1 vntol=1e-10 abstol=1e-16 chgtol=1e-20"
+
+
+def exact_ramp_step(network, times, rise):
+    """Output of python-control's state-space H(s) of the network (source and load included)
+    for an input rising linearly from 0 to 1 over ``rise``, then held: solved exactly."""
+    from scipy.linalg import expm
+
+    ss = network.state_space()
+    a, b, c, d = (np.asarray(m, dtype=float) for m in (ss.A, ss.B, ss.C, ss.D))
+    n = a.shape[0]
+    ramp = np.zeros((n + 2, n + 2))
+    ramp[:n, :n], ramp[:n, n:n + 1], ramp[n, n + 1] = a, b, 1.0 / rise
+    hold = np.zeros((n + 1, n + 1))
+    hold[:n, :n], hold[:n, n:] = a, b
+    out = []
+    for t in times:
+        x = expm(ramp * min(t, rise))[:n, n + 1]
+        u = min(t, rise) / rise
+        if t > rise:
+            e = expm(hold * (t - rise))
+            x, u = e[:n, :n] @ x + e[:n, n], 1.0
+        out.append((c @ x).item() + d.item() * u)
+    return np.array(out)
+
+
+def compare_with_control(network, netlist, rise, points=200):
+    from creepcomp.verify.ngspice_engine import ngspice
+
+    run = ngspice().run(netlist)
+    pick = np.unique(np.linspace(0, len(run.time) - 1, points).astype(int))
+    y = run.vectors["out"][pick]
+    return float(np.max(np.abs(y - exact_ramp_step(network, run.time[pick], rise))))
+
+
+def _time_constants(network):
+    return [c.R * c.C for c in network.cells if c.C > 0] + [b.R * b.C for b in network.shunt]
+
+
+@pytest.mark.parametrize("name", NETWORKS)
+def test_subckt_runs_in_a_bench_and_agrees_with_python_control(name, tmp_path):
+    from creepcomp.verify.netlist_export import subckt_text
+
+    network = NETWORKS[name]
+    lib = tmp_path / "net.lib"
+    lib.write_text(subckt_text(network))
+    text = lib.read_text()
+    assert ".control" not in text and "Meg" not in text
+    assert re.search(r"^\.subckt creepcomp_network in out gnd$", text, re.M)
+    assert {line.split()[0][0] for line in text.splitlines()
+            if line and line[0] not in "*."} <= {"R", "C"}
+    rcs = _time_constants(network)
+    stop, rise = 5 * max(rcs), 1e-3 * min(rcs)
+    bench = ["* a step through the sensor's output resistance into the subcircuit",
+             f".include {lib}", f"V1 src 0 PWL(0 0 {rise!r} 1)",
+             f"Rsensor src in {network.source_resistance!r}" if network.source_resistance
+             else "Vwire src in 0",
+             "X1 in out 0 creepcomp_network"]
+    if network.load_resistance is not None:
+        bench.append(f"Rnext out 0 {network.load_resistance!r}")
+    bench += [BENCH_OPTIONS, f".tran {stop / 1000!r} {stop!r} 0 {stop / 1000!r}", ".end"]
+    assert compare_with_control(network, "\n".join(bench), rise) <= 1e-6
+
+
+# LTspice's symbols: pins in the symbol's frame; R90 turns (x, y) into (-y, x)
+PINS = {"res": ((16, 16), (16, 96)), "cap": ((16, 0), (16, 64)), "voltage": ((0, 16), (0, 96))}
+
+
+def asc_netlist(path):
+    """A SPICE netlist made here from an .asc file's geometry: wires join the points they end
+    on, flags name nets, each symbol's pins land on the nets at their positions."""
+    parent = {}
+
+    def find(p):
+        parent.setdefault(p, p)
+        while parent[p] != p:
+            p = parent[p]
+        return p
+
+    def union(p, q):
+        parent[find(p)] = find(q)
+
+    symbols, flags, tran = [], [], None
+    for line in path.read_text().splitlines():
+        w = line.split()
+        if w[0] == "WIRE":
+            union((int(w[1]), int(w[2])), (int(w[3]), int(w[4])))
+        elif w[0] == "FLAG":
+            flags.append(((int(w[1]), int(w[2])), w[3]))
+        elif w[0] == "SYMBOL":
+            symbols.append({"kind": w[1], "at": (int(w[2]), int(w[3])), "rot": w[4]})
+        elif w[0] == "SYMATTR":
+            symbols[-1][w[1]] = line.split(maxsplit=2)[2]
+        elif w[0] == "TEXT" and "!.tran" in line:
+            tran = line.split("!", 1)[1]
+    names = {find(p): name for p, name in flags}
+    lines = []
+    for s in symbols:
+        nodes = []
+        for x, y in PINS[s["kind"]]:
+            if s["rot"] == "R90":
+                x, y = -y, x
+            p = find((s["at"][0] + x, s["at"][1] + y))
+            nodes.append(names.get(p, f"n{abs(hash(p)) % 10 ** 8}"))
+        lines.append(f"{s['InstName']} {nodes[0]} {nodes[1]} {s['Value']}")
+    return lines, tran
+
+
+@pytest.mark.parametrize("name", NETWORKS)
+def test_asc_reads_back_with_spicelib_and_simulates_the_design(name, tmp_path):
+    from spicelib.editor.asc_editor import AscEditor
+
+    from creepcomp.verify.netlist_export import asc_text, spice_name
+
+    network = NETWORKS[name]
+    path = tmp_path / "net.asc"
+    path.write_text(asc_text(network))
+    # spicelib looks for the symbols beside the schematic: minimal ones, pins as LTspice's
+    for kind, prefix in (("res", "R"), ("cap", "C"), ("voltage", "V")):
+        (a, b) = PINS[kind]
+        (tmp_path / f"{kind}.asy").write_text(
+            f"Version 4\nSymbolType CELL\nSYMATTR Prefix {prefix}\nPIN {a[0]} {a[1]} NONE 0\n"
+            f"PINATTR PinName A\nPINATTR SpiceOrder 1\nPIN {b[0]} {b[1]} NONE 0\n"
+            "PINATTR PinName B\nPINATTR SpiceOrder 2\n")
+    editor = AscEditor(str(path))
+    expected = {spice_name(label): value for label, _, value in network.parts()}
+    if network.source_resistance:
+        expected["Rs"] = network.source_resistance
+    if network.load_resistance is not None:
+        expected["RL"] = network.load_resistance
+    found = {c: editor.get_component_value(c) for c in editor.get_components() if c != "V1"}
+    assert set(found) == set(expected)
+    for ref, value in expected.items():
+        assert float(found[ref]) == pytest.approx(value, rel=1e-12), ref
+    assert editor.get_component_value("V1").startswith("PULSE(0 1 0 ")
+    # the wiring: the schematic's own netlist, simulated, is the design's step response
+    lines, tran = asc_netlist(path)
+    rise = float(editor.get_component_value("V1").split()[3])
+    deck = "\n".join(["* from the .asc geometry", *lines, BENCH_OPTIONS, tran, ".end"])
+    assert compare_with_control(network, deck, rise) <= 1e-6
+
+
+def test_netlist_command_writes_subckt_and_asc(run_cli, tmp_path):
+    design = tmp_path / "d.json"
+    assert run_cli("size", "--beta0", "3%", "--tau", "45s", "-o", design)[0] == 0
+    lib, asc = tmp_path / "n.lib", tmp_path / "n.asc"
+    status, text, err = run_cli("netlist", design, "--subckt", lib, "--asc", asc, "--json")
+    assert status == 0, err
+    assert json.loads(text)["ports"] == ["in", "out", "gnd"]
+    assert "R1 in out 3000000" in lib.read_text() and "R2 out gnd 100000000" in lib.read_text()
+    assert asc.read_text().startswith("Version 4\nSHEET 1 ")
+    status, _, err = run_cli("netlist", design, "--subckt", lib, "-o", tmp_path / "x.cir")
+    assert status == 2 and "leave out -o" in err
+
+
+def test_subckt_comments_thermistors():
+    from creepcomp.verify.netlist_export import subckt_text
+
+    plan = PartsPlan(thermistors={"R1": ThermistorUse("NCP18XH103", 1e4, 3380.0)})
+    text = subckt_text(Network((Cell(1e4, 1e-3),), 1e6), plan=plan)
+    assert "* R1 is an NTC thermistor" in text and "B = 3380 K" in text

@@ -148,7 +148,7 @@ class _Sheet:
 def asc_text(network: Network, stop_time: float | None = None) -> str:
     """An LTspice schematic of the network with a step test bench.
 
-    A 1 V step (``PULSE``, rising in a millionth of the fastest time constant) behind the
+    A 1 V step (``PULSE``, rising in a thousandth of the fastest time constant) behind the
     sensor's source resistance ``Rs`` drives the network; the next stage's input resistance
     ``RL`` loads ``out``. Part names are :func:`spice_name` of the design's labels.
 
@@ -166,7 +166,7 @@ def asc_text(network: Network, stop_time: float | None = None) -> str:
     sheet = _Sheet()
     stop = stop_time or step_stop_time(network)
     rcs = [c.R * c.C for c in network.cells if c.C > 0] + [b.R * b.C for b in network.shunt]
-    rise = 10.0 ** math.floor(math.log10(1e-6 * min(rcs or [1.0])))
+    rise = 10.0 ** math.floor(math.log10(1e-3 * min(rcs or [1.0])))
     sheet.symbol("voltage", (0, -16), "R0", "V1",
                  f"PULSE(0 1 0 {n(rise)} {n(rise)} {n(10 * stop)} {n(20 * stop)})")
     sheet.flag((0, 80), "0")
@@ -214,7 +214,7 @@ def asc_text(network: Network, stop_time: float | None = None) -> str:
         for kind, name, value in branch:
             pin = sheet.vertical(kind, pin, name, n(value))
         sheet.flag(pin, "0")
-    sheet.lines.append(f"TEXT 0 200 Left 2 !.tran 0 {n(stop)} 0 {n(stop / 1000)}")
+    sheet.lines.append(f"TEXT 0 200 Left 2 !.tran {n(stop / 1000)} {n(stop)} 0 {n(stop / 1000)}")
     sheet.lines.append(f"TEXT 0 232 Left 2 ;creepcomp: step response of the correction network "
                        f"(in -> out)")
     return "\n".join(sheet.lines) + "\n"
