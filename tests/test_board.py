@@ -385,3 +385,15 @@ def test_subckt_comments_thermistors():
     plan = PartsPlan(thermistors={"R1": ThermistorUse("NCP18XH103", 1e4, 3380.0)})
     text = subckt_text(Network((Cell(1e4, 1e-3),), 1e6), plan=plan)
     assert "* R1 is an NTC thermistor" in text and "B = 3380 K" in text
+
+
+def test_reports_carry_the_schematic(run_cli, tmp_path):
+    design, page, plot = tmp_path / "d.json", tmp_path / "r.html", tmp_path / "p.png"
+    assert run_cli("size", "--beta0", "3%", "--tau", "45s", "-o", design, "--plot", plot)[0] == 0
+    assert plot.read_bytes()[:4] == b"\x89PNG"
+    status, _, err = run_cli("mc", design, "--n", "2000", "--sensitivity-n", "0", "--spot-check", "0",
+                             "--no-worst-case", "--report", page)
+    assert status == 0, err
+    text = page.read_text(encoding="utf-8")
+    assert text.index("<h2>Network</h2>") < text.index("<h2>Summary</h2>")
+    assert "<svg" in text and "15 µF" in text

@@ -150,7 +150,7 @@ def mc_command(
     if report is not None:
         from creepcomp.report.tolerance import tolerance_report_html
 
-        tolerance_report_html(result, report)
+        tolerance_report_html(result, report, design=design)
     if as_json:
         out = result.to_dict()
         if report is not None:

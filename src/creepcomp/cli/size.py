@@ -157,7 +157,8 @@ def size_command(
             designs["nearest values"] = report.nearest
         from creepcomp.report.design import plot_design_comparison
 
-        plot_design_comparison(model, designs, plot, report.chosen_quality.sweep_period)
+        plot_design_comparison(model, designs, plot, report.chosen_quality.sweep_period,
+                               schematic=report.chosen, plan=report.plan)
     if as_json:
         out = report.to_dict()
         out.update(practical=verdict.practical, reasons=list(verdict.reasons), way_out=None,

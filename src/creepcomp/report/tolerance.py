@@ -11,13 +11,23 @@ from creepcomp.io.atomic import write_text_atomic
 from creepcomp.report.common import figure_data_uri, format_named, html_page, html_table
 from creepcomp.units import format_quantity
 
-__all__ = ["tolerance_report_html"]
+__all__ = ["tolerance_report_html", "schematic_section"]
 
 
-def tolerance_report_html(report, path: str | Path) -> Path:
+def schematic_section(design) -> str:
+    """The design's schematic as inline SVG (thermistors from its ``parts`` block)."""
+    from creepcomp.analog.parts import plan_of
+    from creepcomp.report.schematic import schematic_svg
+
+    svg = schematic_svg(design.network, plan_of(design))
+    return f"<div class='schematic' style='max-width:100%;overflow-x:auto'>{svg}</div>"
+
+
+def tolerance_report_html(report, path: str | Path, design=None) -> Path:
     """Write the HTML report of a tolerance analysis
     (:class:`creepcomp.verify.tolerance_analysis.ToleranceReport`): histograms with the
-    specification, the sensitivity chart, worst case and tighter parts."""
+    specification, the sensitivity chart, worst case and tighter parts; with ``design``
+    (:class:`creepcomp.io.jsonfiles.Design`), its schematic first."""
     r = report.result
     names = {"peak": "peak residual creep", "final": "final residual creep (absolute)",
              "hysteresis": "sweep hysteresis"}
@@ -52,6 +62,8 @@ def tolerance_report_html(report, path: str | Path) -> Path:
     sections = [("Summary", html_table(["", "nominal", "p50", "p95", "p99", "max"], summary_rows) +
                  f"<p class='note'>{r.n} samples, seed {r.seed}, {r.seconds:.2f} s; hysteresis of a "
                  f"±FS triangular sweep of period {r.sweep_period:.4g} s.</p>")]
+    if design is not None:
+        sections.insert(0, ("Network", schematic_section(design)))
     if report.limit is not None:
         y, se = r.yield_against(report.limit, report.metric)
         sections.append(("Yield", f"<p>{names[report.metric]} at or below {pct(report.limit)}: "
