@@ -182,7 +182,7 @@ def test_one_term_firmware_model_is_written_beside_the_output(run_cli, tmp_path)
     out = tmp_path / "lc.json"
     status, text, _ = run_cli("size", "--beta0", "0.05%", "--tau", "20min", "-o", out)
     assert status == 3 and not out.exists()
-    written = tmp_path / "lc.model.json"
+    written = tmp_path / "lc.model.json"  # the model the firmware command reads
     assert json.loads(written.read_text())["beta"] == [0.0005]
     assert f"creepcomp firmware {written} " in text
 

@@ -137,7 +137,9 @@ def size_command(
     from creepcomp.analog.practicality import judge
 
     verdict = judge(report)
-    if not verdict.practical and not allow_impractical:
+    # ideal values (--series none) are a calculation, not parts to order: judged, not refused
+    ideal_values = report.resistor_series is None
+    if not verdict.practical and not allow_impractical and not ideal_values:
         refuse(model, options, plan, verdict.reasons, verdict, given, as_json)
     from creepcomp.analog.bom import bom_rows, write_bom
 
@@ -174,7 +176,8 @@ def size_command(
                       f"(uncorrected {format_percent(verdict.uncorrected_peak)})")
     else:
         for reason in verdict.reasons:
-            console.print(f"[yellow]warning:[/yellow] impractical (--allow-impractical): {reason}",
+            why = "ideal values" if ideal_values else "--allow-impractical"
+            console.print(f"[yellow]warning:[/yellow] impractical ({why}): {reason}",
                           soft_wrap=False)
     for path, what in ((output, "design"), (bom, "bill of materials"), (schematic, "schematic"),
                        (plot, "plot")):
@@ -226,20 +229,22 @@ def _arg(text) -> str:
     return shlex.quote(str(text))
 
 
-def _model_file_beside(given: GivenOptions, model: CreepModel, name: str) -> Path:
-    """Write ``model`` beside the requested output (or in the current folder) for a command."""
+def _model_file_beside(given: GivenOptions, model: CreepModel) -> Path:
+    """Write ``model`` beside the requested output (``design.model.json`` for ``-o
+    design.json``; ``creep.model.json`` in the current folder without ``-o``), for the
+    firmware command, which reads a model file."""
     from creepcomp.io.jsonfiles import write_model
 
     base = given.output if given.output is not None else Path("creep.json")
-    path = base.with_name(f"{base.stem}.{name}.json")
+    path = base.with_name(f"{base.stem}.model.json")
     check_outputs({"(model file of the way out)": path}, inputs=[given.model_file])
     write_model(path, model)
     return path
 
 
-def model_args(given: GivenOptions, model: CreepModel, name: str) -> list[str]:
-    """The options naming ``model``: the user's own, ``--beta0/--tau`` for one term, else a
-    model file written beside the output."""
+def model_args(given: GivenOptions, model: CreepModel) -> list[str]:
+    """The options naming ``model``: the user's own, ``--beta0/--tau`` for one term, else one
+    ``--term BETA@TAU`` per term (``../shared`` contract of ``size``)."""
     if model is given.model:
         if given.model_file is not None:
             return ["--model", _arg(given.model_file)]
@@ -247,7 +252,10 @@ def model_args(given: GivenOptions, model: CreepModel, name: str) -> list[str]:
             return ["--beta0", _arg(given.beta0), "--tau", _arg(given.tau)]
     if model.n_terms == 1:
         return ["--beta0", f"{100 * model.beta[0]:.6g}%", "--tau", f"{model.tau[0]:.6g}s"]
-    return ["--model", _arg(_model_file_beside(given, model, name))]
+    words = []
+    for b, t in zip(model.beta, model.tau):
+        words += ["--term", f"{100 * b:.6g}%@{t:.6g}s"]
+    return words
 
 
 def size_command_line(given: GivenOptions, changes: dict) -> str:
@@ -258,7 +266,7 @@ def size_command_line(given: GivenOptions, changes: dict) -> str:
     if "terms" in changes:
         model = Model(beta=tuple(model.beta[k] for k in changes["terms"]),
                       tau=tuple(model.tau[k] for k in changes["terms"]))
-    words = ["creepcomp", "size"] + model_args(given, model, "way-out")
+    words = ["creepcomp", "size"] + model_args(given, model)
     replaced = {"--load-resistance": "none" if "load_resistance" in changes else None,
                 "--cap-range": (f"{_eng(changes['cap_range'][0])}:{_eng(changes['cap_range'][1])}"
                                 if "cap_range" in changes else None),
@@ -290,13 +298,15 @@ def refuse(model: CreepModel, options: dict, plan, reasons, verdict, given: Give
         command = size_command_line(given, way.changes)
     else:
         model_path = (given.model_file if given.model_file is not None
-                      else _model_file_beside(given, model, "model"))
+                      else _model_file_beside(given, model))
         folder = (given.output.parent if given.output is not None else Path(".")) / "firmware"
         command = (f"creepcomp firmware {_arg(model_path)} --rate {FIRMWARE_RATE} --full-scale 1 "
                    f"-o {_arg(folder)}")
     if as_json:
         out = {"practical": False, "reasons": list(reasons),
                "way_out": dict(way.to_dict(), command=command)}
+        if way.kind == "firmware":
+            out["way_out"]["model_file"] = str(model_path)
         if verdict is not None:
             out["verdict"] = verdict.to_dict()
         print_json(out)
@@ -315,6 +325,9 @@ def refuse(model: CreepModel, options: dict, plan, reasons, verdict, given: Give
                           "and --full-scale to its range in signal units):",
                           soft_wrap=True, markup=False)
         console.print(f"  {command}", soft_wrap=True, markup=False, highlight=False)
+        if way.kind == "firmware" and given.model_file is None:
+            console.print(f"(the model file it reads was written to {model_path})", markup=False,
+                          soft_wrap=True)
         console.print("nothing written (--allow-impractical writes the design anyway)",
                       markup=False)
     raise typer.Exit(IMPRACTICAL)
