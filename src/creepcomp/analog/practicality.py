@@ -112,14 +112,6 @@ class Verdict:
     bias_offset: float
     corners: int
 
-    @property
-    def summary(self) -> str:
-        """One line: practical, or the first reason (and how many more)."""
-        if self.practical:
-            return "practical"
-        more = f" (and {len(self.reasons) - 1} more)" if len(self.reasons) > 1 else ""
-        return f"impractical: {self.reasons[0]}{more}"
-
     def to_dict(self) -> dict:
         return {"practical": self.practical, "reasons": list(self.reasons),
                 "uncorrected_peak": self.uncorrected_peak, "leakage_peak": self.leakage_peak,
