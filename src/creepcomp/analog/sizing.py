@@ -32,7 +32,7 @@ from creepcomp.model import CreepModel
 from creepcomp.network import Branch, Cell, Network, modal_form, parallel, state_matrices
 from creepcomp.analog.quality import (Quality, predict, screening_deviation, step_deviation,
     step_peak)
-from creepcomp.units import format_quantity
+from creepcomp.units import format_percent, format_quantity
 
 __all__ = ["RULES", "DEFAULT_CAPACITANCE", "DEFAULT_CAP_RANGE", "DEFAULT_RES_RANGE",
            "FILM_CAP_RANGE", "HIGH_IMPEDANCE", "ASSUMED_LEAKAGE", "MAX_COMBINATIONS_PER_LEVEL",
