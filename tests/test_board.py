@@ -70,7 +70,7 @@ def test_way_out_may_drop_a_term():
     # the 1 h term needs R2 above 1 GΩ; the others are buildable
     model = CreepModel(beta=(0.02, 0.02, 0.00005), tau=(3.0, 30.0, 3600.0))
     way = find_way_out(model, {})
-    assert way.kind == "size" and way.changes["terms"] == (0, 1)
+    assert way.kind == "size" and way.changes == {"terms": (0, 1)}
     assert way.verdict.practical
 
 
@@ -397,3 +397,10 @@ def test_reports_carry_the_schematic(run_cli, tmp_path):
     text = page.read_text(encoding="utf-8")
     assert text.index("<h2>Network</h2>") < text.index("<h2>Summary</h2>")
     assert "<svg" in text and "15 µF" in text
+
+
+def test_way_out_with_fewer_terms_is_a_term_command(run_cli):
+    status, text, _ = run_cli("size", "--term", "2%@3s", "--term", "2%@30s", "--term", "0.005%@1h")
+    assert status == 3
+    command = text.strip().splitlines()[2].split()
+    assert command == ["creepcomp", "size", "--term", "2%@3s", "--term", "2%@30s"]

@@ -267,10 +267,13 @@ def _candidates(model: CreepModel, options: dict, plan: PartsPlan):
             terms = tuple(sorted(subset))
             kept = ", ".join(f"{format_percent(model.beta[k])} at {format_quantity(model.tau[k], 's')}"
                              for k in terms)
-            out.append((dict(made, terms=terms), f"correct only {kept} ({ranges})"))
+            out.append(({"terms": terms}, f"correct only {kept}"))
+            out.append((dict(made, terms=terms), f"correct only {kept}; {ranges}"))
             if buffered:
+                out.append(({"terms": terms, "load_resistance": None},
+                            f"correct only {kept}, buffered"))
                 out.append((dict(made, terms=terms, load_resistance=None),
-                            f"correct only {kept}, buffered ({ranges})"))
+                            f"correct only {kept}, buffered; {ranges}"))
     return out
 
 
