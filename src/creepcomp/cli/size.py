@@ -185,7 +185,10 @@ def size_command(
         ("--resistor-technology", resistor_technology, "thin film"),
         ("--dielectric", dielectric, "polypropylene"),
         ("--resistor-tolerance", resistor_tolerance, None),
-        ("--capacitor-tolerance", capacitor_tolerance, None)], terms)
+        ("--capacitor-tolerance", capacitor_tolerance, None),
+        ("--activation-energy", activation_energy, None),
+        ("--reference-temperature", reference_temperature, "20"),
+        ("--temperature-range", temperature_range, None), ("--tracking", tracking, "none")], terms)
     try:
         report = size(model, plan=plan, **options)
     except NoNetworkInRange as exc:
@@ -207,7 +210,8 @@ def size_command(
             extra = {"temperature_designs": comparison.to_dict()}
             if not as_json:
                 render_over_range(comparison)
-        refuse(model, options, plan, verdict.reasons, verdict, given, as_json, extra)
+        way = fixed_for_range(comparison, report) if comparison is not None else None
+        refuse(model, options, plan, verdict.reasons, verdict, given, as_json, extra, way)
     from creepcomp.analog.bom import bom_rows, write_bom
 
     rows = bom_rows(report.chosen, report.plan, {"R": report.resistor_series,
@@ -357,6 +361,7 @@ def size_command_line(given: GivenOptions, changes: dict) -> str:
                       tau=tuple(model.tau[k] for k in changes["terms"]))
     words = ["creepcomp", "size"] + model_args(given, model)
     replaced = {"--load-resistance": "none" if "load_resistance" in changes else None,
+                "--tracking": changes.get("tracking"),
                 "--cap-range": (f"{_eng(changes['cap_range'][0])}:{_eng(changes['cap_range'][1])}"
                                 if "cap_range" in changes else None),
                 "--res-range": (f"{_eng(changes['res_range'][0])}:{_eng(changes['res_range'][1])}"
@@ -377,12 +382,31 @@ def size_command_line(given: GivenOptions, changes: dict) -> str:
 FIRMWARE_RATE = "10Hz"
 
 
+def fixed_for_range(comparison, report):
+    """The way out of an impractical tracking design: the fixed parts sized for the range,
+    when they are practical (else None)."""
+    import dataclasses
+
+    from creepcomp.analog.practicality import WayOut, judge
+
+    if comparison.chosen != "ntc":
+        return None
+    fixed = comparison.design("range")
+    candidate = dataclasses.replace(report, chosen=fixed.network, plan=fixed.plan)
+    verdict = judge(candidate)
+    if not verdict.practical:
+        return None
+    return WayOut("size", {"tracking": "none"},
+                  f"fixed parts sized for the range (worst {format_percent(fixed.prediction.worst)} "
+                  f"at {fixed.prediction.worst_at:g} °C)", candidate, verdict)
+
+
 def refuse(model: CreepModel, options: dict, plan, reasons, verdict, given: GivenOptions,
-           as_json: bool, extra: dict | None = None) -> None:
+           as_json: bool, extra: dict | None = None, way=None) -> None:
     """Say why the design is impractical and the way out; exit with status 3."""
     from creepcomp.analog.practicality import find_way_out
 
-    way = find_way_out(model, options, plan)
+    way = way or find_way_out(model, options, plan)
     if way.kind == "size":
         command = size_command_line(given, way.changes)
     else:
