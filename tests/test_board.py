@@ -102,9 +102,10 @@ def test_bom_rows_name_value_technology_and_escape_formulas():
     assert r2.technology == "high-ohmic thick film" and "8.87 MΩ" in r2.note
     table = list(csv.reader(io.StringIO(bom_csv(rows))))
     assert tuple(table[0]) == BOM_COLUMNS
-    assert table[2][5] == "'-200"
-    assert all(cell[:1] not in "=+-@" for line in table for cell in line if cell)
+    assert table[2][5] == "-200"      # a number stays a number
+    assert all(cell[:1] not in "=+@" for line in table for cell in line if cell)
     assert csv_cell("=1+1") == "'=1+1" and csv_cell("@x") == "'@x" and csv_cell("3 MΩ") == "3 MΩ"
+    assert csv_cell("-2+3") == "'-2+3" and csv_cell("\tx") == "'\tx" and csv_cell("-2e-4") == "-2e-4"
 
 
 def test_bom_thermistor_row_gives_b_and_r25():

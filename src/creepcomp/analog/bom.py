@@ -138,9 +138,14 @@ def bom_rows(network: Network, plan: PartsPlan | None = None,
 
 
 def csv_cell(text: str) -> str:
-    """A cell a spreadsheet shows as text: one starting with ``=``, ``+``, ``-`` or ``@``
-    (a formula to a spreadsheet) gets a leading ``'``."""
-    return "'" + text if text[:1] in ("=", "+", "-", "@") else text
+    """A cell a spreadsheet cannot run: text starting with ``=``, ``+``, ``-``, ``@``, a tab
+    or a carriage return (a formula to a spreadsheet) gets a leading ``'``; a number stays
+    a number."""
+    try:
+        float(text)
+        return text
+    except ValueError:
+        return "'" + text if text[:1] in ("=", "+", "-", "@", "\t", "\r") else text
 
 
 def bom_csv(rows: list[BomRow]) -> str:
