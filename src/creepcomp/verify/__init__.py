@@ -17,7 +17,7 @@ from creepcomp.verify.netlist import (Deck, program_deck, record_data, record_de
 from creepcomp.verify.ngspice_engine import (Ngspice, NgspiceError, NgspiceUnavailable, SpiceRun,
                                              Waveforms, ngspice, run_batch, run_transient,
                                              time_transient)
-from creepcomp.verify.compare import (Comparison, at_sample_times, compare_program,
+from creepcomp.verify.compare import (Comparison, at_sample_times, compare_program, compare_temperatures,
                                       compare_record, reference_transient)
 from creepcomp.verify.tolerances import (DIELECTRICS, Dielectric, Factor, Tolerance,
                                          ToleranceSpec)
@@ -34,7 +34,7 @@ __all__ = [
     "write_reference_netlists",
     "Ngspice", "NgspiceError", "NgspiceUnavailable", "SpiceRun", "Waveforms", "ngspice",
     "run_batch", "run_transient", "time_transient",
-    "Comparison", "at_sample_times", "compare_program", "compare_record", "reference_transient",
+    "Comparison", "at_sample_times", "compare_program", "compare_temperatures", "compare_record", "reference_transient",
     "DIELECTRICS", "Dielectric", "Factor", "Tolerance", "ToleranceSpec",
     "Metrics",
     "MonteCarloResult", "run_monte_carlo", "spot_check",
