@@ -21,8 +21,8 @@ import numpy as np
 
 from creepcomp.errors import CreepcompError, InputError
 from creepcomp.io.jsonfiles import Design
-from creepcomp.verify.drive import (DEFAULT_SIGNAL, fastest_time_constant, slowest_time_constant,
-                                    synthetic_program, transient_times)
+from creepcomp.verify.drive import (DEFAULT_SIGNAL, fastest_time_constant, largest_step, rise_time,
+                                    slowest_time_constant, synthetic_program, transient_times)
 from creepcomp.verify.ngspice_engine import ngspice, run_transient
 from creepcomp.verify.tolerances import ToleranceSpec, draw, factors
 from creepcomp.verify.variants import (Metrics, evaluate, residual_lags, step_residual,
@@ -334,6 +334,9 @@ def spot_check(result: MonteCarloResult, n: int = 200, points: int = 400) -> dic
     """Run the first ``n`` samples of a Monte Carlo through ngspice (a load step) and compare
     their residual creep with the engine's at the same times.
 
+    ngspice's step is a ramp (:func:`creepcomp.verify.drive.rise_time`); the engine's
+    residual is that of the same ramp, exact from its end on.
+
     Returns
     -------
     dict
@@ -351,15 +354,18 @@ def spot_check(result: MonteCarloResult, n: int = 200, points: int = 400) -> dic
             sample = variant(design, result.values, i, spec.dielectric, spec.temperature)
             duration = SPOT_CHECK_SPAN * slowest_time_constant(sample.model, sample.network)
             times = transient_times(program, duration, points)
+            rise = rise_time(sample.model, sample.network, largest_step(duration, points))
             t0 = _time.perf_counter()
-            wave = run_transient(sample.network, sample.model, program, times, engine=engine)
+            wave = run_transient(sample.network, sample.model, program, times, engine=engine,
+                                 points=points)
             transient += _time.perf_counter() - t0
-            late = times > SPOT_CHECK_SETTLE * fastest_time_constant(sample.model, sample.network)
+            late = times > max(SPOT_CHECK_SETTLE * fastest_time_constant(sample.model, sample.network),
+                               rise)
             ideal = sample.network.lag_expansion().hf_gain * DEFAULT_SIGNAL
             e_spice = wave.output[late] / ideal - 1.0
             rel, q = residual_lags(design, {k: v[i:i + 1] for k, v in result.values.items()},
                                    spec.dielectric, spec.temperature, 1)
-            e_engine = step_residual(rel, q, times[late][None, :])[0]
+            e_engine = step_residual(rel, q, times[late][None, :], rise)[0]
             worst = max(worst, float(np.max(np.abs(e_spice - e_engine))))
     except CreepcompError as exc:
         return {"n": 0, "error": str(exc)}

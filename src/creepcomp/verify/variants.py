@@ -127,14 +127,20 @@ def variant(design: Design, values: Mapping[str, np.ndarray], i: int, dielectric
     return Design(design.model.with_terms(beta[0], tau[0]), network)
 
 
-def step_residual(rel, q, t) -> np.ndarray:
+def step_residual(rel, q, t, rise: float = 0.0) -> np.ndarray:
     """Residual creep ``sum_m rel_m (1 - exp(-t / q_m))`` at per-sample times ``t`` (B, T).
 
     Written as ``sum rel - sum rel exp(-t/q)``: the cancellation at small t costs only
-    ~1e-16 of the (small) residual itself.
+    ~1e-16 of the (small) residual itself. With ``rise`` > 0 the step is a ramp of that
+    duration (as in a netlist), exact for ``t >= rise``: each lag's ``exp(-t/q)`` becomes
+    ``(q / rise) (1 - exp(-rise/q)) exp(-(t - rise)/q)``.
     """
     rate = 1.0 / q
-    decay = np.exp(-(rate[:, :, None] * t[:, None, :]))
+    if rise > 0:
+        decay = np.exp(-(rate[:, :, None] * (t[:, None, :] - rise)))
+        decay = decay * (-np.expm1(-rise * rate) / (rise * rate))[:, :, None]
+    else:
+        decay = np.exp(-(rate[:, :, None] * t[:, None, :]))
     return rel.sum(axis=1)[:, None] - np.einsum("bm,bmt->bt", rel, decay)
 
 
