@@ -64,7 +64,22 @@ def mc_command(
     dielectric: Optional[str] = typer.Option(None, "--dielectric",
                                              metavar="polypropylene|polyester|x7r",
                                              help="Capacitor technology: absorption and leakage."),
-    temperature: float = typer.Option(25.0, "--temperature", help="Temperature for leakage (°C)."),
+    temperature: Optional[str] = typer.Option(
+        None, "--temperature", metavar="T",
+        help="Evaluate at T °C: the sensor (its temperature law), every part (TCs drawn per "
+             "part, thermistors) and the capacitors' leakage. Default: the design as it is, "
+             "leakage at 25 °C."),
+    temperatures: Optional[str] = typer.Option(
+        None, "--temperatures", metavar="T1,T2,...",
+        help="Evaluate every unit at each temperature (°C), e.g. -10,20,40: yield and "
+             "percentiles at each, and over the range (each unit's worst temperature)."),
+    temperature_range: Optional[str] = typer.Option(
+        None, "--temperature-range", metavar="LOW:HIGH",
+        help="As --temperatures, every 5 K from LOW to HIGH °C (both included)."),
+    lot_correlation: float = typer.Option(
+        0.0, "--lot-correlation", metavar="RHO",
+        help="Fraction (0..1) of the variance of the parts' TCs and thermistor B values "
+             "common to all parts of a unit (one lot builds one unit)."),
     source_range: Optional[str] = typer.Option(None, "--source-resistance-range", metavar="LOW:HIGH",
                                                help="Sensor output resistance range (uniform)."),
     load_range: Optional[str] = typer.Option(None, "--load-resistance-range", metavar="LOW:HIGH",
@@ -100,9 +115,11 @@ def mc_command(
         cap = Tolerance(min(DIELECTRICS[dielectric].tolerances) if dielectric else 0.05, distribution)
     else:
         cap = _tolerance(cap_tol, "--cap-tol", distribution)
+    over = _over_temperature(design, temperature, temperatures, temperature_range, lot_correlation)
     tspec = ToleranceSpec(
         resistor=_tolerance(res_tol, "--res-tol", distribution), capacitor=cap,
-        parts=_part_tolerances(tol, distribution), dielectric=dielectric, temperature=temperature,
+        parts=_part_tolerances(tol, distribution), dielectric=dielectric,
+        temperature=over.temperatures[0] if over is not None else 25.0, over_temperature=over,
         source_resistance=_range(source_range, "--source-resistance-range", allow_zero=True),
         load_resistance=_range(load_range, "--load-resistance-range"),
         beta=_tolerance(beta_spread, "--beta-spread", distribution) if beta_spread else None,
@@ -147,6 +164,49 @@ def mc_command(
         console.print(f"report written to {report}")
 
 
+def _over_temperature(design, temperature, temperatures, temperature_range, lot_correlation):
+    """The temperatures asked for (one of the three options), with the design's parts plan."""
+    from creepcomp.analog.parts import plan_of
+    from creepcomp.cli.netlist import parse_temperatures
+    from creepcomp.temperature import temperature_grid
+    from creepcomp.verify.tolerances import OverTemperature
+
+    given = [o for o, v in (("--temperature", temperature), ("--temperatures", temperatures),
+                            ("--temperature-range", temperature_range)) if v is not None]
+    if len(given) > 1:
+        raise InputError(f"{' and '.join(given)}: give one of them")
+    if not 0.0 <= lot_correlation <= 1.0:
+        raise InputError(f"--lot-correlation {lot_correlation:g}: must be in [0, 1]")
+    if not given:
+        if lot_correlation:
+            raise InputError("--lot-correlation shares the parts' TCs over temperature: give "
+                             "--temperature, --temperatures or --temperature-range")
+        return None
+    if temperature is not None:
+        temps = parse_temperatures(temperature, "--temperature")
+        if len(temps) != 1:
+            raise InputError(f"--temperature '{temperature}': one temperature; use --temperatures "
+                             "for several")
+    elif temperatures is not None:
+        temps = parse_temperatures(temperatures, "--temperatures")
+    else:
+        low, high = _temperature_range(temperature_range)
+        temps = [float(t) for t in temperature_grid(low, high)]
+    return OverTemperature(tuple(temps), plan_of(design), lot_correlation)
+
+
+def _temperature_range(text: str) -> tuple[float, float]:
+    from creepcomp.cli.netlist import parse_temperatures
+
+    parts = text.replace("..", ":").split(":")
+    if len(parts) != 2:
+        raise InputError(f"--temperature-range '{text}': expected LOW:HIGH in °C, e.g. -10:40")
+    (low,), (high,) = (parse_temperatures(p, "--temperature-range") for p in parts)
+    if high < low:
+        raise InputError(f"--temperature-range '{text}': LOW must not exceed HIGH")
+    return low, high
+
+
 def _range(text, option, allow_zero=False):
     if text is None:
         return None
@@ -175,6 +235,8 @@ def render(report: ToleranceReport) -> None:
         y, se = r.yield_against(report.limit, report.metric)
         console.print(f"yield against {names[report.metric]} ≤ {format_percent(report.limit)}: "
                       f"[bold]{100 * y:.2f} %[/bold] (± {100 * se:.2f} %)")
+    if r.temperatures:
+        _render_over_temperature(report, names)
     if report.worst is not None:
         w = report.worst
         at = ", ".join(f"{k} = {v:.4g}" for k, v in w.at.items())
@@ -200,3 +262,36 @@ def render(report: ToleranceReport) -> None:
         part = f"{t.factor} at {100 * t.tolerance_to:.3g} %" + (f" {t.dielectric}" if t.dielectric else "")
         console.print(f"{part} (now {100 * t.tolerance_from:.3g} %): p99 from {format_percent(t.p99_from)} to "
                       f"{format_percent(t.p99_to)} ({report.sensitivity_samples} samples each)")
+
+
+def _render_over_temperature(report: ToleranceReport, names: dict) -> None:
+    """The per-temperature table of ``mc --temperatures``."""
+    r = report.result
+    table = Table(title=f"Over temperature: {names['peak']} (% of FS)", title_justify="left")
+    for col in ("temperature", "nominal", "p50", "p95", "p99", "max", "units worst here"):
+        table.add_column(col, justify="right")
+    if report.limit is not None:
+        table.add_column(f"yield, {names[report.metric]} ≤ {format_percent(report.limit)}",
+                         justify="right")
+    nominal = report.nominal.per_temperature.peak[0]
+    for k, t in enumerate(r.temperatures):
+        row = [f"{t:g} °C", format_percent(nominal[k]),
+               *[format_percent(v) for v in r.percentiles_at(k, "peak").values()],
+               f"{100 * r.worst_temperature_counts[k] / r.n:.1f} %"]
+        if report.limit is not None:
+            y, se = r.yield_at(k, report.limit, report.metric)
+            row.append(f"{100 * y:.2f} % (± {100 * se:.2f} %)")
+        table.add_row(*row)
+    row = ["worst of each unit", format_percent(report.nominal.peak[0]),
+           *[format_percent(v) for v in r.percentiles("peak").values()], "100 %"]
+    if report.limit is not None:
+        y, se = r.yield_against(report.limit, report.metric)
+        row.append(f"{100 * y:.2f} % (± {100 * se:.2f} %)")
+    table.add_row(*row)
+    console.print(table)
+    over = r.spec.over_temperature
+    console.print(f"every part's TC drawn about its technology's ({over.plan.resistor_tc * 1e6:g} ppm/K "
+                  f"resistors, {over.plan.capacitor_tc * 1e6:g} ppm/K capacitors) by as much "
+                  f"(3 sigma); lot correlation {over.lot_correlation:g}"
+                  + (f"; thermistors {', '.join(over.plan.thermistors)}" if over.plan.thermistors else ""),
+                  markup=False)
