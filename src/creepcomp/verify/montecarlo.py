@@ -301,6 +301,8 @@ def run_monte_carlo(design: Design, spec: ToleranceSpec, n: int, seed: int = 0,
     over = spec.over_temperature
     correlation = over.lot_correlation if over is not None else 0.0
     n_temps = len(over.temperatures) if over is not None else 0
+    # a batch evaluates chunk x temperatures variants: keep it near chunk (cache-sized arrays)
+    chunk = max(1, chunk // max(n_temps, 1))
     blocks = [(lo, min(block, n - lo)) for lo in range(0, n, block)]
     workers = min(workers or os.cpu_count() or 1, -(-min(block, n) // chunk))
     names = list(METRIC_NAMES) + [f"{m}@{k}" for k in range(n_temps) for m in METRIC_NAMES]
