@@ -32,7 +32,7 @@ from creepcomp.model import CreepModel
 from creepcomp.network import Branch, Cell, Network, modal_form, parallel, state_matrices
 from creepcomp.analog.quality import (Quality, predict, screening_deviation, step_deviation,
     step_peak)
-from creepcomp.units import format_quantity
+from creepcomp.units import format_percent, format_quantity
 
 __all__ = ["RULES", "DEFAULT_CAPACITANCE", "DEFAULT_CAP_RANGE", "DEFAULT_RES_RANGE",
            "FILM_CAP_RANGE", "HIGH_IMPEDANCE", "ASSUMED_LEAKAGE", "MAX_COMBINATIONS_PER_LEVEL",
@@ -471,14 +471,16 @@ def design_warnings(model: CreepModel, network: Network, rule: str, quality: Qua
         leaky = Network(network.cells, network.R2, network.shunt, network.source_resistance,
                         parallel(network.load_resistance, ASSUMED_LEAKAGE))
         leak_peak = step_peak(model, leaky)[0]
+        change = "raise" if leak_peak > quality.residual_creep_peak else "lower"
         out.append(
             f"high impedance: {big_label} = {format_quantity(big, 'Ω')}, output resistance "
             f"{format_quantity(r_out, 'Ω')}. An input bias current of 1 pA (CMOS/JFET op amp) "
             f"gives {format_quantity(r_out * 1e-12, 'V')} of offset, 1 nA (bipolar) "
             f"{format_quantity(r_out * 1e-9, 'V')}, against sensor signals of order 0.1 mV; "
             f"a {format_quantity(ASSUMED_LEAKAGE, 'Ω')} path to ground (board leakage, the next "
-            f"stage's input) would raise the peak residual creep from "
-            f"{quality.residual_creep_peak:.2e} to {leak_peak:.2e}. Buffer the output with a "
+            f"stage's input) would {change} the peak residual creep from "
+            f"{format_percent(quality.residual_creep_peak)} to {format_percent(leak_peak)} of the "
+            "step. Buffer the output with a "
             "CMOS/JFET-input amplifier, guard the node, or use a larger capacitor "
             "(--cap-range) to lower the impedance.")
     for label, kind, v in network.parts():

@@ -13,7 +13,7 @@ from creepcomp.io.jsonfiles import write_json
 from creepcomp.io.outputs import check_outputs
 from creepcomp.io.records import Record, parse_columns
 from creepcomp.units import format_percent, format_quantity
-from creepcomp.cli.common import app, console, print_json, progress_bar, quantity
+from creepcomp.cli.common import app, console, count_option, print_json, progress_bar, quantity
 
 if TYPE_CHECKING:
     from creepcomp.fit.prony import PronyResult
@@ -61,8 +61,12 @@ def record_options(initial: str, load_step_at: str | None) -> tuple[str, float |
 
 def describe_record(record: Record, data) -> str:
     """One line about the record as fitted."""
-    sampling = (f"uniform, {format_quantity(data.dt_median, 's')}" if record.is_uniform
-                else f"irregular, median step {format_quantity(data.dt_median, 's')}")
+    step = format_quantity(data.dt_median, 's')
+    if record.metadata.get("reduced"):
+        # block means within constant-load stretches: the steps differ only where a stretch ends
+        sampling = f"reduced to block means, median step {step}"
+    else:
+        sampling = f"uniform, {step}" if record.is_uniform else f"irregular, median step {step}"
     merged = record.metadata.get("merged_duplicate_times")
     extra = f"; {merged} rows with repeated time stamps averaged" if merged else ""
     return (f"{record.source}: {len(record)} samples over {format_quantity(record.duration, 's')} "
@@ -85,7 +89,8 @@ def fit_command(
                                         help="Repeated time stamps: an error, or average the rows."),
     terms: str = typer.Option("auto", "--terms", metavar="auto|K",
                               help="Number of creep terms: chosen by evidence, or fixed."),
-    max_terms: int = typer.Option(8, "--max-terms", min=1, max=20, help="Most terms tried with --terms auto."),
+    max_terms: int = typer.Option(8, "--max-terms", parser=count_option("--max-terms", 1, 20),
+                                  help="Most terms tried with --terms auto."),
     flow: bool = typer.Option(False, "--flow", help="Add viscous flow (a dashpot in series, Burgers "
                                                    "model) to every model: creep that never saturates."),
     initial: str = typer.Option("free", "--initial", metavar="free|relaxed|settled",

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING, Optional
+from typing import TYPE_CHECKING, List, Optional
 
 import typer
 from rich.table import Table
@@ -13,24 +13,59 @@ from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_model, write_design
 from creepcomp.io.outputs import check_outputs
 from creepcomp.model import CreepModel
-from creepcomp.units import format_percent, format_quantity
+from creepcomp.units import format_percent, format_quantity, format_time
 from creepcomp.cli.common import app, console, print_json, quantity, value_range, warn_creep
 
 if TYPE_CHECKING:
     from creepcomp.analog.sizing import SizingReport
 
 
-def model_from_options(beta0: str | None, tau: str | None, model_file: Path | None) -> CreepModel:
-    """The creep model from ``--beta0/--tau`` or ``--model``."""
+def model_from_options(beta0: str | list[str] | None, tau: str | list[str] | None,
+                       model_file: Path | None, terms: list[str] | None = None) -> CreepModel:
+    """The creep model from ``--term BETA@TAU`` (repeatable), ``--beta0/--tau`` (one term,
+    each given once) or ``--model``."""
+    beta0, tau = once(beta0, "--beta0"), once(tau, "--tau")
+    given = [name for name, value in (("--term", terms), ("--beta0", beta0), ("--tau", tau),
+                                      ("--model", model_file)) if value]
+    if terms and len(given) > 1:
+        raise InputError(f"--term gives the whole creep model: drop {' and '.join(given[1:])}")
+    if terms:
+        return creep_terms(terms)
     if model_file is not None:
         if beta0 is not None or tau is not None:
             raise InputError("give either --model FILE or --beta0 and --tau, not both")
         return read_model(model_file)
     if beta0 is None or tau is None:
-        raise InputError("give the sensor's creep: --beta0 X --tau T (e.g. --beta0 3% --tau 45s) "
-                         "or --model FILE")
+        raise InputError("give the sensor's creep: --term BETA@TAU (repeatable, e.g. --term 3%@45s), "
+                         "--beta0 X --tau T, or --model FILE")
     return CreepModel.voigt(quantity(beta0, "fraction", "--beta0"),
                             quantity(tau, "second", "--tau"))
+
+
+def once(values: str | list[str] | None, option: str) -> str | None:
+    """The one value of an option that may not be repeated (click keeps the last silently)."""
+    if values is None or isinstance(values, str):
+        return values
+    if len(values) > 1:
+        raise InputError(f"{option} given {len(values)} times ({', '.join(values)}): it takes one "
+                         "creep term; give several as --term BETA@TAU, e.g. --term 0.05%@20min "
+                         "--term 0.02%@30s")
+    return values[0] if values else None
+
+
+def creep_terms(terms: list[str]) -> CreepModel:
+    """The creep model of ``--term BETA@TAU`` options, one term each."""
+    beta, tau = [], []
+    for text in terms:
+        parts = str(text).split("@")
+        if len(parts) != 2:
+            raise InputError(f"--term '{text}': expected BETA@TAU, e.g. 3%@45s or 0.05%@20min")
+        beta.append(quantity(parts[0], "fraction", f"--term '{text}': BETA"))
+        tau.append(quantity(parts[1], "second", f"--term '{text}': TAU"))
+    try:
+        return CreepModel(beta=tuple(beta), tau=tuple(tau))
+    except InputError as exc:
+        raise InputError(f"--term: {exc}") from None
 
 
 def series_option(text: str, option: str) -> str | None:
@@ -40,10 +75,13 @@ def series_option(text: str, option: str) -> str | None:
 
 @app.command("size")
 def size_command(
-    beta0: Optional[str] = typer.Option(None, "--beta0", metavar="FRACTION",
-                                        help="Relative creep at infinite time, e.g. 0.03 or 3%."),
-    tau: Optional[str] = typer.Option(None, "--tau", metavar="TIME",
-                                      help="Retardation time, e.g. 45s or 2min."),
+    terms: Optional[List[str]] = typer.Option(None, "--term", metavar="BETA@TAU",
+                                              help="One creep term, e.g. 0.05%@20min (repeatable)."),
+    beta0: Optional[List[str]] = typer.Option(None, "--beta0", metavar="FRACTION",
+                                              help="One term's relative creep at infinite time, "
+                                                   "e.g. 0.03 or 3%."),
+    tau: Optional[List[str]] = typer.Option(None, "--tau", metavar="TIME",
+                                            help="One term's retardation time, e.g. 45s or 2min."),
     model_file: Optional[Path] = typer.Option(None, "--model", metavar="FILE",
                                               help="Model file with Prony terms (beta, tau lists)."),
     rule: str = typer.Option("exact", "--rule", metavar="exact|paper",
@@ -75,8 +113,8 @@ def size_command(
     from creepcomp.analog.sizing import DEFAULT_CAP_RANGE, DEFAULT_RES_RANGE, size
 
     check_outputs({"-o": output, "--plot": plot}, inputs=[model_file])
-    model = model_from_options(beta0, tau, model_file)
-    warn_creep(model, "--beta0" if model_file is None else str(model_file))
+    model = model_from_options(beta0, tau, model_file, terms)
+    warn_creep(model, str(model_file) if model_file is not None else "--term" if terms else "--beta0")
     rule = rule.strip().lower()
     report = size(
         model, rule=rule,
@@ -111,8 +149,7 @@ def size_command(
 
 def describe_model(model: CreepModel) -> str:
     """One line: the creep terms."""
-    terms = ", ".join(f"beta = {format_percent(b)} at tau = {format_quantity(t, 's')}"
-                      for b, t in zip(model.beta, model.tau))
+    terms = ", ".join(f"{format_percent(b)} at {format_time(t)}" for b, t in zip(model.beta, model.tau))
     return f"{model.n_terms} creep term{'s' if model.n_terms > 1 else ''} ({terms}); beta0 = {format_percent(model.beta0)}"
 
 

@@ -30,6 +30,7 @@ class ToleranceReport:
     tightenings: list
     sensitivity_samples: int = 0
     spot_check: dict | None = None
+    creep_test: dict | None = None
 
     def to_dict(self) -> dict:
         """``mc --json``: ``n``, ``residual_creep_peak`` percentiles, ``seconds`` and the rest."""
@@ -67,6 +68,8 @@ class ToleranceReport:
             out["spot_check"] = self.spot_check
         if r.temperatures:
             out["over_temperature"] = self.over_temperature()
+        if self.creep_test is not None:
+            out["creep_test"] = self.creep_test
         return out
 
     def over_temperature(self) -> dict:

@@ -179,18 +179,20 @@ def factors(design: Design, spec: ToleranceSpec) -> list[Factor]:
                          f"(parts: {', '.join(sorted(known))})")
     over = spec.over_temperature
     thermistors = over.plan.thermistors if over is not None else {}
+    coefficients = []
     for label, kind, value in design.network.parts():
         if label in thermistors:
             use = thermistors[label]
             out.append(_relative_factor(f"{label}.R25", use.r25, Tolerance(use.tolerance)))
-            out.append(_relative_factor(f"{label}.B", use.b, Tolerance(use.b_tolerance), "B"))
+            coefficients.append(_relative_factor(f"{label}.B", use.b, Tolerance(use.b_tolerance), "B"))
             continue
         tol = spec.tolerance_of(label, kind)
         out.append(_relative_factor(label, value, tol))
         if over is not None:
             tc = over.plan.resistor_tc if kind == "R" else over.plan.capacitor_tc
             lo, hi = sorted((tc * (1 - TC_SPREAD), tc * (1 + TC_SPREAD)))
-            out.append(Factor(f"{label}.tc", tc, lo, hi, "normal", TC_SPREAD, f"tc {kind}"))
+            coefficients.append(Factor(f"{label}.tc", tc, lo, hi, "normal", TC_SPREAD, f"tc {kind}"))
+    out += coefficients
     if spec.source_resistance is not None:
         lo, hi = spec.source_resistance
         out.append(Factor("source_resistance", design.network.source_resistance, lo, hi, "uniform"))
