@@ -55,7 +55,11 @@ def conditions(result, design_file: str | Path | None = None) -> list[tuple[str,
         rows.append(("capacitor dielectric", "none given: ideal capacitors (no absorption, no leakage)"))
     else:
         rows.append(("capacitor dielectric", f"{spec.dielectric}: absorption and leakage of every cell capacitor"))
-    if temperature is not None:
+    over = getattr(spec, "over_temperature", None)
+    if over is not None:
+        rows.append(("temperatures", ", ".join(f"{t:g}" for t in over.temperatures) + " °C: sensor, "
+                     "parts (TCs drawn per part) and leakage at each; figures the worst of each unit"))
+    elif temperature is not None:
         rows.append(("temperature", f"{temperature:g} °C" + (" (capacitor leakage)" if spec.dielectric else
                                                              " (acts through a dielectric's leakage: none given)")))
     rows.append(("hysteresis sweep", f"±FS triangle, period {format_time(result.sweep_period)}"))
