@@ -57,8 +57,10 @@ def conditions(result, design_file: str | Path | None = None) -> list[tuple[str,
         rows.append(("capacitor dielectric", f"{spec.dielectric}: absorption and leakage of every cell capacitor"))
     over = getattr(spec, "over_temperature", None)
     if over is not None:
-        rows.append(("temperatures", ", ".join(f"{t:g}" for t in over.temperatures) + " °C: sensor, "
-                     "parts (TCs drawn per part) and leakage at each; figures the worst of each unit"))
+        several = len(over.temperatures) > 1
+        rows.append(("temperatures" if several else "temperature",
+                     ", ".join(f"{t:g}" for t in over.temperatures) + " °C: sensor, parts (TCs drawn "
+                     "per part) and leakage" + (" at each; figures the worst of each unit" if several else "")))
     elif temperature is not None:
         rows.append(("temperature", f"{temperature:g} °C" + (" (capacitor leakage)" if spec.dielectric else
                                                              " (acts through a dielectric's leakage: none given)")))
