@@ -14,7 +14,7 @@ from creepcomp.network import Cell, Network
 from creepcomp.temperature import TemperatureLaw
 from creepcomp.verify.montecarlo import nominal_metrics, run_monte_carlo
 from creepcomp.verify.tolerances import OverTemperature, Tolerance, ToleranceSpec, draw, factors
-from creepcomp.verify.variants import evaluate, variant
+from creepcomp.verify.variants import variant
 
 MODEL = CreepModel((0.03,), (45.0,), temperature=TemperatureLaw.arrhenius(43_000.0, 20.0))
 DESIGN = Design(MODEL, Network((Cell(3e6, 15e-6),), 1e8))

@@ -13,10 +13,9 @@ from creepcomp.model import CreepModel
 from creepcomp.network import Cell, Network
 from creepcomp.temperature import TemperatureLaw
 from creepcomp.verify.compare import compare_temperatures
-from creepcomp.verify.drive import RAMP_STEP_FRACTION, largest_step, rise_time
+from creepcomp.verify.drive import RAMP_STEP_FRACTION, largest_step, rise_time, synthetic_program
 from creepcomp.verify.montecarlo import run_monte_carlo, spot_check
 from creepcomp.verify.netlist import program_deck
-from creepcomp.verify.drive import synthetic_program
 from creepcomp.verify.tolerances import ToleranceSpec
 from creepcomp.verify.variants import step_residual
 
