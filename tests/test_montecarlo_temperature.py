@@ -61,6 +61,11 @@ def test_batched_temperatures_are_the_single_temperature_runs(dielectric):
 def test_each_part_draws_its_own_tc_and_thermistors_their_r25_and_b():
     names = [f.name for f in factors(DESIGN, _spec(plan=TRACKING))]
     assert names == ["R1.R25", "C1", "R2.R25", "R1.B", "C1.tc", "R2.B"]
+    # a thermistor's own tolerance is its R25's, unless the part is given one (a tighter part)
+    spec = ToleranceSpec(parts={"R1": Tolerance(0.001)},
+                         over_temperature=OverTemperature(TEMPS, TRACKING))
+    tolerances = {f.name: f.tolerance for f in factors(DESIGN, spec)}
+    assert tolerances["R1.R25"] == 0.001 and tolerances["R2.R25"] == 0.01
     fixed = {f.name: f for f in factors(DESIGN, _spec())}
     # a TC spreads by as much as the technology's coefficient (3 sigma), about it
     assert (fixed["C1.tc"].nominal, fixed["C1.tc"].low, fixed["C1.tc"].high) == (-200e-6, -400e-6, 0.0)

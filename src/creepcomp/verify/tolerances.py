@@ -183,7 +183,8 @@ def factors(design: Design, spec: ToleranceSpec) -> list[Factor]:
     for label, kind, value in design.network.parts():
         if label in thermistors:
             use = thermistors[label]
-            out.append(_relative_factor(f"{label}.R25", use.r25, Tolerance(use.tolerance)))
+            r25_tolerance = spec.parts.get(label, Tolerance(use.tolerance))
+            out.append(_relative_factor(f"{label}.R25", use.r25, r25_tolerance))
             coefficients.append(_relative_factor(f"{label}.B", use.b, Tolerance(use.b_tolerance), "B"))
             continue
         tol = spec.tolerance_of(label, kind)
