@@ -9,12 +9,12 @@ sweep hysteresis are closed forms (:func:`lti.triangle_lag_gap`). No Python loop
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Mapping
 
 import numpy as np
 
-from creepcomp.analog.parts import PART_REFERENCE, ntc_resistance
+from creepcomp.analog.parts import PART_REFERENCE
 from creepcomp.analog.quality import default_sweep_period
 from creepcomp.io.jsonfiles import Design
 from creepcomp.lti import cascade_lags, triangle_lag_gap
@@ -151,10 +151,9 @@ def _parts_at(parts, matrix, values, over: OverTemperature, temps) -> np.ndarray
             tc = values.get(f"{label}.tc", np.full(n, default))
             out[:, :, j] = matrix[:, j] * (1.0 + tc * dt)
             continue
-        r25 = values.get(f"{label}.R25", np.full(n, use.r25))
-        b = values.get(f"{label}.B", np.full(n, use.b))
-        r = use.series + ntc_resistance(r25, b, temps[:, None])
-        out[:, :, j] = r if use.parallel is None else r * use.parallel / (r + use.parallel)
+        drawn = replace(use, r25=values.get(f"{label}.R25", np.full(n, use.r25)),
+                        b=values.get(f"{label}.B", np.full(n, use.b)))
+        out[:, :, j] = drawn.resistance(temps[:, None])
     return out.reshape(-1, len(parts))
 
 
