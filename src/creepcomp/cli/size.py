@@ -108,12 +108,32 @@ def size_command(
     plot: Optional[Path] = typer.Option(None, "--plot", metavar="FILE.png",
                                         help="Save residual-creep and hysteresis plots."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+    # --- over temperature ---
+    temperature_range: Optional[str] = typer.Option(
+        None, "--temperature-range", metavar="LOW:HIGH",
+        help="Design over this range (°C, e.g. -10:40): residual creep at every temperature, "
+             "fixed parts sized for the range; with --plot also FILE-over-temperature.png."),
+    tracking: str = typer.Option("none", "--tracking", metavar="none|ntc",
+                                 help="With --temperature-range: ntc makes R1 and R2 catalogue "
+                                      "NTC thermistors that follow the creep."),
+    activation_energy: Optional[str] = typer.Option(
+        None, "--activation-energy", metavar="J/mol",
+        help="Arrhenius law of the creep for --beta0/--tau, e.g. 43kJ/mol or 43k."),
+    reference_temperature: str = typer.Option(
+        "20", "--reference-temperature", metavar="°C",
+        help="Temperature at which --beta0/--tau hold (with --activation-energy)."),
 ) -> None:
     """Size the RC network that cancels the creep, snap it to E-series parts, predict its quality."""
     from creepcomp.analog.sizing import DEFAULT_CAP_RANGE, DEFAULT_RES_RANGE, size
 
     check_outputs({"-o": output, "--plot": plot}, inputs=[model_file])
     model = model_from_options(beta0, tau, model_file, terms)
+    model = with_temperature_law(model, activation_energy, reference_temperature)
+    span = temperature_span(temperature_range, tracking)
+    if span is not None:
+        from creepcomp.analog.over_temperature import check_tracking
+
+        check_tracking(model, tracking.strip().lower())
     warn_creep(model, str(model_file) if model_file is not None else "--term" if terms else "--beta0")
     rule = rule.strip().lower()
     report = size(
@@ -128,8 +148,18 @@ def size_command(
                                  positive=True),
         sweep_period=quantity(sweep_period, "second", "--sweep-period", positive=True),
     )
+    comparison, at_reference = None, report
+    if span is not None:
+        report, comparison = size_over_range(report, span, tracking.strip().lower(), rule)
     if output is not None:
-        write_design(output, report.design_dict())
+        design = report.design_dict()
+        if comparison is not None:
+            design["over_temperature"] = comparison.written.prediction.to_dict()
+        write_design(output, design)
+    if comparison is not None and plot is not None:
+        from creepcomp.report.design import plot_over_temperature
+
+        plot_over_temperature(comparison, over_temperature_plot_path(plot))
     if plot is not None:
         designs = {"uncorrected": None, "ideal": report.ideal, "chosen parts": report.chosen}
         if report.nearest is not None:
@@ -138,9 +168,22 @@ def size_command(
 
         plot_design_comparison(model, designs, plot, report.chosen_quality.sweep_period)
     if as_json:
-        print_json(report.to_dict())
+        out = report.to_dict()
+        if comparison is not None:
+            out["parts"] = report.plan.to_dict()
+            out["over_temperature"] = comparison.written.prediction.to_dict()
+            out["temperature_designs"] = comparison.to_dict()
+        print_json(out)
         return
-    render_sizing(report)
+    if comparison is None:
+        render_sizing(report)
+    else:
+        render_sizing(at_reference, "creepcomp size, (a) sized at the reference temperature "
+                      f"{at_reference.model.temperature.reference:g} °C" if at_reference.model.temperature
+                      else None)
+        render_over_range(comparison)
+        if plot is not None:
+            console.print(f"plot written to {over_temperature_plot_path(plot)}")
     if output is not None:
         console.print(f"design written to {output}")
     if plot is not None:
@@ -210,4 +253,113 @@ def render_sizing(report: SizingReport, title: str | None = None) -> None:
                       f"parts: " + ", ".join(f"{label} {format_quantity(v, _unit(k))}"
                                              for label, k, v in report.nearest.parts()))
     for w in report.warnings:
+        console.print(f"[yellow]warning:[/yellow] {w}", soft_wrap=False)
+
+
+# --- over temperature -------------------------------------------------------------------------
+
+def with_temperature_law(model: CreepModel, activation_energy: str | None,
+                         reference_temperature: str) -> CreepModel:
+    """The model with an Arrhenius law from ``--activation-energy`` (none given: as it is)."""
+    from creepcomp.temperature import TemperatureLaw
+
+    if activation_energy is None:
+        return model
+    if model.temperature is not None:
+        raise InputError("--activation-energy: the model file has its own temperature block; "
+                         "give one or the other")
+    text = activation_energy.strip()
+    text = text[:-len("J/mol")] if text.lower().endswith("j/mol") else text
+    ea = quantity(text, "number", "--activation-energy", non_negative=True)
+    ref = quantity(reference_temperature, "number", "--reference-temperature")
+    law = TemperatureLaw.arrhenius(ea, ref)
+    return CreepModel(model.beta, model.tau, model.gain, model.offset, dict(model.extensions), law)
+
+
+def temperature_span(text: str | None, tracking: str) -> tuple[float, float] | None:
+    """``--temperature-range LOW:HIGH`` in °C (None without it)."""
+    if tracking.strip().lower() not in ("none", "ntc"):
+        raise InputError(f"--tracking = '{tracking}': expected none or ntc")
+    if text is None:
+        if tracking.strip().lower() != "none":
+            raise InputError("--tracking needs --temperature-range LOW:HIGH (°C)")
+        return None
+    parts = text.replace("°C", "").replace("C", "").split(":")
+    if len(parts) != 2:
+        raise InputError(f"--temperature-range = '{text}': expected LOW:HIGH in °C, e.g. -10:40")
+    low, high = (quantity(p, "number", "--temperature-range") for p in parts)
+    if low > high:
+        raise InputError(f"--temperature-range = '{text}': LOW is above HIGH")
+    return low, high
+
+
+def size_over_range(report: SizingReport, span: tuple[float, float], tracking: str, rule: str):
+    """The comparison over the range, and the sizing report of the design to write."""
+    import dataclasses
+
+    from creepcomp.analog.over_temperature import compare_over_range
+    from creepcomp.analog.quality import predict
+
+    comparison = compare_over_range(report.model, report.chosen, *span, plan=report.plan,
+                                    tracking=tracking, rule=rule,
+                                    resistor_series=report.resistor_series or "E24",
+                                    capacitor_series=report.capacitor_series or "E6",
+                                    reference_warnings=report.warnings)
+    chosen = comparison.written
+    if chosen.key == "reference":
+        return report, comparison
+    quality = predict(report.model, chosen.network, report.chosen_quality.sweep_period)
+    warnings = tuple(w for w in report.warnings if not w.startswith("high impedance")) + chosen.warnings
+    written = dataclasses.replace(report, chosen=chosen.network, chosen_quality=quality, plan=chosen.plan,
+                                  nearest=None, nearest_quality=None, parts=(), warnings=warnings)
+    return written, comparison
+
+
+def over_temperature_plot_path(plot: Path) -> Path:
+    """``FILE-over-temperature.png`` next to ``--plot FILE.png``."""
+    return plot.with_name(f"{plot.stem}-over-temperature{plot.suffix or '.png'}")
+
+
+def render_over_range(comparison) -> None:
+    """Print the designs over the range: worst cases, residual at every temperature, thermistors."""
+    designs = comparison.designs
+    console.print(f"[bold]Over {comparison.low:g} .. {comparison.high:g} °C[/bold]: "
+                  f"{designs[0].prediction.note}")
+    table = Table(title="Worst case over the range", title_justify="left")
+    for col in ("design", "worst peak residual creep", "at", "written"):
+        table.add_column(col, justify="left" if col == "design" else "right")
+    for d in designs:
+        table.add_row(d.label, format_percent(d.prediction.worst), f"{d.prediction.worst_at:g} °C",
+                      "yes" if d.key == comparison.chosen else "")
+    bare = designs[0].prediction
+    worst_bare = max(range(len(bare.uncorrected)), key=bare.uncorrected.__getitem__)
+    table.add_row("uncorrected", format_percent(bare.uncorrected[worst_bare]),
+                  f"{bare.temperatures[worst_bare]:g} °C", "")
+    console.print(table)
+    per_t = Table(title="Peak residual creep of a full-scale step at each temperature", title_justify="left")
+    per_t.add_column("°C", justify="right")
+    for d in designs:
+        per_t.add_column(d.label.split(")")[0] + ")", justify="right")
+    per_t.add_column("uncorrected", justify="right")
+    for k, t in enumerate(bare.temperatures):
+        per_t.add_row(f"{t:g}", *[format_percent(d.prediction.peak_residual[k]) for d in designs],
+                      format_percent(bare.uncorrected[k]))
+    console.print(per_t)
+    written = comparison.written
+    parts = Table(title=f"Written design: {written.label}", title_justify="left")
+    for col in ("part", "value at 25 °C", "made of"):
+        parts.add_column(col, justify="left" if col != "value at 25 °C" else "right")
+    for label, kind, v in written.network.parts():
+        use = written.plan.thermistors.get(label)
+        if use is None:
+            made = f"{written.plan.resistor if kind == 'R' else written.plan.capacitor}"
+        else:
+            made = f"NTC {use.part} (R25 = {format_quantity(use.r25, 'Ω')}, B = {use.b:g} K)"
+            if use.series:
+                made += f" + {format_quantity(use.series, 'Ω')} in series"
+            if use.parallel is not None:
+                made += f", {format_quantity(use.parallel, 'Ω')} across"
+        parts.add_row(label, format_quantity(v, _unit(kind)), made)
+    console.print(parts)
+    for w in written.warnings:
         console.print(f"[yellow]warning:[/yellow] {w}", soft_wrap=False)
