@@ -28,7 +28,7 @@ from creepcomp.verify.tolerances import ToleranceSpec, draw, factors
 from creepcomp.verify.variants import (Metrics, evaluate, residual_lags, step_residual,
                                        sweep_period_or_default, variant)
 
-__all__ = ["SPOT_CHECK_SPAN", "SPOT_CHECK_SETTLE", "BLOCK", "HISTOGRAM_BINS", "StreamingPercentiles",
+__all__ = ["SPOT_CHECK_SPAN", "SPOT_CHECK_SETTLE", "BLOCK", "BATCH_ROWS", "HISTOGRAM_BINS", "StreamingPercentiles",
            "MonteCarloResult", "block_seed", "run_monte_carlo", "nominal_metrics", "spot_check"]
 
 
@@ -42,6 +42,8 @@ SPOT_CHECK_SETTLE = 1e-3
 #: for a design with 9 factors); the first block is kept for the sensitivity, the report's
 #: histograms and the spot check.
 BLOCK = 1_000_000
+#: Most variants (samples x temperatures) evaluated in one batch: its arrays take about 50 MB.
+BATCH_ROWS = 60_000
 #: Bins of the streaming histogram that gives the percentiles of a run longer than one block.
 HISTOGRAM_BINS = 1 << 16
 
@@ -301,8 +303,8 @@ def run_monte_carlo(design: Design, spec: ToleranceSpec, n: int, seed: int = 0,
     over = spec.over_temperature
     correlation = over.lot_correlation if over is not None else 0.0
     n_temps = len(over.temperatures) if over is not None else 0
-    # a batch evaluates chunk x temperatures variants: keep it near chunk (cache-sized arrays)
-    chunk = max(1, chunk // max(n_temps, 1))
+    # a batch evaluates chunk x temperatures variants: at most BATCH_ROWS of them (memory)
+    chunk = max(1, min(chunk, BATCH_ROWS // max(n_temps, 1)))
     blocks = [(lo, min(block, n - lo)) for lo in range(0, n, block)]
     workers = min(workers or os.cpu_count() or 1, -(-min(block, n) // chunk))
     names = list(METRIC_NAMES) + [f"{m}@{k}" for k in range(n_temps) for m in METRIC_NAMES]
