@@ -192,8 +192,12 @@ def format_parameter(name: str, value: float | None) -> str:
         # an instant on the record's own clock, which may be absolute (days of seconds): to
         # 0.1 s there, not to 4 digits
         return format_quantity(value, "s", digits=7)
-    if name.endswith("resistance"):
+    if name.endswith("resistance") or name == "R25":
         return format_quantity(value, "Ω")
+    if name == "tc":
+        return f"{value * 1e6:.4g} ppm/K"
+    if name == "B":
+        return f"{value:.5g} K"
     if name.startswith("tau") or name.endswith("_tau") or name in ("delay", "slip"):
         return format_quantity(value, "s")
     if name.startswith("beta") or name == "absorption":

@@ -70,7 +70,22 @@ def mc_command(
                                              metavar="polypropylene|polyester|x7r",
                                              help="Capacitor technology: absorption and leakage "
                                                   "(default: the design's parts block)."),
-    temperature: float = typer.Option(25.0, "--temperature", help="Temperature for leakage (°C)."),
+    temperature: Optional[str] = typer.Option(
+        None, "--temperature", metavar="T",
+        help="Evaluate at T °C: the sensor (its temperature law), every part (TCs drawn per "
+             "part, thermistors) and the capacitors' leakage. Default: the design as it is, "
+             "leakage at 25 °C."),
+    temperatures: Optional[str] = typer.Option(
+        None, "--temperatures", metavar="T1,T2,...",
+        help="Evaluate every unit at each temperature (°C), e.g. -10,20,40: yield and "
+             "percentiles at each, and over the range (each unit's worst temperature)."),
+    temperature_range: Optional[str] = typer.Option(
+        None, "--temperature-range", metavar="LOW:HIGH",
+        help="As --temperatures, every 5 K from LOW to HIGH °C (both included)."),
+    lot_correlation: float = typer.Option(
+        0.0, "--lot-correlation", metavar="RHO",
+        help="Fraction (0..1) of the variance of the parts' TCs and thermistor B values "
+             "common to all parts of a unit (one lot builds one unit)."),
     source_range: Optional[str] = typer.Option(None, "--source-resistance-range", metavar="LOW:HIGH",
                                                help="Sensor output resistance range (uniform)."),
     load_range: Optional[str] = typer.Option(None, "--load-resistance-range", metavar="LOW:HIGH",
@@ -94,7 +109,7 @@ def mc_command(
                                    help="Run the first N samples through ngspice and compare (0: skip)."),
     creep_test: Optional[str] = typer.Option(None, "--creep-test", metavar="CLASS",
                                              help="Yield against the OIML R 60 creep test, e.g. C3 "
-                                                  "(sensor and parts at --temperature)."),
+                                                  "(sensor and parts at each --temperature(s), 25 °C without)."),
     report: Optional[Path] = typer.Option(None, "--report", metavar="FILE.html",
                                           help="Write the HTML report."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
@@ -122,9 +137,11 @@ def mc_command(
         cap = Tolerance(min(DIELECTRICS[dielectric].tolerances) if dielectric else 0.05, distribution)
     else:
         cap = _tolerance(cap_tol, "--cap-tol", distribution)
+    over = _over_temperature(design, temperature, temperatures, temperature_range, lot_correlation)
     tspec = ToleranceSpec(
         resistor=_tolerance(res_tol, "--res-tol", distribution), capacitor=cap,
-        parts=_part_tolerances(tol, distribution), dielectric=dielectric, temperature=temperature,
+        parts=_part_tolerances(tol, distribution), dielectric=dielectric,
+        temperature=over.temperatures[0] if over is not None else 25.0, over_temperature=over,
         source_resistance=_range(source_range, "--source-resistance-range", allow_zero=True),
         load_resistance=_range(load_range, "--load-resistance-range"),
         beta=_tolerance(beta_spread, "--beta-spread", distribution) if beta_spread else None,
@@ -160,7 +177,8 @@ def mc_command(
         result = analyse(design, tspec, n, seed, metric, limit, period, worst, sensitivity_n, progress,
                          spot_check_samples=spot_check)
     if test_limits is not None:
-        result = _with_creep_test(result, test_limits, [temperature])
+        result = _with_creep_test(result, test_limits,
+                                  list(over.temperatures) if over is not None else [25.0])
     if report is not None:
         from creepcomp.report.tolerance import tolerance_report_html
 
@@ -174,6 +192,49 @@ def mc_command(
     render(result, design_file)
     if report is not None:
         console.print(f"report written to {report}")
+
+
+def _over_temperature(design, temperature, temperatures, temperature_range, lot_correlation):
+    """The temperatures asked for (one of the three options), with the design's parts plan."""
+    from creepcomp.analog.parts import plan_of
+    from creepcomp.cli.netlist import parse_temperatures
+    from creepcomp.temperature import temperature_grid
+    from creepcomp.verify.tolerances import OverTemperature
+
+    given = [o for o, v in (("--temperature", temperature), ("--temperatures", temperatures),
+                            ("--temperature-range", temperature_range)) if v is not None]
+    if len(given) > 1:
+        raise InputError(f"{' and '.join(given)}: give one of them")
+    if not 0.0 <= lot_correlation <= 1.0:
+        raise InputError(f"--lot-correlation {lot_correlation:g}: must be in [0, 1]")
+    if not given:
+        if lot_correlation:
+            raise InputError("--lot-correlation shares the parts' TCs over temperature: give "
+                             "--temperature, --temperatures or --temperature-range")
+        return None
+    if temperature is not None:
+        temps = parse_temperatures(temperature, "--temperature")
+        if len(temps) != 1:
+            raise InputError(f"--temperature '{temperature}': one temperature; use --temperatures "
+                             "for several")
+    elif temperatures is not None:
+        temps = parse_temperatures(temperatures, "--temperatures")
+    else:
+        low, high = _temperature_range(temperature_range)
+        temps = [float(t) for t in temperature_grid(low, high)]
+    return OverTemperature(tuple(temps), plan_of(design), lot_correlation)
+
+
+def _temperature_range(text: str) -> tuple[float, float]:
+    from creepcomp.cli.netlist import parse_temperatures
+
+    parts = text.replace("..", ":").split(":")
+    if len(parts) != 2:
+        raise InputError(f"--temperature-range '{text}': expected LOW:HIGH in °C, e.g. -10:40")
+    (low,), (high,) = (parse_temperatures(p, "--temperature-range") for p in parts)
+    if high < low:
+        raise InputError(f"--temperature-range '{text}': LOW must not exceed HIGH")
+    return low, high
 
 
 def _with_creep_test(result: ToleranceReport, limits, temperatures) -> ToleranceReport:
@@ -201,8 +262,11 @@ def render(report: ToleranceReport, design_file: Path | str | None = None) -> No
     names = {"peak": "residual creep, peak", "final": "residual creep, final (abs)", "hysteresis": "hysteresis"}
     spec = r.spec
     where = f"{design_file}: " if design_file is not None else ""
-    capacitors = (f"{spec.dielectric} capacitors at {spec.temperature:g} °C" if spec.dielectric
+    at = (", ".join(f"{t:g}" for t in r.temperatures) if r.temperatures else f"{spec.temperature:g}")
+    capacitors = (f"{spec.dielectric} capacitors at {at} °C" if spec.dielectric
                   else "ideal capacitors (no --dielectric)")
+    if r.temperatures:
+        capacitors += "; sensor and parts at each temperature, figures the worst of each unit"
     console.print(f"[bold]creepcomp mc[/bold]: {where}{r.n:,} samples, seed {r.seed}, {r.seconds:.2f} s "
                   f"({1e6 * r.seconds / r.n:.2f} µs per sample); {capacitors}", markup=True, highlight=False)
     table = Table(title="Distribution (% of FS)", title_justify="left")
@@ -219,6 +283,8 @@ def render(report: ToleranceReport, design_file: Path | str | None = None) -> No
         y, se = r.yield_against(report.limit, report.metric)
         console.print(f"yield against {names[report.metric]} ≤ {format_percent(report.limit)}: "
                       f"[bold]{100 * y:.2f} %[/bold] (± {100 * se:.2f} %)")
+    if r.temperatures:
+        _render_over_temperature(report, names)
     if report.worst is not None:
         w = report.worst
         at = ", ".join(f"{k} = {format_parameter(k, v)}" for k, v in w.at.items())
@@ -246,6 +312,39 @@ def render(report: ToleranceReport, design_file: Path | str | None = None) -> No
         part = f"{t.factor} at {100 * t.tolerance_to:.3g} %" + (f" {t.dielectric}" if t.dielectric else "")
         console.print(f"{part} (now {100 * t.tolerance_from:.3g} %): p99 from {format_percent(t.p99_from)} to "
                       f"{format_percent(t.p99_to)} ({report.sensitivity_samples} samples each)")
+
+
+def _render_over_temperature(report: ToleranceReport, names: dict) -> None:
+    """The per-temperature table of ``mc --temperatures``."""
+    r = report.result
+    table = Table(title=f"Over temperature: {names['peak']} (% of FS)", title_justify="left")
+    for col in ("temperature", "nominal", "p50", "p95", "p99", "max", "units worst here"):
+        table.add_column(col, justify="right")
+    if report.limit is not None:
+        table.add_column(f"yield, {names[report.metric]} ≤ {format_percent(report.limit)}",
+                         justify="right")
+    nominal = report.nominal.per_temperature.peak[0]
+    for k, t in enumerate(r.temperatures):
+        row = [f"{t:g} °C", format_percent(nominal[k]),
+               *[format_percent(v) for v in r.percentiles_at(k, "peak").values()],
+               f"{100 * r.worst_temperature_counts[k] / r.n:.1f} %"]
+        if report.limit is not None:
+            y, se = r.yield_at(k, report.limit, report.metric)
+            row.append(f"{100 * y:.2f} % (± {100 * se:.2f} %)")
+        table.add_row(*row)
+    row = ["worst of each unit", format_percent(report.nominal.peak[0]),
+           *[format_percent(v) for v in r.percentiles("peak").values()], "100 %"]
+    if report.limit is not None:
+        y, se = r.yield_against(report.limit, report.metric)
+        row.append(f"{100 * y:.2f} % (± {100 * se:.2f} %)")
+    table.add_row(*row)
+    console.print(table)
+    over = r.spec.over_temperature
+    console.print(f"every part's TC drawn about its technology's ({over.plan.resistor_tc * 1e6:g} ppm/K "
+                  f"resistors, {over.plan.capacitor_tc * 1e6:g} ppm/K capacitors) by as much "
+                  f"(3 sigma); lot correlation {over.lot_correlation:g}"
+                  + (f"; thermistors {', '.join(over.plan.thermistors)}" if over.plan.thermistors else ""),
+                  markup=False)
 
 
 def render_creep_test(figures: dict) -> None:

@@ -12,7 +12,7 @@ from creepcomp.io.atomic import write_text_atomic
 from creepcomp.report.common import figure_data_uri, format_named, html_page, html_table
 from creepcomp.units import format_parameter, format_percent, format_quantity, format_time
 
-__all__ = ["tolerance_report_html", "conditions", "schematic_section"]
+__all__ = ["tolerance_report_html", "conditions", "schematic_section", "over_temperature_block"]
 
 
 def schematic_section(design) -> str:
@@ -64,7 +64,13 @@ def conditions(result, design_file: str | Path | None = None) -> list[tuple[str,
         rows.append(("capacitor dielectric", "none given: ideal capacitors (no absorption, no leakage)"))
     else:
         rows.append(("capacitor dielectric", f"{spec.dielectric}: absorption and leakage of every cell capacitor"))
-    if temperature is not None:
+    over = getattr(spec, "over_temperature", None)
+    if over is not None:
+        several = len(over.temperatures) > 1
+        rows.append(("temperatures" if several else "temperature",
+                     ", ".join(f"{t:g}" for t in over.temperatures) + " °C: sensor, parts (TCs drawn "
+                     "per part) and leakage" + (" at each; figures the worst of each unit" if several else "")))
+    elif temperature is not None:
         rows.append(("temperature", f"{temperature:g} °C" + (" (capacitor leakage)" if spec.dielectric else
                                                              " (acts through a dielectric's leakage: none given)")))
     rows.append(("hysteresis sweep", f"±FS triangle, period {format_time(result.sweep_period)}"))
@@ -121,6 +127,8 @@ def tolerance_report_html(report, path: str | Path, design_file: str | Path | No
         y, se = r.yield_against(report.limit, report.metric)
         sections.append(("Yield", f"<p>{names[report.metric]} at or below {pct(report.limit)}: "
                                   f"<b>{100 * y:.2f} %</b> of samples (± {100 * se:.2f} %).</p>"))
+    if r.temperatures:
+        sections.append(("Over temperature", over_temperature_block(report)))
     sections.append(("Distributions", f"<img alt='histograms' src='{hist}'>"))
     sections.append(("Sensitivity", f"<img alt='sensitivity chart' src='{sens_png}'>" +
                      html_table(["factor", "share of spread (%)", "p99 when only it varies (% of FS)"],
@@ -141,7 +149,8 @@ def tolerance_report_html(report, path: str | Path, design_file: str | Path | No
     if report.spot_check is not None:
         sc = report.spot_check
         if "error" in sc:
-            spot = f"<p>No ngspice spot-check: {html.escape(sc['error'])}</p>"
+            spot = ("<p style='overflow-wrap:anywhere;white-space:pre-wrap'>No ngspice "
+                    f"spot-check: {html.escape(sc['error'])}</p>")
         else:
             per = sc.get("seconds_per_transient")
             spot = html_table(["quantity", "value (with its unit)"], [
@@ -160,6 +169,54 @@ def tolerance_report_html(report, path: str | Path, design_file: str | Path | No
     write_text_atomic(out, html_page("creepcomp tolerance analysis", sections))
     return out
 
+
+def over_temperature_block(report) -> str:
+    """The report's over-temperature section: the peak residual creep's percentiles at each
+    temperature (plot and table, with the yield against the limit) and over the range."""
+    r = report.result
+    temps = list(r.temperatures)
+    rows = [r.percentiles_at(k, "peak") for k in range(len(temps))]
+    nominal = report.nominal.per_temperature.peak[0]
+    fig, ax = plt.subplots(figsize=(8, 3.6))
+    ax.fill_between(temps, [100 * p["p50"] for p in rows], [100 * p["p99"] for p in rows],
+                    color="#4477aa", alpha=0.25, label="p50 to p99")
+    ax.plot(temps, [100 * p["max"] for p in rows], "k:", lw=1, label="max")
+    ax.plot(temps, 100 * nominal, "o-", color="#228833", label="nominal")
+    if report.limit is not None and report.metric == "peak":
+        ax.axhline(100 * report.limit, color="#cc3311", lw=2, label="spec")
+    ax.set_xlabel("temperature (°C)")
+    ax.set_ylabel("peak residual creep (% of FS)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    png = figure_data_uri(fig)
+    pct = lambda x: f"{100 * x:.4g} %"  # noqa: E731
+    header = ["temperature", "nominal", "p50", "p95", "p99", "max", "units worst here"]
+    if report.limit is not None:
+        header.append(f"yield, {report.metric} ≤ {pct(report.limit)}")
+    table = []
+    for k, t in enumerate(temps):
+        row = [f"{t:g} °C", pct(nominal[k])] + [pct(v) for v in rows[k].values()] + [
+            f"{100 * r.worst_temperature_counts[k] / r.n:.1f} %"]
+        if report.limit is not None:
+            y, se = r.yield_at(k, report.limit, report.metric)
+            row.append(f"{100 * y:.2f} % (± {100 * se:.2f} %)")
+        table.append(row)
+    row = ["worst of each unit", pct(report.nominal.peak[0])] + [
+        pct(v) for v in r.percentiles("peak").values()] + ["100 %"]
+    if report.limit is not None:
+        y, se = r.yield_against(report.limit, report.metric)
+        row.append(f"{100 * y:.2f} % (± {100 * se:.2f} %)")
+    table.append(row)
+    over = r.spec.over_temperature
+    note = (f"<p class='note'>Each unit's parts drawn once at 25 °C; each part's temperature "
+            f"coefficient drawn about its technology's ({over.plan.resistor_tc * 1e6:g} ppm/K "
+            f"resistors, {over.plan.capacitor_tc * 1e6:g} ppm/K capacitors) by as much (3 sigma)"
+            + (f"; thermistors {html.escape(', '.join(over.plan.thermistors))} with their R25 and "
+               "B tolerances" if over.plan.thermistors else "")
+            + f"; lot correlation {over.lot_correlation:g}. The sensor follows its temperature "
+            "law, the capacitors' leakage their insulation resistance at each temperature.</p>")
+    return f"<img alt='residual creep over temperature' src='{png}'>" + html_table(header, table) + note
 
 def _creep_test_section(figures: dict, pct) -> str:
     """The yield against the OIML R 60 creep test: limits with their derivation, per temperature."""

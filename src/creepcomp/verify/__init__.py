@@ -19,7 +19,7 @@ from creepcomp.verify.netlist_export import asc_text, subckt_text
 from creepcomp.verify.ngspice_engine import (Ngspice, NgspiceError, NgspiceUnavailable, SpiceRun,
                                              Waveforms, ngspice, run_batch, run_transient,
                                              time_transient)
-from creepcomp.verify.compare import (Comparison, at_sample_times, compare_program,
+from creepcomp.verify.compare import (Comparison, at_sample_times, compare_program, compare_temperatures,
                                       compare_record, reference_transient)
 from creepcomp.verify.tolerances import (DIELECTRICS, Dielectric, Factor, Tolerance,
                                          ToleranceSpec)
@@ -36,7 +36,7 @@ __all__ = [
     "write_reference_netlists", "asc_text", "subckt_text",
     "Ngspice", "NgspiceError", "NgspiceUnavailable", "SpiceRun", "Waveforms", "ngspice",
     "run_batch", "run_transient", "time_transient",
-    "Comparison", "at_sample_times", "compare_program", "compare_record", "reference_transient",
+    "Comparison", "at_sample_times", "compare_program", "compare_temperatures", "compare_record", "reference_transient",
     "DIELECTRICS", "Dielectric", "Factor", "Tolerance", "ToleranceSpec",
     "Metrics",
     "MonteCarloResult", "run_monte_carlo", "spot_check",
