@@ -23,7 +23,8 @@ from creepcomp.fit.noise import ARNoise, fit_noise, gaussian_bic, rows_for, whit
 from creepcomp.fit.structure import Param, Structure, basis, taus_of
 from creepcomp.model import CreepModel
 
-__all__ = ["Fit", "ANCHOR_WEIGHT", "Problem", "best_of_starts", "fit_structure", "with_noise"]
+__all__ = ["Fit", "ANCHOR_WEIGHT", "Problem", "best_of_starts", "fit_structure", "with_noise",
+           "inverse_ar_transpose"]
 
 
 def best_of_starts(residual: Callable[[np.ndarray], np.ndarray], starts: Sequence[np.ndarray],
@@ -357,7 +358,7 @@ def with_noise(fit: Fit, noise: ARNoise) -> Fit:
     return replace(fit, noise=noise, loglik=loglik, bic=bic, n_params=k)
 
 
-def _inverse_ar_transpose(z: np.ndarray, noise: ARNoise) -> np.ndarray:
+def inverse_ar_transpose(z: np.ndarray, noise: ARNoise) -> np.ndarray:
     """``W^-T z`` for the AR prewhitening filter ``W`` (the inverse filter run backwards)."""
     from scipy import signal as sps
 
@@ -394,6 +395,6 @@ def _covariance(problem: Problem, x, coef, noise: ARNoise) -> np.ndarray | None:
         return None
     z = np.zeros_like(full)
     z[rows] = full[rows] / norms
-    zt = _inverse_ar_transpose(z, noise)
+    zt = inverse_ar_transpose(z, noise)
     meat = noise.sigma ** 2 * (zt.T @ zt)
     return (bread @ meat @ bread) / np.outer(norms, norms)
