@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
 SCRIPTS = ("size_network", "ngspice_proof", "tolerance_report", "correct_record",
            "diagnose_record", "diagnose_built_network", "firmware_corrector", "real_insole",
-           "real_wood")
+           "real_wood", "fit_over_temperature")
 #: A percentage as the examples print it, e.g. ``0.029 %``, ``-0.0262 %``, ``2.22e-14 %``.
 PERCENT = r"(-?[0-9.]+(?:e[-+]\d+)?) %"
 #: A value with an SI prefix and a unit, e.g. ``1.2 MΩ``, ``501.5 nV``.
@@ -211,3 +211,16 @@ def test_real_wood(tmp_path):
     assert len(betas) == 2 and all(0 < b < 100 for b in betas)          # creep, not relaxation
     compliances = [float(j) for j in re.findall(r"J_c\(50 h\) = (\S+) 1/MPa", stdout)]
     assert len(compliances) == 2 and all(1e-6 < j < 1e-3 for j in compliances)
+
+
+def test_fit_over_temperature(tmp_path):
+    stdout = run_example("fit_over_temperature", tmp_path)
+    for label in ("three records", "one record"):
+        line = re.search(label + r".*", stdout).group(0)
+        ea, sd = map(float, re.search(r"E_a = ([0-9.]+) ± ([0-9.]+) kJ/mol", line).groups())
+        assert abs(ea - 43.0) <= 0.1 * 43.0 and abs(ea - 43.0) <= 2 * sd, line
+    shifts = re.findall(r"a_T at -?\d+ °C: \S+ \(truth \S+, ([-+0-9.]+) %\)", stdout)
+    assert len(shifts) == 3 and all(abs(float(s)) < 3 for s in shifts), stdout
+    written(tmp_path, "arrhenius_ramp.csv", "model-three.json", "model-ramp.json", "model-wlf.json")
+    block = json.loads((tmp_path / "model-three.json").read_text())["temperature"]
+    assert block["law"] == "arrhenius" and block["uncertainty"]["activation_energy"] > 0

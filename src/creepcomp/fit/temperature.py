@@ -68,10 +68,10 @@ def record_temperature(data: Data, given: float | None = None,
 
 def default_reference(temperatures: Sequence[np.ndarray]) -> float:
     """Reference temperature (°C): the mean of one record's samples, the median of several
-    records' mean temperatures (the middle record)."""
+    records' mean temperatures (the middle record); rounded to 0.1 °C."""
     if len(temperatures) == 1:
-        return float(np.mean(temperatures[0]))
-    return float(np.median([np.mean(t) for t in temperatures]))
+        return round(float(np.mean(temperatures[0])), 1)
+    return round(float(np.median([np.mean(t) for t in temperatures])), 1)
 
 
 def _law_params(law: str, reference: float, t_min: float) -> list[Param]:
