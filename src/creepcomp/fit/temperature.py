@@ -27,7 +27,7 @@ from creepcomp.fit.data import Data
 from creepcomp.fit.evidence import BIC_STRONG
 from creepcomp.fit.noise import ARNoise, fit_noise, gaussian_bic, rows_for
 from creepcomp.fit.prony import fit_prony, fit_terms
-from creepcomp.fit.solver import best_of_starts, inverse_ar_transpose
+from creepcomp.fit.solver import best_of_starts, sandwich_covariance
 from creepcomp.fit.structure import Param
 from creepcomp.model import CreepModel
 from creepcomp.temperature import GAS_CONSTANT, LAWS, ZERO_CELSIUS, TemperatureLaw
@@ -196,22 +196,7 @@ class _Joint:
         for r, (a, _) in enumerate(bases):
             blocks[r][:, start:start + n_lin[r]] = a / self.scales[r]
             start += n_lin[r]
-        jac = np.vstack(blocks)
-        norms = np.sqrt(np.sum(jac ** 2, axis=0))
-        norms[norms == 0] = 1.0
-        jn = jac / norms
-        try:
-            bread = linalg.pinvh(jn.T @ jn)
-        except (linalg.LinAlgError, ValueError):
-            return None
-        meat = np.zeros((n_par, n_par))
-        for d, block, noise in zip(self.records, blocks, noises):
-            rows = rows_for(d)
-            z = np.zeros_like(block)
-            z[rows] = block[rows] / norms
-            zt = inverse_ar_transpose(z, noise)
-            meat += noise.sigma ** 2 * (zt.T @ zt)
-        return (bread @ meat @ bread) / np.outer(norms, norms)
+        return sandwich_covariance(blocks, noises)
 
 
 @dataclass(frozen=True)
