@@ -87,12 +87,28 @@ def test_one_record_with_a_temperature_ramp_gives_the_activation_energy():
 
 
 def test_wlf_law_gives_the_shift_factors_over_the_range():
-    fit = fit_temperature_law([prepare(r) for r in _records(WLF)], law="wlf")
+    fit = fit_temperature_law([prepare(r) for r in _records(WLF)], law="wlf", n_terms=1)
     for temp in (-10.0, 40.0):
         assert float(fit.law.shift(temp)) == pytest.approx(float(WLF.shift(temp)), rel=0.03)
     (c1, s1), (c2, s2) = fit.law_estimates().values()
     _covers(c1, s1, 5.0, within=0.2)
     _covers(c2, s2, 150.0, within=0.2)
+
+
+def test_the_joint_fit_chooses_the_terms_a_ramp_needs():
+    """Two terms under a temperature ramp: the record alone, fitted without its temperature,
+    may support fewer terms; the joint fit adds the one it needs, and no more."""
+    model = CreepModel((0.01, 0.02), (5.0, 100.0), temperature=ARRHENIUS)
+    t = np.arange(0.0, 1200.0, 1.0)
+    load = staircase(levels=(1.0, 0.5, 1.0, 0.0), hold=270.0, start=60.0).sample(t)
+    temp = 10.0 + 30.0 * t / t[-1]
+    signal = model.response(t, load, temperature=temp) + np.random.default_rng(6).normal(0, 1e-4, t.size)
+    fit = fit_temperature_law([prepare(Record(t, load, signal, temp))])
+    assert fit.n_terms == 2
+    assert [o["n_terms"] for o in fit.orders if o["chosen"]] == [2]
+    _covers(*fit.law_estimates()["activation_energy"], EA)
+    shift = float(ARRHENIUS.shift(fit.law.reference))
+    assert np.array(fit.model.tau) == pytest.approx(np.array([5.0, 100.0]) * shift, rel=0.05)
 
 
 def test_amplitudes_per_kelvin():
@@ -142,7 +158,8 @@ def test_cli_fits_three_records_and_writes_the_law(run_cli, tmp_path):
     paths = []
     for rec, temp in zip(_records(ARRHENIUS), (-10, 20, 40)):
         paths.append(write_record(tmp_path / f"r{temp}.csv", replace(rec, temperature=None)))
-    status, out, err = run_cli("fit", *paths, "--temperature", "-10,20,40", "-o", tmp_path / "m.json")
+    status, out, err = run_cli("fit", *paths, "--temperature", "-10,20,40", "--terms", "1",
+                               "-o", tmp_path / "m.json")
     assert status == 0, err
     assert "activation energy E_a = " in out and "kJ/mol" in out
     block = json.loads((tmp_path / "m.json").read_text())["temperature"]

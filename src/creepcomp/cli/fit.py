@@ -292,8 +292,12 @@ def render_temperature_fit(records: list[Record], result: TemperatureFit) -> Non
     console.print(t2)
     for line in law_lines(result):
         console.print(line)
-    orders = ", ".join(f"{o['n_terms']}: {o['bic']:.1f}" for o in result.orders)
-    console.print(f"terms by BIC of the joint fit (terms: BIC): {orders}")
+    from creepcomp.fit import BIC_STRONG
+
+    tried = ", ".join(f"{o['n_terms']}" + (f" (ΔBIC {o['delta_bic_whitened']:+.1f})" if "delta_bic_whitened" in o
+                                          else "") for o in result.orders)
+    console.print(f"terms tried: {tried}; {model.n_terms} chosen (a term is kept when it lowers the BIC "
+                  f"of the prewhitened residuals by {BIC_STRONG:g}+)", soft_wrap=True)
 
 
 def render_fit(record: Record, result: PronyResult, fixed: int | None) -> None:

@@ -7,10 +7,10 @@ Every record's prediction is the common model's response to its load and tempera
 (:meth:`creepcomp.model.CreepModel.response`), scaled by the record's own gain and shifted by
 its own offset: a sensor's sensitivity and zero drift with temperature and records made on
 different occasions are zeroed apart, so sharing them would turn those drifts into creep. The
-terms, their temperature law and the initial creep states (``free`` start: one per term and
-record, linear) are common; gains and offsets are projected out (variable projection) and the
-rest is refined by least squares. Uncertainties come from the Jacobian with each record's own
-AR noise (sandwich covariance, as :mod:`creepcomp.fit.solver`).
+terms and their law are common; each record's gain, offset and (``free`` start) initial creep
+states are linear and projected out (variable projection), and the rest is refined by least
+squares. Uncertainties come from the Jacobian with each record's own AR noise
+(:func:`creepcomp.fit.solver.sandwich_covariance`).
 """
 
 from __future__ import annotations
@@ -25,9 +25,10 @@ from scipy import linalg, optimize
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.evidence import BIC_STRONG
-from creepcomp.fit.noise import ARNoise, fit_noise, gaussian_bic, rows_for
+from creepcomp.fit.noise import ARNoise, fit_noise, gaussian_bic, rows_for, whiten
 from creepcomp.fit.prony import fit_prony, fit_terms
 from creepcomp.fit.solver import best_of_starts, sandwich_covariance
+from creepcomp.fit.starts import tau_grid
 from creepcomp.fit.structure import Param
 from creepcomp.model import CreepModel
 from creepcomp.temperature import GAS_CONSTANT, LAWS, ZERO_CELSIUS, TemperatureLaw
@@ -171,7 +172,7 @@ class _Joint:
         lo, hi = zip(*(p.bounds() for p in self.params))
         res = optimize.least_squares(self.residual, x0, bounds=(lo, hi), method="trf", x_scale=1.0,
                                      max_nfev=60 * (len(x0) + 1), diff_step=1e-6,
-                                     xtol=1e-10, ftol=1e-10, gtol=1e-10)
+                                     xtol=1e-8, ftol=1e-8, gtol=1e-8)
         return res.x
 
     def predictions(self, x: np.ndarray, coefs: list) -> list[np.ndarray]:
@@ -297,18 +298,51 @@ def _sd(param: Param, value: float, var: float) -> float:
     return value * sd if param.log else param.scale * sd
 
 
-def _fit_order(records, temps, law: str, reference: float, n_terms: int, per_kelvin: bool, ref_fit):
-    """The joint fit with ``n_terms`` terms: Arrhenius from the records' starts, then (WLF)
-    from that fit's slope. Returns the problem and its search point."""
-    problem = _Joint(records, temps, "arrhenius", reference, n_terms, per_kelvin)
-    x = best_of_starts(problem.residual, [problem.start_vector(s) for s in
-                                          _record_starts(records, temps, reference, n_terms, ref_fit)],
-                       3, problem.refine)
-    if law == "wlf":
+def _fit_order(records, temps, law: str, reference: float, n_terms: int, per_kelvin: bool,
+               starts: list[dict], n_refine: int = 3) -> tuple[_Joint, np.ndarray]:
+    """The joint fit with ``n_terms`` terms from ``starts`` (the ``n_refine`` of least cost
+    refined): the problem and its search point. A WLF fit whose starts hold no ``c1`` starts
+    from an Arrhenius fit's slope."""
+    if law == "wlf" and "c1" not in starts[0]:
+        problem, x = _fit_order(records, temps, "arrhenius", reference, n_terms, per_kelvin, starts,
+                                n_refine)
         starts = _wlf_starts(problem.values(x), reference)
-        problem = _Joint(records, temps, "wlf", reference, n_terms, per_kelvin)
-        x = best_of_starts(problem.residual, [problem.start_vector(s) for s in starts], 3, problem.refine)
-    return problem, x
+    problem = _Joint(records, temps, law, reference, n_terms, per_kelvin)
+    return problem, best_of_starts(problem.residual, [problem.start_vector(s) for s in starts], n_refine,
+                                   problem.refine)
+
+
+def _added_term_starts(problem: _Joint, x: np.ndarray, grid: np.ndarray) -> list[dict]:
+    """Starts with one term more than the fit ``(problem, x)``: its values plus a grid time
+    of a tenth of its total amplitude."""
+    values = problem.values(x)
+    k = problem.n_terms
+    taus = np.array([values[f"tau[{i}]"] for i in range(k)])
+    beta0 = sum(values[f"beta[{i}]"] for i in range(k))
+    return [{**values, f"tau[{k}]": float(tau), f"beta[{k}]": 0.1 * beta0}
+            for tau in grid if np.min(np.abs(np.log(taus / tau))) >= 0.1]
+
+
+def _whitened_bic(problem: _Joint, x: np.ndarray, noises: list[ARNoise]) -> float:
+    """BIC of the prewhitened residuals (each record with its own noise and variance)."""
+    _, coefs, residuals = problem.project(x)
+    loglik, n = 0.0, 0
+    for d, r, noise in zip(problem.records, residuals, noises):
+        rows = rows_for(d)
+        w = whiten(r, rows, noise)
+        loglik += gaussian_bic(float(w @ w), len(rows), 0)[0]
+        n += len(rows)
+    k = len(problem.params) + sum(len(c) for c in coefs) + len(coefs)
+    return -2.0 * loglik + k * math.log(n)
+
+
+def _supported(larger: tuple, smaller: tuple) -> tuple[bool, float]:
+    """Whether the larger model is supported: its BIC on prewhitened residuals (the AR noise of
+    each record's residual under the larger model, for both) lower by :data:`BIC_STRONG`."""
+    _, _, residuals = larger[0].project(larger[1])
+    noises = [fit_noise(r, rows_for(d)) for r, d in zip(residuals, larger[0].records)]
+    delta = _whitened_bic(*larger, noises) - _whitened_bic(*smaller, noises)
+    return delta < -BIC_STRONG, delta
 
 
 def _bic(problem: _Joint, x: np.ndarray) -> tuple[float, int]:
@@ -416,9 +450,10 @@ def fit_temperature_law(records: Sequence[Data], law: str = "arrhenius",
     beta_per_kelvin : bool
         Fit a linear change of each amplitude with temperature too.
     n_terms : int, optional
-        Number of Prony terms (default: chosen by :func:`creepcomp.fit.prony.fit_prony` on the
-        record nearest the reference, then dropped by one while the joint fit's BIC does not
-        support it).
+        Number of Prony terms. Default: the number :func:`creepcomp.fit.prony.fit_prony`
+        chooses on the record nearest the reference, then one term fewer or more at a time
+        while the joint fit's BIC on prewhitened residuals supports the change by
+        :data:`~creepcomp.fit.evidence.BIC_STRONG`.
     max_terms : int
 
     Returns
@@ -453,15 +488,31 @@ def fit_temperature_law(records: Sequence[Data], law: str = "arrhenius",
     nearest = int(np.argmin([abs(float(np.mean(t)) - ref) for t in temps]))
     prony = fit_prony(records[nearest], max_terms=max_terms, n_terms=n_terms)
     k = prony.fit.structure.n_terms
-    orders, chosen = [], None
-    while True:
-        problem, x = _fit_order(records, temps, law, ref, k, beta_per_kelvin, prony.steps[k - 1].fit)
-        bic, _ = _bic(problem, x)
-        orders.append({"n_terms": k, "bic": bic})
-        if chosen is not None and bic > chosen[2] + BIC_STRONG:
-            break                       # the larger model is supported: keep it
-        chosen = (problem, x, bic)
-        if n_terms is not None or k == 1:
-            break
-        k -= 1
-    return _finish(chosen[0], chosen[1], temperatures is not None, sorted(orders, key=lambda o: o["n_terms"]))
+
+    def order(n: int, starts=None) -> tuple:
+        # an added term is refined from its best start only: most such terms are not supported
+        n_refine = 3 if starts is None else 1
+        if starts is None:
+            starts = _record_starts(records, temps, ref, n, prony.steps[n - 1].fit)
+        fits[n] = _fit_order(records, temps, law, ref, n, beta_per_kelvin, starts, n_refine)
+        return fits[n]
+
+    fits: dict[int, tuple] = {}
+    deltas: dict[int, float] = {}
+    order(k)
+    if n_terms is None:
+        # the record nearest the reference chose k; the joint fit may support fewer or more
+        while k > 1:
+            supported, deltas[k] = _supported(fits[k], order(k - 1))
+            if supported:
+                break
+            k -= 1
+        while k == max(fits) and k < max_terms:
+            grid = tau_grid(records[nearest], per_decade=2)
+            supported, deltas[k + 1] = _supported(order(k + 1, _added_term_starts(*fits[k], grid)), fits[k])
+            if not supported:
+                break
+            k += 1
+    orders = [{"n_terms": n, "bic": _bic(*fits[n])[0], "chosen": n == k,
+               **({"delta_bic_whitened": deltas[n]} if n in deltas else {})} for n in sorted(fits)]
+    return _finish(*fits[k], temperatures is not None, orders)
