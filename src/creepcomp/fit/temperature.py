@@ -33,7 +33,7 @@ from creepcomp.fit.structure import Param
 from creepcomp.model import CreepModel
 from creepcomp.temperature import GAS_CONSTANT, LAWS, ZERO_CELSIUS, TemperatureLaw
 
-__all__ = ["CONSTANT_TEMPERATURE_TOLERANCE", "ACTIVATION_ENERGY_STARTS", "record_temperature",
+__all__ = ["CONSTANT_TEMPERATURE_TOLERANCE", "ACTIVATION_ENERGY_STARTS", "WLF_C2_STARTS", "record_temperature",
            "default_reference", "TemperatureFit", "fit_temperature_law"]
 
 #: A record whose temperature stays within this many kelvin of its mean is taken at its mean
