@@ -26,12 +26,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from creepcomp.analog import eseries
+from creepcomp.analog.parts import PartsPlan
 from creepcomp.errors import InputError, NotRealisableError
 from creepcomp.model import CreepModel
 from creepcomp.network import Branch, Cell, Network, modal_form, parallel, state_matrices
 from creepcomp.analog.quality import (Quality, predict, screening_deviation, step_deviation,
     step_peak)
-from creepcomp.units import format_quantity
+from creepcomp.units import format_percent, format_quantity
 
 __all__ = ["RULES", "DEFAULT_CAPACITANCE", "DEFAULT_CAP_RANGE", "DEFAULT_RES_RANGE",
            "FILM_CAP_RANGE", "HIGH_IMPEDANCE", "ASSUMED_LEAKAGE", "MAX_COMBINATIONS_PER_LEVEL",
@@ -214,6 +215,7 @@ class SizingReport:
     parts: tuple[PartChoice, ...] = ()
     candidates_evaluated: int = 0
     warnings: tuple[str, ...] = field(default_factory=tuple)
+    plan: PartsPlan = field(default_factory=PartsPlan)
 
     def design_dict(self) -> dict:
         """The design file (``docs/design-file.md``) of the chosen parts."""
@@ -222,6 +224,7 @@ class SizingReport:
         out["rule"] = self.rule
         out["series"] = {"resistors": self.resistor_series, "capacitors": self.capacitor_series}
         out["predicted"] = self.chosen_quality.to_dict()
+        out["parts"] = self.plan.to_dict()
         return out
 
     def to_dict(self) -> dict:
@@ -250,7 +253,7 @@ def size(model: CreepModel, rule: str = "exact", resistor_series: str | None = "
          capacitor_series: str | None = "E6", cap_range: tuple[float, float] = DEFAULT_CAP_RANGE,
          res_range: tuple[float, float] = DEFAULT_RES_RANGE, capacitance: float | None = None,
          source_resistance: float = 0.0, load_resistance: float | None = None,
-         sweep_period: float | None = None) -> SizingReport:
+         sweep_period: float | None = None, plan: PartsPlan | None = None) -> SizingReport:
     """Size a correction network and snap it to E-series parts.
 
     Parameters
@@ -273,6 +276,9 @@ def size(model: CreepModel, rule: str = "exact", resistor_series: str | None = "
         Next stage's input resistance (ohm).
     sweep_period : float, optional
         Period of the hysteresis sweep (s).
+    plan : PartsPlan, optional
+        The parts' technologies and tolerances, recorded in the design file (default:
+        thin-film resistors, polypropylene capacitors).
 
     Returns
     -------
@@ -293,6 +299,8 @@ def size(model: CreepModel, rule: str = "exact", resistor_series: str | None = "
     True
     """
     check_time_constants(model)
+    plan = plan or PartsPlan()
+
     def quality(net):
         return predict(model, net, sweep_period)
 
@@ -302,7 +310,7 @@ def size(model: CreepModel, rule: str = "exact", resistor_series: str | None = "
                             source_resistance, load_resistance)
         q = quality(net)
         return SizingReport(model, rule, net, q, net, q, uncorrected,
-                            warnings=tuple(design_warnings(model, net, rule, q)))
+                            warnings=tuple(design_warnings(model, net, rule, q)), plan=plan)
     eseries.series_values(resistor_series)
     eseries.series_values(capacitor_series)
     levels = ([capacitance] if capacitance else
@@ -357,7 +365,7 @@ def size(model: CreepModel, rule: str = "exact", resistor_series: str | None = "
                         resistor_series.upper(), capacitor_series.upper(), nearest,
                         quality(nearest) if nearest else None,
                         tuple(parts), len(candidates),
-                        tuple(design_warnings(model, chosen, rule, best_q)))
+                        tuple(design_warnings(model, chosen, rule, best_q)), plan)
 
 
 #: Retardation times a network is sized for (s): 1 µs to 1 Gs (32 years). Beyond them the
@@ -463,14 +471,16 @@ def design_warnings(model: CreepModel, network: Network, rule: str, quality: Qua
         leaky = Network(network.cells, network.R2, network.shunt, network.source_resistance,
                         parallel(network.load_resistance, ASSUMED_LEAKAGE))
         leak_peak = step_peak(model, leaky)[0]
+        change = "raise" if leak_peak > quality.residual_creep_peak else "lower"
         out.append(
             f"high impedance: {big_label} = {format_quantity(big, 'Ω')}, output resistance "
             f"{format_quantity(r_out, 'Ω')}. An input bias current of 1 pA (CMOS/JFET op amp) "
             f"gives {format_quantity(r_out * 1e-12, 'V')} of offset, 1 nA (bipolar) "
             f"{format_quantity(r_out * 1e-9, 'V')}, against sensor signals of order 0.1 mV; "
             f"a {format_quantity(ASSUMED_LEAKAGE, 'Ω')} path to ground (board leakage, the next "
-            f"stage's input) would raise the peak residual creep from "
-            f"{quality.residual_creep_peak:.2e} to {leak_peak:.2e}. Buffer the output with a "
+            f"stage's input) would {change} the peak residual creep from "
+            f"{format_percent(quality.residual_creep_peak)} to {format_percent(leak_peak)} of the "
+            "step. Buffer the output with a "
             "CMOS/JFET-input amplifier, guard the node, or use a larger capacitor "
             "(--cap-range) to lower the impedance.")
     for label, kind, v in network.parts():

@@ -14,7 +14,7 @@ from creepcomp.io.jsonfiles import write_json
 from creepcomp.io.outputs import check_outputs
 from creepcomp.io.records import Record, parse_columns
 from creepcomp.units import format_percent, format_quantity
-from creepcomp.cli.common import app, console, print_json, progress_bar, quantity
+from creepcomp.cli.common import app, console, count_option, print_json, progress_bar, quantity
 
 if TYPE_CHECKING:
     from creepcomp.fit.prony import PronyResult
@@ -63,8 +63,12 @@ def record_options(initial: str, load_step_at: str | None) -> tuple[str, float |
 
 def describe_record(record: Record, data) -> str:
     """One line about the record as fitted."""
-    sampling = (f"uniform, {format_quantity(data.dt_median, 's')}" if record.is_uniform
-                else f"irregular, median step {format_quantity(data.dt_median, 's')}")
+    step = format_quantity(data.dt_median, 's')
+    if record.metadata.get("reduced"):
+        # block means within constant-load stretches: the steps differ only where a stretch ends
+        sampling = f"reduced to block means, median step {step}"
+    else:
+        sampling = f"uniform, {step}" if record.is_uniform else f"irregular, median step {step}"
     merged = record.metadata.get("merged_duplicate_times")
     extra = f"; {merged} rows with repeated time stamps averaged" if merged else ""
     return (f"{record.source}: {len(record)} samples over {format_quantity(record.duration, 's')} "
@@ -90,7 +94,8 @@ def fit_command(
                                         help="Repeated time stamps: an error, or average the rows."),
     terms: str = typer.Option("auto", "--terms", metavar="auto|K",
                               help="Number of creep terms: chosen by evidence, or fixed."),
-    max_terms: int = typer.Option(8, "--max-terms", min=1, max=20, help="Most terms tried with --terms auto."),
+    max_terms: int = typer.Option(8, "--max-terms", parser=count_option("--max-terms", 1, 20),
+                                  help="Most terms tried with --terms auto."),
     flow: bool = typer.Option(False, "--flow", help="Add viscous flow (a dashpot in series, Burgers "
                                                    "model) to every model: creep that never saturates."),
     initial: str = typer.Option("free", "--initial", metavar="free|relaxed|settled",
@@ -177,11 +182,10 @@ def terms_option(terms: str) -> int | None:
 
 def temperatures_option(text: str | None, n_records: int) -> list[float] | None:
     """``--temperature T1,T2,...``: one temperature (°C) per record."""
-    if text is None:
-        return None
-    parts = [p.strip().removesuffix("°C").removesuffix("C").strip() for p in text.split(",")]
-    values = [quantity(p, "number", "--temperature") for p in parts]
-    if len(values) != n_records:
+    from creepcomp.cli.creep_test import parse_temperatures
+
+    values = parse_temperatures(text, "--temperature")
+    if values is not None and len(values) != n_records:
         raise InputError(f"--temperature '{text}' gives {len(values)} temperature"
                          f"{'s' if len(values) != 1 else ''} for {n_records} record"
                          f"{'s' if n_records != 1 else ''}: give one per record")
@@ -199,8 +203,7 @@ def fit_over_temperature(paths: list[Path], law: str, temperature: str | None, r
     if plot is not None:
         raise InputError("--plot: available for one record without a temperature law")
     temps = temperatures_option(temperature, len(paths))
-    ref = (quantity(reference.strip().removesuffix("°C").removesuffix("C").strip(), "number",
-                    "--reference-temperature") if reference is not None else None)
+    ref = quantity(reference, "number", "--reference-temperature")
     from creepcomp.fit.data import prepare
     from creepcomp.fit.reduce import MAX_FIT_SAMPLES
     from creepcomp.fit.temperature import fit_temperature_law

@@ -15,8 +15,8 @@ from creepcomp.verify.tolerances import DIELECTRICS, Tolerance, ToleranceSpec
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_design
 from creepcomp.io.outputs import check_outputs
-from creepcomp.units import format_percent
-from creepcomp.cli.common import (app, console, err_console, print_json, quantity,
+from creepcomp.units import format_parameter, format_percent
+from creepcomp.cli.common import (app, console, count_option, err_console, print_json, quantity,
     value_range)
 
 
@@ -52,8 +52,10 @@ def _duration(seconds: float) -> str:
 @app.command("mc")
 def mc_command(
     design_file: Path = typer.Argument(..., metavar="DESIGN", help="Design file (creepcomp size -o)."),
-    n: int = typer.Option(100_000, "--n", help="Number of Monte Carlo samples."),
-    seed: int = typer.Option(0, "--seed", help="Random seed (same seed, same numbers)."),
+    n: int = typer.Option(100_000, "--n", metavar="N", parser=count_option("--n"),
+                          help="Number of Monte Carlo samples, e.g. 100k or 1e7."),
+    seed: int = typer.Option(0, "--seed", metavar="S", parser=count_option("--seed", 0),
+                             help="Random seed (same seed, same numbers)."),
     res_tol: str = typer.Option("1%", "--res-tol", metavar="TOL", help="Resistor tolerance."),
     cap_tol: Optional[str] = typer.Option(None, "--cap-tol", metavar="TOL",
                                           help="Capacitor tolerance (default 5 %, or the dielectric's tightest)."),
@@ -80,10 +82,15 @@ def mc_command(
     sweep_period: Optional[str] = typer.Option(None, "--sweep-period", metavar="TIME",
                                                help="Hysteresis sweep period."),
     worst: bool = typer.Option(True, "--worst-case/--no-worst-case", help="Search the worst case."),
-    sensitivity_n: int = typer.Option(20_000, "--sensitivity-n",
+    sensitivity_n: int = typer.Option(20_000, "--sensitivity-n", metavar="N",
+                                      parser=count_option("--sensitivity-n", 0),
                                       help="Samples for the part-alone and tighter-part runs (0: skip)."),
     spot_check: int = typer.Option(20, "--spot-check", metavar="N",
+                                   parser=count_option("--spot-check", 0),
                                    help="Run the first N samples through ngspice and compare (0: skip)."),
+    creep_test: Optional[str] = typer.Option(None, "--creep-test", metavar="CLASS",
+                                             help="Yield against the OIML R 60 creep test, e.g. C3 "
+                                                  "(sensor and parts at --temperature)."),
     report: Optional[Path] = typer.Option(None, "--report", metavar="FILE.html",
                                           help="Write the HTML report."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
@@ -109,6 +116,11 @@ def mc_command(
         tau=_tolerance(tau_spread, "--tau-spread", distribution) if tau_spread else None,
     )
     limit = quantity(spec, "fraction", "--spec", positive=True)
+    test_limits = None
+    if creep_test is not None:
+        from creepcomp.verify.creep_test import parse_class
+
+        test_limits = parse_class(creep_test)
     period = quantity(sweep_period, "second", "--sweep-period", positive=True)
     with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                   TimeElapsedColumn(), console=err_console, transient=True,
@@ -132,19 +144,32 @@ def mc_command(
 
         result = analyse(design, tspec, n, seed, metric, limit, period, worst, sensitivity_n, progress,
                          spot_check_samples=spot_check)
+    if test_limits is not None:
+        result = _with_creep_test(result, test_limits, [temperature])
     if report is not None:
         from creepcomp.report.tolerance import tolerance_report_html
 
-        tolerance_report_html(result, report)
+        tolerance_report_html(result, report, design_file=design_file)
     if as_json:
         out = result.to_dict()
         if report is not None:
             out["report"] = str(report)
         print_json(out)
         return
-    render(result)
+    render(result, design_file)
     if report is not None:
         console.print(f"report written to {report}")
+
+
+def _with_creep_test(result: ToleranceReport, limits, temperatures) -> ToleranceReport:
+    """The report with the yield of its Monte Carlo's kept samples against the R 60 creep test."""
+    from dataclasses import replace
+
+    from creepcomp.verify.creep_test import creep_test_yield
+
+    r = result.result
+    figures = creep_test_yield(r.design, r.values, temperatures, limits, r.spec.dielectric)
+    return replace(result, creep_test=figures)
 
 
 def _range(text, option, allow_zero=False):
@@ -155,12 +180,16 @@ def _range(text, option, allow_zero=False):
     return value_range(text, "ohm", option)
 
 
-def render(report: ToleranceReport) -> None:
-    """Print a tolerance report as tables."""
+def render(report: ToleranceReport, design_file: Path | str | None = None) -> None:
+    """Print a tolerance report as tables (``design_file``: the design file it read)."""
     r = report.result
     names = {"peak": "residual creep, peak", "final": "residual creep, final (abs)", "hysteresis": "hysteresis"}
-    console.print(f"[bold]creepcomp mc[/bold]: {r.n} samples, seed {r.seed}, {r.seconds:.2f} s "
-                  f"({1e6 * r.seconds / r.n:.2f} µs per sample)")
+    spec = r.spec
+    where = f"{design_file}: " if design_file is not None else ""
+    capacitors = (f"{spec.dielectric} capacitors at {spec.temperature:g} °C" if spec.dielectric
+                  else "ideal capacitors (no --dielectric)")
+    console.print(f"[bold]creepcomp mc[/bold]: {where}{r.n:,} samples, seed {r.seed}, {r.seconds:.2f} s "
+                  f"({1e6 * r.seconds / r.n:.2f} µs per sample); {capacitors}", markup=True, highlight=False)
     table = Table(title="Distribution (% of FS)", title_justify="left")
     for col in ("", "nominal", "p50", "p95", "p99", "max"):
         table.add_column(col, justify="right" if col else "left")
@@ -177,7 +206,7 @@ def render(report: ToleranceReport) -> None:
                       f"[bold]{100 * y:.2f} %[/bold] (± {100 * se:.2f} %)")
     if report.worst is not None:
         w = report.worst
-        at = ", ".join(f"{k} = {v:.4g}" for k, v in w.at.items())
+        at = ", ".join(f"{k} = {format_parameter(k, v)}" for k, v in w.at.items())
         console.print(f"worst case of {names[w.metric]}: [bold]{format_percent(w.value)}[/bold] at {at} ({w.method})")
     if report.sensitivities:
         sens = Table(title="Sensitivity", title_justify="left")
@@ -193,10 +222,24 @@ def render(report: ToleranceReport) -> None:
         err_console.print(f"note: no ngspice spot-check: {sc['error']}", markup=False)
     elif sc is not None:
         console.print(f"ngspice spot-check: {sc['n']} samples agree with the engine to "
-                      f"{sc['agreement_max_abs']:.2e} of the step ({1e3 * sc['seconds_per_transient']:.1f} ms "
+                      f"{format_percent(sc['agreement_max_abs'])} of the step ({1e3 * sc['seconds_per_transient']:.1f} ms "
                       f"per ngspice transient, {1e6 * r.seconds / r.n:.2f} µs per engine sample: "
                       f"{sc['seconds_per_transient'] / (r.seconds / r.n):,.0f}x)")
+    if report.creep_test is not None:
+        render_creep_test(report.creep_test)
     for t in report.tightenings:
         part = f"{t.factor} at {100 * t.tolerance_to:.3g} %" + (f" {t.dielectric}" if t.dielectric else "")
         console.print(f"{part} (now {100 * t.tolerance_from:.3g} %): p99 from {format_percent(t.p99_from)} to "
                       f"{format_percent(t.p99_to)} ({report.sensitivity_samples} samples each)")
+
+
+def render_creep_test(figures: dict) -> None:
+    """Print the yield against the OIML R 60 creep test."""
+    lim = figures["limits"]
+    per = "; ".join(f"{row['temperature']:g} °C: {100 * row['yield']:.2f} % (p99 creep "
+                    f"{format_percent(row['p99']['creep_30min'])}, DR {format_percent(row['p99']['dr'])})"
+                    for row in figures["temperatures"])
+    console.print(f"OIML R 60 creep test {figures['class']} (creep ≤ {format_percent(lim['creep_30min'])}, "
+                  f"20-30 min ≤ {format_percent(lim['creep_20_30min'])}, DR ≤ {format_percent(lim['dr'])} "
+                  f"of FS) over {figures['n']:,} samples: {per}; passing at every temperature: "
+                  f"[bold]{100 * figures['yield']:.2f} %[/bold] (± {100 * figures['yield_standard_error']:.2f} %)")

@@ -17,7 +17,7 @@ from creepcomp.io.outputs import check_outputs
 from creepcomp.programs import LoadProgram
 from creepcomp.io.records import Record, parse_columns, read_record
 from creepcomp.units import format_quantity
-from creepcomp.cli.common import app, console, print_json, quantity
+from creepcomp.cli.common import app, console, count_option, print_json, quantity
 
 #: Most time points of a synthetic drive.
 MAX_POINTS = 1_000_000
@@ -111,7 +111,7 @@ def netlist_command(
     duration: Optional[str] = typer.Option(None, "--duration", metavar="TIME",
                                            help="Simulated time (default: the program's, and 20 "
                                                 "time constants after a final step)."),
-    points: int = typer.Option(DEFAULT_POINTS, "--points", metavar="N",
+    points: int = typer.Option(DEFAULT_POINTS, "--points", metavar="N", parser=count_option("--points"),
                                help="Output time points; ngspice steps at most half their spacing."),
     signal: str = typer.Option("100u", "--signal", metavar="VOLT",
                                help="Instantaneous sensor signal at full scale, e.g. 100u or 1V."),

@@ -15,7 +15,7 @@ from creepcomp.verify.drive import DEFAULT_POINTS
 from creepcomp.verify.netlist import write_deck
 from creepcomp.io.outputs import check_outputs
 from creepcomp.units import format_percent, format_quantity
-from creepcomp.cli.common import app, console, err_console, print_json, progress_bar
+from creepcomp.cli.common import app, console, count_option, err_console, print_json, progress_bar
 from creepcomp.cli.netlist import PROGRAM_HELP, read_drive
 
 
@@ -86,7 +86,7 @@ def simulate_command(
     duration: Optional[str] = typer.Option(None, "--duration", metavar="TIME",
                                            help="Simulated time (default: the program's, and 20 "
                                                 "time constants after a final step)."),
-    points: int = typer.Option(DEFAULT_POINTS, "--points", metavar="N",
+    points: int = typer.Option(DEFAULT_POINTS, "--points", metavar="N", parser=count_option("--points"),
                                help="Time points compared (uniform within each program segment)."),
     signal: str = typer.Option("100u", "--signal", metavar="VOLT",
                                help="Instantaneous sensor signal at full scale, e.g. 100u or 1V."),

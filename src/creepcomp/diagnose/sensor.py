@@ -62,7 +62,7 @@ __all__ = ["MAX_EFFECTS", "REFINED", "CORRECTION_WORSE", "REMAINING_LIMIT", "Fin
 
 #: Most effects added one after the other.
 MAX_EFFECTS = 4
-#: Samples the diagnosis works on at most: a longer record is reduced by block means within
+#: Samples the diagnosis works on at most: a longer record is reduced by blocks within
 #: constant-load stretches (:func:`~creepcomp.fit.reduce.reduce_record`), which keeps its load
 #: steps sharp and everything slower than a few new sample intervals. 6,000: above the 5,001
 #: samples of the confusion benchmark's records (``docs/benchmarks.md``), and a 30-minute

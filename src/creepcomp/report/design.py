@@ -11,7 +11,7 @@ from creepcomp.model import CreepModel
 from creepcomp.network import Network
 from creepcomp.report.common import save_figure
 
-__all__ = ["plot_design_comparison"]
+__all__ = ["plot_design_comparison", "plot_over_temperature"]
 
 
 def plot_design_comparison(model: CreepModel, designs: dict[str, Network | None],
@@ -52,5 +52,34 @@ def plot_design_comparison(model: CreepModel, designs: dict[str, Network | None]
     ax_loop.axhline(0, color="0.6", lw=0.8)
     for ax in (ax_step, ax_loop):
         ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def plot_over_temperature(comparison, path: str | Path) -> Path:
+    """Peak residual creep (%) against temperature of the designs compared over a range
+    (:class:`creepcomp.analog.over_temperature.RangeComparison`), the uncorrected creep for
+    reference, each design's worst case marked.
+
+    Returns
+    -------
+    Path
+    """
+    fig, ax = plt.subplots(figsize=(8, 4.8))
+    bare = comparison.designs[0].prediction
+    ax.plot(bare.temperatures, [100 * x for x in bare.uncorrected], color="0.5", ls="--",
+            label="uncorrected")
+    for d in comparison.designs:
+        p = d.prediction
+        (line,) = ax.plot(p.temperatures, [100 * x for x in p.peak_residual], marker="o", ms=3,
+                          label=f"{d.label}: worst {100 * p.worst:.3g} % at {p.worst_at:g} °C"
+                          + (" (written)" if d.key == comparison.chosen else ""))
+        ax.plot([p.worst_at], [100 * p.worst], marker="v", ms=10, color=line.get_color())
+    ax.set_xlabel("temperature (°C)")
+    ax.set_ylabel("peak residual creep (% of the step)")
+    ax.set_title(f"Residual creep of a full-scale step over {comparison.low:g} .. {comparison.high:g} °C")
+    ax.set_ylim(bottom=0)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
     fig.tight_layout()
     return save_figure(fig, path)

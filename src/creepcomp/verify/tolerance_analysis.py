@@ -30,6 +30,7 @@ class ToleranceReport:
     tightenings: list
     sensitivity_samples: int = 0
     spot_check: dict | None = None
+    creep_test: dict | None = None
 
     def to_dict(self) -> dict:
         """``mc --json``: ``n``, ``residual_creep_peak`` percentiles, ``seconds`` and the rest."""
@@ -65,6 +66,8 @@ class ToleranceReport:
                                  "samples": self.sensitivity_samples} for t in self.tightenings]
         if self.spot_check is not None:
             out["spot_check"] = self.spot_check
+        if self.creep_test is not None:
+            out["creep_test"] = self.creep_test
         return out
 
 

@@ -15,39 +15,12 @@ from typing import Mapping
 
 import numpy as np
 
+from creepcomp.analog.parts import DIELECTRICS, Dielectric
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import Design
 
 __all__ = ["Dielectric", "DIELECTRICS", "ABSORPTION_TAU_RANGE", "Tolerance", "Factor",
            "ToleranceSpec", "factors", "draw"]
-
-
-@dataclass(frozen=True)
-class Dielectric:
-    """A capacitor technology: the tolerances it is sold in, its dielectric absorption and
-    its insulation resistance (as the time constant R_ins * C) at 25 and 85 degrees C.
-
-    Figures: published film and ceramic capacitor data (WIMA), as tabulated in the project's
-    ``docs/physics.md``.
-    """
-
-    name: str
-    tolerances: tuple[float, ...]
-    absorption: tuple[float, float]
-    insulation_rc: tuple[float, float]          # seconds at 25 C and at 85 C
-
-    def insulation_time(self, temperature: float) -> float:
-        """R_ins * C at ``temperature`` (log-linear between 25 and 85 C, extrapolated beyond)."""
-        (t25, t85) = self.insulation_rc
-        slope = math.log(t85 / t25) / 60.0
-        return t25 * math.exp(slope * (temperature - 25.0))
-
-
-DIELECTRICS: dict[str, Dielectric] = {
-    "polypropylene": Dielectric("polypropylene", (0.01, 0.025, 0.05, 0.10), (0.0005, 0.001), (1e5, 1e4)),
-    "polyester": Dielectric("polyester", (0.05, 0.10, 0.20), (0.002, 0.0025), (1e4, 1e3)),
-    "x7r": Dielectric("X7R ceramic", (0.10, 0.20), (0.006, 0.025), (1e3, 5e2)),
-}
 
 
 #: Time constants of the dielectric-absorption branch (s), drawn log-uniformly. An
