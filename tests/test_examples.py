@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
 SCRIPTS = ("size_network", "ngspice_proof", "tolerance_report", "correct_record",
            "diagnose_record", "diagnose_built_network", "firmware_corrector", "real_insole",
-           "real_wood", "over_temperature", "fit_over_temperature")
+           "real_wood", "over_temperature")
 #: A percentage as the examples print it, e.g. ``0.029 %``, ``-0.0262 %``, ``2.22e-14 %``.
 PERCENT = r"(-?[0-9.]+(?:e[-+]\d+)?) %"
 #: A value with an SI prefix and a unit, e.g. ``1.2 MΩ``, ``501.5 nV``.
@@ -234,16 +234,3 @@ def test_over_temperature(tmp_path):
     design = read_design(tmp_path / "design.json")
     assert set(design.extra["parts"]["thermistors"]) == {"R1", "R2"}
     assert design.extra["over_temperature"]["worst"] == pytest.approx(worst[2], rel=5e-3)
-
-
-def test_fit_over_temperature(tmp_path):
-    stdout = run_example("fit_over_temperature", tmp_path)
-    for label in ("three records", "one record"):
-        line = re.search(label + r".*", stdout).group(0)
-        ea, sd = map(float, re.search(r"E_a = ([0-9.]+) ± ([0-9.]+) kJ/mol", line).groups())
-        assert abs(ea - 43.0) <= 0.1 * 43.0 and abs(ea - 43.0) <= 2 * sd, line
-    shifts = re.findall(r"a_T at -?\d+ °C: \S+ \(truth \S+, ([-+0-9.]+) %\)", stdout)
-    assert len(shifts) == 3 and all(abs(float(s)) < 3 for s in shifts), stdout
-    written(tmp_path, "arrhenius_ramp.csv", "model-three.json", "model-ramp.json", "model-wlf.json")
-    block = json.loads((tmp_path / "model-three.json").read_text())["temperature"]
-    assert block["law"] == "arrhenius" and block["uncertainty"]["activation_energy"] > 0
