@@ -145,9 +145,15 @@ def test_activation_energy_with_a_model_that_has_its_own_law(run_cli, tmp_path):
 @pytest.mark.slow
 def test_size_tracking_ntc_writes_the_thermistors_and_the_plot(run_cli, tmp_path):
     out, plot = tmp_path / "d.json", tmp_path / "sizing.png"
-    status, stdout, err = run_cli("size", "--beta0", "3%", "--tau", "45s", "--activation-energy", "43k",
-                                  "--temperature-range", "-10:40", "--tracking", "ntc", "--json",
-                                  "-o", out, "--plot", plot)
+    args = ("size", "--beta0", "3%", "--tau", "45s", "--activation-energy", "43k",
+            "--temperature-range", "-10:40", "--tracking", "ntc", "--json", "-o", out, "--plot", plot)
+    # catalogue thermistors need a capacitor of tens of mF, which no film capacitor is
+    status, stdout, err = run_cli(*args)
+    refused = json.loads(stdout)
+    assert status == 3 and not out.exists()
+    assert not refused["practical"] and "capacitor" in refused["reasons"][0]
+    assert refused["temperature_designs"]["designs"]["ntc"]["worst"] > 0
+    status, stdout, err = run_cli(*args, "--allow-impractical")
     assert status == 0, err
     data = json.loads(stdout)
     tracking = data["over_temperature"]["tracking"]

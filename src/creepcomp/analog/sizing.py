@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from creepcomp.analog import eseries
-from creepcomp.analog.parts import PartsPlan
+from creepcomp.analog.parts import DIELECTRICS, PartsPlan
 from creepcomp.errors import InputError, NotRealisableError
 from creepcomp.model import CreepModel
 from creepcomp.network import Branch, Cell, Network, modal_form, parallel, state_matrices
@@ -36,7 +36,7 @@ from creepcomp.units import format_percent, format_quantity
 
 __all__ = ["RULES", "DEFAULT_CAPACITANCE", "DEFAULT_CAP_RANGE", "DEFAULT_RES_RANGE",
            "FILM_CAP_RANGE", "HIGH_IMPEDANCE", "ASSUMED_LEAKAGE", "MAX_COMBINATIONS_PER_LEVEL",
-           "EXACT_RECHECKS", "explain_unrealisable", "ideal_network", "PartChoice", "SizingReport",
+           "EXACT_RECHECKS", "NoNetworkInRange", "explain_unrealisable", "ideal_network", "PartChoice", "SizingReport",
            "size", "TAU_RANGE", "check_time_constants", "nearest_snap", "output_resistance", "design_warnings"]
 
 RULES = ("exact", "paper")
@@ -56,6 +56,19 @@ ASSUMED_LEAKAGE = 10e9
 MAX_COMBINATIONS_PER_LEVEL = 1024
 #: Candidates re-checked with python-control after the closed-form screen.
 EXACT_RECHECKS = 5
+
+
+class NoNetworkInRange(InputError):
+    """No network of the rule has its parts in the ranges searched (with this source and
+    load resistance).
+
+    ``fixable`` is True when parts that are made would do (the message says which options
+    reach them), False when no capacitor of the plan's dielectric would.
+    """
+
+    def __init__(self, message: str, fixable: bool = True):
+        super().__init__(message)
+        self.fixable = fixable
 
 
 def explain_unrealisable(model: CreepModel) -> str:
@@ -325,7 +338,13 @@ def size(model: CreepModel, rule: str = "exact", resistor_series: str | None = "
         except InputError as exc:
             problems.append(str(exc))
     if not ideals:
-        raise InputError(problems[-1])
+        made = DIELECTRICS[plan.capacitor]
+        advice = "use a larger capacitor"
+        fixable = not (problems[-1].endswith(advice) and max(levels) >= made.value_range[1])
+        if not fixable:
+            problems[-1] = (problems[-1][:-len(advice)] + f"and {made.name} capacitors are not "
+                            f"made above {format_quantity(made.value_range[1], 'F')}")
+        raise NoNetworkInRange(problems[-1], fixable)
     series_of = {"R": resistor_series, "C": capacitor_series}
     candidates, origin = [], []
     for net in ideals:
@@ -337,10 +356,12 @@ def size(model: CreepModel, rule: str = "exact", resistor_series: str | None = "
         outside = ", ".join(f"{label} = {format_quantity(v, 'Ω')}" for label, kind, v in net.parts()
                             if kind == "R" and not res_range[0] <= v <= res_range[1])
         c0 = max(v for _, k, v in net.parts() if k == "C")
-        raise InputError(f"at C = {format_quantity(c0, 'F')} the {rule} rule needs {outside}, outside "
-                         f"the resistor range {format_quantity(res_range[0], 'Ω')} .. "
-                         f"{format_quantity(res_range[1], 'Ω')} (--res-range); "
-                         + _capacitance_needed(net, c0, res_range))
+        made = DIELECTRICS[plan.capacitor]
+        advice, fixable = _capacitance_needed(net, c0, res_range, made.value_range, made.name)
+        raise NoNetworkInRange(f"at C = {format_quantity(c0, 'F')} the {rule} rule needs {outside}, "
+                               f"outside the resistor range {format_quantity(res_range[0], 'Ω')} .. "
+                               f"{format_quantity(res_range[1], 'Ω')} (--res-range); " + advice,
+                               fixable)
     # Snapping keeps the rule's behaviour: closest to the rule's ideal step response (for the
     # exact rule, that is the smallest residual creep; for the paper's, its own residual).
     reference = None if rule == "exact" else ideals[0]
@@ -382,20 +403,31 @@ def check_time_constants(model: CreepModel) -> None:
                              "a correction network can be sized for")
 
 
-def _capacitance_needed(net: Network, c0: float, res_range: tuple[float, float]) -> str:
-    """Advice for an infeasible size: the capacitance that brings every resistor into range.
+def _capacitance_needed(net: Network, c0: float, res_range: tuple[float, float],
+                        made: tuple[float, float] = FILM_CAP_RANGE,
+                        dielectric: str = "film") -> tuple[str, bool]:
+    """Advice for an infeasible size: the capacitance, among those made, that brings every
+    resistor into range; and whether there is one (False: no capacitor made would do).
 
     The network's time constants are fixed by the creep, so its resistors scale as ``1/C``
     (the source and load resistances aside).
     """
     rs = [v for _, k, v in net.parts() if k == "R"]
     low, high = c0 * max(rs) / res_range[1], c0 * min(rs) / res_range[0]
-    if low <= high:
-        return (f"a capacitor of {format_quantity(low, 'F', 3)} .. {format_quantity(high, 'F', 3)} "
-                f"brings every resistor into range: e.g. --capacitance {format_quantity(low, 'F', 3).replace(' ', '')}, "
-                "or --cap-range; or widen --res-range")
-    return (f"no single capacitance brings all resistors into range (their ratio "
-            f"{max(rs) / min(rs):.3g} exceeds the range's): widen --res-range")
+    if low > high:
+        return (f"no single capacitance brings all resistors into range (their ratio "
+                f"{max(rs) / min(rs):.3g} exceeds the range's): widen --res-range"), True
+    low_made, high_made = max(low, made[0]), min(high, made[1])
+    if low_made > high_made:
+        return (f"only a capacitor of {format_quantity(low, 'F', 3)} .. {format_quantity(high, 'F', 3)} "
+                f"would bring every resistor into range, and {dielectric} capacitors are made "
+                f"only in {format_quantity(made[0], 'F')} .. {format_quantity(made[1], 'F')}: "
+                "buffer the output, correct fewer terms, or use the digital corrector "
+                "(creepcomp firmware)"), False
+    text = format_quantity(low_made, 'F', 3)
+    return (f"a capacitor of {text} .. {format_quantity(high_made, 'F', 3)} "
+            f"brings every resistor into range: e.g. --capacitance {text.replace(' ', '')}, "
+            "or --cap-range; or widen --res-range"), True
 
 
 def nearest_snap(model: CreepModel, rule: str, resistor_series: str, capacitor_series: str,
@@ -468,21 +500,14 @@ def design_warnings(model: CreepModel, network: Network, rule: str, quality: Qua
     big, big_label = max(resistors)
     if big > HIGH_IMPEDANCE:
         r_out = output_resistance(network)
-        leaky = Network(network.cells, network.R2, network.shunt, network.source_resistance,
-                        parallel(network.load_resistance, ASSUMED_LEAKAGE))
-        leak_peak = step_peak(model, leaky)[0]
-        change = "raise" if leak_peak > quality.residual_creep_peak else "lower"
         out.append(
             f"high impedance: {big_label} = {format_quantity(big, 'Ω')}, output resistance "
             f"{format_quantity(r_out, 'Ω')}. An input bias current of 1 pA (CMOS/JFET op amp) "
             f"gives {format_quantity(r_out * 1e-12, 'V')} of offset, 1 nA (bipolar) "
-            f"{format_quantity(r_out * 1e-9, 'V')}, against sensor signals of order 0.1 mV; "
-            f"a {format_quantity(ASSUMED_LEAKAGE, 'Ω')} path to ground (board leakage, the next "
-            f"stage's input) would {change} the peak residual creep from "
-            f"{format_percent(quality.residual_creep_peak)} to {format_percent(leak_peak)} of the "
-            "step. Buffer the output with a "
-            "CMOS/JFET-input amplifier, guard the node, or use a larger capacitor "
-            "(--cap-range) to lower the impedance.")
+            f"{format_quantity(r_out * 1e-9, 'V')}, against sensor signals of order 0.1 mV "
+            "(constant offsets, removed by taring; leakage is judged by the practicality "
+            "verdict). Buffer the output with a CMOS/JFET-input amplifier and guard the node, "
+            "or use a larger capacitor (--cap-range) to lower the impedance.")
     for label, kind, v in network.parts():
         if kind == "C" and not FILM_CAP_RANGE[0] <= v <= FILM_CAP_RANGE[1]:
             out.append(f"{label} = {format_quantity(v, 'F')} is outside what film capacitors "

@@ -56,16 +56,20 @@ def mc_command(
                           help="Number of Monte Carlo samples, e.g. 100k or 1e7."),
     seed: int = typer.Option(0, "--seed", metavar="S", parser=count_option("--seed", 0),
                              help="Random seed (same seed, same numbers)."),
-    res_tol: str = typer.Option("1%", "--res-tol", metavar="TOL", help="Resistor tolerance."),
+    res_tol: Optional[str] = typer.Option(None, "--res-tol", metavar="TOL",
+                                          help="Resistor tolerance (default: the design's parts "
+                                               "block, else 1 %)."),
     cap_tol: Optional[str] = typer.Option(None, "--cap-tol", metavar="TOL",
-                                          help="Capacitor tolerance (default 5 %, or the dielectric's tightest)."),
+                                          help="Capacitor tolerance (default: the design's parts "
+                                               "block, else 5 % or the dielectric's tightest)."),
     tol: Optional[List[str]] = typer.Option(None, "--tol", metavar="PART=TOL",
                                             help="Tolerance of one part, e.g. C1=1% (repeatable)."),
     distribution: str = typer.Option("normal", "--dist", metavar="normal|uniform",
                                      help="normal: TOL is 3 sigma; uniform: ±TOL."),
     dielectric: Optional[str] = typer.Option(None, "--dielectric",
                                              metavar="polypropylene|polyester|x7r",
-                                             help="Capacitor technology: absorption and leakage."),
+                                             help="Capacitor technology: absorption and leakage "
+                                                  "(default: the design's parts block)."),
     temperature: float = typer.Option(25.0, "--temperature", help="Temperature for leakage (°C)."),
     source_range: Optional[str] = typer.Option(None, "--source-resistance-range", metavar="LOW:HIGH",
                                                help="Sensor output resistance range (uniform)."),
@@ -103,6 +107,17 @@ def mc_command(
     if dielectric is not None and dielectric.lower() not in DIELECTRICS:
         raise InputError(f"--dielectric '{dielectric}': choose one of {', '.join(DIELECTRICS)}")
     dielectric = dielectric.lower() if dielectric else None
+    # the parts the design assumed (its parts block) unless the command line says otherwise
+    from creepcomp.analog.parts import plan_of
+
+    plan = plan_of(design, str(design_file))
+    if "parts" in design.extra:
+        dielectric = dielectric or plan.capacitor
+        if res_tol is None:
+            res_tol = f"{100 * plan.resistor_tolerance:.6g}%"
+        if cap_tol is None:
+            cap_tol = f"{100 * plan.capacitor_tolerance:.6g}%"
+    res_tol = "1%" if res_tol is None else res_tol
     if cap_tol is None:
         cap = Tolerance(min(DIELECTRICS[dielectric].tolerances) if dielectric else 0.05, distribution)
     else:

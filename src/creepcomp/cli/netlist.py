@@ -116,11 +116,21 @@ def netlist_command(
     signal: str = typer.Option("100u", "--signal", metavar="VOLT",
                                help="Instantaneous sensor signal at full scale, e.g. 100u or 1V."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+    subckt: Optional[Path] = typer.Option(None, "--subckt", metavar="FILE.lib",
+                                          help="Write the network alone as a plain SPICE "
+                                               ".subckt (ports in, out, gnd) for any simulator."),
+    asc: Optional[Path] = typer.Option(None, "--asc", metavar="FILE.asc",
+                                       help="Write an LTspice schematic of the network with a "
+                                            "step test bench."),
 ) -> None:
     """Write an ngspice netlist of the design, driven by synthetic creep or a measured record.
 
     The netlist runs on its own: ngspice -b FILE.cir prints the residual creep it measures.
+    With --subckt or --asc, write the network for other simulators instead.
     """
+    if subckt is not None or asc is not None:
+        export_network(design, subckt, asc, output, record, as_json)
+        return
     files = {"-o": output}
     if record is not None and output is not None:
         files["-o (its data file)"] = output.parent / f"{output.stem}-signal.txt"
@@ -153,3 +163,33 @@ def netlist_command(
         console.print(f"signal data written to {info['data_file']} ({info['samples']} samples, "
                       f"{format_quantity(info['data_bytes'], 'B')}), read by an XSPICE filesource")
     console.print(f"run it with: ngspice -b {output}")
+
+
+def export_network(design_path: Path, subckt: Path | None, asc: Path | None,
+                   output: Path | None, record: Path | None, as_json: bool) -> None:
+    """``netlist --subckt/--asc``: the network for other simulators."""
+    from creepcomp.analog.parts import plan_of
+    from creepcomp.io.atomic import write_text_atomic
+    from creepcomp.verify.netlist_export import SUBCKT_NAME, asc_text, subckt_text
+
+    if output is not None or record is not None:
+        raise InputError("--subckt and --asc write the network alone: leave out -o and --record")
+    check_outputs({"--subckt": subckt, "--asc": asc}, inputs=[design_path])
+    design = read_design(design_path)
+    plan = plan_of(design, str(design_path))
+    written = {}
+    if subckt is not None:
+        write_text_atomic(subckt, subckt_text(design.network, plan=plan,
+                                              title=f"creepcomp correction network of {design_path.name}"))
+        written["subckt"] = str(subckt)
+    if asc is not None:
+        write_text_atomic(asc, asc_text(design.network))
+        written["asc"] = str(asc)
+    if as_json:
+        print_json(dict(written, name=SUBCKT_NAME, ports=["in", "out", "gnd"]))
+        return
+    if subckt is not None:
+        console.print(f"subcircuit {SUBCKT_NAME} (ports in out gnd) written to {subckt}: "
+                      f".include it and place X1 IN OUT 0 {SUBCKT_NAME}", soft_wrap=True)
+    if asc is not None:
+        console.print(f"LTspice schematic with a step test bench written to {asc}", soft_wrap=True)

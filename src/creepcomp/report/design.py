@@ -15,7 +15,8 @@ __all__ = ["plot_design_comparison", "plot_over_temperature"]
 
 
 def plot_design_comparison(model: CreepModel, designs: dict[str, Network | None],
-                           path: str | Path, sweep_period: float | None = None) -> Path:
+                           path: str | Path, sweep_period: float | None = None,
+                           schematic: Network | None = None, plan=None) -> Path:
     """Residual creep after a load step, and the sweep hysteresis loop, of several designs.
 
     Parameters
@@ -28,12 +29,20 @@ def plot_design_comparison(model: CreepModel, designs: dict[str, Network | None]
         PNG file to write.
     sweep_period : float, optional
         Period of the triangular sweep (s).
+    schematic : Network, optional
+        A network drawn above the plots (the chosen design), with ``plan``'s thermistors.
 
     Returns
     -------
     Path
     """
-    fig, (ax_step, ax_loop) = plt.subplots(1, 2, figsize=(12, 4.8))
+    if schematic is None:
+        fig, (ax_step, ax_loop) = plt.subplots(1, 2, figsize=(12, 4.8))
+    else:
+        fig = plt.figure(figsize=(12, 9.0))
+        grid = fig.add_gridspec(2, 2, height_ratios=(1.0, 1.1))
+        _draw_schematic(fig.add_subplot(grid[0, :]), schematic, plan)
+        ax_step, ax_loop = fig.add_subplot(grid[1, 0]), fig.add_subplot(grid[1, 1])
     for label, net in designs.items():
         t, e = step_residual(model, net)
         ax_step.plot(t, 100 * e, label=label)
@@ -83,3 +92,17 @@ def plot_over_temperature(comparison, path: str | Path) -> Path:
     ax.legend(fontsize=8)
     fig.tight_layout()
     return save_figure(fig, path)
+
+
+def _draw_schematic(ax, network: Network, plan) -> None:
+    """The network's schematic as an image in ``ax``."""
+    import io
+
+    import matplotlib.image as mpimg
+
+    from creepcomp.report.schematic import schematic_drawing
+
+    png = schematic_drawing(network, plan, "matplotlib").get_imagedata("png")
+    ax.imshow(mpimg.imread(io.BytesIO(png)))
+    ax.set_axis_off()
+    ax.set_title("Chosen parts")

@@ -12,7 +12,16 @@ from creepcomp.io.atomic import write_text_atomic
 from creepcomp.report.common import figure_data_uri, format_named, html_page, html_table
 from creepcomp.units import format_parameter, format_percent, format_quantity, format_time
 
-__all__ = ["tolerance_report_html", "conditions"]
+__all__ = ["tolerance_report_html", "conditions", "schematic_section"]
+
+
+def schematic_section(design) -> str:
+    """The design's schematic as inline SVG (thermistors from its ``parts`` block)."""
+    from creepcomp.analog.parts import plan_of
+    from creepcomp.report.schematic import schematic_svg
+
+    svg = schematic_svg(design.network, plan_of(design))
+    return f"<div class='schematic' style='max-width:100%;overflow-x:auto'>{svg}</div>"
 
 
 def _percent(x: float) -> str:
@@ -66,7 +75,7 @@ def tolerance_report_html(report, path: str | Path, design_file: str | Path | No
     """Write the HTML report of a tolerance analysis
     (:class:`creepcomp.verify.tolerance_analysis.ToleranceReport`): the design and conditions
     (:func:`conditions`), histograms with the specification, the sensitivity chart, worst case
-    and tighter parts; ``design_file`` names the design file read."""
+    and tighter parts, with the design's schematic; ``design_file`` names the design file read."""
     r = report.result
     names = {"peak": "peak residual creep", "final": "final residual creep (absolute)",
              "hysteresis": "sweep hysteresis"}
@@ -106,6 +115,8 @@ def tolerance_report_html(report, path: str | Path, design_file: str | Path | No
                                         "max (%)"], summary_rows) +
                  f"<p class='note'>{r.n:,} samples, seed {r.seed}, {format_quantity(r.seconds, 's')}; "
                  f"hysteresis of a ±FS triangular sweep of period {format_time(r.sweep_period)}.</p>")]
+    if getattr(r, "design", None) is not None:
+        sections.insert(1, ("Network", schematic_section(r.design)))
     if report.limit is not None:
         y, se = r.yield_against(report.limit, report.metric)
         sections.append(("Yield", f"<p>{names[report.metric]} at or below {pct(report.limit)}: "

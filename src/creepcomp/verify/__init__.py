@@ -2,7 +2,8 @@
 
 By job, each module importing only the ones before it: :mod:`~creepcomp.verify.drive` (load
 programs and time points), :mod:`~creepcomp.verify.netlist` (netlist text, reference
-netlists), :mod:`~creepcomp.verify.ngspice_engine` (the shared ngspice library and its runs),
+netlists), :mod:`~creepcomp.verify.netlist_export` (the network as a plain ``.subckt`` and
+an LTspice schematic), :mod:`~creepcomp.verify.ngspice_engine` (the shared ngspice library and its runs),
 :mod:`~creepcomp.verify.compare` (ngspice against python-control);
 :mod:`~creepcomp.verify.tolerances` (what varies), :mod:`~creepcomp.verify.variants` (the
 metrics of many variants at once), :mod:`~creepcomp.verify.montecarlo`,
@@ -14,6 +15,7 @@ from creepcomp.verify.drive import (DEFAULT_POINTS, DEFAULT_SIGNAL, PROGRAMS, de
                                     spice_program, synthetic_program, transient_times)
 from creepcomp.verify.netlist import (Deck, program_deck, record_data, record_deck, write_record_data,
                                       reference_designs, write_deck, write_reference_netlists)
+from creepcomp.verify.netlist_export import asc_text, subckt_text
 from creepcomp.verify.ngspice_engine import (Ngspice, NgspiceError, NgspiceUnavailable, SpiceRun,
                                              Waveforms, ngspice, run_batch, run_transient,
                                              time_transient)
@@ -31,7 +33,7 @@ __all__ = [
     "DEFAULT_POINTS", "DEFAULT_SIGNAL", "PROGRAMS", "default_duration", "spice_program",
     "synthetic_program", "transient_times",
     "Deck", "program_deck", "record_data", "record_deck", "write_record_data", "reference_designs", "write_deck",
-    "write_reference_netlists",
+    "write_reference_netlists", "asc_text", "subckt_text",
     "Ngspice", "NgspiceError", "NgspiceUnavailable", "SpiceRun", "Waveforms", "ngspice",
     "run_batch", "run_transient", "time_transient",
     "Comparison", "at_sample_times", "compare_program", "compare_record", "reference_transient",

@@ -135,8 +135,9 @@ class _Lines:
         return "\n".join(self.lines) + "\n"
 
 
-def _network_lines(out: _Lines, network: Network, input_node: str) -> None:
-    """The correction network between ``input_node`` and ``out`` (ground ``0``)."""
+def _network_lines(out: _Lines, network: Network, input_node: str, ground: str = "0") -> None:
+    """The correction network between ``input_node`` and ``out`` (ground ``ground``); the
+    next stage's input resistance when the network has one."""
     n = spice_number
     many = len(network.cells) > 1
     out.comment("correction network: series cells R1 || C1 from the sensor to the output")
@@ -158,16 +159,16 @@ def _network_lines(out: _Lines, network: Network, input_node: str) -> None:
         node = nxt
     if network.R2 is not None:
         out.comment("R2 from the output to ground")
-        out.add("R", "2", "out", "0", n(network.R2))
+        out.add("R", "2", "out", ground, n(network.R2))
     for j, branch in enumerate(network.shunt, 1):
         suffix = f"_{j}" if len(network.shunt) > 1 else ""
         if j == 1:
             out.comment("lag network: series R-C branches from the output to ground")
         out.add("R", f"3{suffix}", "out", f"s{j}", n(branch.R))
-        out.add("C", f"3{suffix}", f"s{j}", "0", n(branch.C))
+        out.add("C", f"3{suffix}", f"s{j}", ground, n(branch.C))
     if network.load_resistance is not None:
         out.comment("input resistance of the next stage")
-        out.add("R", "L", "out", "0", n(network.load_resistance))
+        out.add("R", "L", "out", ground, n(network.load_resistance))
 
 
 def _source_resistance_lines(out: _Lines, network: Network, emf_node: str) -> str:
