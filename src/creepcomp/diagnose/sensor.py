@@ -667,7 +667,7 @@ def _verdict(data: Data, search: Search, correction: bool, reduced, t_start: flo
     floor = noise_floor(data.signal, data.load, data.time, follows_lag=True)
     catch, unexplained = _unexplained(data, current, findings, floor)
     extensions = _extensions(current)
-    extended_model = model_file_dict(data, current, extensions=extensions)
+    extended_model = _with_temperature_law(model_file_dict(data, current, extensions=extensions), current)
     baseline_model = model_file_dict(data, base)
     gain = {"heldout_rms_ratio": base.heldout.rms / current.heldout.rms if current.heldout.rms > 0 else None,
             "correction_error_ratio": None}
@@ -691,6 +691,18 @@ def _extensions(fit: Fit) -> dict:
         if entry is not None:
             out[a.name] = entry
     return out
+
+
+def _with_temperature_law(model: dict, fit: Fit) -> dict:
+    """The model file with the ``temperature`` block an effect of the fit implies (the first)."""
+    for a in fit.structure.effects:
+        law = a.effect.temperature_law(fit, a)
+        if law is not None:
+            out = {k: v for k, v in model.items() if k not in ("extensions", "uncertainty", "fit")}
+            out["temperature"] = law.to_dict()
+            out.update({k: v for k, v in model.items() if k not in out})
+            return out
+    return model
 
 
 def _remaining(fit: Fit, floor: NoiseFloor) -> dict:
