@@ -15,10 +15,12 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from creepcomp.io.atomic import atomic_path
+import jinja2
+from markupsafe import Markup
 from creepcomp.units import format_parameter, format_percent, format_quantity
 
 __all__ = ["save_figure", "png_base64", "figure_data_uri", "html_page", "html_table", "thin",
-           "format_cell", "format_named", "MAX_POINTS"]
+           "format_cell", "format_named", "named_text", "plot_text", "render_template", "MAX_POINTS"]
 
 #: Most points drawn of one curve (longer records are thinned evenly).
 MAX_POINTS = 20000
@@ -45,14 +47,40 @@ def format_cell(x, unit: str | None = None) -> str:
     return html.escape(str(x))
 
 
-def format_named(name: str, value) -> str:
+def named_text(name: str, value) -> str:
     """A value with the unit its name implies (:func:`creepcomp.units.format_parameter`:
-    parts such as ``R1.2`` in Ω, ``C1`` in F, ``beta`` in percent, ``tau`` in s ...), for
-    HTML; ``–`` for a missing number."""
+    parts such as ``R1.2`` in Ω, ``C1`` in F, ``beta`` in percent, ``tau`` in s ...), as
+    plain text; ``–`` for a missing number."""
     if not isinstance(value, (str, list, tuple)) and (value is None or not np.isfinite(value)):
         return "–"
-    return html.escape(format_parameter(name, value if isinstance(value, (str, list, tuple))
-                                        else float(value)))
+    return format_parameter(name, value if isinstance(value, (str, list, tuple)) else float(value))
+
+
+def format_named(name: str, value) -> str:
+    """:func:`named_text`, escaped for HTML."""
+    return html.escape(named_text(name, value))
+
+
+def plot_text(text) -> str:
+    """Text from a file or an option made safe for a matplotlib label: every ``$`` escaped,
+    so that matplotlib never reads it as mathtext (and shows the text as written)."""
+    return str(text).replace("$", r"\$")
+
+
+_ENVIRONMENT = None
+
+
+def render_template(name: str, **context) -> str:
+    """Render the HTML template ``report/templates/<name>``: every value is escaped unless
+    it is :class:`markupsafe.Markup` (the ``cell`` filter: :func:`format_cell`), and a name
+    the template uses but the context lacks is an error."""
+    global _ENVIRONMENT
+    if _ENVIRONMENT is None:
+        env = jinja2.Environment(loader=jinja2.PackageLoader("creepcomp.report", "templates"),
+                                 autoescape=True, undefined=jinja2.StrictUndefined)
+        env.filters["cell"] = lambda x, unit=None: Markup(format_cell(x, unit))
+        _ENVIRONMENT = env
+    return _ENVIRONMENT.get_template(name).render(**context)
 
 
 def save_figure(fig, path, dpi: int = 110) -> Path:
@@ -81,28 +109,15 @@ def figure_data_uri(fig) -> str:
 
 
 def html_page(title: str, sections: list[tuple[str, str]]) -> str:
-    """A self-contained HTML page: a title and ``(heading, html)`` sections."""
-    body = "\n".join(f"<section><h2>{html.escape(h)}</h2>\n{content}\n</section>" for h, content in sections)
-    return f"""<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>
-<style>
-body {{ font-family: system-ui, sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }}
-table {{ border-collapse: collapse; margin: 0.5em 0; }}
-td, th {{ border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: right; }}
-th {{ background: #f3f3f3; }} td:first-child, th:first-child {{ text-align: left; }}
-img {{ max-width: 100%; }} .note {{ color: #555; font-size: 0.9em; }}
-</style></head><body>
-<h1>{html.escape(title)}</h1>
-{body}
-</body></html>
-"""
+    """A self-contained HTML page (``templates/page.html.j2``): a title and ``(heading, html)``
+    sections, each section's body HTML already made by :func:`html_table` or a template (a
+    plain ``str`` body is taken as HTML: build it only from escaped pieces)."""
+    return render_template("page.html.j2", title=title,
+                           sections=[(h, Markup(content)) for h, content in sections])
 
 
 def html_table(header: list[str], rows: list[list]) -> str:
-    """An HTML table from a header and rows of already formatted cells."""
-    head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
-    body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in row) + "</tr>"
-                   for row in rows)
-    return f"<table><tr>{head}</tr>{body}</table>"
-
-
+    """An HTML table (``templates/table.html.j2``) from a header and rows of formatted cells,
+    every cell escaped."""
+    return render_template("table.html.j2", header=[str(h) for h in header],
+                           rows=[[str(c) for c in row] for row in rows])

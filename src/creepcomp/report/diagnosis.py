@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import html
 import json
 from pathlib import Path
 
@@ -14,13 +13,14 @@ from creepcomp.io.jsonfiles import to_json, write_design, write_json
 from creepcomp.fit.data import Data
 from creepcomp.fit.noise import autocorrelation, none_statement
 from creepcomp.fit.solver import Fit
-from creepcomp.report.common import format_cell, format_named, png_base64, save_figure, thin
+from creepcomp.report.common import (format_cell, named_text, plot_text, png_base64, render_template,
+                                     save_figure, thin)
 
 __all__ = ["plot_fit", "diagnosis_figures", "render_html", "write_report"]
 
 def _labels(data: Data, units: dict) -> tuple[str, str, str]:
-    su = units.get("signal", "")
-    lu = units.get("load", "")
+    su = plot_text(units.get("signal", ""))
+    lu = plot_text(units.get("load", ""))
     return (f"signal ({su})" if su else "signal"), (f"load ({lu})" if lu else "load"), su
 
 
@@ -186,113 +186,70 @@ def _misfit_figure(d, su: str) -> str:
 def render_html(diagnosis, units: dict, title: str = "creepcomp diagnose",
                 circuit=None) -> str:
     """The report as one self-contained HTML page (with the circuit side's section when a
-    :class:`~creepcomp.diagnose.circuit.CircuitDiagnosis` is given)."""
+    :class:`~creepcomp.diagnose.circuit.CircuitDiagnosis` is given); rendered from
+    ``templates/diagnosis.html.j2``, every text escaped."""
     d = diagnosis
     result = d.to_dict()
-    rows = []
-    for f in d.findings:
-        params = ", ".join(f"{k} = {format_named(k, v)}" + (f" ± {format_named(k, f.uncertainty[k])}" if k in f.uncertainty else "")
-                           for k, v in f.parameters.items())
-        ev = f.evidence
-        rows.append(f"<tr><td><b>{html.escape(f.effect)}</b></td><td>{params or '–'}</td>"
-                    f"<td>{format_cell(ev.delta_bic)}</td><td>{format_cell(ev.heldout_rms_ratio)}</td>"
-                    f"<td>{format_cell(ev.heldout_z)}</td><td>{html.escape(f.note or '')}</td></tr>")
-    findings = ("<table><tr><th>effect</th><th>parameters (± 1 sigma)</th><th>ΔBIC</th>"
-                "<th>held-out RMS ratio</th><th>held-out z</th><th>note</th></tr>" + "".join(rows) + "</table>"
-                if rows else f"<p>{html.escape(_sentence(none_statement(d.floor)))}</p>")
-    floor_section = _floor_html(d, result, units.get("signal", ""))
-    tried = "".join(f"<tr><td>{t.step}</td><td>{html.escape(t.effect)}</td><td>{format_cell(t.delta_bic)}</td>"
-                    f"<td>{format_cell(t.evidence.heldout_rms_ratio if t.evidence else None)}</td>"
-                    f"<td>{format_cell(t.evidence.heldout_z if t.evidence else None)}</td>"
-                    f"<td>{html.escape(t.outcome)}</td></tr>" for t in d.trials)
-    b, e, g = result["baseline"], result["extended"], result["gain"]
+    findings = [{"effect": f.effect, "note": f.note or "",
+                 "parameters": ", ".join(f"{k} = {named_text(k, v)}"
+                                         + (f" ± {named_text(k, f.uncertainty[k])}" if k in f.uncertainty else "")
+                                         for k, v in f.parameters.items()),
+                 "delta_bic": f.evidence.delta_bic, "heldout_rms_ratio": f.evidence.heldout_rms_ratio,
+                 "heldout_z": f.evidence.heldout_z} for f in d.findings]
+    trials = [{"step": t.step, "effect": t.effect, "delta_bic": t.delta_bic, "outcome": t.outcome,
+               "heldout_rms_ratio": t.evidence.heldout_rms_ratio if t.evidence else None,
+               "heldout_z": t.evidence.heldout_z if t.evidence else None} for t in d.trials]
+    b, e = result["baseline"], result["extended"]
     su = units.get("signal", "")
-    stats = "".join(
-        f"<tr><td>{label}</td><td>{format_cell(b[key])}</td><td>{format_cell(e[key])}</td></tr>"
-        for label, key in (("residual RMS (" + (su or "signal units") + ")", "residual_rms"),
-                           ("held-out residual RMS", "heldout_residual_rms"),
-                           ("residual RMS / signal range", "residual_rms_relative"),
-                           ("BIC", "bic"), ("residual lag-1 autocorrelation", "residual_lag1_autocorrelation"),
-                           ("Ljung-Box p of the prewhitened residual", "whitened_ljung_box_p")))
+    stats = [(label, b[key], e[key])
+             for label, key in (("residual RMS (" + (su or "signal units") + ")", "residual_rms"),
+                                ("held-out residual RMS", "heldout_residual_rms"),
+                                ("residual RMS / signal range", "residual_rms_relative"),
+                                ("BIC", "bic"), ("residual lag-1 autocorrelation", "residual_lag1_autocorrelation"),
+                                ("Ljung-Box p of the prewhitened residual", "whitened_ljung_box_p"))]
     noise = (f"baseline noise {b['noise']['model']}, memory {format_cell(b['noise']['memory_s'])} s; "
              f"extended {e['noise']['model']}, memory {format_cell(e['noise']['memory_s'])} s")
-    figs = "".join(f"<h3>{html.escape(title_)}</h3><img src='data:image/png;base64,{png}'/>"
-                   for title_, png in diagnosis_figures(d, units))
     if circuit is not None:
         from creepcomp.report.circuit_diagnosis import circuit_html
 
         circuit_section = circuit_html(circuit, units)
     else:
         circuit_section = ""
-    rec = result["record"]
     catch = result["catch_all"]
     catch_text = ("not fitted" if not catch else
                   f"ΔBIC {format_cell(catch['delta_bic'])}, held-out z {format_cell(catch['heldout_z'])}")
-    return f"""<!DOCTYPE html>
-<html><head><meta charset="utf-8"><title>{html.escape(title)}</title>
-<style>body{{font-family:sans-serif;max-width:1150px;margin:auto;padding:1em}}
-table{{border-collapse:collapse;margin:0.5em 0}}td,th{{border:1px solid #bbb;padding:3px 8px;text-align:right}}
-td:first-child,th:first-child{{text-align:left}}img{{max-width:100%}}pre{{background:#f4f4f4;padding:0.6em}}</style>
-</head><body>
-<h1>{html.escape(title)}</h1>
-<p>Record <code>{html.escape(rec['source'])}</code>: {rec['n_samples']} samples over {format_cell(rec['duration_s'])} s,
-median step {format_cell(rec['sample_step_s'])} s ({'reduced to block means' if rec.get('reduced') else 'uniform' if rec['uniform'] else 'irregular'});
-initial creep state: {html.escape(rec['initial_state'])}; temperature column: {'yes' if rec['temperature'] else 'no'}.</p>
-{circuit_section}
-<h2>Sensor side: cause {html.escape(d.cause)}</h2>
-{findings}
-{floor_section}
-<p>Decision rule: an effect is added when BIC drops by at least {-result['decision_rule']['delta_bic_at_most']:g}
-(likelihood with AR noise) and data held out of the fit are predicted better by at least
-{result['decision_rule']['heldout_z_at_least']:g} standard deviations, and it explains more than a generic
-extension (catch-all) would. Catch-all on top of the final model: {catch_text}.</p>
-<h2>Gain</h2>
-<table><tr><th></th><th>value</th></tr>
-<tr><td>held-out residual RMS, baseline / extended</td><td>{format_cell(g.get('heldout_rms_ratio'))}</td></tr>
-<tr><td>creep-corrected signal error, baseline / extended</td><td>{format_cell(g.get('correction_error_ratio'))}</td></tr>
-<tr><td>creep-corrected signal error RMS, baseline model</td><td>{format_cell(g.get('correction_error_baseline'))}</td></tr>
-<tr><td>creep-corrected signal error RMS, extended model</td><td>{format_cell(g.get('correction_error_extended'))}</td></tr></table>
-<h2>Baseline and extended model</h2>
-<table><tr><th></th><th>baseline</th><th>extended</th></tr>{stats}</table>
-<p>{html.escape(noise)}</p>
-{figs}
-<h2>Candidates tried</h2>
-<table><tr><th>step</th><th>effect</th><th>ΔBIC</th><th>held-out RMS ratio</th><th>held-out z</th><th>outcome</th></tr>{tried}</table>
-<h2>Extended model file</h2>
-<pre>{html.escape(json.dumps(json.loads(to_json(d.extended_model)), indent=2))}</pre>
-</body></html>
-"""
+    rule = result["decision_rule"]
+    return render_template(
+        "diagnosis.html.j2", title=title, rec=result["record"], circuit_section=circuit_section,
+        cause=d.cause, findings=findings, none_sentence=_sentence(none_statement(d.floor)),
+        floor=_floor(d, result), signal_unit=su,
+        rule={"delta_bic": f"{-rule['delta_bic_at_most']:g}", "heldout_z": f"{rule['heldout_z_at_least']:g}"},
+        catch_text=catch_text, gain=result["gain"], stats=stats, noise=noise,
+        figures=diagnosis_figures(d, units), trials=trials,
+        model_json=json.dumps(json.loads(to_json(d.extended_model)), indent=2))
 
 
-def _floor_html(d, result: dict, su: str) -> str:
+def _floor(d, result: dict) -> dict | None:
     """The noise floor, the misfit ratios and the explained share, with what they say."""
     if d.floor is None:
-        return ""
+        return None
     from creepcomp.fit.noise import MISFIT_LIMIT
 
-    unit = f" {su}" if su else ""
     b, e = result["baseline"]["misfit_ratio"], result["extended"]["misfit_ratio"]
     share = result["explained_share"]
+    unexplained = False
     if b is not None and b <= MISFIT_LIMIT:
         verdict = "The baseline's misfit is consistent with the noise floor."
     elif e is not None and e <= MISFIT_LIMIT:
         verdict = "The baseline misses the record by more than its noise; the extended model brings it to the floor."
     else:
         verdict = (f"The extended model still misses the record by {format_cell(e)} times the noise floor: "
-                   "part of the record is not explained (see <i>unexplained</i> in the findings).")
-    if d.floor.rough:
-        verdict += (f" The floor rests on only {d.floor.windows} windows: a rough estimate, and so are the "
-                    "misfit ratios over it.")
-    return f"""<h3>Noise floor and misfit</h3>
-<table><tr><th></th><th>value</th></tr>
-<tr><td>noise floor (RMS, measured without the model)</td><td>{format_cell(d.floor.rms)}{unit}</td></tr>
-<tr><td>how</td><td style="text-align:left">{html.escape(d.floor.method)}</td></tr>
-<tr><td>misfit ratio, baseline (residual RMS / floor)</td><td>{format_cell(b)}</td></tr>
-<tr><td>misfit ratio, extended</td><td>{format_cell(e)}</td></tr>
-<tr><td>consistent with noise up to</td><td>{MISFIT_LIMIT:g}</td></tr>
-<tr><td>explained share of the baseline's excess misfit</td><td>{'–' if share is None else f'{100 * share:.1f} %'}</td></tr>
-</table>
-<p>{verdict}</p>"""
+                   "part of the record is not explained")
+        unexplained = True
+    return {"rms": d.floor.rms, "method": d.floor.method, "baseline": b, "extended": e,
+            "limit": f"{MISFIT_LIMIT:g}", "share": "–" if share is None else f"{100 * share:.1f} %",
+            "verdict": verdict, "unexplained": unexplained, "rough": d.floor.rough,
+            "windows": d.floor.windows}
 
 
 def _sentence(text: str) -> str:
