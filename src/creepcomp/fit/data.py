@@ -10,7 +10,7 @@ import numpy as np
 from creepcomp.errors import InputError
 from creepcomp.io.records import Record
 
-__all__ = ["GAP_FACTOR", "CONSTANT_LOAD_TOLERANCE", "Data", "gaps", "prepare"]
+__all__ = ["check_scales", "MAX_TIME", "VALUE_RANGE", "GAP_FACTOR", "CONSTANT_LOAD_TOLERANCE", "Data", "gaps", "prepare"]
 
 #: A time step longer than this many median steps is a gap: the noise model forgets across it.
 GAP_FACTOR = 5.0
@@ -127,6 +127,36 @@ class Data:
 CONSTANT_LOAD_TOLERANCE = 1e-6
 
 
+#: Largest magnitude of a time (s) a fit accepts: 31 million years.
+MAX_TIME = 1e15
+#: Range of magnitudes of a signal's or a load's values a fit accepts (the fit squares and
+#: sums them in double precision, which holds about 1e-300 to 1e300).
+VALUE_RANGE = (1e-30, 1e30)
+
+
+def check_scales(record: Record) -> None:
+    """Raise :class:`~creepcomp.errors.InputError` for a record whose scales the fit's double
+    arithmetic cannot hold: times beyond :data:`MAX_TIME`, a signal or load whose values or
+    variation lie outside :data:`VALUE_RANGE`, a signal that does not vary."""
+    t = record.time
+    if max(abs(float(t[0])), abs(float(t[-1]))) > MAX_TIME:
+        raise InputError(f"{record.source}: times reach {max(abs(t[0]), abs(t[-1])):.3g} s, beyond "
+                         f"{MAX_TIME:g} s: give the time column's unit (e.g. '# units.time: ms')")
+    low, high = VALUE_RANGE
+    for name, x in (("signal", record.signal), ("load", record.load)):
+        size, spread = float(np.max(np.abs(x))), float(np.ptp(x))
+        if size > high:
+            raise InputError(f"{record.source}: the {name} reaches {size:.3g}, beyond {high:g}: "
+                             "rescale it (the fit squares it)")
+        if 0 < spread < low:
+            raise InputError(f"{record.source}: the {name} varies by only {spread:.3g}, below "
+                             f"{low:g}: rescale it")
+    spread = float(np.ptp(record.signal))
+    if spread <= 1e-12 * float(np.max(np.abs(record.signal))):
+        raise InputError(f"{record.source}: the signal does not vary (it stays at "
+                         f"{record.signal[0]:g}): nothing to fit a creep model to")
+
+
 def prepare(record: Record, initial: str = "free", load_step_at: float | None = None,
             hold: str = "linear", min_samples: int = 20) -> Data:
     """Check a record and prepare it for fitting.
@@ -152,6 +182,7 @@ def prepare(record: Record, initial: str = "free", load_step_at: float | None = 
         raise InputError(f"hold '{hold}': use 'linear' or 'zero'")
     if initial not in ("free", "relaxed", "settled"):
         raise InputError(f"initial state '{initial}': use free, relaxed or settled")
+    check_scales(record)
     load = record.load
     if not np.any(load != 0):
         raise InputError(f"{record.source}: the load is zero throughout: nothing to fit the "

@@ -98,7 +98,11 @@ def read_insole_file(path: str | Path) -> InsoleFile:
         raise InputError(f"{p}: no struct 'experiment' with fields C and P (variables found: "
                          f"{', '.join(k for k in mat if not k.startswith('__')) or 'none'})")
     c = np.atleast_2d(np.asarray(exp.C, dtype=float))
-    pressure = np.asarray(exp.P, dtype=float).ravel()
+    pressure = np.asarray(exp.P, dtype=float)
+    if pressure.ndim > 1 and sorted(pressure.shape)[-2] > 1:
+        raise InputError(f"{p}: experiment.P has shape {' x '.join(map(str, pressure.shape))}, "
+                         "expected one column (the chamber pressure, bar)")
+    pressure = pressure.ravel()
     if c.shape[1] != N_TAXELS + 2:
         raise InputError(f"{p}: experiment.C has {c.shape[1]} columns, expected {N_TAXELS + 2} "
                          "(counter, timestamp, 280 taxels)")

@@ -160,7 +160,7 @@ def resolve_columns(header: Sequence[str], mapping: Mapping[str, str], source: s
             constants[name] = float(mapping[name])
             continue
         if wanted is not None and wanted.lower() in lowered:
-            read[name] = lowered.index(wanted.lower())
+            read[name] = _only_column(header, wanted, source, header_at)
         elif name in mapping:
             raise InputError(f"{source}, line {header_at + 1}: mapped column '{mapping[name]}' for "
                              f"'{name}' not found; columns found: {', '.join(header)}")
@@ -289,6 +289,16 @@ def _first_step_not_forward(t: np.ndarray) -> int | None:
     """The first sample whose time is not after the previous one's, or None."""
     bad = np.flatnonzero(np.diff(t) <= 0)
     return int(bad[0]) + 1 if bad.size else None
+
+
+def _only_column(header: Sequence[str], wanted: str, source: str, header_at: int) -> int:
+    """The index of the one column named ``wanted`` (in any case); raise when several are."""
+    hits = [i for i, h in enumerate(header) if h.lower() == wanted.lower()]
+    if len(hits) > 1:
+        raise InputError(f"{source}, line {header_at + 1}: columns "
+                         f"{' and '.join(repr(header[i]) for i in hits)} are the same column "
+                         f"'{wanted.lower()}' (names are read in any case): rename or drop one")
+    return hits[0]
 
 
 def _mapped_names(mapping: Mapping[str, str]) -> list[str]:

@@ -8,7 +8,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from creepcomp.analog.quality import sweep_branches
-from creepcomp.report.common import save_figure
+from creepcomp.report.common import plot_text, save_figure
 
 __all__ = ["ERROR_FLOOR", "plot_correction", "plot_step_outcomes", "plot_sweep_outcomes"]
 
@@ -37,6 +37,7 @@ def plot_correction(time, signal, compensated, reference, path, title: str = "",
         Full-scale output; errors are then drawn as a percentage of it.
     """
     t = np.asarray(time)
+    signal_unit, title = plot_text(signal_unit), plot_text(title)
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(11, 7), sharex=True)
     top.plot(t, signal, label="raw", lw=1.0)
     top.plot(t, compensated, label="compensated", lw=1.0)
