@@ -14,7 +14,7 @@ from typer._click.exceptions import NoArgsIsHelpError
 from typer.exceptions import Abort, Exit, TyperException
 
 from creepcomp.errors import CreepcompError
-from creepcomp.cli.common import app, fail
+from creepcomp.cli.common import app, environment_fault, fail, tolerant_streams
 
 # Subcommand modules register themselves on import.
 from creepcomp.cli import size as _size  # noqa: E402,F401
@@ -80,10 +80,12 @@ def main(argv: list[str] | None = None) -> int:
     # Plots go to files: the command line chooses matplotlib's file backend (before any import
     # of pyplot); the library itself never chooses one.
     os.environ.setdefault("MPLBACKEND", "Agg")
+    tolerant_streams()
     command = typer.main.get_command(app)
     try:
         # a command may end with typer.Exit(status) (firmware --verify: 3 when the bound fails)
         result = command.main(args=argv, prog_name="creepcomp", standalone_mode=False)
+        sys.stdout.flush()
     except NoArgsIsHelpError:
         return 0        # bare ``creepcomp``: the help, already printed, is the answer
     except TyperException as exc:
@@ -94,6 +96,8 @@ def main(argv: list[str] | None = None) -> int:
         return exc.exit_code
     except (Abort, KeyboardInterrupt):
         return fail("interrupted", 130)
+    except OSError as exc:
+        return environment_fault(exc)
     # Typer turns Ctrl-C into its exit status 130 and, outside standalone mode, returns it
     # (a command itself returns None)
     if result == 130:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import os
 import sys
 
 import typer
@@ -23,6 +24,34 @@ def fail(message: str, status: int = 2) -> int:
     """Print one error line on stderr and return the exit status."""
     err_console.print(f"creepcomp: error: {message}", markup=False, highlight=False, soft_wrap=True)
     return status
+
+
+def tolerant_streams() -> None:
+    """Let stdout and stderr that cannot encode a character (``PYTHONIOENCODING=ascii``, a C
+    locale) write a replacement for it (µ, Ω, °C become ``?``) instead of failing."""
+    for stream in (sys.stdout, sys.stderr):
+        encoding = (getattr(stream, "encoding", None) or "").lower().replace("-", "").replace("_", "")
+        if encoding != "utf8" and getattr(stream, "errors", "strict") == "strict" \
+                and hasattr(stream, "reconfigure"):
+            stream.reconfigure(errors="replace")
+
+
+def environment_fault(exc: OSError) -> int:
+    """One line for an operating-system fault met while writing (a full disk, stdout closed or
+    on a full device, a folder not writable); exit status 1: the input was fine, the
+    machine was not. Later writes to stdout go nowhere, so the exit itself cannot fail."""
+    import errno
+
+    if exc.errno == errno.EPIPE:
+        message = "the output was closed early (broken pipe)"
+    elif exc.errno == errno.ENOSPC:
+        message = f"{exc.filename or 'writing the output'}: no space left on the device"
+    else:
+        message = f"{exc.filename or 'writing the output'}: {exc.strerror or exc}"
+    with contextlib.suppress(OSError, ValueError):
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    return fail(message, 1)
 
 
 def quantity(text: str | None, kind: str, option: str, allow_none: bool = False,

@@ -90,13 +90,14 @@ def check_arguments(model: CreepModel, method: str, precision: str, rate: float,
         raise InputError(f"method '{method}': use 'subtractive' or 'supplemental'")
     if precision not in PRECISIONS:
         raise InputError(f"precision '{precision}': use 'float32' or 'q31'")
-    if not (rate > 0 and math.isfinite(rate)):
-        raise InputError(f"rate = {rate!r}: the sample rate must be positive and finite (Hz)")
+    if not 1e-300 <= rate <= 1e12:   # 1/rate, the sample step, must stay a normal double
+        raise InputError(f"rate = {rate!r} Hz: the sample rate must be from 1e-300 Hz to 1e12 Hz")
     if not (full_scale > 0 and math.isfinite(full_scale)):
         raise InputError(f"full scale = {full_scale!r}: must be positive and finite (signal units)")
-    if not (name and name.isascii() and name.replace("_", "a").isalnum() and not name[0].isdigit()):
-        raise InputError(f"name '{name}': a C identifier is needed (letters, digits, '_'; "
-                         "not starting with a digit)")
+    if not (name and name.isascii() and name.replace("_", "a").isalnum() and not name[0].isdigit()
+            and len(name) <= 63):
+        raise InputError(f"name '{name[:70]}': a C identifier is needed (letters, digits, '_'; "
+                         "not starting with a digit; at most 63 characters)")
     check_invertible(model)
 
 

@@ -141,7 +141,7 @@ def check_scales(record: Record) -> None:
     t = record.time
     if max(abs(float(t[0])), abs(float(t[-1]))) > MAX_TIME:
         raise InputError(f"{record.source}: times reach {max(abs(t[0]), abs(t[-1])):.3g} s, beyond "
-                         f"{MAX_TIME:g} s: give the time column's unit (e.g. '# units.time: ms')")
+                         f"{MAX_TIME:g} s (31 million years): the time column must be in seconds")
     low, high = VALUE_RANGE
     for name, x in (("signal", record.signal), ("load", record.load)):
         size, spread = float(np.max(np.abs(x))), float(np.ptp(x))

@@ -31,6 +31,8 @@ def read_json(path: str | Path, what: str = "file") -> dict:
     except json.JSONDecodeError as exc:
         raise InputError(f"{what} {p}: not valid JSON at line {exc.lineno}, column {exc.colno}: "
                          f"{exc.msg}") from None
+    except RecursionError:
+        raise InputError(f"{what} {p}: JSON nested too deeply to be a {what}") from None
     if not isinstance(data, dict):
         raise InputError(f"{what} {p}: expected one JSON object, found {type(data).__name__}")
     return data

@@ -16,7 +16,7 @@ from typing import Iterable, Mapping
 
 from creepcomp.errors import InputError
 
-__all__ = ["check_outputs", "check_output_file", "check_output_dir"]
+__all__ = ["check_outputs", "check_output_file", "check_output_dir", "check_figure_suffix", "FIGURE_SUFFIXES"]
 
 
 def _same(a: Path, b: Path) -> bool:
@@ -98,6 +98,19 @@ def check_output_dir(path: str | Path, option: str = "-o",
     return p
 
 
+#: The file types matplotlib's file backend writes (a ``--plot`` file's suffix names one).
+FIGURE_SUFFIXES = ("avif", "eps", "gif", "jpeg", "jpg", "pdf", "pgf", "png", "ps", "raw", "rgba", "svg",
+                   "svgz", "tif", "tiff", "webp")
+
+
+def check_figure_suffix(path: str | Path, option: str) -> None:
+    """Raise :class:`InputError` unless ``path`` ends in one of :data:`FIGURE_SUFFIXES`."""
+    suffix = Path(path).suffix.lower().lstrip(".")
+    if suffix not in FIGURE_SUFFIXES:
+        raise InputError(f"{option} {path}: the suffix names no figure format; use .png, .svg or "
+                         f".pdf (or one of {', '.join(FIGURE_SUFFIXES)})")
+
+
 def check_outputs(files: Mapping[str, str | Path | None] | None = None,
                   dirs: Mapping[str, str | Path | None] | None = None,
                   inputs: Iterable[str | Path | None] = ()) -> None:
@@ -122,6 +135,8 @@ def check_outputs(files: Mapping[str, str | Path | None] | None = None,
     for option, path in (files or {}).items():
         if path is None:
             continue
+        if option.startswith("--plot"):
+            check_figure_suffix(path, option)
         p = check_output_file(path, option, inputs)
         for other, q in seen:
             if _same(p, q):

@@ -264,7 +264,11 @@ def parse_record(text: str, source: str = "record", columns: Mapping[str, str] |
     reader = csv.reader(io.StringIO("\n".join(lines[header_at:])), delimiter=d)
     header = [h.strip() for h in next(reader)]
     column_map = resolve_columns(header, mapping, source, header_at)
-    rows = list(reader)
+    try:
+        rows = list(reader)
+    except csv.Error as exc:
+        # a field over the csv module's limit (128 KiB) cannot be a number or a unit
+        raise InputError(f"{source}, line {header_at + reader.line_num}: {exc}") from None
     units_row = rows[0] if mapping and rows and column_map.is_units_row(rows[0]) else None
     head = RecordHead(source, metadata, column_map, d, header_at, units_row)
     if units_row is not None:
