@@ -18,7 +18,7 @@ from creepcomp.temperature import TemperatureLaw, step_temperatures
 if TYPE_CHECKING:
     import control
 
-__all__ = ["CreepModel"]
+__all__ = ["CreepModel", "MAX_TERMS"]
 
 
 def _check_number(value, name: str) -> float:
@@ -35,6 +35,11 @@ def _without_beta_law(law: TemperatureLaw) -> TemperatureLaw:
     """The same shift law with no per-term amplitude law (for another number of terms)."""
     return TemperatureLaw(law.reference, law.law, law.activation_energy, law.c1, law.c2, (),
                           dict(law.uncertainty))
+
+
+#: Most creep terms a model may have: a measured sensor's creep needs one to four, and every
+#: size-driven computation downstream (cells, states, Monte Carlo arrays) grows with it.
+MAX_TERMS = 20
 
 
 @dataclass(frozen=True)
@@ -74,6 +79,9 @@ class CreepModel:
             raise InputError("a creep model needs at least one term (beta and tau)")
         if len(beta) != len(tau):
             raise InputError(f"beta has {len(beta)} entries and tau has {len(tau)}: one of each per term")
+        if len(beta) > MAX_TERMS:
+            raise InputError(f"{len(beta)} creep terms: at most {MAX_TERMS} (a measured sensor's creep "
+                             "needs a few; each term costs a network cell and a corrector state)")
         b = tuple(_check_number(x, names(k)[0]) for k, x in enumerate(beta))
         t = tuple(_check_number(x, names(k)[1]) for k, x in enumerate(tau))
         for k, (bk, tk) in enumerate(zip(b, t)):

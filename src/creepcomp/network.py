@@ -27,7 +27,7 @@ if TYPE_CHECKING:
     import control
 
 __all__ = ["Cell", "Branch", "Network", "state_matrices", "modal_form", "parallel",
-           "RESISTANCE_RANGE", "CAPACITANCE_RANGE"]
+           "RESISTANCE_RANGE", "CAPACITANCE_RANGE", "MAX_CELLS"]
 
 #: Resistances a design may hold (ohm): 1 mΩ to 1 PΩ (beyond it, board leakage decides).
 RESISTANCE_RANGE = (1e-3, 1e15)
@@ -101,6 +101,11 @@ def _positive(value, name: str, allow_zero: bool = False, allow_none: bool = Fal
     return x
 
 
+#: Most cells (and shunt branches) a network may have: one cell per creep term
+#: (:data:`creepcomp.model.MAX_TERMS`); the Monte Carlo's arrays grow with the count.
+MAX_CELLS = 20
+
+
 @dataclass(frozen=True)
 class Network:
     """A passive RC correction network between a sensor and the next stage.
@@ -128,6 +133,9 @@ class Network:
     def __post_init__(self):
         cells = tuple(c if isinstance(c, Cell) else Cell(**c) for c in self.cells)
         shunt = tuple(b if isinstance(b, Branch) else Branch(**b) for b in self.shunt)
+        if len(cells) > MAX_CELLS or len(shunt) > MAX_CELLS:
+            raise InputError(f"{len(cells)} cells and {len(shunt)} shunt branches: at most {MAX_CELLS} "
+                             "of each (one cell per creep term)")
         for k, c in enumerate(cells):
             _positive(c.R, f"cells[{k}].R")
             _positive(c.C, f"cells[{k}].C", allow_zero=True)

@@ -102,7 +102,7 @@ def mc_command(
                                                help="Hysteresis sweep period."),
     worst: bool = typer.Option(True, "--worst-case/--no-worst-case", help="Search the worst case."),
     sensitivity_n: int = typer.Option(20_000, "--sensitivity-n", metavar="N",
-                                      parser=count_option("--sensitivity-n", 0),
+                                      parser=count_option("--sensitivity-n", 0, 1_000_000),  # one block
                                       help="Samples for the part-alone and tighter-part runs (0: skip)."),
     spot_check: int = typer.Option(20, "--spot-check", metavar="N",
                                    parser=count_option("--spot-check", 0),
@@ -222,6 +222,8 @@ def _over_temperature(design, temperature, temperatures, temperature_range, lot_
     else:
         low, high = _temperature_range(temperature_range)
         temps = [float(t) for t in temperature_grid(low, high)]
+    if max(temps) > 200:    # beyond every part table's range (and an elastomer's life)
+        raise InputError(f"{given[0]}: {max(temps):g} °C is above 200 °C, beyond any part's data")
     return OverTemperature(tuple(temps), plan_of(design), lot_correlation)
 
 
