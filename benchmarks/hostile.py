@@ -1,0 +1,173 @@
+"""Adversarial command lines: how many end in a traceback, and how many bad inputs pass.
+
+Each case runs the command line in a child process (memory capped at 3 GB, a time limit)
+and is judged by its outcome: ``traceback`` (stderr holds one), ``one line`` (exit 1 or 2 with
+a single error line), ``accepted`` (exit 0 where a refusal is the right answer), ``script``
+(a report that would run the record's script) or ``timeout``.
+
+Usage::
+
+    python benchmarks/hostile.py [--src PATH/TO/src] [--only NAME,...]
+
+``--src`` picks the code under test (default: this checkout's ``src``), so the same cases run
+against two checkouts give the before and after.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent.parent
+INJECTED = "<p id=x>...</p><script>document.title='pwned'</script>"
+MEMORY_CAP = 3 << 30
+TIME_LIMIT = 120
+
+
+def _rows(src: Path):
+    text = (src / "creepcomp" / "data" / "hidden_effect.csv").read_text()
+    head = [line for line in text.splitlines() if line.startswith("#")]
+    rows = [line.split(",") for line in text.splitlines() if line[:1].isdigit()]
+    return head, np.array(rows, dtype=float)
+
+
+def make_inputs(src: Path, folder: Path) -> dict[str, Path]:
+    """The hostile files, written into ``folder``."""
+    head, a = _rows(src)
+    t, load, signal = a[:, 0], a[:, 1], a[:, 2]
+
+    def csv(name, columns, header="time,load,signal", comments=("# units.load: N", "# units.signal: V")):
+        p = folder / name
+        lines = list(comments) + [header] + [",".join(repr(float(x)) for x in row) for row in zip(*columns)]
+        p.write_text("\n".join(lines) + "\n")
+        return p
+
+    f = {
+        "injected": csv("inj.csv", (t, load, signal), comments=("# units.load: N", f"# units.signal: {INJECTED}")),
+        "mathtext": csv("math.csv", (t, load, signal), comments=("# units.load: N", r"# units.signal: $\foo{$")),
+        "times_1e300": csv("t300.csv", (t * 1e300 + 1e300, load, signal)),
+        "constant": csv("const.csv", (t, load, np.full_like(t, 1.5))),
+        "huge_signal": csv("huge.csv", (t, load, signal * 1e300)),
+        "tiny_signal": csv("tiny.csv", (t, load, signal * 1e-300)),
+        "two_signals": csv("dup.csv", (t, load, signal, 2 * signal), header="time,load,signal,SIGNAL"),
+    }
+    big = (src / "creepcomp" / "data" / "hidden_effect.csv").read_text().splitlines()
+    big[10] += "," + "x" * 200_000
+    (folder / "bigfield.csv").write_text("\n".join(big) + "\n")
+    f["big_field"] = folder / "bigfield.csv"
+    (folder / "nested.json").write_text("[" * 100_000 + "]" * 100_000)
+    f["nested"] = folder / "nested.json"
+    (folder / "m5000.json").write_text(json.dumps({"beta": [1e-5] * 5000, "tau": [1.0 + k for k in range(5000)]}))
+    f["m5000"] = folder / "m5000.json"
+    design = json.loads((src / "creepcomp" / "data" / "built_network.design.json").read_text())
+    f["design"] = src / "creepcomp" / "data" / "built_network.design.json"
+    design["cells"] = (design["cells"] * 2000)[:2000]
+    (folder / "d2000.json").write_text(json.dumps(design))
+    f["d2000"] = folder / "d2000.json"
+    (folder / "model.json").write_text(json.dumps({"beta": [0.03], "tau": [45.0]}))
+    f["model"] = folder / "model.json"
+    from scipy.io import savemat
+
+    c = np.full((600, 282), 240.0)
+    c[:, 0] = np.arange(600)
+    c[:, 1] = 0.02 * np.arange(600)
+    p = np.repeat([0.0, 1.0, 2.0, 1.0, 0.0, 0.5], 100)
+    c[:, 2 + 5] = np.round(240 - 10 * p)
+    savemat(folder / "insole.mat", {"experiment": {"C": c, "P": np.column_stack([p, 100 * p])}})
+    f["insole"] = folder / "insole.mat"
+    return f
+
+
+def cases(f: dict[str, Path], out: Path) -> list[tuple[str, list[str], dict]]:
+    """(name, arguments, options): ``refuse`` (exit 0 is wrong), ``env``, ``stdout`` (a path),
+    ``report`` (a report.html to look at for the record's script)."""
+    big_name = "a" * 5000
+    return [
+        ("diagnose: script in the units", ["diagnose", f["injected"], "-o", out / "inj"], {"report": out / "inj" / "report.html"}),
+        ("diagnose: units as mathtext", ["diagnose", f["mathtext"], "-o", out / "math"], {}),
+        ("fit: insole pressure with 2 columns", ["fit", f["insole"], "--taxel", "5", "-o", out / "ins.json"], {"refuse": True}),
+        ("diagnose: times of 1e300", ["diagnose", f["times_1e300"], "-o", out / "t300"], {"refuse": True}),
+        ("fit: constant signal", ["fit", f["constant"], "-o", out / "const.json"], {"refuse": True}),
+        ("fit: signal near 1e300", ["fit", f["huge_signal"], "-o", out / "huge.json"], {"refuse": True}),
+        ("fit: signal near 1e-300", ["fit", f["tiny_signal"], "-o", out / "tiny.json"], {"refuse": True}),
+        ("fit: both signal and SIGNAL", ["fit", f["two_signals"], "-o", out / "dup.json"], {"refuse": True}),
+        ("mc: --sensitivity-n 1e9", ["mc", f["design"], "--n", "100", "--sensitivity-n", "1e9"], {"refuse": True}),
+        ("mc: 2,000-cell design", ["mc", f["d2000"], "--n", "100"], {"refuse": True}),
+        ("size: 5,000-term model", ["size", "--model", f["m5000"]], {"refuse": True}),
+        ("correct: 5,000-term model", ["correct", f["constant"], "--model", f["m5000"], "-o", out / "c.csv"], {"refuse": True}),
+        ("fit: field over the CSV limit", ["fit", f["big_field"], "-o", out / "bf.json"], {"refuse": True}),
+        ("size: deeply nested JSON", ["size", "--model", f["nested"]], {"refuse": True}),
+        ("mc: --seed -1", ["mc", f["design"], "--n", "100", "--seed", "-1"], {"refuse": True}),
+        ("size: --plot x.xyz", ["size", "--term", "3%@45s", "--plot", out / "x.xyz"], {"refuse": True}),
+        ("firmware: 5,000-character --name", ["firmware", f["model"], "--rate", "100", "--full-scale", "1",
+                                              "--name", big_name, "-o", out / "fwn"], {"refuse": True}),
+        ("size: stdout on /dev/full", ["size", "--term", "3%@45s"], {"stdout": "/dev/full"}),
+        ("size: PYTHONIOENCODING=ascii", ["size", "--term", "3%@45s"], {"env": {"PYTHONIOENCODING": "ascii"}}),
+        ("firmware: --rate 1e300", ["firmware", f["model"], "--rate", "1e300", "--full-scale", "1", "-o", out / "fwr"],
+         {"refuse": True}),
+        ("mc: --temperature 1e6", ["mc", f["design"], "--n", "100", "--temperature", "1e6"], {"refuse": True}),
+        ("mc: --temperature -300", ["mc", f["design"], "--n", "100", "--temperature", "-300"], {"refuse": True}),
+    ]
+
+
+def _cap():
+    resource.setrlimit(resource.RLIMIT_AS, (MEMORY_CAP, MEMORY_CAP))
+
+
+def run_case(src: Path, args: list, opts: dict) -> tuple[str, str]:
+    env = {**os.environ, "PYTHONPATH": str(src), "OPENBLAS_NUM_THREADS": "1", "MPLBACKEND": "Agg",
+           **opts.get("env", {})}
+    cmd = [sys.executable, "-c", "from creepcomp.cli import run; run()", *map(str, args)]
+    stdout = open(opts["stdout"], "w") if "stdout" in opts else subprocess.DEVNULL
+    try:
+        done = subprocess.run(cmd, stdout=stdout, stderr=subprocess.PIPE, text=True, env=env,
+                              timeout=TIME_LIMIT, preexec_fn=_cap)
+    except subprocess.TimeoutExpired:
+        return "timeout", f"over {TIME_LIMIT} s"
+    finally:
+        if stdout is not subprocess.DEVNULL:
+            stdout.close()
+    err = done.stderr.strip().splitlines()
+    last = err[-1][:110] if err else ""
+    if "Traceback" in done.stderr:
+        return "traceback", last
+    report = opts.get("report")
+    if report is not None and Path(report).exists() and "<script" in Path(report).read_text():
+        return "script", "the report holds the record's <script>"
+    if done.returncode == 0:
+        return ("accepted" if opts.get("refuse") else "ok"), "exit 0"
+    lines = [line for line in err if line.startswith("creepcomp: error")]
+    return ("one line" if len(lines) == 1 else "several lines"), f"exit {done.returncode}: {last}"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--src", type=Path, default=HERE / "src")
+    parser.add_argument("--only", default=None, help="comma-separated substrings of case names")
+    a = parser.parse_args()
+    src = a.src.resolve()
+    with tempfile.TemporaryDirectory(prefix="hostile-") as tmp:
+        tmp = Path(tmp)
+        files = make_inputs(src, tmp)
+        counts: dict[str, int] = {}
+        for name, args, opts in cases(files, tmp / "out"):
+            if a.only and not any(s in name for s in a.only.split(",")):
+                continue
+            outcome, detail = run_case(src, args, opts)
+            counts[outcome] = counts.get(outcome, 0) + 1
+            print(f"{outcome:<10} {name:<38} {detail}", flush=True)
+        print("totals: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()
