@@ -202,3 +202,18 @@ def test_an_ascii_terminal_gets_replacements():
     done = _cli("size", "--term", "3%@45s", env={"PYTHONIOENCODING": "ascii"})
     assert done.returncode == 0 and "Traceback" not in done.stderr
     assert "?" in done.stdout and "3 % at 45 s" in done.stdout
+
+
+def test_lot_report_escapes_unit_names_and_errors():
+    from creepcomp.fleet.lot import lot_summary
+    from creepcomp.fleet.unit import empty_row
+    from creepcomp.report.fleet import lot_report_html
+
+    ok = empty_row(f"{INJECTED}.csv", INJECTED)
+    ok.update(status="ok", findings="none", in_spec=False, residual_creep=0.01, spec=0.001)
+    failed = empty_row("b.csv", "b")
+    failed.update(status="failed", error=INJECTED)
+    page = lot_report_html(lot_summary([ok, failed]), {"spec": 0.001, "table": INJECTED,
+                                                      "workers": 1, "scheduler": INJECTED})
+    assert "<script" not in page and "Units out of spec" in page and "Failed units" in page
+    assert page.count("&lt;script&gt;") >= 6

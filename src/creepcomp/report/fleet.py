@@ -7,7 +7,6 @@ computation of its own beyond drawing.
 
 from __future__ import annotations
 
-import html
 import math
 from pathlib import Path
 
@@ -16,7 +15,7 @@ from matplotlib.ticker import MaxNLocator
 import numpy as np
 
 from creepcomp.io.atomic import write_text_atomic
-from creepcomp.report.common import figure_data_uri, format_cell, html_page, html_table
+from creepcomp.report.common import figure_data_uri, format_cell, render_template
 from creepcomp.units import format_percent
 
 __all__ = ["parameter_figure", "effect_figure", "lot_report_html", "write_lot_report"]
@@ -76,19 +75,14 @@ def effect_figure(effects: dict, n_ok: int):
     return fig
 
 
-def _units_table(rows: list[dict], extra: list[tuple[str, callable]] | None = None) -> str:
-    header = ["unit", "cause", "findings", "residual creep", "creep uncorrected", "beta0", "file"]
-    body = []
-    for r in rows:
-        body.append([r["unit"], r.get("cause") or "–", r.get("findings") or "–",
-                     format_percent(r.get("residual_creep")), format_percent(r.get("creep_step")),
-                     format_percent(r.get("beta0")), r["file"]] +
-                    [f(r) for _, f in (extra or [])])
-    return html_table(header + [h for h, _ in (extra or [])], body)
+def _unit_row(r: dict) -> list:
+    return [r["unit"], r.get("cause") or "–", r.get("findings") or "–",
+            format_percent(r.get("residual_creep")), format_percent(r.get("creep_step")),
+            format_percent(r.get("beta0")), r["file"]]
 
 
 def lot_report_html(summary: dict, meta: dict) -> str:
-    """The lot report page.
+    """The lot report page (``templates/fleet.html.j2``, every text escaped).
 
     Parameters
     ----------
@@ -100,61 +94,26 @@ def lot_report_html(summary: dict, meta: dict) -> str:
     spec = meta.get("spec")
     ok = summary["ok"]
     n_in = ok - len(summary["out_of_spec"]) - len(summary["not_judged"])
-    overview = html_table(
-        ["records", "processed", "failed", "in spec", "out of spec", "not judged", "spec"],
-        [[summary["n"], ok, len(summary["failed"]), n_in, len(summary["out_of_spec"]),
-          len(summary["not_judged"]), format_percent(spec)]])
-    overview += (
-        "<p class='note'>Residual creep: a load step to the record's largest load, held for the "
-        "record's length, is simulated with the unit's extended model (the diagnosis: fitted "
-        "creep plus the effects found) and corrected digitally (subtractive) with the unit's "
-        "fitted model; the largest change of the corrected indication after the step, as a "
-        "fraction of the step's instantaneous output, is compared with the spec. A unit is not "
-        "judged when its diagnosis leaves structure unexplained (the model predicting its step "
-        "is then known to be incomplete) or the step could not be simulated. It is a prediction "
-        f"from fitted models, not a measured step. Results table: {html.escape(str(meta.get('table')))}; "
-        f"{meta.get('workers')} worker(s), scheduler {html.escape(str(meta.get('scheduler')))}.</p>")
-    sections = [("Lot", overview)]
-    if summary["look_first"]:
-        sections.append(("Units to look at first", html_table(
-            ["unit", "why", "file"],
-            [[u["unit"], "; ".join(u["reasons"]), u["row"]["file"]] for u in summary["look_first"]])))
-    if summary["effects"]:
-        sections.append(("How often each effect is found",
-                         f"<img alt='effects' src='{figure_data_uri(effect_figure(summary['effects'], ok))}'>" +
-                         html_table(["effect", "units", "share"],
-                                    [[k, v, format_percent(v / max(ok, 1))] for k, v in summary["effects"].items()]) +
-                         "<p class='note'>A unit may show several effects; <i>none</i>: no effect "
-                         "supported by the evidence.</p>"))
-    if summary["parameters"]:
-        fig = parameter_figure(summary["parameters"], spec)
-        sections.append(("Fitted parameters across the lot",
-                         f"<img alt='parameter distributions' src='{figure_data_uri(fig)}'>" +
-                         html_table(["parameter", "median", "5th percentile", "95th percentile", "units"],
-                                    [[k, format_cell(p["median"]), format_cell(p["p5"]),
-                                      format_cell(p["p95"]), len(p["values"])]
-                                     for k, p in summary["parameters"].items()]) +
-                         "<p class='note'>gain in signal units per load unit, offset in signal "
-                         "units, beta0 and creep as fractions, tau in seconds. Lines: median, "
-                         "5th and 95th percentiles; red: the spec.</p>"))
-    outliers = summary["outliers"]
-    sections.append((f"Outliers (robust z-score above {summary['z_limit']:g})",
-                     (html_table(["unit", "parameter", "value", "z"],
-                                 [[o["unit"], o["parameter"], format_cell(o["value"]), f"{o['z']:+.1f}"]
-                                  for o in outliers]) if outliers else "<p>none</p>") +
-                     "<p class='note'>z = 0.6745 (x - median) / MAD over the processed units, "
-                     "for gain, offset, beta0 and tau (tau on a log scale); at least 5 units "
-                     "with a value needed. The creep figures are judged against the spec.</p>"))
-    sections.append(("Units out of spec", _units_table(summary["out_of_spec"])
-                     if summary["out_of_spec"] else "<p>none</p>"))
-    if summary["not_judged"]:
-        sections.append(("Units not judged against the spec",
-                         _units_table(summary["not_judged"], [("why", lambda r: r.get("notes") or "–")])))
-    if summary["failed"]:
-        sections.append(("Failed units", html_table(["unit", "reason", "file"],
-                                                    [[r["unit"], r.get("error"), r["file"]]
-                                                     for r in summary["failed"]])))
-    return html_page("creepcomp fleet: lot report", sections)
+    effects = summary["effects"]
+    parameters = summary["parameters"]
+    return render_template(
+        "fleet.html.j2", title="creepcomp fleet: lot report",
+        overview=[summary["n"], ok, len(summary["failed"]), n_in, len(summary["out_of_spec"]),
+                  len(summary["not_judged"]), format_percent(spec)],
+        table_path=str(meta.get("table")), workers=meta.get("workers"), scheduler=str(meta.get("scheduler")),
+        look_first=[[u["unit"], "; ".join(u["reasons"]), u["row"]["file"]] for u in summary["look_first"]],
+        effects=[[k, v, format_percent(v / max(ok, 1))] for k, v in effects.items()],
+        effects_png=figure_data_uri(effect_figure(effects, ok)) if effects else "",
+        parameters=[[k, format_cell(p["median"]), format_cell(p["p5"]), format_cell(p["p95"]), len(p["values"])]
+                    for k, p in parameters.items()],
+        parameters_png=figure_data_uri(parameter_figure(parameters, spec)) if parameters else "",
+        z_limit=f"{summary['z_limit']:g}",
+        outliers=[[o["unit"], o["parameter"], format_cell(o["value"]), f"{o['z']:+.1f}"]
+                  for o in summary["outliers"]],
+        units_header=["unit", "cause", "findings", "residual creep", "creep uncorrected", "beta0", "file"],
+        out_of_spec=[_unit_row(r) for r in summary["out_of_spec"]],
+        not_judged=[_unit_row(r) + [r.get("notes") or "–"] for r in summary["not_judged"]],
+        failed=[[r["unit"], r.get("error"), r["file"]] for r in summary["failed"]])
 
 
 def write_lot_report(summary: dict, path: str | Path, meta: dict) -> Path:
