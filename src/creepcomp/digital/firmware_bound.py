@@ -81,8 +81,9 @@ def check_arguments(model: CreepModel, method: str, precision: str, rate: float,
                     full_scale: float, name: str) -> None:
     """Refuse bad arguments of the generator and the bound with an InputError.
 
-    An unknown method or precision, a rate or full scale that is not positive and finite, a name
-    that is not a C identifier, or a model the corrector cannot invert.
+    An unknown method or precision, a rate outside 1e-300 to 1e12 Hz, a full scale that is not
+    positive and finite, a name that is not a C identifier of at most 63 characters, or a model
+    the corrector cannot invert.
     """
     from creepcomp.digital.correctors import check_invertible
 
