@@ -193,7 +193,8 @@ def check_output_dir(path: str | Path, option: str = "-o",
 def check_outputs(files: Mapping[str, str | Path | None] | None = None,
                   dirs: Mapping[str, str | Path | None] | None = None,
                   inputs: Iterable[str | Path | None] = (),
-                  suffixes: Mapping[str, Sequence[str]] | None = None) -> None:
+                  suffixes: Mapping[str, Sequence[str]] | None = None,
+                  contents: Mapping[str, Iterable[str]] | None = None) -> None:
     """Check every output of a command before it starts (None entries are skipped).
 
     Parameters
@@ -206,6 +207,8 @@ def check_outputs(files: Mapping[str, str | Path | None] | None = None,
         Files the command reads.
     suffixes : mapping, optional
         Option -> the file endings allowed; default :data:`OUTPUT_SUFFIXES` (``--plot``).
+    contents : mapping, optional
+        Folder option -> names of the files written in it (:func:`check_output_dir`).
 
     Raises
     ------
@@ -225,4 +228,4 @@ def check_outputs(files: Mapping[str, str | Path | None] | None = None,
         seen.append((option, p))
     for option, path in (dirs or {}).items():
         if path is not None:
-            check_output_dir(path, option, inputs)
+            check_output_dir(path, option, inputs, (contents or {}).get(option, ()))
