@@ -65,7 +65,7 @@ def check_replaceable(path: str | Path, option: str = "output") -> None:
     p = Path(path)
     try:
         link = stat.S_ISLNK(os.lstat(p).st_mode)
-    except FileNotFoundError:
+    except (FileNotFoundError, NotADirectoryError):  # a new path (its folder is checked apart)
         return
     except OSError as exc:
         raise InputError(f"{option} {p}: cannot look at it ({exc.strerror or exc})") from None
@@ -181,7 +181,9 @@ def check_output_dir(path: str | Path, option: str = "-o",
             raise InputError(f"{option} {p}: that is the input file {source}")
     if p.exists():
         if not p.is_dir():
-            raise InputError(f"{option} {p}: is {file_kind(os.stat(p).st_mode)}, not a folder")
+            mode = os.stat(p).st_mode
+            what = "a file" if stat.S_ISREG(mode) else file_kind(mode)
+            raise InputError(f"{option} {p}: is {what}, not a folder")
         _writable_folder(p, option, p)
         for name in contents:
             check_replaceable(p / name, option)
