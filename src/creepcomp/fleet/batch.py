@@ -322,7 +322,10 @@ def local_cluster(workers: int | None = None, local_directory: str | Path | None
     main = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
     try:
-        with dask.config.set(WORKER_CONFIG):  # each nanny keeps the configuration it starts with
+        config = dict(WORKER_CONFIG)
+        if local_directory is not None:  # the scheduler's scratch folder too
+            config["temporary-directory"] = str(local_directory)
+        with dask.config.set(config):  # each nanny keeps the configuration it starts with
             return LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
                                 processes=True, dashboard_address=None,
                                 local_directory=None if local_directory is None else str(local_directory),
