@@ -582,9 +582,10 @@ def open_record_stream(path: str | Path, columns: Mapping[str, str] | None = Non
     """
     p = Path(path)
     check_delimiter(delimiter)
-    check_input_file(p, "record")
     if p.suffix.lower() in NOT_STREAMED_SUFFIXES:
         return RecordStream(p, None, 0, block_bytes, f"a '{p.suffix}' file, not a plain CSV file")
+    if not p.is_file():  # missing, a pipe, a device: the whole reader refuses it (never opened here)
+        return RecordStream(p, None, 0, block_bytes, "not a file")
     with _open(p) as fh:
         head = _read_head(fh, str(p), lower_keys(columns), delimiter)
         start = fh.tell()
