@@ -321,19 +321,28 @@ def local_cluster(workers: int | None = None, local_directory: str | Path | None
     # should react to it, by closing the cluster
     main = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+    # a SIGTERM while the cluster starts is kept for when it has started (interrupted half-way,
+    # the cluster could not be closed); the handler is not inherited by the new processes
+    terms: list[int] = []
+    previous_term = signal.signal(signal.SIGTERM, lambda s, f: terms.append(s)) if main else None
     try:
         config = dict(WORKER_CONFIG)
         if local_directory is not None:  # the scheduler's scratch folder too
             config["temporary-directory"] = str(local_directory)
         with dask.config.set(config):  # each nanny keeps the configuration it starts with
-            return LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                                processes=True, dashboard_address=None,
-                                local_directory=None if local_directory is None else str(local_directory),
-                                scheduler_kwargs={"dashboard_address": ":0"},
-                                silence_logs=logging.CRITICAL)
+            cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
+                                   processes=True, dashboard_address=None,
+                                   local_directory=None if local_directory is None else str(local_directory),
+                                   scheduler_kwargs={"dashboard_address": ":0"},
+                                   silence_logs=logging.CRITICAL)
     finally:
         if main:
             signal.signal(signal.SIGINT, previous)
+            signal.signal(signal.SIGTERM, previous_term)
+    if terms:  # close it, then take the signal as it would have been taken
+        cluster.close()
+        signal.raise_signal(signal.SIGTERM)
+    return cluster
 
 
 def _run_dask(paths, names, todo, args, workers, scheduler, window, retries, finished):
