@@ -96,7 +96,7 @@ def main(argv: list[str] | None = None) -> int:
     elif check is not None:
         print(f"ngspice spot-check: {check['n']} samples agree with the Monte Carlo engine to "
               f"{check['agreement_max_abs']:.2e} of the step")
-    html = tolerance_report_html(report, args.out / "tolerances.html")
+    html = tolerance_report_html(report, args.out / "tolerances.html", design_file=args.design)
     print(f"\nreport written to {html}")
     return 0
 

@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
 SCRIPTS = ("size_network", "ngspice_proof", "tolerance_report", "correct_record",
            "diagnose_record", "diagnose_built_network", "firmware_corrector", "real_insole",
-           "real_wood")
+           "real_wood", "over_temperature")
 #: A percentage as the examples print it, e.g. ``0.029 %``, ``-0.0262 %``, ``2.22e-14 %``.
 PERCENT = r"(-?[0-9.]+(?:e[-+]\d+)?) %"
 #: A value with an SI prefix and a unit, e.g. ``1.2 MΩ``, ``501.5 nV``.
@@ -183,9 +183,21 @@ def test_firmware_corrector_sketch_within_its_bound(tmp_path):
     measured = float(re.search(r"largest difference from the float64 corrector (\S+) of full scale",
                                stdout).group(1))
     assert measured <= bound
-    raw, corrected = (float(g) for g in re.findall(r"(\d+\.\d+) g ", stdout))
+    grams = [float(g) for g in re.findall(r"(\d+\.\d+) g ", stdout)]
+    raw, corrected = grams[:2]
     assert corrected < raw / 100
     assert re.search(r"[0-9.]+ ns per sample \(gcc -O2\), object \d+ bytes", stdout)
+    # over temperature: both sketches (thermistor, NAU7802's own sensor) within the float32 bound
+    written(tmp_path, "record-temperature.csv", "hx711_scale_temperature/creep.c",
+            "nau7802_scale/nau7802_scale.ino")
+    bound_t = float(re.search(r"temperature per sample, .*?proven worst-case error (\S+) of full scale",
+                              stdout).group(1))
+    sketches = re.findall(r"(HX711|NAU7802) sketch, .*?largest difference from the float64 corrector "
+                          r"(\S+) of full scale", stdout)
+    assert [name for name, _ in sketches] == ["HX711", "NAU7802"]
+    assert all(float(measured) <= bound_t for _, measured in sketches) and bound_t <= 1e-6
+    raw_t, ignored, corrected_t = grams[2:5]
+    assert ignored > raw_t / 20 and corrected_t < ignored / 100
 
 
 @pytest.mark.slow
@@ -211,3 +223,14 @@ def test_real_wood(tmp_path):
     assert len(betas) == 2 and all(0 < b < 100 for b in betas)          # creep, not relaxation
     compliances = [float(j) for j in re.findall(r"J_c\(50 h\) = (\S+) 1/MPa", stdout)]
     assert len(compliances) == 2 and all(1e-6 < j < 1e-3 for j in compliances)
+
+
+def test_over_temperature(tmp_path):
+    stdout = run_example("over_temperature", tmp_path)
+    written(tmp_path, "design.json", "over-temperature.png")
+    worst = [percent(rf"\({k}\) [^:]+: worst", stdout)[0] for k in "abc"]
+    assert worst[2] < worst[1] < worst[0]
+    assert worst[2] < worst[0] / 3.5                        # E12 in --fast; E24 gives a quarter
+    design = read_design(tmp_path / "design.json")
+    assert set(design.extra["parts"]["thermistors"]) == {"R1", "R2"}
+    assert design.extra["over_temperature"]["worst"] == pytest.approx(worst[2], rel=5e-3)

@@ -314,11 +314,11 @@ def test_a_value_the_template_does_not_use_fails():
     from creepcomp.digital import firmware
 
     harness = firmware._render("harness.c.j2", name="creep", NAME="CREEP", precision="q31",
-                               irregular=True)
+                               irregular=True, temperature=False)
     assert "#define HARNESS_DT 1" in harness and "uint32_t *dts;" in harness
     with pytest.raises(RuntimeError, match="harness.c.j2 does not use rate"):
         firmware._render("harness.c.j2", name="creep", NAME="CREEP", precision="q31",
-                         irregular=True, rate="100.0")
+                         irregular=True, temperature=False, rate="100.0")
 
 
 def test_every_template_file_is_used(monkeypatch):
@@ -339,6 +339,12 @@ def test_every_template_file_is_used(monkeypatch):
             generate_firmware(MODEL, "supplemental", precision, RATE, 1.0,
                               max_interval=max_interval)
     naive_float32(MODEL)
+    from creepcomp.temperature import TemperatureLaw
+
+    for precision in ("float32", "q31"):
+        generate_firmware(CreepModel(MODEL.beta, MODEL.tau, MODEL.gain, MODEL.offset,
+                                     temperature=TemperatureLaw.arrhenius(43000.0)),
+                          precision=precision, rate=RATE)
     used = set().union(*(firmware._template_tree(t) for t in rendered))
     files = {f.name for f in resources.files("creepcomp.digital").joinpath("templates").iterdir()
              if f.is_file()}

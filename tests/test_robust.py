@@ -230,3 +230,38 @@ def test_ctrl_c_halts_ngspice_and_removes_its_temporary_files(tmp_path):
     assert time.monotonic() - sent < 3.0
     assert list(tmp.iterdir()) == []
     assert not (tmp_path / "p.png").exists()
+
+
+def test_block_weights_give_the_centre_of_a_parabola():
+    from creepcomp.fit.reduce import block_weights
+    starts = np.array([0, 1, 3, 7, 20])
+    w = block_weights(starts, 33)
+    assert np.allclose(np.add.reduceat(w, starts), 1.0)
+    x = np.arange(33.0)
+    y = 2.0 - 0.5 * x + 0.03 * x ** 2
+    ends = np.append(starts[1:], 33)
+    centres = 0.5 * (starts + ends - 1)
+    got = np.add.reduceat(w * y, starts)
+    assert np.allclose(got[2:], 2.0 - 0.5 * centres[2:] + 0.03 * centres[2:] ** 2)
+    # pieces of the record give the same weights
+    assert np.allclose(np.concatenate([block_weights(starts, 33, 0, 11), block_weights(starts, 33, 11, 33)]), w)
+
+
+def test_a_reduced_one_term_record_stays_one_term():
+    """Blocks of several seconds on creep of 45 s: a plain block mean is biased by the
+    curvature and the fit then invents terms; the parabola's centre is not."""
+    from creepcomp.fit.data import prepare
+    from creepcomp.fit.prony import fit_prony
+    from creepcomp.fit.reduce import reduce_record
+    from creepcomp.model import CreepModel
+    rng = np.random.default_rng(3)
+    t = np.arange(400_000) / 10.0
+    levels = rng.integers(0, 4, size=int(t[-1] // 600) + 2).astype(float)
+    load = levels[(t // 600).astype(int)]
+    signal = CreepModel((0.03,), (45.0,)).response(t, load) + rng.normal(0.0, 1e-5, t.size)
+    reduced, note = reduce_record(Record(t, load, signal), max_samples=6000)
+    assert "first and last sample" in note
+    fit = fit_prony(prepare(reduced, initial="relaxed"), max_terms=3)
+    model = fit.model()
+    assert model.n_terms == 1
+    assert abs(model.beta[0] - 0.03) < 2e-5 and abs(model.tau[0] - 45.0) < 0.05

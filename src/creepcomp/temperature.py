@@ -146,7 +146,7 @@ class TemperatureLaw:
         return 1.0 + b * (t[..., None] - self.reference)
 
     def to_dict(self) -> dict:
-        """Model-file form (``docs/formats.md``)."""
+        """Model-file form (``docs/design-file.md``)."""
         out: dict[str, Any] = {"reference": self.reference, "law": self.law}
         if self.law == "arrhenius":
             out["activation_energy"] = self.activation_energy

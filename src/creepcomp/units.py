@@ -13,7 +13,7 @@ from decimal import Decimal
 from creepcomp.errors import InputError
 
 __all__ = ["PREFIXES", "UNITS", "TIME_UNITS", "parse_quantity", "format_quantity", "format_percent",
-           "format_parameter"]
+           "format_parameter", "format_time"]
 
 # prefix -> power of ten (decimal arithmetic keeps "2.7%" and "4.7u" exact to the last digit)
 PREFIXES = {
@@ -141,6 +141,21 @@ def format_quantity(value: float | None, unit: str = "", digits: int = 4) -> str
     return f"{text} {prefix}{unit}".strip()
 
 
+#: Units of :func:`format_time`, largest first: a time is told in the largest one it reaches.
+_CLOCK_UNITS = ((86400.0, "d"), (3600.0, "h"), (60.0, "min"))
+
+
+def format_time(seconds: float, digits: int = 4) -> str:
+    """A time as people say it: in the largest of days, hours and minutes of which it makes at
+    least two (``20 min``, ``90 min``, ``2.5 h``, ``3 d``), else in seconds with an SI prefix
+    (``113.6 s``, ``150 ms``); the units :func:`parse_quantity` reads back."""
+    if seconds is not None and math.isfinite(seconds):
+        for size, unit in _CLOCK_UNITS:
+            if abs(seconds) >= 2 * size:
+                return f"{seconds / size:.{digits}g} {unit}"
+    return format_quantity(seconds, "s", digits)
+
+
 def format_percent(x: float | None, digits: int = 3) -> str:
     """A fraction as percent, e.g. ``0.0849 %``; tiny values in scientific notation."""
     if x is None:
@@ -151,11 +166,20 @@ def format_percent(x: float | None, digits: int = 3) -> str:
     return f"{v:.{digits}g} %"
 
 
+#: A part of a network by its label: ``R1``, ``C2``, a cell of a chain ``R1.3``, ``C1.2``.
+_PART = re.compile(r"([RC])\d+(?:\.\d+)?")
+
+
 def format_parameter(name: str, value: float | None) -> str:
-    """A diagnosis parameter with its unit, by its name: times (``tau*``, ``delay``) in
-    seconds (instants, ``where``, to 7 digits), ``beta`` in percent, ``rate`` per second,
-    others as plain numbers; a kind as it is, and a list item by item (an interval ``[a, b]``
-    as ``a to b``)."""
+    """A parameter with its unit, by its name: parts (``R1.2``, ``C1``) and resistances
+    (``source_resistance``) in Ω and F, times (``tau*``, ``*_tau``, ``delay``) in seconds
+    (instants, ``where``, to 7 digits), ``beta`` and ``absorption`` in percent, ``rate`` per
+    second, others as plain numbers; a kind as it is, and a list item by item (an interval
+    ``[a, b]`` as ``a to b``). A dotted name (``C1.1.absorption``) is read by its last part."""
+    part = _PART.fullmatch(name)
+    if part and isinstance(value, (int, float)) and math.isfinite(value):
+        return format_quantity(value, "Ω" if part.group(1) == "R" else "F")
+    name = name.split(".")[-1]
     if isinstance(value, str):
         return value
     if isinstance(value, (list, tuple)):
@@ -168,9 +192,15 @@ def format_parameter(name: str, value: float | None) -> str:
         # an instant on the record's own clock, which may be absolute (days of seconds): to
         # 0.1 s there, not to 4 digits
         return format_quantity(value, "s", digits=7)
-    if name.startswith("tau") or name in ("delay", "slip"):
+    if name.endswith("resistance") or name == "R25":
+        return format_quantity(value, "Ω")
+    if name == "tc":
+        return f"{value * 1e6:.4g} ppm/K"
+    if name == "B":
+        return f"{value:.5g} K"
+    if name.startswith("tau") or name.endswith("_tau") or name in ("delay", "slip"):
         return format_quantity(value, "s")
-    if name == "beta":
+    if name.startswith("beta") or name == "absorption":
         return format_percent(value)
     if name == "rate":
         return f"{value:.4g} /s"

@@ -15,6 +15,10 @@ int digitalRead(int pin);
 void delayMicroseconds(unsigned int us);
 /* Prints "raw<TAB>word" on standard output. */
 void host_report(int32_t raw, int32_t corrected_word);
+/* Prints "raw<TAB>temperature<TAB>corrected" (the temperature step's output, in counts). */
+void host_report_temperature(int32_t raw, float temperature_c, float corrected);
+/* The simulated sensor temperature (°C) of the current conversion. */
+float host_temperature_c(void);
 
 /* The sketch's entry points. */
 void setup(void);

@@ -26,16 +26,17 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from creepcomp.analog import eseries
+from creepcomp.analog.parts import DIELECTRICS, PartsPlan
 from creepcomp.errors import InputError, NotRealisableError
 from creepcomp.model import CreepModel
 from creepcomp.network import Branch, Cell, Network, modal_form, parallel, state_matrices
 from creepcomp.analog.quality import (Quality, predict, screening_deviation, step_deviation,
     step_peak)
-from creepcomp.units import format_quantity
+from creepcomp.units import format_percent, format_quantity
 
 __all__ = ["RULES", "DEFAULT_CAPACITANCE", "DEFAULT_CAP_RANGE", "DEFAULT_RES_RANGE",
            "FILM_CAP_RANGE", "HIGH_IMPEDANCE", "ASSUMED_LEAKAGE", "MAX_COMBINATIONS_PER_LEVEL",
-           "EXACT_RECHECKS", "explain_unrealisable", "ideal_network", "PartChoice", "SizingReport",
+           "EXACT_RECHECKS", "NoNetworkInRange", "explain_unrealisable", "ideal_network", "PartChoice", "SizingReport",
            "size", "TAU_RANGE", "check_time_constants", "nearest_snap", "output_resistance", "design_warnings"]
 
 RULES = ("exact", "paper")
@@ -55,6 +56,19 @@ ASSUMED_LEAKAGE = 10e9
 MAX_COMBINATIONS_PER_LEVEL = 1024
 #: Candidates re-checked with python-control after the closed-form screen.
 EXACT_RECHECKS = 5
+
+
+class NoNetworkInRange(InputError):
+    """No network of the rule has its parts in the ranges searched (with this source and
+    load resistance).
+
+    ``fixable`` is True when parts that are made would do (the message says which options
+    reach them), False when no capacitor of the plan's dielectric would.
+    """
+
+    def __init__(self, message: str, fixable: bool = True):
+        super().__init__(message)
+        self.fixable = fixable
 
 
 def explain_unrealisable(model: CreepModel) -> str:
@@ -214,6 +228,7 @@ class SizingReport:
     parts: tuple[PartChoice, ...] = ()
     candidates_evaluated: int = 0
     warnings: tuple[str, ...] = field(default_factory=tuple)
+    plan: PartsPlan = field(default_factory=PartsPlan)
 
     def design_dict(self) -> dict:
         """The design file (``docs/design-file.md``) of the chosen parts."""
@@ -222,6 +237,7 @@ class SizingReport:
         out["rule"] = self.rule
         out["series"] = {"resistors": self.resistor_series, "capacitors": self.capacitor_series}
         out["predicted"] = self.chosen_quality.to_dict()
+        out["parts"] = self.plan.to_dict()
         return out
 
     def to_dict(self) -> dict:
@@ -250,7 +266,7 @@ def size(model: CreepModel, rule: str = "exact", resistor_series: str | None = "
          capacitor_series: str | None = "E6", cap_range: tuple[float, float] = DEFAULT_CAP_RANGE,
          res_range: tuple[float, float] = DEFAULT_RES_RANGE, capacitance: float | None = None,
          source_resistance: float = 0.0, load_resistance: float | None = None,
-         sweep_period: float | None = None) -> SizingReport:
+         sweep_period: float | None = None, plan: PartsPlan | None = None) -> SizingReport:
     """Size a correction network and snap it to E-series parts.
 
     Parameters
@@ -273,6 +289,9 @@ def size(model: CreepModel, rule: str = "exact", resistor_series: str | None = "
         Next stage's input resistance (ohm).
     sweep_period : float, optional
         Period of the hysteresis sweep (s).
+    plan : PartsPlan, optional
+        The parts' technologies and tolerances, recorded in the design file (default:
+        thin-film resistors, polypropylene capacitors).
 
     Returns
     -------
@@ -293,6 +312,8 @@ def size(model: CreepModel, rule: str = "exact", resistor_series: str | None = "
     True
     """
     check_time_constants(model)
+    plan = plan or PartsPlan()
+
     def quality(net):
         return predict(model, net, sweep_period)
 
@@ -302,7 +323,7 @@ def size(model: CreepModel, rule: str = "exact", resistor_series: str | None = "
                             source_resistance, load_resistance)
         q = quality(net)
         return SizingReport(model, rule, net, q, net, q, uncorrected,
-                            warnings=tuple(design_warnings(model, net, rule, q)))
+                            warnings=tuple(design_warnings(model, net, rule, q)), plan=plan)
     eseries.series_values(resistor_series)
     eseries.series_values(capacitor_series)
     levels = ([capacitance] if capacitance else
@@ -317,7 +338,13 @@ def size(model: CreepModel, rule: str = "exact", resistor_series: str | None = "
         except InputError as exc:
             problems.append(str(exc))
     if not ideals:
-        raise InputError(problems[-1])
+        made = DIELECTRICS[plan.capacitor]
+        advice = "use a larger capacitor"
+        fixable = not (problems[-1].endswith(advice) and max(levels) >= made.value_range[1])
+        if not fixable:
+            problems[-1] = (problems[-1][:-len(advice)] + f"and {made.name} capacitors are not "
+                            f"made above {format_quantity(made.value_range[1], 'F')}")
+        raise NoNetworkInRange(problems[-1], fixable)
     series_of = {"R": resistor_series, "C": capacitor_series}
     candidates, origin = [], []
     for net in ideals:
@@ -329,10 +356,12 @@ def size(model: CreepModel, rule: str = "exact", resistor_series: str | None = "
         outside = ", ".join(f"{label} = {format_quantity(v, 'Ω')}" for label, kind, v in net.parts()
                             if kind == "R" and not res_range[0] <= v <= res_range[1])
         c0 = max(v for _, k, v in net.parts() if k == "C")
-        raise InputError(f"at C = {format_quantity(c0, 'F')} the {rule} rule needs {outside}, outside "
-                         f"the resistor range {format_quantity(res_range[0], 'Ω')} .. "
-                         f"{format_quantity(res_range[1], 'Ω')} (--res-range); "
-                         + _capacitance_needed(net, c0, res_range))
+        made = DIELECTRICS[plan.capacitor]
+        advice, fixable = _capacitance_needed(net, c0, res_range, made.value_range, made.name)
+        raise NoNetworkInRange(f"at C = {format_quantity(c0, 'F')} the {rule} rule needs {outside}, "
+                               f"outside the resistor range {format_quantity(res_range[0], 'Ω')} .. "
+                               f"{format_quantity(res_range[1], 'Ω')} (--res-range); " + advice,
+                               fixable)
     # Snapping keeps the rule's behaviour: closest to the rule's ideal step response (for the
     # exact rule, that is the smallest residual creep; for the paper's, its own residual).
     reference = None if rule == "exact" else ideals[0]
@@ -357,7 +386,7 @@ def size(model: CreepModel, rule: str = "exact", resistor_series: str | None = "
                         resistor_series.upper(), capacitor_series.upper(), nearest,
                         quality(nearest) if nearest else None,
                         tuple(parts), len(candidates),
-                        tuple(design_warnings(model, chosen, rule, best_q)))
+                        tuple(design_warnings(model, chosen, rule, best_q)), plan)
 
 
 #: Retardation times a network is sized for (s): 1 µs to 1 Gs (32 years). Beyond them the
@@ -374,20 +403,31 @@ def check_time_constants(model: CreepModel) -> None:
                              "a correction network can be sized for")
 
 
-def _capacitance_needed(net: Network, c0: float, res_range: tuple[float, float]) -> str:
-    """Advice for an infeasible size: the capacitance that brings every resistor into range.
+def _capacitance_needed(net: Network, c0: float, res_range: tuple[float, float],
+                        made: tuple[float, float] = FILM_CAP_RANGE,
+                        dielectric: str = "film") -> tuple[str, bool]:
+    """Advice for an infeasible size: the capacitance, among those made, that brings every
+    resistor into range; and whether there is one (False: no capacitor made would do).
 
     The network's time constants are fixed by the creep, so its resistors scale as ``1/C``
     (the source and load resistances aside).
     """
     rs = [v for _, k, v in net.parts() if k == "R"]
     low, high = c0 * max(rs) / res_range[1], c0 * min(rs) / res_range[0]
-    if low <= high:
-        return (f"a capacitor of {format_quantity(low, 'F', 3)} .. {format_quantity(high, 'F', 3)} "
-                f"brings every resistor into range: e.g. --capacitance {format_quantity(low, 'F', 3).replace(' ', '')}, "
-                "or --cap-range; or widen --res-range")
-    return (f"no single capacitance brings all resistors into range (their ratio "
-            f"{max(rs) / min(rs):.3g} exceeds the range's): widen --res-range")
+    if low > high:
+        return (f"no single capacitance brings all resistors into range (their ratio "
+                f"{max(rs) / min(rs):.3g} exceeds the range's): widen --res-range"), True
+    low_made, high_made = max(low, made[0]), min(high, made[1])
+    if low_made > high_made:
+        return (f"only a capacitor of {format_quantity(low, 'F', 3)} .. {format_quantity(high, 'F', 3)} "
+                f"would bring every resistor into range, and {dielectric} capacitors are made "
+                f"only in {format_quantity(made[0], 'F')} .. {format_quantity(made[1], 'F')}: "
+                "buffer the output, correct fewer terms, or use the digital corrector "
+                "(creepcomp firmware)"), False
+    text = format_quantity(low_made, 'F', 3)
+    return (f"a capacitor of {text} .. {format_quantity(high_made, 'F', 3)} "
+            f"brings every resistor into range: e.g. --capacitance {text.replace(' ', '')}, "
+            "or --cap-range; or widen --res-range"), True
 
 
 def nearest_snap(model: CreepModel, rule: str, resistor_series: str, capacitor_series: str,
@@ -460,19 +500,14 @@ def design_warnings(model: CreepModel, network: Network, rule: str, quality: Qua
     big, big_label = max(resistors)
     if big > HIGH_IMPEDANCE:
         r_out = output_resistance(network)
-        leaky = Network(network.cells, network.R2, network.shunt, network.source_resistance,
-                        parallel(network.load_resistance, ASSUMED_LEAKAGE))
-        leak_peak = step_peak(model, leaky)[0]
         out.append(
             f"high impedance: {big_label} = {format_quantity(big, 'Ω')}, output resistance "
             f"{format_quantity(r_out, 'Ω')}. An input bias current of 1 pA (CMOS/JFET op amp) "
             f"gives {format_quantity(r_out * 1e-12, 'V')} of offset, 1 nA (bipolar) "
-            f"{format_quantity(r_out * 1e-9, 'V')}, against sensor signals of order 0.1 mV; "
-            f"a {format_quantity(ASSUMED_LEAKAGE, 'Ω')} path to ground (board leakage, the next "
-            f"stage's input) would raise the peak residual creep from "
-            f"{quality.residual_creep_peak:.2e} to {leak_peak:.2e}. Buffer the output with a "
-            "CMOS/JFET-input amplifier, guard the node, or use a larger capacitor "
-            "(--cap-range) to lower the impedance.")
+            f"{format_quantity(r_out * 1e-9, 'V')}, against sensor signals of order 0.1 mV "
+            "(constant offsets, removed by taring; leakage is judged by the practicality "
+            "verdict). Buffer the output with a CMOS/JFET-input amplifier and guard the node, "
+            "or use a larger capacitor (--cap-range) to lower the impedance.")
     for label, kind, v in network.parts():
         if kind == "C" and not FILM_CAP_RANGE[0] <= v <= FILM_CAP_RANGE[1]:
             out.append(f"{label} = {format_quantity(v, 'F')} is outside what film capacitors "

@@ -14,6 +14,7 @@ import sys
 import threading
 
 import typer
+from typer._click.exceptions import NoArgsIsHelpError
 from typer.exceptions import Abort, Exit, TyperException
 
 from creepcomp.errors import CreepcompError
@@ -24,12 +25,58 @@ from creepcomp.cli import size as _size  # noqa: E402,F401
 from creepcomp.cli import demo as _demo  # noqa: E402,F401
 from creepcomp.cli import correct as _correct  # noqa: E402,F401
 from creepcomp.cli import mc as _mc  # noqa: E402,F401
+from creepcomp.cli import creep_test as _creep_test  # noqa: E402,F401
 from creepcomp.cli import netlist as _netlist  # noqa: E402,F401
 from creepcomp.cli import simulate as _simulate  # noqa: E402,F401
 from creepcomp.cli import fit as _fit  # noqa: E402,F401
 from creepcomp.cli import diagnose as _diagnose  # noqa: E402,F401
 from creepcomp.cli import firmware as _firmware  # noqa: E402,F401
 from creepcomp.cli import fleet as _fleet  # noqa: E402,F401
+
+#: The help's command groups, in the order of the work; commands in the order listed (one
+#: not listed comes last, in the default group).
+COMMAND_GROUPS = {
+    "Design": ("size", "netlist"),
+    "Prove": ("simulate", "mc", "creep-test"),
+    "Correct": ("correct", "firmware"),
+    "Measured data": ("fit", "diagnose"),
+    "Fleet": ("fleet",),
+    "Demo": ("demo",),
+}
+
+
+def _group_commands() -> None:
+    """Put every registered command in its help group, in the order of the work."""
+    order = [name for names in COMMAND_GROUPS.values() for name in names]
+    panel = {name: group for group, names in COMMAND_GROUPS.items() for name in names}
+    for info in app.registered_commands:
+        info.rich_help_panel = panel.get(info.name, info.rich_help_panel)
+    app.registered_commands.sort(
+        key=lambda info: order.index(info.name) if info.name in order else len(order))
+
+
+def _version(value: bool) -> None:
+    if value:
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            number = version("creepcomp")
+        except PackageNotFoundError:        # run from a source tree that is not installed
+            number = "(not installed: no package metadata)"
+        typer.echo(f"creepcomp {number}")
+        raise Exit(0)
+
+
+@app.callback()
+def _options(
+    show_version: bool = typer.Option(False, "--version", callback=_version, is_eager=True,
+                                      help="Print the version and exit."),
+) -> None:
+    pass
+
+
+# after every command module's import above (a module imported later would be listed last)
+_group_commands()
 
 
 #: Exit status after SIGTERM (128 + its number), beside 130 after Ctrl-C.
@@ -78,6 +125,8 @@ def _main(argv: list[str] | None) -> int:
     try:
         # a command may end with typer.Exit(status) (firmware --verify: 3 when the bound fails)
         result = command.main(args=argv, prog_name="creepcomp", standalone_mode=False)
+    except NoArgsIsHelpError:
+        return 0        # bare ``creepcomp``: the help, already printed, is the answer
     except TyperException as exc:
         return fail(exc.format_message(), getattr(exc, "exit_code", 2) or 2)
     except CreepcompError as exc:

@@ -8,7 +8,7 @@ import sys
 import typer
 from rich.console import Console
 
-from creepcomp.errors import InputError
+from creepcomp.errors import CreepcompError, InputError
 from creepcomp.io.jsonfiles import to_json
 from creepcomp.units import parse_quantity
 
@@ -38,6 +38,34 @@ def quantity(text: str | None, kind: str, option: str, allow_none: bool = False,
     if non_negative and value < 0:
         raise InputError(f"{option} = '{text}': must not be negative")
     return value
+
+
+def count(text: str | int, option: str, minimum: int = 1, maximum: int | None = None) -> int:
+    """Parse a count in engineering notation (``1e7``, ``20k``): a whole number from
+    ``minimum`` to ``maximum``."""
+    value = parse_quantity(text, "number", option)
+    if value != round(value) or value < minimum:
+        raise InputError(f"{option} {text}: a count is a whole number >= {minimum}")
+    if maximum is not None and value > maximum:
+        raise InputError(f"{option} {text}: at most {maximum}")
+    return int(round(value))
+
+
+class OptionValueError(CreepcompError):
+    """A bad option value found while the options are parsed (not a ValueError: click would
+    reduce its message to "Invalid value")."""
+
+
+def count_option(option: str, minimum: int = 1, maximum: int | None = None):
+    """A Typer ``parser=`` for a count option (:func:`count`)."""
+
+    def parse(text):
+        try:
+            return count(text, option, minimum, maximum)
+        except InputError as exc:
+            raise OptionValueError(str(exc)) from None
+
+    return parse
 
 
 def value_range(text: str, kind: str, option: str) -> tuple[float, float]:

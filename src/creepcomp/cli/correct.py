@@ -20,6 +20,24 @@ from creepcomp.cli.size import describe_model
 LOADED_START = 1e-3
 
 HOLD_TEXT = {"zero": "load held between samples", "linear": "load ramping linearly between samples"}
+#: Spellings of degrees Celsius after a temperature's number.
+CELSIUS_UNITS = ("", "c", "°c", "degc", "celsius")
+
+
+def celsius(text: str | None, option: str) -> float | None:
+    """Read a temperature in °C (``25``, ``25C``, ``-10°C``); None stays None."""
+    if text is None:
+        return None
+    import re
+
+    raw = str(text).strip()
+    m = re.match(r"^([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*(.*)$", raw)
+    if not m or m.group(2).strip().lower() not in CELSIUS_UNITS:
+        raise InputError(f"{option} = '{raw}': expected a temperature in °C, e.g. 25 or 25C")
+    value = float(m.group(1))
+    if value <= -273.15:
+        raise InputError(f"{option} = '{raw}': at or below absolute zero")
+    return value
 
 
 @app.command("correct")
@@ -36,6 +54,10 @@ def correct_command(
                                                "settled for supplemental."),
     hold: str = typer.Option("zero", "--hold", metavar="zero|linear",
                              help="Load held between samples (the paper's case) or ramping."),
+    temperature: Optional[str] = typer.Option(None, "--temperature", metavar="T",
+                                              help="Constant temperature (°C) for a model with a "
+                                                   "temperature law and a record without a "
+                                                   "'temperature' column."),
     columns: Optional[str] = typer.Option(None, "--columns", metavar="MAP",
                                           help="Column mapping, e.g. time=tR,load=P,signal=Ri."),
     output: Optional[Path] = typer.Option(None, "-o", "--output", metavar="out.csv",
@@ -61,19 +83,28 @@ def correct_command(
     model = read_model(model_file)
     warn_creep(model, str(model_file))
     start = default_initial(method) if initial is None else initial.strip().lower()
+    constant = celsius(temperature, "--temperature")
     out_meta = {"compensated.method": method, "compensated.initial": start, "compensated.hold": hold,
                 "compensated.model": str(model_file)}
+    if constant is not None:
+        out_meta["compensated.temperature"] = f"{constant:g} °C"
     done = None
     if plot is None:
         done = _correct_in_pieces(record_path, model, method, start, hold, output, out_meta,
-                                  parse_columns(columns), as_json)
+                                  parse_columns(columns), as_json, constant)
     if done is None:
         done = _correct_whole(record_path, model, method, start, hold, output, out_meta,
-                              parse_columns(columns), plot, as_json)
+                              parse_columns(columns), plot, as_json, constant)
     scan, dt = done.scan, done.dt
     before, after = done.before, done.after
     unit = scan.unit("signal")
     notes = _notes(scan, start, method, model)
+    temperature_used = None
+    if done.temperature is not None:
+        temperature_used = {"source": done.temperature, "constant_C": constant}
+    elif "temperature" in scan.names:
+        temperature_used = {"source": "unused", "constant_C": None,
+                            "why": "the model has no temperature law"}
     formula = "offset + gain * load" if method == "subtractive" else "offset + gain * (1 + beta0) * load"
     result = {
         "record": str(record_path), "samples": scan.samples, "uniform": dt is not None,
@@ -85,6 +116,7 @@ def correct_command(
         "reduction": (before.peak / after.peak) if after.peak > 0 else None,
         "starts_loaded": _starts_loaded(scan), "notes": notes,
         "output": None if output is None else str(output), "plot": None if plot is None else str(plot),
+        "temperature": temperature_used,
     }
     if as_json:
         print_json(result)
@@ -96,7 +128,8 @@ def correct_command(
         console.print(f"plot written to {plot}", soft_wrap=True)
 
 
-def _correct_in_pieces(record_path, model, method, start, hold, output, out_meta, mapping, quiet):
+def _correct_in_pieces(record_path, model, method, start, hold, output, out_meta, mapping, quiet,
+                       constant):
     """The correction of a CSV record read and written in pieces, or None when the file is
     one to read whole."""
     from creepcomp.digital.record_file import correct_record_file
@@ -104,20 +137,23 @@ def _correct_in_pieces(record_path, model, method, start, hold, output, out_meta
     with progress_bar(f"reading {record_path.name}", disable=quiet) as update:
         return correct_record_file(record_path, model, method, initial=start, hold=hold,
                                    output=output, output_metadata=out_meta, columns=mapping,
-                                   progress=update)
+                                   progress=update, temperature=constant)
 
 
-def _correct_whole(record_path, model, method, start, hold, output, out_meta, mapping, plot, quiet):
+def _correct_whole(record_path, model, method, start, hold, output, out_meta, mapping, plot, quiet,
+                   constant):
     """The correction of a record held whole (other files, and for the plot)."""
     from creepcomp.digital.correctors import compensate, creep_error, uniform_interval
-    from creepcomp.digital.record_file import FileCorrection
+    from creepcomp.digital.record_file import FileCorrection, temperature_source
     from creepcomp.io.records import RecordScan
 
     record = read_record(record_path, columns=mapping)
     record.require(n_samples=2, what="creep correction")
+    source = temperature_source(model, record.temperature is not None, constant, str(record_path))
+    temps = (None if source is None else record.temperature if source == "column" else constant)
     with progress_bar("correcting", total=len(record), disable=quiet) as update:
         compensated = compensate(record.time, record.signal, model, method, initial=start,
-                                 hold=hold, progress=update)
+                                 hold=hold, progress=update, temperature=temps)
     before = creep_error(record.time, record.signal, record.load, model, method)
     after = creep_error(record.time, compensated, record.load, model, method)
     if output is not None:
@@ -132,7 +168,8 @@ def _correct_whole(record_path, model, method, start, hold, output, out_meta, ma
                         reference(record.load, model, method), plot,
                         title=f"{record_path.name}: {method} correction",
                         signal_unit=record.unit("signal"), full_scale=after.full_scale or None)
-    return FileCorrection(RecordScan.of(record), uniform_interval(record.time), before, after)
+    return FileCorrection(RecordScan.of(record), uniform_interval(record.time), before, after,
+                          source)
 
 
 def _starts_loaded(scan) -> bool:
@@ -174,6 +211,16 @@ def _render(path, scan, model, result, before, after, dt, unit, notes) -> None:
                   soft_wrap=True)
     console.print(f"model: {describe_model(model)}; gain {model.gain:.6g}, offset "
                   f"{_value(model.offset, unit)}", soft_wrap=True)
+    if result["temperature"] is not None and result["temperature"]["source"] == "unused":
+        console.print("temperature: the record's 'temperature' column is not used (the model has "
+                      "no temperature law)", soft_wrap=True)
+    elif result["temperature"] is not None:
+        law = model.temperature
+        where = ("the record's 'temperature' column" if result["temperature"]["source"] == "column"
+                 else f"{result['temperature']['constant_C']:g} °C throughout")
+        amplitudes = ", each sample with its own beta_k(T)" if law.beta_per_kelvin else ""
+        console.print(f"temperature: {where}; {law.law} law about {law.reference:g} °C, each step "
+                      f"with its own tau_k(T){amplitudes}", soft_wrap=True)
     console.print(f"reference: {result['reference']} "
                   f"({'instantaneous' if result['method'] == 'subtractive' else 'saturated'} signal); "
                   f"full scale {_value(after.full_scale, unit)}")

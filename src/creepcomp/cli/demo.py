@@ -201,11 +201,11 @@ def _percent(x: float | None) -> str:
 
 @app.command("demo")
 def demo_command(
-    out: Path = typer.Option(Path("demo-output"), "--out", metavar="DIR",
+    out: Path = typer.Option(Path("demo-output"), "-o", "--output", "--out", metavar="DIR",
                              help="Folder for the design files, plots and reports."),
 ) -> None:
     """Size the default sensor's network by both rules, snap it, compare, and write the results."""
     from creepcomp.io.outputs import check_output_dir
 
-    check_output_dir(out, "--out")
+    check_output_dir(out, "-o")
     run_demo(out, console)

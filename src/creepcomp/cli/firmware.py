@@ -36,6 +36,12 @@ def firmware_command(
                                              help="Largest |signal - offset| (signal units) the "
                                                   "bound assumes and q31 scales to. Default with "
                                                   "--verify: the record's."),
+    temperature_range: Optional[str] = typer.Option(None, "--temperature-range", metavar="LOW:HIGH",
+                                                    help="For a model with a temperature law: "
+                                                         "the range (°C) the step clamps to and "
+                                                         "its bound holds over. Default -40:85. "
+                                                         "The step then takes the temperature with "
+                                                         "every sample (float32: °C; q31: °C x 256)."),
     name: str = typer.Option("creep", "--name", metavar="NAME",
                              help="Prefix of the C identifiers and the file names."),
     verify_record: Optional[Path] = typer.Option(None, "--verify", metavar="RECORD",
@@ -86,16 +92,24 @@ def firmware_command(
         raise InputError("give the input range the bound assumes: --full-scale VALUE, the largest "
                          "|signal - offset| in signal units")
     firmware = generate_firmware(model, method, precision, rate_hz or 1.0, scale, name,
-                                 max_interval=longest)
+                                 max_interval=longest,
+                                 temperature_range=_celsius_range(temperature_range))
     result = {"model": str(model_file), "method": method, "precision": precision,
               "rate": firmware.rate, "max_interval": firmware.max_interval, "full_scale": firmware.full_scale, "name": name,
               "signal_unit": unit, "files": [], "bound_fs": firmware.bound.total_fs,
               "bound": firmware.bound.to_dict()}
+    if firmware.temperature_range is not None:
+        result["temperature_range"] = list(firmware.temperature_range)
     check = None
     if record is not None:
         from creepcomp.digital.firmware_check import verify_firmware
 
-        check = verify_firmware(firmware, record.time, record.signal)
+        if firmware.temperature_range is not None and record.temperature is None:
+            raise InputError(f"{verify_record}: the model has a temperature law; verifying its "
+                             "firmware needs a 'temperature' column (°C) in the record")
+        check = verify_firmware(firmware, record.time, record.signal,
+                                temperature=(None if firmware.temperature_range is None
+                                             else record.temperature))
         result.update(check.to_dict())
         result["record"] = str(verify_record)
     # written after the verification: an interrupted --verify leaves no C files
@@ -111,6 +125,21 @@ def firmware_command(
         raise typer.Exit(BOUND_EXCEEDED)
 
 
+def _celsius_range(text: str | None) -> tuple[float, float] | None:
+    """``LOW:HIGH`` in °C (e.g. ``-40:85``), or None."""
+    from creepcomp.cli.correct import celsius
+
+    if text is None:
+        return None
+    parts = str(text).split(":")
+    if len(parts) != 2:
+        raise InputError(f"--temperature-range = '{text}': expected LOW:HIGH in °C, e.g. -40:85")
+    low, high = (celsius(p, "--temperature-range") for p in parts)
+    if not low < high:
+        raise InputError(f"--temperature-range = '{text}': LOW must be below HIGH")
+    return low, high
+
+
 def _render(result: dict, firmware, check) -> None:
     from creepcomp.units import format_quantity
 
@@ -119,7 +148,10 @@ def _render(result: dict, firmware, check) -> None:
                   + (format_quantity(result['rate'], 'Hz') if result["rate"] is not None else
                      f"dt step (irregular sampling, up to {format_quantity(result['max_interval'], 's')})")
                   + ", full scale "
-                  f"{result['full_scale']:.6g} {result['signal_unit']}", soft_wrap=True)
+                  f"{result['full_scale']:.6g} {result['signal_unit']}"
+                  + ("" if firmware.temperature_range is None else
+                     f"; temperature per update, {firmware.temperature_range[0]:g} to "
+                     f"{firmware.temperature_range[1]:g} °C (clamped)"), soft_wrap=True)
     table = Table(title="Proven worst-case error against the float64 corrector",
                   title_justify="left")
     table.add_column("part")

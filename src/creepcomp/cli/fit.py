@@ -1,9 +1,10 @@
-"""``creepcomp fit``: fit a creep model (gain, offset, Prony terms) to a measured record."""
+"""``creepcomp fit``: fit a creep model (gain, offset, Prony terms) to a measured record, or one
+model and its temperature law to records at different temperatures."""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Optional
+from typing import TYPE_CHECKING, List, Optional
 
 import typer
 from rich.table import Table
@@ -13,10 +14,11 @@ from creepcomp.io.jsonfiles import write_json
 from creepcomp.io.outputs import check_outputs
 from creepcomp.io.records import Record, parse_columns
 from creepcomp.units import format_percent, format_quantity
-from creepcomp.cli.common import app, console, print_json, progress_bar, quantity
+from creepcomp.cli.common import app, console, count_option, print_json, progress_bar, quantity
 
 if TYPE_CHECKING:
     from creepcomp.fit.prony import PronyResult
+    from creepcomp.fit.temperature import TemperatureFit
 
 COLUMNS_HELP = ("Map the file's columns to time, load, signal (temperature, corrected), e.g. "
                 "'time=Step time,signal=Strain,load=Stress'; a number is a constant column (load=1).")
@@ -61,8 +63,12 @@ def record_options(initial: str, load_step_at: str | None) -> tuple[str, float |
 
 def describe_record(record: Record, data) -> str:
     """One line about the record as fitted."""
-    sampling = (f"uniform, {format_quantity(data.dt_median, 's')}" if record.is_uniform
-                else f"irregular, median step {format_quantity(data.dt_median, 's')}")
+    step = format_quantity(data.dt_median, 's')
+    if record.metadata.get("reduced"):
+        # block means within constant-load stretches: the steps differ only where a stretch ends
+        sampling = f"reduced to block means, median step {step}"
+    else:
+        sampling = f"uniform, {step}" if record.is_uniform else f"irregular, median step {step}"
     merged = record.metadata.get("merged_duplicate_times")
     extra = f"; {merged} rows with repeated time stamps averaged" if merged else ""
     return (f"{record.source}: {len(record)} samples over {format_quantity(record.duration, 's')} "
@@ -77,7 +83,10 @@ INITIAL_TEXT = {"free": "initial creep state fitted (the record may start loaded
 
 @app.command("fit")
 def fit_command(
-    record_path: Path = typer.Argument(..., metavar="RECORD", help="Measured record (CSV, docs/record-format.md)."),
+    record_paths: List[Path] = typer.Argument(..., metavar="RECORD...",
+                                              help="Measured record(s) (CSV, docs/record-format.md); "
+                                                   "several: one per temperature, fitted jointly "
+                                                   "with a temperature law."),
     columns: Optional[str] = typer.Option(None, "--columns", metavar="MAP", help=COLUMNS_HELP),
     delimiter: Optional[str] = typer.Option(None, "--delimiter", metavar="CHAR",
                                             help="Field delimiter (default: detected; 'tab' for tabs)."),
@@ -85,7 +94,8 @@ def fit_command(
                                         help="Repeated time stamps: an error, or average the rows."),
     terms: str = typer.Option("auto", "--terms", metavar="auto|K",
                               help="Number of creep terms: chosen by evidence, or fixed."),
-    max_terms: int = typer.Option(8, "--max-terms", min=1, max=20, help="Most terms tried with --terms auto."),
+    max_terms: int = typer.Option(8, "--max-terms", parser=count_option("--max-terms", 1, 20),
+                                  help="Most terms tried with --terms auto."),
     flow: bool = typer.Option(False, "--flow", help="Add viscous flow (a dashpot in series, Burgers "
                                                    "model) to every model: creep that never saturates."),
     initial: str = typer.Option("free", "--initial", metavar="free|relaxed|settled",
@@ -100,22 +110,35 @@ def fit_command(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object (the model file)."),
     taxel: Optional[int] = TAXEL_OPTION,
     sheet: Optional[str] = SHEET_OPTION,
+    law: Optional[str] = typer.Option(None, "--law", metavar="arrhenius|wlf",
+                                      help="Fit a temperature law of the retardation times (default "
+                                           "with several records: arrhenius; wlf needs 3+ temperatures)."),
+    temperature: Optional[str] = typer.Option(None, "--temperature", metavar="T1,T2,...",
+                                              help="Temperature of each record (°C), instead of their "
+                                                   "temperature columns."),
+    reference_temperature: Optional[str] = typer.Option(
+        None, "--reference-temperature", metavar="T",
+        help="Temperature (°C) of the fitted terms (default: the middle record's, or one record's mean)."),
+    beta_per_kelvin: bool = typer.Option(False, "--beta-per-kelvin",
+                                         help="Fit each creep amplitude's change per kelvin too."),
 ) -> None:
-    """Fit gain, offset and creep terms to a record; the number of terms by evidence."""
-    check_outputs({"-o": output, "--plot": plot}, inputs=[record_path])
+    """Fit gain, offset and creep terms to a record; the number of terms by evidence. With
+    several records (or --law), one model and its temperature law, fitted jointly."""
+    check_outputs({"-o": output, "--plot": plot}, inputs=list(record_paths))
     init, step = record_options(initial, load_step_at)
+    fixed = terms_option(terms)
+    over_temperature = (len(record_paths) > 1 or law is not None or temperature is not None
+                        or reference_temperature is not None or beta_per_kelvin)
+    if over_temperature:
+        fit_over_temperature(record_paths, law or "arrhenius", temperature, reference_temperature,
+                             beta_per_kelvin, fixed, max_terms, flow, plot, init, step, output, as_json,
+                             (columns, delimiter, duplicate_times, taxel, sheet))
+        return
     from creepcomp.fit.reduce import MAX_FIT_SAMPLES
 
+    [record_path] = record_paths
     [(record, reduction)] = load_reduced(record_path, (MAX_FIT_SAMPLES,), columns, delimiter,
                                          duplicate_times, taxel, sheet, quiet=as_json)
-    fixed = None
-    if terms.strip().lower() != "auto":
-        try:
-            fixed = int(terms)
-        except ValueError:
-            raise InputError(f"--terms '{terms}': use auto or a whole number") from None
-        if not 1 <= fixed <= 20:
-            raise InputError(f"--terms {fixed}: use 1 to 20")
     from creepcomp.diagnose import effects
     from creepcomp.fit import Applied, fit_prony, prepare
 
@@ -142,6 +165,142 @@ def fit_command(
         console.print(f"model written to {output}")
     if plot is not None:
         console.print(f"plot written to {plot}")
+
+
+def terms_option(terms: str) -> int | None:
+    """``--terms``: None for auto, else the fixed number of terms (checked)."""
+    if terms.strip().lower() == "auto":
+        return None
+    try:
+        fixed = int(terms)
+    except ValueError:
+        raise InputError(f"--terms '{terms}': use auto or a whole number") from None
+    if not 1 <= fixed <= 20:
+        raise InputError(f"--terms {fixed}: use 1 to 20")
+    return fixed
+
+
+def temperatures_option(text: str | None, n_records: int) -> list[float] | None:
+    """``--temperature T1,T2,...``: one temperature (°C) per record."""
+    from creepcomp.cli.creep_test import parse_temperatures
+
+    values = parse_temperatures(text, "--temperature")
+    if values is not None and len(values) != n_records:
+        raise InputError(f"--temperature '{text}' gives {len(values)} temperature"
+                         f"{'s' if len(values) != 1 else ''} for {n_records} record"
+                         f"{'s' if n_records != 1 else ''}: give one per record")
+    return values
+
+
+def fit_over_temperature(paths: list[Path], law: str, temperature: str | None, reference: str | None,
+                         beta_per_kelvin: bool, fixed: int | None, max_terms: int, flow: bool,
+                         plot: Path | None, init: str, step: float | None, output: Path | None,
+                         as_json: bool, reader: tuple) -> None:
+    """The joint fit of one model and its temperature law (:mod:`creepcomp.fit.temperature`)."""
+    law = law.strip().lower()
+    if flow:
+        raise InputError("--flow: not available with a temperature law fit")
+    if plot is not None:
+        raise InputError("--plot: available for one record without a temperature law")
+    temps = temperatures_option(temperature, len(paths))
+    ref = quantity(reference, "number", "--reference-temperature")
+    from creepcomp.fit.data import prepare
+    from creepcomp.fit.reduce import MAX_FIT_SAMPLES
+    from creepcomp.fit.temperature import fit_temperature_law
+
+    records, notes = [], []
+    for path in paths:
+        [(record, reduction)] = load_reduced(path, (MAX_FIT_SAMPLES,), *reader, quiet=as_json)
+        records.append(record)
+        if reduction:
+            notes.append(f"{record.source}: {reduction}")
+    with progress_bar("fitting", disable=as_json):
+        data = [prepare(r, initial=init, load_step_at=step) for r in records]
+        result = fit_temperature_law(data, law=law, temperatures=temps, reference=ref,
+                                     beta_per_kelvin=beta_per_kelvin, n_terms=fixed, max_terms=max_terms)
+    model = result.to_dict()
+    if notes:
+        model["record_reduction"] = notes
+    if output is not None:
+        write_json(output, model)
+    if as_json:
+        print_json(model)
+        return
+    render_temperature_fit(records, result)
+    for note in notes:
+        console.print(f"[yellow]note:[/yellow] {note}", soft_wrap=True)
+    if output is not None:
+        console.print(f"model written to {output}")
+
+
+def law_lines(result: TemperatureFit) -> list[str]:
+    """The fitted law, one line per quantity, with units and standard deviations."""
+    from creepcomp.temperature import ZERO_CELSIUS
+
+    law = result.law
+    est = result.law_estimates()
+    lines = []
+    if law.law == "arrhenius":
+        ea, sd = est["activation_energy"]
+        lines.append(f"activation energy E_a = {ea / 1e3:.2f} ± {sd / 1e3:.2f} kJ/mol (1 sigma)")
+    else:
+        (c1, s1), (c2, s2) = est["c1"], est["c2"]
+        rho = law.uncertainty.get("c1_c2_correlation")
+        lines.append(f"WLF c1 = {c1:.4g} ± {s1:.2g}, c2 = {c2:.4g} ± {s2:.2g} K (1 sigma"
+                     + (f", correlation {rho:+.3f})" if rho is not None else ")"))
+    kappa = law.kappa
+    halving = 0.6931471805599453 / kappa if kappa > 0 else float("inf")
+    lines.append(f"at {law.reference:.4g} °C ({law.reference + ZERO_CELSIUS:.2f} K): tau changes by "
+                 f"{-100 * kappa:.3g} %/K, halves every {halving:.3g} K")
+    for k, b in enumerate(law.beta_per_kelvin):
+        sd = law.uncertainty.get("beta_per_kelvin", [float("nan")] * len(law.beta_per_kelvin))[k]
+        lines.append(f"beta[{k}] changes by {100 * b:+.3g} ± {100 * sd:.2g} %/K (relative)")
+    return lines
+
+
+def render_temperature_fit(records: list[Record], result: TemperatureFit) -> None:
+    """Print the records, the model at the reference temperature and its law."""
+    law = result.law
+    several = len(records) > 1
+    console.print(f"[bold]creepcomp fit[/bold]: {len(records)} record{'s' if several else ''}, one "
+                  f"creep model and its {law.law} law fitted "
+                  + ("jointly (each record with its own gain and offset)" if several else
+                     "to the record's temperature history")
+                  + f"; reference {law.reference:.4g} °C", soft_wrap=True)
+    table = Table(title="Records (a_T: the retardation times' shift factor)", title_justify="left")
+    for col in ("record", "°C", "a_T", "gain", "offset", "residual"):
+        table.add_column(col, justify="right")
+    for rec, r in zip(records, result.records):
+        su, lu = rec.unit("signal"), rec.unit("load")
+        if r["temperature_used"] == "column":
+            span = f"{r['temperature_min']:.3g}…{r['temperature_max']:.3g}"
+            shift = f"{law.shift(r['temperature_min']):.3g}…{law.shift(r['temperature_max']):.3g}"
+        else:
+            span = f"{r['temperature_mean']:.3g}"
+            shift = f"{r['shift_factor']:.4g} ± {r['shift_factor_sigma']:.2g}"
+        table.add_row(r["record"], span, shift, f"{r['gain']:.5g} {su}/{lu}" if su and lu else f"{r['gain']:.5g}",
+                      f"{r['offset']:.4g} {su}".strip(),
+                      f"{r['residual_rms']:.3g} {su}".strip())
+    console.print(table)
+    model = result.model
+    t2 = Table(title=f"Model at {law.reference:.4g} °C: {model.n_terms} creep term"
+                     f"{'s' if model.n_terms > 1 else ''}, beta0 = {format_percent(model.beta0)}",
+               title_justify="left")
+    for col in ("", "value", "± 1 sigma"):
+        t2.add_column(col, justify="right")
+    for k in range(model.n_terms):
+        t2.add_row(f"beta[{k}]", format_percent(model.beta[k], 4), format_percent(result.sigmas[f"beta[{k}]"], 2))
+        t2.add_row(f"tau[{k}]", format_quantity(model.tau[k], "s"),
+                   format_quantity(result.sigmas[f"tau[{k}]"], "s", 2))
+    console.print(t2)
+    for line in law_lines(result):
+        console.print(line)
+    from creepcomp.fit import BIC_STRONG
+
+    tried = ", ".join(f"{o['n_terms']}" + (f" (ΔBIC {o['delta_bic_whitened']:+.1f})" if "delta_bic_whitened" in o
+                                          else "") for o in result.orders)
+    console.print(f"terms tried: {tried}; {model.n_terms} chosen (a term is kept when it lowers the BIC "
+                  f"of the prewhitened residuals by {BIC_STRONG:g}+)", soft_wrap=True)
 
 
 def render_fit(record: Record, result: PronyResult, fixed: int | None) -> None:

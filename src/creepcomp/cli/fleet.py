@@ -9,7 +9,7 @@ import typer
 from rich.table import Table
 
 from creepcomp.units import format_percent
-from creepcomp.cli.common import app, console, err_console, print_json, quantity
+from creepcomp.cli.common import app, console, count_option, err_console, print_json, quantity
 
 
 @app.command("fleet")
@@ -19,7 +19,7 @@ def fleet_command(
                                              "glob patterns ('lot7/*.csv'); each record is one unit."),
     output: Path = typer.Option(..., "-o", "--output", metavar="DIR",
                                 help="Output folder: fleet.parquet, fleet.csv, report.html, units/<unit>/."),
-    workers: Optional[int] = typer.Option(None, "--workers", metavar="N",
+    workers: Optional[int] = typer.Option(None, "--workers", metavar="N", parser=count_option("--workers"),
                                           help="Worker processes of the local cluster (default: cores)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", metavar="ADDRESS",
                                             help="Use a running Dask cluster (tcp://host:8786) whose "

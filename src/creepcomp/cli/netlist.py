@@ -17,7 +17,7 @@ from creepcomp.io.outputs import check_outputs
 from creepcomp.programs import LoadProgram
 from creepcomp.io.records import Record, parse_columns, read_record
 from creepcomp.units import format_quantity
-from creepcomp.cli.common import app, console, print_json, quantity
+from creepcomp.cli.common import app, console, count_option, print_json, quantity
 
 #: Most time points of a synthetic drive.
 MAX_POINTS = 1_000_000
@@ -78,9 +78,24 @@ def read_drive(design_path: Path, program: str, record: Path | None, columns: st
     return Drive(design, name, prog, None, duration_s, points, signal_v)
 
 
-def drive_deck(drive: Drive, data_file: str = "record-signal.txt") -> tuple[Deck, tuple | None]:
+def parse_temperatures(text: str, option: str) -> list[float]:
+    """``-10,20,40`` (°C) as a list of numbers, each checked."""
+    out = []
+    for item in text.split(","):
+        if not item.strip():
+            raise InputError(f"{option} '{text}': expected temperatures in °C separated by commas, "
+                             "e.g. -10,20,40")
+        out.append(quantity(item.strip().removesuffix("°C").removesuffix("C"), "number", option))
+    if any(t <= -273.15 for t in out):
+        raise InputError(f"{option} '{text}': a temperature is at or below absolute zero")
+    return out
+
+
+def drive_deck(drive: Drive, data_file: str = "record-signal.txt",
+               temperature: float | None = None) -> tuple[Deck, tuple | None]:
     """The netlist of a drive, and its data file's ``(time, signal)`` (for a record; see
-    :func:`creepcomp.verify.netlist.write_deck`)."""
+    :func:`creepcomp.verify.netlist.write_deck`); with ``temperature`` (°C) the netlist
+    carries the parts' and the sensor's temperature behaviour and runs at it."""
     net, model = drive.design.network, drive.design.model
     if drive.record is not None:
         rec = drive.record
@@ -89,9 +104,18 @@ def drive_deck(drive: Drive, data_file: str = "record-signal.txt") -> tuple[Deck
                            title=f"creepcomp: design driven by the record {source}",
                            name=rec.source)
         return deck, (rec.time, rec.signal)
-    duration = drive.duration or default_duration(drive.program, model, net)
+    plan = None
+    if temperature is not None:
+        from creepcomp.analog.parts import network_at, plan_of
+
+        plan = plan_of(drive.design)
+        duration = drive.duration or default_duration(
+            drive.program, model.at_temperature(temperature), network_at(net, plan, temperature))
+    else:
+        duration = drive.duration or default_duration(drive.program, model, net)
     deck = program_deck(net, model, drive.program, duration, drive.points, drive.signal,
-                        title=f"creepcomp: design driven by synthetic creep, {drive.program.name}")
+                        title=f"creepcomp: design driven by synthetic creep, {drive.program.name}",
+                        temperature=temperature, plan=plan)
     return deck, None
 
 
@@ -111,16 +135,30 @@ def netlist_command(
     duration: Optional[str] = typer.Option(None, "--duration", metavar="TIME",
                                            help="Simulated time (default: the program's, and 20 "
                                                 "time constants after a final step)."),
-    points: int = typer.Option(DEFAULT_POINTS, "--points", metavar="N",
+    points: int = typer.Option(DEFAULT_POINTS, "--points", metavar="N", parser=count_option("--points"),
                                help="Output time points; ngspice steps at most half their spacing."),
     signal: str = typer.Option("100u", "--signal", metavar="VOLT",
                                help="Instantaneous sensor signal at full scale, e.g. 100u or 1V."),
+    temperature: Optional[str] = typer.Option(
+        None, "--temperature", metavar="T",
+        help="Simulate at T °C: thermistors as behavioural resistors of temper, TCs on the "
+             "fixed parts (tc1 about tnom = 25 °C), the sensor's tau(T) from its temperature law."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+    subckt: Optional[Path] = typer.Option(None, "--subckt", metavar="FILE.lib",
+                                          help="Write the network alone as a plain SPICE "
+                                               ".subckt (ports in, out, gnd) for any simulator."),
+    asc: Optional[Path] = typer.Option(None, "--asc", metavar="FILE.asc",
+                                       help="Write an LTspice schematic of the network with a "
+                                            "step test bench."),
 ) -> None:
     """Write an ngspice netlist of the design, driven by synthetic creep or a measured record.
 
     The netlist runs on its own: ngspice -b FILE.cir prints the residual creep it measures.
+    With --subckt or --asc, write the network for other simulators instead.
     """
+    if subckt is not None or asc is not None:
+        export_network(design, subckt, asc, output, record, as_json)
+        return
     files = {"-o": output}
     if record is not None and output is not None:
         files["-o (its data file)"] = output.parent / f"{output.stem}-signal.txt"
@@ -128,8 +166,16 @@ def netlist_command(
     drive = read_drive(design, program, record, columns, duration, points, signal)
     if drive.record is not None and output is None:
         raise InputError("--record needs -o FILE.cir: its data file is written beside the netlist")
+    temp = None
+    if temperature is not None:
+        if drive.record is not None:
+            raise InputError("--temperature applies to a synthetic drive (--program), not a record")
+        temps = parse_temperatures(temperature, "--temperature")
+        if len(temps) != 1:
+            raise InputError(f"--temperature '{temperature}': one temperature (°C) per netlist")
+        temp = temps[0]
     data_name = f"{output.stem}-signal.txt" if output is not None else "record-signal.txt"
-    deck, data = drive_deck(drive, data_name)
+    deck, data = drive_deck(drive, data_name, temp)
     text = deck.text()
     if output is None:
         if as_json:
@@ -153,3 +199,33 @@ def netlist_command(
         console.print(f"signal data written to {info['data_file']} ({info['samples']} samples, "
                       f"{format_quantity(info['data_bytes'], 'B')}), read by an XSPICE filesource")
     console.print(f"run it with: ngspice -b {output}")
+
+
+def export_network(design_path: Path, subckt: Path | None, asc: Path | None,
+                   output: Path | None, record: Path | None, as_json: bool) -> None:
+    """``netlist --subckt/--asc``: the network for other simulators."""
+    from creepcomp.analog.parts import plan_of
+    from creepcomp.io.atomic import write_text_atomic
+    from creepcomp.verify.netlist_export import SUBCKT_NAME, asc_text, subckt_text
+
+    if output is not None or record is not None:
+        raise InputError("--subckt and --asc write the network alone: leave out -o and --record")
+    check_outputs({"--subckt": subckt, "--asc": asc}, inputs=[design_path])
+    design = read_design(design_path)
+    plan = plan_of(design, str(design_path))
+    written = {}
+    if subckt is not None:
+        write_text_atomic(subckt, subckt_text(design.network, plan=plan,
+                                              title=f"creepcomp correction network of {design_path.name}"))
+        written["subckt"] = str(subckt)
+    if asc is not None:
+        write_text_atomic(asc, asc_text(design.network))
+        written["asc"] = str(asc)
+    if as_json:
+        print_json(dict(written, name=SUBCKT_NAME, ports=["in", "out", "gnd"]))
+        return
+    if subckt is not None:
+        console.print(f"subcircuit {SUBCKT_NAME} (ports in out gnd) written to {subckt}: "
+                      f".include it and place X1 IN OUT 0 {SUBCKT_NAME}", soft_wrap=True)
+    if asc is not None:
+        console.print(f"LTspice schematic with a step test bench written to {asc}", soft_wrap=True)

@@ -10,13 +10,14 @@ import numpy as np
 import typer
 from rich.table import Table
 
-from creepcomp.verify.compare import Comparison, compare_program, compare_record
+from creepcomp.errors import InputError
+from creepcomp.verify.compare import Comparison, compare_program, compare_record, compare_temperatures
 from creepcomp.verify.drive import DEFAULT_POINTS
 from creepcomp.verify.netlist import write_deck
 from creepcomp.io.outputs import check_outputs
 from creepcomp.units import format_percent, format_quantity
-from creepcomp.cli.common import app, console, err_console, print_json, progress_bar
-from creepcomp.cli.netlist import PROGRAM_HELP, read_drive
+from creepcomp.cli.common import app, console, count_option, err_console, print_json, progress_bar
+from creepcomp.cli.netlist import PROGRAM_HELP, parse_temperatures, read_drive
 
 
 def _sci(x: float | None) -> str:
@@ -86,7 +87,7 @@ def simulate_command(
     duration: Optional[str] = typer.Option(None, "--duration", metavar="TIME",
                                            help="Simulated time (default: the program's, and 20 "
                                                 "time constants after a final step)."),
-    points: int = typer.Option(DEFAULT_POINTS, "--points", metavar="N",
+    points: int = typer.Option(DEFAULT_POINTS, "--points", metavar="N", parser=count_option("--points"),
                                help="Time points compared (uniform within each program segment)."),
     signal: str = typer.Option("100u", "--signal", metavar="VOLT",
                                help="Instantaneous sensor signal at full scale, e.g. 100u or 1V."),
@@ -96,6 +97,10 @@ def simulate_command(
     no_plot: bool = typer.Option(False, "--no-plot", help="Do not save a plot."),
     netlist: Optional[Path] = typer.Option(None, "--netlist", metavar="FILE.cir",
                                            help="Also write the netlist that ran."),
+    temperatures: Optional[str] = typer.Option(
+        None, "--temperatures", metavar="T1,T2,...",
+        help="Simulate at each temperature (°C), e.g. -10,20,40: the sensor at T (its "
+             "temperature law), every part at T (TCs, thermistors), in both simulators."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ) -> None:
     """Simulate the design with python-control and with ngspice on the same time points.
@@ -109,9 +114,18 @@ def simulate_command(
     files = {"--plot": plot_path, "--netlist": netlist}
     if netlist is not None and record is not None:
         files["--netlist (its data file)"] = netlist.parent / f"{netlist.stem}-signal.txt"
+    temps = None if temperatures is None else parse_temperatures(temperatures, "--temperatures")
+    if temps is not None and record is not None:
+        raise InputError("--temperatures applies to a synthetic drive (--program), not a record")
+    if temps is not None and plot_path is not None and len(temps) > 1:
+        files.update({f"--plot at {t:g} °C": _at(plot_path, t) for t in temps})
+        del files["--plot"]
     check_outputs(files, inputs=[design, record])
     drive = read_drive(design, program, record, columns, duration, points, signal)
     net, model = drive.design.network, drive.design.model
+    if temps is not None:
+        _simulate_temperatures(drive, design, temps, plot_path, netlist, as_json)
+        return
     if drive.record is not None:
         rec = drive.record
         with progress_bar(f"simulating {len(rec)} samples (python-control, ngspice)",
@@ -144,3 +158,71 @@ def simulate_command(
         console.print(f"plot written to {plot_path}")
     if netlist is not None:
         console.print(f"netlist written to {netlist}; run it with: ngspice -b {netlist}")
+
+
+def _at(path: Path, temperature: float) -> Path:
+    """``path`` with the temperature in its name (one plot per temperature)."""
+    return path.with_name(f"{path.stem}-{temperature:g}C{path.suffix}")
+
+
+def _simulate_temperatures(drive, design: Path, temps: list[float], plot_path: Path | None,
+                           netlist: Path | None, as_json: bool) -> None:
+    """``simulate --temperatures``: one comparison per temperature, a table each, and the
+    largest disagreement and residual creep over them."""
+    from creepcomp.analog.parts import plan_of
+
+    d = drive.design
+    plan = plan_of(d)
+    with progress_bar(f"simulating at {len(temps)} temperatures (python-control, ngspice)",
+                      disable=as_json):
+        comparisons = compare_temperatures(d.network, d.model, plan, temps, drive.program,
+                                           drive.duration, drive.points, drive.signal)
+    unavailable = comparisons[0].unavailable
+    if unavailable:
+        err_console.print(f"creepcomp: note: {unavailable}; showing the python-control result "
+                          "only", markup=False, highlight=False, soft_wrap=True)
+    plots = {}
+    if plot_path is not None:
+        from creepcomp.report.spice import plot_comparison
+
+        for c in comparisons:
+            plots[c.temperature] = plot_path if len(temps) == 1 else _at(plot_path, c.temperature)
+            plot_comparison(c, plots[c.temperature])
+    if netlist is not None:
+        from creepcomp.cli.netlist import drive_deck
+
+        for t in temps:
+            deck, _ = drive_deck(drive, temperature=t)
+            write_deck(netlist if len(temps) == 1 else _at(netlist, t), deck)
+    agreements = [c.agreement_max_abs for c in comparisons if c.agreement_max_abs is not None]
+    peaks = [c.residual_creep_peak for c in comparisons]
+    worst = int(np.argmax(peaks))
+    if as_json:
+        rows = []
+        for c in comparisons:
+            row = c.to_dict()
+            row["plot"] = None if c.temperature not in plots else str(plots[c.temperature])
+            rows.append(row)
+        print_json({"agreement_max_abs": max(agreements) if agreements else None,
+                    "residual_creep_peak": peaks[worst], "residual_creep_peak_at": temps[worst],
+                    "tracking": plan.tracking, "temperatures": rows, "design": str(design),
+                    "netlist": None if netlist is None else str(netlist)})
+        return
+    for c in comparisons:
+        render_comparison(c, title=f"creepcomp simulate at {c.temperature:g} °C")
+    table = Table(title="Over temperature", title_justify="left")
+    for col in ("temperature", "residual creep, peak (of full scale)", "residual creep, final",
+                "largest |ngspice - python-control| (of full scale)"):
+        table.add_column(col, justify="right")
+    for c in comparisons:
+        table.add_row(f"{c.temperature:g} °C", format_percent(c.residual_creep_peak),
+                      format_percent(c.residual_creep_final), _sci(c.agreement_max_abs))
+    console.print(table)
+    console.print(f"worst residual creep: {format_percent(peaks[worst])} at {temps[worst]:g} °C"
+                  + (f"; largest disagreement {_sci(max(agreements))} of full scale"
+                     if agreements else ""))
+    for t, p in plots.items():
+        console.print(f"plot at {t:g} °C written to {p}")
+    if netlist is not None:
+        console.print(f"netlist{'s' if len(temps) > 1 else ''} written "
+                      f"({netlist if len(temps) == 1 else _at(netlist, temps[0]).name + ' ...'})")

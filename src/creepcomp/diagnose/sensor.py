@@ -62,7 +62,7 @@ __all__ = ["MAX_EFFECTS", "REFINED", "CORRECTION_WORSE", "REMAINING_LIMIT", "Fin
 
 #: Most effects added one after the other.
 MAX_EFFECTS = 4
-#: Samples the diagnosis works on at most: a longer record is reduced by block means within
+#: Samples the diagnosis works on at most: a longer record is reduced by blocks within
 #: constant-load stretches (:func:`~creepcomp.fit.reduce.reduce_record`), which keeps its load
 #: steps sharp and everything slower than a few new sample intervals. 6,000: above the 5,001
 #: samples of the confusion benchmark's records (``docs/benchmarks.md``), and a 30-minute
@@ -667,7 +667,7 @@ def _verdict(data: Data, search: Search, correction: bool, reduced, t_start: flo
     floor = noise_floor(data.signal, data.load, data.time, follows_lag=True)
     catch, unexplained = _unexplained(data, current, findings, floor)
     extensions = _extensions(current)
-    extended_model = model_file_dict(data, current, extensions=extensions)
+    extended_model = _with_temperature_law(model_file_dict(data, current, extensions=extensions), current)
     baseline_model = model_file_dict(data, base)
     gain = {"heldout_rms_ratio": base.heldout.rms / current.heldout.rms if current.heldout.rms > 0 else None,
             "correction_error_ratio": None}
@@ -691,6 +691,18 @@ def _extensions(fit: Fit) -> dict:
         if entry is not None:
             out[a.name] = entry
     return out
+
+
+def _with_temperature_law(model: dict, fit: Fit) -> dict:
+    """The model file with the ``temperature`` block an effect of the fit implies (the first)."""
+    for a in fit.structure.effects:
+        law = a.effect.temperature_law(fit, a)
+        if law is not None:
+            out = {k: v for k, v in model.items() if k not in ("extensions", "uncertainty", "fit")}
+            out["temperature"] = law.to_dict()
+            out.update({k: v for k, v in model.items() if k not in out})
+            return out
+    return model
 
 
 def _remaining(fit: Fit, floor: NoiseFloor) -> dict:

@@ -24,6 +24,17 @@ term, no overflow at any ``t / tau``.
   paper's implicit eq. 11 with gains ``beta_k / (1 + beta0)``, solved for the current sample
   (it is linear in it) instead of lagging one step (eq. 12).
 
+Over temperature (a model with a temperature law, ``docs/physics.md``): every step has its
+own coefficients, ``e_k``, ``b0_k``, ``b1_k`` of ``tau_k a_T`` at the step's mid temperature
+and ``beta_k(T)`` at the sample (:meth:`creepcomp.model.CreepModel.step_lags`), exactly the
+inverse of :meth:`~creepcomp.model.CreepModel.response` with that temperature history::
+
+    S[n] = (x[n] - beta[n] . q[n]) / D[n],      D[n] = 1 + beta[n] . b1[n-1],
+    q[n+1] = e[n] q[n] + (e[n] b1[n-1] + b0[n]) S[n]
+
+The supplemental scale stays ``1 + beta0`` at the reference temperature, so that its output
+depends on the load alone.
+
 Both are the inverse filter ``1/G`` (times ``G(0)``); they differ in scale and in the usual
 start: relaxed (unloaded) for subtractive, settled (creep saturated) for supplemental. Either
 start works with either method.
@@ -51,8 +62,9 @@ from creepcomp.lti import UNIFORM_RTOL, lag_coefficients
 from creepcomp.model import CreepModel
 
 __all__ = ["ERROR_CHUNK", "METHODS", "HOLDS", "INITIAL_STATES", "BLOCK", "PASS_SAMPLES", "default_initial",
-           "saturation_factor", "Corrector", "check_invertible", "compensate", "uniform_interval",
-           "uniform_interval_of", "reference", "CreepError", "CreepErrorSum", "creep_error"]
+           "saturation_factor", "Corrector", "check_invertible", "check_temperature", "compensate",
+           "uniform_interval", "uniform_interval_of", "reference", "CreepError", "CreepErrorSum",
+           "creep_error"]
 
 METHODS = ("subtractive", "supplemental")
 HOLDS = ("zero", "linear")
@@ -82,6 +94,29 @@ def _check_method(method: str) -> str:
     return method
 
 
+def check_temperature(model: CreepModel, given: bool, where: str = "correction") -> None:
+    """Refuse a model with a temperature law and no temperature, or a temperature without a law.
+
+    Parameters
+    ----------
+    model : CreepModel
+    given : bool
+        Whether a temperature (a record column or a constant) is there.
+    where : str
+        What needs it, for the message.
+    """
+    if model.temperature is not None and not given:
+        law = model.temperature
+        raise InputError(f"the model has a temperature law ({law.law}, reference "
+                         f"{law.reference:g} °C): the {where} needs the temperature of every "
+                         "sample: a 'temperature' column in the record (°C), or --temperature T "
+                         "(°C) for a constant one")
+    if model.temperature is None and given:
+        raise InputError(f"a temperature was given for the {where} but the model has no "
+                         "temperature law (no 'temperature' block): it cannot follow temperature; "
+                         "drop the temperature or give a model with a law")
+
+
 def _check_hold(hold: str) -> str:
     if hold not in HOLDS:
         raise InputError(f"hold '{hold}': use 'zero' (load held between samples) or 'linear'")
@@ -93,7 +128,7 @@ def _affine_recursion(u, q0, M=None, diagonal=None, feedback=None, beta=None) ->
 
     ``M`` is given densely, shape (K, K) (the same every step), or as
     ``diag(diagonal[i]) - outer(feedback[i], beta)`` with ``diagonal`` and ``feedback`` of
-    shape (n - 1, K).
+    shape (n - 1, K) and ``beta`` of shape (K,) or, one per step, (n - 1, K).
 
     Returns
     -------
@@ -109,7 +144,7 @@ def _affine_recursion(u, q0, M=None, diagonal=None, feedback=None, beta=None) ->
             if M is not None:
                 row[:] = -M[r, j]
             else:
-                np.multiply(feedback[:, r], beta[j], out=row)
+                np.multiply(feedback[:, r], beta[..., j], out=row)
                 if r == j:
                     row -= diagonal[:, r]
     rhs = np.empty((n * k, 1))
@@ -196,7 +231,9 @@ class Corrector:
     Notes
     -----
     The output of a chunk depends only on the samples fed so far; feeding a record in chunks
-    gives the result of :func:`compensate` on the whole record (to rounding).
+    gives the result of :func:`compensate` on the whole record (to rounding). A model with a
+    temperature law needs the temperature (°C) of every sample with each chunk (module
+    docstring).
     """
 
     def __init__(self, model: CreepModel, method: str = "subtractive", dt: float | None = None,
@@ -219,11 +256,13 @@ class Corrector:
             if not (dt > 0 and math.isfinite(dt)):
                 raise InputError(f"dt = {dt!r}: the sampling interval must be positive and finite")
             self.dt = dt
-            self._blocks = _UniformBlocks.build(self._beta, self._taus, dt, self.hold)
-            _check_stable(self._blocks.M, f"sampling interval {dt:g} s", model)
+            if model.temperature is None:
+                self._blocks = _UniformBlocks.build(self._beta, self._taus, dt, self.hold)
+                _check_stable(self._blocks.M, f"sampling interval {dt:g} s", model)
         self._creep = None          # c_k at the last sample (signal units above offset)
         self._last = None           # instantaneous signal S at the last sample
         self._time = None           # time of the last sample (irregular mode)
+        self._temp = None           # temperature at the last sample (°C; temperature law)
 
     @property
     def started(self) -> bool:
@@ -235,7 +274,7 @@ class Corrector:
         """Creep states ``c_k`` at the last sample (signal units above offset), or None."""
         return None if self._creep is None else self._creep.copy()
 
-    def process(self, signal, time=None) -> np.ndarray:
+    def process(self, signal, time=None, temperature=None) -> np.ndarray:
         """Compensate the next chunk of raw samples.
 
         Parameters
@@ -244,6 +283,9 @@ class Corrector:
             Raw samples (signal units).
         time : array_like, optional
             Their times (s); required without ``dt``, not allowed with it.
+        temperature : array_like or float, optional
+            Temperature of each sample (°C), or one for all; required for a model with a
+            temperature law, refused without one.
 
         Returns
         -------
@@ -262,6 +304,17 @@ class Corrector:
                 raise InputError(f"{len(t)} times for {len(raw)} samples")
         elif time is not None:
             raise InputError("this Corrector has a fixed sampling interval dt: pass samples only")
+        check_temperature(self.model, temperature is not None)
+        temps = None
+        if temperature is not None:
+            temps = np.asarray(temperature, dtype=float)
+            if temps.ndim and temps.size != raw.size:
+                raise InputError(f"{temps.size} temperatures for {raw.size} samples")
+            temps = np.broadcast_to(temps.reshape(-1) if temps.ndim else temps, raw.shape)
+            if not np.isfinite(temps).all():
+                bad = int(np.flatnonzero(~np.isfinite(temps))[0])
+                raise InputError(f"temperature of sample {bad} of the chunk is not a finite number")
+            self.model.temperature.shift(temps)             # refuses temperatures the law cannot take
         out = np.empty_like(raw)
         # one pass at a time, so that every step works on data still in cache
         for i0 in range(0, len(raw), PASS_SAMPLES):
@@ -273,11 +326,14 @@ class Corrector:
             s = out[i0:i1]
             first = 0
             if not self.started:
-                self._start(x[0], None if t is None else t[0])
+                self._start(x[0], None if t is None else t[0], None if temps is None else temps[i0])
                 s[0] = self._last
                 first = 1
             if i1 - i0 > first:
-                if t is None:
+                if temps is not None:
+                    self._run_temperature(x[first:], None if t is None else t[i0 + first:i1],
+                                          temps[i0 + first:i1], s[first:])
+                elif t is None:
                     self._run_uniform(x[first:], s[first:])
                 else:
                     self._run_irregular(x[first:], t[i0 + first:i1], s[first:])
@@ -287,21 +343,25 @@ class Corrector:
                 s += self.model.offset
         return out
 
-    def _start(self, x0: float, t0: float | None) -> None:
+    def _start(self, x0: float, t0: float | None, temp0: float | None = None) -> None:
         k = len(self._beta)
         if t0 is not None:
             if not math.isfinite(t0):
                 raise InputError(f"time {t0} is not a finite number")
             self._time = float(t0)
+        beta = self._beta
+        if temp0 is not None:
+            self._temp = float(temp0)
+            beta = beta * self.model.temperature.beta_factor(self._temp, k)
         if isinstance(self.initial, str):
-            level = 0.0 if self.initial == "relaxed" else x0 / (1.0 + self.model.beta0)
+            level = 0.0 if self.initial == "relaxed" else x0 / (1.0 + float(np.sum(beta)))
             c0 = np.full(k, level)
         else:
             c0 = np.asarray(self.initial, dtype=float).reshape(-1)
             if c0.shape != (k,) or not np.all(np.isfinite(c0)):
                 raise InputError(f"initial creep states: expected {k} finite values, got {c0.size}")
         self._creep = c0
-        self._last = x0 - float(self._beta @ c0)
+        self._last = x0 - float(beta @ c0)
 
     def _run_uniform(self, x: np.ndarray, out: np.ndarray) -> None:
         blk = self._blocks
@@ -310,7 +370,8 @@ class Corrector:
         self._last = float(out[-1])
         self._creep = q_last + blk.b1 * self._last
 
-    def _run_irregular(self, x: np.ndarray, t: np.ndarray, out: np.ndarray) -> None:
+    def _steps(self, t: np.ndarray) -> np.ndarray:
+        """Time steps into each sample of the chunk (from the last sample), checked."""
         dts = np.diff(t, prepend=self._time)
         if not (np.all(dts > 0) and math.isfinite(t[-1])):
             i = int(np.flatnonzero(~((dts > 0) & np.isfinite(t)))[0])
@@ -318,6 +379,10 @@ class Corrector:
                 raise InputError(f"time {t[i]} is not a finite number")
             raise InputError(f"time must be strictly increasing: {t[i]:g} s follows "
                              f"{(self._time if i == 0 else t[i - 1]):g} s")
+        return dts
+
+    def _run_irregular(self, x: np.ndarray, t: np.ndarray, out: np.ndarray) -> None:
+        dts = self._steps(t)
         e, b0, b1 = lag_coefficients(dts[:, None], self._taus[None, :], self.hold)
         beta = self._beta
         D = 1.0 + b1 @ beta
@@ -328,6 +393,24 @@ class Corrector:
         self._last = float(out[-1])
         self._creep = q[-1] + b1[-1] * self._last
         self._time = float(t[-1])
+
+    def _run_temperature(self, x: np.ndarray, t: np.ndarray | None, temps: np.ndarray,
+                         out: np.ndarray) -> None:
+        """The recursion with every step's own lags and every sample's own amplitudes."""
+        dts = np.full(len(x), self.dt) if t is None else self._steps(t)
+        taus, betas = self.model.step_lags(np.concatenate(([self._temp], temps)))
+        beta = betas[1:]
+        e, b0, b1 = lag_coefficients(dts[:, None], taus, self.hold)
+        D = 1.0 + np.sum(b1 * beta, axis=1)
+        q0 = e[0] * self._creep + b0[0] * self._last
+        h = (e[1:] * b1[:-1] + b0[1:]) / D[:-1, None]
+        q = _affine_recursion(h * x[:-1, None], q0, diagonal=e[1:], feedback=h, beta=beta[:-1])
+        out[:] = (x - np.sum(q * beta, axis=1)) / D
+        self._last = float(out[-1])
+        self._creep = q[-1] + b1[-1] * self._last
+        self._temp = float(temps[-1])
+        if t is not None:
+            self._time = float(t[-1])
 
 
 def check_invertible(model: CreepModel) -> None:
@@ -348,7 +431,8 @@ def _check_stable(M: np.ndarray, where: str, model: CreepModel) -> None:
 
 
 def compensate(time, signal, model: CreepModel, method: str = "subtractive", initial=None,
-               hold: str = "zero", progress=None, chunk: int = 1_000_000) -> np.ndarray:
+               hold: str = "zero", progress=None, chunk: int = 1_000_000,
+               temperature=None) -> np.ndarray:
     """Creep-compensated signal of a whole record (uniform or irregular sampling).
 
     Parameters
@@ -372,6 +456,10 @@ def compensate(time, signal, model: CreepModel, method: str = "subtractive", ini
         Called as ``progress(samples_done, samples)`` after each chunk.
     chunk : int
         Samples fed to the :class:`Corrector` at a time (the result does not depend on it).
+    temperature : array_like or float, optional
+        Temperature of each sample (°C), or one for the whole record: required for a model
+        with a temperature law (each step then has its own ``tau_k(T)``, each sample its own
+        ``beta_k(T)``), refused for a model without one.
 
     Returns
     -------
@@ -406,12 +494,20 @@ def compensate(time, signal, model: CreepModel, method: str = "subtractive", ini
         raise InputError(f"time must be finite and strictly increasing {where}")
     dt = uniform_interval(t, steps)
     del steps
+    check_temperature(model, temperature is not None)
+    temps = None
+    if temperature is not None:
+        temps = np.asarray(temperature, dtype=float)
+        if temps.ndim and temps.shape != x.shape:
+            raise InputError(f"temperature has {temps.size} samples and the signal {x.size}")
+        temps = np.broadcast_to(temps, x.shape)
     corrector = Corrector(model, method, dt=dt, initial=initial, hold=hold)
     out = np.empty_like(x)
     for lo in range(0, len(x), max(int(chunk), 1)):
         hi = min(lo + int(chunk), len(x))
-        out[lo:hi] = (corrector.process(x[lo:hi]) if dt is not None
-                      else corrector.process(x[lo:hi], t[lo:hi]))
+        part = None if temps is None else temps[lo:hi]
+        out[lo:hi] = (corrector.process(x[lo:hi], temperature=part) if dt is not None
+                      else corrector.process(x[lo:hi], t[lo:hi], temperature=part))
         if progress:
             progress(hi, len(x))
     return out

@@ -17,6 +17,14 @@ of a single-precision state. So the state is held wider than the arithmetic:
   ``2**60`` per full scale; coefficients are 31-bit mantissas with a shift (relative error
   ``2**-31`` however small ``a_k`` is); every product fits a 64-bit integer.
 
+For a model with a temperature law the step takes the sensor's temperature (°C) with each
+sample and computes ``a_k = 1 - exp(-(T / tau_k) / a_T)`` per sample without libm, ``tau_k``
+following the temperature at the middle of the step
+(:func:`~creepcomp.digital.firmware_bound.temperature_scheme`); the bound then holds over a
+declared temperature range, to which the step clamps. float32 takes the temperature as a
+float in °C; q31, integer-only, as an ``int32_t`` in units of 1/256 °C
+(:func:`~creepcomp.digital.firmware_bound.q31_temperature_scheme`).
+
 The C text is in the Jinja2 templates of ``creepcomp/digital/templates`` (one leaf template per
 file kind and variant, sharing a base, includes and macros); this module computes the values
 they are filled with. The worst-case error bound written into the header comes from
@@ -33,16 +41,18 @@ from pathlib import Path
 import jinja2
 from jinja2 import meta
 
-from creepcomp.digital.firmware_bound import (FULL_SCALE_WORD, MIN_INTERVAL, PRECISIONS,
-                                              REFERENCE_ALLOWANCE, TICK, ErrorBound,
+from creepcomp.digital.firmware_bound import (DEFAULT_TEMPERATURE_RANGE, FULL_SCALE_WORD,
+                                              MIN_INTERVAL, PRECISIONS, REFERENCE_ALLOWANCE,
+                                              TEMPERATURE_STEP_Q, TICK, ErrorBound,
                                               check_arguments, check_interval, dt_scheme,
                                               exact_coefficients, firmware_bound, float32_value,
-                                              stored_coefficients)
+                                              q31_temperature_scheme, stored_coefficients,
+                                              temperature_bound, temperature_scheme)
 from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 
 __all__ = ["PRECISIONS", "FULL_SCALE_WORD", "REFERENCE_ALLOWANCE", "MIN_INTERVAL", "TICK",
-           "ErrorBound", "Firmware", "firmware_bound", "generate_firmware", "naive_float32"]
+           "DEFAULT_TEMPERATURE_RANGE", "TEMPERATURE_STEP_Q", "ErrorBound", "Firmware", "firmware_bound", "generate_firmware", "naive_float32"]
 
 
 @dataclass(frozen=True)
@@ -63,6 +73,9 @@ class Firmware:
         Fixed sample rate (Hz); None for the dt step.
     max_interval : float or None
         Longest interval the dt step accepts (s); None for the fixed rate.
+    temperature_range : tuple of float or None
+        ``(low, high)`` (°C) of the temperature step (a model with a temperature law): the
+        step clamps to it and the bound holds over it; None without a law.
     """
 
     model: CreepModel
@@ -77,6 +90,7 @@ class Firmware:
     bound: ErrorBound | None
     coefficients: dict
     max_interval: float | None = None
+    temperature_range: tuple[float, float] | None = None
 
     @property
     def irregular(self) -> bool:
@@ -108,7 +122,8 @@ class Firmware:
 
 def generate_firmware(model: CreepModel, method: str = "subtractive", precision: str = "float32",
                       rate: float = 100.0, full_scale: float = 1.0, name: str = "creep",
-                      max_interval: float | None = None) -> Firmware:
+                      max_interval: float | None = None,
+                      temperature_range: tuple[float, float] | None = None) -> Firmware:
     """Generate the C99 corrector of a model, with its derivation and error bound in comments.
 
     Parameters
@@ -130,11 +145,18 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
         Generate the dt step for irregular sampling instead of the fixed-rate step:
         ``PREFIX_step_dt(state, raw, dt, &out)`` accepts ``MIN_INTERVAL <= dt <= max_interval``
         (float32: dt in seconds; q31: dt in microsecond ticks). ``rate`` is then not used.
+    temperature_range : tuple of float, optional
+        ``(low, high)`` in °C for a model with a temperature law (default
+        :data:`DEFAULT_TEMPERATURE_RANGE`): the step ``PREFIX_step(state, raw, temperature_c)``
+        clamps the temperature to it and the bound holds over it. Refused without a law.
 
     Returns
     -------
     Firmware
     """
+    if model.temperature is not None or temperature_range is not None:
+        return _temperature_firmware(model, method, precision, rate, full_scale, name,
+                                     max_interval, temperature_range)
     if max_interval is not None:
         check_interval(max_interval)
         rate = 1.0 / max_interval
@@ -153,9 +175,10 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
                      bound_fs=f"{bound.total_fs:.3e}")
     source = _render(f"{precision}_dt.c.j2" if irregular else f"{precision}.c.j2",
                      name=name, NAME=name.upper(), version=_version(), method=method,
-                     irregular=irregular, **_coefficient_values(precision, st, scheme))
+                     irregular=irregular, temperature=False,
+                     **_coefficient_values(precision, st, scheme))
     harness = _render("harness.c.j2", name=name, NAME=name.upper(), precision=precision,
-                      irregular=irregular)
+                      irregular=irregular, temperature=False)
     return Firmware(model=model, method=method, precision=precision,
                     rate=None if irregular else float(rate),
                     full_scale=float(full_scale), name=name, header=header, source=source,
@@ -182,10 +205,62 @@ def naive_float32(model: CreepModel, method: str = "subtractive", rate: float = 
     source = _render("naive.c.j2", name=name, NAME=name.upper(), method=method,
                      e=[_c_float(x) for x in c["e"]], **_coefficient_values("float32", st, None))
     harness = _render("harness.c.j2", name=name, NAME=name.upper(), precision="float32",
-                      irregular=False)
+                      irregular=False, temperature=False)
     return Firmware(model=model, method=method, precision="float32", rate=float(rate),
                     full_scale=float(full_scale), name=name, header=header, source=source,
                     harness=harness, bound=None, coefficients=_coefficient_table(c, st, "float32"))
+
+
+def _temperature_firmware(model, method, precision, rate, full_scale, name, max_interval,
+                          temperature_range) -> Firmware:
+    """The fixed-rate float32 step of a model with a temperature law (see the module docstring)."""
+    law = model.temperature
+    if law is None:
+        raise InputError("a temperature range was given but the model has no temperature law "
+                         "(no 'temperature' block): its corrector takes no temperature")
+    if max_interval is not None:
+        raise InputError("--max-interval with a temperature law: the dt step does not take a "
+                         "temperature; use the fixed rate (--rate)")
+    low, high = DEFAULT_TEMPERATURE_RANGE if temperature_range is None else temperature_range
+    check_arguments(CreepModel(model.beta, model.tau, model.gain, model.offset), method,
+                    precision, rate, full_scale, name)
+    if precision == "float32":
+        scheme = temperature_scheme(model, rate, float(low), float(high))
+    else:
+        scheme = q31_temperature_scheme(model, rate, float(low), float(high))
+    bound = temperature_bound(model, method, rate, full_scale, scheme, precision)
+    c = exact_coefficients(model, rate)
+    st = stored_coefficients(c, precision)
+    values = _header_values(model, method, precision, rate, full_scale, name, c, None, None)
+    values["command"] += f" --temperature-range {low:g}:{high:g}"
+    identity = (values["model_id"], law.to_dict(), scheme["low"], scheme["high"])
+    values.update(irregular=True, temperature=True, model_id=f"0x{_fnv1a(repr(identity)):08x}u")
+    if precision == "float32":
+        values.update(temperature_low=_c_float(scheme["low"]), temperature_high=_c_float(scheme["high"]),
+                      temperature_reference=_c_float(scheme["reference"]))
+    else:
+        values.update(temperature_low=str(scheme["low_q"]), temperature_high=str(scheme["high_q"]),
+                      temperature_reference=str(scheme["reference_q"]))
+    header = _render(f"{precision}_temperature.h.j2", **values,
+                     derivation=_temperature_derivation(model, method, precision, rate, full_scale,
+                                                        c, st, scheme),
+                     bound=_bound_lines(bound, full_scale)
+                     + [f"The bound holds for temperatures in {scheme['low']:g} to {scheme['high']:g} °C; "
+                        "outside, the step clamps the temperature to that range."],
+                     bound_fs=f"{bound.total_fs:.3e}")
+    source = _render(f"{precision}_temperature.c.j2", name=name, NAME=name.upper(),
+                     version=_version(), method=method, irregular=True, temperature=True,
+                     **_temperature_values(precision, st, scheme))
+    harness = _render("harness.c.j2", name=name, NAME=name.upper(), precision=precision,
+                      irregular=False, temperature=True)
+    table = _coefficient_table(c, st, precision)
+    table.update(temperature_range=[scheme["low"], scheme["high"]],
+                 a_range=[[float(x) for x in scheme["a_min"]], [float(x) for x in scheme["a_max"]]],
+                 shift_relative_error=scheme["rel_shift"])
+    return Firmware(model=model, method=method, precision=precision, rate=float(rate),
+                    full_scale=float(full_scale), name=name, header=header, source=source,
+                    harness=harness, bound=bound, coefficients=table,
+                    temperature_range=(scheme["low"], scheme["high"]))
 
 
 def _coefficient_table(c: dict, st: dict, precision: str) -> dict:
@@ -220,7 +295,7 @@ def _header_values(model, method, precision, rate, full_scale, name, c, scheme,
     identity = (c["beta"].tolist(), c["tau"].tolist(), c["offset"], rate, full_scale, precision,
                 method) + (() if max_interval is None else (max_interval,))
     values = {"name": name, "NAME": name.upper(), "version": _version(), "method": method,
-              "precision": precision, "irregular": scheme is not None,
+              "precision": precision, "irregular": scheme is not None, "temperature": False,
               "command": (f"creepcomp firmware MODEL --method {method} --precision {precision} "
                           f"{timing} --full-scale {full_scale:.9g} --name {name}"),
               "terms": str(model.n_terms), "full_scale": repr(float(full_scale)),
@@ -312,6 +387,70 @@ def _dt_derivation(model, method, precision, full_scale, c, st, scheme) -> list[
             m, sh = scheme["m"][k]
             lines.append(f"  tick/tau = {m} * 2^-{31 + sh} (tick {TICK:g} s); beta = "
                          f"{st['beta_q'][k][0]} * 2^-{31 + st['beta_q'][k][1]}")
+    lines.append(f"1 + beta0 = {c['sigma']:.12g} (supplemental scale); 1/(1 + beta0) = {c['w']:.12g} "
+                 "(settled start: c_k = x / (1 + beta0))")
+    return lines
+
+
+def _temperature_values(precision: str, st: dict, scheme: dict) -> dict:
+    """The temperature step's stored coefficients as C literals."""
+    coefficients = _coefficient_values(precision, st, None)
+    if precision == "float32":
+        del coefficients["a"]
+        return {**coefficients, "dt_over_tau": [_c_float(x) for x in scheme["dt_over_tau"]],
+                "inv_next": [_c_float(x) for x in scheme["inv_next"]], "series_terms": str(scheme["n"]),
+                "exp_next": [_c_float(x) for x in scheme["exp_next"]],
+                "exp_terms": str(scheme["exp_terms"]), "curve_c": _c_float(scheme["curve_c"]),
+                "curve_d": _c_float(scheme["curve_d"]), "log2e": _c_float(scheme["log2e"]),
+                "ln2_head": _c_float(scheme["ln2_head"]), "ln2_tail": _c_float(scheme["ln2_tail"])}
+    del coefficients["a_mantissas"], coefficients["a_shifts"]
+    return {**coefficients, "dt_mantissas": [str(m) for m, _ in scheme["m"]],
+            "dt_exponents": [str(int(e)) for e in scheme["exps"]],
+            "inv_next": [str(v) for v in scheme["inv_next"]], "series_terms": str(scheme["n"]),
+            "exp_next": [str(v) for v in scheme["exp_next"]], "exp_terms": str(scheme["exp_terms"]),
+            "curve_c": str(scheme["curve_c_q"]), "curve_d": str(scheme["curve_d_q"]),
+            "reference": str(scheme["reference_d"]),
+            "log2e": str(scheme["log2e_q"]), "ln2": str(scheme["ln2_q"])}
+
+
+def _temperature_derivation(model, method, precision, rate, full_scale, c, st, scheme) -> list[str]:
+    """The temperature step's law, its computation without libm and its errors, as comment lines."""
+    law = model.temperature
+    unit = "signal units"
+    shape = (f"a_T = exp(E_a/R (1/T - 1/T_ref)), E_a = {law.activation_energy:.6g} J/mol"
+             if law.law == "arrhenius" else f"log10 a_T = -c1 d / (c2 + d), c1 = {law.c1:.6g}, c2 = {law.c2:.6g} K")
+    y_lo, y_hi = scheme["y_range"]
+    lines = [f"Model: {model.n_terms} creep term(s), beta0 = {model.beta0:.6g}, offset = "
+             f"{model.offset:.9g} {unit}; method {method}; precision {precision}.",
+             f"Sample interval T = 1 / {_qty(rate, 'Hz')} = {_qty(c['T'], 's')}; load held between samples.",
+             f"Full scale FS = {full_scale:.9g} {unit}: the inputs satisfy |raw - offset| <= FS.",
+             f"Temperature law ({law.law}, reference T_ref = {law.reference:g} °C): tau_k(T) = tau_k a_T, {shape}.",
+             f"Temperature range {scheme['low']:g} to {scheme['high']:g} °C (clamped): "
+             f"ln(1/a_T) from {y_lo:.6g} to {y_hi:.6g}.",
+             "Per sample, tau_k over the step follows the temperature at its middle, "
+             "Tm = (T_prev + T)/2; without libm:"]
+    if precision == "float32":
+        lines += [f"  y = ln(1/a_T) = C d / (D0 + d), d = Tm - T_ref, C = {scheme['curve_c']:.9g}, D0 = {scheme['curve_d']:.9g};",
+                  f"  1/a_T = 2^j exp(f), j = round(y / ln 2), |f| <= ln2/2, exp(f) by {scheme['exp_terms']} Taylor terms;",
+                  f"  a_k = 1 - exp(-x_k), x_k = (T/tau_k) / a_T, as the dt step ({scheme['n']} terms of (1 - exp(-x))/x)."]
+    else:
+        lines += ["  temperatures in 1/256 °C (int32_t), so Tm is exact;",
+                  f"  y = ln(1/a_T) = C d / (D0 + d) in Q28, d = Tm - T_ref in 2^-19 K, C = {scheme['curve_c_q']} * 2^-28, "
+                  f"D0 = {scheme['curve_d_q']} * 2^-19 K (one 64-bit division);",
+                  f"  1/a_T = p 2^j, j = round(y / ln 2), p = exp(f) in Q31 by {scheme['exp_terms']} Taylor terms;",
+                  f"  a_k = x t(x), x = (T/tau_k) p 2^j, t = (1 - exp(-x))/x in Q31 ({scheme['n']} terms), as the q31 dt step."]
+    lines.append(f"Relative error of the computed 1/a_T <= {scheme['rel_shift']:.2e} (temperature, y, f, polynomial).")
+    lo_tau, hi_tau = scheme["tau_range"]
+    for k in range(model.n_terms):
+        lines.append(f"term {k}: beta = {c['beta'][k]:.9g}, tau = {_qty(c['tau'][k], 's')} at T_ref, "
+                     f"{_qty(hi_tau[k], 's')} to {_qty(lo_tau[k], 's')} over the range; a from "
+                     f"{scheme['a_min'][k]:.6g} to {scheme['a_max'][k]:.6g}, relative error of computed a <= "
+                     f"{scheme['rel_a'][k]:.2e}")
+        if precision == "float32":
+            lines.append(f"  stored T/tau = {scheme['dt_over_tau'][k]:.9e}, beta = {st['beta'][k]:.9e}")
+        else:
+            m, sh = scheme["m"][k]
+            lines.append(f"  T/tau = {m} * 2^-{31 + sh}; beta = {st['beta_q'][k][0]} * 2^-{31 + st['beta_q'][k][1]}")
     lines.append(f"1 + beta0 = {c['sigma']:.12g} (supplemental scale); 1/(1 + beta0) = {c['w']:.12g} "
                  "(settled start: c_k = x / (1 + beta0))")
     return lines

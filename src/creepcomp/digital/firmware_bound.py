@@ -21,8 +21,10 @@ from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 
 __all__ = ["PRECISIONS", "FULL_SCALE_WORD", "REFERENCE_ALLOWANCE", "MIN_INTERVAL", "TICK",
-           "ErrorBound", "firmware_bound", "check_arguments", "check_interval",
-           "exact_coefficients", "stored_coefficients", "dt_scheme", "float32_value"]
+           "DEFAULT_TEMPERATURE_RANGE", "ErrorBound", "firmware_bound", "check_arguments",
+           "check_interval", "exact_coefficients", "stored_coefficients", "dt_scheme",
+           "float32_value", "temperature_scheme", "q31_temperature_scheme", "temperature_bound",
+           "TEMPERATURE_STEP_Q"]
 
 PRECISIONS = ("float32", "q31")
 #: q31: the input word of a full-scale signal (the words keep one bit of headroom).
@@ -386,6 +388,255 @@ def dt_scheme(model: CreepModel, precision: str, max_interval: float) -> dict:
             "nu": np.where(r2 >= 1, _Q_STATE, 0.0)}
 
 
+# ------------------------------------------------------------- over temperature (float32)
+
+#: Default temperature range (°C) of the generated corrector of a model with a temperature law.
+DEFAULT_TEMPERATURE_RANGE = (-40.0, 85.0)
+#: ln 2 split for the range reduction of exp: a 12-bit head (``j * head`` is exact for
+#: ``|j| < 2**12``) and the float32 of the rest.
+_LN2_HEAD = math.ldexp(round(math.ldexp(math.log(2.0), 11)), -11)
+#: Largest |ln a_T| the step accepts over its range (keeps 2^j far inside float32).
+_MAX_LOG_SHIFT = 60.0
+
+
+def _law_curve(law) -> tuple[float, float]:
+    """``(C, D0)`` of ``ln(1/a_T) = C d / (D0 + d)``, ``d = T - T_ref`` (K): Arrhenius
+    ``C = E_a / (R T_ref)``, ``D0 = T_ref`` (kelvin); WLF ``C = c1 ln 10``, ``D0 = c2``."""
+    from creepcomp.temperature import GAS_CONSTANT, ZERO_CELSIUS
+
+    if law.law == "arrhenius":
+        t_ref = law.reference + ZERO_CELSIUS
+        return law.activation_energy / (GAS_CONSTANT * t_ref), t_ref
+    return law.c1 * math.log(10.0), law.c2
+
+
+def _exp_horner_error(f_max: float, n: int) -> float:
+    """Relative rounding error bound of the float32 Horner sum of ``1 + f (1 + f/2 (...))``
+    (``n`` terms, ``|f| <= f_max``, stored ``1/i`` rounded), through the error of each level."""
+    u = _U32
+    top = math.exp(f_max)
+    err = 0.0
+    grow = (1 + u) ** 3                               # stored 1/i, the two products
+    for i in range(n, 0, -1):
+        g = f_max / i
+        err = u * (1 + g * grow * (top + err)) + g * (grow * err + (grow - 1) * top)
+    return err / math.exp(-f_max)
+
+
+def temperature_scheme(model: CreepModel, rate: float, low: float, high: float) -> dict:
+    """How the temperature step computes ``a_k = 1 - exp(-(T/tau_k) / a_T)`` per sample in
+    float32 without libm, and the worst relative error of the computed ``a_k``.
+
+    ``y = ln(1/a_T) = C d / (D0 + d)`` at the step's mid temperature (one division), then
+    ``1/a_T = 2^j exp(f)`` with ``j`` the nearest integer to ``y / ln 2``, ``|f| <= ln 2 / 2``
+    and a Taylor polynomial of ``exp(f)`` in Horner form; ``x_k = (T/tau_k) / a_T`` and
+    ``a_k`` as in the dt step (:func:`dt_scheme`). Every rounding is bounded; the errors of
+    the temperature, ``y``, ``f``, the polynomial and the stored ``T/tau_k`` add up in the
+    relative error of ``x_k``, which bounds that of ``a_k``.
+
+    Parameters
+    ----------
+    model : CreepModel
+        With a temperature law (shift only: no ``beta_per_kelvin``).
+    rate : float
+        Sample rate (Hz).
+    low, high : float
+        Temperature range (°C): the step clamps to it, the bound holds over it.
+    """
+    u = _U32
+    lo_f, hi_f = float32_value(low), float32_value(high)
+    lo_t, hi_t = min(low, lo_f), max(high, hi_f)          # the range the bound covers
+    law, shifts = _check_shift_law(model, lo_t, hi_t)
+    y_lo, y_hi = -math.log(shifts[0]), -math.log(shifts[1])
+    y_max = max(abs(y_lo), abs(y_hi))
+    curve_c, curve_d = _law_curve(law)
+    c_f, d_f, ref_f = float32_value(curve_c), float32_value(curve_d), float32_value(law.reference)
+    t_abs = max(abs(lo_t), abs(hi_t))
+    d_max = max(hi_t - law.reference, law.reference - lo_t)
+    den_min = curve_d + (lo_t - law.reference)
+    # y: mid temperature (sum rounded, halved exactly), d, the denominator, the product, the quotient
+    err_mid = u * t_abs
+    err_d = err_mid + abs(ref_f - law.reference) + u * (d_max + abs(ref_f - law.reference) + err_mid)
+    d_hat = d_max + err_d
+    rho = (abs(d_f - curve_d) + err_d + u * (curve_d + d_max + abs(d_f - curve_d) + err_d)) / den_min
+    if rho >= 0.5:
+        raise InputError(f"temperature range {low:g}:{high:g} °C comes too close to the law's "
+                         "singularity for a float32 step")
+    err_num = abs(c_f - curve_c) * d_hat + curve_c * err_d + u * abs(c_f) * d_hat
+    err_y = (err_num / (den_min * (1 - rho)) + y_max * rho / (1 - rho)) * (1 + u) + u * (y_max + 1e-30) * 2
+    y_hat = y_max + err_y
+    # range reduction: j = nearest integer to y log2(e) (ties away), f = y - j ln2_head - j ln2_tail
+    log2e_f = float32_value(1.0 / math.log(2.0))
+    j_max = math.floor(y_hat * log2e_f * (1 + u) ** 2 + 0.5) + 1
+    ln2_tail = float32_value(math.log(2.0) - _LN2_HEAD)
+    f_max = math.log(2.0) * (0.5 + 3 * u * (y_hat / math.log(2.0) + 1)) + j_max * abs(ln2_tail) * 2 * u
+    err_f = (u * (f_max + j_max * abs(ln2_tail)) * 2 + u * j_max * abs(ln2_tail)
+             + j_max * abs(_LN2_HEAD + ln2_tail - math.log(2.0)))
+    f_max += err_f
+    n_exp = 2
+    while f_max ** (n_exp + 1) / math.factorial(n_exp + 1) * math.exp(2 * f_max) > 2.0 ** -30:
+        n_exp += 1
+    trunc = f_max ** (n_exp + 1) / math.factorial(n_exp + 1) * math.exp(2 * f_max)
+    rel_r = math.exp(err_y + err_f) * (1 + _exp_horner_error(f_max, n_exp)) * (1 + trunc) - 1
+    # x_k = stored (T/tau_k) * r, then a_k as in the dt step
+    dt = 1.0 / rate
+    taus = np.array(model.tau)
+    dt_over_tau = np.array([float32_value(dt / tau) for tau in taus])
+    rel_x = (1 + np.abs(dt_over_tau * taus / dt - 1.0)) * (1 + rel_r) * (1 + u) - 1
+    r_min, r_max = 1.0 / float(shifts[0]), 1.0 / float(shifts[1])
+    x_hi = dt_over_tau * r_max * (1 + rel_x)
+    halvings = np.array([max(0, math.ceil(math.log2(x / 0.125))) if x > 0.125 else 0
+                         for x in x_hi], dtype=int)
+    n = _series_terms(0.125, 2.0 ** -30)
+    rel_series = 0.125 ** n / math.factorial(n + 1) / (1 - 0.0625) + 2.5 * u
+    rel_a = (1 + rel_x) * (1 + rel_series) * (1 + u) ** (2 * halvings) - 1
+    return {"low": lo_f, "high": hi_f, "reference": ref_f, "curve_c": c_f, "curve_d": d_f,
+            "log2e": log2e_f, "ln2_head": _LN2_HEAD, "ln2_tail": ln2_tail, "j_max": j_max,
+            "exp_terms": n_exp, "exp_next": [float32_value(1.0 / (i + 1)) for i in range(n_exp)],
+            "y_range": (y_lo, y_hi), "rel_shift": rel_r, "dt": dt, "dt_over_tau": dt_over_tau,
+            "a_max": -np.expm1(-dt / taus * r_max), "a_min": -np.expm1(-dt / taus * r_min),
+            "tau_range": (taus / r_min, taus / r_max), "halvings": halvings, "n": n,
+            "inv_next": [float32_value(1.0 / (j + 1)) for j in range(n)], "rel_a": rel_a,
+            "extra": np.zeros(len(taus)), "nu": np.full(len(taus), u * u)}
+
+
+#: q31 temperature step: the temperature argument's unit (°C).
+TEMPERATURE_STEP_Q = 1.0 / 256.0
+#: q31 temperature step: fraction bits of y = ln(1/a_T), and the extra bits of its division.
+_Y_BITS = 28
+_D_BITS = 10
+
+
+def _check_shift_law(model: CreepModel, low: float, high: float):
+    """The law of a temperature step, checked; returns ``(law, shifts at low and high)``."""
+    law = model.temperature
+    if law is None:
+        raise InputError("the model has no temperature law: it has no temperature step")
+    if any(b != 0 for b in law.beta_per_kelvin):
+        raise InputError("the model's temperature law changes the amplitudes (beta_per_kelvin): "
+                         "the firmware follows the shift of the retardation times only; "
+                         "give a model without beta_per_kelvin")
+    if not (math.isfinite(low) and math.isfinite(high) and low < high):
+        raise InputError(f"temperature range {low:g}:{high:g} °C: expected LOW:HIGH with LOW < HIGH")
+    shifts = law.shift(np.array([low, high]))             # refuses a range the law cannot take
+    y_max = max(abs(math.log(shifts[0])), abs(math.log(shifts[1])))
+    if y_max > _MAX_LOG_SHIFT:
+        raise InputError(f"the temperature law shifts tau by e^{y_max:.3g} over {low:g}:{high:g} °C; "
+                         f"the firmware takes at most e^{_MAX_LOG_SHIFT:g}: narrow --temperature-range")
+    return law, shifts
+
+
+def q31_temperature_scheme(model: CreepModel, rate: float, low: float, high: float) -> dict:
+    """How the q31 temperature step computes ``a_k`` per sample with integers only, and its errors.
+
+    The temperature comes in units of :data:`TEMPERATURE_STEP_Q` °C (°C x 256, int32), so the
+    step's mid temperature is exact (the sum of two); ``y = ln(1/a_T)`` in Q28 is one 64-bit
+    division ``C_q d / (D0_q + d)`` (``d`` = the mid temperature above the reference, in
+    2^-19 K); ``1/a_T = p 2^j`` with ``j`` the nearest integer to ``y / ln 2``, ``f = y - j ln 2``
+    in Q31 and ``p = exp(f)`` in Q31 by its Taylor polynomial (Horner, rounding shifts). Per term,
+    ``x_k = m_k p 2^(j - e_k)`` (``m_k 2^-e_k`` = ``T/tau_k``) feeds ``t(x) = (1 - exp(-x))/x``
+    of the q31 dt step, and the increment ``(S - c_k) a_k`` is ``((S - c_k) t) mp_k
+    2^(j - e_k + 31)`` with ``mp_k = m_k p 2^-32``: ``a_k`` keeps its relative precision however
+    small it is.
+    """
+    law, _ = _check_shift_law(model, low, high)
+    q = TEMPERATURE_STEP_Q
+    low_q, high_q = math.floor(low / q + 1e-9), math.ceil(high / q - 1e-9)   # covers low:high
+    lo_t, hi_t = low_q * q, high_q * q
+    if not lo_t < hi_t:
+        raise InputError(f"temperature range {low:g}:{high:g} °C is narrower than the q31 step's "
+                         f"resolution {q:g} °C")
+    shifts = law.shift(np.array([lo_t, hi_t]))
+    curve_c, curve_d = _law_curve(law)
+    ref_q = round(law.reference / q)
+    unit = q / 2 / 2 ** _D_BITS                                    # K per unit of d
+    c_q = round(curve_c * 2 ** _Y_BITS)
+    d_q = round(curve_d / unit)
+    ref_d = round(law.reference / unit)                            # the reference in units of d
+    err_c = abs(c_q * 2.0 ** -_Y_BITS - curve_c)
+    err_d0 = abs(d_q * unit - curve_d)
+    err_ref = abs(ref_d * unit - law.reference)
+    d_max = max(hi_t - law.reference, law.reference - lo_t) + err_ref
+    den_min = curve_d + (lo_t - law.reference) - err_d0 - err_ref
+    if den_min <= 0:
+        raise InputError(f"temperature range {low:g}:{high:g} °C reaches the law's singularity")
+    y_abs = [abs(math.log(x)) for x in shifts]
+    y_max = max(y_abs) + curve_c * err_d0 / den_min + 1e-6
+    d_units = 2 * d_max / (q / 2) * 2 ** _D_BITS + 2
+    if abs(c_q) * d_units >= 2.0 ** 62 or (curve_d + d_max) / unit >= 2.0 ** 62:
+        raise InputError(f"the temperature law's constants over {low:g}:{high:g} °C do not fit the "
+                         "q31 step's 64-bit division; use float32")
+    # y: the stored C and D0 (and the reference's rounding), the truncating division (1 unit)
+    err_y = err_c * d_max / den_min + y_max * err_d0 / den_min + curve_c * err_ref \
+        * curve_d / den_min ** 2 + 2.0 ** -_Y_BITS
+    y_hat = y_max + err_y
+    log2e_q = round(2 ** 24 / math.log(2.0))
+    ln2_q = round(math.log(2.0) * 2 ** 31)
+    j_max = math.floor(y_hat / math.log(2.0) + 0.5 + 1e-9) + 1
+    f_max = math.log(2.0) * (0.5 + y_hat * 2.0 ** -23) + j_max * 2.0 ** -32 + err_y
+    err_f = j_max * abs(ln2_q * 2.0 ** -31 - math.log(2.0))
+    n_exp = 2
+    while f_max ** (n_exp + 1) / math.factorial(n_exp + 1) * math.exp(2 * f_max) > 2.0 ** -36:
+        n_exp += 1
+    trunc = f_max ** (n_exp + 1) / math.factorial(n_exp + 1) * math.exp(2 * f_max)
+    # Horner in Q31: each level rounds f/(i) (with the stored 2^31/(i+1)) and its product with p
+    top, err = math.exp(f_max), 0.0
+    for i in range(n_exp, 0, -1):
+        err = 2.0 ** -32 * (1 + (1 + f_max) * (top + err)) + f_max / i * err
+    rel_p = err / math.exp(-f_max)
+    rel_r = math.exp(err_y + err_f) * (1 + rel_p) * (1 + trunc) - 1
+    dt = 1.0 / rate
+    taus = np.array(model.tau)
+    r_min, r_max = 1.0 / float(shifts[0]), 1.0 / float(shifts[1])
+    x_max = float(np.max(dt / taus)) * r_max * (1 + rel_r) * (1 + 2.0 ** -30)
+    if x_max > 0.5:
+        raise InputError(f"the q31 temperature step needs T/tau_k <= 1/2 at {high:g} °C (tau_k "
+                         f"reaches {float(np.min(taus)) / r_max:.3g} s there): sample faster, narrow "
+                         "--temperature-range or use float32")
+    ms = [_mantissa(dt / tau, f"T/tau[{k}]") for k, tau in enumerate(taus)]
+    mant = np.array([m for m, _ in ms], dtype=float)
+    exps = np.array([31 + sh for _, sh in ms], dtype=int)
+    rel_m = np.abs(mant * 2.0 ** -exps / (dt / taus) - 1.0)
+    p_min = math.exp(-f_max) * (1 - rel_p - trunc)
+    rel_mp = 0.5 / (2.0 ** 30 * p_min * 2 ** 31 * 2.0 ** -32)      # mp_k >= 2^30 p_min / 2
+    n = _series_terms(0.5, 2.0 ** -34)
+    t_min = -math.expm1(-x_max) / x_max
+    rel_t = (3 * 2.0 ** -31 + 0.5 ** n / math.factorial(n + 1)) / t_min
+    rel_a = (1 + rel_m) * (1 + rel_r) * (1 + rel_mp) * (1 + rel_t) - 1
+    # per unit a: the word rounding of c_k >> 30 and of (S - c_k) t; the last shift (or a shift
+    # beyond 62 bits, which gives 0) is below one state unit, 2^-60 of full scale, per sample
+    extra = (2.0 ** -31 + 2.0 ** -31 / t_min) * np.ones(len(taus))
+    return {"low": lo_t, "high": hi_t, "low_q": low_q, "high_q": high_q, "reference_q": ref_q,
+            "reference_d": ref_d,
+            "curve_c_q": c_q, "curve_d_q": d_q, "log2e_q": log2e_q, "ln2_q": ln2_q,
+            "exp_terms": n_exp, "exp_next": [round(2 ** 31 / (i + 1)) for i in range(n_exp)],
+            "y_range": (-math.log(shifts[0]), -math.log(shifts[1])), "rel_shift": rel_r,
+            "m": ms, "exps": exps, "n": n, "inv_next": [round(2 ** 31 / (j + 1)) for j in range(n)],
+            "a_max": -np.expm1(-dt / taus * r_max), "a_min": -np.expm1(-dt / taus * r_min),
+            "tau_range": (taus / r_min, taus / r_max), "rel_a": rel_a, "extra": extra,
+            "nu": np.full(len(taus), 2.0 ** -60), "dt": dt}
+
+
+def temperature_bound(model: CreepModel, method: str, rate: float, full_scale: float,
+                      scheme: dict, precision: str = "float32") -> ErrorBound:
+    """Proven worst-case error of the temperature step against the exact corrector
+    (:func:`creepcomp.digital.correctors.compensate` with the same temperatures), for every
+    temperature history within the scheme's range (:func:`temperature_scheme`,
+    :func:`q31_temperature_scheme`)."""
+    check_arguments(CreepModel(model.beta, model.tau, model.gain, model.offset), method,
+                    precision, rate, full_scale, "x")
+    c = exact_coefficients(model, rate)
+    st = stored_coefficients(c, precision)
+    try:
+        return _invariant_bound(c, st, scheme, scheme["a_max"], scheme["a_min"], method,
+                                precision, full_scale, "coefficients a_k(T) (a_T and exp without libm)")
+    except InputError as exc:
+        slowest = float(np.max(scheme["tau_range"][0]))
+        raise InputError(f"{exc} over {scheme['low']:g} to {scheme['high']:g} °C (the slowest "
+                         f"retardation time reaches {slowest:.3g} s, {slowest * rate:.3g} samples): "
+                         "narrow --temperature-range") from None
+
+
 def _invariant_gains(beta: np.ndarray, a_max: np.ndarray):
     """Componentwise invariant of ``|d[n+1]| <= |M(dt)| |d[n]| + a(dt) w`` for all allowed dt.
 
@@ -419,9 +670,22 @@ def _irregular_bound(model: CreepModel, method: str, precision: str, max_interva
     c = exact_coefficients(model, 1.0 / max_interval)
     st = stored_coefficients(c, precision)
     sch = dt_scheme(model, precision, max_interval)
-    beta, taus = c["beta"], c["tau"]
+    taus = c["tau"]
     a_max = -np.expm1(-sch["dt_max"] / taus)
     a_min = -np.expm1(-sch["dt_min"] / taus)
+    return _invariant_bound(c, st, sch, a_max, a_min, method, precision, full_scale,
+                            "coefficients a_k(dt) (series, stored 1/tau)")
+
+
+def _invariant_bound(c: dict, st: dict, sch: dict, a_max: np.ndarray, a_min: np.ndarray,
+                     method: str, precision: str, full_scale: float, coef_label: str) -> ErrorBound:
+    """The bound of a step whose ``a_k`` changes from sample to sample within
+    ``[a_min_k, a_max_k]`` (dt step, temperature step), from :func:`_invariant_gains`.
+
+    ``sch`` gives the relative error ``rel_a`` of the computed ``a_k``, and the rounding
+    ``nu`` (and ``extra``, q31) of the state update.
+    """
+    beta = c["beta"]
     zmat, _ = _invariant_gains(beta, a_max)
     b = np.abs(beta)
     sum_beta = float(b.sum())
@@ -456,7 +720,7 @@ def _irregular_bound(model: CreepModel, method: str, precision: str, max_interva
     if precision == "q31":
         _check_q31_range(peak, cmax, sigma, method)
     terms = {f"{name} (per sample, x{gain_sample:.4g})": sigma * gain_sample * v for name, v in eps.items()}
-    terms["coefficients a_k(dt) (series, stored 1/tau)"] = sigma * float(gain_state @ coef)
+    terms[coef_label] = sigma * float(gain_state @ coef)
     terms["state updates rounding"] = sigma * float(gain_state @ rounding)
     terms["settled start"] = sigma * sum_beta * start
     terms["output"] = out_offset + out_scale

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from creepcomp.errors import CreepcompError, InputError
-from creepcomp.digital.firmware import Firmware
+from creepcomp.digital.firmware import TEMPERATURE_STEP_Q, Firmware
 
 __all__ = ["STRICT_FLAGS", "Verification", "find_compiler", "compile_object", "run_firmware",
            "step_intervals", "verify_firmware"]
@@ -105,7 +105,8 @@ def _object_bytes(obj: Path) -> int:
 
 
 def run_firmware(firmware: Firmware, signal, start: str, repeats: int = 5,
-                 compiler: str | None = None, intervals=None) -> tuple[np.ndarray, float, int]:
+                 compiler: str | None = None, intervals=None,
+                 temperatures=None) -> tuple[np.ndarray, float, int]:
     """Compile the corrector and its host harness in a temporary folder and run it.
 
     Parameters
@@ -119,6 +120,9 @@ def run_firmware(firmware: Firmware, signal, start: str, repeats: int = 5,
     intervals : array_like, optional
         For the dt step: the interval passed with each sample (seconds for float32, ticks for
         q31), exactly representable in the step's argument type.
+    temperatures : array_like, optional
+        For the temperature step: the temperature (°C) of each sample (q31 passes it rounded
+        to 1/256 °C).
 
     Returns
     -------
@@ -132,6 +136,11 @@ def run_firmware(firmware: Firmware, signal, start: str, repeats: int = 5,
     x = np.ascontiguousarray(signal, dtype="<f8")
     if firmware.irregular and (intervals is None or len(intervals) != len(x)):
         raise InputError("the dt step needs one interval per sample")
+    if firmware.temperature_range is not None:
+        if temperatures is None or len(temperatures) != len(x):
+            raise InputError("the temperature step needs one temperature per sample")
+        intervals = (np.asarray(temperatures, dtype=float) if firmware.precision == "float32"
+                     else np.round(np.asarray(temperatures, dtype=float) / TEMPERATURE_STEP_Q))
     cc = find_compiler(compiler)
     with tempfile.TemporaryDirectory(prefix="creepcomp-firmware-") as tmp:
         folder = Path(tmp)
@@ -142,7 +151,7 @@ def run_firmware(firmware: Firmware, signal, start: str, repeats: int = 5,
              "compiling the harness")
         x.tofile(folder / "in.bin")
         files = [folder / "in.bin"]
-        if firmware.irregular:
+        if intervals is not None:
             np.ascontiguousarray(intervals, dtype="<f8").tofile(folder / "dt.bin")
             files.append(folder / "dt.bin")
         out = _run([exe, *files, folder / "out.bin", start, max(1, int(repeats))],
@@ -151,13 +160,17 @@ def run_firmware(firmware: Firmware, signal, start: str, repeats: int = 5,
         return y, float(out.strip()), _object_bytes(obj)
 
 
-def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler: str | None = None) -> Verification:
+def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler: str | None = None,
+                    temperature=None) -> Verification:
     """Run the generated corrector over a record and compare it with :func:`compensate`.
 
     The record must be sampled at the firmware's rate (fixed-rate step) or have intervals
     within the dt step's range (each sample's own interval is passed), and stay within its
     full scale (the range the bound assumes). Both start as the method's default (relaxed for subtractive,
-    settled for supplemental), with the load held between samples.
+    settled for supplemental), with the load held between samples. The temperature step
+    (a model with a temperature law) takes ``temperature`` (°C, one per sample, within its
+    range); the float64 corrector gets the same temperatures, rounded as the step receives them
+    (to float32, or to 1/256 °C for q31).
 
     Returns
     -------
@@ -181,9 +194,37 @@ def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler
                          f"for {firmware.rate:.6g} Hz: give --rate {1 / dt:.6g}")
     _check_range(firmware, x)
     start = default_initial(firmware.method)
-    reference = compensate(t, x, firmware.model, firmware.method, initial=start, hold="zero")
-    y, ns, size = run_firmware(firmware, x, start, repeats, compiler)
+    temps = _temperatures(firmware, temperature, len(x))
+    reference = compensate(t, x, firmware.model, firmware.method, initial=start, hold="zero",
+                           temperature=temps)
+    y, ns, size = run_firmware(firmware, x, start, repeats, compiler, temperatures=temps)
     return _compare(firmware, y, reference, ns, size)
+
+
+def _temperatures(firmware: Firmware, temperature, n: int) -> np.ndarray | None:
+    """The temperatures (°C) the temperature step receives (float32, or q31's 1/256 °C), checked."""
+    if firmware.temperature_range is None:
+        if temperature is not None:
+            raise InputError("a temperature was given but the firmware's model has no temperature "
+                             "law: its step takes no temperature")
+        return None
+    if temperature is None:
+        raise InputError("the firmware's model has a temperature law: verifying it needs the "
+                         "record's 'temperature' column (°C)")
+    temps = np.asarray(temperature, dtype=float).reshape(-1)
+    if len(temps) != n:
+        raise InputError(f"{len(temps)} temperatures for {n} samples")
+    if firmware.precision == "float32":
+        temps = temps.astype(np.float32).astype(float)
+    else:
+        temps = np.round(temps / TEMPERATURE_STEP_Q) * TEMPERATURE_STEP_Q
+    low, high = firmware.temperature_range
+    outside = np.flatnonzero(~((temps >= low) & (temps <= high)))
+    if outside.size:
+        i = int(outside[0])
+        raise InputError(f"temperature of sample {i} is {temps[i]:g} °C, outside the range "
+                         f"{low:g} to {high:g} °C of the bound: give a wider --temperature-range")
+    return temps
 
 
 def step_intervals(firmware: Firmware, time) -> tuple[np.ndarray, np.ndarray]:

@@ -4,7 +4,8 @@ Two passes over the file (:class:`creepcomp.io.records.RecordStream`): the first
 the sampling (uniform or not) and the load range, the second runs the :class:`Corrector`,
 whose state carries from piece to piece, takes the creep errors and writes the output
 pieces through the atomic writer. The result equals :func:`compensate` and
-:func:`creep_error` on the whole record (to rounding).
+:func:`creep_error` on the whole record (to rounding). A model with a temperature law takes
+each piece's ``temperature`` column, or one constant temperature.
 """
 
 from __future__ import annotations
@@ -14,12 +15,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Mapping
 
-from creepcomp.digital.correctors import (CreepError, CreepErrorSum, Corrector, default_initial,
-                                          uniform_interval_of)
+from creepcomp.digital.correctors import (CreepError, CreepErrorSum, Corrector, check_temperature,
+                                          default_initial, uniform_interval_of)
+from creepcomp.errors import InputError
 from creepcomp.io.records import STREAM_BYTES, RecordScan, open_record_stream, record_writer
 from creepcomp.model import CreepModel
 
-__all__ = ["FileCorrection", "correct_record_file"]
+__all__ = ["FileCorrection", "correct_record_file", "temperature_source"]
 
 
 @dataclass(frozen=True)
@@ -34,12 +36,38 @@ class FileCorrection:
         The uniform sampling interval (s), or None for irregular sampling.
     before, after : CreepError
         Creep error of the raw and the compensated signal.
+    temperature : str or None
+        Where the temperature came from: ``"column"`` (the record's), ``"constant"``, or None
+        (a model without a temperature law).
     """
 
     scan: RecordScan
     dt: float | None
     before: CreepError
     after: CreepError
+    temperature: str | None = None
+
+
+def temperature_source(model: CreepModel, has_column: bool, constant: float | None,
+                       source: str) -> str | None:
+    """Where the correction of a record takes its temperature from, checked.
+
+    A model with a law takes the record's ``temperature`` column or the constant (not both);
+    a model without a law refuses the constant and leaves the column unused.
+
+    Returns
+    -------
+    str or None
+        ``"column"``, ``"constant"``, or None when no temperature is used.
+    """
+    if constant is not None and has_column and model.temperature is not None:
+        raise InputError(f"{source}: the record has a 'temperature' column and a constant "
+                         "temperature was given (--temperature): give one of them")
+    if model.temperature is None:
+        check_temperature(model, constant is not None)      # refuses a constant
+        return None
+    check_temperature(model, constant is not None or has_column)
+    return "constant" if constant is not None else "column"
 
 
 def correct_record_file(path: str | Path, model: CreepModel, method: str = "subtractive",
@@ -47,7 +75,8 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
                         output_metadata: Mapping[str, str] | None = None,
                         columns: Mapping[str, str] | None = None,
                         progress: Callable[..., None] | None = None,
-                        block_bytes: int = STREAM_BYTES) -> FileCorrection | None:
+                        block_bytes: int = STREAM_BYTES,
+                        temperature: float | None = None) -> FileCorrection | None:
     """Compensate a record file piece by piece; optionally write its columns plus
     ``compensated`` to ``output`` (atomically).
 
@@ -65,6 +94,9 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
         Column mapping (:func:`creepcomp.io.records.read_record`).
     progress : callable, optional
         Called as ``progress(rows_done, rows=None, description=None)``.
+    temperature : float, optional
+        One temperature (°C) for the whole record, for a model with a temperature law and a
+        record without a ``temperature`` column (:func:`temperature_source`).
 
     Returns
     -------
@@ -79,6 +111,7 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
         return None
     dt = uniform_interval_of(scan.first_time, scan.last_time, scan.samples, scan.step_min,
                              scan.step_max)
+    source = temperature_source(model, "temperature" in scan.names, temperature, str(path))
     start = default_initial(method) if initial is None else initial
     corrector = Corrector(model, method, dt=dt, initial=start, hold=hold)
     before, after = CreepErrorSum(model, method), CreepErrorSum(model, method)
@@ -90,8 +123,10 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
     done = 0
     with writing as write:
         for piece in stream:
-            compensated = (corrector.process(piece.signal) if dt is not None
-                           else corrector.process(piece.signal, piece.time))
+            temps = (None if source is None else
+                     piece.temperature if source == "column" else temperature)
+            compensated = (corrector.process(piece.signal, temperature=temps) if dt is not None
+                           else corrector.process(piece.signal, piece.time, temperature=temps))
             before.add(piece.time, piece.signal, piece.load)
             after.add(piece.time, compensated, piece.load)
             if write is not None:
@@ -103,4 +138,4 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
             if write is not None:
                 write.discard()
             return None                             # the file changed between the passes
-    return FileCorrection(scan, dt, before.result(), after.result())
+    return FileCorrection(scan, dt, before.result(), after.result(), source)

@@ -23,7 +23,8 @@ from creepcomp.fit.noise import ARNoise, fit_noise, gaussian_bic, rows_for, whit
 from creepcomp.fit.structure import Param, Structure, basis, taus_of
 from creepcomp.model import CreepModel
 
-__all__ = ["Fit", "ANCHOR_WEIGHT", "Problem", "best_of_starts", "fit_structure", "with_noise"]
+__all__ = ["Fit", "ANCHOR_WEIGHT", "Problem", "best_of_starts", "fit_structure", "with_noise",
+           "sandwich_covariance"]
 
 
 def best_of_starts(residual: Callable[[np.ndarray], np.ndarray], starts: Sequence[np.ndarray],
@@ -384,7 +385,30 @@ def _covariance(problem: Problem, x, coef, noise: ARNoise) -> np.ndarray | None:
     full = np.column_stack(cols + [b.columns]) if cols else b.columns
     held = [len(x) + i for i, n in enumerate(b.names) if n in problem.fixed]
     full[:, held] = 0.0
-    jac = full[rows]
+    z = np.zeros_like(full)
+    z[rows] = full[rows]
+    return sandwich_covariance([z], [noise])
+
+
+def sandwich_covariance(jacobians, noises) -> np.ndarray | None:
+    """Covariance of least-squares estimates under AR noise (sandwich):
+    ``(J^T J)^-1 J^T Sigma J (J^T J)^-1`` with ``Sigma = sigma^2 W^-1 W^-T``, block-diagonal
+    over records whose noises are independent.
+
+    Parameters
+    ----------
+    jacobians : sequence of numpy.ndarray
+        Per record, the Jacobian of the residual on every sample in time order (rows of
+        samples not fitted are zero), one column per estimated parameter.
+    noises : sequence of ARNoise
+        Per record, its residual's noise.
+
+    Returns
+    -------
+    numpy.ndarray or None
+        None when the normal matrix cannot be inverted.
+    """
+    jac = np.vstack(jacobians)
     norms = np.sqrt(np.sum(jac ** 2, axis=0))
     norms[norms == 0] = 1.0
     jn = jac / norms
@@ -392,8 +416,8 @@ def _covariance(problem: Problem, x, coef, noise: ARNoise) -> np.ndarray | None:
         bread = linalg.pinvh(jn.T @ jn)
     except (linalg.LinAlgError, ValueError):
         return None
-    z = np.zeros_like(full)
-    z[rows] = full[rows] / norms
-    zt = _inverse_ar_transpose(z, noise)
-    meat = noise.sigma ** 2 * (zt.T @ zt)
+    meat = np.zeros_like(bread)
+    for block, noise in zip(jacobians, noises):
+        zt = _inverse_ar_transpose(block / norms, noise)
+        meat += noise.sigma ** 2 * (zt.T @ zt)
     return (bread @ meat @ bread) / np.outer(norms, norms)

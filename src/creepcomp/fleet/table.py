@@ -3,8 +3,8 @@ it as Parquet (pyarrow) and CSV.
 
 In the CSV file a text cell that a spreadsheet would read as a formula (one starting with
 ``=``, ``+``, ``-``, ``@``, a tab or a carriage return) starts with ``'`` instead, as OWASP
-recommends against CSV injection; numbers stay numbers, and the Parquet file keeps the text as
-it is.
+recommends against CSV injection (:func:`creepcomp.analog.bom.csv_cell`, as in a bill of
+materials); numbers stay numbers, and the Parquet file keeps the text as it is.
 """
 
 from __future__ import annotations
@@ -13,11 +13,7 @@ from pathlib import Path
 
 from creepcomp.io.atomic import atomic_path
 
-__all__ = ["MAX_TERMS", "COLUMNS", "COLUMN_NAMES", "FORMULA_START", "arrow_table", "csv_safe",
-           "write_table"]
-
-#: First characters that make a spreadsheet read a text cell as a formula (OWASP).
-FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+__all__ = ["MAX_TERMS", "COLUMNS", "COLUMN_NAMES", "arrow_table", "csv_safe", "write_table"]
 
 #: Creep terms given their own columns (``beta_1`` ... ``tau_4``, sorted by tau); a model with
 #: more terms has them in its ``model.json`` (``n_terms`` says how many).
@@ -79,17 +75,19 @@ def arrow_table(rows: list[dict]):
 
 
 def csv_safe(table):
-    """``table`` with every text cell that starts with one of :data:`FORMULA_START` prefixed
-    by ``'`` (a spreadsheet then shows the text, and runs nothing)."""
+    """``table`` with every text cell a spreadsheet would run as a formula prefixed by ``'``
+    (:func:`creepcomp.analog.bom.csv_cell`): a spreadsheet then shows the text."""
     import pyarrow as pa
+
+    from creepcomp.analog.bom import csv_cell
 
     for i, column in enumerate(table.schema):
         if not pa.types.is_string(column.type):
             continue
         values = table.column(i).to_pylist()
-        if any(v and v.startswith(FORMULA_START) for v in values):
-            values = ["'" + v if v and v.startswith(FORMULA_START) else v for v in values]
-            table = table.set_column(i, column, pa.array(values, pa.string()))
+        safe = [v if v is None else csv_cell(v) for v in values]
+        if safe != values:
+            table = table.set_column(i, column, pa.array(safe, pa.string()))
     return table
 
 

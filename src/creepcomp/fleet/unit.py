@@ -21,13 +21,14 @@ from creepcomp.fleet.table import COLUMN_NAMES, MAX_TERMS
 from creepcomp.io.atomic import atomic_path, write_text_atomic
 from creepcomp.io.jsonfiles import to_json
 from creepcomp.model import CreepModel
+from creepcomp.verify.creep_test import C3_CREEP_LIMIT
 
 __all__ = ["OIML_C3_CREEP", "STEP_POINTS", "RESULT_FILE", "RESULT_VERSION", "run_settings", "empty_row", "row_from",
            "step_creep", "process_unit", "done_row", "one_line", "uninvertible_note"]
 
 #: Default creep limit: OIML R60, accuracy class C (3000 intervals), as a fraction of the
-#: full-scale output (class C3).
-OIML_C3_CREEP = 0.000245
+#: full-scale output (class C3), derived in :mod:`creepcomp.verify.creep_test`.
+OIML_C3_CREEP = C3_CREEP_LIMIT
 
 #: Most samples of the simulated load step (longer records are sampled more coarsely).
 STEP_POINTS = 20000

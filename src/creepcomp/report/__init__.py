@@ -3,7 +3,7 @@
 One module per report: ``design`` (residual creep and sweep of designs), ``tolerance`` (Monte
 Carlo report), ``spice`` (ngspice against python-control), ``digital`` (digital correction),
 ``diagnosis`` and ``circuit_diagnosis`` (diagnose reports), ``fleet`` (the lot report of
-``creepcomp fleet``), and ``common`` (saving figures, HTML pages). Nothing is imported here,
+``creepcomp fleet``), ``schematic`` (the network's schematic), and ``common`` (saving figures, HTML pages). Nothing is imported here,
 so that one report costs only its own imports.
 """
 

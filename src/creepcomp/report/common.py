@@ -9,7 +9,6 @@ from __future__ import annotations
 import base64
 import html
 import io
-import re
 from pathlib import Path
 
 import matplotlib.pyplot as plt
@@ -47,24 +46,13 @@ def format_cell(x, unit: str | None = None) -> str:
 
 
 def format_named(name: str, value) -> str:
-    """A value with the unit its name implies: resistors and resistances (``R1``,
-    ``source_resistance``) in Ω, capacitors (``C1``) in F, absorption ratios and ``beta`` in
-    percent, times (``tau``, ``..._tau``, ``delay``) in s; else (and a kind or a list, such as
-    a data problem's ``where``) :func:`creepcomp.units.format_parameter`."""
-    if isinstance(value, (str, list, tuple)):
-        return html.escape(format_parameter(name.split(".")[-1], value))
-    if value is None or not np.isfinite(value):
+    """A value with the unit its name implies (:func:`creepcomp.units.format_parameter`:
+    parts such as ``R1.2`` in Ω, ``C1`` in F, ``beta`` in percent, ``tau`` in s ...), for
+    HTML; ``–`` for a missing number."""
+    if not isinstance(value, (str, list, tuple)) and (value is None or not np.isfinite(value)):
         return "–"
-    key = name.split(".")[-1]
-    if re.fullmatch(r"R\d+", key) or key.endswith("resistance"):
-        return format_cell(float(value), "Ω")
-    if re.fullmatch(r"C\d+", key):
-        return format_cell(float(value), "F")
-    if key.startswith("beta") or key == "absorption":
-        return format_percent(float(value))
-    if key.startswith("tau") or key.endswith("_tau"):
-        return format_cell(float(value), "s")
-    return html.escape(format_parameter(key, float(value)))
+    return html.escape(format_parameter(name, value if isinstance(value, (str, list, tuple))
+                                        else float(value)))
 
 
 def save_figure(fig, path, dpi: int = 110) -> Path:

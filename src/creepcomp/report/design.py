@@ -11,11 +11,12 @@ from creepcomp.model import CreepModel
 from creepcomp.network import Network
 from creepcomp.report.common import save_figure
 
-__all__ = ["plot_design_comparison"]
+__all__ = ["plot_design_comparison", "plot_over_temperature"]
 
 
 def plot_design_comparison(model: CreepModel, designs: dict[str, Network | None],
-                           path: str | Path, sweep_period: float | None = None) -> Path:
+                           path: str | Path, sweep_period: float | None = None,
+                           schematic: Network | None = None, plan=None) -> Path:
     """Residual creep after a load step, and the sweep hysteresis loop, of several designs.
 
     Parameters
@@ -28,12 +29,20 @@ def plot_design_comparison(model: CreepModel, designs: dict[str, Network | None]
         PNG file to write.
     sweep_period : float, optional
         Period of the triangular sweep (s).
+    schematic : Network, optional
+        A network drawn above the plots (the chosen design), with ``plan``'s thermistors.
 
     Returns
     -------
     Path
     """
-    fig, (ax_step, ax_loop) = plt.subplots(1, 2, figsize=(12, 4.8))
+    if schematic is None:
+        fig, (ax_step, ax_loop) = plt.subplots(1, 2, figsize=(12, 4.8))
+    else:
+        fig = plt.figure(figsize=(12, 9.0))
+        grid = fig.add_gridspec(2, 2, height_ratios=(1.0, 1.1))
+        _draw_schematic(fig.add_subplot(grid[0, :]), schematic, plan)
+        ax_step, ax_loop = fig.add_subplot(grid[1, 0]), fig.add_subplot(grid[1, 1])
     for label, net in designs.items():
         t, e = step_residual(model, net)
         ax_step.plot(t, 100 * e, label=label)
@@ -54,3 +63,46 @@ def plot_design_comparison(model: CreepModel, designs: dict[str, Network | None]
         ax.grid(True, alpha=0.3)
     fig.tight_layout()
     return save_figure(fig, path)
+
+
+def plot_over_temperature(comparison, path: str | Path) -> Path:
+    """Peak residual creep (%) against temperature of the designs compared over a range
+    (:class:`creepcomp.analog.over_temperature.RangeComparison`), the uncorrected creep for
+    reference, each design's worst case marked.
+
+    Returns
+    -------
+    Path
+    """
+    fig, ax = plt.subplots(figsize=(8, 4.8))
+    bare = comparison.designs[0].prediction
+    ax.plot(bare.temperatures, [100 * x for x in bare.uncorrected], color="0.5", ls="--",
+            label="uncorrected")
+    for d in comparison.designs:
+        p = d.prediction
+        (line,) = ax.plot(p.temperatures, [100 * x for x in p.peak_residual], marker="o", ms=3,
+                          label=f"{d.label}: worst {100 * p.worst:.3g} % at {p.worst_at:g} °C"
+                          + (" (written)" if d.key == comparison.chosen else ""))
+        ax.plot([p.worst_at], [100 * p.worst], marker="v", ms=10, color=line.get_color())
+    ax.set_xlabel("temperature (°C)")
+    ax.set_ylabel("peak residual creep (% of the step)")
+    ax.set_title(f"Residual creep of a full-scale step over {comparison.low:g} .. {comparison.high:g} °C")
+    ax.set_ylim(bottom=0)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def _draw_schematic(ax, network: Network, plan) -> None:
+    """The network's schematic as an image in ``ax``."""
+    import io
+
+    import matplotlib.image as mpimg
+
+    from creepcomp.report.schematic import schematic_drawing
+
+    png = schematic_drawing(network, plan, "matplotlib").get_imagedata("png")
+    ax.imshow(mpimg.imread(io.BytesIO(png)))
+    ax.set_axis_off()
+    ax.set_title("Chosen parts")

@@ -236,7 +236,7 @@ td:first-child,th:first-child{{text-align:left}}img{{max-width:100%}}pre{{backgr
 </head><body>
 <h1>{html.escape(title)}</h1>
 <p>Record <code>{html.escape(rec['source'])}</code>: {rec['n_samples']} samples over {format_cell(rec['duration_s'])} s,
-median step {format_cell(rec['sample_step_s'])} s ({'uniform' if rec['uniform'] else 'irregular'});
+median step {format_cell(rec['sample_step_s'])} s ({'reduced to block means' if rec.get('reduced') else 'uniform' if rec['uniform'] else 'irregular'});
 initial creep state: {html.escape(rec['initial_state'])}; temperature column: {'yes' if rec['temperature'] else 'no'}.</p>
 {circuit_section}
 <h2>Sensor side: cause {html.escape(d.cause)}</h2>

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from creepcomp.analog.parts import PartsPlan, network_at
 from creepcomp.analog.quality import corrected_system
 from creepcomp.errors import InputError
 from creepcomp.lti import is_uniform
@@ -22,7 +23,7 @@ from creepcomp.model import CreepModel
 from creepcomp.network import Network
 from creepcomp.programs import LoadProgram
 from creepcomp.verify.drive import (DEFAULT_POINTS, DEFAULT_SIGNAL, checked_times,
-                                    default_duration, program_breakpoints, spice_program,
+                                    default_duration, largest_step, program_breakpoints, spice_program,
                                     synthetic_program, transient_times)
 from creepcomp.verify.netlist import (Deck, program_deck, record_arrays, record_deck,
                                       write_record_data)
@@ -32,7 +33,7 @@ from creepcomp.verify.ngspice_engine import (Ngspice, NgspiceUnavailable, Wavefo
 if TYPE_CHECKING:
     import control
 
-__all__ = ["reference_transient", "Comparison", "compare_program", "compare_record",
+__all__ = ["reference_transient", "Comparison", "compare_program", "compare_temperatures", "compare_record",
            "at_sample_times"]
 
 
@@ -63,15 +64,16 @@ def _piecewise_response(sys: "control.StateSpace", t, u, edges) -> np.ndarray:
 
 
 def reference_transient(network: Network, model: CreepModel, program: LoadProgram, times,
-                        signal: float = DEFAULT_SIGNAL) -> Waveforms:
+                        signal: float = DEFAULT_SIGNAL, max_step: float | None = None) -> Waveforms:
     """python-control's transient of the same experiment, on the same time points.
 
     ``G(s)`` (the sensor) and ``H(s) G(s)`` (the corrected output) are simulated with
     ``control.forced_response`` on each segment of ``times`` between the program's
     breakpoints (uniform steps; the input is linear in between, so the result is exact).
+    ``max_step`` is the netlist's largest step (it sets the ramps, as in the netlist).
     """
     t = checked_times(times)
-    prog = spice_program(program, model, network)
+    prog = spice_program(program, model, network, max_step)
     edges = program_breakpoints(prog, float(t[-1]))
     missing = [e for e in edges if not np.any(np.isclose(t, e, rtol=0, atol=1e-9 * t[-1]))]
     if missing:
@@ -106,6 +108,8 @@ class Comparison:
     ngspice_version : int or None
     ngspice_points : int or None
         ngspice's own time points.
+    temperature : float or None
+        Simulated temperature (°C); None: the design as it is.
     unavailable : str or None
         Why ngspice did not run.
     deck : Deck
@@ -123,6 +127,7 @@ class Comparison:
     ngspice_points: int | None
     unavailable: str | None
     deck: Deck
+    temperature: float | None = None
 
     def residual(self, which: str = "spice") -> np.ndarray | None:
         """Residual creep ``(y - H(inf) S_ins) / (H(inf) FS)`` (None without ``S_ins``)."""
@@ -194,6 +199,8 @@ class Comparison:
                           "sensor_max_abs": self.agreement_sensor},
             "netlist_bytes": len(self.deck.text().encode()),
         }
+        if self.temperature is not None:
+            out["temperature"] = self.temperature
         if self.spice is not None:
             spice = self._residual_figures("spice")
             out["ngspice"].update({"version": self.ngspice_version, "seconds": self.ngspice_seconds,
@@ -206,7 +213,8 @@ class Comparison:
 
 def compare_program(network: Network, model: CreepModel, program: LoadProgram | str = "step",
                     duration: float | None = None, points: int = DEFAULT_POINTS,
-                    signal: float = DEFAULT_SIGNAL, engine: Ngspice | None = None) -> Comparison:
+                    signal: float = DEFAULT_SIGNAL, engine: Ngspice | None = None,
+                    temperature: float | None = None, plan: PartsPlan | None = None) -> Comparison:
     """A design driven by synthetic creep, in python-control and in ngspice, compared.
 
     Parameters
@@ -224,20 +232,31 @@ def compare_program(network: Network, model: CreepModel, program: LoadProgram | 
     engine : Ngspice, optional
         Default: :func:`ngspice`. When it cannot be loaded, the comparison carries the
         python-control result alone and says why.
+    temperature : float, optional
+        Simulate at this temperature (°C): python-control with ``model.at_temperature(T)``
+        cascaded with ``network_at(network, plan, T)``, ngspice with the netlist's
+        temperature behaviour at ``.options temp = T``.
+    plan : PartsPlan, optional
+        The parts' temperature behaviour (with ``temperature``); None keeps the parts fixed.
 
     Returns
     -------
     Comparison
     """
+    model_t = model.at_temperature(temperature) if temperature is not None else model
+    network_t = (network_at(network, plan, temperature)
+                 if temperature is not None and plan is not None else network)
     if isinstance(program, str):
-        program = synthetic_program(model, program, network)
+        program = synthetic_program(model_t, program, network_t)
     if duration is None:
-        duration = default_duration(program, model, network)
-    as_simulated = spice_program(program, model, network)
+        duration = default_duration(program, model_t, network_t)
+    max_step = largest_step(duration, points)
+    as_simulated = spice_program(program, model_t, network_t, max_step)
     times = transient_times(as_simulated, duration, points)
-    reference = reference_transient(network, model, program, times, signal)
-    deck = program_deck(network, model, program, duration, points, signal)
-    hf = network.lag_expansion().direct
+    reference = reference_transient(network_t, model_t, program, times, signal, max_step)
+    deck = program_deck(network, model, program, duration, points, signal,
+                        temperature=temperature, plan=plan)
+    hf = network_t.lag_expansion().direct
     spice, seconds, version, n_points, unavailable = None, None, None, None, None
     try:
         engine = engine or ngspice()
@@ -250,7 +269,16 @@ def compare_program(network: Network, model: CreepModel, program: LoadProgram | 
     return Comparison(program.name, signal, hf, reference, spice,
                       "python-control forced_response, uniform steps between the program's "
                       "breakpoints (exact for its piecewise-linear input)",
-                      seconds, version, n_points, unavailable, deck)
+                      seconds, version, n_points, unavailable, deck, temperature)
+
+
+def compare_temperatures(network: Network, model: CreepModel, plan: PartsPlan | None,
+                         temperatures, program: str = "step", duration: float | None = None,
+                         points: int = DEFAULT_POINTS, signal: float = DEFAULT_SIGNAL,
+                         engine: Ngspice | None = None) -> list[Comparison]:
+    """:func:`compare_program` at each of ``temperatures`` (°C), one comparison each."""
+    return [compare_program(network, model, program, duration, points, signal, engine,
+                            float(t), plan) for t in temperatures]
 
 
 def compare_record(network: Network, time, signal, engine: Ngspice | None = None,

@@ -21,7 +21,8 @@ from creepcomp.programs import LoadProgram
 
 __all__ = [
     "DEFAULT_SIGNAL", "DEFAULT_POINTS", "RISE_FRACTION", "HOLD_TIME_CONSTANTS",
-    "STEP_TIME_CONSTANTS", "SWEEP_CYCLES", "PROGRAMS",
+    "STEP_TIME_CONSTANTS", "SWEEP_CYCLES", "PROGRAMS", "MAX_STEP_FRACTION", "RAMP_STEP_FRACTION",
+    "largest_step",
     "slowest_time_constant", "fastest_time_constant", "round_up", "synthetic_program",
     "default_duration", "ramped", "program_breakpoints", "transient_times", "checked_times",
     "spice_number", "rise_time", "spice_program",
@@ -35,6 +36,13 @@ DEFAULT_POINTS = 2000
 #: fastest time constant of sensor and network (SPICE sources cannot jump; python-control
 #: simulates the same ramp).
 RISE_FRACTION = 1e-6
+#: ngspice's largest time step, as a fraction of the output spacing.
+MAX_STEP_FRACTION = 0.5
+#: A ramp lasts at least this fraction of ngspice's largest time step. ngspice's smallest
+#: step is 1e-11 of its largest, and it cuts its step by decades at a ramp's corners: a ramp
+#: of 5e-8 of the largest step ended in "Timestep too small" (a network with time constants
+#: from 6 s to 20 min, dielectric absorption and leakage, simulated over 4 h), 5e-7 ran.
+RAMP_STEP_FRACTION = 1e-6
 #: Step holds and step durations, in units of the slowest time constant.
 HOLD_TIME_CONSTANTS = 5.0
 STEP_TIME_CONSTANTS = 20.0
@@ -168,22 +176,32 @@ def spice_number(x: float) -> str:
     return f"{float(x):.12g}"
 
 
-def rise_time(model: CreepModel, network: Network) -> float:
-    """Ramp time of a step: a power of ten near ``RISE_FRACTION`` of the fastest time constant."""
-    return 10.0 ** math.floor(math.log10(RISE_FRACTION * fastest_time_constant(model, network)))
+def largest_step(duration: float, points: int) -> float:
+    """ngspice's largest time step for ``points`` output points over ``duration`` (s)."""
+    return duration / points * MAX_STEP_FRACTION
 
 
-def spice_program(program: LoadProgram, model: CreepModel, network: Network) -> LoadProgram:
+def rise_time(model: CreepModel, network: Network, max_step: float | None = None) -> float:
+    """Ramp time of a step: a power of ten near ``RISE_FRACTION`` of the fastest time constant,
+    and at least :data:`RAMP_STEP_FRACTION` of ngspice's largest step ``max_step`` (s)."""
+    rise = 10.0 ** math.floor(math.log10(RISE_FRACTION * fastest_time_constant(model, network)))
+    if max_step is not None and rise < RAMP_STEP_FRACTION * max_step:
+        rise = 10.0 ** math.ceil(math.log10(RAMP_STEP_FRACTION * max_step))
+    return rise
+
+
+def spice_program(program: LoadProgram, model: CreepModel, network: Network,
+                  max_step: float | None = None) -> LoadProgram:
     """The program as both simulators see it: normalised to full scale 1 (the largest
-    ``|load|``), steps as ramps of :data:`RISE_FRACTION` of the fastest time constant, and
-    every number rounded as the netlist prints it (so python-control sees the same input).
+    ``|load|``), steps as ramps (:func:`rise_time`; ``max_step`` is ngspice's largest step),
+    and every number rounded as the netlist prints it (so python-control sees the same input).
     """
     if program.start < 0:
         raise InputError(f"the load program starts at {program.start:g} s: SPICE time starts at 0")
     full = max(abs(x) for x in program.loads)
     if full == 0:
         raise InputError("the load program is zero throughout: nothing to simulate")
-    ramp = ramped(program, rise_time(model, network))
+    ramp = ramped(program, rise_time(model, network, max_step))
     return LoadProgram(tuple(_as_printed(t) for t in ramp.times),
                        tuple(_as_printed(u / full) for u in ramp.loads), program.name)
 

@@ -14,21 +14,21 @@ import os
 import signal
 import time as _time
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
 
 from creepcomp.errors import CreepcompError, InputError
 from creepcomp.io.jsonfiles import Design
-from creepcomp.verify.drive import (DEFAULT_SIGNAL, fastest_time_constant, slowest_time_constant,
-                                    synthetic_program, transient_times)
+from creepcomp.verify.drive import (DEFAULT_SIGNAL, fastest_time_constant, largest_step, rise_time,
+                                    slowest_time_constant, synthetic_program, transient_times)
 from creepcomp.verify.ngspice_engine import ngspice, run_transient
 from creepcomp.verify.tolerances import ToleranceSpec, draw, factors
 from creepcomp.verify.variants import (Metrics, evaluate, residual_lags, step_residual,
                                        sweep_period_or_default, variant)
 
-__all__ = ["SPOT_CHECK_SPAN", "SPOT_CHECK_SETTLE", "BLOCK", "HISTOGRAM_BINS", "StreamingPercentiles",
+__all__ = ["SPOT_CHECK_SPAN", "SPOT_CHECK_SETTLE", "BLOCK", "BATCH_ROWS", "HISTOGRAM_BINS", "StreamingPercentiles",
            "MonteCarloResult", "block_seed", "run_monte_carlo", "nominal_metrics", "spot_check"]
 
 
@@ -42,6 +42,8 @@ SPOT_CHECK_SETTLE = 1e-3
 #: for a design with 9 factors); the first block is kept for the sensitivity, the report's
 #: histograms and the spot check.
 BLOCK = 1_000_000
+#: Most variants (samples x temperatures) evaluated in one batch: its arrays take about 50 MB.
+BATCH_ROWS = 60_000
 #: Bins of the streaming histogram that gives the percentiles of a run longer than one block.
 HISTOGRAM_BINS = 1 << 16
 
@@ -163,6 +165,33 @@ class MonteCarloResult:
     limit: float | None = None
     limit_metric: str = "peak"
     within_limit: int = 0
+    within_limit_by_temperature: tuple[int, ...] = ()
+    worst_temperature_counts: tuple[int, ...] = ()
+
+    @property
+    def temperatures(self) -> tuple[float, ...]:
+        """The temperatures each unit was evaluated at (°C); empty: the design as it is."""
+        over = self.spec.over_temperature
+        return over.temperatures if over is not None else ()
+
+    def percentiles_at(self, index: int, metric: str = "peak") -> dict:
+        """:meth:`percentiles` at the ``index``-th temperature."""
+        if self.stats is None or self.kept == self.n:
+            v = self.metrics.per_temperature.get(metric)[:, index]
+            p50, p95, p99 = np.percentile(v, [50, 95, 99])
+            return {"p50": float(p50), "p95": float(p95), "p99": float(p99), "max": float(v.max())}
+        return self.stats[f"{metric}@{index}"].summary()
+
+    def yield_at(self, index: int, limit: float, metric: str = "peak") -> tuple[float, float]:
+        """:meth:`yield_against` at the ``index``-th temperature alone."""
+        if self.kept == self.n:
+            ok = float(np.mean(self.metrics.per_temperature.get(metric)[:, index] <= limit))
+        elif self.limit == limit and self.limit_metric == metric:
+            ok = self.within_limit_by_temperature[index] / self.n
+        else:
+            raise InputError(f"the yield against {limit} needs the Monte Carlo run with that limit "
+                             f"(it kept {self.kept} of {self.n} samples)")
+        return ok, math.sqrt(max(ok * (1 - ok), 1.0 / self.n) / self.n)
 
     @property
     def n(self) -> int:
@@ -271,38 +300,52 @@ def run_monte_carlo(design: Design, spec: ToleranceSpec, n: int, seed: int = 0,
     start = _time.perf_counter()
     period = sweep_period_or_default(design.model, sweep_period)
     box = factors(design, spec)
+    over = spec.over_temperature
+    correlation = over.lot_correlation if over is not None else 0.0
+    n_temps = len(over.temperatures) if over is not None else 0
+    # a batch evaluates chunk x temperatures variants: at most BATCH_ROWS of them (memory)
+    chunk = max(1, min(chunk, BATCH_ROWS // max(n_temps, 1)))
     blocks = [(lo, min(block, n - lo)) for lo in range(0, n, block)]
     workers = min(workers or os.cpu_count() or 1, -(-min(block, n) // chunk))
-    stats = {m: StreamingPercentiles() for m in METRIC_NAMES}
+    names = list(METRIC_NAMES) + [f"{m}@{k}" for k in range(n_temps) for m in METRIC_NAMES]
+    stats = {m: StreamingPercentiles() for m in names}
     first_values, first_metrics, within, done = None, None, 0, 0
+    within_t, worst_counts = np.zeros(n_temps, np.int64), np.zeros(n_temps, np.int64)
     pool = None
     if workers > 1:
         pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
                                    initializer=_ignore_interrupts)
     try:
         for index, (_, size) in enumerate(blocks):
-            values = draw(box, size, block_seed(seed, index))
+            values = draw(box, size, block_seed(seed, index), correlation)
             jobs = [({k: v[lo:lo + chunk] for k, v in values.items()}, min(chunk, size - lo))
                     for lo in range(0, size, chunk)]
             parts = []
             if pool is not None:
                 futures = [pool.submit(evaluate, design, sub, period, spec.dielectric,
-                                       spec.temperature, s) for sub, s in jobs]
+                                       spec.temperature, s, over) for sub, s in jobs]
                 results = (f.result() for f in futures)
             else:
-                results = (evaluate(design, sub, period, spec.dielectric, spec.temperature, s)
+                results = (evaluate(design, sub, period, spec.dielectric, spec.temperature, s, over)
                            for sub, s in jobs)
             for part, (_, s) in zip(results, jobs):
                 parts.append(part)
                 done += s
                 if progress:
                     progress(done)
-            metrics = Metrics(*(np.concatenate([getattr(m, f) for m in parts])
-                                for f in ("peak", "final", "hysteresis")))
+            metrics = _joined(parts)
             for m in METRIC_NAMES:
                 stats[m].add(metrics.get(m))
+            per = metrics.per_temperature
+            for k in range(n_temps):
+                for m in METRIC_NAMES:
+                    stats[f"{m}@{k}"].add(per.get(m)[:, k])
+            if n_temps:
+                worst_counts += np.bincount(np.argmax(per.peak, axis=1), minlength=n_temps)
             if limit is not None:
                 within += int(np.count_nonzero(metrics.get(metric) <= limit))
+                if n_temps:
+                    within_t += np.count_nonzero(per.get(metric) <= limit, axis=0)
             if index == 0:
                 first_values, first_metrics = values, metrics
     except BaseException:
@@ -316,7 +359,17 @@ def run_monte_carlo(design: Design, spec: ToleranceSpec, n: int, seed: int = 0,
     if pool is not None:
         pool.shutdown()
     return MonteCarloResult(design, spec, box, first_values, first_metrics, seed,
-                            _time.perf_counter() - start, period, n, stats, limit, metric, within)
+                            _time.perf_counter() - start, period, n, stats, limit, metric, within,
+                            tuple(int(c) for c in within_t), tuple(int(c) for c in worst_counts))
+
+
+def _joined(parts: list[Metrics]) -> Metrics:
+    """One block's metrics from its batches (with their per-temperature figures)."""
+    per = None
+    if parts[0].per_temperature is not None:
+        per = _joined([p.per_temperature for p in parts])
+    return Metrics(*(np.concatenate([getattr(m, f) for m in parts])
+                     for f in ("peak", "final", "hysteresis")), per)
 
 
 def _ignore_interrupts() -> None:
@@ -348,12 +401,17 @@ def _die_with_parent() -> None:
 def nominal_metrics(design: Design, spec: ToleranceSpec, sweep_period: float | None = None) -> Metrics:
     """Metrics of the design with every factor at its nominal value."""
     period = sweep_period_or_default(design.model, sweep_period)
-    return evaluate(design, {}, period, spec.dielectric, spec.temperature)
+    return evaluate(design, {}, period, spec.dielectric, spec.temperature,
+                    over=spec.over_temperature)
 
 
 def spot_check(result: MonteCarloResult, n: int = 200, points: int = 400) -> dict:
     """Run the first ``n`` samples of a Monte Carlo through ngspice (a load step) and compare
     their residual creep with the engine's at the same times.
+
+    ngspice's step is a ramp (:func:`creepcomp.verify.drive.rise_time`); the engine's
+    residual is that of the same ramp, exact from its end on. Over temperature, sample ``i``
+    runs at the ``i``-th temperature (cyclically), as a design at that temperature.
 
     Returns
     -------
@@ -369,18 +427,25 @@ def spot_check(result: MonteCarloResult, n: int = 200, points: int = 400) -> dic
     try:
         engine = ngspice()
         for i in range(n):
-            sample = variant(design, result.values, i, spec.dielectric, spec.temperature)
+            at = None
+            if spec.over_temperature is not None:
+                temps = spec.over_temperature.temperatures
+                at = replace(spec.over_temperature, temperatures=(temps[i % len(temps)],))
+            sample = variant(design, result.values, i, spec.dielectric, spec.temperature, at)
             duration = SPOT_CHECK_SPAN * slowest_time_constant(sample.model, sample.network)
             times = transient_times(program, duration, points)
+            rise = rise_time(sample.model, sample.network, largest_step(duration, points))
             t0 = _time.perf_counter()
-            wave = run_transient(sample.network, sample.model, program, times, engine=engine)
+            wave = run_transient(sample.network, sample.model, program, times, engine=engine,
+                                 points=points)
             transient += _time.perf_counter() - t0
-            late = times > SPOT_CHECK_SETTLE * fastest_time_constant(sample.model, sample.network)
+            late = times > max(SPOT_CHECK_SETTLE * fastest_time_constant(sample.model, sample.network),
+                               rise)
             ideal = sample.network.lag_expansion().hf_gain * DEFAULT_SIGNAL
             e_spice = wave.output[late] / ideal - 1.0
             rel, q = residual_lags(design, {k: v[i:i + 1] for k, v in result.values.items()},
-                                   spec.dielectric, spec.temperature, 1)
-            e_engine = step_residual(rel, q, times[late][None, :])[0]
+                                   spec.dielectric, spec.temperature, 1, at)
+            e_engine = step_residual(rel, q, times[late][None, :], rise)[0]
             worst = max(worst, float(np.max(np.abs(e_spice - e_engine))))
     except CreepcompError as exc:
         return {"n": 0, "error": str(exc)}

@@ -24,24 +24,25 @@ from pathlib import Path
 
 import numpy as np
 
+from creepcomp.analog.parts import PART_REFERENCE, PartsPlan, ThermistorUse, network_at
 from creepcomp.errors import InputError
 from creepcomp.io.atomic import atomic_path, write_text_atomic
 from creepcomp.model import CreepModel
 from creepcomp.network import Network
 from creepcomp.programs import LoadProgram
+from creepcomp.temperature import GAS_CONSTANT, ZERO_CELSIUS, TemperatureLaw
 from creepcomp.units import format_quantity
-from creepcomp.verify.drive import (DEFAULT_POINTS, DEFAULT_SIGNAL, default_duration, rise_time,
-                                    spice_number, spice_program, synthetic_program)
+from creepcomp.verify.drive import (DEFAULT_POINTS, DEFAULT_SIGNAL, MAX_STEP_FRACTION,
+                                    default_duration, largest_step, rise_time, spice_number,
+                                    spice_program, synthetic_program)
 
 __all__ = [
     "MAX_STEP_FRACTION", "RECORD_MAX_STEP_FRACTION", "RELTOL", "TRTOL", "VOLTAGE_TOLERANCE",
-    "REFERENCE_CAPACITANCE", "ascii_text", "Deck", "program_deck", "record_arrays",
+    "REFERENCE_CAPACITANCE", "ascii_text", "Deck", "program_deck", "shift_expression", "record_arrays",
     "record_deck", "record_data", "write_record_data", "write_deck", "reference_designs", "reference_deck",
     "write_reference_netlists",
 ]
 
-#: ngspice's largest time step, as a fraction of the output spacing.
-MAX_STEP_FRACTION = 0.5
 #: ngspice's largest time step while a record drives the netlist, as a fraction of the
 #: median sample interval (ngspice does not step on the samples: the finer, the closer).
 RECORD_MAX_STEP_FRACTION = 0.5
@@ -128,6 +129,14 @@ class _Lines:
         element = getattr(self.circuit, kind)(name, *args, **kwargs)
         self.lines.append(str(element))
 
+    def add_with(self, suffix: str, kind: str, name: str, *args) -> None:
+        """An element with ``suffix`` (instance parameters such as ``tc1=...``) after its value."""
+        element = str(getattr(self.circuit, kind)(name, *args))
+        self.lines.append(f"{element} {suffix}" if suffix else element)
+
+    def raw(self, line: str) -> None:
+        self.lines.append(line)
+
     def model(self, name: str, kind: str, **parameters) -> None:
         self.lines.append(str(self.circuit.model(name, kind, **parameters)))
 
@@ -135,8 +144,60 @@ class _Lines:
         return "\n".join(self.lines) + "\n"
 
 
-def _network_lines(out: _Lines, network: Network, input_node: str) -> None:
-    """The correction network between ``input_node`` and ``out`` (ground ``0``)."""
+def shift_expression(law: TemperatureLaw) -> str:
+    """The law's shift factor ``a_T`` as an ngspice expression of ``temper`` (°C)."""
+    n = spice_number
+    if law.law == "arrhenius":
+        return (f"exp({n(law.activation_energy / GAS_CONSTANT)}*(1/(temper+{n(ZERO_CELSIUS)})"
+                f"-1/{n(law.reference + ZERO_CELSIUS)}))")
+    return (f"exp(-{n(law.c1 * math.log(10.0))}*(temper-{n(law.reference)})"
+            f"/({n(law.c2)}+temper-{n(law.reference)}))")
+
+
+def _thermistor_expression(use: ThermistorUse) -> str:
+    """An NTC thermistor's ``R(T)`` (:func:`creepcomp.analog.parts.ntc_resistance`) in ``temper``."""
+    n = spice_number
+    return (f"{n(use.r25)}*exp({n(use.b)}*(1/(temper+{n(ZERO_CELSIUS)})"
+            f"-1/{n(PART_REFERENCE + ZERO_CELSIUS)}))")
+
+
+def _resistor(out: _Lines, name: str, a: str, b: str, label: str, value: float,
+              plan: PartsPlan | None) -> None:
+    """A part resistor: plain, with its temperature coefficient, or an NTC thermistor (a
+    behavioural resistor of ``temper``) with its series and parallel fixed resistors."""
+    n = spice_number
+    if plan is None:
+        out.add("R", name, a, b, n(value))
+        return
+    use = plan.thermistors.get(label)
+    if use is None:
+        out.add_with(f"tc1={n(plan.resistor_tc)}", "R", name, a, b, n(value))
+        return
+    extra = (f", {format_quantity(use.series, 'ohm')} in series" if use.series > 0 else "") + (
+        f", {format_quantity(use.parallel, 'ohm')} in parallel" if use.parallel is not None else "")
+    out.comment(f"{label}: NTC thermistor {use.part} (R25 = {format_quantity(use.r25, 'ohm')}, "
+                f"B = {use.b:g} K){extra}")
+    mid = a
+    if use.series > 0:
+        mid = f"ntc{name}"
+        out.add("R", f"{name}s", a, mid, n(use.series))
+    out.raw(f"R{name} {mid} {b} R={{{_thermistor_expression(use)}}}")
+    if use.parallel is not None:
+        out.add("R", f"{name}p", a, b, n(use.parallel))
+
+
+def _capacitor(out: _Lines, name: str, a: str, b: str, value: float, plan: PartsPlan | None) -> None:
+    if plan is None:
+        out.add("C", name, a, b, spice_number(value))
+    else:
+        out.add_with(f"tc1={spice_number(plan.capacitor_tc)}", "C", name, a, b, spice_number(value))
+
+
+def _network_lines(out: _Lines, network: Network, input_node: str, ground: str = "0",
+                   plan: PartsPlan | None = None) -> None:
+    """The correction network between ``input_node`` and ``out`` (ground ``ground``); the
+    next stage's input resistance when the network has one. With a ``plan``, its parts move
+    with ``temper`` (TCs about ``tnom``, thermistors)."""
     n = spice_number
     many = len(network.cells) > 1
     out.comment("correction network: series cells R1 || C1 from the sensor to the output")
@@ -144,9 +205,9 @@ def _network_lines(out: _Lines, network: Network, input_node: str) -> None:
     for k, cell in enumerate(network.cells, 1):
         suffix = f"_{k}" if many else ""
         nxt = "out" if k == len(network.cells) else f"n{k}"
-        out.add("R", f"1{suffix}", node, nxt, n(cell.R))
+        _resistor(out, f"1{suffix}", node, nxt, network.cell_label("R", k - 1), cell.R, plan)
         if cell.C > 0:
-            out.add("C", f"1{suffix}", node, nxt, n(cell.C))
+            _capacitor(out, f"1{suffix}", node, nxt, cell.C, plan)
         if cell.leakage is not None:
             out.comment(f"leakage of C1{suffix}")
             out.add("R", f"leak{suffix or '_1'}", node, nxt, n(cell.leakage))
@@ -158,16 +219,17 @@ def _network_lines(out: _Lines, network: Network, input_node: str) -> None:
         node = nxt
     if network.R2 is not None:
         out.comment("R2 from the output to ground")
-        out.add("R", "2", "out", "0", n(network.R2))
+        _resistor(out, "2", "out", ground, "R2", network.R2, plan)
     for j, branch in enumerate(network.shunt, 1):
         suffix = f"_{j}" if len(network.shunt) > 1 else ""
         if j == 1:
             out.comment("lag network: series R-C branches from the output to ground")
-        out.add("R", f"3{suffix}", "out", f"s{j}", n(branch.R))
-        out.add("C", f"3{suffix}", f"s{j}", "0", n(branch.C))
+        label = f"3{suffix.replace('_', '.')}"
+        _resistor(out, f"3{suffix}", "out", f"s{j}", f"R{label}", branch.R, plan)
+        _capacitor(out, f"3{suffix}", f"s{j}", ground, branch.C, plan)
     if network.load_resistance is not None:
         out.comment("input resistance of the next stage")
-        out.add("R", "L", "out", "0", n(network.load_resistance))
+        out.add("R", "L", "out", ground, n(network.load_resistance))
 
 
 def _source_resistance_lines(out: _Lines, network: Network, emf_node: str) -> str:
@@ -194,18 +256,20 @@ def _options(full_scale: float, network: Network) -> tuple[tuple[str, str], ...]
 
 def program_deck(network: Network, model: CreepModel, program: LoadProgram, duration: float,
                  points: int = DEFAULT_POINTS, signal: float = DEFAULT_SIGNAL,
-                 title: str = "creepcomp: correction network driven by a creeping sensor") -> Deck:
+                 title: str = "creepcomp: correction network driven by a creeping sensor",
+                 temperature: float | None = None, plan: PartsPlan | None = None) -> Deck:
     """The netlist of a design driven by synthetic creep.
 
     Parameters
     ----------
     network : Network
+        Part values at :data:`creepcomp.analog.parts.PART_REFERENCE` when ``plan`` is given.
     model : CreepModel
         The sensor's creep (its ``gain`` and ``offset`` are not used: the drive is set by
         ``signal``).
     program : LoadProgram
         Load history; it is normalised to full scale 1 (the largest ``|load|``) and its
-        steps become ramps of :data:`RISE_FRACTION` of the fastest time constant.
+        steps become ramps (:func:`creepcomp.verify.drive.rise_time`).
     duration : float
         Simulated time (s).
     points : int
@@ -215,6 +279,12 @@ def program_deck(network: Network, model: CreepModel, program: LoadProgram, dura
         Instantaneous sensor signal at full scale (V).
     title : str
         The netlist's title line.
+    temperature : float, optional
+        Simulated temperature (°C, ``.options temp``). The sensor's lags follow its
+        temperature law in ``temper`` (lag resistor ``a_T`` ohm, amplitudes ``beta_k(T)``).
+    plan : PartsPlan, optional
+        With ``temperature``: the parts' temperature coefficients (``tc1`` about
+        ``tnom = 25``) and thermistors (behavioural resistors of ``temper``).
 
     Returns
     -------
@@ -222,11 +292,22 @@ def program_deck(network: Network, model: CreepModel, program: LoadProgram, dura
     """
     if not signal > 0 or not math.isfinite(signal):
         raise InputError(f"signal = {signal!r}: must be a positive voltage")
-    spice_prog = spice_program(program, model, network)
+    law = model.temperature if temperature is not None else None
+    plan = plan if temperature is not None else None
+    model_t = model.at_temperature(temperature) if temperature is not None else model
+    network_t = network_at(network, plan, temperature) if plan is not None else network
+    max_step = largest_step(duration, points)
+    spice_prog = spice_program(program, model_t, network_t, max_step)
     n = spice_number
     out = _Lines(title)
+    if temperature is not None:
+        out.comment(f"simulated at {temperature:g} C (.options temp); "
+                    + ("parts hold their values at 25 C (tnom) and move with their temperature "
+                       "coefficients" if plan is not None else "parts fixed")
+                    + ("; the sensor's retardation times follow its temperature law"
+                       if law is not None else ""))
     out.comment(f"load program: {program.name}, normalised to full scale 1"
-                + ("; steps as ramps of " + format_quantity(rise_time(model, network), "s")
+                + ("; steps as ramps of " + format_quantity(rise_time(model_t, network_t, max_step), "s")
                    if len(set(program.times)) < len(program.times) else ""))
     pwl = list(zip(spice_prog.times, spice_prog.loads))
     out.add("PieceWiseLinearVoltageSource", "load", "load", "0", values=pwl)
@@ -234,17 +315,26 @@ def program_deck(network: Network, model: CreepModel, program: LoadProgram, dura
     out.add("VCVS", "ins", "ins", "0", "load", "0", n(signal))
     terms = []
     for k, (beta, tau) in enumerate(zip(model.beta, model.tau), 1):
-        out.comment(f"creep term {k}: beta = {beta:.6g}, tau = {tau:.6g} s: a lag of the "
-                    "instantaneous signal (R = 1 ohm, C = tau)")
-        out.add("R", f"creep{k}", "ins", f"creep{k}", "1")
+        if law is None:
+            out.comment(f"creep term {k}: beta = {beta:.6g}, tau = {tau:.6g} s: a lag of the "
+                        "instantaneous signal (R = 1 ohm, C = tau)")
+            out.add("R", f"creep{k}", "ins", f"creep{k}", "1")
+        else:
+            out.comment(f"creep term {k}: beta = {beta:.6g}, tau = {tau:.6g} s at "
+                        f"{law.reference:g} C: a lag of the instantaneous signal (R = a_T ohm, "
+                        "C = tau)")
+            out.raw(f"Rcreep{k} ins creep{k} R={{{shift_expression(law)}}}")
         out.add("C", f"creep{k}", f"creep{k}", "0", n(tau))
-        terms.append(f"{'-' if beta < 0 else '+'} {n(abs(beta))}*V(creep{k})")
+        amplitude = n(abs(beta))
+        if law is not None and law.beta_per_kelvin and law.beta_per_kelvin[k - 1]:
+            amplitude += f"*(1+{n(law.beta_per_kelvin[k - 1])}*(temper-{n(law.reference)}))"
+        terms.append(f"{'-' if beta < 0 else '+'} {amplitude}*V(creep{k})")
     out.comment("creeping sensor output: S_ins + sum beta_k lag_k")
     out.add("B", "sensor", "emf", "0", v="V(ins) " + " ".join(terms))
     node = _source_resistance_lines(out, network, "emf")
-    _network_lines(out, network, node)
+    _network_lines(out, network, node, plan=plan)
     spacing = duration / points
-    hf = network.lag_expansion().direct
+    hf = network_t.lag_expansion().direct
     control_lines = (
         f"* residual creep: (v(out) - H(inf) S_ins) / (H(inf) full scale); H(inf) = {hf:.12g} "
         "(capacitors shorted)",
@@ -257,8 +347,10 @@ def program_deck(network: Network, model: CreepModel, program: LoadProgram, dura
         "let uncorrected = (v(emf) - v(ins)) / full_scale",
         f"meas tran uncorrected_creep_final find uncorrected at={n(duration)}",
     )
-    return Deck(title, out.text(), _options(signal, network),
-                (spacing, duration, spacing * MAX_STEP_FRACTION), control_lines, None,
+    options = _options(signal, network_t)
+    if temperature is not None:
+        options += (("tnom", n(PART_REFERENCE)), ("temp", n(temperature)))
+    return Deck(title, out.text(), options, (spacing, duration, max_step), control_lines, None,
                 {"load": "load", "instantaneous": "ins", "sensor": "emf", "output": "out"})
 
 

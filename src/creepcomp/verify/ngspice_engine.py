@@ -25,7 +25,7 @@ from creepcomp.errors import CreepcompError
 from creepcomp.model import CreepModel
 from creepcomp.network import Network
 from creepcomp.programs import LoadProgram
-from creepcomp.verify.drive import (DEFAULT_SIGNAL, checked_times, default_duration,
+from creepcomp.verify.drive import (DEFAULT_SIGNAL, checked_times, default_duration, largest_step,
                                     program_breakpoints, spice_program, synthetic_program)
 from creepcomp.verify.netlist import Deck, program_deck
 
@@ -351,9 +351,11 @@ def run_transient(network: Network, model: CreepModel, program: LoadProgram, tim
     """
     t = checked_times(times)
     duration = float(t[-1])
-    deck = program_deck(network, model, program, duration, points or max(len(t) - 1, 10), signal)
+    points = points or max(len(t) - 1, 10)
+    deck = program_deck(network, model, program, duration, points, signal)
+    as_simulated = spice_program(program, model, network, largest_step(duration, points))
     return waveforms_from_run((engine or ngspice()).run(deck), deck, t,
-                              program_breakpoints(spice_program(program, model, network), duration))
+                              program_breakpoints(as_simulated, duration))
 
 
 def waveforms_from_run(run: SpiceRun, deck: Deck, times, edges) -> Waveforms:

@@ -64,7 +64,7 @@ def sensitivity(result: MonteCarloResult, metric: str = "peak", n_alone: int = 2
         share = first_order_index(result.values[f.name], y)
         alone = f.sample(np.random.default_rng(result.seed), n_alone)
         v = evaluate(design, {f.name: alone}, result.sweep_period, spec.dielectric,
-                     spec.temperature).get(metric)
+                     spec.temperature, over=spec.over_temperature).get(metric)
         out.append(Sensitivity(f.name, share, float(np.percentile(v, 99))))
     return sorted(out, key=lambda s: -s.share)
 

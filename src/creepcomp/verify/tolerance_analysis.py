@@ -30,6 +30,7 @@ class ToleranceReport:
     tightenings: list
     sensitivity_samples: int = 0
     spot_check: dict | None = None
+    creep_test: dict | None = None
 
     def to_dict(self) -> dict:
         """``mc --json``: ``n``, ``residual_creep_peak`` percentiles, ``seconds`` and the rest."""
@@ -65,7 +66,38 @@ class ToleranceReport:
                                  "samples": self.sensitivity_samples} for t in self.tightenings]
         if self.spot_check is not None:
             out["spot_check"] = self.spot_check
+        if r.temperatures:
+            out["over_temperature"] = self.over_temperature()
+        if self.creep_test is not None:
+            out["creep_test"] = self.creep_test
         return out
+
+    def over_temperature(self) -> dict:
+        """``mc --temperatures --json``'s ``over_temperature``: percentiles (and yield) at each
+        temperature, and over the range (each unit's worst temperature)."""
+        r = self.result
+        over = r.spec.over_temperature
+        rows = []
+        for k, t in enumerate(r.temperatures):
+            row = {"temperature": t,
+                   "nominal": {"residual_creep_peak": float(self.nominal.per_temperature.peak[0, k]),
+                               "residual_creep_final": float(self.nominal.per_temperature.final[0, k]),
+                               "hysteresis": float(self.nominal.per_temperature.hysteresis[0, k])},
+                   "residual_creep_peak": r.percentiles_at(k, "peak"),
+                   "residual_creep_final": r.percentiles_at(k, "final"),
+                   "hysteresis": r.percentiles_at(k, "hysteresis"),
+                   "worst_for": r.worst_temperature_counts[k] / r.n}
+            if self.limit is not None:
+                y, se = r.yield_at(k, self.limit, self.metric)
+                row["yield"], row["yield_standard_error"] = y, se
+            rows.append(row)
+        worst = {"residual_creep_peak": r.percentiles("peak"),
+                 "residual_creep_final": r.percentiles("final"),
+                 "hysteresis": r.percentiles("hysteresis")}
+        if self.limit is not None:
+            worst["yield"], worst["yield_standard_error"] = r.yield_against(self.limit, self.metric)
+        return {"temperatures": list(r.temperatures), "lot_correlation": over.lot_correlation,
+                "tracking": over.plan.tracking, "per_temperature": rows, "worst": worst}
 
 
 def analyse(design: Design, spec: ToleranceSpec, n: int, seed: int = 0, metric: str = "peak",

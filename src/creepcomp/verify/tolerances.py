@@ -5,6 +5,15 @@ source and load resistance, the sensor's own creep parameters, and the capacitor
 (absorption fraction and time constant; leakage follows from the dielectric's insulation
 resistance at the chosen temperature). Tolerances are relative; a normal distribution's
 tolerance is its 3-sigma value.
+
+Over temperature (:class:`OverTemperature`) each unit's parts are drawn once, at 25 °C, and
+then each part's temperature coefficient, and each thermistor's ``R25`` and ``B``: a part's
+TC is drawn about the coefficient its technology is sold with, by as much as that coefficient
+(3 sigma: a thin-film resistor of +25 ppm/K anywhere in 0..50 ppm/K, a polypropylene
+capacitor of -200 ppm/K in -400..0 ppm/K), since a datasheet bounds a TC by its magnitude
+and does not centre it. A lot correlation ``rho`` makes that fraction of the variance of the
+TCs (per kind of part) and of the B values common to every part of a unit (one lot of parts
+builds one unit), the rest each part's own: ``z_part = sqrt(rho) z_unit + sqrt(1 - rho) e_part``.
 """
 
 from __future__ import annotations
@@ -15,45 +24,21 @@ from typing import Mapping
 
 import numpy as np
 
+from creepcomp.analog.parts import DIELECTRICS, Dielectric, PartsPlan
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import Design
 
-__all__ = ["Dielectric", "DIELECTRICS", "ABSORPTION_TAU_RANGE", "Tolerance", "Factor",
-           "ToleranceSpec", "factors", "draw"]
-
-
-@dataclass(frozen=True)
-class Dielectric:
-    """A capacitor technology: the tolerances it is sold in, its dielectric absorption and
-    its insulation resistance (as the time constant R_ins * C) at 25 and 85 degrees C.
-
-    Figures: published film and ceramic capacitor data (WIMA), as tabulated in the project's
-    ``docs/physics.md``.
-    """
-
-    name: str
-    tolerances: tuple[float, ...]
-    absorption: tuple[float, float]
-    insulation_rc: tuple[float, float]          # seconds at 25 C and at 85 C
-
-    def insulation_time(self, temperature: float) -> float:
-        """R_ins * C at ``temperature`` (log-linear between 25 and 85 C, extrapolated beyond)."""
-        (t25, t85) = self.insulation_rc
-        slope = math.log(t85 / t25) / 60.0
-        return t25 * math.exp(slope * (temperature - 25.0))
-
-
-DIELECTRICS: dict[str, Dielectric] = {
-    "polypropylene": Dielectric("polypropylene", (0.01, 0.025, 0.05, 0.10), (0.0005, 0.001), (1e5, 1e4)),
-    "polyester": Dielectric("polyester", (0.05, 0.10, 0.20), (0.002, 0.0025), (1e4, 1e3)),
-    "x7r": Dielectric("X7R ceramic", (0.10, 0.20), (0.006, 0.025), (1e3, 5e2)),
-}
+__all__ = ["Dielectric", "DIELECTRICS", "ABSORPTION_TAU_RANGE", "TC_SPREAD", "Tolerance", "Factor",
+           "OverTemperature", "ToleranceSpec", "factors", "draw"]
 
 
 #: Time constants of the dielectric-absorption branch (s), drawn log-uniformly. An
 #: assumption: absorption has a spread of time constants; the standard soak-and-recover test
 #: (minutes) probes seconds to a quarter of an hour.
 ABSORPTION_TAU_RANGE = (1.0, 1000.0)
+#: Spread of a part's temperature coefficient, relative to the coefficient its technology is
+#: sold with (3 sigma of a normal distribution).
+TC_SPREAD = 1.0
 
 
 @dataclass(frozen=True)
@@ -86,17 +71,51 @@ class Factor:
     high: float
     distribution: str = "normal"
     tolerance: float = 0.0
+    group: str | None = None
 
-    def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
-        """Draw ``n`` values."""
+    def sample(self, rng: np.random.Generator, n: int, common: np.ndarray | None = None,
+               correlation: float = 0.0) -> np.ndarray:
+        """Draw ``n`` values; a normal factor of a ``group`` mixes in the group's standard
+        normal draws ``common`` with weight ``sqrt(correlation)`` (see the module's note)."""
         if self.low == self.high:
             return np.full(n, self.nominal)
         if self.distribution == "normal":
-            dev = rng.normal(0.0, self.tolerance / 3.0, n)
-            return np.clip(self.nominal * (1.0 + dev), self.low, self.high)
+            z = rng.standard_normal(n)
+            if common is not None and correlation > 0:
+                z = math.sqrt(correlation) * common + math.sqrt(1.0 - correlation) * z
+            return np.clip(self.nominal * (1.0 + self.tolerance / 3.0 * z), self.low, self.high)
         if self.distribution == "uniform":
             return rng.uniform(self.low, self.high, n)
         return np.exp(rng.uniform(math.log(self.low), math.log(self.high), n))
+
+
+@dataclass(frozen=True)
+class OverTemperature:
+    """Evaluate each unit at several temperatures: sensor, parts and leakage at each.
+
+    Parameters
+    ----------
+    temperatures : tuple of float
+        °C.
+    plan : PartsPlan
+        The parts' temperature coefficients and thermistors (the design's ``parts`` block).
+    lot_correlation : float
+        Fraction of the variance of the TCs and B values common to all parts of a unit, in
+        [0, 1].
+    """
+
+    temperatures: tuple[float, ...]
+    plan: PartsPlan = field(default_factory=PartsPlan)
+    lot_correlation: float = 0.0
+
+    def __post_init__(self):
+        temps = tuple(float(t) for t in self.temperatures)
+        if not temps or not all(math.isfinite(t) and t > -273.15 for t in temps):
+            raise InputError(f"temperatures {self.temperatures!r}: need at least one, each above "
+                             "absolute zero")
+        object.__setattr__(self, "temperatures", temps)
+        if not (math.isfinite(self.lot_correlation) and 0.0 <= self.lot_correlation <= 1.0):
+            raise InputError(f"lot correlation {self.lot_correlation!r}: must be in [0, 1]")
 
 
 @dataclass(frozen=True)
@@ -117,6 +136,9 @@ class ToleranceSpec:
         Ranges (ohm), uniform and log-uniform; None keeps the design's value.
     beta, tau : Tolerance or None
         Spread of the sensor's own creep amplitude and retardation time, per term.
+    over_temperature : OverTemperature or None
+        Evaluate every unit at these temperatures (then ``temperature`` is not used): its
+        metrics are its worst over them.
     """
 
     resistor: Tolerance = Tolerance(0.01)
@@ -128,6 +150,7 @@ class ToleranceSpec:
     load_resistance: tuple[float, float] | None = None
     beta: Tolerance | None = None
     tau: Tolerance | None = None
+    over_temperature: OverTemperature | None = None
 
     def __post_init__(self):
         if self.dielectric is not None and self.dielectric not in DIELECTRICS:
@@ -154,9 +177,23 @@ def factors(design: Design, spec: ToleranceSpec) -> list[Factor]:
     if unknown:
         raise InputError(f"no part named {', '.join(sorted(unknown))} in the design "
                          f"(parts: {', '.join(sorted(known))})")
+    over = spec.over_temperature
+    thermistors = over.plan.thermistors if over is not None else {}
+    coefficients = []
     for label, kind, value in design.network.parts():
+        if label in thermistors:
+            use = thermistors[label]
+            r25_tolerance = spec.parts.get(label, Tolerance(use.tolerance))
+            out.append(_relative_factor(f"{label}.R25", use.r25, r25_tolerance))
+            coefficients.append(_relative_factor(f"{label}.B", use.b, Tolerance(use.b_tolerance), "B"))
+            continue
         tol = spec.tolerance_of(label, kind)
         out.append(_relative_factor(label, value, tol))
+        if over is not None:
+            tc = over.plan.resistor_tc if kind == "R" else over.plan.capacitor_tc
+            lo, hi = sorted((tc * (1 - TC_SPREAD), tc * (1 + TC_SPREAD)))
+            coefficients.append(Factor(f"{label}.tc", tc, lo, hi, "normal", TC_SPREAD, f"tc {kind}"))
+    out += coefficients
     if spec.source_resistance is not None:
         lo, hi = spec.source_resistance
         out.append(Factor("source_resistance", design.network.source_resistance, lo, hi, "uniform"))
@@ -179,14 +216,25 @@ def factors(design: Design, spec: ToleranceSpec) -> list[Factor]:
     return out
 
 
-def _relative_factor(name: str, nominal: float, tol: Tolerance) -> Factor:
+def _relative_factor(name: str, nominal: float, tol: Tolerance, group: str | None = None) -> Factor:
     lo, hi = sorted((nominal * (1 - tol.rel), nominal * (1 + tol.rel)))
     if tol.distribution == "normal":
-        return Factor(name, nominal, lo, hi, "normal", tol.rel)
+        return Factor(name, nominal, lo, hi, "normal", tol.rel, group)
     return Factor(name, nominal, lo, hi, "uniform", tol.rel)
 
 
-def draw(box: list[Factor], n: int, seed: int) -> dict[str, np.ndarray]:
-    """Draw ``n`` samples of every factor (one generator, factors in order: reproducible)."""
+def draw(box: list[Factor], n: int, seed, correlation: float = 0.0) -> dict[str, np.ndarray]:
+    """Draw ``n`` samples of every factor (one generator, factors in order: reproducible).
+
+    With ``correlation`` > 0 the factors of a group (TCs of one kind, B values) share one
+    standard normal draw per sample, drawn after every factor.
+    """
     rng = np.random.default_rng(seed)
-    return {f.name: f.sample(rng, n) for f in box}
+    groups = sorted({f.group for f in box if f.group is not None}) if correlation > 0 else []
+    common = {g: np.random.default_rng([*np.atleast_1d(seed).tolist(), _COMMON_STREAM, k])
+              .standard_normal(n) for k, g in enumerate(groups)}
+    return {f.name: f.sample(rng, n, common.get(f.group), correlation) for f in box}
+
+
+#: Stream of the per-unit common draws of a lot correlation (apart from the factors' own).
+_COMMON_STREAM = 7919

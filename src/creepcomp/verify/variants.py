@@ -9,17 +9,18 @@ sweep hysteresis are closed forms (:func:`lti.triangle_lag_gap`). No Python loop
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Mapping
 
 import numpy as np
 
+from creepcomp.analog.parts import PART_REFERENCE
 from creepcomp.analog.quality import default_sweep_period
 from creepcomp.io.jsonfiles import Design
 from creepcomp.lti import cascade_lags, triangle_lag_gap
 from creepcomp.model import CreepModel
 from creepcomp.network import Branch, Cell, Network, modal_form, state_matrices
-from creepcomp.verify.tolerances import ABSORPTION_TAU_RANGE, DIELECTRICS, Dielectric
+from creepcomp.verify.tolerances import ABSORPTION_TAU_RANGE, DIELECTRICS, Dielectric, OverTemperature
 
 __all__ = ["Metrics", "STEP_GRID", "SWEEP_GRID", "sweep_period_or_default", "evaluate",
            "residual_lags", "variant_arrays", "variant", "step_residual"]
@@ -27,11 +28,17 @@ __all__ = ["Metrics", "STEP_GRID", "SWEEP_GRID", "sweep_period_or_default", "eva
 
 @dataclass(frozen=True)
 class Metrics:
-    """Per-sample figures: peak and final residual creep of a load step, sweep hysteresis."""
+    """Per-sample figures: peak and final residual creep of a load step, sweep hysteresis.
+
+    Over temperature they are each sample's worst over the temperatures (``final``: the one
+    of largest magnitude), and ``per_temperature`` holds the figures at each, shape
+    ``(n, temperatures)``.
+    """
 
     peak: np.ndarray
     final: np.ndarray
     hysteresis: np.ndarray
+    per_temperature: "Metrics | None" = None
 
     def get(self, name: str) -> np.ndarray:
         """A metric by name: ``peak``, ``final`` (absolute value) or ``hysteresis``."""
@@ -53,7 +60,7 @@ def sweep_period_or_default(model: CreepModel, sweep_period: float | None) -> fl
 
 def evaluate(design: Design, values: Mapping[str, np.ndarray], sweep_period: float,
              dielectric: str | None = None, temperature: float = 25.0,
-             n: int | None = None) -> Metrics:
+             n: int | None = None, over: OverTemperature | None = None) -> Metrics:
     """Metrics of many variants of a design at once.
 
     Parameters
@@ -70,52 +77,105 @@ def evaluate(design: Design, values: Mapping[str, np.ndarray], sweep_period: flo
         For the leakage (degrees C).
     n : int, optional
         Number of variants when ``values`` is empty (default 1).
+    over : OverTemperature, optional
+        Evaluate every variant at each temperature, all in one batch (``temperature`` is then
+        not used); the metrics are each variant's worst.
 
     Returns
     -------
     Metrics
     """
     n = len(next(iter(values.values()))) if values else (n or 1)
-    rel, q = residual_lags(design, values, dielectric, temperature, n)
+    rel, q = residual_lags(design, values, dielectric, temperature, n, over)
     final = rel.sum(axis=1)
     peak = np.maximum(_step_peak(rel, q), np.abs(final))
     hysteresis = _sweep_peak(rel, q, sweep_period)
-    return Metrics(peak, final, hysteresis)
+    if over is None:
+        return Metrics(peak, final, hysteresis)
+    shape = (len(over.temperatures), n)
+    peak, final, hysteresis = (a.reshape(shape).T for a in (peak, final, hysteresis))
+    rows = np.arange(n)
+    return Metrics(peak.max(axis=1), final[rows, np.argmax(np.abs(final), axis=1)],
+                   hysteresis.max(axis=1), Metrics(peak, final, hysteresis))
 
 
 def residual_lags(design: Design, values: Mapping[str, np.ndarray], dielectric: str | None,
-                  temperature: float, n: int) -> tuple[np.ndarray, np.ndarray]:
+                  temperature: float, n: int,
+                  over: OverTemperature | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Residual-creep form of the corrected sensor of every variant: ``H G / (H G)(inf) - 1
-    = sum_m rel_m (1 - 1/(1 + s q_m))``, as arrays ``rel`` and ``q`` of shape (n, M)."""
-    arrays, beta, tau = variant_arrays(design, values, dielectric, temperature, n)
+    = sum_m rel_m (1 - 1/(1 + s q_m))``, as arrays ``rel`` and ``q`` of shape (n, M);
+    ``over`` temperatures: shape (temperatures * n, M), temperature by temperature."""
+    arrays, beta, tau = variant_arrays(design, values, dielectric, temperature, n, over)
     d, r, p = modal_form(*state_matrices(*arrays))
-    D, R, q = cascade_lags(np.ones(n), beta, tau, d, r, p)
+    D, R, q = cascade_lags(np.ones(len(beta)), beta, tau, d, r, p)
     return R / D[:, None], q
 
 
 def variant_arrays(design: Design, values: Mapping[str, np.ndarray], dielectric: str | None,
-                   temperature: float, n: int):
-    """Network arrays (for :func:`network.state_matrices`) and creep terms of variants."""
+                   temperature: float, n: int, over: OverTemperature | None = None):
+    """Network arrays (for :func:`network.state_matrices`) and creep terms of variants;
+    ``over`` temperatures: every variant at each, stacked temperature by temperature."""
     net, model = design.network, design.model
     parts = net.parts()
     matrix = np.column_stack([values.get(label, np.full(n, v)) for label, _, v in parts])
+    beta = np.column_stack([values.get(f"beta[{k}]", np.full(n, b)) for k, b in enumerate(model.beta)])
+    tau = np.column_stack([values.get(f"tau[{k}]", np.full(n, t)) for k, t in enumerate(model.tau)])
+    temps = np.array([temperature])
+    if over is not None:
+        temps = np.array(over.temperatures)
+        matrix = _parts_at(parts, matrix, values, over, temps)
+        values = {k: np.tile(v, len(temps)) for k, v in values.items()}
+        beta, tau = _creep_at(model, beta, tau, temps)
     arrays = list(net.batch_arrays(matrix))
     if "source_resistance" in values:
         arrays[5] = values["source_resistance"]
     if "load_resistance" in values:
         arrays[6] = values["load_resistance"]
     if dielectric is not None:
-        arrays[7:10] = _imperfections(net, parts, matrix, values, DIELECTRICS[dielectric], temperature)
-    beta = np.column_stack([values.get(f"beta[{k}]", np.full(n, b)) for k, b in enumerate(model.beta)])
-    tau = np.column_stack([values.get(f"tau[{k}]", np.full(n, t)) for k, t in enumerate(model.tau)])
+        arrays[7:10] = _imperfections(net, parts, matrix, values, DIELECTRICS[dielectric],
+                                      np.repeat(temps, n))
     return arrays, beta, tau
 
 
+def _parts_at(parts, matrix, values, over: OverTemperature, temps) -> np.ndarray:
+    """Part values of every variant at each temperature, shape (temperatures * n, parts):
+    fixed parts by their (drawn) TC about 25 °C, thermistors from their (drawn) R25 and B."""
+    n = len(matrix)
+    plan = over.plan
+    dt = (temps - PART_REFERENCE)[:, None]                          # (T, 1)
+    out = np.empty((len(temps), n, len(parts)))
+    for j, (label, kind, _) in enumerate(parts):
+        use = plan.thermistors.get(label)
+        if use is None:
+            default = plan.resistor_tc if kind == "R" else plan.capacitor_tc
+            tc = values.get(f"{label}.tc", np.full(n, default))
+            out[:, :, j] = matrix[:, j] * (1.0 + tc * dt)
+            continue
+        drawn = replace(use, r25=values.get(f"{label}.R25", np.full(n, use.r25)),
+                        b=values.get(f"{label}.B", np.full(n, use.b)))
+        out[:, :, j] = drawn.resistance(temps[:, None])
+    return out.reshape(-1, len(parts))
+
+
+def _creep_at(model: CreepModel, beta, tau, temps):
+    """Creep terms of every variant at each temperature (the model's law), stacked."""
+    law = model.temperature
+    if law is None:
+        return np.tile(beta, (len(temps), 1)), np.tile(tau, (len(temps), 1))
+    shift = law.shift(temps)[:, None, None]                         # (T, 1, 1)
+    factor = law.beta_factor(temps, model.n_terms)[:, None, :]     # (T, 1, K)
+    k = beta.shape[1]
+    return (beta[None] * factor).reshape(-1, k), (tau[None] * shift).reshape(-1, k)
+
+
 def variant(design: Design, values: Mapping[str, np.ndarray], i: int, dielectric: str | None = None,
-            temperature: float = 25.0) -> Design:
-    """Sample ``i`` of drawn values as a design of its own (network and creep model)."""
+            temperature: float = 25.0, over: OverTemperature | None = None) -> Design:
+    """Sample ``i`` of drawn values as a design of its own (network and creep model); with
+    ``over`` of one temperature, the sample at that temperature (its model has no law)."""
+    if over is not None and len(over.temperatures) != 1:
+        raise ValueError("a variant is at one temperature")
     one = {k: v[i:i + 1] for k, v in values.items()}
-    arrays, beta, tau = variant_arrays(design, one, dielectric, temperature, 1)
+    arrays, beta, tau = variant_arrays(design, one, dielectric, temperature, 1, over)
     cells_R, cells_C, R2, shunt_R, shunt_C, rs, rl, leak, r_da, c_da = (
         a[0] if np.ndim(a) else a for a in arrays)
     cells = tuple(Cell(float(r), float(c), None if not np.isfinite(lk) else float(lk),
@@ -124,17 +184,24 @@ def variant(design: Design, values: Mapping[str, np.ndarray], i: int, dielectric
     shunt = tuple(Branch(float(r), float(c)) for r, c in zip(shunt_R, shunt_C))
     network = Network(cells, None if not np.isfinite(R2) else float(R2), shunt, float(rs),
                       None if rl is None or not np.isfinite(rl) else float(rl))
-    return Design(design.model.with_terms(beta[0], tau[0]), network)
+    model = design.model if over is None else design.model.at_temperature(over.temperatures[0])
+    return Design(model.with_terms(beta[0], tau[0]), network)
 
 
-def step_residual(rel, q, t) -> np.ndarray:
+def step_residual(rel, q, t, rise: float = 0.0) -> np.ndarray:
     """Residual creep ``sum_m rel_m (1 - exp(-t / q_m))`` at per-sample times ``t`` (B, T).
 
     Written as ``sum rel - sum rel exp(-t/q)``: the cancellation at small t costs only
-    ~1e-16 of the (small) residual itself.
+    ~1e-16 of the (small) residual itself. With ``rise`` > 0 the step is a ramp of that
+    duration (as in a netlist), exact for ``t >= rise``: each lag's ``exp(-t/q)`` becomes
+    ``(q / rise) (1 - exp(-rise/q)) exp(-(t - rise)/q)``.
     """
     rate = 1.0 / q
-    decay = np.exp(-(rate[:, :, None] * t[:, None, :]))
+    if rise > 0:
+        decay = np.exp(-(rate[:, :, None] * (t[:, None, :] - rise)))
+        decay = decay * (-np.expm1(-rise * rate) / (rise * rate))[:, :, None]
+    else:
+        decay = np.exp(-(rate[:, :, None] * t[:, None, :]))
     return rel.sum(axis=1)[:, None] - np.einsum("bm,bmt->bt", rel, decay)
 
 
@@ -236,11 +303,16 @@ def _vertex(pts, vals):
     return np.where(ok, x, np.nan)
 
 
-def _imperfections(net: Network, parts, matrix, values, dielectric: Dielectric, temperature: float):
-    """Leakage and absorption arrays of the cell capacitors for sampled values."""
+def _imperfections(net: Network, parts, matrix, values, dielectric: Dielectric, temperature):
+    """Leakage and absorption arrays of the cell capacitors for sampled values; ``temperature``
+    one for all, or one per row."""
     n = len(matrix)
     col = {label: j for j, (label, _, _) in enumerate(parts)}
-    insulation = dielectric.insulation_time(temperature)
+    temps = np.atleast_1d(np.asarray(temperature, float))
+    unique, index = np.unique(temps, return_inverse=True)
+    insulation = np.array([dielectric.insulation_time(float(t)) for t in unique])[index]
+    if len(insulation) == 1:
+        insulation = insulation[0]
     leak, r_da, c_da = (np.repeat(a, n, axis=0) for a in net.imperfection_arrays())
     for k, cell in enumerate(net.cells):
         if cell.C <= 0:

@@ -35,7 +35,8 @@ def worst_case(design: Design, spec: ToleranceSpec, metric: str = "peak",
     period = sweep_period_or_default(design.model, sweep_period)
     box = [f for f in factors(design, spec) if f.high > f.low]
     if not box:
-        m = evaluate(design, {}, period, spec.dielectric, spec.temperature).get(metric)
+        m = evaluate(design, {}, period, spec.dielectric, spec.temperature,
+                     over=spec.over_temperature).get(metric)
         return WorstCase(metric, float(m[0]), {}, 1, "nominal (nothing varies)")
     m = len(box)
     lows = np.array([f.low for f in box])
@@ -50,7 +51,8 @@ def worst_case(design: Design, spec: ToleranceSpec, metric: str = "peak",
 
     def metric_at(points: np.ndarray) -> np.ndarray:
         vals = {f.name: points[:, j] for j, f in enumerate(box)}
-        return evaluate(design, vals, period, spec.dielectric, spec.temperature).get(metric)
+        return evaluate(design, vals, period, spec.dielectric, spec.temperature,
+                        over=spec.over_temperature).get(metric)
 
     corner_values = metric_at(corners)
     starts = list(corners[np.argsort(corner_values)[-3:]]) + [np.array([f.nominal for f in box])]

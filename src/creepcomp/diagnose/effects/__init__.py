@@ -44,6 +44,7 @@ from creepcomp.fit.data import Data
 from creepcomp.fit.structure import Applied, Param, Structure, basis
 from creepcomp.fit.solver import Fit, fit_structure
 from creepcomp.model import CreepModel
+from creepcomp.temperature import TemperatureLaw
 from creepcomp.diagnose.effects._sensor import Scales, SignalPath, Simulated
 
 __all__ = ["Effect", "SensorEffect", "Scales", "SignalPath", "Simulated", "REGISTRY", "register",
@@ -188,6 +189,11 @@ class Effect(abc.ABC):
 
     def extension(self, fit: Fit, applied: Applied) -> dict | None:
         """The entry of the model file's ``extensions`` (None: the change is in the terms)."""
+        return None
+
+    def temperature_law(self, fit: Fit, applied: Applied) -> TemperatureLaw | None:
+        """The model file's ``temperature`` block this effect's fit implies (with its
+        uncertainty), or None."""
         return None
 
     def restore(self, entry: dict, model: CreepModel, data: Data) -> tuple[Applied, dict]:

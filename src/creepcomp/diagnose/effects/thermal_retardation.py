@@ -6,7 +6,9 @@ mean): ``kappa`` > 0 means faster creep when warmer (an Arrhenius law linearised
 ``T_ref``: ``kappa = E_a / (R T_ref^2)``). ``kappa`` is kept >= 0: retardation in polymers
 always speeds up with temperature (Arrhenius and WLF shift factors), and a negative value
 would only be another effect (e.g. recovery slower than creep) seen through a temperature
-history that happens to differ between loading and unloading.
+history that happens to differ between loading and unloading. The extended model file
+carries the Arrhenius law of the same slope as its ``temperature`` block too, with the
+uncertainty of ``E_a`` from that of ``kappa``.
 
 A strong temperature dependence (a WLF material near its glass transition: the time
 constant changes by a decade over a few kelvin) can leave the baseline with a retardation
@@ -17,11 +19,14 @@ times and ``kappa`` values, cheaply screened, and keeps that fit when it is bett
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from creepcomp.fit.data import Data
 from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
+from creepcomp.temperature import GAS_CONSTANT, ZERO_CELSIUS, TemperatureLaw
 from creepcomp.diagnose.effects import SensorEffect
 
 __all__ = ["RESTART_KAPPAS", "ThermalRetardation", "EFFECT"]
@@ -72,6 +77,14 @@ class ThermalRetardation(SensorEffect):
     def extension(self, fit: Fit, applied: Applied) -> dict:
         return {"kappa": fit.values["thermal_retardation.kappa"],
                 "reference_temperature": applied.setting("reference_temperature")}
+
+    def temperature_law(self, fit: Fit, applied: Applied) -> TemperatureLaw:
+        # the Arrhenius law of the same slope at the reference: E_a = kappa R T_ref^2
+        reference = applied.setting("reference_temperature")
+        kappa, sd = fit.estimate(lambda v: v["thermal_retardation.kappa"])
+        law = TemperatureLaw.from_kappa(kappa, reference)
+        per_kappa = GAS_CONSTANT * (reference + ZERO_CELSIUS) ** 2
+        return replace(law, uncertainty={"activation_energy": sd * per_kappa})
 
     def restore(self, entry, model, data):
         return (Applied(self, (("reference_temperature", float(entry["reference_temperature"])),)),
