@@ -299,3 +299,33 @@ def test_sigterm_to_mc_stops_its_workers(tmp_path):
     finally:
         for pid in _group(proc.pid):
             os.kill(pid, signal.SIGKILL)
+
+
+def test_an_interrupted_firmware_verify_leaves_no_c_files(tmp_path, monkeypatch, run_cli):
+    import creepcomp.digital.firmware_check as firmware_check
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(firmware_check, "verify_firmware", interrupted)
+    record = tmp_path / "rec.csv"
+    record.write_text("time,load,signal\n" + "".join(f"{i * 0.01:.2f},1,{1 + i * 1e-6}\n"
+                                                      for i in range(200)))
+    status, _, err = run_cli("firmware", MODEL, "--verify", record, "-o", tmp_path / "fw")
+    assert status == 130 and "interrupted" in err
+    assert not (tmp_path / "fw").exists()
+
+
+@pytest.mark.slow
+def test_a_fleet_on_a_local_cluster_leaves_no_scratch_folder(tmp_path, monkeypatch):
+    from creepcomp.fleet import run
+
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    monkeypatch.setenv("TMPDIR", str(scratch))
+    monkeypatch.setattr(tempfile, "tempdir", None)
+    record = tmp_path / "S1.csv"
+    record.write_bytes(RECORD.read_bytes())
+    result = run([record], tmp_path / "out", workers=1)
+    assert result.to_dict()["ok"] == 1
+    assert list(scratch.iterdir()) == []
