@@ -55,8 +55,11 @@ def firmware_command(
     from creepcomp.digital.correctors import uniform_interval
     from creepcomp.digital.firmware import PRECISIONS, generate_firmware
     from creepcomp.io.jsonfiles import read_model
+    from creepcomp.io.outputs import check_outputs
     from creepcomp.io.records import parse_columns, read_record
 
+    check_outputs(dirs={"-o": output}, inputs=[model_file, verify_record],
+                  contents={"-o": (f"{name}.h", f"{name}.c")})
     method = method.strip().lower()
     precision = precision.strip().lower()
     if precision not in PRECISIONS:
@@ -91,10 +94,9 @@ def firmware_command(
     firmware = generate_firmware(model, method, precision, rate_hz or 1.0, scale, name,
                                  max_interval=longest,
                                  temperature_range=_celsius_range(temperature_range))
-    files = [] if output is None else [str(p) for p in firmware.write(output)]
     result = {"model": str(model_file), "method": method, "precision": precision,
               "rate": firmware.rate, "max_interval": firmware.max_interval, "full_scale": firmware.full_scale, "name": name,
-              "signal_unit": unit, "files": files, "bound_fs": firmware.bound.total_fs,
+              "signal_unit": unit, "files": [], "bound_fs": firmware.bound.total_fs,
               "bound": firmware.bound.to_dict()}
     if firmware.temperature_range is not None:
         result["temperature_range"] = list(firmware.temperature_range)
@@ -110,6 +112,9 @@ def firmware_command(
                                              else record.temperature))
         result.update(check.to_dict())
         result["record"] = str(verify_record)
+    # written after the verification: an interrupted --verify leaves no C files
+    if output is not None:
+        result["files"] = [str(p) for p in firmware.write(output)]
     if as_json:
         print_json(result)
     else:
