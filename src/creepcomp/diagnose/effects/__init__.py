@@ -48,7 +48,7 @@ from creepcomp.diagnose.effects._sensor import Scales, SignalPath, Simulated
 
 __all__ = ["Effect", "SensorEffect", "Scales", "SignalPath", "Simulated", "REGISTRY", "register",
            "unregister", "effects_on", "sensor_effects", "flow_effect", "get", "arrays_data", "model_structure",
-           "simulate_extended", "compensate_extended"]
+           "simulate_extended", "compensate_extended", "extension_inverses", "BASELINE_ADVICE"]
 
 
 class Effect(abc.ABC):
@@ -204,6 +204,14 @@ class Effect(abc.ABC):
     def linear_terms(self, values: dict, applied: Applied, data: Data) -> list[tuple[float, float]]:
         """Prony terms (beta, tau) that approximate the effect for the linear inverse."""
         return []
+
+    def inverse(self, entry: dict) -> str | None:
+        """How the creep correction undoes this extension of a model file (``entry``: its
+        parameters), in one line for the user; None: it cannot be undone causally, and the
+        correction refuses a model with it. The correction (:func:`compensate_extended`) finds
+        the load whose simulation through the model equals the signal; :meth:`precondition`
+        and :meth:`linear_terms` speed it up, this hook says what it amounts to."""
+        return None
 
 
 class SensorEffect(Effect, Simulated):
@@ -432,21 +440,57 @@ def _linear_inverse(time, residual, gain: float, betas, taus, initial: str, hold
                                          initial=initial, hold=hold), float) / gain
 
 
+#: What a user whose extended model cannot be used in a correction can do instead.
+BASELINE_ADVICE = ("correct with the baseline model instead: --model baseline-model.json, which "
+                   "creepcomp diagnose -o writes next to model.json")
+
+#: Largest misfit of the solved load's simulation to the signal, relative to the signal's
+#: largest excursion, for the inverse to count as found.
+INVERSE_TOLERANCE = 1e-6
+
+
+def extension_inverses(model: CreepModel) -> dict[str, str]:
+    """How the creep correction undoes each extension of ``model`` (:meth:`Effect.inverse`),
+    by name; one clear refusal naming the first it cannot undo."""
+    out = {}
+    for name, entry in (model.extensions or {}).items():
+        effect = get(name)
+        how = effect.inverse(entry if isinstance(entry, dict) else {})
+        if how is None:
+            raise InputError(f"the model's extension '{name}' cannot be inverted causally by the "
+                             f"creep correction; {BASELINE_ADVICE}")
+        out[name] = how
+    if out and model.temperature is not None:
+        raise InputError(f"the model's temperature law cannot be applied together with its "
+                         f"extensions ({', '.join(out)}); {BASELINE_ADVICE}")
+    return out
+
+
 def compensate_extended(time, signal, model: CreepModel, temperature=None, initial: str = "relaxed",
-               hold: str = "linear", tolerance: float = 1e-10, max_iterations: int = 60) -> np.ndarray:
+               hold: str = "linear", tolerance: float = 1e-10, max_iterations: int = 60,
+               strict: bool = False) -> np.ndarray:
     """Creep-corrected signal of an extended model: the instantaneous signal
     ``offset + gain * load`` whose simulation through the model equals the measured signal.
 
     Solved by defect correction: the model's linear creep (plus the Prony equivalents of
     linear extensions) is inverted by the digital subtractive correction, each extension maps
     the increment back through its own stage (:meth:`Effect.precondition`), and the step is
-    repeated on what remains. A model without extensions is inverted in one step.
+    repeated on what remains. A model without extensions is inverted in one step. Every
+    template is causal (its signal at a sample depends on the load up to that sample), so the
+    load found at a sample depends only on the signal up to it: the same as a correction
+    sample by sample.
+
+    ``strict``: refuse (:class:`InputError`, naming the extensions) a model with an extension
+    that :meth:`Effect.inverse` cannot undo, and a signal whose inverse is not found (its
+    simulation misses the signal by more than :data:`INVERSE_TOLERANCE` of its excursion).
 
     Returns
     -------
     numpy.ndarray
         Compensated signal in signal units.
     """
+    if strict:
+        extension_inverses(model)
     t = np.asarray(time, float)
     y = np.asarray(signal, float)
     data = arrays_data(t, np.zeros_like(t), temperature=temperature, initial=initial, hold=hold)
@@ -457,7 +501,8 @@ def compensate_extended(time, signal, model: CreepModel, temperature=None, initi
             betas.append(b)
             taus.append(tau)
     load = np.zeros_like(t)
-    scale = max(float(np.max(np.abs(y - model.offset))) / abs(model.gain), 1e-300)
+    excursion = max(float(np.max(np.abs(y - model.offset))), 1e-300)
+    scale = excursion / abs(model.gain)
     for _ in range(max_iterations):
         sim = simulate_extended(model, t, load, temperature, initial, hold)
         delta = _linear_inverse(t, y - sim, model.gain, betas, taus, initial, hold)
@@ -466,4 +511,11 @@ def compensate_extended(time, signal, model: CreepModel, temperature=None, initi
         load = load + delta
         if float(np.max(np.abs(delta))) <= tolerance * scale:
             break
+    if strict and structure.effects:
+        miss = float(np.max(np.abs(y - simulate_extended(model, t, load, temperature, initial, hold))))
+        if not miss <= INVERSE_TOLERANCE * excursion:
+            names = ", ".join(a.name for a in structure.effects)
+            raise InputError(f"the creep correction finds no load whose simulation through the "
+                             f"model's extensions ({names}) matches the signal (misfit "
+                             f"{miss / excursion:.2g} of its excursion); {BASELINE_ADVICE}")
     return model.offset + model.gain * load

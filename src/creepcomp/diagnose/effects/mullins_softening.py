@@ -113,6 +113,12 @@ class MullinsSoftening(SensorEffect):
         slope = np.where(np.abs(load) >= m, 1.0, slope)
         return delta / np.maximum(slope, 0.1)
 
+    def inverse(self, entry):
+        if not 0.0 <= float(entry["softening"]) < 1.0:
+            return None
+        return ("each sample's load from the reloading curve x (1 - softening g(1 - |x|/m)), m the running "
+                "maximum of the load found so far")
+
     # -- generator ---------------------------------------------------------------------------
     def draw(self, rng, scales, form):
         out = {"softening": float(rng.uniform(0.1, 0.3))}

@@ -111,6 +111,14 @@ class TimeOffset(SensorEffect):
         # negative at some frequencies, where dividing by it, or ignoring it, would not converge
         return averaged(data.time, delta, -values["time_offset.delay"], values.get("time_offset.width", 0.0))
 
+    def inverse(self, entry):
+        if float(entry.get("width", 0.0)) > 0:
+            # an average over a window has zeros in its response: no stable inverse
+            return None
+        delay = float(entry["delay"])
+        late = f" (the load at t is known at t + {delay:.3g} s)" if delay > 0 else ""
+        return f"the signal read {delay:.3g} s later than the load it answers{late}"
+
     # -- generator ---------------------------------------------------------------------------
     def draw_default(self, rng, scales, mixture):
         dt = 1.0 / scales.rate
