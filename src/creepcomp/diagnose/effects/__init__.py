@@ -448,6 +448,9 @@ BASELINE_ADVICE = ("correct with the baseline model instead: --model baseline-mo
 #: largest excursion, for the inverse to count as found.
 INVERSE_TOLERANCE = 1e-6
 
+#: Most steps of the defect correction when the inverse must be found (``strict``).
+STRICT_ITERATIONS = 400
+
 
 def extension_inverses(model: CreepModel) -> dict[str, str]:
     """How the creep correction undoes each extension of ``model`` (:meth:`Effect.inverse`),
@@ -467,7 +470,7 @@ def extension_inverses(model: CreepModel) -> dict[str, str]:
 
 
 def compensate_extended(time, signal, model: CreepModel, temperature=None, initial: str = "relaxed",
-               hold: str = "linear", tolerance: float = 1e-10, max_iterations: int = 60,
+               hold: str = "linear", tolerance: float = 1e-10, max_iterations: int | None = None,
                strict: bool = False) -> np.ndarray:
     """Creep-corrected signal of an extended model: the instantaneous signal
     ``offset + gain * load`` whose simulation through the model equals the measured signal.
@@ -483,6 +486,9 @@ def compensate_extended(time, signal, model: CreepModel, temperature=None, initi
     ``strict``: refuse (:class:`InputError`, naming the extensions) a model with an extension
     that :meth:`Effect.inverse` cannot undo, and a signal whose inverse is not found (its
     simulation misses the signal by more than :data:`INVERSE_TOLERANCE` of its excursion).
+    ``max_iterations``: default 60, or :data:`STRICT_ITERATIONS` when ``strict`` (the steps
+    stop once they are below ``tolerance``; a few suffice for most models, a delay's
+    preconditioner converges slowly at load steps).
 
     Returns
     -------
@@ -500,6 +506,8 @@ def compensate_extended(time, signal, model: CreepModel, temperature=None, initi
         for b, tau in a.effect.linear_terms(values, a, data):
             betas.append(b)
             taus.append(tau)
+    if max_iterations is None:
+        max_iterations = STRICT_ITERATIONS if strict else 60
     load = np.zeros_like(t)
     excursion = max(float(np.max(np.abs(y - model.offset))), 1e-300)
     scale = excursion / abs(model.gain)

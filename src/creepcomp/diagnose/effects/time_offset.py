@@ -112,12 +112,10 @@ class TimeOffset(SensorEffect):
         return averaged(data.time, delta, -values["time_offset.delay"], values.get("time_offset.width", 0.0))
 
     def inverse(self, entry):
-        if float(entry.get("width", 0.0)) > 0:
-            # an average over a window has zeros in its response: no stable inverse
-            return None
-        delay = float(entry["delay"])
-        late = f" (the load at t is known at t + {delay:.3g} s)" if delay > 0 else ""
-        return f"the signal read {delay:.3g} s later than the load it answers{late}"
+        delay, width = float(entry["delay"]), float(entry.get("width", 0.0))
+        window = f", averaged over {width:.3g} s" if width > 0 else ""
+        return (f"the load that, read {delay:.3g} s earlier{window}, gives the signal: the load at t is "
+                f"known from the signal up to t + {max(delay + width / 2, 0.0):.3g} s (a latency)")
 
     # -- generator ---------------------------------------------------------------------------
     def draw_default(self, rng, scales, mixture):
