@@ -161,3 +161,12 @@ def test_every_effect_that_writes_an_extension_is_checked_here():
                if effect.side == "sensor" and type(effect).extension is not Effect.extension
                and not getattr(effect, "describes_record", False)}
     assert writers == {key.split("/")[0] for key in EXTENSIONS}
+
+
+def test_firmware_refuses_an_extension_by_name(run_cli, tmp_path):
+    (tmp_path / "m.json").write_text(json.dumps(_model("static_nonlinearity").to_dict()))
+    status, _, err = run_cli("firmware", tmp_path / "m.json", "-o", tmp_path / "c")
+    message = " ".join(err.split())
+    assert status == 2 and "Traceback" not in err
+    assert "extension 'static_nonlinearity' has no C corrector" in message and "baseline-model.json" in message
+    assert not (tmp_path / "c").exists()

@@ -53,7 +53,7 @@ def firmware_command(
 ) -> None:
     """Write the creep corrector of a model as C99 with its proven error bound; verify it."""
     from creepcomp.digital.correctors import uniform_interval
-    from creepcomp.digital.firmware import PRECISIONS, generate_firmware
+    from creepcomp.digital.firmware import PRECISIONS, check_no_extensions, generate_firmware
     from creepcomp.io.jsonfiles import read_model
     from creepcomp.io.records import parse_columns, read_record
 
@@ -62,6 +62,7 @@ def firmware_command(
     if precision not in PRECISIONS:
         raise InputError(f"--precision '{precision}': use float32 or q31")
     model = read_model(model_file)
+    check_no_extensions(model)
     rate_hz = quantity(rate, "hertz", "--rate", positive=True)
     longest = quantity(max_interval, "second", "--max-interval", positive=True)
     scale = quantity(full_scale, "number", "--full-scale", positive=True)

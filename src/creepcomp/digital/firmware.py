@@ -52,7 +52,8 @@ from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 
 __all__ = ["PRECISIONS", "FULL_SCALE_WORD", "REFERENCE_ALLOWANCE", "MIN_INTERVAL", "TICK",
-           "DEFAULT_TEMPERATURE_RANGE", "TEMPERATURE_STEP_Q", "ErrorBound", "Firmware", "firmware_bound", "generate_firmware", "naive_float32"]
+           "DEFAULT_TEMPERATURE_RANGE", "TEMPERATURE_STEP_Q", "ErrorBound", "Firmware", "firmware_bound", "generate_firmware", "naive_float32",
+           "check_no_extensions"]
 
 
 @dataclass(frozen=True)
@@ -154,6 +155,7 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
     -------
     Firmware
     """
+    check_no_extensions(model)
     if model.temperature is not None or temperature_range is not None:
         return _temperature_firmware(model, method, precision, rate, full_scale, name,
                                      max_interval, temperature_range)
@@ -184,6 +186,16 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
                     full_scale=float(full_scale), name=name, header=header, source=source,
                     harness=harness, bound=bound, coefficients=_coefficient_table(c, st, precision),
                     max_interval=float(scheme["dt_max"]) if irregular else None)
+
+
+def check_no_extensions(model: CreepModel) -> None:
+    """Refuse, naming it, an extension of the model (``extensions``): the C corrector runs
+    the Prony terms, gain and offset and the temperature law, and would drop it."""
+    for name in model.extensions or {}:
+        raise InputError(f"the model's extension '{name}' has no C corrector: generate the firmware "
+                         f"of the baseline model (baseline-model.json, which creepcomp diagnose -o "
+                         f"writes), or correct records in Python with creepcomp correct, which "
+                         f"applies it")
 
 
 def naive_float32(model: CreepModel, method: str = "subtractive", rate: float = 100.0,
