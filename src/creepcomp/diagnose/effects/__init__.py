@@ -444,8 +444,9 @@ def _linear_inverse(time, residual, gain: float, betas, taus, initial: str, hold
 BASELINE_ADVICE = ("correct with the baseline model instead: --model baseline-model.json, which "
                    "creepcomp diagnose -o writes next to model.json")
 
-#: Largest misfit of the solved load's simulation to the signal, relative to the signal's
-#: largest excursion, for the inverse to count as found.
+#: Largest last step of the defect correction, relative to the load's largest, for the inverse
+#: to count as found (where no load gives the signal exactly, as in the first samples of a
+#: delayed signal, which answer the load before the record, the steps still settle).
 INVERSE_TOLERANCE = 1e-6
 
 #: Most steps of the defect correction when the inverse must be found (``strict``).
@@ -484,8 +485,8 @@ def compensate_extended(time, signal, model: CreepModel, temperature=None, initi
     sample by sample.
 
     ``strict``: refuse (:class:`InputError`, naming the extensions) a model with an extension
-    that :meth:`Effect.inverse` cannot undo, and a signal whose inverse is not found (its
-    simulation misses the signal by more than :data:`INVERSE_TOLERANCE` of its excursion).
+    that :meth:`Effect.inverse` cannot undo, and a signal whose inverse is not found (the
+    steps do not settle below :data:`INVERSE_TOLERANCE` of the load).
     ``max_iterations``: default 60, or :data:`STRICT_ITERATIONS` when ``strict`` (the steps
     stop once they are below ``tolerance``; a few suffice for most models, a delay's
     preconditioner converges slowly at load steps).
@@ -509,21 +510,20 @@ def compensate_extended(time, signal, model: CreepModel, temperature=None, initi
     if max_iterations is None:
         max_iterations = STRICT_ITERATIONS if strict else 60
     load = np.zeros_like(t)
-    excursion = max(float(np.max(np.abs(y - model.offset))), 1e-300)
-    scale = excursion / abs(model.gain)
+    scale = max(float(np.max(np.abs(y - model.offset))), 1e-300) / abs(model.gain)
+    step = 0.0
     for _ in range(max_iterations):
         sim = simulate_extended(model, t, load, temperature, initial, hold)
         delta = _linear_inverse(t, y - sim, model.gain, betas, taus, initial, hold)
         for a in reversed(structure.effects):
             delta = a.effect.precondition(data, delta, load, values, a)
         load = load + delta
-        if float(np.max(np.abs(delta))) <= tolerance * scale:
+        step = float(np.max(np.abs(delta)))
+        if step <= tolerance * scale:
             break
-    if strict and structure.effects:
-        miss = float(np.max(np.abs(y - simulate_extended(model, t, load, temperature, initial, hold))))
-        if not miss <= INVERSE_TOLERANCE * excursion:
-            names = ", ".join(a.name for a in structure.effects)
-            raise InputError(f"the creep correction finds no load whose simulation through the "
-                             f"model's extensions ({names}) matches the signal (misfit "
-                             f"{miss / excursion:.2g} of its excursion); {BASELINE_ADVICE}")
+    if strict and structure.effects and not step <= INVERSE_TOLERANCE * scale:
+        names = ", ".join(a.name for a in structure.effects)
+        raise InputError(f"the creep correction finds no load whose simulation through the model's "
+                         f"extensions ({names}) gives the signal (its steps still move the load by "
+                         f"{step / scale:.2g} of its largest after {max_iterations}); {BASELINE_ADVICE}")
     return model.offset + model.gain * load
