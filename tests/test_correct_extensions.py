@@ -163,10 +163,35 @@ def test_every_effect_that_writes_an_extension_is_checked_here():
     assert writers == {key.split("/")[0] for key in EXTENSIONS}
 
 
-def test_firmware_refuses_an_extension_by_name(run_cli, tmp_path):
-    (tmp_path / "m.json").write_text(json.dumps(_model("static_nonlinearity").to_dict()))
+@pytest.mark.parametrize("key", ["mullins_softening", "asymmetric_recovery", "thermal_retardation"])
+def test_firmware_refuses_an_extension_it_cannot_write_by_name(run_cli, tmp_path, key):
+    (tmp_path / "m.json").write_text(json.dumps(_model(key).to_dict()))
     status, _, err = run_cli("firmware", tmp_path / "m.json", "-o", tmp_path / "c")
     message = " ".join(err.split())
     assert status == 2 and "Traceback" not in err
-    assert "extension 'static_nonlinearity' has no C corrector" in message and "baseline-model.json" in message
+    assert f"extension '{key}' has no C corrector" in message and "baseline-model.json" in message
     assert not (tmp_path / "c").exists()
+
+
+def test_firmware_of_a_static_nonlinearity_matches_correct_within_its_bound(run_cli, tmp_path):
+    from creepcomp.digital.firmware import generate_firmware
+
+    t = np.arange(0, 200, 0.01)
+    load = np.select([t < 20, t < 80, t < 120], [0.0, 10.0, 4.0], 7.0) + 0.5 * np.sin(t / 3)
+    model = CreepModel.from_dict({"beta": [0.03, 0.01], "tau": [45.0, 5.0], "gain": 0.05, "offset": 0.002,
+                                  "extensions": {"static_nonlinearity": {"a2": 0.03, "a3": -0.02,
+                                                                         "load_scale": 10.0}}})
+    y = simulate_extended(model, t, load, hold="zero") + 1e-5 * np.random.default_rng(1).standard_normal(len(t))
+    write_record(tmp_path / "r.csv", Record(t, load, y))
+    (tmp_path / "m.json").write_text(json.dumps(model.to_dict()))
+    status, out, err = run_cli("firmware", tmp_path / "m.json", "--verify", tmp_path / "r.csv", "-o",
+                               tmp_path / "c", "--json")
+    assert status == 0, err
+    result = json.loads(out)
+    assert result["extensions"] == ["static_nonlinearity"] and result["within_bound"]
+    assert 0 < result["max_error_fs"] <= result["bound_fs"] < 1e-6
+    assert "creep_root" in (tmp_path / "c" / "creep.c").read_text()
+    # the linear part alone would be off by the polynomial: the check compares with correct
+    linear = generate_firmware(CreepModel(model.beta, model.tau, model.gain, model.offset),
+                               rate=100.0, full_scale=result["full_scale"])
+    assert linear.bound.total_fs < result["bound_fs"]

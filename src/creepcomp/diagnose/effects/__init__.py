@@ -48,7 +48,8 @@ from creepcomp.diagnose.effects._sensor import Scales, SignalPath, Simulated
 
 __all__ = ["Effect", "SensorEffect", "Scales", "SignalPath", "Simulated", "REGISTRY", "register",
            "unregister", "effects_on", "sensor_effects", "flow_effect", "get", "arrays_data", "model_structure",
-           "simulate_extended", "compensate_extended", "extension_inverses", "BASELINE_ADVICE"]
+           "simulate_extended", "compensate_extended", "extension_inverses", "BASELINE_ADVICE",
+           "firmware_output"]
 
 
 class Effect(abc.ABC):
@@ -211,6 +212,13 @@ class Effect(abc.ABC):
         correction refuses a model with it. The correction (:func:`compensate_extended`) finds
         the load whose simulation through the model equals the signal; :meth:`precondition`
         and :meth:`linear_terms` speed it up, this hook says what it amounts to."""
+        return None
+
+    def firmware_output(self, entry: dict, model: CreepModel) -> dict | None:
+        """The extension as a map of the C corrector's output, sample by sample, when it is
+        one the generator can write (``entry``: its parameters): ``{"polynomial": (c2, c3)}``,
+        the load ``X`` (signal units above the offset) whose instantaneous response
+        ``X + c2 X^2 + c3 X^3`` is the linear corrector's output. None: no C corrector."""
         return None
 
 
@@ -527,3 +535,20 @@ def compensate_extended(time, signal, model: CreepModel, temperature=None, initi
                          f"extensions ({names}) gives the signal (its steps still move the load by "
                          f"{step / scale:.2g} of its largest after {max_iterations}); {BASELINE_ADVICE}")
     return model.offset + model.gain * load
+
+
+def firmware_output(model: CreepModel) -> dict | None:
+    """The C corrector's output map of the model's extensions (:meth:`Effect.firmware_output`),
+    None without extensions; one clear refusal naming an extension it cannot write, or a
+    second one (the generator writes one map)."""
+    maps = []
+    for name, entry in (model.extensions or {}).items():
+        extension_inverses(CreepModel(model.beta, model.tau, model.gain, model.offset, {name: entry}))
+        out = get(name).firmware_output(entry if isinstance(entry, dict) else {}, model)
+        if out is None or maps:
+            why = "no C corrector" if out is None else "no C corrector together with another extension"
+            raise InputError(f"the model's extension '{name}' has {why}: generate the firmware of the "
+                             f"baseline model (baseline-model.json, which creepcomp diagnose -o writes), "
+                             f"or correct records in Python with creepcomp correct, which applies it")
+        maps.append(out)
+    return maps[0] if maps else None

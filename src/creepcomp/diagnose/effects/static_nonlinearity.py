@@ -71,6 +71,10 @@ class StaticNonlinearity(SensorEffect):
             return None
         return "each sample's load from its instantaneous response x + a2 x^2/L + a3 x^3/L^2 (rising: one root)"
 
+    def firmware_output(self, entry, model):
+        scale = model.gain * float(entry["load_scale"])
+        return {"polynomial": (float(entry["a2"]) / scale, float(entry["a3"]) / scale ** 2)}
+
     # -- generator ---------------------------------------------------------------------------
     def draw_default(self, rng, scales, mixture):
         if mixture and rng.uniform() < 0.3:
