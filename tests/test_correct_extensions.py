@@ -61,6 +61,7 @@ def test_every_extension_the_diagnosis_writes_says_how_it_is_undone():
 @pytest.mark.parametrize("name, entry", [
     ("static_nonlinearity", {"a2": 0.6, "a3": 0.0, "load_scale": 1.0}),     # falls beyond 0.8 FS
     ("mullins_softening", {"softening": 1.2}),                             # reloading reverses
+    ("rate_independent_hysteresis", {"width": 0.01, "weight": 0.06}),       # dead band falls
 ])
 def test_an_extension_that_cannot_be_undone_is_refused_by_name(name, entry):
     model = CreepModel((0.03,), (45.0,), gain=0.05, offset=0.0, extensions={name: entry})

@@ -206,9 +206,9 @@ class Effect(abc.ABC):
         """Prony terms (beta, tau) that approximate the effect for the linear inverse."""
         return []
 
-    def inverse(self, entry: dict) -> str | None:
+    def inverse(self, entry: dict, model: CreepModel) -> str | None:
         """How the creep correction undoes this extension of a model file (``entry``: its
-        parameters), in one line for the user; None: it cannot be undone causally, and the
+        parameters; ``model``: the whole model), in one line for the user; None: it cannot be undone causally, and the
         correction refuses a model with it. The correction (:func:`compensate_extended`) finds
         the load whose simulation through the model equals the signal; :meth:`precondition`
         and :meth:`linear_terms` speed it up, this hook says what it amounts to."""
@@ -467,7 +467,7 @@ def extension_inverses(model: CreepModel) -> dict[str, str]:
     out = {}
     for name, entry in (model.extensions or {}).items():
         effect = get(name)
-        how = effect.inverse(entry if isinstance(entry, dict) else {})
+        how = effect.inverse(entry if isinstance(entry, dict) else {}, model)
         if how is None:
             raise InputError(f"the model's extension '{name}' cannot be inverted causally by the "
                              f"creep correction; {BASELINE_ADVICE}")
@@ -521,7 +521,11 @@ def compensate_extended(time, signal, model: CreepModel, temperature=None, initi
     scale = max(float(np.max(np.abs(y - model.offset))), 1e-300) / abs(model.gain)
     step = 0.0
     for _ in range(max_iterations):
-        sim = simulate_extended(model, t, load, temperature, initial, hold)
+        with np.errstate(**({"all": "ignore"} if strict else {})):
+            sim = simulate_extended(model, t, load, temperature, initial, hold)
+        if strict and not np.all(np.isfinite(sim)):
+            step = math.inf
+            break
         delta = _linear_inverse(t, y - sim, model.gain, betas, taus, initial, hold)
         for a in reversed(structure.effects):
             delta = a.effect.precondition(data, delta, load, values, a)
@@ -531,9 +535,10 @@ def compensate_extended(time, signal, model: CreepModel, temperature=None, initi
             break
     if strict and structure.effects and not step <= INVERSE_TOLERANCE * scale:
         names = ", ".join(a.name for a in structure.effects)
+        why = ("its steps diverge" if not math.isfinite(step) else
+               f"its steps still move the load by {step / scale:.2g} of its largest after {max_iterations}")
         raise InputError(f"the creep correction finds no load whose simulation through the model's "
-                         f"extensions ({names}) gives the signal (its steps still move the load by "
-                         f"{step / scale:.2g} of its largest after {max_iterations}); {BASELINE_ADVICE}")
+                         f"extensions ({names}) gives the signal ({why}); {BASELINE_ADVICE}")
     return model.offset + model.gain * load
 
 

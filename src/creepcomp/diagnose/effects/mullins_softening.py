@@ -113,7 +113,7 @@ class MullinsSoftening(SensorEffect):
         slope = np.where(np.abs(load) >= m, 1.0, slope)
         return delta / np.maximum(slope, 0.1)
 
-    def inverse(self, entry):
+    def inverse(self, entry, model):
         if not 0.0 <= float(entry["softening"]) < 1.0:
             return None
         return ("each sample's load from the reloading curve x (1 - softening g(1 - |x|/m)), m the running "

@@ -63,7 +63,7 @@ class StaticNonlinearity(SensorEffect):
         slope = 1.0 + 2 * a2 * r + 3 * a3 * r ** 2
         return delta / np.where(np.abs(slope) > 0.1, slope, 0.1)
 
-    def inverse(self, entry):
+    def inverse(self, entry, model):
         # the polynomial must rise over the loads a record can hold (1.5 times full scale,
         # either sign) for each signal to have one load
         r = np.linspace(-1.5, 1.5, 301)

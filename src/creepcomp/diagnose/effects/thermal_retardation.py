@@ -77,7 +77,7 @@ class ThermalRetardation(SensorEffect):
         return (Applied(self, (("reference_temperature", float(entry["reference_temperature"])),)),
                 {"thermal_retardation.kappa": float(entry["kappa"])})
 
-    def inverse(self, entry):
+    def inverse(self, entry, model):
         return ("every step's retardation times at the step's mid temperature, tau_k exp(-kappa (T - T_ref)), "
                 "from the record's temperature column")
 

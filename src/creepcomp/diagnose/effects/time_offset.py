@@ -111,7 +111,7 @@ class TimeOffset(SensorEffect):
         # negative at some frequencies, where dividing by it, or ignoring it, would not converge
         return averaged(data.time, delta, -values["time_offset.delay"], values.get("time_offset.width", 0.0))
 
-    def inverse(self, entry):
+    def inverse(self, entry, model):
         delay, width = float(entry["delay"]), float(entry.get("width", 0.0))
         window = f", averaged over {width:.3g} s" if width > 0 else ""
         return (f"the load that, read {delay:.3g} s earlier{window}, gives the signal: the load at t is "

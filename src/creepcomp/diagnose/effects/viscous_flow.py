@@ -114,7 +114,7 @@ class ViscousFlow(SensorEffect):
         tau = _EQUIVALENT_LENGTHS * max(data.duration, float(np.median(np.diff(data.time))))
         return [(values["viscous_flow.flow"] / values["gain"] * tau, tau)]
 
-    def inverse(self, entry):
+    def inverse(self, entry, model):
         return "the flow, the integral of the load found up to each sample (times rate), taken out of the signal"
 
     # -- generator ---------------------------------------------------------------------------
