@@ -22,6 +22,7 @@ EXTENSIONS = {
     "transition_overshoot": {"amplitude": 0.002, "tau": 5.0, "load_scale": 10.0},
     "rate_independent_hysteresis": {"width": 0.5, "weight": 0.01},
     "mullins_softening": {"softening": 0.2},
+    "mullins_softening/stiffer": {"softening": -0.05, "shape": -3.9},
     "thermal_drift": {"coefficient": 1e-4, "reference_temperature": 25.0, "lag": 30.0},
     "thermal_retardation": {"kappa": 0.05, "reference_temperature": 25.0},
 }
