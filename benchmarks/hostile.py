@@ -114,6 +114,8 @@ def cases(f: dict[str, Path], out: Path) -> list[tuple[str, list[str], dict]]:
         ("size: PYTHONIOENCODING=ascii", ["size", "--term", "3%@45s"], {"env": {"PYTHONIOENCODING": "ascii"}}),
         ("firmware: --rate 1e300", ["firmware", f["model"], "--rate", "1e300", "--full-scale", "1", "-o", out / "fwr"],
          {"refuse": True}),
+        ("firmware: --max-interval 1e300", ["firmware", f["model"], "--max-interval", "1e300", "--full-scale", "1",
+                                            "-o", out / "fwi"], {"refuse": True}),
         ("mc: --temperature 1e6", ["mc", f["design"], "--n", "100", "--temperature", "1e6"], {"refuse": True}),
         ("mc: --temperature -300", ["mc", f["design"], "--n", "100", "--temperature", "-300"], {"refuse": True}),
     ]

@@ -166,6 +166,7 @@ def model_file(tmp_path_factory):
 @pytest.mark.parametrize("args, needle", [
     (["--rate", "1e300", "--full-scale", "1"], "from 1e-300 Hz to 1e12 Hz"),
     (["--rate", "100", "--full-scale", "1", "--name", "a" * 5000], "at most 63 characters"),
+    (["--max-interval", "1e300", "--full-scale", "1"], "to 1e12 s"),
 ])
 def test_firmware_arguments_out_of_range(run_cli, model_file, tmp_path, args, needle):
     status, _, err = run_cli("firmware", model_file, "-o", tmp_path / "fw", *args)
