@@ -123,13 +123,21 @@ def test_bad_record_is_named_with_its_line(run_cli, files):
     assert status == 2 and "line 3" in err and "signal" in err
 
 
-def test_model_extensions_are_said_to_be_unused(run_cli, files):
-    tmp, record, _, _, _ = files
+def test_model_extensions_are_applied_not_dropped(run_cli, files):
+    tmp, record, _, t, load = files
+    from creepcomp.diagnose.effects import simulate_extended
+
+    extended = CreepModel.from_dict({**MODEL.to_dict(), "extensions": {"viscous_flow": {"rate": 1e-4}}})
+    signal = simulate_extended(extended, t, load, hold="zero")
+    write_record(tmp / "flow.csv", Record(t, load, signal))
     model = tmp / "extended.json"
-    model.write_text(json.dumps({**MODEL.to_dict(), "extensions": {"viscous_flow": {"rate": 1e-6}}}))
-    status, stdout, err = run_cli("correct", record, "--model", model, "--json")
+    model.write_text(json.dumps(extended.to_dict()))
+    status, stdout, err = run_cli("correct", tmp / "flow.csv", "--model", model, "--json")
     assert status == 0, err
-    assert any("viscous_flow" in note and "not used" in note for note in json.loads(stdout)["notes"])
+    out = json.loads(stdout)
+    assert not any("not used" in note for note in out["notes"])
+    assert "integral" in out["extensions"]["viscous_flow"]
+    assert out["creep_error"]["after"]["peak"] < 1e-9
 
 
 def test_correct_streamed_in_chunks_gives_the_in_memory_figures(files):

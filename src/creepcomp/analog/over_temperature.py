@@ -189,7 +189,7 @@ def effective_sizing(model: CreepModel, temperatures, plan: PartsPlan | None = N
     temperature : float
     amplitude_factor : float
     """
-    from scipy.optimize import minimize
+    from scipy.optimize import minimize, minimize_scalar
 
     plan = plan or PartsPlan()
     temps = np.asarray(temperatures, dtype=float)
@@ -205,25 +205,13 @@ def effective_sizing(model: CreepModel, temperatures, plan: PartsPlan | None = N
         return float(_screen_over(model, temps, lambda t: (
             network_over(net, plan, t), values * _drift_factors(net, plan, t)))[0])
 
-    ratio = (math.sqrt(5.0) - 1.0) / 2.0
-    a, b = lo, hi
-    c, d = b - ratio * (b - a), a + ratio * (b - a)
-    fc, fd = worst(c), worst(d)
-    while b - a > 0.1:
-        if fc <= fd:
-            b, d, fd = d, c, fc
-            c = b - ratio * (b - a)
-            fc = worst(c)
-        else:
-            a, c, fc = c, d, fd
-            d = a + ratio * (b - a)
-            fd = worst(d)
-    t0 = c if fc <= fd else d
+    first = minimize_scalar(worst, bounds=(lo, hi), method="bounded", options={"xatol": 0.05})
+    t0, f0 = float(first.x), float(first.fun)
     best = minimize(lambda x: worst(x[0], math.exp(x[1])), [t0, 0.0], method="Nelder-Mead",
                     options={"initial_simplex": [[t0, 0.0], [t0 + 2.0, 0.0], [t0, -0.1]],
                              "xatol": 1e-3, "fatol": 1e-7, "maxiter": 200})
     t_eff, factor = min(max(float(best.x[0]), lo), hi), math.exp(float(best.x[1]))
-    return (t_eff, factor) if best.fun < min(fc, fd) else (t0, 1.0)
+    return (t_eff, factor) if best.fun < f0 else (t0, 1.0)
 
 
 def size_fixed_for_range(model: CreepModel, low: float, high: float, plan: PartsPlan | None = None,

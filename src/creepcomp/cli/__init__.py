@@ -1,13 +1,17 @@
 """The ``creepcomp`` command: a thin Typer layer over the Python API (``docs/cli.md``).
 
 Each subcommand lives in its own module and registers itself on :data:`app`.
-Errors in the user's input become one line on stderr and exit status 2.
+Errors in the user's input become one line on stderr and exit status 2. Ctrl-C (SIGINT)
+and SIGTERM stop a command the same way, with the same clean-up (nothing partial is left,
+worker processes are stopped): one line, exit status 130 (SIGINT) or 143 (SIGTERM).
 """
 
 from __future__ import annotations
 
 import os
+import signal
 import sys
+import threading
 
 import typer
 from typer._click.exceptions import NoArgsIsHelpError
@@ -75,12 +79,49 @@ def _options(
 _group_commands()
 
 
+#: Exit status after SIGTERM (128 + its number), beside 130 after Ctrl-C.
+TERMINATED = 128 + signal.SIGTERM
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where Ctrl-C raises :class:`KeyboardInterrupt`, so that every clean-up
+    written for Ctrl-C also runs for it."""
+
+
+_terminated = threading.Event()
+
+
+def _raise_terminated(signum, frame) -> None:
+    _terminated.set()
+    raise Terminated()
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the console script; returns the exit status."""
     # Plots go to files: the command line chooses matplotlib's file backend (before any import
     # of pyplot); the library itself never chooses one.
     os.environ.setdefault("MPLBACKEND", "Agg")
     tolerant_streams()
+    if threading.current_thread() is not threading.main_thread():
+        return _main(argv)
+    _terminated.clear()
+    previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    try:
+        return _main(argv)
+    except Terminated:  # a SIGTERM after the command's own handling, while printing the line
+        return TERMINATED
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _stopped() -> int:
+    """The line and status of a command stopped by Ctrl-C or SIGTERM."""
+    if _terminated.is_set():
+        return fail("terminated", TERMINATED)
+    return fail("interrupted", 130)
+
+
+def _main(argv: list[str] | None) -> int:
     command = typer.main.get_command(app)
     try:
         # a command may end with typer.Exit(status) (firmware --verify: 3 when the bound fails)
@@ -95,13 +136,13 @@ def main(argv: list[str] | None = None) -> int:
     except Exit as exc:
         return exc.exit_code
     except (Abort, KeyboardInterrupt):
-        return fail("interrupted", 130)
+        return _stopped()
     except OSError as exc:
         return environment_fault(exc)
     # Typer turns Ctrl-C into its exit status 130 and, outside standalone mode, returns it
     # (a command itself returns None)
     if result == 130:
-        return fail("interrupted", 130)
+        return _stopped()
     return result if isinstance(result, int) else 0
 
 

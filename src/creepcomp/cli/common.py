@@ -114,6 +114,33 @@ def value_range(text: str, kind: str, option: str) -> tuple[float, float]:
 PLAUSIBLE_BETA0 = 0.5
 
 
+def temperatures_option(text: str | None, option: str = "--temperatures") -> list[float] | None:
+    """``-10,20,40`` (°C, a ``°C`` or ``C`` suffix allowed) as numbers, each above absolute
+    zero; None when not given."""
+    if text is None:
+        return None
+    out = []
+    for item in str(text).split(","):
+        if not item.strip():
+            raise InputError(f"{option} '{text}': expected temperatures in °C separated by commas, "
+                             "e.g. -10,20,40")
+        out.append(quantity(item.strip().removesuffix("°C").removesuffix("C"), "number", option))
+    if any(t <= -273.15 for t in out):
+        raise InputError(f"{option} '{text}': a temperature is at or below absolute zero")
+    return out
+
+
+def temperature_range_option(text: str, option: str = "--temperature-range") -> tuple[float, float]:
+    """``LOW:HIGH`` in °C, LOW not above HIGH."""
+    parts = text.replace("..", ":").split(":")
+    if len(parts) != 2:
+        raise InputError(f"{option} '{text}': expected LOW:HIGH in °C, e.g. -10:40")
+    (low,), (high,) = (temperatures_option(p, option) for p in parts)
+    if high < low:
+        raise InputError(f"{option} '{text}': LOW must not exceed HIGH")
+    return low, high
+
+
 def warn_creep(model, where: str) -> None:
     """One warning line on stderr when the creep is beyond :data:`PLAUSIBLE_BETA0`."""
     from creepcomp.units import format_percent

@@ -88,8 +88,9 @@ def correct_command(
                 "compensated.model": str(model_file)}
     if constant is not None:
         out_meta["compensated.temperature"] = f"{constant:g} °C"
+    inverses = _extension_inverses(model)
     done = None
-    if plot is None:
+    if plot is None and not inverses:
         done = _correct_in_pieces(record_path, model, method, start, hold, output, out_meta,
                                   parse_columns(columns), as_json, constant)
     if done is None:
@@ -116,7 +117,8 @@ def correct_command(
         "reduction": (before.peak / after.peak) if after.peak > 0 else None,
         "starts_loaded": _starts_loaded(scan), "notes": notes,
         "output": None if output is None else str(output), "plot": None if plot is None else str(plot),
-        "temperature": temperature_used,
+        "temperature": temperature_used, "extensions": inverses,
+        "fitted_reference_rms": {"before": done.fitted_before, "after": done.fitted_after},
     }
     if as_json:
         print_json(result)
@@ -151,9 +153,12 @@ def _correct_whole(record_path, model, method, start, hold, output, out_meta, ma
     record.require(n_samples=2, what="creep correction")
     source = temperature_source(model, record.temperature is not None, constant, str(record_path))
     temps = (None if source is None else record.temperature if source == "column" else constant)
-    with progress_bar("correcting", total=len(record), disable=quiet) as update:
-        compensated = compensate(record.time, record.signal, model, method, initial=start,
-                                 hold=hold, progress=update, temperature=temps)
+    if model.extensions:
+        compensated = _compensate_extended(record, model, method, start, hold, temps)
+    else:
+        with progress_bar("correcting", total=len(record), disable=quiet) as update:
+            compensated = compensate(record.time, record.signal, model, method, initial=start,
+                                     hold=hold, progress=update, temperature=temps)
     before = creep_error(record.time, record.signal, record.load, model, method)
     after = creep_error(record.time, compensated, record.load, model, method)
     if output is not None:
@@ -169,7 +174,44 @@ def _correct_whole(record_path, model, method, start, hold, output, out_meta, ma
                         title=f"{record_path.name}: {method} correction",
                         signal_unit=record.unit("signal"), full_scale=after.full_scale or None)
     return FileCorrection(RecordScan.of(record), uniform_interval(record.time), before, after,
-                          source)
+                          source, _fitted_rms(record.signal, record.load),
+                          _fitted_rms(compensated, record.load))
+
+
+def _extension_inverses(model) -> dict:
+    """How the correction undoes each of the model's extensions (a refusal naming the first
+    it cannot undo)."""
+    if not model.extensions:
+        return {}
+    from creepcomp.diagnose.effects import extension_inverses
+
+    return extension_inverses(model)
+
+
+def _compensate_extended(record, model, method, start, hold, temps):
+    """The correction of a model with extensions: the load whose simulation through the whole
+    model equals the signal, as an instantaneous (or saturated) signal."""
+    import numpy as np
+
+    from creepcomp.diagnose.effects import compensate_extended
+    from creepcomp.digital.correctors import saturation_factor
+
+    if temps is not None and np.ndim(temps) == 0:
+        temps = np.full(len(record), float(temps))
+    if temps is None and record.temperature is not None:
+        temps = record.temperature
+    out = compensate_extended(record.time, record.signal, model, temps, initial=start, hold=hold,
+                              strict=True)
+    return model.offset + saturation_factor(model, method) * (out - model.offset)
+
+
+def _fitted_rms(values, load) -> float | None:
+    """RMS error against the load scaled by least squares (the diagnosis's figure)."""
+    from creepcomp.digital.correctors import FittedReferenceSum
+
+    total = FittedReferenceSum()
+    total.add(values, load)
+    return total.result()
 
 
 def _starts_loaded(scan) -> bool:
@@ -178,9 +220,6 @@ def _starts_loaded(scan) -> bool:
 
 def _notes(scan, start: str, method: str, model) -> list[str]:
     notes = []
-    if model.extensions:
-        notes.append(f"the model's extensions ({', '.join(map(str, model.extensions))}) are not used: "
-                     "the digital correction inverts the Prony terms (beta, tau), gain and offset")
     if _starts_loaded(scan):
         load0 = f"{scan.first_load:.4g} {scan.unit('load')}".strip()
         if start == "relaxed":
@@ -221,6 +260,8 @@ def _render(path, scan, model, result, before, after, dt, unit, notes) -> None:
         amplitudes = ", each sample with its own beta_k(T)" if law.beta_per_kelvin else ""
         console.print(f"temperature: {where}; {law.law} law about {law.reference:g} °C, each step "
                       f"with its own tau_k(T){amplitudes}", soft_wrap=True)
+    for name, how in result["extensions"].items():
+        console.print(f"extension {name}: {how}", soft_wrap=True)
     console.print(f"reference: {result['reference']} "
                   f"({'instantaneous' if result['method'] == 'subtractive' else 'saturated'} signal); "
                   f"full scale {_value(after.full_scale, unit)}")
@@ -233,6 +274,10 @@ def _render(path, scan, model, result, before, after, dt, unit, notes) -> None:
     table.add_row("  at", format_quantity(before.peak_time, "s"), format_quantity(after.peak_time, "s"))
     table.add_row("RMS", _value(before.rms, unit), _value(after.rms, unit))
     table.add_row("RMS (of full scale)", format_percent(before.rms_fraction), format_percent(after.rms_fraction))
+    fitted = result["fitted_reference_rms"]
+    if fitted["after"] is not None:
+        table.add_row("RMS, load scaled by least squares", _value(fitted["before"], unit),
+                      _value(fitted["after"], unit))
     console.print(table)
     if result["reduction"] is not None:
         console.print(f"peak creep error reduced {result['reduction']:.3g}-fold")

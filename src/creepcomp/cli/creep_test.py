@@ -10,21 +10,7 @@ import typer
 from rich.table import Table
 
 from creepcomp.errors import InputError
-from creepcomp.cli.common import app, console, print_json, quantity
-
-
-def parse_temperatures(text: str | None, option: str = "--temperatures") -> list[float] | None:
-    """``-10,20,40`` as a list of °C (None when not given)."""
-    if text is None:
-        return None
-    out = []
-    for item in str(text).split(","):
-        if not item.strip():
-            raise InputError(f"{option} '{text}': expected temperatures in °C separated by commas, e.g. -10,20,40")
-        out.append(quantity(item.strip().removesuffix("°C").removesuffix("C"), "number", option))
-    if any(t <= -273.15 for t in out):
-        raise InputError(f"{option} '{text}': a temperature is at or below absolute zero")
-    return out
+from creepcomp.cli.common import app, console, print_json, quantity, temperatures_option
 
 
 def _read_target(target: Path, digital: bool):
@@ -75,7 +61,7 @@ def creep_test_command(
     program = CreepTestProgram(loading_time=quantity(loading_time, "second", "--loading-time", positive=True))
     kind, obj = _read_target(target, digital)
     model = obj.model if kind == "design" else obj
-    temps = parse_temperatures(temperatures)
+    temps = temperatures_option(temperatures)
     if temps is None:
         temps = [model.temperature.reference if model.temperature is not None else 20.0]
     if kind == "design":

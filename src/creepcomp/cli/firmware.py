@@ -55,13 +55,16 @@ def firmware_command(
     from creepcomp.digital.correctors import uniform_interval
     from creepcomp.digital.firmware import PRECISIONS, generate_firmware
     from creepcomp.io.jsonfiles import read_model
+    from creepcomp.io.outputs import check_outputs
     from creepcomp.io.records import parse_columns, read_record
 
+    check_outputs(dirs={"-o": output}, inputs=[model_file, verify_record],
+                  contents={"-o": (f"{name}.h", f"{name}.c")})
     method = method.strip().lower()
     precision = precision.strip().lower()
     if precision not in PRECISIONS:
         raise InputError(f"--precision '{precision}': use float32 or q31")
-    model = read_model(model_file)
+    model, polynomial = _linear_part(read_model(model_file))
     rate_hz = quantity(rate, "hertz", "--rate", positive=True)
     longest = quantity(max_interval, "second", "--max-interval", positive=True)
     scale = quantity(full_scale, "number", "--full-scale", positive=True)
@@ -90,12 +93,13 @@ def firmware_command(
                          "|signal - offset| in signal units")
     firmware = generate_firmware(model, method, precision, rate_hz or 1.0, scale, name,
                                  max_interval=longest,
-                                 temperature_range=_celsius_range(temperature_range))
-    files = [] if output is None else [str(p) for p in firmware.write(output)]
+                                 temperature_range=_celsius_range(temperature_range),
+                                 output_polynomial=polynomial)
     result = {"model": str(model_file), "method": method, "precision": precision,
               "rate": firmware.rate, "max_interval": firmware.max_interval, "full_scale": firmware.full_scale, "name": name,
-              "signal_unit": unit, "files": files, "bound_fs": firmware.bound.total_fs,
-              "bound": firmware.bound.to_dict()}
+              "signal_unit": unit, "files": [], "bound_fs": firmware.bound.total_fs,
+              "bound": firmware.bound.to_dict(),
+              "extensions": sorted(read_model(model_file).extensions or {})}
     if firmware.temperature_range is not None:
         result["temperature_range"] = list(firmware.temperature_range)
     check = None
@@ -107,9 +111,13 @@ def firmware_command(
                              "firmware needs a 'temperature' column (°C) in the record")
         check = verify_firmware(firmware, record.time, record.signal,
                                 temperature=(None if firmware.temperature_range is None
-                                             else record.temperature))
+                                             else record.temperature),
+                                reference=_extended_reference(read_model(model_file), firmware, record))
         result.update(check.to_dict())
         result["record"] = str(verify_record)
+    # written after the verification: an interrupted --verify leaves no C files
+    if output is not None:
+        result["files"] = [str(p) for p in firmware.write(output)]
     if as_json:
         print_json(result)
     else:
@@ -118,6 +126,30 @@ def firmware_command(
         fail(f"measured error {check.max_error_fs:.3e} of full scale at sample {check.worst_sample} "
              f"exceeds the proven bound {firmware.bound.total_fs:.3e}", BOUND_EXCEEDED)
         raise typer.Exit(BOUND_EXCEEDED)
+
+
+def _linear_part(model):
+    """The model without its extensions, and the output map of the one the C corrector
+    applies (None: no extension); a refusal naming an extension it cannot apply."""
+    if not model.extensions:
+        return model, None
+    from creepcomp.diagnose.effects import firmware_output
+    from creepcomp.model import CreepModel
+
+    out = firmware_output(model)
+    return CreepModel(model.beta, model.tau, model.gain, model.offset), out["polynomial"]
+
+
+def _extended_reference(model, firmware, record):
+    """For a model with extensions: the exact inverse of the whole model, which ``creepcomp
+    correct`` prints (started and held as the firmware is); None otherwise."""
+    if not model.extensions:
+        return None
+    from creepcomp.diagnose.effects import compensate_extended
+    from creepcomp.digital.correctors import default_initial
+
+    return compensate_extended(record.time, record.signal, model, record.temperature,
+                               initial=default_initial(firmware.method), hold="zero", strict=True)
 
 
 def _celsius_range(text: str | None) -> tuple[float, float] | None:

@@ -14,7 +14,8 @@ from creepcomp.io.jsonfiles import write_json
 from creepcomp.io.outputs import check_outputs
 from creepcomp.io.records import Record, parse_columns
 from creepcomp.units import format_percent, format_quantity
-from creepcomp.cli.common import app, console, count_option, print_json, progress_bar, quantity
+from creepcomp.cli.common import (app, console, count_option, print_json, progress_bar, quantity,
+                                  temperatures_option)
 
 if TYPE_CHECKING:
     from creepcomp.fit.prony import PronyResult
@@ -180,11 +181,9 @@ def terms_option(terms: str) -> int | None:
     return fixed
 
 
-def temperatures_option(text: str | None, n_records: int) -> list[float] | None:
+def record_temperatures(text: str | None, n_records: int) -> list[float] | None:
     """``--temperature T1,T2,...``: one temperature (°C) per record."""
-    from creepcomp.cli.creep_test import parse_temperatures
-
-    values = parse_temperatures(text, "--temperature")
+    values = temperatures_option(text, "--temperature")
     if values is not None and len(values) != n_records:
         raise InputError(f"--temperature '{text}' gives {len(values)} temperature"
                          f"{'s' if len(values) != 1 else ''} for {n_records} record"
@@ -202,7 +201,7 @@ def fit_over_temperature(paths: list[Path], law: str, temperature: str | None, r
         raise InputError("--flow: not available with a temperature law fit")
     if plot is not None:
         raise InputError("--plot: available for one record without a temperature law")
-    temps = temperatures_option(temperature, len(paths))
+    temps = record_temperatures(temperature, len(paths))
     ref = quantity(reference, "number", "--reference-temperature")
     from creepcomp.fit.data import prepare
     from creepcomp.fit.reduce import MAX_FIT_SAMPLES

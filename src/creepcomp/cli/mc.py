@@ -17,7 +17,7 @@ from creepcomp.io.jsonfiles import read_design
 from creepcomp.io.outputs import check_outputs
 from creepcomp.units import format_parameter, format_percent
 from creepcomp.cli.common import (app, console, count_option, err_console, print_json, quantity,
-    value_range)
+                                  temperature_range_option, temperatures_option, value_range)
 
 
 def _tolerance(text: str, option: str, distribution: str) -> Tolerance:
@@ -197,7 +197,6 @@ def mc_command(
 def _over_temperature(design, temperature, temperatures, temperature_range, lot_correlation):
     """The temperatures asked for (one of the three options), with the design's parts plan."""
     from creepcomp.analog.parts import plan_of
-    from creepcomp.cli.netlist import parse_temperatures
     from creepcomp.temperature import temperature_grid
     from creepcomp.verify.tolerances import OverTemperature
 
@@ -213,30 +212,18 @@ def _over_temperature(design, temperature, temperatures, temperature_range, lot_
                              "--temperature, --temperatures or --temperature-range")
         return None
     if temperature is not None:
-        temps = parse_temperatures(temperature, "--temperature")
+        temps = temperatures_option(temperature, "--temperature")
         if len(temps) != 1:
             raise InputError(f"--temperature '{temperature}': one temperature; use --temperatures "
                              "for several")
     elif temperatures is not None:
-        temps = parse_temperatures(temperatures, "--temperatures")
+        temps = temperatures_option(temperatures, "--temperatures")
     else:
-        low, high = _temperature_range(temperature_range)
+        low, high = temperature_range_option(temperature_range)
         temps = [float(t) for t in temperature_grid(low, high)]
     if max(temps) > 200:    # beyond every part table's range (and an elastomer's life)
         raise InputError(f"{given[0]}: {max(temps):g} °C is above 200 °C, beyond any part's data")
     return OverTemperature(tuple(temps), plan_of(design), lot_correlation)
-
-
-def _temperature_range(text: str) -> tuple[float, float]:
-    from creepcomp.cli.netlist import parse_temperatures
-
-    parts = text.replace("..", ":").split(":")
-    if len(parts) != 2:
-        raise InputError(f"--temperature-range '{text}': expected LOW:HIGH in °C, e.g. -10:40")
-    (low,), (high,) = (parse_temperatures(p, "--temperature-range") for p in parts)
-    if high < low:
-        raise InputError(f"--temperature-range '{text}': LOW must not exceed HIGH")
-    return low, high
 
 
 def _with_creep_test(result: ToleranceReport, limits, temperatures) -> ToleranceReport:

@@ -17,7 +17,7 @@ from creepcomp.io.outputs import check_outputs
 from creepcomp.programs import LoadProgram
 from creepcomp.io.records import Record, parse_columns, read_record
 from creepcomp.units import format_quantity
-from creepcomp.cli.common import app, console, count_option, print_json, quantity
+from creepcomp.cli.common import app, console, count_option, print_json, quantity, temperatures_option
 
 #: Most time points of a synthetic drive.
 MAX_POINTS = 1_000_000
@@ -76,19 +76,6 @@ def read_drive(design_path: Path, program: str, record: Path | None, columns: st
         return Drive(design, "record", None, rec, None, points, signal_v)
     prog = synthetic_program(design.model, name, design.network)
     return Drive(design, name, prog, None, duration_s, points, signal_v)
-
-
-def parse_temperatures(text: str, option: str) -> list[float]:
-    """``-10,20,40`` (°C) as a list of numbers, each checked."""
-    out = []
-    for item in text.split(","):
-        if not item.strip():
-            raise InputError(f"{option} '{text}': expected temperatures in °C separated by commas, "
-                             "e.g. -10,20,40")
-        out.append(quantity(item.strip().removesuffix("°C").removesuffix("C"), "number", option))
-    if any(t <= -273.15 for t in out):
-        raise InputError(f"{option} '{text}': a temperature is at or below absolute zero")
-    return out
 
 
 def drive_deck(drive: Drive, data_file: str = "record-signal.txt",
@@ -170,7 +157,7 @@ def netlist_command(
     if temperature is not None:
         if drive.record is not None:
             raise InputError("--temperature applies to a synthetic drive (--program), not a record")
-        temps = parse_temperatures(temperature, "--temperature")
+        temps = temperatures_option(temperature, "--temperature")
         if len(temps) != 1:
             raise InputError(f"--temperature '{temperature}': one temperature (°C) per netlist")
         temp = temps[0]

@@ -16,8 +16,9 @@ from creepcomp.verify.drive import DEFAULT_POINTS
 from creepcomp.verify.netlist import write_deck
 from creepcomp.io.outputs import check_outputs
 from creepcomp.units import format_percent, format_quantity
-from creepcomp.cli.common import app, console, count_option, err_console, print_json, progress_bar
-from creepcomp.cli.netlist import PROGRAM_HELP, parse_temperatures, read_drive
+from creepcomp.cli.common import (app, console, count_option, err_console, print_json, progress_bar,
+                                  temperatures_option)
+from creepcomp.cli.netlist import PROGRAM_HELP, read_drive
 
 
 def _sci(x: float | None) -> str:
@@ -114,7 +115,7 @@ def simulate_command(
     files = {"--plot": plot_path, "--netlist": netlist}
     if netlist is not None and record is not None:
         files["--netlist (its data file)"] = netlist.parent / f"{netlist.stem}-signal.txt"
-    temps = None if temperatures is None else parse_temperatures(temperatures, "--temperatures")
+    temps = temperatures_option(temperatures, "--temperatures")
     if temps is not None and record is not None:
         raise InputError("--temperatures applies to a synthetic drive (--program), not a record")
     if temps is not None and plot_path is not None and len(temps) > 1:

@@ -16,7 +16,8 @@ from creepcomp.io.jsonfiles import read_model, write_design
 from creepcomp.io.outputs import check_outputs
 from creepcomp.model import CreepModel
 from creepcomp.units import format_percent, format_quantity, format_time
-from creepcomp.cli.common import app, console, print_json, quantity, value_range, warn_creep
+from creepcomp.cli.common import (app, console, print_json, quantity, temperature_range_option, value_range,
+                                  warn_creep)
 
 if TYPE_CHECKING:
     from creepcomp.analog.sizing import SizingReport
@@ -557,13 +558,7 @@ def temperature_span(text: str | None, tracking: str) -> tuple[float, float] | N
         if tracking.strip().lower() != "none":
             raise InputError("--tracking needs --temperature-range LOW:HIGH (°C)")
         return None
-    parts = text.replace("°C", "").replace("C", "").split(":")
-    if len(parts) != 2:
-        raise InputError(f"--temperature-range = '{text}': expected LOW:HIGH in °C, e.g. -10:40")
-    low, high = (quantity(p, "number", "--temperature-range") for p in parts)
-    if low > high:
-        raise InputError(f"--temperature-range = '{text}': LOW is above HIGH")
-    return low, high
+    return temperature_range_option(text)
 
 
 def size_over_range(report: SizingReport, span: tuple[float, float], tracking: str, rule: str):

@@ -798,6 +798,8 @@ def correction_errors(data: Data, base: Fit, extended: Fit, extensions: dict) ->
 
     The correction assumes a relaxed start when the load starts at zero, a settled one
     otherwise."""
+    from creepcomp.digital.correctors import fitted_reference_error
+
     initial = "relaxed" if data.load[0] == 0 else "settled"
     try:
         model_b = base.creep_model()
@@ -811,9 +813,7 @@ def correction_errors(data: Data, base: Fit, extended: Fit, extensions: dict) ->
                               hold=data.hold)
         except (InputError, ImportError):
             return {}
-        design = np.column_stack([data.load, np.ones(data.n)])
-        coef, *_ = np.linalg.lstsq(design, comp, rcond=None)
-        err = comp - design @ coef
+        err = fitted_reference_error(comp, data.load)
         out[f"{label}_compensated"] = comp
         out[f"{label}_error"] = err
         out[f"{label}_rms"] = float(np.sqrt(np.mean(err ** 2)))

@@ -64,7 +64,8 @@ from creepcomp.model import CreepModel
 __all__ = ["ERROR_CHUNK", "METHODS", "HOLDS", "INITIAL_STATES", "BLOCK", "PASS_SAMPLES", "default_initial",
            "saturation_factor", "Corrector", "check_invertible", "check_temperature", "compensate",
            "uniform_interval", "uniform_interval_of", "reference", "CreepError", "CreepErrorSum",
-           "creep_error"]
+           "creep_error", "fitted_reference_error",
+           "FittedReferenceSum"]
 
 METHODS = ("subtractive", "supplemental")
 HOLDS = ("zero", "linear")
@@ -640,3 +641,43 @@ def creep_error(time, values, load, model: CreepModel, method: str = "subtractiv
     for lo in range(0, len(t), step):
         total.add(t[lo:lo + step], v[lo:lo + step], load[lo:lo + step])
     return total.result()
+
+
+def fitted_reference_error(values, load) -> np.ndarray:
+    """Error of ``values`` (a creep-corrected signal) against the load scaled to it by least
+    squares (gain and offset fitted): how well its shape follows the load, whatever the
+    model's calibration. Its RMS is the diagnosis's correction-error figure."""
+    v = np.asarray(values, dtype=float)
+    design = np.column_stack([np.asarray(load, dtype=float), np.ones(len(v))])
+    coef, *_ = np.linalg.lstsq(design, v, rcond=None)
+    return v - design @ coef
+
+
+class FittedReferenceSum:
+    """RMS of :func:`fitted_reference_error` over a record taken in pieces (sums of the
+    values and the load about their first samples, so that no precision is lost to offsets)."""
+
+    def __init__(self):
+        self._origin = None
+        self._sums = np.zeros(6)                # n, x, y, xx, xy, yy
+
+    def add(self, values, load) -> None:
+        v = np.asarray(values, dtype=float)
+        x = np.asarray(load, dtype=float)
+        if len(v) == 0:
+            return
+        if self._origin is None:
+            self._origin = (float(x[0]), float(v[0]))
+        x = x - self._origin[0]
+        v = v - self._origin[1]
+        self._sums += (len(v), x.sum(), v.sum(), x @ x, x @ v, v @ v)
+
+    def result(self) -> float | None:
+        """The RMS error (values' units); None when the load does not vary."""
+        n, sx, sy, sxx, sxy, syy = self._sums
+        if n == 0:
+            return None
+        cxx, cxy, cyy = sxx - sx * sx / n, sxy - sx * sy / n, syy - sy * sy / n
+        if cxx <= 0:
+            return None
+        return float(np.sqrt(max(cyy - cxy * cxy / cxx, 0.0) / n))

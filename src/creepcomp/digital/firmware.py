@@ -43,16 +43,18 @@ from jinja2 import meta
 
 from creepcomp.digital.firmware_bound import (DEFAULT_TEMPERATURE_RANGE, FULL_SCALE_WORD,
                                               MIN_INTERVAL, PRECISIONS, REFERENCE_ALLOWANCE,
-                                              TEMPERATURE_STEP_Q, TICK, ErrorBound,
+                                              ROOT_STEPS, TEMPERATURE_STEP_Q, TICK, ErrorBound,
                                               check_arguments, check_interval, dt_scheme,
                                               exact_coefficients, firmware_bound, float32_value,
+                                              polynomial_bound,
                                               q31_temperature_scheme, stored_coefficients,
                                               temperature_bound, temperature_scheme)
 from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 
 __all__ = ["PRECISIONS", "FULL_SCALE_WORD", "REFERENCE_ALLOWANCE", "MIN_INTERVAL", "TICK",
-           "DEFAULT_TEMPERATURE_RANGE", "TEMPERATURE_STEP_Q", "ErrorBound", "Firmware", "firmware_bound", "generate_firmware", "naive_float32"]
+           "DEFAULT_TEMPERATURE_RANGE", "TEMPERATURE_STEP_Q", "ErrorBound", "Firmware", "firmware_bound", "generate_firmware", "naive_float32",
+           "check_no_extensions"]
 
 
 @dataclass(frozen=True)
@@ -123,7 +125,8 @@ class Firmware:
 def generate_firmware(model: CreepModel, method: str = "subtractive", precision: str = "float32",
                       rate: float = 100.0, full_scale: float = 1.0, name: str = "creep",
                       max_interval: float | None = None,
-                      temperature_range: tuple[float, float] | None = None) -> Firmware:
+                      temperature_range: tuple[float, float] | None = None,
+                      output_polynomial: tuple[float, float] | None = None) -> Firmware:
     """Generate the C99 corrector of a model, with its derivation and error bound in comments.
 
     Parameters
@@ -149,11 +152,24 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
         ``(low, high)`` in °C for a model with a temperature law (default
         :data:`DEFAULT_TEMPERATURE_RANGE`): the step ``PREFIX_step(state, raw, temperature_c)``
         clamps the temperature to it and the bound holds over it. Refused without a law.
+    output_polynomial : (c2, c3), optional
+        An instantaneous response ``X + c2 X^2 + c3 X^3`` that is not linear in the load
+        (``X``: the load in signal units above the offset; a diagnosis's extension, given by
+        :func:`creepcomp.diagnose.effects.firmware_output`): the output is the root of it
+        equal to the linear corrector's output, found in double; its bound
+        (:func:`~creepcomp.digital.firmware_bound.polynomial_bound`) covers the root. float32
+        at a fixed rate, subtractive only.
 
     Returns
     -------
     Firmware
     """
+    check_no_extensions(model)
+    if output_polynomial is not None and (precision != "float32" or method != "subtractive"
+                                          or max_interval is not None or model.temperature is not None
+                                          or temperature_range is not None):
+        raise InputError("a static polynomial response has a C corrector in float32, subtractive, "
+                         "at a fixed rate, without a temperature law only")
     if model.temperature is not None or temperature_range is not None:
         return _temperature_firmware(model, method, precision, rate, full_scale, name,
                                      max_interval, temperature_range)
@@ -162,21 +178,32 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
         rate = 1.0 / max_interval
     check_arguments(model, method, precision, rate, full_scale, name)
     bound = firmware_bound(model, method, precision, rate, full_scale, max_interval)
+    polynomial = None
+    if output_polynomial is not None:
+        bound, reach = polynomial_bound(bound, *output_polynomial, offset=model.offset)
+        polynomial = {"c2": repr(float(output_polynomial[0])), "c3": repr(float(output_polynomial[1])),
+                      "reach": repr(reach), "steps": ROOT_STEPS}
     c = exact_coefficients(model, rate)
     st = stored_coefficients(c, precision)
     irregular = max_interval is not None
     scheme = dt_scheme(model, precision, max_interval) if irregular else None
     derivation = (_dt_derivation(model, method, precision, full_scale, c, st, scheme) if irregular
                   else _derivation(model, method, precision, rate, full_scale, c, st))
+    if polynomial is not None:
+        derivation = derivation + [
+            f"Static response: the output is offset + X, X the root of X + c2 X^2 + c3 X^3 = S "
+            f"(c2 = {polynomial['c2']}, c3 = {polynomial['c3']} per signal unit), bracketed in "
+            f"|X| <= {float(polynomial['reach']):.6g} where it rises, by {ROOT_STEPS} bisection steps in double."]
     header = _render(f"{precision}_dt.h.j2" if irregular else "fixed_rate.h.j2",
                      **_header_values(model, method, precision, rate, full_scale, name, c, scheme,
                                       max_interval),
                      derivation=derivation, bound=_bound_lines(bound, full_scale),
                      bound_fs=f"{bound.total_fs:.3e}")
+    extra = {"polynomial": polynomial} if precision == "float32" and not irregular else {}
     source = _render(f"{precision}_dt.c.j2" if irregular else f"{precision}.c.j2",
                      name=name, NAME=name.upper(), version=_version(), method=method,
                      irregular=irregular, temperature=False,
-                     **_coefficient_values(precision, st, scheme))
+                     **_coefficient_values(precision, st, scheme), **extra)
     harness = _render("harness.c.j2", name=name, NAME=name.upper(), precision=precision,
                       irregular=irregular, temperature=False)
     return Firmware(model=model, method=method, precision=precision,
@@ -184,6 +211,16 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
                     full_scale=float(full_scale), name=name, header=header, source=source,
                     harness=harness, bound=bound, coefficients=_coefficient_table(c, st, precision),
                     max_interval=float(scheme["dt_max"]) if irregular else None)
+
+
+def check_no_extensions(model: CreepModel) -> None:
+    """Refuse, naming it, an extension of the model (``extensions``): the C corrector runs
+    the Prony terms, gain and offset and the temperature law, and would drop it."""
+    for name in model.extensions or {}:
+        raise InputError(f"the model's extension '{name}' has no C corrector: generate the firmware "
+                         f"of the baseline model (baseline-model.json, which creepcomp diagnose -o "
+                         f"writes), or correct records in Python with creepcomp correct, which "
+                         f"applies it")
 
 
 def naive_float32(model: CreepModel, method: str = "subtractive", rate: float = 100.0,

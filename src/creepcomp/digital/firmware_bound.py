@@ -24,7 +24,7 @@ __all__ = ["PRECISIONS", "FULL_SCALE_WORD", "REFERENCE_ALLOWANCE", "MIN_INTERVAL
            "DEFAULT_TEMPERATURE_RANGE", "ErrorBound", "firmware_bound", "check_arguments",
            "check_interval", "exact_coefficients", "stored_coefficients", "dt_scheme",
            "float32_value", "temperature_scheme", "q31_temperature_scheme", "temperature_bound",
-           "TEMPERATURE_STEP_Q"]
+           "TEMPERATURE_STEP_Q", "ROOT_STEPS", "polynomial_bound"]
 
 PRECISIONS = ("float32", "q31")
 #: q31: the input word of a full-scale signal (the words keep one bit of headroom).
@@ -739,3 +739,61 @@ def _check_q31_range(peak: float, cmax: float, sigma: float, method: str) -> Non
     if cmax * FULL_SCALE_WORD + 2 >= 2 ** 31 or out * FULL_SCALE_WORD + 2 >= 2 ** 31:
         raise InputError(f"the corrected signal can reach {max(cmax, out):.4g} x full scale, beyond "
                          "the q31 words' one bit of headroom (2 x full scale); use float32")
+
+
+#: Bisection steps of the C corrector's polynomial root (in double): the bracket's width falls
+#: to ``2**-ROOT_STEPS`` of the root's range.
+ROOT_STEPS = 64
+#: Unit roundoff of IEEE double.
+_U64 = 2.0 ** -53
+
+
+def _least_slope(c2: float, c3: float, reach: float) -> float:
+    """Least slope of ``X + c2 X^2 + c3 X^3`` over ``|X| <= reach``: at the ends or at the
+    vertex of the quadratic ``1 + 2 c2 X + 3 c3 X^2``."""
+    points = [-reach, reach]
+    if c3 != 0 and abs(c2 / (3 * c3)) <= reach:
+        points.append(-c2 / (3 * c3))
+    return min(1 + 2 * c2 * x + 3 * c3 * x * x for x in points)
+
+
+def polynomial_bound(linear: ErrorBound, c2: float, c3: float, offset: float) -> tuple[ErrorBound, float]:
+    """The bound of a corrector whose output is the root ``X`` of ``X + c2 X^2 + c3 X^3 = S``
+    (``S``: the linear corrector's output above the offset, within ``linear``'s bound), found
+    by :data:`ROOT_STEPS` bisection steps in double over ``|X| <= reach``.
+
+    With ``m`` the polynomial's least slope over the reach, ``|dX| <= |dS| / m``: the linear
+    corrector's error divided by ``m``; the bracket's last width; the rounding of the
+    polynomial's evaluation in double (at most 6 roundings of terms no larger than
+    ``|X| + |c2| X^2 + |c3| |X|^3 + |S|``: a sign taken wrong only that close to the root,
+    divided by ``m``); the rounding of ``offset + X`` to float32.
+
+    Returns
+    -------
+    (ErrorBound, float)
+        The bound (fractions of full scale) and the reach (signal units).
+    """
+    fs = linear.full_scale
+    s_max = (linear.peak_fs + linear.total_fs) * fs
+    reach = s_max
+    for _ in range(60):
+        m = _least_slope(c2, c3, reach)
+        if m <= 0:
+            raise InputError("the static polynomial does not rise over the corrector's range: "
+                             "no C corrector for it")
+        wanted = 1.01 * s_max / m
+        if wanted <= reach:
+            break
+        reach = wanted
+    else:  # pragma: no cover - a slope that keeps falling as the range grows
+        raise InputError("the static polynomial's root leaves every range: no C corrector for it")
+    m = _least_slope(c2, c3, reach)
+    poly = reach + abs(c2) * reach ** 2 + abs(c3) * reach ** 3 + s_max
+    terms = {f"linear corrector / least slope {m:.4g}": linear.total_fs / m,
+             f"root bracket after {ROOT_STEPS} bisections": 2 * reach * 2.0 ** -ROOT_STEPS / fs,
+             "polynomial in double": 6 * _U64 * poly / m / fs,
+             "output rounding (float32)": 2.0 ** -24 * (abs(offset) + reach) / fs * (1 + 2 * _U64)}
+    total = sum(terms.values()) * _MARGIN
+    return ErrorBound(total_fs=float(total), terms={n: float(v) for n, v in terms.items()},
+                      full_scale=fs, peak_fs=float(reach / fs),
+                      gains=dict(linear.gains, least_slope=float(m))), float(reach)

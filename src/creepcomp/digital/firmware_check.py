@@ -161,7 +161,7 @@ def run_firmware(firmware: Firmware, signal, start: str, repeats: int = 5,
 
 
 def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler: str | None = None,
-                    temperature=None) -> Verification:
+                    temperature=None, reference=None) -> Verification:
     """Run the generated corrector over a record and compare it with :func:`compensate`.
 
     The record must be sampled at the firmware's rate (fixed-rate step) or have intervals
@@ -170,7 +170,9 @@ def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler
     settled for supplemental), with the load held between samples. The temperature step
     (a model with a temperature law) takes ``temperature`` (°C, one per sample, within its
     range); the float64 corrector gets the same temperatures, rounded as the step receives them
-    (to float32, or to 1/256 °C for q31).
+    (to float32, or to 1/256 °C for q31). ``reference``: the exact corrector's output to
+    compare with instead (a model with an extension the firmware applies: the caller's exact
+    inverse of the whole model, started and held as the firmware is).
 
     Returns
     -------
@@ -195,8 +197,10 @@ def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler
     _check_range(firmware, x)
     start = default_initial(firmware.method)
     temps = _temperatures(firmware, temperature, len(x))
-    reference = compensate(t, x, firmware.model, firmware.method, initial=start, hold="zero",
-                           temperature=temps)
+    if reference is None:
+        reference = compensate(t, x, firmware.model, firmware.method, initial=start, hold="zero",
+                               temperature=temps)
+    reference = np.asarray(reference, dtype=float)
     y, ns, size = run_firmware(firmware, x, start, repeats, compiler, temperatures=temps)
     return _compare(firmware, y, reference, ns, size)
 

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Callable, Mapping
 
 from creepcomp.digital.correctors import (CreepError, CreepErrorSum, Corrector, check_temperature,
-                                          default_initial, uniform_interval_of)
+                                          default_initial, uniform_interval_of, FittedReferenceSum)
 from creepcomp.errors import InputError
 from creepcomp.io.records import STREAM_BYTES, RecordScan, open_record_stream, record_writer
 from creepcomp.model import CreepModel
@@ -39,6 +39,10 @@ class FileCorrection:
     temperature : str or None
         Where the temperature came from: ``"column"`` (the record's), ``"constant"``, or None
         (a model without a temperature law).
+    fitted_before, fitted_after : float or None
+        RMS error of the raw and the compensated signal against the load scaled to each by
+        least squares (:class:`~creepcomp.digital.correctors.FittedReferenceSum`); None when
+        the load does not vary.
     """
 
     scan: RecordScan
@@ -46,6 +50,8 @@ class FileCorrection:
     before: CreepError
     after: CreepError
     temperature: str | None = None
+    fitted_before: float | None = None
+    fitted_after: float | None = None
 
 
 def temperature_source(model: CreepModel, has_column: bool, constant: float | None,
@@ -115,6 +121,7 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
     start = default_initial(method) if initial is None else initial
     corrector = Corrector(model, method, dt=dt, initial=start, hold=hold)
     before, after = CreepErrorSum(model, method), CreepErrorSum(model, method)
+    fitted_before, fitted_after = FittedReferenceSum(), FittedReferenceSum()
     if progress:
         progress(0, scan.samples, "correcting")
     writing = (record_writer(output, [*scan.names, "compensated"],
@@ -129,6 +136,8 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
                            else corrector.process(piece.signal, piece.time, temperature=temps))
             before.add(piece.time, piece.signal, piece.load)
             after.add(piece.time, compensated, piece.load)
+            fitted_before.add(piece.signal, piece.load)
+            fitted_after.add(compensated, piece.load)
             if write is not None:
                 write({**piece.columns(), "compensated": compensated})
             done += len(piece)
@@ -138,4 +147,5 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
             if write is not None:
                 write.discard()
             return None                             # the file changed between the passes
-    return FileCorrection(scan, dt, before.result(), after.result(), source)
+    return FileCorrection(scan, dt, before.result(), after.result(), source, fitted_before.result(),
+                          fitted_after.result())

@@ -7,13 +7,22 @@ client's memory does not grow with the number of records. A task whose worker di
 again on another (Dask reschedules it; ``retries`` more attempts after an exception), a record
 that cannot be processed is one failed row, and a unit whose ``result.json`` is already there
 (same record file, same settings) is not run again.
+
+The output folder belongs to one run at a time and to one set of settings: a run holds the
+lock file :data:`LOCK_FILE` while it works (a second run into the folder is refused), and the
+folder keeps its settings in :data:`SETTINGS_FILE` (a later run with the same settings resumes,
+one with other settings is refused rather than mixing two runs' files).
 """
 
 from __future__ import annotations
 
+import contextlib
+import json
 import logging
 import os
+import shutil
 import signal
+import tempfile
 import threading
 import time as _time
 import uuid
@@ -26,8 +35,17 @@ from creepcomp.errors import InputError
 from creepcomp.fleet.discover import find_records, unit_names
 from creepcomp.fleet.table import arrow_table, write_table
 from creepcomp.fleet.unit import OIML_C3_CREEP, done_row, empty_row, one_line, process_unit, run_settings
+from creepcomp.io.atomic import write_text_atomic
+from creepcomp.io.outputs import check_output_dir
 
-__all__ = ["SERIAL", "WORKER_CONFIG", "FleetResult", "run", "local_cluster"]
+__all__ = ["SERIAL", "WORKER_CONFIG", "LOCK_FILE", "SETTINGS_FILE", "FleetResult", "run",
+           "local_cluster", "folder_lock", "claim_folder"]
+
+#: The lock file a run holds in its output folder while it works (removed at its end).
+LOCK_FILE = ".fleet.lock"
+
+#: The settings of the run whose results an output folder holds.
+SETTINGS_FILE = "fleet-settings.json"
 
 #: ``scheduler`` value that runs every unit in this process, one after the other, without Dask
 #: (for debugging and as the reference a distributed run must reproduce).
@@ -146,12 +164,94 @@ def run(records: Iterable[str | Path], out_dir: str | Path, workers: int | None 
         raise InputError("--workers is for the local cluster; an existing cluster (--scheduler) "
                          "brings its own workers")
     out = Path(out_dir)
+    check_output_dir(out, "-o", contents=("fleet.parquet", "fleet.csv", "report.html",
+                                          SETTINGS_FILE))
     paths = find_records(records, exclude=out)
     names = unit_names(paths)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"{out}: exists and is not a folder")
     (out / "units").mkdir(parents=True, exist_ok=True)
     settings = run_settings(spec, correct, unit_reports)
+    with folder_lock(out):
+        claim_folder(out, settings)
+        result = _run_units(paths, names, out, settings, workers, scheduler, spec, correct,
+                            unit_reports, report, progress, window, retries)
+    result.seconds = _time.perf_counter() - start
+    return result
+
+
+@contextlib.contextmanager
+def folder_lock(out: Path):
+    """Hold the lock file :data:`LOCK_FILE` of the folder ``out`` (an advisory ``flock``, freed
+    by the system when the process ends, however it ends); the file is removed on release.
+
+    Raises
+    ------
+    InputError
+        When another process holds it.
+    """
+    try:
+        import fcntl
+    except ImportError:  # no flock on this system: no lock
+        yield
+        return
+    path = out / LOCK_FILE
+    while True:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            holder = os.read(fd, 64).decode("ascii", "replace").strip() or "unknown"
+            os.close(fd)
+            raise InputError(f"-o {out}: another fleet run (process {holder}) is writing in this "
+                             "folder; wait for it to end or choose another folder") from None
+        try:  # the holder before may have removed the file between our open and our lock
+            same = os.stat(path).st_ino == os.fstat(fd).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            break
+        os.close(fd)
+    try:
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode("ascii"))
+        yield
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(path)
+        os.close(fd)
+
+
+def claim_folder(out: Path, settings: dict) -> None:
+    """Record ``settings`` in ``out``'s :data:`SETTINGS_FILE`, or refuse a folder that holds a
+    run with other settings (the same settings: the run resumes).
+
+    Raises
+    ------
+    InputError
+        Naming the settings that differ.
+    """
+    path = out / SETTINGS_FILE
+    try:
+        earlier = json.loads(path.read_text(encoding="utf-8")).get("settings")
+    except FileNotFoundError:
+        earlier = None
+    except (OSError, ValueError, AttributeError) as exc:
+        raise InputError(f"-o {out}: {SETTINGS_FILE} cannot be read ({one_line(exc, 120)}); "
+                         "remove it to start the folder afresh") from None
+    # a new result layout (``version``) only recomputes the units, as it always did
+    changed = ", ".join(f"{k} {earlier.get(k)!r} there, {settings.get(k)!r} now"
+                        for k in sorted(set(earlier or {}) | set(settings))
+                        if k != "version" and earlier is not None
+                        and earlier.get(k) != settings.get(k))
+    if changed:
+        raise InputError(f"-o {out}: holds a fleet run with other settings ({changed}); choose "
+                         f"another folder, or remove {SETTINGS_FILE} there to replace its results")
+    if earlier != settings:
+        write_text_atomic(path, json.dumps({"settings": settings}, indent=2) + "\n")
+
+
+def _run_units(paths, names, out, settings, workers, scheduler, spec, correct, unit_reports,
+               report, progress, window, retries) -> FleetResult:
+    """The body of :func:`run`, with the folder locked and claimed."""
     total = len(paths)
     rows: list[dict | None] = [None] * total
     done = 0
@@ -203,14 +303,16 @@ def run(records: Iterable[str | Path], out_dir: str | Path, workers: int | None 
         written["report"] = write_lot_report(summary, out / "report.html",
                                              {"spec": spec, "records": total, "workers": n_workers,
                                               "scheduler": where, "table": written["parquet"].name})
-    result.seconds = _time.perf_counter() - start
     return result
 
 
-def local_cluster(workers: int | None = None):
+def local_cluster(workers: int | None = None, local_directory: str | Path | None = None):
     """A Dask cluster of ``workers`` single-threaded worker processes on this machine (default:
     its cores), with :data:`WORKER_CONFIG`, no dashboard, quiet logs, and the workers deaf to
-    Ctrl-C. Close it (``with local_cluster(2) as cluster: ...``)."""
+    Ctrl-C. Close it (``with local_cluster(2) as cluster: ...``).
+
+    ``local_directory``: the workers' scratch folder (default: Dask's, ``dask-scratch-space``
+    in the temporary folder, left there)."""
     import dask
     from dask.distributed import LocalCluster
 
@@ -219,24 +321,43 @@ def local_cluster(workers: int | None = None):
     # should react to it, by closing the cluster
     main = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+    # a SIGTERM while the cluster starts is kept for when it has started (interrupted half-way,
+    # the cluster could not be closed); the handler is not inherited by the new processes
+    terms: list[int] = []
+    previous_term = signal.signal(signal.SIGTERM, lambda s, f: terms.append(s)) if main else None
     try:
-        with dask.config.set(WORKER_CONFIG):  # each nanny keeps the configuration it starts with
-            return LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                                processes=True, dashboard_address=None,
-                                scheduler_kwargs={"dashboard_address": ":0"},
-                                silence_logs=logging.CRITICAL)
+        config = dict(WORKER_CONFIG)
+        if local_directory is not None:  # the scheduler's scratch folder too
+            config["temporary-directory"] = str(local_directory)
+        with dask.config.set(config):  # each nanny keeps the configuration it starts with
+            cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
+                                   processes=True, dashboard_address=None,
+                                   local_directory=None if local_directory is None else str(local_directory),
+                                   scheduler_kwargs={"dashboard_address": ":0"},
+                                   silence_logs=logging.CRITICAL)
     finally:
         if main:
             signal.signal(signal.SIGINT, previous)
+            signal.signal(signal.SIGTERM, previous_term)
+    if terms:  # close it, then take the signal as it would have been taken
+        cluster.close()
+        signal.raise_signal(signal.SIGTERM)
+    return cluster
 
 
 def _run_dask(paths, names, todo, args, workers, scheduler, window, retries, finished):
     """Submit the units by path, at most ``window`` in flight; returns (workers, threads, where)."""
     from dask.distributed import Client, as_completed
 
-    cluster = None
+    cluster = scratch = None
     if scheduler is None:
-        cluster = local_cluster(workers)
+        # a scratch folder of the run's own, removed at its end
+        scratch = tempfile.mkdtemp(prefix="creepcomp-dask-")
+        try:
+            cluster = local_cluster(workers, scratch)
+        except BaseException:
+            shutil.rmtree(scratch, ignore_errors=True)
+            raise
         client = Client(cluster)
         where = "local"
     else:
@@ -283,3 +404,5 @@ def _run_dask(paths, names, todo, args, workers, scheduler, window, retries, fin
         client.close()
         if cluster is not None:
             cluster.close()
+        if scratch is not None:
+            shutil.rmtree(scratch, ignore_errors=True)

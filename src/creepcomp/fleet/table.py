@@ -1,5 +1,11 @@
 """The fleet's results table: one row per unit, its columns (type, unit, meaning), and writing
-it as Parquet (pyarrow) and CSV."""
+it as Parquet (pyarrow) and CSV.
+
+In the CSV file a text cell that a spreadsheet would read as a formula (one starting with
+``=``, ``+``, ``-``, ``@``, a tab or a carriage return) starts with ``'`` instead, as OWASP
+recommends against CSV injection (:func:`creepcomp.analog.bom.csv_cell`, as in a bill of
+materials); numbers stay numbers, and the Parquet file keeps the text as it is.
+"""
 
 from __future__ import annotations
 
@@ -7,7 +13,7 @@ from pathlib import Path
 
 from creepcomp.io.atomic import atomic_path
 
-__all__ = ["MAX_TERMS", "COLUMNS", "COLUMN_NAMES", "arrow_table", "write_table"]
+__all__ = ["MAX_TERMS", "COLUMNS", "COLUMN_NAMES", "arrow_table", "csv_safe", "write_table"]
 
 #: Creep terms given their own columns (``beta_1`` ... ``tau_4``, sorted by tau); a model with
 #: more terms has them in its ``model.json`` (``n_terms`` says how many).
@@ -68,8 +74,26 @@ def arrow_table(rows: list[dict]):
     return pa.Table.from_pylist([{k: r.get(k) for k in COLUMN_NAMES} for r in rows], schema=schema)
 
 
+def csv_safe(table):
+    """``table`` with every text cell a spreadsheet would run as a formula prefixed by ``'``
+    (:func:`creepcomp.analog.bom.csv_cell`): a spreadsheet then shows the text."""
+    import pyarrow as pa
+
+    from creepcomp.analog.bom import csv_cell
+
+    for i, column in enumerate(table.schema):
+        if not pa.types.is_string(column.type):
+            continue
+        values = table.column(i).to_pylist()
+        safe = [v if v is None else csv_cell(v) for v in values]
+        if safe != values:
+            table = table.set_column(i, column, pa.array(safe, pa.string()))
+    return table
+
+
 def write_table(table, out_dir: str | Path, stem: str = "fleet") -> dict[str, Path]:
-    """Write ``table`` as ``stem.parquet`` and ``stem.csv`` in ``out_dir``, each atomically.
+    """Write ``table`` as ``stem.parquet`` and ``stem.csv`` (its text cells made safe for a
+    spreadsheet, :func:`csv_safe`) in ``out_dir``, each atomically.
 
     Returns
     -------
@@ -84,5 +108,5 @@ def write_table(table, out_dir: str | Path, stem: str = "fleet") -> dict[str, Pa
     with atomic_path(paths["parquet"]) as tmp:
         pq.write_table(table, tmp)
     with atomic_path(paths["csv"]) as tmp:
-        pacsv.write_csv(table, tmp)
+        pacsv.write_csv(csv_safe(table), tmp)
     return paths

@@ -1,5 +1,10 @@
 """Atomic output files: written to a temporary file in the same folder, then renamed over the
-target, so an output is either complete or absent (never half-written, also on Ctrl-C)."""
+target, so an output is either complete or absent (never half-written, also on Ctrl-C).
+
+The target must be a regular file or new (:func:`creepcomp.io.outputs.check_replaceable`),
+checked before the writing and again just before the rename: a rename never replaces a named
+pipe, a device or a link to one.
+"""
 
 from __future__ import annotations
 
@@ -8,6 +13,8 @@ import os
 import uuid
 from pathlib import Path
 from typing import Iterator
+
+from creepcomp.io.outputs import check_replaceable
 
 __all__ = ["atomic_path", "write_text_atomic", "write_bytes_atomic"]
 
@@ -26,13 +33,20 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     ------
     Path
         Where to write; it does not exist yet when the block starts.
+
+    Raises
+    ------
+    InputError
+        When ``path`` exists and is not a regular file (or a link to one).
     """
     target = Path(path)
+    check_replaceable(target)
     # a fresh name rather than mkstemp: the file is then created with the user's usual
     # permissions (mkstemp's are 0600)
     tmp = target.with_name(f".{target.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.part")
     try:
         yield tmp
+        check_replaceable(target)
         os.replace(tmp, target)
     except BaseException:
         with contextlib.suppress(OSError):

@@ -2,18 +2,21 @@
 
 ``.mat`` insole files (:mod:`creepcomp.io.insole`, a ``taxel`` is needed), ``.xlsx`` creep
 workbooks (:mod:`creepcomp.io.wood`, a ``sheet`` unless there is one), gzip-compressed
-records (``.gz``: the CSV inside is read as any record) and CSV/text records
-(:func:`creepcomp.io.records.read_record`, with its column mapping and options).
+records (``.gz``: the CSV inside is read as any record, decompressed as it is read, with the
+bound of :func:`creepcomp.io.inputs.gzip_limit`) and CSV/text records
+(:func:`creepcomp.io.records.read_record`, with its column mapping and options). Every file is
+checked first (:func:`creepcomp.io.inputs.check_input_file`): a pipe, a device or a folder is
+refused before it is opened.
 """
 
 from __future__ import annotations
 
-import gzip
 from pathlib import Path
 from typing import Mapping
 
 from creepcomp.errors import InputError
-from creepcomp.io.records import Record, parse_record, read_record
+from creepcomp.io.inputs import check_input_file
+from creepcomp.io.records import Record, read_record
 
 __all__ = ["read_any"]
 
@@ -39,6 +42,7 @@ def read_any(path: str | Path, columns: Mapping[str, str] | None = None, delimit
         For an option that does not apply to the file's kind, and every reader's own errors.
     """
     p = Path(path)
+    check_input_file(p, "record")
     suffix = p.suffix.lower()
     if suffix != ".mat" and taxel is not None:
         raise InputError(f"{p}: a taxel applies to insole .mat files only")
@@ -59,13 +63,4 @@ def read_any(path: str | Path, columns: Mapping[str, str] | None = None, delimit
         from creepcomp.io.wood import read_wood
 
         return read_wood(p, sheet)
-    if suffix == ".gz":
-        try:
-            text = gzip.decompress(p.read_bytes()).decode("utf-8-sig")
-        except FileNotFoundError:
-            raise InputError(f"record {p}: no such file") from None
-        except (OSError, EOFError, UnicodeDecodeError) as exc:
-            raise InputError(f"record {p}: not gzip-compressed UTF-8 text ({exc})") from None
-        return parse_record(text, source=str(p), columns=columns, delimiter=delimiter,
-                            duplicate_times=duplicate_times)
     return read_record(p, columns, delimiter=delimiter, duplicate_times=duplicate_times)

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from creepcomp.errors import InputError
+from creepcomp.io.inputs import check_input_file
 from creepcomp.io.records import Record
 
 __all__ = ["N_TAXELS", "FULL_SCALE", "DROPOUT_BELOW", "InsoleFile", "read_insole_file",
@@ -87,8 +88,7 @@ def read_insole_file(path: str | Path) -> InsoleFile:
     from scipy.io.matlab import MatReadError
 
     p = Path(path)
-    if not p.exists():
-        raise InputError(f"insole file {p}: no such file")
+    check_input_file(p, "insole file")
     try:
         mat = loadmat(str(p), squeeze_me=True, struct_as_record=False)
     except (MatReadError, ValueError, TypeError, OSError, NotImplementedError) as exc:

@@ -10,6 +10,7 @@ from typing import Any
 
 from creepcomp.errors import InputError
 from creepcomp.io.atomic import write_text_atomic
+from creepcomp.io.inputs import MAX_JSON_BYTES, check_input_file
 from creepcomp.model import CreepModel
 from creepcomp.network import Network
 
@@ -18,8 +19,10 @@ __all__ = ["read_json", "to_json", "write_json", "read_model", "write_model", "D
 
 
 def read_json(path: str | Path, what: str = "file") -> dict:
-    """Read a JSON object, with one clear message for a missing or malformed file."""
+    """Read a JSON object, with one clear message for a missing, special (a pipe, a device),
+    too large (:data:`~creepcomp.io.inputs.MAX_JSON_BYTES`) or malformed file."""
     p = Path(path)
+    check_input_file(p, what, MAX_JSON_BYTES)
     try:
         text = p.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
@@ -32,7 +35,7 @@ def read_json(path: str | Path, what: str = "file") -> dict:
         raise InputError(f"{what} {p}: not valid JSON at line {exc.lineno}, column {exc.colno}: "
                          f"{exc.msg}") from None
     except RecursionError:
-        raise InputError(f"{what} {p}: JSON nested too deeply to be a {what}") from None
+        raise InputError(f"{what} {p}: nested too deeply to be a model or design file") from None
     if not isinstance(data, dict):
         raise InputError(f"{what} {p}: expected one JSON object, found {type(data).__name__}")
     return data

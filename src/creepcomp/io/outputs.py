@@ -1,6 +1,13 @@
 """Output paths checked before any work: not an input, in a folder that can be written (a
 missing folder is made later, as before, when its nearest existing parent is a writable
-folder), not a folder where a file is wanted (and the reverse).
+folder), not a folder where a file is wanted (and the reverse), a regular file or a new path
+(never a named pipe, a device such as ``/dev/null`` or ``/dev/full``, a socket, or a symbolic
+link to one of those or to a folder), and a file ending a writer knows (``--plot x.xyz`` is
+refused before the work, not after it).
+
+A symbolic link to a regular file is accepted and replaced by the new file, as any existing
+file is: the link's target is left unchanged. The output never lands outside the folder its
+path names.
 
 Every command that writes files calls :func:`check_outputs` first, so a long run never ends
 in "cannot write" and never overwrites the file it read; the files themselves are then
@@ -10,13 +17,77 @@ written atomically (:mod:`creepcomp.io.atomic`).
 from __future__ import annotations
 
 import os
+import stat
 import tempfile
 from pathlib import Path
-from typing import Iterable, Mapping
+from typing import Iterable, Mapping, Sequence
 
 from creepcomp.errors import InputError
 
-__all__ = ["check_outputs", "check_output_file", "check_output_dir", "check_figure_suffix", "FIGURE_SUFFIXES"]
+__all__ = ["PLOT_SUFFIXES", "OUTPUT_SUFFIXES", "check_outputs", "check_output_file",
+           "check_output_dir", "check_replaceable", "file_kind"]
+
+#: File endings a plot can be saved as (matplotlib's formats); no ending is PNG.
+PLOT_SUFFIXES = ("png", "pdf", "svg", "svgz", "eps", "ps", "jpg", "jpeg", "tif", "tiff", "webp",
+                 "pgf", "raw", "rgba")
+
+#: Option -> the file endings its output may have (without the dot; "" for none), checked by
+#: :func:`check_outputs` unless the caller gives its own.
+OUTPUT_SUFFIXES = {"--plot": ("",) + PLOT_SUFFIXES}
+
+
+def file_kind(mode: int) -> str:
+    """What a file of ``mode`` (``os.stat``'s ``st_mode``) is, in words."""
+    if stat.S_ISREG(mode):
+        return "a regular file"
+    if stat.S_ISDIR(mode):
+        return "a folder"
+    if stat.S_ISFIFO(mode):
+        return "a named pipe (FIFO)"
+    if stat.S_ISCHR(mode):
+        return "a character device"
+    if stat.S_ISBLK(mode):
+        return "a block device"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    return "not a regular file"
+
+
+def check_replaceable(path: str | Path, option: str = "output") -> None:
+    """Refuse an existing ``path`` that is not a regular file (or a symbolic link to one): a
+    new file renamed over it would replace a pipe, a device or a link the user did not mean.
+
+    Raises
+    ------
+    InputError
+        Naming the path and what it is.
+    """
+    p = Path(path)
+    try:
+        link = stat.S_ISLNK(os.lstat(p).st_mode)
+    except (FileNotFoundError, NotADirectoryError):  # a new path (its folder is checked apart)
+        return
+    except OSError as exc:
+        raise InputError(f"{option} {p}: cannot look at it ({exc.strerror or exc})") from None
+    try:
+        mode = os.stat(p).st_mode
+    except OSError:
+        raise InputError(f"{option} {p}: a symbolic link to a missing or unreadable path; "
+                         "give a regular file or a new path") from None
+    if not stat.S_ISREG(mode):
+        what = file_kind(mode)
+        where = f"a symbolic link to {os.path.realpath(p)}, {what}" if link else what
+        raise InputError(f"{option} {p}: is {where}; outputs go to regular files or new paths "
+                         "only")
+
+
+def _check_suffix(p: Path, option: str, suffixes) -> None:
+    if suffixes is None:
+        return
+    ending = p.suffix.lstrip(".").lower()
+    if ending not in suffixes:
+        known = ", ".join("." + s for s in suffixes if s)
+        raise InputError(f"{option} {p}: unknown file ending '{p.suffix}'; use one of {known}")
 
 
 def _same(a: Path, b: Path) -> bool:
@@ -45,7 +116,8 @@ def _writable_folder(folder: Path, option: str, path: Path) -> None:
 
 
 def check_output_file(path: str | Path, option: str = "-o",
-                      inputs: Iterable[str | Path | None] = ()) -> Path:
+                      inputs: Iterable[str | Path | None] = (),
+                      suffixes: Sequence[str] | None = None) -> Path:
     """Check an output file path; return it.
 
     Parameters
@@ -56,20 +128,25 @@ def check_output_file(path: str | Path, option: str = "-o",
         The option that named it, for the message.
     inputs : iterable of paths
         Files the command reads: the output may not be one of them.
+    suffixes : sequence of str, optional
+        The file endings allowed (without the dot, "" for none); default: any.
 
     Raises
     ------
     InputError
-        The output is an input, a folder, in a missing or read-only folder, or an existing
-        file that cannot be replaced.
+        The output is an input, a folder, not a regular file (a pipe, a device, a link to
+        one), in a missing or read-only folder, an existing file that cannot be replaced, or
+        has an ending not in ``suffixes``.
     """
     p = Path(path)
+    _check_suffix(p, option, suffixes)
     for source in inputs:
         if source is not None and _same(p, Path(source)):
             raise InputError(f"{option} {p}: that is the input file {source}; choose another "
                              "output path (the input would be overwritten)")
     if p.is_dir():
         raise InputError(f"{option} {p}: is a folder; give a file name")
+    check_replaceable(p, option)
     _writable_folder(p.parent if str(p.parent) else Path("."), option, p)
     if p.exists() and not os.access(p, os.W_OK):
         raise InputError(f"{option} {p}: the existing file cannot be replaced (not writable)")
@@ -77,13 +154,26 @@ def check_output_file(path: str | Path, option: str = "-o",
 
 
 def check_output_dir(path: str | Path, option: str = "-o",
-                     inputs: Iterable[str | Path | None] = ()) -> Path:
+                     inputs: Iterable[str | Path | None] = (),
+                     contents: Iterable[str] = ()) -> Path:
     """Check an output folder (made later if missing, its parent must exist); return it.
+
+    Parameters
+    ----------
+    path : str or Path
+    option : str
+        The option that named it, for the message.
+    inputs : iterable of paths
+        Files the command reads.
+    contents : iterable of str
+        Names of the files the command will write in the folder: each must be a regular
+        file or new (:func:`check_replaceable`).
 
     Raises
     ------
     InputError
-        The path is an input file, a file, or its parent folder is missing or read-only.
+        The path is an input file, not a folder, its parent folder is missing or read-only,
+        or one of ``contents`` is there and not a regular file.
     """
     p = Path(path)
     for source in inputs:
@@ -91,29 +181,22 @@ def check_output_dir(path: str | Path, option: str = "-o",
             raise InputError(f"{option} {p}: that is the input file {source}")
     if p.exists():
         if not p.is_dir():
-            raise InputError(f"{option} {p}: is a file, not a folder")
+            mode = os.stat(p).st_mode
+            what = "a file" if stat.S_ISREG(mode) else file_kind(mode)
+            raise InputError(f"{option} {p}: is {what}, not a folder")
         _writable_folder(p, option, p)
+        for name in contents:
+            check_replaceable(p / name, option)
     else:
         _writable_folder(p.parent if str(p.parent) else Path("."), option, p)
     return p
 
 
-#: The file types matplotlib's file backend writes (a ``--plot`` file's suffix names one).
-FIGURE_SUFFIXES = ("avif", "eps", "gif", "jpeg", "jpg", "pdf", "pgf", "png", "ps", "raw", "rgba", "svg",
-                   "svgz", "tif", "tiff", "webp")
-
-
-def check_figure_suffix(path: str | Path, option: str) -> None:
-    """Raise :class:`InputError` unless ``path`` ends in one of :data:`FIGURE_SUFFIXES`."""
-    suffix = Path(path).suffix.lower().lstrip(".")
-    if suffix not in FIGURE_SUFFIXES:
-        raise InputError(f"{option} {path}: the suffix names no figure format; use .png, .svg or "
-                         f".pdf (or one of {', '.join(FIGURE_SUFFIXES)})")
-
-
 def check_outputs(files: Mapping[str, str | Path | None] | None = None,
                   dirs: Mapping[str, str | Path | None] | None = None,
-                  inputs: Iterable[str | Path | None] = ()) -> None:
+                  inputs: Iterable[str | Path | None] = (),
+                  suffixes: Mapping[str, Sequence[str]] | None = None,
+                  contents: Mapping[str, Iterable[str]] | None = None) -> None:
     """Check every output of a command before it starts (None entries are skipped).
 
     Parameters
@@ -124,6 +207,10 @@ def check_outputs(files: Mapping[str, str | Path | None] | None = None,
         Option -> output folder path.
     inputs : iterable of paths
         Files the command reads.
+    suffixes : mapping, optional
+        Option -> the file endings allowed; default :data:`OUTPUT_SUFFIXES` (``--plot``).
+    contents : mapping, optional
+        Folder option -> names of the files written in it (:func:`check_output_dir`).
 
     Raises
     ------
@@ -131,17 +218,16 @@ def check_outputs(files: Mapping[str, str | Path | None] | None = None,
         For the first bad output, or two outputs that are the same file.
     """
     inputs = [i for i in inputs if i is not None]
+    endings = OUTPUT_SUFFIXES if suffixes is None else suffixes
     seen: list[tuple[str, Path]] = []
     for option, path in (files or {}).items():
         if path is None:
             continue
-        if option.startswith("--plot"):
-            check_figure_suffix(path, option)
-        p = check_output_file(path, option, inputs)
+        p = check_output_file(path, option, inputs, endings.get(option))
         for other, q in seen:
             if _same(p, q):
                 raise InputError(f"{option} {p}: the same file as {other}; give different paths")
         seen.append((option, p))
     for option, path in (dirs or {}).items():
         if path is not None:
-            check_output_dir(path, option, inputs)
+            check_output_dir(path, option, inputs, (contents or {}).get(option, ()))

@@ -32,6 +32,7 @@ from typing import Callable, Iterator, Mapping
 import numpy as np
 
 from creepcomp.errors import InputError
+from creepcomp.io.inputs import check_input_file, gunzipped, open_input
 from creepcomp.io.record_check import (COLUMNS, OPTIONAL, REQUIRED, TIME_UNITS_TO_SECONDS,
                                        RecordHead, all_finite, apply_units, check_arrays,
                                        check_delimiter, check_time_order, finish_arrays,
@@ -183,7 +184,8 @@ def read_record(path: str | Path, columns: Mapping[str, str] | None = None,
     Parameters
     ----------
     path : str or Path
-        CSV file.
+        CSV file, or a gzip-compressed one (``.gz``: decompressed into a temporary file, with
+        the bound of :func:`creepcomp.io.inputs.gzip_limit`).
     columns : mapping, optional
         Record column -> the file's column name (or a constant number).
     delimiter : str, optional
@@ -216,18 +218,51 @@ def read_record(path: str | Path, columns: Mapping[str, str] | None = None,
     """
     p = Path(path)
     check_delimiter(delimiter)
-    if p.is_file():
-        record = _read_fast(p, lower_keys(columns), delimiter, duplicate_times)
-        if record is not None:
-            return record
-    try:
-        text = p.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise InputError(f"record {p}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
-    except OSError as exc:
-        raise _read_error(p, exc) from None
-    return parse_record(text, source=str(p), columns=columns, delimiter=delimiter,
-                        duplicate_times=duplicate_times)
+    check_input_file(p, "record")
+    if p.suffix.lower() == ".gz":
+        with gunzipped(p, "record") as plain:
+            return _read_plain(plain, str(p), columns, delimiter, duplicate_times)
+    return _read_plain(p, str(p), columns, delimiter, duplicate_times)
+
+
+def _read_plain(p: Path, source: str, columns, delimiter, duplicate_times) -> Record:
+    """:func:`read_record` of a plain text file; ``source`` names it in messages."""
+    record = _read_fast(p, lower_keys(columns), delimiter, duplicate_times, source)
+    if record is not None:
+        return record
+    with _open(p) as fh:
+        text = io.TextIOWrapper(fh, encoding="utf-8-sig", newline="")
+        try:
+            return _parse_lines(_split_lines(text), source, columns, delimiter, duplicate_times)
+        except UnicodeDecodeError as exc:
+            raise InputError(f"record {source}: not UTF-8 text ({exc.reason} at byte "
+                             f"{_first_bad_byte(p)})") from None
+        except OSError as exc:
+            raise _read_error(Path(source), exc) from None
+
+
+def _split_lines(text: Iterator[str]) -> Iterator[str]:
+    """The lines of a text file as ``str.splitlines`` would give them for its whole text,
+    read one at a time (the file opened with ``newline=""``)."""
+    for line in text:
+        yield from line.splitlines()
+
+
+def _first_bad_byte(path: Path) -> int:
+    """Offset of the first byte of ``path`` that is not UTF-8 (read in blocks)."""
+    import codecs
+
+    decoder = codecs.getincrementaldecoder("utf-8")()
+    position = 0
+    with _open(path) as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            pending = len(decoder.getstate()[0])
+            try:
+                decoder.decode(block)
+            except UnicodeDecodeError as exc:
+                return position - pending + exc.start
+            position += len(block)
+    return position
 
 
 def _read_error(path: Path, exc: OSError) -> InputError:
@@ -238,9 +273,10 @@ def _read_error(path: Path, exc: OSError) -> InputError:
 
 
 def _open(path: Path):
-    """``path`` opened for reading bytes; an :class:`InputError` when it cannot be."""
+    """``path`` checked (:func:`~creepcomp.io.inputs.check_input_file`) and opened for reading
+    bytes; an :class:`InputError` when it cannot be."""
     try:
-        return path.open("rb")
+        return open_input(path, "record")
     except OSError as exc:
         raise _read_error(path, exc) from None
 
@@ -252,30 +288,36 @@ def parse_record(text: str, source: str = "record", columns: Mapping[str, str] |
     Faults are found in this order: the header (a missing or unmapped column, an unknown
     time unit), the cells row by row, no data, the time order.
     """
+    return _parse_lines(iter(text.splitlines()), source, columns, delimiter, duplicate_times)
+
+
+def _parse_lines(lines: Iterator[str], source: str, columns: Mapping[str, str] | None,
+                 delimiter: str | None, duplicate_times: str) -> Record:
+    """:func:`parse_record` over lines read one at a time: the memory is the values read
+    (8 bytes each), not the text."""
+    from array import array
+
     check_delimiter(delimiter)
     mapping = lower_keys(columns)
-    lines = text.splitlines()
     metadata: dict[str, str] = {}
-    header_at = next((i for i, line in enumerate(lines)
-                      if take_header_line(line, mapping, delimiter, metadata)), None)
+    header_at = None
+    for i, line in enumerate(lines):
+        if take_header_line(line, mapping, delimiter, metadata):
+            header_at, header_line = i, line
+            break
     if header_at is None:
         raise no_header_error(source, mapping)
-    d = delimiter or sniff_delimiter(lines[header_at])
-    reader = csv.reader(io.StringIO("\n".join(lines[header_at:])), delimiter=d)
+    d = delimiter or sniff_delimiter(header_line)
+    reader = _csv_rows(csv.reader(itertools.chain([header_line], lines), delimiter=d), source, header_at)
     header = [h.strip() for h in next(reader)]
     column_map = resolve_columns(header, mapping, source, header_at)
-    try:
-        rows = list(reader)
-    except csv.Error as exc:
-        # a field over the csv module's limit (128 KiB) cannot be a number or a unit
-        raise InputError(f"{source}, line {header_at + reader.line_num}: {exc}") from None
-    units_row = rows[0] if mapping and rows and column_map.is_units_row(rows[0]) else None
+    first = next(reader, None)
+    units_row = first if mapping and first is not None and column_map.is_units_row(first) else None
     head = RecordHead(source, metadata, column_map, d, header_at, units_row)
-    if units_row is not None:
-        rows = rows[1:]
+    rows = reader if first is None or units_row is not None else itertools.chain([first], reader)
     time_scale = apply_units(head)
-    values: list[list[float]] = [[] for _ in column_map.read]
-    line_of_sample = []
+    values = [array("d") for _ in column_map.read]
+    line_of_sample = array("q")
     for offset, row in enumerate(rows):
         line_no = head.first_data_line + offset
         row_of_values = row_values(row, head, line_no)
@@ -284,11 +326,27 @@ def parse_record(text: str, source: str = "record", columns: Mapping[str, str] |
         for column, x in zip(values, row_of_values):
             column.append(x)
         line_of_sample.append(line_no)
-    arrays = {name: np.array(v, dtype=float) for name, v in zip(column_map.read, values)}
+    arrays = {name: np.frombuffer(v, dtype=float).copy() if len(v) else np.zeros(0)
+              for name, v in zip(column_map.read, values)}
+    del values
     arrays.update(column_map.constant_arrays(len(line_of_sample)))
     arrays = finish_arrays(arrays, head, time_scale, duplicate_times)
     check_time_order(arrays["time"], source, line_of_sample.__getitem__)
     return Record(source=source, metadata=metadata, **{name: arrays.get(name) for name in COLUMNS})
+
+
+def _csv_rows(reader, source: str, header_at: int) -> Iterator[list[str]]:
+    """The rows of a csv reader that starts at the header line; a csv fault (a field over
+    the csv module's limit of 128 KiB, which cannot be a number or a unit) as one InputError
+    naming the line."""
+    while True:
+        try:
+            row = next(reader)
+        except StopIteration:
+            return
+        except csv.Error as exc:
+            raise InputError(f"{source}, line {header_at + reader.line_num}: {exc}") from None
+        yield row
 
 
 def _read_head(fh, source: str, mapping: dict, delimiter: str | None) -> RecordHead | None:
@@ -368,7 +426,7 @@ def _plain_arrays(columns: dict, head: RecordHead, n: int) -> dict[str, np.ndarr
 
 
 def _read_fast(path: Path, mapping: dict, delimiter: str | None,
-               duplicate_times: str) -> Record | None:
+               duplicate_times: str, source: str | None = None) -> Record | None:
     """Read a plain record with pyarrow's CSV reader (fast, little memory); None when the
     file is for the line reader, which names the line and column of a problem.
 
@@ -380,7 +438,7 @@ def _read_fast(path: Path, mapping: dict, delimiter: str | None,
     import pyarrow as pa
     import pyarrow.csv as pacsv
 
-    source = str(path)
+    source = str(path) if source is None else source
     with _open(path) as fh:
         head = _read_head(fh, source, mapping, delimiter)
         if head is None:
@@ -540,7 +598,7 @@ def open_record_stream(path: str | Path, columns: Mapping[str, str] | None = Non
     check_delimiter(delimiter)
     if p.suffix.lower() in NOT_STREAMED_SUFFIXES:
         return RecordStream(p, None, 0, block_bytes, f"a '{p.suffix}' file, not a plain CSV file")
-    if not p.is_file():
+    if not p.is_file():  # missing, a pipe, a device: the whole reader refuses it (never opened here)
         return RecordStream(p, None, 0, block_bytes, "not a file")
     with _open(p) as fh:
         head = _read_head(fh, str(p), lower_keys(columns), delimiter)

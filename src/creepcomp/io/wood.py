@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from creepcomp.errors import InputError
+from creepcomp.io.inputs import check_input_file
 from creepcomp.io.records import Record
 
 __all__ = ["LR_ELASTIC_MODULUS_MPA", "WoodSheet", "wood_sheets", "read_wood_sheet", "wood_record",
@@ -75,8 +76,7 @@ def _open(path: str | Path):
     from openpyxl import load_workbook
 
     p = Path(path)
-    if not p.exists():
-        raise InputError(f"workbook {p}: no such file")
+    check_input_file(p, "workbook")
     try:
         return load_workbook(p, read_only=True, data_only=True)
     except Exception as exc:  # openpyxl raises zipfile, KeyError, InvalidFileException ...

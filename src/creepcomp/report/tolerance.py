@@ -127,7 +127,7 @@ def tolerance_report_html(report, path: str | Path, design_file: str | Path | No
         y, se = r.yield_against(report.limit, report.metric)
         sections.append(("Yield", f"<p>{names[report.metric]} at or below {pct(report.limit)}: "
                                   f"<b>{100 * y:.2f} %</b> of samples (± {100 * se:.2f} %).</p>"))
-    if r.temperatures:
+    if len(r.temperatures or ()) > 1:     # one temperature is the summary's figures
         sections.append(("Over temperature", over_temperature_block(report)))
     sections.append(("Distributions", f"<img alt='histograms' src='{hist}'>"))
     sections.append(("Sensitivity", f"<img alt='sensitivity chart' src='{sens_png}'>" +

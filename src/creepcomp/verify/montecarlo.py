@@ -373,8 +373,29 @@ def _joined(parts: list[Metrics]) -> Metrics:
 
 
 def _ignore_interrupts() -> None:
-    """Worker processes leave Ctrl-C to the main process, which stops them."""
+    """Worker processes leave Ctrl-C and SIGTERM to the main process, which stops them; a
+    worker whose main process dies without stopping it (SIGKILL) is killed by the kernel
+    (Linux), never left running on its own."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    _die_with_parent()
+
+
+def _die_with_parent() -> None:
+    """Ask Linux to send this process SIGKILL when its parent ends (``prctl``); elsewhere a
+    no-op."""
+    import ctypes
+    import ctypes.util
+    import sys
+
+    if not sys.platform.startswith("linux"):
+        return
+    pr_set_pdeathsig = 1
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+        libc.prctl(pr_set_pdeathsig, signal.SIGKILL, 0, 0, 0)
+    except (OSError, AttributeError):
+        pass
 
 
 def nominal_metrics(design: Design, spec: ToleranceSpec, sweep_period: float | None = None) -> Metrics:

@@ -49,7 +49,8 @@ from creepcomp.diagnose.effects._sensor import Scales, SignalPath, Simulated
 
 __all__ = ["Effect", "SensorEffect", "Scales", "SignalPath", "Simulated", "REGISTRY", "register",
            "unregister", "effects_on", "sensor_effects", "flow_effect", "get", "arrays_data", "model_structure",
-           "simulate_extended", "compensate_extended"]
+           "simulate_extended", "compensate_extended", "extension_inverses", "BASELINE_ADVICE",
+           "firmware_output"]
 
 
 class Effect(abc.ABC):
@@ -210,6 +211,21 @@ class Effect(abc.ABC):
     def linear_terms(self, values: dict, applied: Applied, data: Data) -> list[tuple[float, float]]:
         """Prony terms (beta, tau) that approximate the effect for the linear inverse."""
         return []
+
+    def inverse(self, entry: dict, model: CreepModel) -> str | None:
+        """How the creep correction undoes this extension of a model file (``entry``: its
+        parameters; ``model``: the whole model), in one line for the user; None: it cannot be undone causally, and the
+        correction refuses a model with it. The correction (:func:`compensate_extended`) finds
+        the load whose simulation through the model equals the signal; :meth:`precondition`
+        and :meth:`linear_terms` speed it up, this hook says what it amounts to."""
+        return None
+
+    def firmware_output(self, entry: dict, model: CreepModel) -> dict | None:
+        """The extension as a map of the C corrector's output, sample by sample, when it is
+        one the generator can write (``entry``: its parameters): ``{"polynomial": (c2, c3)}``,
+        the load ``X`` (signal units above the offset) whose instantaneous response
+        ``X + c2 X^2 + c3 X^3`` is the linear corrector's output. None: no C corrector."""
+        return None
 
 
 class SensorEffect(Effect, Simulated):
@@ -438,21 +454,64 @@ def _linear_inverse(time, residual, gain: float, betas, taus, initial: str, hold
                                          initial=initial, hold=hold), float) / gain
 
 
+#: What a user whose extended model cannot be used in a correction can do instead.
+BASELINE_ADVICE = ("correct with the baseline model instead: --model baseline-model.json, which "
+                   "creepcomp diagnose -o writes next to model.json")
+
+#: Largest last step of the defect correction, relative to the load's largest, for the inverse
+#: to count as found (where no load gives the signal exactly, as in the first samples of a
+#: delayed signal, which answer the load before the record, the steps still settle).
+INVERSE_TOLERANCE = 1e-6
+
+#: Most steps of the defect correction when the inverse must be found (``strict``).
+STRICT_ITERATIONS = 400
+
+
+def extension_inverses(model: CreepModel) -> dict[str, str]:
+    """How the creep correction undoes each extension of ``model`` (:meth:`Effect.inverse`),
+    by name; one clear refusal naming the first it cannot undo."""
+    out = {}
+    for name, entry in (model.extensions or {}).items():
+        effect = get(name)
+        how = effect.inverse(entry if isinstance(entry, dict) else {}, model)
+        if how is None:
+            raise InputError(f"the model's extension '{name}' cannot be inverted causally by the "
+                             f"creep correction; {BASELINE_ADVICE}")
+        out[name] = how
+    if out and model.temperature is not None:
+        raise InputError(f"the model's temperature law cannot be applied together with its "
+                         f"extensions ({', '.join(out)}); {BASELINE_ADVICE}")
+    return out
+
+
 def compensate_extended(time, signal, model: CreepModel, temperature=None, initial: str = "relaxed",
-               hold: str = "linear", tolerance: float = 1e-10, max_iterations: int = 60) -> np.ndarray:
+               hold: str = "linear", tolerance: float = 1e-10, max_iterations: int | None = None,
+               strict: bool = False) -> np.ndarray:
     """Creep-corrected signal of an extended model: the instantaneous signal
     ``offset + gain * load`` whose simulation through the model equals the measured signal.
 
     Solved by defect correction: the model's linear creep (plus the Prony equivalents of
     linear extensions) is inverted by the digital subtractive correction, each extension maps
     the increment back through its own stage (:meth:`Effect.precondition`), and the step is
-    repeated on what remains. A model without extensions is inverted in one step.
+    repeated on what remains. A model without extensions is inverted in one step. Every
+    template is causal (its signal at a sample depends on the load up to that sample), so the
+    load found at a sample depends only on the signal up to it: the same as a correction
+    sample by sample.
+
+    ``strict``: refuse (:class:`InputError`, naming the extensions) a model with an extension
+    that :meth:`Effect.inverse` cannot undo, and a signal whose inverse is not found (the
+    steps do not settle below :data:`INVERSE_TOLERANCE` of the load).
+    ``max_iterations``: default 60, or :data:`STRICT_ITERATIONS` when ``strict`` (the steps
+    stop once they are below ``tolerance``; a few suffice for most models, a delay's
+    preconditioner converges slowly at load steps).
 
     Returns
     -------
     numpy.ndarray
         Compensated signal in signal units.
     """
+    if strict:
+        extension_inverses(model)
     t = np.asarray(time, float)
     y = np.asarray(signal, float)
     data = arrays_data(t, np.zeros_like(t), temperature=temperature, initial=initial, hold=hold)
@@ -462,14 +521,45 @@ def compensate_extended(time, signal, model: CreepModel, temperature=None, initi
         for b, tau in a.effect.linear_terms(values, a, data):
             betas.append(b)
             taus.append(tau)
+    if max_iterations is None:
+        max_iterations = STRICT_ITERATIONS if strict else 60
     load = np.zeros_like(t)
-    scale = max(float(np.max(np.abs(y - model.offset))) / abs(model.gain), 1e-300)
+    scale = max(float(np.max(np.abs(y - model.offset))), 1e-300) / abs(model.gain)
+    step = 0.0
     for _ in range(max_iterations):
-        sim = simulate_extended(model, t, load, temperature, initial, hold)
+        with np.errstate(**({"all": "ignore"} if strict else {})):
+            sim = simulate_extended(model, t, load, temperature, initial, hold)
+        if strict and not np.all(np.isfinite(sim)):
+            step = math.inf
+            break
         delta = _linear_inverse(t, y - sim, model.gain, betas, taus, initial, hold)
         for a in reversed(structure.effects):
             delta = a.effect.precondition(data, delta, load, values, a)
         load = load + delta
-        if float(np.max(np.abs(delta))) <= tolerance * scale:
+        step = float(np.max(np.abs(delta)))
+        if step <= tolerance * scale:
             break
+    if strict and structure.effects and not step <= INVERSE_TOLERANCE * scale:
+        names = ", ".join(a.name for a in structure.effects)
+        why = ("its steps diverge" if not math.isfinite(step) else
+               f"its steps still move the load by {step / scale:.2g} of its largest after {max_iterations}")
+        raise InputError(f"the creep correction finds no load whose simulation through the model's "
+                         f"extensions ({names}) gives the signal ({why}); {BASELINE_ADVICE}")
     return model.offset + model.gain * load
+
+
+def firmware_output(model: CreepModel) -> dict | None:
+    """The C corrector's output map of the model's extensions (:meth:`Effect.firmware_output`),
+    None without extensions; one clear refusal naming an extension it cannot write, or a
+    second one (the generator writes one map)."""
+    maps = []
+    for name, entry in (model.extensions or {}).items():
+        extension_inverses(CreepModel(model.beta, model.tau, model.gain, model.offset, {name: entry}))
+        out = get(name).firmware_output(entry if isinstance(entry, dict) else {}, model)
+        if out is None or maps:
+            why = "no C corrector" if out is None else "no C corrector together with another extension"
+            raise InputError(f"the model's extension '{name}' has {why}: generate the firmware of the "
+                             f"baseline model (baseline-model.json, which creepcomp diagnose -o writes), "
+                             f"or correct records in Python with creepcomp correct, which applies it")
+        maps.append(out)
+    return maps[0] if maps else None

@@ -96,6 +96,12 @@ class AsymmetricRecovery(SensorEffect):
         return (Applied(self, (("term", k), ("switch", switch))),
                 {"asymmetric_recovery.tau_recovery": float(entry["tau_recovery"])})
 
+    def inverse(self, entry, model):
+        if entry.get("switch", "state") == "direction":
+            return ("the term's time constant tau_recovery after a fall of the load's magnitude (found up to each "
+                    "sample; dead band 1 % of the record's largest load), tau otherwise")
+        return "the term's time constant tau_recovery on the steps where its state shrinks, tau where it grows"
+
     # -- generator ---------------------------------------------------------------------------
     def draw_default(self, rng, scales, mixture):
         f = rng.uniform(2.5, 5.0)

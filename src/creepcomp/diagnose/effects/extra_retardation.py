@@ -83,6 +83,9 @@ class ExtraRetardation(SensorEffect):
     def restore(self, entry, model, data):
         return Applied(self, ()), {}
 
+    def inverse(self, entry, model):
+        return "its creep term is one of the model's terms, inverted with them"
+
     # -- generator ---------------------------------------------------------------------------
     def draw_default(self, rng, scales, mixture):
         s = scales

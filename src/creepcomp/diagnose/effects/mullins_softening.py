@@ -113,6 +113,16 @@ class MullinsSoftening(SensorEffect):
         slope = np.where(np.abs(load) >= m, 1.0, slope)
         return delta / np.maximum(slope, 0.1)
 
+    def inverse(self, entry, model):
+        # the reloading curve x (1 - softening g(z)), z = 1 - |x|/m, must rise in |x| for
+        # one load per signal: its slope 1 - softening (g(z) - (1 - z) g'(z)) above 0
+        z = np.linspace(0.0, 1.0, 201)
+        g, dg = _shaped(z, float(entry.get("shape", 0.0)))
+        if np.min(1.0 - float(entry["softening"]) * (g - (1.0 - z) * dg)) <= 0:
+            return None
+        return ("each sample's load from the reloading curve x (1 - softening g(1 - |x|/m)), m the running "
+                "maximum of the load found so far")
+
     # -- generator ---------------------------------------------------------------------------
     def draw(self, rng, scales, form):
         out = {"softening": float(rng.uniform(0.1, 0.3))}

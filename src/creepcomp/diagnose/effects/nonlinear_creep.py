@@ -112,6 +112,10 @@ class NonlinearCreep(SensorEffect):
                 {"nonlinear_creep.growth": float(entry["growth"]),
                  "nonlinear_creep.acceleration": float(entry.get("acceleration", 0.0))})
 
+    def inverse(self, entry, model):
+        return ("the creep terms driven by s (1 + growth |s|/L), their speed 1 + acceleration |s|/L, "
+                "from the load found up to each sample")
+
     # -- generator ---------------------------------------------------------------------------
     def draw_default(self, rng, scales, mixture):
         if mixture and rng.uniform() < 0.3:

@@ -184,6 +184,13 @@ class RateIndependentHysteresis(SensorEffect):
         ratio = values["rate_independent_hysteresis.weight"] / values["gain"]
         return delta / max(1.0 - 0.5 * ratio, 0.1)
 
+    def inverse(self, entry, model):
+        if float(entry["weight"]) / model.gain >= 1.0:
+            # in the dead band after a reversal the slope gain - weight is not of the gain's
+            # sign: one signal, several loads
+            return None
+        return "weight (play(x) - x), the play operator run on the load found up to each sample, taken out of the signal"
+
     # -- generator ---------------------------------------------------------------------------
     def draw(self, rng, scales, form):
         s = scales

@@ -63,6 +63,18 @@ class StaticNonlinearity(SensorEffect):
         slope = 1.0 + 2 * a2 * r + 3 * a3 * r ** 2
         return delta / np.where(np.abs(slope) > 0.1, slope, 0.1)
 
+    def inverse(self, entry, model):
+        # the polynomial must rise over the loads a record can hold (1.5 times full scale,
+        # either sign) for each signal to have one load
+        r = np.linspace(-1.5, 1.5, 301)
+        if np.min(1.0 + 2 * float(entry["a2"]) * r + 3 * float(entry["a3"]) * r ** 2) <= 0:
+            return None
+        return "each sample's load from its instantaneous response x + a2 x^2/L + a3 x^3/L^2 (rising: one root)"
+
+    def firmware_output(self, entry, model):
+        scale = model.gain * float(entry["load_scale"])
+        return {"polynomial": (float(entry["a2"]) / scale, float(entry["a3"]) / scale ** 2)}
+
     # -- generator ---------------------------------------------------------------------------
     def draw_default(self, rng, scales, mixture):
         if mixture and rng.uniform() < 0.3:

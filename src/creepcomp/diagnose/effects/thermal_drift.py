@@ -79,6 +79,10 @@ class ThermalDrift(SensorEffect):
             return Applied(self, (reference, ("lagged", True))), values
         return Applied(self, (reference,)), values
 
+    def inverse(self, entry, model):
+        lag = " through its first-order lag" if float(entry.get("lag", 0.0)) > 0 else ""
+        return f"the offset coefficient (T - T_ref){lag}, from the record's temperature column, taken out of the signal"
+
     # -- generator ---------------------------------------------------------------------------
     def draw_default(self, rng, scales, mixture):
         # 0.02 ... 0.1 % of full scale per K

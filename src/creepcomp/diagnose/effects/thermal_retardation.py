@@ -90,6 +90,10 @@ class ThermalRetardation(SensorEffect):
         return (Applied(self, (("reference_temperature", float(entry["reference_temperature"])),)),
                 {"thermal_retardation.kappa": float(entry["kappa"])})
 
+    def inverse(self, entry, model):
+        return ("every step's retardation times at the step's mid temperature, tau_k exp(-kappa (T - T_ref)), "
+                "from the record's temperature column")
+
     # -- generator ---------------------------------------------------------------------------
     def draw_default(self, rng, scales, mixture):
         # activation energy 60 ... 150 kJ/mol: tau changes 7 ... 17 % per K near 300 K

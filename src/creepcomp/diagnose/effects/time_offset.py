@@ -111,6 +111,12 @@ class TimeOffset(SensorEffect):
         # negative at some frequencies, where dividing by it, or ignoring it, would not converge
         return averaged(data.time, delta, -values["time_offset.delay"], values.get("time_offset.width", 0.0))
 
+    def inverse(self, entry, model):
+        delay, width = float(entry["delay"]), float(entry.get("width", 0.0))
+        window = f", averaged over {width:.3g} s" if width > 0 else ""
+        return (f"the load that, read {delay:.3g} s earlier{window}, gives the signal: the load at t is "
+                f"known from the signal up to t + {max(delay + width / 2, 0.0):.3g} s (a latency)")
+
     # -- generator ---------------------------------------------------------------------------
     def draw_default(self, rng, scales, mixture):
         dt = 1.0 / scales.rate

@@ -127,6 +127,10 @@ class TransitionOvershoot(SensorEffect):
             return Applied(self, (scale, ("stretched", True))), values
         return Applied(self, (scale,)), values
 
+    def inverse(self, entry, model):
+        return ("the transient amplitude (v - lag_tau(v)), v the total variation of the load found up to each "
+                "sample, taken out of the signal")
+
     # -- generator ---------------------------------------------------------------------------
     def draw(self, rng, scales, form):
         s = scales

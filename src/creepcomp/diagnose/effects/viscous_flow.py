@@ -114,6 +114,9 @@ class ViscousFlow(SensorEffect):
         tau = _EQUIVALENT_LENGTHS * max(data.duration, float(np.median(np.diff(data.time))))
         return [(values["viscous_flow.flow"] / values["gain"] * tau, tau)]
 
+    def inverse(self, entry, model):
+        return "the flow, the integral of the load found up to each sample (times rate), taken out of the signal"
+
     # -- generator ---------------------------------------------------------------------------
     def draw_default(self, rng, scales, mixture):
         # flow that adds 0.5 ... 3 times the creep over the record
