@@ -124,7 +124,7 @@ def test_size_json_has_the_over_temperature_contract(run_cli, tmp_path):
 
 @pytest.mark.parametrize("args, message", [
     (["--tracking", "ntc"], "--tracking needs --temperature-range"),
-    (["--temperature-range", "40:-10"], "LOW is above HIGH"),
+    (["--temperature-range", "40:-10"], "LOW must not exceed HIGH"),
     (["--temperature-range", "-10"], "expected LOW:HIGH"),
     (["--tracking", "ptc", "--temperature-range", "0:10"], "expected none or ntc"),
     (["--activation-energy", "hot"], "--activation-energy"),
