@@ -166,6 +166,17 @@ class Fit:
         return CreepModel(tuple(betas[keep]), tuple(taus[keep]), self.gain, self.offset,
                           extensions or {})
 
+    def step_times_part(self, data: Data) -> np.ndarray:
+        """The part of :attr:`prediction` that is the record's load steps landing off the
+        middles of their sample intervals (:func:`~creepcomp.fit.structure.with_step_times`):
+        a property of the record, which a model file leaves out."""
+        b = with_step_times(data, basis(data, self.structure, self.values), self.taus)
+        out = np.zeros(data.n)
+        for i, name in enumerate(b.names):
+            if name.startswith("step_time["):
+                out += self.values.get(name, 0.0) * b.columns[:, i]
+        return out
+
     def simulate(self, data: Data) -> np.ndarray:
         """The signal this fit predicts for another load history (same structure)."""
         b = basis(data, self.structure, self.values)
