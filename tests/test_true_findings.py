@@ -179,3 +179,14 @@ def test_benchmark_classes_keep_their_seeds():
     assert classes[-len(bench.LATER):] == list(bench.LATER)
     assert "mullins_softening/peak" in classes
     assert classes.index("data_problem/jump") == classes.index("mullins_softening/damage") + 1
+
+
+def test_a_step_time_counts_once_whatever_the_terms():
+    data = prepare(_record(*STEPS))
+    one = fit_structure(data, Structure(1), one_term_starts(data), with_cov=False)
+    two = fit_structure(data, Structure(2), [dict(one.values, **{"tau[1]": 5 * TAU, "c0[1]": 0.0})],
+                        with_cov=False)
+    steps = sum(n.startswith("step_time[") for n in two.values)
+    assert steps == 6
+    # a further term costs its time constant, initial state and amplitude, not the steps again
+    assert two.n_params - one.n_params == 3

@@ -369,6 +369,15 @@ def fit_structure(data: Data, structure: Structure, starts: Sequence[dict], nois
     return _finish(problem, x, noise, with_cov)
 
 
+def _counted_linear(names, fixed: dict) -> int:
+    """Free linear coefficients as the criterion counts them: a load step's time is one
+    unknown, however many creep terms its columns span (so that a further term is not
+    charged for the record's steps again)."""
+    free = [n for n in names if n not in fixed]
+    steps = {n.split("]")[0] for n in free if n.startswith("step_time[")}
+    return sum(not n.startswith("step_time[") for n in free) + len(steps)
+
+
 def _finish(problem: Problem, x: np.ndarray, noise: ARNoise | None, with_cov: bool) -> Fit:
     data, structure = problem.data, problem.structure
     b, coef, _ = problem.project(x)
@@ -384,7 +393,7 @@ def _finish(problem: Problem, x: np.ndarray, noise: ARNoise | None, with_cov: bo
               params=tuple(problem.all_params), fixed_offset=data.fixed_offset,
               extras={"rows": problem.likelihood_rows, "fitted": problem.rows,
                       "nonlinear": len(problem.all_params),
-                      "linear": int(np.sum([n not in problem.fixed for n in b.names]))})
+                      "linear": _counted_linear(b.names, problem.fixed)})
     fit = with_noise(fit, noise)
     if with_cov:
         fit = replace(fit, cov=_covariance(problem, x, coef, fit.noise))
