@@ -72,10 +72,14 @@ def all_classes() -> list[str]:
     return [c for c in out if c not in LATER] + [c for c in LATER if c in out]
 
 
-def class_spec(name: str, seed: int, wide: bool, max_samples: int | None = None, programs=None):
+def class_spec(name: str, seed: int, wide: bool, max_samples: int | None = None, programs=None,
+               noise=None):
     """The randomised spec of a class: (effect, spec); ``programs``: the load programs to draw
-    from (default: those that let the effect show)."""
+    from (default: those that let the effect show); ``noise``: the white noise's range
+    relative to full scale (default: the generator's)."""
     ranges = dict(WIDE if wide else {})
+    if noise:
+        ranges["noise"] = tuple(noise)
     if max_samples:
         ranges["max_samples"] = max_samples
     if programs:
@@ -102,8 +106,8 @@ def run_one(args):
 
 
 def _run_one(args):
-    name, seed, wide, max_samples, programs = args
-    effect, spec = class_spec(name, seed, wide, max_samples, programs)
+    name, seed, wide, max_samples, programs, noise = args
+    effect, spec = class_spec(name, seed, wide, max_samples, programs, noise)
     syn = synth.generate(spec)
     t0 = time.perf_counter()
     d = diagnose(syn.record)
@@ -171,6 +175,9 @@ def main(argv=None):
     ap.add_argument("--classes", "--effects", dest="classes", default=None,
                     help="comma-separated subset of the classes")
     ap.add_argument("--report", default=None, metavar="JSON", help="only summarise a saved run")
+    ap.add_argument("--noise", default=None, metavar="LOW,HIGH",
+                    help="white noise range relative to full scale (e.g. 1e-5,1e-4: records quiet "
+                         "enough that where a load step falls within its sample interval shows)")
     ap.add_argument("--programs", default=None,
                     help="comma-separated load programs every record draws from (e.g. bipolar)")
     args = ap.parse_args(argv)
@@ -194,7 +201,9 @@ def main(argv=None):
             base += 200000
         count = args.clean if c == "none" else args.per_effect
         programs = tuple(args.programs.split(",")) if args.programs else None
-        queues.append([(c, args.seed + base + i, args.wide, args.max_samples, programs) for i in range(count)])
+        noise = tuple(float(x) for x in args.noise.split(",")) if args.noise else None
+        queues.append([(c, args.seed + base + i, args.wide, args.max_samples, programs, noise)
+                       for i in range(count)])
     # round-robin, two clean records per round (twice as many of them)
     tasks = []
     for i in range(max(map(len, queues), default=0)):
