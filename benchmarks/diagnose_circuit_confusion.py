@@ -164,6 +164,24 @@ def main(argv=None):
             json.dump(results, fh, indent=1, default=float)
 
 
+def false_findings(clean) -> None:
+    """The false-finding rate: clean networks with any finding (a named fault or
+    ``unexplained``), by sampling rate and by how the network was driven."""
+    bad = [x for x in clean if x["findings"]]
+    print(f"\nFalse findings on clean networks: {len(bad)} of {len(clean)} ({100 * len(bad) / len(clean):.0f} %)")
+    for lo, hi in ((0.0, 5.0), (5.0, 20.0), (20.0, np.inf)):
+        sub = [x for x in clean if lo <= x["rate"] < hi]
+        if sub:
+            wrong = [x for x in sub if x["findings"]]
+            print(f"  {lo:4.0f}-{hi:<4.0f} Hz: {len(wrong)} of {len(sub)} "
+                  f"({', '.join(f for x in wrong for f in x['findings']) or 'none'})")
+    for drive in ("continuous", "samples"):
+        sub = [x for x in clean if x["drive"] == drive]
+        if sub:
+            print(f"  driven by the {drive + ' signal' if drive == 'continuous' else 'sampled signal'}: "
+                  f"{sum(bool(x['findings']) for x in sub)} of {len(sub)}")
+
+
 def report(results, effects, wall):
     rows = ["none"] + effects
     cols = rows + ["unexplained"]
@@ -204,6 +222,7 @@ def report(results, effects, wall):
             print(f"  {c:24s} | {a:24s} {count:4d}: {how}")
     clean = [x for x in results if x["effect"] == "none"]
     if clean:
+        false_findings(clean)
         print("\nClean networks by the output's noise: 'none' / records (the others: cause named)")
         for kind in ("white", "coloured", "drift"):
             sub = [x for x in clean if x["output_noise"] == kind]

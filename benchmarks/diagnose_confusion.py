@@ -57,21 +57,33 @@ WIDE = dict(rate=(1.0, 100.0), duration=(600.0, 7200.0), noise=(1e-4, 5e-3), col
             drift=0.5, irregular=0.4, start_loaded=0.3, colour_scale=2.0)
 
 
+#: Classes added after the others: listed last, so that every other class keeps its seeds.
+LATER = ("mullins_softening/peak",)
+
+
 def all_classes() -> list[str]:
-    """Every class of record, clean first."""
+    """Every class of record, clean first (the :data:`LATER` ones last)."""
     out = ["none", "relaxation", "relaxation+extra_retardation"]
     for effect in synth.EFFECTS:
         out.append(effect)
         out += [f"{effect}/{form}" for form in synth.FORMS[effect][1:]]
     out += [f"data_problem/{kind}" for kind in synth.DATA_PROBLEMS]
-    return out + list(synth.NO_TEMPLATE)
+    out += list(synth.NO_TEMPLATE)
+    return [c for c in out if c not in LATER] + [c for c in LATER if c in out]
 
 
-def class_spec(name: str, seed: int, wide: bool, max_samples: int | None = None):
-    """The randomised spec of a class: (effect, spec)."""
+def class_spec(name: str, seed: int, wide: bool, max_samples: int | None = None, programs=None,
+               noise=None):
+    """The randomised spec of a class: (effect, spec); ``programs``: the load programs to draw
+    from (default: those that let the effect show); ``noise``: the white noise's range
+    relative to full scale (default: the generator's)."""
     ranges = dict(WIDE if wide else {})
+    if noise:
+        ranges["noise"] = tuple(noise)
     if max_samples:
         ranges["max_samples"] = max_samples
+    if programs:
+        ranges["programs"] = tuple(programs)
     if name == "none":
         return None, synth.random_spec(None, seed, **ranges)
     if name.startswith("relaxation"):
@@ -94,8 +106,8 @@ def run_one(args):
 
 
 def _run_one(args):
-    name, seed, wide, max_samples = args
-    effect, spec = class_spec(name, seed, wide, max_samples)
+    name, seed, wide, max_samples, programs, noise = args
+    effect, spec = class_spec(name, seed, wide, max_samples, programs, noise)
     syn = synth.generate(spec)
     t0 = time.perf_counter()
     d = diagnose(syn.record)
@@ -119,9 +131,19 @@ def _run_one(args):
             "findings": [f.effect for f in d.findings], "found": found is not None,
             "kinds": [f.parameters.get("kind") for f in d.findings if f.effect == "data_problem"],
             "errors": errors, "gain": d.gain, "seconds": seconds, "n": len(syn.record),
-            "program": spec.program, "rate": spec.rate,
+            "program": spec.program, "rate": spec.rate, "step_phases": step_phases(syn),
             "misfit_ratio": d.baseline.residual_rms / floor if floor > 0 else None,
             "misfit_ratio_extended": d.extended.residual_rms / floor if floor > 0 else None}
+
+
+def step_phases(syn) -> list:
+    """Where each load step of the record's program falls within its sample interval (0: on
+    the sample before, 1: on the sample after)."""
+    bt, t = np.array(syn.program.times), syn.record.time
+    steps = bt[1:][np.diff(bt) == 0]
+    i = np.searchsorted(t, steps, side="right") - 1
+    ok = (i >= 0) & (i < len(t) - 1)
+    return [float(x) for x in (steps[ok] - t[i[ok]]) / (t[i[ok] + 1] - t[i[ok]])]
 
 
 def matched_term(fit, spec, truth) -> dict:
@@ -153,6 +175,11 @@ def main(argv=None):
     ap.add_argument("--classes", "--effects", dest="classes", default=None,
                     help="comma-separated subset of the classes")
     ap.add_argument("--report", default=None, metavar="JSON", help="only summarise a saved run")
+    ap.add_argument("--noise", default=None, metavar="LOW,HIGH",
+                    help="white noise range relative to full scale (e.g. 1e-5,1e-4: records quiet "
+                         "enough that where a load step falls within its sample interval shows)")
+    ap.add_argument("--programs", default=None,
+                    help="comma-separated load programs every record draws from (e.g. bipolar)")
     args = ap.parse_args(argv)
     known = all_classes()
     classes = args.classes.split(",") if args.classes else known
@@ -173,7 +200,10 @@ def main(argv=None):
         if c not in synth.EFFECTS and c != "none":
             base += 200000
         count = args.clean if c == "none" else args.per_effect
-        queues.append([(c, args.seed + base + i, args.wide, args.max_samples) for i in range(count)])
+        programs = tuple(args.programs.split(",")) if args.programs else None
+        noise = tuple(float(x) for x in args.noise.split(",")) if args.noise else None
+        queues.append([(c, args.seed + base + i, args.wide, args.max_samples, programs, noise)
+                       for i in range(count)])
     # round-robin, two clean records per round (twice as many of them)
     tasks = []
     for i in range(max(map(len, queues), default=0)):
@@ -203,6 +233,35 @@ def main(argv=None):
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(results, fh, indent=1, default=float)
+
+
+#: Clean classes: any finding on their records is a false one.
+CLEAN = ("none", "relaxation")
+
+
+def false_findings(results) -> None:
+    """The false-finding rate: clean records (:data:`CLEAN`) with any finding, with a named
+    effect, by sampling rate; and where their load steps fell within the sample interval."""
+    clean = [x for x in results if x["class"] in CLEAN]
+    if not clean:
+        return
+    named = [x for x in clean if any(f != "unexplained" for f in x["findings"])]
+    print(f"\nFalse findings on clean records: {len(named)} of {len(clean)} with a named effect "
+          f"({100 * len(named) / len(clean):.0f} %), "
+          f"{sum(bool(x['findings']) for x in clean)} with any finding")
+    for lo, hi in ((0.0, 5.0), (5.0, 20.0), (20.0, np.inf)):
+        sub = [x for x in clean if lo <= x["rate"] < hi]
+        if sub:
+            bad = [x for x in sub if any(f != "unexplained" for f in x["findings"])]
+            print(f"  {lo:4.0f}-{hi:<4.0f} Hz: {len(bad)} of {len(sub)} "
+                  f"({', '.join(f for x in bad for f in x['findings']) or 'none'})")
+    phases = [p for x in clean for p in x.get("step_phases", [])]
+    if phases:
+        hist = np.histogram(phases, bins=4, range=(0.0, 1.0))[0]
+        print(f"  load steps within the sample interval (quarters): {', '.join(map(str, hist))} "
+              f"of {len(phases)} steps")
+    for x in named:
+        print(f"  {x['class']} seed {x['seed']}: {', '.join(x['findings'])} ({x['program']}, {x['rate']:.1f} Hz)")
 
 
 def _pct(values) -> str:
@@ -236,6 +295,7 @@ def report(results, classes, wall, args):
               and x["misfit_ratio"] > MISFIT_LIMIT]
     print(f"\nVerdict rule (MISFIT_LIMIT = {MISFIT_LIMIT:g}): {len(allbad)} of {len(results)} records "
           "return 'none' with a baseline misfit ratio above the limit")
+    false_findings(results)
     print("\nParameter recovery (records where the effect was found; within 20 % / median error)")
     for c in classes:
         sub = [x for x in results if x["class"] == c]

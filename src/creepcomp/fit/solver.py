@@ -20,7 +20,7 @@ from scipy import linalg, optimize
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.noise import ARNoise, fit_noise, gaussian_bic, rows_for, whiten
-from creepcomp.fit.structure import Param, Structure, basis, taus_of
+from creepcomp.fit.structure import Basis, Param, Structure, basis, taus_of, with_step_times
 from creepcomp.model import CreepModel
 
 __all__ = ["Fit", "ANCHOR_WEIGHT", "Problem", "best_of_starts", "fit_structure", "with_noise",
@@ -167,6 +167,17 @@ class Fit:
         return CreepModel(tuple(betas[keep]), tuple(taus[keep]), self.gain, self.offset,
                           extensions or {})
 
+    def step_times_part(self, data: Data) -> np.ndarray:
+        """The part of :attr:`prediction` that is the record's load steps landing off the
+        middles of their sample intervals (:func:`~creepcomp.fit.structure.with_step_times`):
+        a property of the record, which a model file leaves out."""
+        b = with_step_times(data, basis(data, self.structure, self.values), self.taus)
+        out = np.zeros(data.n)
+        for i, name in enumerate(b.names):
+            if name.startswith("step_time["):
+                out += self.values.get(name, 0.0) * b.columns[:, i]
+        return out
+
     def simulate(self, data: Data) -> np.ndarray:
         """The signal this fit predicts for another load history (same structure)."""
         b = basis(data, self.structure, self.values)
@@ -194,6 +205,32 @@ def _solve(aw: np.ndarray, yw: np.ndarray, prior: np.ndarray | None = None) -> n
         return np.linalg.solve(gram, rhs) / norms
     coef, *_ = linalg.lstsq(aw / norms, yw, lapack_driver="gelsy", cond=1e-13)
     return coef / norms
+
+
+def _step_limits(b: Basis, a: np.ndarray, y: np.ndarray, coef: np.ndarray, free: np.ndarray,
+                 prior: np.ndarray | None) -> np.ndarray:
+    """Bounds of the step-time coefficients (:attr:`Basis.step_bounds`): ``|a_k|`` times half
+    the step's interval, ``a_k`` from the model solved without them."""
+    steps = np.array([col for col, _, _ in b.step_bounds])
+    plain = free.copy()
+    plain[steps] = False
+    trial = coef.copy()
+    trial[steps] = 0.0
+    if plain.any():
+        target = y - a[:, ~plain] @ trial[~plain]
+        trial[plain] = _solve(a[:, plain], target, None if prior is None else prior[plain])
+    return np.array([abs(trial[b.names.index(f"a[{k}]")]) * half for _, k, half in b.step_bounds])
+
+
+def _within_step_bounds(b: Basis, coef: np.ndarray, free: np.ndarray, limits: np.ndarray) -> np.ndarray:
+    """Step-time coefficients beyond their ``limits`` set to them and taken out of the free
+    ones; the free mask returned unchanged when all are within."""
+    out = free.copy()
+    for (col, _, _), limit in zip(b.step_bounds, limits):
+        if free[col] and abs(coef[col]) > limit:
+            coef[col] = math.copysign(limit, coef[col])
+            out[col] = False
+    return out if (out != free).any() else free
 
 
 class Problem:
@@ -227,19 +264,35 @@ class Problem:
         """Search point of a start value dictionary (clipped inside the bounds)."""
         return np.array([p.to_search(p.clip(values.get(p.name, p.default))) for p in self.params])
 
+    def basis(self, x: np.ndarray) -> Basis:
+        """The model's linear basis at ``x``, with the record's unknown step times
+        (:func:`~creepcomp.fit.structure.with_step_times`)."""
+        values = self.values(x)
+        b = basis(self.data, self.structure, values, self.cache)
+        return with_step_times(self.data, b, taus_of(values, self.structure.n_terms))
+
     def project(self, x: np.ndarray):
         """Basis, linear coefficients and residual (on the fitted rows) at ``x``."""
-        b = basis(self.data, self.structure, self.values(x), self.cache)
+        b = self.basis(x)
         a = b.columns[self.rows]
         held = np.array([n in self.fixed for n in b.names])
-        known = np.array([self.fixed.get(n, 0.0) for n in b.names])
-        target = self.y - a[:, held] @ known[held] if held.any() else self.y
-        coef = known.copy()
+        coef = np.array([self.fixed.get(n, 0.0) for n in b.names])
         prior = None
         if self.anchor:
-            prior = np.array([float(self.anchor.get(n, 0.0)) for n in b.names])[~held]
-        if not held.all():
-            coef[~held] = _solve(a[:, ~held], target, prior)
+            prior = np.array([float(self.anchor.get(n, 0.0)) for n in b.names])
+        free = ~held
+        limits = _step_limits(b, a, self.y, coef, free, prior) if b.step_bounds else None
+        for _ in range(4):   # the step times found beyond their bounds are set to them
+            if not free.any():
+                break
+            target = self.y - a[:, ~free] @ coef[~free] if (~free).any() else self.y
+            coef[free] = _solve(a[:, free], target, None if prior is None else prior[free])
+            if limits is None:
+                break
+            narrowed = _within_step_bounds(b, coef, free, limits)
+            if narrowed is free:
+                break
+            free = narrowed
         return b, coef, self.y - a @ coef
 
     def residual(self, x: np.ndarray) -> np.ndarray:
@@ -317,6 +370,15 @@ def fit_structure(data: Data, structure: Structure, starts: Sequence[dict], nois
     return _finish(problem, x, noise, with_cov)
 
 
+def _counted_linear(names, fixed: dict) -> int:
+    """Free linear coefficients as the criterion counts them: a load step's time is one
+    unknown, however many creep terms its columns span (so that a further term is not
+    charged for the record's steps again)."""
+    free = [n for n in names if n not in fixed]
+    steps = {n.split("]")[0] for n in free if n.startswith("step_time[")}
+    return sum(not n.startswith("step_time[") for n in free) + len(steps)
+
+
 def _finish(problem: Problem, x: np.ndarray, noise: ARNoise | None, with_cov: bool) -> Fit:
     data, structure = problem.data, problem.structure
     b, coef, _ = problem.project(x)
@@ -332,7 +394,7 @@ def _finish(problem: Problem, x: np.ndarray, noise: ARNoise | None, with_cov: bo
               params=tuple(problem.all_params), fixed_offset=data.fixed_offset,
               extras={"rows": problem.likelihood_rows, "fitted": problem.rows,
                       "nonlinear": len(problem.all_params),
-                      "linear": int(np.sum([n not in problem.fixed for n in b.names]))})
+                      "linear": _counted_linear(b.names, problem.fixed)})
     fit = with_noise(fit, noise)
     if with_cov:
         fit = replace(fit, cov=_covariance(problem, x, coef, fit.noise))
@@ -372,15 +434,15 @@ def _covariance(problem: Problem, x, coef, noise: ARNoise) -> np.ndarray | None:
     """Covariance of the least-squares estimates under AR noise (sandwich):
     ``(J^T J)^-1 J^T Sigma J (J^T J)^-1`` with ``Sigma = sigma^2 W^-1 W^-T``."""
     data, rows = problem.data, problem.rows
-    b = basis(data, problem.structure, problem.values(x), problem.cache)
+    b = problem.basis(x)
     cols = []
     for j in range(len(x)):
         h = 1e-6 * max(1.0, abs(x[j]))
         xp, xm = x.copy(), x.copy()
         xp[j] += h
         xm[j] -= h
-        bp = basis(data, problem.structure, problem.values(xp), problem.cache).columns @ coef
-        bm = basis(data, problem.structure, problem.values(xm), problem.cache).columns @ coef
+        bp = problem.basis(xp).columns @ coef
+        bm = problem.basis(xm).columns @ coef
         cols.append((bp - bm) / (2 * h))
     full = np.column_stack(cols + [b.columns]) if cols else b.columns
     held = [len(x) + i for i, n in enumerate(b.names) if n in problem.fixed]

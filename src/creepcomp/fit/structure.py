@@ -25,7 +25,8 @@ import numpy as np
 from creepcomp.fit.data import Data
 from creepcomp.lti import lag_states, varying_lag_states
 
-__all__ = ["Param", "Applied", "Structure", "taus_of", "Basis", "basis"]
+__all__ = ["Param", "Applied", "Structure", "taus_of", "Basis", "basis", "ABRUPT_FACTOR", "load_steps",
+           "with_step_times"]
 
 #: Iterations of the mode switching of lags whose time constant depends on their state.
 _MODE_ITERATIONS = 50
@@ -137,6 +138,7 @@ class Basis:
     instant: np.ndarray          # s: instantaneous signal in load units
     creep_input: np.ndarray      # h: what drives the lags
     lags: np.ndarray             # (N, K)
+    step_bounds: tuple = ()      # (column, term k, half width in s) of each step-time column
 
 
 #: Samples per segment when lags whose time constant depends on their own state are solved.
@@ -260,3 +262,52 @@ def basis(data: Data, structure: Structure, values: dict, cache: dict | None = N
             cols.append(col)
             names.append(f"{a.name}.{name}")
     return Basis(np.column_stack(cols), tuple(names), x, s, h, lags)
+
+
+#: A load change between two samples is a step when it is this many times larger than the
+#: changes between the samples on either side (a ramp changes by equal amounts).
+ABRUPT_FACTOR = 10.0
+
+
+def load_steps(data: Data) -> np.ndarray:
+    """Sample intervals ``i`` (from sample ``i`` to ``i + 1``) within which the load steps:
+    its change there is :data:`ABRUPT_FACTOR` times those of the neighbouring intervals and at
+    least a thousandth of the record's load range; intervals across a gap are left out."""
+    d = np.abs(np.diff(data.load))
+    if len(d) == 0:
+        return np.zeros(0, int)
+    neighbours = np.maximum(np.concatenate([[0.0], d[:-1]]), np.concatenate([d[1:], [0.0]]))
+    same_segment = data.segment[1:] == data.segment[:-1]
+    big = d >= 1e-3 * float(np.ptp(data.load))
+    return np.flatnonzero((d > ABRUPT_FACTOR * neighbours) & big & same_segment & (d > 0))
+
+
+def with_step_times(data: Data, b: Basis, taus: np.ndarray) -> Basis:
+    """The basis with the record's unknown step times: a load step between two samples
+    happened anywhere between them, but the lags are driven by the load taken linear between
+    samples, which for a lag much slower than the sampling is a step at the interval's middle.
+    A step ``delta`` later than that changes the signal after it by ``-a_k dh delta / tau_k
+    exp(-(t - t_mid) / tau_k)`` in term ``k`` (to first order). All steps later by the same
+    time is what gain and creep amplitude absorb already (the sum of these columns is a
+    combination of the load and the lag states), so the first step is the reference: one
+    column per later step and term, whose coefficient the solver bounds by ``|a_k|`` times
+    the half intervals of that step and the first (:attr:`Basis.step_bounds`). Only with the
+    load linear between samples."""
+    steps = load_steps(data) if data.hold == "linear" else np.zeros(0, int)
+    if len(steps) < 2 or b.lags.shape[1] == 0:
+        return b
+    t, h = data.time, b.creep_input
+    cols, names, bounds = [], [], []
+    first = b.columns.shape[1]
+    reference = 0.5 * float(t[steps[0] + 1] - t[steps[0]])
+    for j, i in enumerate(steps[1:], start=1):
+        mid, dh = 0.5 * (t[i] + t[i + 1]), h[i + 1] - h[i]
+        after = t[i + 1:] - mid
+        for k, tau in enumerate(taus):
+            col = np.zeros(len(t))
+            col[i + 1:] = -dh / tau * np.exp(-after / tau)
+            cols.append(col)
+            names.append(f"step_time[{j}][{k}]")
+            bounds.append((first + len(bounds), k, 0.5 * float(t[i + 1] - t[i]) + reference))
+    return replace(b, columns=np.column_stack([b.columns] + cols), names=b.names + tuple(names),
+                   step_bounds=tuple(bounds))

@@ -13,16 +13,19 @@ __all__ = ["PROGRAMS", "ALL_PROGRAMS", "make_program", "sample_times"]
 
 #: Kinds of load program :func:`make_program` draws for any effect.
 PROGRAMS = ("step", "staircase", "sweep", "mixture", "random")
-#: Every kind :func:`make_program` makes: also cycles to rising levels (first-cycle effects).
-ALL_PROGRAMS = PROGRAMS + ("cycles",)
+#: Every kind :func:`make_program` makes: also cycles to rising levels (first-cycle effects),
+#: and ``bipolar`` programs that cross zero (a sensor loaded either way, such as an
+#: accelerometer over +-1 g).
+ALL_PROGRAMS = PROGRAMS + ("cycles", "bipolar")
 
 
 def make_program(kind: str, duration: float, rng: np.random.Generator, full_scale: float = 1.0,
                  start_loaded: bool = False, tau: float = 45.0, start: float = 0.0,
                  unload: bool = False, one_sided: bool = False) -> LoadProgram:
     """A random load program of a kind: ``step``, ``staircase``, ``sweep``, ``mixture``,
-    ``random`` or ``cycles`` (to rising levels, each with a partial reload), spanning
-    ``duration`` from ``start``.
+    ``random``, ``cycles`` (to rising levels, each with a partial reload) or ``bipolar``
+    (steps to levels of alternating sign, rising in magnitude, each partly released towards
+    zero), spanning ``duration`` from ``start``.
 
     With ``start_loaded`` the load is already at a level when the program starts (and has been
     for a random time, so creep is part-way), otherwise it starts at zero. ``unload``: a
@@ -48,6 +51,8 @@ def make_program(kind: str, duration: float, rng: np.random.Generator, full_scal
         _sweep(b, t, one_sided)
     elif kind == "cycles":
         _cycles(b, t)
+    elif kind == "bipolar":
+        _bipolar(b, t)
     else:
         _segments(b, t, mixture=kind == "mixture")
     if b.times[-1] < b.t_end:
@@ -157,6 +162,29 @@ def _cycles(b: _Breakpoints, t: float) -> None:
                 b.hold(b.loads[-1], t + k * step)
             b.jump(float(level), t + k * step)
             k += 1
+
+
+def _bipolar(b: _Breakpoints, t: float) -> None:
+    """Steps to levels of alternating sign and rising magnitude, each followed by a partial
+    release towards zero and, in half the cycles, a step straight across zero to the other
+    side: the load's magnitude falls towards zero and rises again from either side."""
+    rng, fs = b.rng, b.fs
+    n = int(rng.integers(3, 6))
+    peaks = np.sort(rng.uniform(0.3, 1.0, n)) * fs
+    peaks[-1] = fs * rng.uniform(0.85, 1.0)
+    sign = rng.choice([-1.0, 1.0])
+    levels = []
+    for k, peak in enumerate(peaks):
+        side = sign * (-1) ** k
+        levels += [side * peak, side * peak * rng.uniform(0.1, 0.5)]
+        if rng.uniform() < 0.5:
+            levels.append(-side * peak * rng.uniform(0.3, 0.8))
+    levels.append(0.0)
+    step = (b.t_end - t) / (len(levels) + 0.5)
+    for k, level in enumerate(levels):
+        if k:
+            b.hold(b.loads[-1], t + k * step)
+        b.jump(float(level), t + k * step)
 
 
 def sample_times(duration: float, rate: float, rng: np.random.Generator, jitter: float = 0.0,

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from creepcomp.diagnose.effects import Scales, SignalPath, Simulated
-from creepcomp.synth.loads import ALL_PROGRAMS
+from creepcomp.synth.loads import PROGRAMS
 
 __all__ = ["Untemplated", "SensitivityDrift", "PeriodicDisturbance", "AgingRetardation", "UNTEMPLATED"]
 
@@ -44,7 +44,7 @@ class PeriodicDisturbance(Untemplated):
     """A sine of ``amplitude`` (signal units), ``period`` and ``phase`` added to the signal."""
 
     name = "periodic_disturbance"
-    programs = ALL_PROGRAMS
+    programs = PROGRAMS + ("cycles",)
 
     def draw(self, rng, scales, form):
         # a slow pick-up, 0.2 ... 1 % of full scale
