@@ -72,10 +72,11 @@ def test_material_creep_test_with_step_before_first_sample():
 
 def test_constant_load_needs_the_step_time():
     t = np.arange(100.0)
+    creeping = 1.0 + 0.03 * -np.expm1(-t / 20.0)
     with pytest.raises(InputError, match="load-step-at"):
-        prepare(Record(t, np.ones_like(t), np.ones_like(t)))
+        prepare(Record(t, np.ones_like(t), creeping))
     with pytest.raises(InputError, match="must not be after"):
-        prepare(Record(t + 5, np.ones_like(t), np.ones_like(t)), load_step_at=10.0)
+        prepare(Record(t + 5, np.ones_like(t), creeping), load_step_at=10.0)
 
 
 def test_zero_load_and_short_record_are_refused():
