@@ -329,3 +329,23 @@ def test_a_fleet_on_a_local_cluster_leaves_no_scratch_folder(tmp_path, monkeypat
     result = run([record], tmp_path / "out", workers=1)
     assert result.to_dict()["ok"] == 1
     assert list(scratch.iterdir()) == []
+
+
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+def test_a_sigterm_whose_exception_is_lost_is_delivered_again():
+    """A SIGTERM that arrives where Python ignores exceptions (an at-fork hook, a __del__)
+    must still stop the command: it is delivered again until taken."""
+    import creepcomp.cli as cli
+
+    class Swallows:
+        def __del__(self):
+            cli._raise_terminated(signal.SIGTERM, None)
+
+    previous = signal.signal(signal.SIGTERM, cli._raise_terminated)
+    try:
+        with pytest.raises(cli.Terminated):
+            Swallows()          # its __del__ raises, and Python ignores that exception
+            time.sleep(5)       # the second delivery stops this
+    finally:
+        cli._cancel_redelivery()
+        signal.signal(signal.SIGTERM, previous)

@@ -90,10 +90,28 @@ class Terminated(KeyboardInterrupt):
 
 _terminated = threading.Event()
 
+#: Seconds after which a SIGTERM is delivered again while the command still runs.
+REDELIVER_AFTER = 0.5
+_redelivery: threading.Timer | None = None
+
 
 def _raise_terminated(signum, frame) -> None:
+    # an exception raised where Python ignores them (an at-fork hook of os.fork, a __del__) is
+    # lost and the command would run on: deliver the signal again until it is taken
+    global _redelivery
     _terminated.set()
+    _cancel_redelivery()
+    _redelivery = threading.Timer(REDELIVER_AFTER, os.kill, (os.getpid(), signal.SIGTERM))
+    _redelivery.daemon = True
+    _redelivery.start()
     raise Terminated()
+
+
+def _cancel_redelivery() -> None:
+    global _redelivery
+    if _redelivery is not None:
+        _redelivery.cancel()
+        _redelivery = None
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -111,11 +129,13 @@ def main(argv: list[str] | None = None) -> int:
     except Terminated:  # a SIGTERM after the command's own handling, while printing the line
         return TERMINATED
     finally:
+        _cancel_redelivery()
         signal.signal(signal.SIGTERM, previous)
 
 
 def _stopped() -> int:
     """The line and status of a command stopped by Ctrl-C or SIGTERM."""
+    _cancel_redelivery()
     if _terminated.is_set():
         return fail("terminated", TERMINATED)
     return fail("interrupted", 130)
