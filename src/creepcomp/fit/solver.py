@@ -433,7 +433,7 @@ def _inverse_ar_transpose(z: np.ndarray, noise: ARNoise) -> np.ndarray:
 def _covariance(problem: Problem, x, coef, noise: ARNoise) -> np.ndarray | None:
     """Covariance of the least-squares estimates under AR noise (sandwich):
     ``(J^T J)^-1 J^T Sigma J (J^T J)^-1`` with ``Sigma = sigma^2 W^-1 W^-T``."""
-    data, rows = problem.data, problem.rows
+    rows = problem.rows
     b = problem.basis(x)
     cols = []
     for j in range(len(x)):

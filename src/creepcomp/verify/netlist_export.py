@@ -215,6 +215,6 @@ def asc_text(network: Network, stop_time: float | None = None) -> str:
             pin = sheet.vertical(kind, pin, name, n(value))
         sheet.flag(pin, "0")
     sheet.lines.append(f"TEXT 0 200 Left 2 !.tran {n(stop / 1000)} {n(stop)} 0 {n(stop / 1000)}")
-    sheet.lines.append(f"TEXT 0 232 Left 2 ;creepcomp: step response of the correction network "
-                       f"(in -> out)")
+    sheet.lines.append("TEXT 0 232 Left 2 ;creepcomp: step response of the correction network "
+                       "(in -> out)")
     return "\n".join(sheet.lines) + "\n"
