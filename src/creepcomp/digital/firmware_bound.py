@@ -333,6 +333,19 @@ def _series_terms(x_max: float, target: float) -> int:
     return n
 
 
+def _float32_a_error(x_hi: np.ndarray, rel_x: np.ndarray, u: float) -> tuple[np.ndarray, int, np.ndarray]:
+    """The float32 computation of ``a = 1 - exp(-x)`` (``x`` up to ``x_hi``, stored with
+    relative error ``rel_x``): halvings to ``x <= 1/8``, the series' terms and ``a``'s worst
+    relative error."""
+    halvings = np.array([max(0, math.ceil(math.log2(x / 0.125))) if x > 0.125 else 0
+                         for x in x_hi], dtype=int)
+    n = _series_terms(0.125, 2.0 ** -30)
+    # Horner with x <= 1/8: relative error <= 18u/14 (each level damps the inner one by
+    # x/(j+1) <= 1/16), then the product x t: 2.5u in all; each doubling adds (1+u)^2.
+    rel_series = 0.125 ** n / math.factorial(n + 1) / (1 - 0.0625) + 2.5 * u
+    return halvings, n, (1 + rel_x) * (1 + rel_series) * (1 + u) ** (2 * halvings) - 1
+
+
 def dt_scheme(model: CreepModel, precision: str, max_interval: float) -> dict:
     """How the dt step computes ``a_k(dt) = 1 - exp(-dt/tau_k)``, and its worst relative error.
 
@@ -350,13 +363,7 @@ def dt_scheme(model: CreepModel, precision: str, max_interval: float) -> dict:
         inv_tau = np.array([float32_value(1.0 / tau) for tau in taus])
         delta_x = np.abs(inv_tau * taus - 1.0) + u * (1 + 1e-6)        # stored 1/tau, product
         x_hi = dt_max * inv_tau * (1 + u)
-        halvings = np.array([max(0, math.ceil(math.log2(x / 0.125))) if x > 0.125 else 0
-                             for x in x_hi], dtype=int)
-        n = _series_terms(0.125, 2.0 ** -30)
-        # Horner with x <= 1/8: relative error <= 18u/14 (each level damps the inner one by
-        # x/(j+1) <= 1/16), then the product x t: 2.5u in all; each doubling adds (1+u)^2.
-        rel_series = 0.125 ** n / math.factorial(n + 1) / (1 - 0.0625) + 2.5 * u
-        rel_a = (1 + delta_x) * (1 + rel_series) * (1 + u) ** (2 * halvings) - 1
+        halvings, n, rel_a = _float32_a_error(x_hi, delta_x, u)
         return {"dt_min": dt_min, "dt_max": dt_max, "inv_tau": inv_tau, "halvings": halvings,
                 "n": n, "inv_next": [float32_value(1.0 / (j + 1)) for j in range(n)],
                 "rel_a": rel_a, "extra": np.zeros(len(taus)), "nu": np.full(len(taus), u * u),
@@ -487,11 +494,7 @@ def temperature_scheme(model: CreepModel, rate: float, low: float, high: float) 
     rel_x = (1 + np.abs(dt_over_tau * taus / dt - 1.0)) * (1 + rel_r) * (1 + u) - 1
     r_min, r_max = 1.0 / float(shifts[0]), 1.0 / float(shifts[1])
     x_hi = dt_over_tau * r_max * (1 + rel_x)
-    halvings = np.array([max(0, math.ceil(math.log2(x / 0.125))) if x > 0.125 else 0
-                         for x in x_hi], dtype=int)
-    n = _series_terms(0.125, 2.0 ** -30)
-    rel_series = 0.125 ** n / math.factorial(n + 1) / (1 - 0.0625) + 2.5 * u
-    rel_a = (1 + rel_x) * (1 + rel_series) * (1 + u) ** (2 * halvings) - 1
+    halvings, n, rel_a = _float32_a_error(x_hi, rel_x, u)
     return {"low": lo_f, "high": hi_f, "reference": ref_f, "curve_c": c_f, "curve_d": d_f,
             "log2e": log2e_f, "ln2_head": _LN2_HEAD, "ln2_tail": ln2_tail, "j_max": j_max,
             "exp_terms": n_exp, "exp_next": [float32_value(1.0 / (i + 1)) for i in range(n_exp)],
