@@ -10,7 +10,8 @@ import re
 import numpy as np
 import pytest
 
-from creepcomp.analog.bom import BOM_COLUMNS, bom_csv, bom_rows, csv_cell
+from creepcomp.analog.bom import BOM_COLUMNS, bom_csv, bom_rows
+from creepcomp.io.outputs import csv_cell
 from creepcomp.analog.parts import DIELECTRICS, RESISTORS, PartsPlan, ThermistorUse
 from creepcomp.analog.practicality import find_way_out, judge, judge_network, made_range
 from creepcomp.analog.sizing import NoNetworkInRange, size

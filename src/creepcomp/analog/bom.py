@@ -18,12 +18,13 @@ from pathlib import Path
 from creepcomp.analog.parts import DIELECTRICS, RESISTORS, PART_REFERENCE, PartsPlan
 from creepcomp.analog.practicality import part_tolerance, resistor_technology
 from creepcomp.io.atomic import write_text_atomic
+from creepcomp.io.outputs import csv_cell
 from creepcomp.model import CreepModel
 from creepcomp.network import Network
 from creepcomp.temperature import ZERO_CELSIUS
 from creepcomp.units import format_quantity
 
-__all__ = ["BOM_COLUMNS", "BomRow", "bom_rows", "bom_csv", "write_bom", "csv_cell"]
+__all__ = ["BOM_COLUMNS", "BomRow", "bom_rows", "bom_csv", "write_bom"]
 
 #: The columns of the CSV, in order.
 BOM_COLUMNS = ("ref", "value", "series", "tolerance", "technology", "tc", "note")
@@ -135,17 +136,6 @@ def bom_rows(network: Network, plan: PartsPlan | None = None,
                                _dielectric_name(plan.capacitor), _ppm(plan.capacitor_tc),
                                f"dielectric absorption {_percent(lo)} .. {_percent(hi)}; {role}"))
     return rows
-
-
-def csv_cell(text: str) -> str:
-    """A cell a spreadsheet cannot run: text starting with ``=``, ``+``, ``-``, ``@``, a tab
-    or a carriage return (a formula to a spreadsheet) gets a leading ``'``; a number stays
-    a number."""
-    try:
-        float(text)
-        return text
-    except ValueError:
-        return "'" + text if text[:1] in ("=", "+", "-", "@", "\t", "\r") else text
 
 
 def bom_csv(rows: list[BomRow]) -> str:

@@ -3,7 +3,7 @@ it as Parquet (pyarrow) and CSV.
 
 In the CSV file a text cell that a spreadsheet would read as a formula (one starting with
 ``=``, ``+``, ``-``, ``@``, a tab or a carriage return) starts with ``'`` instead, as OWASP
-recommends against CSV injection (:func:`creepcomp.analog.bom.csv_cell`, as in a bill of
+recommends against CSV injection (:func:`creepcomp.io.outputs.csv_cell`, as in a bill of
 materials); numbers stay numbers, and the Parquet file keeps the text as it is.
 """
 
@@ -76,10 +76,10 @@ def arrow_table(rows: list[dict]):
 
 def csv_safe(table):
     """``table`` with every text cell a spreadsheet would run as a formula prefixed by ``'``
-    (:func:`creepcomp.analog.bom.csv_cell`): a spreadsheet then shows the text."""
+    (:func:`creepcomp.io.outputs.csv_cell`): a spreadsheet then shows the text."""
     import pyarrow as pa
 
-    from creepcomp.analog.bom import csv_cell
+    from creepcomp.io.outputs import csv_cell
 
     for i, column in enumerate(table.schema):
         if not pa.types.is_string(column.type):

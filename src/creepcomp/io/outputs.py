@@ -25,7 +25,7 @@ from typing import Iterable, Mapping, Sequence
 from creepcomp.errors import InputError
 
 __all__ = ["PLOT_SUFFIXES", "OUTPUT_SUFFIXES", "check_outputs", "check_output_file",
-           "check_output_dir", "check_replaceable", "file_kind"]
+           "check_output_dir", "check_replaceable", "file_kind", "csv_cell"]
 
 #: File endings a plot can be saved as (matplotlib's formats); no ending is PNG.
 PLOT_SUFFIXES = ("png", "pdf", "svg", "svgz", "eps", "ps", "jpg", "jpeg", "tif", "tiff", "webp",
@@ -231,3 +231,14 @@ def check_outputs(files: Mapping[str, str | Path | None] | None = None,
     for option, path in (dirs or {}).items():
         if path is not None:
             check_output_dir(path, option, inputs, (contents or {}).get(option, ()))
+
+
+def csv_cell(text: str) -> str:
+    """A cell a spreadsheet cannot run: text starting with ``=``, ``+``, ``-``, ``@``, a tab
+    or a carriage return (a formula to a spreadsheet) gets a leading ``'``; a number stays
+    a number."""
+    try:
+        float(text)
+        return text
+    except ValueError:
+        return "'" + text if text[:1] in ("=", "+", "-", "@", "\t", "\r") else text
