@@ -809,8 +809,8 @@ def correction_errors(data: Data, base: Fit, extended: Fit, extensions: dict) ->
     out = {"initial": initial}
     for label, model in (("baseline", model_b), ("extended", model_e)):
         try:
-            comp = compensate_extended(data.time, data.signal, model, data.temperature, initial=initial,
-                              hold=data.hold)
+            comp = compensate_extended(data.time, data.signal, model, data.temperature,
+                                       initial=initial, hold=data.hold)
         except (InputError, ImportError):
             return {}
         err = fitted_reference_error(comp, data.load)

@@ -203,7 +203,8 @@ def render_html(diagnosis, units: dict, title: str = "creepcomp diagnose",
     su = units.get("signal", "")
     stats = [(label, b[key], e[key])
              for label, key in (("residual RMS (" + (su or "signal units") + ")", "residual_rms"),
-                                ("held-out residual RMS", "heldout_residual_rms"),
+                                ("held-out residual RMS (" + (su or "signal units") + ")",
+                                 "heldout_residual_rms"),
                                 ("residual RMS / signal range", "residual_rms_relative"),
                                 ("BIC", "bic"), ("residual lag-1 autocorrelation", "residual_lag1_autocorrelation"),
                                 ("Ljung-Box p of the prewhitened residual", "whitened_ljung_box_p"))]
