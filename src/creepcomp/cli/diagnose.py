@@ -172,7 +172,8 @@ def render_diagnosis(record, d: Diagnosis) -> None:
     t.add_row(f"held-out residual RMS ({su or 'signal units'})", f"{b['heldout_residual_rms']:.4g}",
               f"{e['heldout_residual_rms']:.4g}", _ratio(g.get("heldout_rms_ratio")))
     if g.get("correction_error_ratio") is not None:
-        t.add_row("creep-corrected signal vs load, RMS error", f"{g['correction_error_baseline']:.4g}",
+        t.add_row(f"corrected signal vs load, RMS error ({su or 'signal units'})",
+                  f"{g['correction_error_baseline']:.4g}",
                   f"{g['correction_error_extended']:.4g}", _ratio(g["correction_error_ratio"]))
     console.print(t)
 
