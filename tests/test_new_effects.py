@@ -162,6 +162,12 @@ def test_hysteresis_on_load_steps_reports_the_loop_height_not_a_width():
     assert lo <= truth["width"] <= hi and hi > 1.2 * lo
     assert f.parameters["loop_height"] == pytest.approx(truth["loop_height"], rel=0.2)
     assert "loop height" in f.note
+    # the model file: the widest width that fits as well, the loop height kept (a narrow width
+    # would give a weight many times the gain, whose dead band no correction can undo)
+    entry = d.extended_model["extensions"]["rate_independent_hysteresis"]
+    assert entry["width"] == pytest.approx(hi)
+    assert entry["width"] * entry["weight"] == pytest.approx(f.parameters["loop_height"], rel=1e-9)
+    assert abs(entry["weight"] / d.extended_model["gain"]) < 1.0
 
 
 def test_jumps_on_a_noisy_ramping_load_are_found_when_the_load_cannot_explain_them():

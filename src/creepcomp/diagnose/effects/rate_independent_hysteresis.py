@@ -13,8 +13,11 @@ play by half the width after every step whatever the width is: the column is the
 times a fixed shape, and only the loop height ``weight * width`` is determined. The widths
 that fit as well as the fitted one are found from the load's column shapes
 (:class:`PlayShapes`); when they reach beyond 20 % either way, the width and the weight are
-reported as not determined, with the loop height and the range of widths that fit as well.
-A sweep or small reversals (within the dead band) separate them.
+reported as not determined, with the loop height and the range of widths that fit as well,
+and the model file holds the widest of them (the smallest weight for the loop height: the
+dead band's slope ``gain - weight`` nearest the gain, so the correction's inverse of the play
+is the best conditioned of the models that fit as well). A sweep or small reversals (within
+the dead band) separate them.
 """
 
 from __future__ import annotations
@@ -169,8 +172,18 @@ class RateIndependentHysteresis(SensorEffect):
                 f"shifts by half its width); a sweep or small reversals would separate width and weight")
 
     def extension(self, fit: Fit, applied: Applied) -> dict:
-        return {"width": fit.values["rate_independent_hysteresis.width"],
-                "weight": fit.values["rate_independent_hysteresis.weight"]}
+        width = fit.values["rate_independent_hysteresis.width"]
+        weight = fit.values["rate_independent_hysteresis.weight"]
+        span = self.widths_as_good(fit, applied)
+        if span is not None:
+            # only the loop height is determined; the width the optimiser stopped at is
+            # arbitrary, and a narrow one gives weight >> gain, a dead band whose slope runs
+            # against the load and a correction that diverges. Of the widths that fit as well,
+            # the widest: the same loop, the dead band's slope nearest the gain.
+            height = width * weight
+            width = span[1]
+            weight = height / width
+        return {"width": width, "weight": weight}
 
     def restore(self, entry, model, data):
         return Applied(self, (("load_scale", data.load_scale),)), {
