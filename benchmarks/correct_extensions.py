@@ -8,8 +8,9 @@ and the baseline (``baseline-model.json``, the digital correction). The start is
 the load starts at zero, settled otherwise; the load ramps between samples (the diagnosis's
 reading of a record). Printed per effect: the median, lowest and highest correction-error
 ratio (baseline / extended RMS error, the load scaled by least squares: the diagnosis's
-figure), the same against the model's own reference (``offset + gain * load``), and the
-records the correction refused.
+figure, here in load units, so that two models of different gains compare), the same against
+the model's own reference (``offset + gain * load``), the uncorrected signal's error over the
+extended model's, the diagnosis's own figure, and the records the correction refused.
 
 A baseline the model file refuses (``beta0 <= -1``: the correction ``1/G`` would have a pole
 in the right half-plane) is not what a user corrects with. A delay of a few samples gives one
@@ -18,6 +19,10 @@ on every record: the one-term model's best likeness of ``exp(-s d)`` is the all-
 ``d / 2``). Such a record is compared with the best readable baseline instead
 (:func:`readable_baseline`: the same one-term model restricted to ``beta > -1``), and the row
 says how many records that was (``readable``).
+
+A model with a ``time_offset`` knows the load at a sample from the signal up to ``latency``
+seconds later: the load of the record's last ``latency`` seconds is not in it. Every error of
+such a record (baseline, extended, uncorrected) is taken over the samples before that.
 
 Usage::
 
@@ -36,7 +41,7 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 from creepcomp import synth
-from creepcomp.diagnose.effects import compensate_extended
+from creepcomp.diagnose.effects import compensate_extended, time_offset
 from creepcomp.diagnose.sensor import DIAGNOSE_MAX_SAMPLES, diagnose
 from creepcomp.fit.data import prepare
 from creepcomp.fit.reduce import reduce_record
@@ -48,9 +53,20 @@ from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 
 
-def corrected_errors(record, model: CreepModel) -> tuple[float, float]:
-    """RMS error of the corrected signal: against the load scaled by least squares, and
-    against the model's reference (signal units)."""
+def load_unit_rms(values, load) -> float:
+    """RMS error of ``values`` against the load scaled to them by least squares
+    (:func:`~creepcomp.digital.correctors.fitted_reference_error`), in load units: divided by
+    the fitted scale, so that models of different gains compare (a corrected signal is
+    ``offset + gain * load`` in the model's own gain)."""
+    err = fitted_reference_error(values, load)
+    scale = np.ptp(np.asarray(values) - err) / np.ptp(load)
+    return float(np.sqrt(np.mean(err ** 2))) / scale if scale > 0 else float("inf")
+
+
+def corrected_errors(record, model: CreepModel, known: int | None = None) -> tuple[float, float]:
+    """RMS error of the corrected signal over the first ``known`` samples (default all), in
+    load units: against the load scaled by least squares, and against the model's reference
+    ``offset + gain * load``."""
     initial = "relaxed" if record.load[0] == 0 else "settled"
     if model.extensions:
         comp = compensate_extended(record.time, record.signal, model, record.temperature,
@@ -58,8 +74,20 @@ def corrected_errors(record, model: CreepModel) -> tuple[float, float]:
     else:
         comp = compensate(record.time, record.signal, model, "subtractive", initial=initial,
                           hold="linear")
-    fitted = float(np.sqrt(np.mean(fitted_reference_error(comp, record.load) ** 2)))
-    return fitted, creep_error(record.time, comp, record.load, model).rms
+    n = len(record) if known is None else known
+    own = creep_error(record.time[:n], comp[:n], record.load[:n], model).rms / abs(model.gain)
+    return load_unit_rms(comp[:n], record.load[:n]), own
+
+
+def known_samples(record, model: CreepModel) -> int:
+    """Samples whose load the model's correction can know: a signal read later than the load
+    (:func:`~creepcomp.diagnose.effects.time_offset.latency`) leaves the load of the record's
+    last ``latency`` seconds out of it, whatever the correction."""
+    entry = (model.extensions or {}).get(time_offset.EFFECT.name)
+    if not entry:
+        return len(record)
+    end = record.time[-1] - time_offset.latency(entry)
+    return max(int(np.searchsorted(record.time, end, side="right")), 2)
 
 
 def _readable(fit: Fit) -> bool:
@@ -107,14 +135,17 @@ def run_one(effect: str, seed: int, max_samples: int) -> dict:
             out["readable_baseline"] = {"beta": base.beta[0], "tau": base.tau[0], "gain": base.gain}
     try:
         ext = CreepModel.from_dict(d.extended_model, where="extended model")
-        e_fit, e_ref = corrected_errors(syn.record, ext)
-        b_fit, b_ref = corrected_errors(syn.record, base) if base is not None else (None, None)
+        known = known_samples(syn.record, ext)
+        if known < len(syn.record):
+            out["compared_samples"] = known
+        e_fit, e_ref = corrected_errors(syn.record, ext, known)
+        b_fit, b_ref = corrected_errors(syn.record, base, known) if base is not None else (None, None)
     except InputError as exc:
         out["refused"] = str(exc)
         return out
     if b_fit is None:
         return out
-    raw = float(np.sqrt(np.mean(fitted_reference_error(syn.record.signal, syn.record.load) ** 2)))
+    raw = load_unit_rms(syn.record.signal[:known], syn.record.load[:known])
     out.update(ratio=b_fit / e_fit if e_fit > 0 else None, ratio_reference=b_ref / e_ref if e_ref > 0 else None,
                ratio_uncorrected=raw / e_fit if e_fit > 0 else None, seconds=time.perf_counter() - t0)
     return out

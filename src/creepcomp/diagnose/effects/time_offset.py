@@ -12,7 +12,7 @@ from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
 from creepcomp.diagnose.effects import SensorEffect
 
-__all__ = ["shifted", "averaged", "TimeOffset", "EFFECT"]
+__all__ = ["shifted", "averaged", "latency", "TimeOffset", "EFFECT"]
 
 #: A window narrower than this share of the shortest sample step is a plain delay.
 NARROW = 1e-3
@@ -49,6 +49,13 @@ def averaged(time, values, delay: float, width: float) -> np.ndarray:
     hi = _integral_at(t, values, t - delay + 0.5 * width)
     lo = _integral_at(t, values, t - delay - 0.5 * width)
     return (hi - lo) / width
+
+
+def latency(entry: dict) -> float:
+    """How far ahead of a sample the signal must reach to give the load there (s): the
+    model file's ``delay`` plus half its ``width`` (0 for a signal read early). The load over
+    a record's last ``latency`` seconds is not in the record."""
+    return max(float(entry["delay"]) + 0.5 * float(entry.get("width", 0.0)), 0.0)
 
 
 class TimeOffset(SensorEffect):
@@ -115,7 +122,7 @@ class TimeOffset(SensorEffect):
         delay, width = float(entry["delay"]), float(entry.get("width", 0.0))
         window = f", averaged over {width:.3g} s" if width > 0 else ""
         return (f"the load that, read {delay:.3g} s earlier{window}, gives the signal: the load at t is "
-                f"known from the signal up to t + {max(delay + width / 2, 0.0):.3g} s (a latency)")
+                f"known from the signal up to t + {latency(entry):.3g} s (a latency)")
 
     # -- generator ---------------------------------------------------------------------------
     def draw_default(self, rng, scales, mixture):
