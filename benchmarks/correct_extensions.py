@@ -14,11 +14,14 @@ extended model's, the diagnosis's own figure, and the records the correction ref
 
 A baseline the model file refuses (``beta0 <= -1``: the correction ``1/G`` would have a pole
 in the right half-plane) is not what a user corrects with. A delay of a few samples gives one
-on every record: the one-term model's best likeness of ``exp(-s d)`` is the all-pass
-``-(1 - s tau) / (1 + s tau)`` (negative instantaneous gain, ``beta`` near -2, ``tau`` near
-``d / 2``). Such a record is compared with the best readable baseline instead
-(:func:`readable_baseline`: the same one-term model restricted to ``beta > -1``), and the row
-says how many records that was (``readable``).
+on every record: the one-term model's best likeness of ``exp(-s d)`` has a zero in the right
+half-plane, like the first-order Pade all-pass ``(1 - s d/2) / (1 + s d/2)`` (gain ``-G``,
+``beta = -2``): fitted, a negative instantaneous gain, ``beta`` -3 to -4.6 and ``tau`` 0.7 to
+0.95 times the delay, the same with and without the step-time columns. Such a record is
+compared with the best readable baseline instead (:func:`readable_baseline`: the same
+one-term model restricted to ``beta > -1``; on a delay it is nearly a pure lag, a small
+instantaneous gain and a large ``beta``, whose correction amplifies the noise by
+``1 + beta``), and the row says how many records that was (``readable``).
 
 A model with a ``time_offset`` knows the load at a sample from the signal up to ``latency``
 seconds later: the load of the record's last ``latency`` seconds is not in it. Every error of
