@@ -70,3 +70,17 @@ def test_errors_compare_in_load_units_whatever_the_gain():
     values = 3.0 + 2.0 * load + np.random.default_rng(1).normal(0.0, 0.01, load.size)
     assert bench.load_unit_rms(values, load) == pytest.approx(bench.load_unit_rms(10.0 * values, load))
     assert bench.load_unit_rms(values, load) == pytest.approx(0.005, rel=0.2)
+
+
+def test_a_thermal_retardation_model_with_its_own_temperature_block_is_corrected():
+    from creepcomp.diagnose.effects import extension_inverses
+    from creepcomp.temperature import TemperatureLaw
+
+    law = TemperatureLaw.from_kappa(0.05, 25.0)
+    own = CreepModel((0.03,), (45.0,), 0.05, 0.0,
+                     {"thermal_retardation": {"kappa": 0.05, "reference_temperature": 25.0}}, law)
+    assert set(extension_inverses(own)) == {"thermal_retardation"}
+    # a temperature law beside another extension would be a second law: refused
+    other = CreepModel((0.03,), (45.0,), 0.05, 0.0, {"time_offset": {"delay": 0.5}}, law)
+    with pytest.raises(InputError, match="temperature law cannot be applied together"):
+        extension_inverses(other)
