@@ -78,9 +78,6 @@ class Effect(abc.ABC):
     describes_record : bool
         A statement about the record (a fault of it), not an extension of the model: it may
         stay the cause when it makes the creep-corrected signal worse, its note says why.
-    writes_temperature_law : bool
-        The model file's ``temperature`` block is this extension's own law
-        (:meth:`temperature_law`): applying the extension applies it.
     vocabulary_index : float
         Position in its side's table of ``docs/diagnosis.md`` (effects without one come last, by name).
     """
@@ -94,7 +91,6 @@ class Effect(abc.ABC):
     state_dependent = False
     summary = ""
     describes_record = False
-    writes_temperature_law = False
     vocabulary_index: float = math.inf
 
     # -- applicability and fitting -------------------------------------------------------
@@ -482,8 +478,7 @@ def extension_inverses(model: CreepModel) -> dict[str, str]:
             raise InputError(f"the model's extension '{name}' cannot be inverted causally by the "
                              f"creep correction; {BASELINE_ADVICE}")
         out[name] = how
-    own_law = any(get(name).writes_temperature_law for name in out)
-    if out and model.temperature is not None and not own_law:
+    if out and model.temperature is not None:
         raise InputError(f"the model's temperature law cannot be applied together with its "
                          f"extensions ({', '.join(out)}); {BASELINE_ADVICE}")
     return out

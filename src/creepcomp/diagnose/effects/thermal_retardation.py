@@ -47,8 +47,6 @@ class ThermalRetardation(SensorEffect):
     parameters = ("kappa",)
     needs = ("temperature",)
     changes_lags = True
-    # the model file's temperature block is the Arrhenius law of the extension's kappa
-    writes_temperature_law = True
     summary = "retardation times that change with temperature"
 
     def settings(self, data: Data, base: Fit) -> tuple:
