@@ -42,7 +42,7 @@ from creepcomp.units import format_quantity
 __all__ = ["OverTemperature", "network_over", "over_temperature", "worst_case", "effective_sizing",
            "size_fixed_for_range", "TrackingDesign", "check_tracking", "size_ntc_tracking",
            "TRACKING_RECHECKS", "TRACKING_SHORTLIST", "RangeDesign", "RangeComparison",
-           "compare_over_range"]
+           "compare_over_range", "TOPOLOGIES"]
 
 #: Candidates re-checked with the exact prediction after the closed-form screen.
 TRACKING_RECHECKS = 6
@@ -54,6 +54,10 @@ def network_over(network: Network, plan: PartsPlan, temperature: float) -> Netwo
     """The network at ``temperature`` (°C): every part's value (:func:`network_at`) and each
     cell capacitor's insulation resistance ``R_ins C / C`` across it (in parallel with any
     leakage the network already has)."""
+    if getattr(network, "topology", None) == "active":
+        from creepcomp.analog.active import stage_over
+
+        return stage_over(network, plan, temperature)
     net = network_at(network, plan, temperature)
     dielectric = DIELECTRICS[plan.capacitor]
     cells = tuple(replace(c, leakage=parallel(c.leakage, dielectric.insulation_time(temperature) / c.C))
@@ -114,10 +118,13 @@ class OverTemperature:
                 "note": self.note}
 
 
-def _tracking_dict(plan: PartsPlan) -> dict:
+def _tracking_dict(plan: PartsPlan, topology: str = "lead") -> dict:
     if not plan.thermistors:
         return {"kind": "none"}
-    return {"kind": "ntc", "thermistors": {k: v.to_dict() for k, v in plan.thermistors.items()}}
+    out = {"kind": "ntc", "thermistors": {k: v.to_dict() for k, v in plan.thermistors.items()}}
+    if topology == "active":
+        out["topology"] = "active"
+    return out
 
 
 def over_temperature(model: CreepModel, network: Network, plan: PartsPlan,
@@ -146,7 +153,7 @@ def over_temperature(model: CreepModel, network: Network, plan: PartsPlan,
         peaks.append(step_peak(sensor, network_over(network, plan, float(t)))[0])
         bare.append(step_peak(sensor, None)[0])
     return OverTemperature(tuple(float(t) for t in grid), tuple(peaks), tuple(bare),
-                           _tracking_dict(plan), model.temperature is not None)
+                           _tracking_dict(plan, network.topology), model.temperature is not None)
 
 
 def worst_case(model: CreepModel, network: Network, plan: PartsPlan, temperatures) -> float:
@@ -165,6 +172,16 @@ def _screen_over(model: CreepModel, temperatures, networks_at) -> np.ndarray:
         template, values = networks_at(float(t))
         d, r, p = modal_form(*state_matrices(*template.batch_arrays(values)))
         dev = screening_deviation(model.at_temperature(float(t)), d, r, p)
+        worst = dev if worst is None else np.maximum(worst, dev)
+    return worst
+
+
+def _screen_batch(model: CreepModel, temperatures, lags_at) -> np.ndarray:
+    """Worst closed-form peak residual over ``temperatures`` of a batch of designs given as
+    sum-of-lags arrays: ``lags_at(k)`` gives ``(direct, gains, taus)`` at ``temperatures[k]``."""
+    worst = None
+    for k, t in enumerate(temperatures):
+        dev = screening_deviation(model.at_temperature(float(t)), *lags_at(k))
         worst = dev if worst is None else np.maximum(worst, dev)
     return worst
 
@@ -400,7 +417,8 @@ class RangeDesign:
     warnings: tuple[str, ...] = ()
 
     def to_dict(self) -> dict:
-        out = {k: v for k, v in self.network.to_dict().items() if k in ("cells", "R2", "shunt")}
+        out = {k: v for k, v in self.network.to_dict().items()
+               if k in ("cells", "R2", "shunt", "topology", "active")}
         out.update(label=self.label, parts=self.plan.to_dict(), worst=self.prediction.worst,
                    worst_at=self.prediction.worst_at, peak_residual=list(self.prediction.peak_residual),
                    warnings=list(self.warnings))
@@ -442,17 +460,21 @@ def compare_over_range(model: CreepModel, reference: Network, low: float, high: 
                        plan: PartsPlan | None = None, tracking: str = "none", rule: str = "exact",
                        resistor_series: str = "E24", capacitor_series: str = "E6",
                        res_range: tuple[float, float] = DEFAULT_RES_RANGE,
-                       reference_warnings=()) -> RangeComparison:
+                       reference_warnings=(), topology: str = "auto") -> RangeComparison:
     """(a) ``reference`` (fixed parts sized at the model's reference temperature), (b) fixed
-    parts sized for ``low .. high`` °C at the same capacitor, and with ``tracking="ntc"`` (c) a
-    thermistor network, each predicted over the range.
+    parts sized for ``low .. high`` °C at the same capacitor, and with ``tracking="ntc"`` (c)
+    thermistor tracking, each predicted over the range: the passive lead network
+    (``topology`` ``passive``), the active stage (:mod:`creepcomp.analog.active`, ``active``),
+    or both with the passive one written when it is practical (``auto``).
 
     Raises
     ------
     InputError
-        For a tracking other than ``none`` or ``ntc``.
+        For a tracking other than ``none`` or ``ntc``, a topology not in :data:`TOPOLOGIES`.
     """
     check_tracking(model, tracking)
+    if topology not in TOPOLOGIES:
+        raise InputError(f"--topology {topology!r}: expected {', '.join(TOPOLOGIES)}")
     plan = plan or PartsPlan()
     # near the reference's impedance level: two capacitor values either side of its own
     c_ref = max(v for _, k, v in reference.parts() if k == "C")
@@ -467,11 +489,42 @@ def compare_over_range(model: CreepModel, reference: Network, low: float, high: 
                            + (f"({t_eff:.1f} °C, {factor:.2f} beta)" if model.temperature is not None
                               else "(the parts' drift only)"), fixed, plan,
                            over_temperature(model, fixed, plan, low, high))]
+    chosen = "range"
     if tracking == "ntc":
+        chosen = _add_tracking(designs, model, low, high, plan, topology, resistor_series,
+                               capacitor_series, reference)
+    return RangeComparison(low, high, tuple(designs), chosen, t_eff, factor, count)
+
+
+#: How ``--tracking ntc`` is built: ``auto`` writes the passive lead network when it is
+#: practical, else the active stage.
+TOPOLOGIES = ("auto", "passive", "active")
+
+
+def _add_tracking(designs: list, model: CreepModel, low: float, high: float, plan: PartsPlan,
+                  topology: str, resistor_series: str, capacitor_series: str, reference: Network) -> str:
+    """Append the NTC tracking designs ``topology`` asks for; return the key to write."""
+    from creepcomp.analog.active import size_active_tracking
+
+    practical = None
+    if topology in ("auto", "passive"):
         ntc = size_ntc_tracking(model, low, high, plan, resistor_series, capacitor_series,
                                 source_resistance=reference.source_resistance,
                                 load_resistance=reference.load_resistance)
-        designs.append(RangeDesign("ntc", "(c) NTC thermistor tracking", ntc.network, ntc.plan,
+        designs.append(RangeDesign("ntc", "(c) NTC thermistor tracking, passive lead network",
+                                   ntc.network, ntc.plan,
                                    over_temperature(model, ntc.network, ntc.plan, low, high), ntc.warnings))
-    return RangeComparison(low, high, tuple(designs), "ntc" if tracking == "ntc" else "range", t_eff,
-                           factor, count)
+        if topology == "passive":
+            return "ntc"
+        from creepcomp.analog.practicality import judge_network
+
+        practical = judge_network(model, ntc.network, ntc.plan).practical
+    active = size_active_tracking(model, low, high, plan, resistor_series, capacitor_series,
+                                  source_resistance=reference.source_resistance,
+                                  load_resistance=reference.load_resistance)
+    why = "" if practical is None else " (the passive one is impractical)" if not practical else ""
+    designs.append(RangeDesign("active", "(c) NTC thermistor tracking, active stage" + why,
+                               active.network, active.plan,
+                               over_temperature(model, active.network, active.plan, low, high),
+                               active.warnings))
+    return "ntc" if practical else "active"

@@ -1,0 +1,549 @@
+"""The active correction stage: the inverse of the creep built from integrators and fixed gains.
+
+The lead network's ``H = 1 / G`` written as partial fractions (every pole real, every
+amplitude positive for a sensor of positive creep)::
+
+    1 / G(s) = 1 - sum_j c_j / (1 + s p_j)
+
+is built *actively*: the input minus ``c_j`` times a low-pass of it, for each ``j``. Only the
+low-pass time constants ``p_j`` must follow the material (all of them scale by ``a_T`` when
+every ``tau_k`` does); the amplitudes ``c_j`` are ratios of fixed resistors. So one NTC
+thermistor per term tracks the creep, and no resistor needs to be ``1 / beta0`` times a
+thermistor, which is what forces millifarad capacitors on the passive tracking network.
+
+Circuit (ideal op amps; term ``j``, ``K`` terms)::
+
+    in --RA_j--+--RB_j-- w_j           U_j: inverting integrator, C_j from its - input to w_j,
+               |                             RT_j (the NTC network) from node e_j to its - input
+              RG_j                      U0: follower of node s (the output)
+               |                        s: in through RS0, each w_j through RS_j
+              gnd
+
+Node ``e_j`` divides ``in + w_j`` by ``alpha_j = 1 / (2 + RA_j / RG_j)`` (``RA_j = RB_j``),
+so the integrator loop is a low-pass of ``in`` (``w_j = -LP_j(in)``, DC gain ``RB_j /
+RA_j``) with time constant ``p_j = C_j (RT_j / alpha_j + RA_j)``: the divider lets a 10 uF
+film capacitor and a catalogue thermistor reach tens of seconds. The output is
+``(in / RS0 + sum w_j / RS_j) / (1 / RS0 + sum 1 / RS_j)``, so ``c_j = RS0 / RS_j``.
+
+``H(s)`` is written once (:meth:`ActiveStage.matrices`, nodal analysis of that circuit with
+the sensor's source resistance and each capacitor's leakage); its sum of lags feeds the
+project's predictions (:mod:`creepcomp.analog.quality`) exactly as a passive network's.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Mapping, TYPE_CHECKING
+
+import numpy as np
+
+from creepcomp.analog import eseries
+from creepcomp.analog.parts import (DIELECTRICS, NTC_THERMISTORS, PART_REFERENCE, PartsPlan,
+                                    ThermistorUse, network_at, ntc_resistance)
+from creepcomp.errors import InputError
+from creepcomp.lti import LagExpansion
+from creepcomp.model import CreepModel
+from creepcomp.network import CAPACITANCE_RANGE, RESISTANCE_RANGE, parallel
+from creepcomp.temperature import temperature_grid
+from creepcomp.units import format_quantity
+
+if TYPE_CHECKING:
+    import control
+
+__all__ = ["ActiveTerm", "ActiveStage", "OpAmpRequirement", "OP_AMP", "inverse_lags",
+           "ideal_active", "stage_over", "output_offset", "lag_batch", "size_active_tracking",
+           "ACTIVE_CAP_RANGE", "DIVIDER_RESISTANCE", "SUM_RESISTANCE_RANGE", "ALPHA_RANGE"]
+
+#: Integrator capacitors searched (F): film capacitors that are stocked, not special builds.
+ACTIVE_CAP_RANGE = (1e-6, 10e-6)
+#: The divider's resistors from the input and from the integrator's output (ohm).
+DIVIDER_RESISTANCE = 100e3
+#: The output summer's resistor from the input is searched in this range (ohm).
+SUM_RESISTANCE_RANGE = (10e3, 100e3)
+#: Divider ratios allowed: below the lower end the op amp's offset is amplified too much.
+ALPHA_RANGE = (0.02, 0.45)
+
+
+@dataclass(frozen=True)
+class OpAmpRequirement:
+    """What the stage's op amps must do (one per term and the output follower).
+
+    The integrator's input bias current flows through the thermistor network (megohms
+    when cold) and its offset is divided by ``alpha``: both give a constant output offset
+    (:func:`output_offset`), removed by taring, not creep; they matter only as zero drift.
+    """
+
+    input_type: str = "CMOS or JFET input"
+    bias_current: float = 10e-12
+    offset: float = 100e-6
+    examples: str = ("a JFET-input precision op amp (OPA140 class) or a zero-drift CMOS one "
+                     "(AD8628 class); check the datasheet over the temperature range")
+
+    def text(self) -> str:
+        """One line for the BOM and the verdict."""
+        return (f"{self.input_type}, input bias current at most "
+                f"{format_quantity(self.bias_current, 'A')} over the range, offset at most "
+                f"{format_quantity(self.offset, 'V')}; e.g. {self.examples}")
+
+    def to_dict(self) -> dict:
+        return {"input": self.input_type, "bias_current": self.bias_current,
+                "offset": self.offset, "examples": self.examples}
+
+
+#: The op amps the stage is designed and judged for.
+OP_AMP = OpAmpRequirement()
+
+
+@dataclass(frozen=True)
+class ActiveTerm:
+    """One integrator loop: ``RT`` (ohm, the time-setting resistor: an NTC network when the
+    plan says so), ``C`` (F), the divider ``RA`` (from the input), ``RB`` (from the
+    integrator's output), ``RG`` (to ground), the summing resistor ``RS`` and the
+    capacitor's ``leakage`` (ohm across it, None: none)."""
+
+    RT: float
+    C: float
+    RA: float
+    RB: float
+    RG: float
+    RS: float
+    leakage: float | None = None
+
+    @property
+    def alpha(self) -> float:
+        """The divider ratio from the input to node ``e`` (``RT`` not loading it)."""
+        return (1.0 / self.RA) / (1.0 / self.RA + 1.0 / self.RB + 1.0 / self.RG)
+
+    @property
+    def time_constant(self) -> float:
+        """The low-pass time constant ``RB C (1 + RT (1/RA + 1/RB + 1/RG))`` (no leakage)."""
+        return self.RB * self.C * (1.0 + self.RT * (1.0 / self.RA + 1.0 / self.RB + 1.0 / self.RG))
+
+
+_TERM_PARTS = (("RT", "R", "RT"), ("C", "C", "C"), ("RA", "R", "RA"), ("RB", "R", "RB"),
+               ("RG", "R", "RG"), ("RS", "R", "RS"))
+
+
+@dataclass(frozen=True)
+class ActiveStage:
+    """The active correction stage (see the module's description).
+
+    Parameters
+    ----------
+    terms : tuple of ActiveTerm
+        One integrator loop per pole of ``1 / G``.
+    RS0 : float
+        The output summer's resistor from the input (ohm).
+    source_resistance : float
+        Output resistance of the sensor (ohm).
+    load_resistance : float or None
+        Input resistance of the next stage (ohm); the follower drives it, so it changes nothing.
+    """
+
+    terms: tuple[ActiveTerm, ...]
+    RS0: float
+    source_resistance: float = 0.0
+    load_resistance: float | None = None
+
+    topology = "active"
+
+    def __post_init__(self):
+        terms = tuple(t if isinstance(t, ActiveTerm) else ActiveTerm(**t) for t in self.terms)
+        object.__setattr__(self, "terms", terms)
+        if not terms:
+            raise InputError("an active stage needs at least one term")
+        for j, t in enumerate(terms, 1):
+            for name in ("RT", "C", "RA", "RB", "RG", "RS"):
+                v = getattr(t, name)
+                if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                    raise InputError(f"active term {j}: {name} = {v!r} must be a positive number")
+        if not (math.isfinite(self.RS0) and self.RS0 > 0):
+            raise InputError(f"active stage: RS0 = {self.RS0!r} must be positive")
+
+    # --- parts -----------------------------------------------------------------------
+    def parts(self) -> list[tuple[str, str, float]]:
+        """``(label, kind, value)`` in circuit order: per term ``RTj, Cj, RAj, RBj, RGj, RSj``,
+        then ``RS0``."""
+        out = []
+        for j, t in enumerate(self.terms, 1):
+            out += [(f"{prefix}{j}", kind, getattr(t, attr)) for prefix, kind, attr in _TERM_PARTS]
+        out.append(("RS0", "R", self.RS0))
+        return out
+
+    def with_parts(self, values) -> "ActiveStage":
+        """A copy with part values replaced, in the order of :meth:`parts`."""
+        v = [float(x) for x in values]
+        n = len(_TERM_PARTS)
+        terms = tuple(replace(t, **{attr: v[j * n + i] for i, (_, _, attr) in enumerate(_TERM_PARTS)})
+                      for j, t in enumerate(self.terms))
+        return replace(self, terms=terms, RS0=v[len(self.terms) * n])
+
+    def with_leakage(self, leakages) -> "ActiveStage":
+        """A copy with a resistance across each capacitor (in parallel with any it has)."""
+        return replace(self, terms=tuple(replace(t, leakage=parallel(t.leakage, r))
+                                         for t, r in zip(self.terms, leakages)))
+
+    def check_buildable(self, where: str = "design") -> None:
+        """Refuse values no circuit has (:data:`RESISTANCE_RANGE`, :data:`CAPACITANCE_RANGE`)."""
+        for label, kind, value in self.parts():
+            low, high = RESISTANCE_RANGE if kind == "R" else CAPACITANCE_RANGE
+            unit = "Ω" if kind == "R" else "F"
+            if not low <= value <= high:
+                raise InputError(f"{where}: {label} = {format_quantity(value, unit)} is outside "
+                                 f"{format_quantity(low, unit)} .. {format_quantity(high, unit)}")
+
+    # --- H(s) --------------------------------------------------------------------------
+    def matrices(self):
+        """State-space ``A, B, C, D`` of ``H(s)``; state ``j`` is integrator ``j``'s output.
+
+        Nodal analysis with ideal op amps: the nodes ``in`` (behind the source resistance),
+        ``e_j`` and ``s`` are solved for the input and the states; each integrator's
+        capacitor takes the current ``e_j / RT_j`` (and its leakage ``w_j / R_leak``).
+        """
+        K = len(self.terms)
+        rs = self.source_resistance
+        # unknown nodes: [in (only with a source resistance)], e_1..e_K, s
+        off = 1 if rs > 0 else 0
+        n = off + K + 1
+        M = np.zeros((n, n))
+        Nu = np.zeros(n)
+        Nw = np.zeros((n, K))
+        si = n - 1
+
+        # each divider node e_j: to the input (node or source), to w_j, to ground, to RT_j
+        for j, t in enumerate(self.terms):
+            e = off + j
+            ga, gb, gg, gt = 1 / t.RA, 1 / t.RB, 1 / t.RG, 1 / t.RT
+            M[e, e] += ga + gb + gg + gt
+            Nw[e, j] += gb
+            if off:
+                M[e, 0] -= ga
+                M[0, 0] += ga
+                M[0, e] -= ga
+            else:
+                Nu[e] += ga
+        g0 = 1 / self.RS0
+        M[si, si] += g0 + sum(1 / t.RS for t in self.terms)
+        for j, t in enumerate(self.terms):
+            Nw[si, j] += 1 / t.RS
+        if off:
+            M[si, 0] -= g0
+            M[0, 0] += g0 + 1 / rs
+            M[0, si] -= g0
+            Nu[0] += 1 / rs
+        else:
+            Nu[si] += g0
+        Pu = np.linalg.solve(M, Nu)
+        Pw = np.linalg.solve(M, Nw)
+        caps = np.array([t.C for t in self.terms])
+        gt = np.array([1 / t.RT for t in self.terms])
+        gl = np.array([0.0 if t.leakage is None else 1 / t.leakage for t in self.terms])
+        rows = slice(off, off + K)
+        A = -(gt[:, None] * Pw[rows, :] + np.diag(gl)) / caps[:, None]
+        B = -(gt * Pu[rows]) / caps
+        return A, B, Pw[si, :], float(Pu[si])
+
+    def lag_expansion(self) -> LagExpansion:
+        """``H(s) = D + sum_i r_i / (1 + s p_i)`` (real poles; checked)."""
+        A, B, C, D = self.matrices()
+        lam, V = np.linalg.eig(A)
+        if np.abs(lam.imag).max(initial=0.0) > 1e-9 * np.abs(lam).max() or np.any(lam.real >= 0):
+            raise InputError("the active stage has a pole off the negative real axis: check its parts")
+        lam, V = lam.real, V.real
+        left = C @ V
+        right = np.linalg.solve(V, B)
+        taus = -1.0 / lam
+        return LagExpansion(D, tuple(left * right * taus), tuple(taus))
+
+    def state_space(self) -> "control.StateSpace":
+        """``H(s)`` as a python-control state-space system."""
+        import control
+
+        A, B, C, D = self.matrices()
+        return control.ss(A, B[:, None], C[None, :], [[D]])
+
+    def transfer_function(self) -> "control.TransferFunction":
+        """``H(s)`` as a python-control transfer function."""
+        return self.lag_expansion().transfer_function()
+
+    # --- files -------------------------------------------------------------------------
+    def to_dict(self) -> dict:
+        """Design-file keys: ``topology`` ``"active"`` and the ``active`` block."""
+        terms = []
+        for t in self.terms:
+            d = {"RT": t.RT, "C": t.C, "RA": t.RA, "RB": t.RB, "RG": t.RG, "RS": t.RS}
+            if t.leakage is not None:
+                d["leakage"] = t.leakage
+            terms.append(d)
+        return {"topology": "active",
+                "active": {"terms": terms, "RS0": self.RS0, "op_amp": OP_AMP.to_dict()},
+                "source_resistance": self.source_resistance,
+                "load_resistance": self.load_resistance}
+
+    @classmethod
+    def from_dict(cls, data: Mapping, where: str = "design") -> "ActiveStage":
+        """Read the ``active`` block of a design file (and its resistances)."""
+        block = data.get("active")
+        if not isinstance(block, Mapping) or not isinstance(block.get("terms"), list) or not block["terms"]:
+            raise InputError(f"{where}: 'active' must be an object with a non-empty list 'terms' "
+                             "and 'RS0'")
+        terms = []
+        for j, t in enumerate(block["terms"], 1):
+            try:
+                terms.append(ActiveTerm(*(float(t[k]) for k in ("RT", "C", "RA", "RB", "RG", "RS")),
+                                        None if t.get("leakage") is None else float(t["leakage"])))
+            except (KeyError, TypeError, ValueError, AttributeError):
+                raise InputError(f"{where}: active term {j} needs numbers RT, C, RA, RB, RG, RS "
+                                 "(ohm and farad)") from None
+        try:
+            rs0 = float(block["RS0"])
+            rs = float(data.get("source_resistance") or 0.0)
+            rl = data.get("load_resistance")
+            rl = None if rl is None else float(rl)
+        except (KeyError, TypeError, ValueError):
+            raise InputError(f"{where}: 'active' needs a number RS0 (ohm); source_resistance and "
+                             "load_resistance numbers or null") from None
+        try:
+            return cls(tuple(terms), rs0, rs, rl)
+        except InputError as exc:
+            raise InputError(f"{where}: {exc}") from None
+
+
+def inverse_lags(model: CreepModel) -> tuple[float, np.ndarray, np.ndarray]:
+    """``1 / G(s) = k_inf - sum_j c_j / (1 + s p_j)``: ``k_inf``, ``c_j``, ``p_j`` (s).
+
+    Raises
+    ------
+    InputError
+        When some ``c_j`` is not positive (creep that overshoots): the stage subtracts
+        low-passes, it cannot add them.
+    """
+    A, B, C, D = model.lag_expansion().matrices()
+    d = float(D[0, 0])
+    Ai = A - B @ C / d
+    lam, V = np.linalg.eig(Ai)
+    lam, V = lam.real, V.real
+    left = (-C / d) @ V
+    right = np.linalg.solve(V, B / d)
+    p = -1.0 / lam
+    c = -(left[0] * right[:, 0] * p)
+    order = np.argsort(p)
+    c, p = c[order], p[order]
+    if np.any(c <= 0):
+        raise InputError("the active stage is sized for positive creep (every beta > 0): use the "
+                         "lag network or the digital correction")
+    return 1.0 / d, c, p
+
+
+def _alpha_divider(alpha: float, ra: float = DIVIDER_RESISTANCE) -> float:
+    """``RG`` for the divider ratio ``alpha`` with ``RA = RB = ra``."""
+    return ra / (1.0 / alpha - 2.0)
+
+
+def ideal_active(model: CreepModel, capacitance: float = 10e-6, alpha: float = 0.1,
+                 rs0: float = 10e3, source_resistance: float = 0.0,
+                 load_resistance: float | None = None) -> ActiveStage:
+    """The active stage with ideal values, exact at the model's reference temperature.
+
+    Each term's ``RT`` gives ``p_j`` with ``C = capacitance`` and divider ratio ``alpha``;
+    ``RS_j = RS0 / c_j``. A source resistance changes ``H``; it is not compensated here.
+    """
+    _, c, p = inverse_lags(model)
+    rg = _alpha_divider(alpha)
+    terms = []
+    for cj, pj in zip(c, p):
+        rt = alpha * (pj / capacitance - DIVIDER_RESISTANCE)
+        if rt <= 0:
+            raise InputError(f"active stage: a {format_quantity(pj, 's')} pole needs a capacitor "
+                             f"above {format_quantity(pj / DIVIDER_RESISTANCE, 'F')}")
+        terms.append(ActiveTerm(rt, capacitance, DIVIDER_RESISTANCE, DIVIDER_RESISTANCE, rg, rs0 / cj))
+    return ActiveStage(tuple(terms), rs0, source_resistance, load_resistance)
+
+
+def stage_over(stage: ActiveStage, plan: PartsPlan, temperature: float) -> ActiveStage:
+    """The stage at ``temperature`` (°C): every part's value (:func:`network_at`: TCs,
+    thermistors) and each capacitor's insulation resistance ``R_ins C / C`` across it."""
+    at = network_at(stage, plan, temperature)
+    tau_ins = DIELECTRICS[plan.capacitor].insulation_time(temperature)
+    return at.with_leakage([tau_ins / t.C for t in at.terms])
+
+
+def output_offset(stage: ActiveStage, plan: PartsPlan, temperature: float,
+                  op_amp: OpAmpRequirement = OP_AMP) -> float:
+    """The largest constant output offset (V) op amps at the requirement's limits give at
+    ``temperature``: each integrator's offset and bias current through its ``RT`` network and
+    divider (``w = RB G_e (V_os + I_b RT) + RB I_b``), weighted by the summer, plus the
+    follower's own offset and bias current through the summer's resistance."""
+    at = network_at(stage, plan, temperature)
+    g_out = 1.0 / at.RS0 + sum(1.0 / t.RS for t in at.terms)
+    total = op_amp.offset + op_amp.bias_current / g_out
+    for t in at.terms:
+        ge = 1.0 / t.RA + 1.0 / t.RB + 1.0 / t.RG
+        w = t.RB * ge * (op_amp.offset + op_amp.bias_current * t.RT) + t.RB * op_amp.bias_current
+        total += w / t.RS / g_out
+    return float(total)
+
+
+def lag_batch(rt, c, ra, rb, rg, rs, rs0, leakage=None):
+    """Sum-of-lags arrays of many one-term stages at once, fed without source resistance.
+
+    All arguments are arrays of shape (B,) (``leakage`` None: none). This is the closed form
+    of :meth:`ActiveStage.matrices` for one term and a zero source resistance (a test holds
+    the two together), for screening many candidates.
+
+    Returns
+    -------
+    direct : (B,), gains : (B, 1), taus : (B, 1)
+    """
+    ge = 1.0 / ra + 1.0 / rb + 1.0 / rg
+    k = 1.0 + rt * ge                                   # w' = -(x/RA + w/RB) / (C k) - w / (R_l C)
+    rate = 1.0 / (rb * c * k) + (0.0 if leakage is None else 1.0 / (leakage * c))
+    tau = 1.0 / rate
+    dc = (1.0 / (ra * c * k)) * tau                     # |w / x| at DC
+    g_out = 1.0 / rs0 + 1.0 / rs
+    direct = (1.0 / rs0) / g_out
+    gain = -(1.0 / rs) / g_out * dc
+    return direct, gain[:, None], tau[:, None]
+
+
+def _sum_pair(c: float, series: str) -> tuple[float, float]:
+    """``RS0`` and ``RS`` of ``series`` in :data:`SUM_RESISTANCE_RANGE` with ``RS0 / RS``
+    nearest to ``c``."""
+    best = None
+    for r0 in eseries.values_in_range(series, *SUM_RESISTANCE_RANGE):
+        r0 = float(f"{r0:.12g}")
+        for r in eseries.neighbours(r0 / c, series, 1):
+            err = abs(math.log(r0 / float(r) / c))
+            if best is None or err < best[0]:
+                best = (err, r0, float(f"{float(r):.12g}"))
+    return best[1], best[2]
+
+
+def _shapes(thermistors, series: str):
+    """Every thermistor with no, or a ``series`` value of, fixed resistor in series and across
+    (``R25 / 30`` to ``30 R25``)."""
+    out = []
+    for th in thermistors:
+        fixed = [float(f"{v:.12g}") for v in eseries.values_in_range(series, th.r25 / 30, th.r25 * 30)]
+        for s in [0.0] + fixed:
+            for p in [math.inf] + fixed:
+                out.append((th, s, p))
+    return out
+
+
+def _use(th, series: float, par: float) -> ThermistorUse:
+    return ThermistorUse(th.part, th.r25, th.b, series, None if math.isinf(par) else par,
+                         th.tolerance, th.b_tolerance)
+
+
+#: Thermistor shapes kept per term after the tracking screen.
+SHAPE_SHORTLIST = 40
+
+
+def size_active_tracking(model: CreepModel, low: float, high: float, plan: PartsPlan | None = None,
+                         resistor_series: str = "E24", capacitor_series: str = "E6",
+                         thermistors=NTC_THERMISTORS, cap_range=ACTIVE_CAP_RANGE,
+                         source_resistance: float = 0.0, load_resistance: float | None = None,
+                         rechecks: int = 6):
+    """An active stage whose time-setting resistors are catalogue NTC thermistors.
+
+    For each pole ``p_j`` of ``1 / G`` (all scale by ``a_T``): every thermistor shape (a
+    catalogue part, no or a fixed resistor in series, no or one across) is ranked by how
+    far ``RT(T) C(T)`` strays from following ``a_T`` over the range (the spread of
+    ``ln(RT C / a_T)``: its level is set later); for the best shapes, every capacitor of
+    ``capacitor_series`` in ``cap_range`` gives the divider ratio that centres the stray on
+    ``p_j a_T``, snapped to a ``resistor_series`` ``RG``; the summer's ``RS0 / RS_j`` is the
+    ``resistor_series`` pair nearest to ``c_j``. Candidates are ranked by their worst peak
+    residual over the range (closed form, one-term stages) and the best few re-checked with
+    the exact prediction.
+
+    Returns
+    -------
+    TrackingDesign
+        From :mod:`creepcomp.analog.over_temperature` (stage, plan with the thermistors by
+        label, worst case, warnings).
+    """
+    from creepcomp.analog.over_temperature import TrackingDesign, _screen_batch, worst_case
+
+    if model.temperature is None:
+        raise InputError("--tracking ntc: the model has no temperature law (give "
+                         "--activation-energy or a model file with a 'temperature' block)")
+    plan = plan or PartsPlan()
+    k_inf, c, p = inverse_lags(model)
+    grid = temperature_grid(low, high)
+    shift = model.temperature.shift(grid)
+    cap_drift = np.array([plan.value_at("C", "C", 1.0, float(t)) for t in grid])
+    shapes = _shapes(thermistors, resistor_series)
+    r_t = np.array([[float(_use(th, s, q).resistance(t)) for t in grid] for th, s, q in shapes])
+    stray = np.log(r_t * cap_drift / shift)
+    spread = stray.max(axis=1) - stray.min(axis=1)
+    keep = np.argsort(spread)[:SHAPE_SHORTLIST]
+    caps = [float(f"{v:.12g}") for v in eseries.values_in_range(capacitor_series, *cap_range)]
+    ra = DIVIDER_RESISTANCE
+    per_term = []
+    for cj, pj in zip(c, p):
+        rs0, rsj = _sum_pair(cj, resistor_series)
+        cands = []
+        for i in keep:
+            # RT/alpha + RA ~ p_j a_T / C at the stray's centre (geometric mean of its ends)
+            centre = math.exp(0.5 * (stray[i].max() + stray[i].min()))  # RT / a_T there
+            for cap in caps:
+                alpha = centre * cap / (pj - ra * cap)
+                if not ALPHA_RANGE[0] <= alpha <= ALPHA_RANGE[1]:
+                    continue
+                for rg in eseries.neighbours(_alpha_divider(alpha, ra), resistor_series, 1):
+                    cands.append((i, cap, float(f"{float(rg):.12g}"), rs0, rsj))
+        if not cands:
+            raise InputError("--tracking ntc: no catalogue thermistor and capacitor in "
+                             f"{format_quantity(cap_range[0], 'F')} .. {format_quantity(cap_range[1], 'F')} "
+                             f"reach the {format_quantity(pj, 's')} time constant")
+        per_term.append(cands)
+    if len(per_term) > 1:
+        # several poles: each term's best candidate by its own stray, then checked together
+        chosen = [min(cands, key=lambda x: _term_stray(x, shapes, r_t, cap_drift, shift, pj, ra))
+                  for cands, pj in zip(per_term, p)]
+        combos = [tuple(chosen)]
+    else:
+        cands = per_term[0]
+        scores = _screen_batch(model, grid, _one_term_batch(cands, r_t, cap_drift, plan, grid, ra))
+        combos = [(cands[i],) for i in np.argsort(scores)[:rechecks]]
+    results = []
+    for combo in combos:
+        uses, terms, rs0 = {}, [], combo[0][3]
+        for j, (i, cap, rg, _, rsj) in enumerate(combo, 1):
+            th, s, q = shapes[i]
+            use = _use(th, s, q)
+            uses[f"RT{j}"] = use
+            terms.append(ActiveTerm(float(use.resistance(PART_REFERENCE)), cap, ra, ra, rg, rsj))
+        stage = ActiveStage(tuple(terms), rs0, source_resistance, load_resistance)
+        pl = replace(plan, thermistors=uses)
+        results.append((worst_case(model, stage, pl, grid), stage, pl))
+    worst, stage, pl = min(results, key=lambda x: x[0])
+    return TrackingDesign(stage, pl, worst, ())
+
+
+def _term_stray(cand, shapes, r_t, cap_drift, shift, pj, ra) -> float:
+    i, cap, rg, _, _ = cand
+    alpha = 1.0 / (2.0 + ra / rg)
+    tau = cap * cap_drift * (r_t[i] / alpha + ra)
+    return float(np.abs(np.log(tau / (pj * shift))).max())
+
+
+def _one_term_batch(cands, r_t, cap_drift, plan: PartsPlan, grid, ra):
+    """``networks_at(T)`` for :func:`_screen_batch`: lag arrays of one-term candidates at T."""
+    idx = np.array([x[0] for x in cands])
+    cap = np.array([x[1] for x in cands])
+    rg = np.array([x[2] for x in cands])
+    rs0 = np.array([x[3] for x in cands])
+    rs = np.array([x[4] for x in cands])
+    diel = DIELECTRICS[plan.capacitor]
+
+    def at(k: int):
+        t = float(grid[k])
+        fixed = plan.value_at("R", "R", 1.0, t)
+        c_t = cap * cap_drift[k]
+        return lag_batch(r_t[idx, k], c_t, ra * fixed, ra * fixed, rg * fixed, rs * fixed,
+                         rs0 * fixed, diel.insulation_time(t) / c_t)
+
+    return at
