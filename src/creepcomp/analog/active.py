@@ -32,6 +32,7 @@ import numpy as np
 from creepcomp.analog import eseries
 from creepcomp.analog.parts import (DIELECTRICS, NTC_THERMISTORS, PART_REFERENCE, PartsPlan,
                                     ThermistorUse, network_at)
+from creepcomp.analog.quality import screening_deviation, step_peak
 from creepcomp.errors import InputError
 from creepcomp.active_stage import ActiveStage, ActiveTerm
 from creepcomp.model import CreepModel
@@ -179,16 +180,20 @@ def lag_batch(rt, c, ra, rb, rg, rs, rs0, leakage=None):
     return direct, gain[:, None], tau[:, None]
 
 
-def _sum_pair(c: float, series: str) -> tuple[float, float]:
-    """``RS0`` and ``RS`` of ``series`` in :data:`SUM_RESISTANCE_RANGE` with ``RS0 / RS``
-    nearest to ``c``."""
+def _sum_resistors(c, series: str) -> tuple[float, list[float]]:
+    """``RS0`` of ``series`` in :data:`SUM_RESISTANCE_RANGE` and the ``RS_j`` of ``series``
+    with ``RS0 / RS_j`` nearest to each ``c_j``: the ``RS0`` whose largest ratio error is least."""
     best = None
     for r0 in eseries.values_in_range(series, *SUM_RESISTANCE_RANGE):
         r0 = float(f"{r0:.12g}")
-        for r in eseries.neighbours(r0 / c, series, 1):
-            err = abs(math.log(r0 / float(r) / c))
-            if best is None or err < best[0]:
-                best = (err, r0, float(f"{float(r):.12g}"))
+        rs, worst = [], 0.0
+        for cj in c:
+            r = min((float(f"{float(v):.12g}") for v in eseries.neighbours(r0 / cj, series, 1)),
+                    key=lambda v: abs(math.log(r0 / v / cj)))
+            rs.append(r)
+            worst = max(worst, abs(math.log(r0 / r / cj)))
+        if best is None or worst < best[0]:
+            best = (worst, r0, rs)
     return best[1], best[2]
 
 
@@ -225,19 +230,20 @@ def size_active_tracking(model: CreepModel, low: float, high: float, plan: Parts
     far ``RT(T) C(T)`` strays from following ``a_T`` over the range (the spread of
     ``ln(RT C / a_T)``: its level is set later); for the best shapes, every capacitor of
     ``capacitor_series`` in ``cap_range`` gives the divider ratio that centres the stray on
-    ``p_j a_T``, snapped to a ``resistor_series`` ``RG``; the summer's ``RS0 / RS_j`` is the
-    ``resistor_series`` pair nearest to ``c_j``. Candidates are ranked by their worst peak
+    ``p_j a_T``, snapped to a ``resistor_series`` ``RG``; the summer's ``RS0 / RS_j`` are the
+    ``resistor_series`` values nearest to ``c_j``. Candidates are ranked by their worst peak
     residual over the range (closed form, one-term stages) and the best few re-checked with
     the exact prediction.
 
     Returns
     -------
-    TrackingDesign
-        From :mod:`creepcomp.analog.over_temperature` (stage, plan with the thermistors by
-        label, worst case, warnings).
+    stage : ActiveStage
+        Part values at 25 °C (thermistor networks at their value there).
+    plan : PartsPlan
+        ``plan`` with the thermistors by label (``RT1`` ...).
+    worst : float
+        Exact worst peak residual creep over the range.
     """
-    from creepcomp.analog.over_temperature import TrackingDesign, _screen_batch, worst_case
-
     if model.temperature is None:
         raise InputError("--tracking ntc: the model has no temperature law (give "
                          "--activation-energy or a model file with a 'temperature' block)")
@@ -253,9 +259,9 @@ def size_active_tracking(model: CreepModel, low: float, high: float, plan: Parts
     keep = np.argsort(spread)[:SHAPE_SHORTLIST]
     caps = [float(f"{v:.12g}") for v in eseries.values_in_range(capacitor_series, *cap_range)]
     ra = DIVIDER_RESISTANCE
+    rs0, rs_all = _sum_resistors(c, resistor_series)
     per_term = []
-    for cj, pj in zip(c, p):
-        rs0, rsj = _sum_pair(cj, resistor_series)
+    for cj, pj, rsj in zip(c, p, rs_all):
         cands = []
         for i in keep:
             # RT/alpha + RA ~ p_j a_T / C at the stray's centre (geometric mean of its ends)
@@ -282,7 +288,7 @@ def size_active_tracking(model: CreepModel, low: float, high: float, plan: Parts
         combos = [(cands[i],) for i in np.argsort(scores)[:rechecks]]
     results = []
     for combo in combos:
-        uses, terms, rs0 = {}, [], combo[0][3]
+        uses, terms = {}, []
         for j, (i, cap, rg, _, rsj) in enumerate(combo, 1):
             th, s, q = shapes[i]
             use = _use(th, s, q)
@@ -290,9 +296,21 @@ def size_active_tracking(model: CreepModel, low: float, high: float, plan: Parts
             terms.append(ActiveTerm(float(use.resistance(PART_REFERENCE)), cap, ra, ra, rg, rsj))
         stage = ActiveStage(tuple(terms), rs0, source_resistance, load_resistance)
         pl = replace(plan, thermistors=uses)
-        results.append((worst_case(model, stage, pl, grid), stage, pl))
+        worst = max(step_peak(model.at_temperature(float(t)), stage_over(stage, pl, float(t)))[0]
+                    for t in grid)
+        results.append((worst, stage, pl))
     worst, stage, pl = min(results, key=lambda x: x[0])
-    return TrackingDesign(stage, pl, worst, ())
+    return stage, pl, worst
+
+
+def _screen_batch(model: CreepModel, temperatures, lags_at) -> np.ndarray:
+    """Worst closed-form peak residual over ``temperatures`` of a batch of designs given as
+    sum-of-lags arrays: ``lags_at(k)`` gives ``(direct, gains, taus)`` at ``temperatures[k]``."""
+    worst = None
+    for k, t in enumerate(temperatures):
+        dev = screening_deviation(model.at_temperature(float(t)), *lags_at(k))
+        worst = dev if worst is None else np.maximum(worst, dev)
+    return worst
 
 
 def _term_stray(cand, shapes, r_t, cap_drift, shift, pj, ra) -> float:

@@ -173,9 +173,9 @@ def _active_rows(stage, plan: PartsPlan, series: dict, model: CreepModel | None)
         rows += _part_rows(label, kind, value, _active_role(label, stage, model), plan, series)
     for k in range(1, len(stage.terms) + 1):
         rows.append(BomRow(f"U{k}", "op amp", "-", "-", "op amp", "-",
-                           f"integrator {k}: {OP_AMP.text()}"))
-    rows.append(BomRow("U0", "op amp", "-", "-", "op amp", "-",
-                       f"output follower: {OP_AMP.text()}"))
+                           f"integrator {k}: {OP_AMP.text()}" if k == 1 else
+                           f"integrator {k}: as U1"))
+    rows.append(BomRow("U0", "op amp", "-", "-", "op amp", "-", "output follower: as U1"))
     return rows
 
 

@@ -176,16 +176,6 @@ def _screen_over(model: CreepModel, temperatures, networks_at) -> np.ndarray:
     return worst
 
 
-def _screen_batch(model: CreepModel, temperatures, lags_at) -> np.ndarray:
-    """Worst closed-form peak residual over ``temperatures`` of a batch of designs given as
-    sum-of-lags arrays: ``lags_at(k)`` gives ``(direct, gains, taus)`` at ``temperatures[k]``."""
-    worst = None
-    for k, t in enumerate(temperatures):
-        dev = screening_deviation(model.at_temperature(float(t)), *lags_at(k))
-        worst = dev if worst is None else np.maximum(worst, dev)
-    return worst
-
-
 def _drift_factors(network: Network, plan: PartsPlan, temperature: float) -> np.ndarray:
     """Each part's value at ``temperature`` relative to its catalogue value (fixed parts)."""
     return np.array([plan.value_at(label, kind, 1.0, temperature) for label, kind, _ in network.parts()])
@@ -314,13 +304,20 @@ def _shaping_values(r25: float, series: str) -> list[float]:
     return [float(v) for v in eseries.values_in_range(series, r25 / 30.0, r25 * 30.0)]
 
 
-def check_tracking(model: CreepModel, tracking: str) -> None:
-    """Refuse a tracking this module cannot size for ``model``, naming the way out."""
+def check_tracking(model: CreepModel, tracking: str, topology: str = "auto") -> None:
+    """Refuse a tracking this module cannot size for ``model``, naming the way out: the
+    passive lead network tracks one creep term, the active stage any number, both only
+    positive creep."""
     if tracking not in ("none", "ntc"):
         raise InputError(f"--tracking {tracking!r}: expected none or ntc")
-    if tracking == "ntc" and (model.n_terms != 1 or model.beta[0] <= 0):
-        raise InputError("--tracking ntc: sized for one creep term with beta0 > 0 (a one-cell "
-                         "lead network); use fixed parts or the digital correction")
+    if tracking != "ntc":
+        return
+    if any(b <= 0 for b in model.beta):
+        raise InputError("--tracking ntc: sized for positive creep (every beta > 0); use fixed "
+                         "parts or the digital correction")
+    if topology == "passive" and model.n_terms != 1:
+        raise InputError("--tracking ntc --topology passive: sized for one creep term (a one-cell "
+                         "lead network); use --topology active, fixed parts or the digital correction")
 
 
 def size_ntc_tracking(model: CreepModel, low: float, high: float, plan: PartsPlan | None = None,
@@ -341,7 +338,7 @@ def size_ntc_tracking(model: CreepModel, low: float, high: float, plan: PartsPla
     InputError
         For a model of several terms or of negative creep (no one-cell lead network).
     """
-    check_tracking(model, "ntc")
+    check_tracking(model, "ntc", "passive")
     plan = plan or PartsPlan()
     grid = temperature_grid(low, high)
     beta, mid = model.beta[0], 0.5 * (low + high)
@@ -472,9 +469,9 @@ def compare_over_range(model: CreepModel, reference: Network, low: float, high: 
     InputError
         For a tracking other than ``none`` or ``ntc``, a topology not in :data:`TOPOLOGIES`.
     """
-    check_tracking(model, tracking)
     if topology not in TOPOLOGIES:
         raise InputError(f"--topology {topology!r}: expected {', '.join(TOPOLOGIES)}")
+    check_tracking(model, tracking, topology)
     plan = plan or PartsPlan()
     # near the reference's impedance level: two capacitor values either side of its own
     c_ref = max(v for _, k, v in reference.parts() if k == "C")
@@ -507,11 +504,11 @@ def _add_tracking(designs: list, model: CreepModel, low: float, high: float, pla
     from creepcomp.analog.active import size_active_tracking
 
     practical = None
-    if topology in ("auto", "passive"):
+    if topology == "passive" or (topology == "auto" and model.n_terms == 1):
         ntc = size_ntc_tracking(model, low, high, plan, resistor_series, capacitor_series,
                                 source_resistance=reference.source_resistance,
                                 load_resistance=reference.load_resistance)
-        designs.append(RangeDesign("ntc", "(c) NTC thermistor tracking, passive lead network",
+        designs.append(RangeDesign("ntc", "(c-passive) NTC thermistor tracking, passive lead network",
                                    ntc.network, ntc.plan,
                                    over_temperature(model, ntc.network, ntc.plan, low, high), ntc.warnings))
         if topology == "passive":
@@ -519,12 +516,11 @@ def _add_tracking(designs: list, model: CreepModel, low: float, high: float, pla
         from creepcomp.analog.practicality import judge_network
 
         practical = judge_network(model, ntc.network, ntc.plan).practical
-    active = size_active_tracking(model, low, high, plan, resistor_series, capacitor_series,
-                                  source_resistance=reference.source_resistance,
-                                  load_resistance=reference.load_resistance)
+    stage, stage_plan, _ = size_active_tracking(model, low, high, plan, resistor_series,
+                                                capacitor_series,
+                                                source_resistance=reference.source_resistance,
+                                                load_resistance=reference.load_resistance)
     why = "" if practical is None else " (the passive one is impractical)" if not practical else ""
     designs.append(RangeDesign("active", "(c) NTC thermistor tracking, active stage" + why,
-                               active.network, active.plan,
-                               over_temperature(model, active.network, active.plan, low, high),
-                               active.warnings))
+                               stage, stage_plan, over_temperature(model, stage, stage_plan, low, high)))
     return "ntc" if practical else "active"

@@ -120,7 +120,8 @@ class Verdict:
                 "uncorrected_peak": self.uncorrected_peak, "leakage_peak": self.leakage_peak,
                 "worst_case_peak": self.worst_case_peak,
                 "output_resistance": self.output_resistance,
-                "bias_current": ASSUMED_BIAS, "bias_offset": self.bias_offset,
+                "bias_current": self.op_amp["bias_current"] if self.op_amp else ASSUMED_BIAS,
+                "bias_offset": self.bias_offset,
                 "leakage_to_ground": ASSUMED_LEAKAGE, "tolerance_corners": self.corners}
 
 

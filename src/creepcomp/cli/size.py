@@ -166,7 +166,11 @@ def size_command(
     if span is not None:
         from creepcomp.analog.over_temperature import check_tracking
 
-        check_tracking(model, tracking.strip().lower())
+        from creepcomp.analog.over_temperature import TOPOLOGIES
+
+        if topology.strip().lower() not in TOPOLOGIES:
+            raise InputError(f"--topology '{topology}': expected {', '.join(TOPOLOGIES)}")
+        check_tracking(model, tracking.strip().lower(), topology.strip().lower())
     warn_creep(model, str(model_file) if model_file is not None else "--term" if terms else "--beta0")
     rule = rule.strip().lower()
     plan = parts_plan(resistor_technology, dielectric, resistor_tolerance, capacitor_tolerance)

@@ -163,7 +163,7 @@ def active_drawing(stage, plan: PartsPlan | None = None, canvas: str = "svg"):
         d.add(elm.Resistor().down().at(e).label(f"RG{j}\n{format_quantity(t.RG, 'Ω')}", loc="bottom"))
         d.add(elm.Ground())
         text, thermistor = _value(f"RT{j}", "R", t.RT, plan)
-        d.add((elm.Thermistor if thermistor else elm.Resistor)().right().at(e).label(text, loc="bottom"))
+        d.add((elm.Thermistor if thermistor else elm.Resistor)().right().at(e).label(text))
         minus = d.add(elm.Dot()).center
         op = d.add(elm.Opamp(leads=True).anchor("in1").at(minus).label(f"U{j}", loc="center",
                                                                          ofst=(-0.4, 0)))
