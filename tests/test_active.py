@@ -20,8 +20,6 @@ from creepcomp.temperature import TemperatureLaw
 
 EA = 43e3
 SENSOR = CreepModel((0.03,), (45.0,), temperature=TemperatureLaw.arrhenius(EA, 20.0))
-#: The catalogue thermistor the default sensor's stage uses, with its neighbour: a fast sizing.
-FEW = NTC_THERMISTORS[5:7]
 
 
 def stage_for_default() -> tuple[ActiveStage, PartsPlan]:
@@ -97,7 +95,7 @@ def test_stage_over_temperature_follows_the_thermistor_and_the_insulation():
 
 
 def test_default_sensor_tracking_meets_a_quarter_of_the_reference_sizing():
-    stage, plan, worst = size_active_tracking(SENSOR, -10, 40, thermistors=FEW)
+    stage, plan, worst = size_active_tracking(SENSOR, -10, 40)
     assert worst < 0.0035
     assert set(plan.thermistors) == {"RT1"}
     assert plan.thermistors["RT1"].part.startswith("Murata NCP18")
@@ -107,6 +105,29 @@ def test_default_sensor_tracking_meets_a_quarter_of_the_reference_sizing():
     ot = over_temperature(SENSOR, stage, plan, -10, 40)
     assert ot.worst == pytest.approx(worst, rel=1e-9)
     assert ot.tracking["topology"] == "active"
+
+
+def test_two_creep_terms_get_two_tracking_loops_with_one_summer():
+    model = CreepModel((0.01, 0.02), (10.0, 60.0), temperature=TemperatureLaw.arrhenius(EA, 20.0))
+    stage, plan, worst = size_active_tracking(model, -10, 40)
+    assert len(stage.terms) == 2 and set(plan.thermistors) == {"RT1", "RT2"}
+    _, c, p = inverse_lags(model)
+    # the amplitudes share RS0 and each is within an E24 step of its c_j
+    assert np.allclose([stage.RS0 / t.RS for t in stage.terms], c, rtol=0.05)
+    assert stage.terms[0].time_constant < stage.terms[1].time_constant
+    assert worst < 0.1 * model.beta0
+
+
+def test_shape_resistances_are_the_thermistor_law():
+    from creepcomp.analog.active import _shape_resistances, _shapes
+
+    shapes = _shapes(NTC_THERMISTORS[:2], "E6")
+    grid = np.array([-10.0, 25.0, 40.0])
+    fast = _shape_resistances(shapes, grid)
+    for k in (0, 7, len(shapes) - 1):
+        th, ser, par = shapes[k]
+        use = ThermistorUse(th.part, th.r25, th.b, ser, None if np.isinf(par) else par)
+        assert np.allclose(fast[k], use.resistance(grid), rtol=1e-13)
 
 
 def test_verdict_bom_and_offset_of_the_active_stage():

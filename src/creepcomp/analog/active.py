@@ -209,6 +209,16 @@ def _shapes(thermistors, series: str):
     return out
 
 
+def _shape_resistances(shapes, grid) -> np.ndarray:
+    """``(series + R_ntc(T)) || parallel`` of every shape at every temperature, shape (S, T):
+    :meth:`ThermistorUse.resistance`, for many shapes at once."""
+    parts = {th.part: th for th, _, _ in shapes}
+    law = {name: np.asarray(_use(th, 0.0, math.inf).resistance(grid)) for name, th in parts.items()}
+    r = np.array([law[th.part] for th, _, _ in shapes]) + np.array([s for _, s, _ in shapes])[:, None]
+    par = np.array([q for _, _, q in shapes])[:, None]
+    return np.where(np.isinf(par), r, r * par / (r + np.where(np.isinf(par), 0.0, par)))
+
+
 def _use(th, series: float, par: float) -> ThermistorUse:
     return ThermistorUse(th.part, th.r25, th.b, series, None if math.isinf(par) else par,
                          th.tolerance, th.b_tolerance)
@@ -253,7 +263,7 @@ def size_active_tracking(model: CreepModel, low: float, high: float, plan: Parts
     shift = model.temperature.shift(grid)
     cap_drift = np.array([plan.value_at("C", "C", 1.0, float(t)) for t in grid])
     shapes = _shapes(thermistors, resistor_series)
-    r_t = np.array([[float(_use(th, s, q).resistance(t)) for t in grid] for th, s, q in shapes])
+    r_t = _shape_resistances(shapes, grid)
     stray = np.log(r_t * cap_drift / shift)
     spread = stray.max(axis=1) - stray.min(axis=1)
     keep = np.argsort(spread)[:SHAPE_SHORTLIST]

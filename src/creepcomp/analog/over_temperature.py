@@ -516,10 +516,15 @@ def _add_tracking(designs: list, model: CreepModel, low: float, high: float, pla
         from creepcomp.analog.practicality import judge_network
 
         practical = judge_network(model, ntc.network, ntc.plan).practical
-    stage, stage_plan, _ = size_active_tracking(model, low, high, plan, resistor_series,
-                                                capacitor_series,
-                                                source_resistance=reference.source_resistance,
-                                                load_resistance=reference.load_resistance)
+    try:
+        stage, stage_plan, _ = size_active_tracking(model, low, high, plan, resistor_series,
+                                                    capacitor_series,
+                                                    source_resistance=reference.source_resistance,
+                                                    load_resistance=reference.load_resistance)
+    except InputError:
+        if practical is None:
+            raise
+        return "ntc"           # the passive network is written; the verdict judges it
     why = "" if practical is None else " (the passive one is impractical)" if not practical else ""
     designs.append(RangeDesign("active", "(c) NTC thermistor tracking, active stage" + why,
                                stage, stage_plan, over_temperature(model, stage, stage_plan, low, high)))
