@@ -153,7 +153,9 @@ def test_schematic_names_the_op_amps_and_the_thermistor():
 
     stage, plan = stage_for_default()
     svg = schematic_svg(stage, plan)
-    assert "U1" in svg and "U0" in svg and "RT1 NTC" in svg and "RS0" in svg
+    assert "U1" in svg and "U0" in svg and "RT1 NTC" in svg and "RS0" in svg and "Uin" not in svg
+    buffered = ActiveStage(stage.terms, stage.RS0, 1e3, None, True)
+    assert "Uin" in schematic_svg(buffered, plan)
 
 
 def test_netlist_has_the_op_amps_and_agrees_with_python_control_when_cold():
@@ -202,3 +204,16 @@ def test_size_tracking_ntc_writes_the_active_stage(run_cli, tmp_path):
     written = json.loads(out.read_text())
     assert written["topology"] == "active" and set(written["parts"]["thermistors"]) == {"RT1"}
     assert "U0" in bom.read_text() and "U1" in sch.read_text()
+
+
+def test_a_source_resistance_gets_an_input_follower():
+    from creepcomp.analog.bom import bom_rows
+    from creepcomp.verify.drive import synthetic_program
+    from creepcomp.verify.netlist import program_deck
+
+    stage = ideal_active(SENSOR, source_resistance=1e3)
+    assert stage.input_buffer and ActiveStage.from_dict(stage.to_dict()) == stage
+    assert step_peak(SENSOR.at_temperature(20.0), stage)[0] < 1e-12
+    assert "Uin" in {r.ref for r in bom_rows(stage)}
+    deck = program_deck(stage, SENSOR, synthetic_program(SENSOR), 100.0)
+    assert "EUin buf 0 sensor buf" in deck.circuit and "RA1 buf e1" in deck.circuit

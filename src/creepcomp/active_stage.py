@@ -87,12 +87,16 @@ class ActiveStage:
         Output resistance of the sensor (ohm).
     load_resistance : float or None
         Input resistance of the next stage (ohm); the follower drives it, so it changes nothing.
+    input_buffer : bool
+        A follower ``Uin`` between the sensor and the stage: the stage's input current then
+        does not flow through the source resistance (which otherwise changes ``H``).
     """
 
     terms: tuple[ActiveTerm, ...]
     RS0: float
     source_resistance: float = 0.0
     load_resistance: float | None = None
+    input_buffer: bool = False
 
     topology = "active"
 
@@ -150,7 +154,7 @@ class ActiveStage:
         capacitor takes the current ``e_j / RT_j`` (and its leakage ``w_j / R_leak``).
         """
         K = len(self.terms)
-        rs = self.source_resistance
+        rs = 0.0 if self.input_buffer else self.source_resistance
         # unknown nodes: [in (only with a source resistance)], e_1..e_K, s
         off = 1 if rs > 0 else 0
         n = off + K + 1
@@ -225,7 +229,8 @@ class ActiveStage:
                 d["leakage"] = t.leakage
             terms.append(d)
         return {"topology": "active",
-                "active": {"terms": terms, "RS0": self.RS0},
+                "active": dict({"terms": terms, "RS0": self.RS0},
+                               **({"input_buffer": True} if self.input_buffer else {})),
                 "source_resistance": self.source_resistance,
                 "load_resistance": self.load_resistance}
 
@@ -253,6 +258,6 @@ class ActiveStage:
             raise InputError(f"{where}: 'active' needs a number RS0 (ohm); source_resistance and "
                              "load_resistance numbers or null") from None
         try:
-            return cls(tuple(terms), rs0, rs, rl)
+            return cls(tuple(terms), rs0, rs, rl, bool(block.get("input_buffer", False)))
         except InputError as exc:
             raise InputError(f"{where}: {exc}") from None

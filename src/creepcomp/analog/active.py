@@ -120,7 +120,7 @@ def ideal_active(model: CreepModel, capacitance: float = 10e-6, alpha: float = 0
     """The active stage with ideal values, exact at the model's reference temperature.
 
     Each term's ``RT`` gives ``p_j`` with ``C = capacitance`` and divider ratio ``alpha``;
-    ``RS_j = RS0 / c_j``. A source resistance changes ``H``; it is not compensated here.
+    ``RS_j = RS0 / c_j``. With a source resistance the stage has an input follower.
     """
     _, c, p = inverse_lags(model)
     rg = _alpha_divider(alpha)
@@ -131,7 +131,7 @@ def ideal_active(model: CreepModel, capacitance: float = 10e-6, alpha: float = 0
             raise InputError(f"active stage: a {format_quantity(pj, 's')} pole needs a capacitor "
                              f"above {format_quantity(pj / DIVIDER_RESISTANCE, 'F')}")
         terms.append(ActiveTerm(rt, capacitance, DIVIDER_RESISTANCE, DIVIDER_RESISTANCE, rg, rs0 / cj))
-    return ActiveStage(tuple(terms), rs0, source_resistance, load_resistance)
+    return ActiveStage(tuple(terms), rs0, source_resistance, load_resistance, source_resistance > 0)
 
 
 def stage_over(stage: ActiveStage, plan: PartsPlan, temperature: float) -> ActiveStage:
@@ -147,10 +147,13 @@ def output_offset(stage: ActiveStage, plan: PartsPlan, temperature: float,
     """The largest constant output offset (V) op amps at the requirement's limits give at
     ``temperature``: each integrator's offset and bias current through its ``RT`` network and
     divider (``w = RB G_e (V_os + I_b RT) + RB I_b``), weighted by the summer, plus the
-    follower's own offset and bias current through the summer's resistance."""
+    follower's own offset and bias current through the summer's resistance (and an input
+    follower's, with its bias current through the source resistance)."""
     at = network_at(stage, plan, temperature)
     g_out = 1.0 / at.RS0 + sum(1.0 / t.RS for t in at.terms)
     total = op_amp.offset + op_amp.bias_current / g_out
+    if at.input_buffer:
+        total += op_amp.offset + op_amp.bias_current * at.source_resistance
     for t in at.terms:
         ge = 1.0 / t.RA + 1.0 / t.RB + 1.0 / t.RG
         w = t.RB * ge * (op_amp.offset + op_amp.bias_current * t.RT) + t.RB * op_amp.bias_current
@@ -240,7 +243,8 @@ def size_active_tracking(model: CreepModel, low: float, high: float, plan: Parts
     far ``RT(T) C(T)`` strays from following ``a_T`` over the range (the spread of
     ``ln(RT C / a_T)``: its level is set later); for the best shapes, every capacitor of
     ``capacitor_series`` in ``cap_range`` gives the divider ratio that centres the stray on
-    ``p_j a_T``, snapped to a ``resistor_series`` ``RG``; the summer's ``RS0 / RS_j`` are the
+    ``p_j a_T``, snapped to a ``resistor_series`` ``RG``; a source resistance gets an input
+    follower; the summer's ``RS0 / RS_j`` are the
     ``resistor_series`` values nearest to ``c_j``. Candidates are ranked by their worst peak
     residual over the range (closed form, one-term stages) and the best few re-checked with
     the exact prediction.
@@ -304,7 +308,8 @@ def size_active_tracking(model: CreepModel, low: float, high: float, plan: Parts
             use = _use(th, s, q)
             uses[f"RT{j}"] = use
             terms.append(ActiveTerm(float(use.resistance(PART_REFERENCE)), cap, ra, ra, rg, rsj))
-        stage = ActiveStage(tuple(terms), rs0, source_resistance, load_resistance)
+        stage = ActiveStage(tuple(terms), rs0, source_resistance, load_resistance,
+                            source_resistance > 0)
         pl = replace(plan, thermistors=uses)
         worst = max(step_peak(model.at_temperature(float(t)), stage_over(stage, pl, float(t)))[0]
                     for t in grid)

@@ -176,6 +176,9 @@ def _active_rows(stage, plan: PartsPlan, series: dict, model: CreepModel | None)
                            f"integrator {k}: {OP_AMP.text()}" if k == 1 else
                            f"integrator {k}: as U1"))
     rows.append(BomRow("U0", "op amp", "-", "-", "op amp", "-", "output follower: as U1"))
+    if stage.input_buffer:
+        rows.append(BomRow("Uin", "op amp", "-", "-", "op amp", "-",
+                           "input follower (the sensor has a source resistance): as U1"))
     return rows
 
 

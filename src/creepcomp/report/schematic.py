@@ -150,6 +150,15 @@ def active_drawing(stage, plan: PartsPlan | None = None, canvas: str = "svg"):
               .label(f"Rs\n{format_quantity(stage.source_resistance, 'Ω')}"))
     else:
         d.add(elm.Line().right(1.0).at(source.end))
+    if stage.input_buffer:
+        d.add(elm.Line().right(0.5))
+        buffer = d.add(elm.Opamp(leads=True).anchor("in2").label("Uin", loc="center", ofst=(-0.4, 0)))
+        d.add(elm.Line().at(buffer.out).right(0.6))
+        tap = d.here
+        d.add(elm.Line().at(buffer.in1).up(1.2))
+        d.add(elm.Line().to((tap[0], d.here[1])))
+        d.add(elm.Line().to(tap))
+        d.add(elm.Line().at(tap).right(0.4))
     node_in = d.add(elm.Dot().label("in", loc="top")).center
     bus_x = None
     outs = []
@@ -158,6 +167,7 @@ def active_drawing(stage, plan: PartsPlan | None = None, canvas: str = "svg"):
         start = (node_in[0], y)
         if j > 1:
             d.add(elm.Line().at((node_in[0], y + _LOOP_PITCH)).to(start))
+            d.add(elm.Dot().at(start))
         d.add(elm.Resistor().right().at(start).label(f"RA{j}\n{format_quantity(t.RA, 'Ω')}"))
         e = d.add(elm.Dot()).center
         d.add(elm.Resistor().down().at(e).label(f"RG{j}\n{format_quantity(t.RG, 'Ω')}", loc="bottom"))

@@ -248,6 +248,10 @@ def _active_lines(out: _Lines, stage, input_node: str, ground: str = "0",
     gain = n(OP_AMP_GAIN)
     out.comment(f"active correction stage: op amps as VCVS of gain {gain} (+ input at ground for "
                 "an integrator)")
+    if stage.input_buffer:
+        out.comment("input follower Uin: the stage's input current does not load the sensor")
+        out.raw(f"EUin buf {ground} {input_node} buf {gain}")
+        input_node = "buf"
     for j, t in enumerate(stage.terms, 1):
         out.comment(f"term {j}: divider RA{j}/RB{j}/RG{j} at e{j}; integrator U{j} (RT{j}, C{j}) "
                     f"with output w{j}; summing resistor RS{j}")
