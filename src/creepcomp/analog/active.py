@@ -243,11 +243,11 @@ def size_active_tracking(model: CreepModel, low: float, high: float, plan: Parts
     far ``RT(T) C(T)`` strays from following ``a_T`` over the range (the spread of
     ``ln(RT C / a_T)``: its level is set later); for the best shapes, every capacitor of
     ``capacitor_series`` in ``cap_range`` gives the divider ratio that centres the stray on
-    ``p_j a_T``, snapped to a ``resistor_series`` ``RG``; a source resistance gets an input
-    follower; the summer's ``RS0 / RS_j`` are the
+    ``p_j a_T``, snapped to a ``resistor_series`` ``RG``; the summer's ``RS0 / RS_j`` are the
     ``resistor_series`` values nearest to ``c_j``. Candidates are ranked by their worst peak
-    residual over the range (closed form, one-term stages) and the best few re-checked with
-    the exact prediction.
+    residual over the range (closed form for one term; each term's own stray for several)
+    and the best few re-checked with the exact prediction. A source resistance gets an
+    input follower.
 
     Returns
     -------
@@ -262,7 +262,7 @@ def size_active_tracking(model: CreepModel, low: float, high: float, plan: Parts
         raise InputError("--tracking ntc: the model has no temperature law (give "
                          "--activation-energy or a model file with a 'temperature' block)")
     plan = plan or PartsPlan()
-    k_inf, c, p = inverse_lags(model)
+    _, c, p = inverse_lags(model)
     grid = temperature_grid(low, high)
     shift = model.temperature.shift(grid)
     cap_drift = np.array([plan.value_at("C", "C", 1.0, float(t)) for t in grid])
