@@ -65,9 +65,9 @@ def main(argv: list[str] | None = None) -> int:
         parts = ", ".join(f"{label} {format_quantity(v, 'Ω' if k == 'R' else 'F')}"
                           for label, k, v in d.network.parts())
         print(f"{d.label}: worst {format_percent(p.worst)} at {p.worst_at:g} °C ({parts})")
-    print("°C     " + "  ".join(f"{d.label[:3]:>9}" for d in comparison.designs))
+    print("°C     " + "  ".join(f"{d.label.split()[0]:>11}" for d in comparison.designs))
     for k, t in enumerate(comparison.designs[0].prediction.temperatures):
-        print(f"{t:>5g}  " + "  ".join(f"{format_percent(d.prediction.peak_residual[k]):>9}"
+        print(f"{t:>5g}  " + "  ".join(f"{format_percent(d.prediction.peak_residual[k]):>11}"
                                        for d in comparison.designs))
     ntc = comparison.written
     for label, use in ntc.plan.thermistors.items():
