@@ -82,6 +82,9 @@ def test_parts_round_trip_and_file_keys():
     assert ActiveStage.from_dict(data) == stage
     with pytest.raises(InputError, match="active term 1 needs numbers"):
         ActiveStage.from_dict({"active": {"terms": [{"RT": 1}], "RS0": 1}})
+    with pytest.raises(InputError, match="leakage = -1.0 must be positive"):
+        ActiveStage.from_dict({"active": {"terms": [dict(data["active"]["terms"][0], leakage=-1)],
+                                          "RS0": 1e4}})
 
 
 def test_stage_over_temperature_follows_the_thermistor_and_the_insulation():

@@ -110,6 +110,8 @@ class ActiveStage:
                 v = getattr(t, name)
                 if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                     raise InputError(f"active term {j}: {name} = {v!r} must be a positive number")
+            if t.leakage is not None and not (math.isfinite(t.leakage) and t.leakage > 0):
+                raise InputError(f"active term {j}: leakage = {t.leakage!r} must be positive or null")
         if not (math.isfinite(self.RS0) and self.RS0 > 0):
             raise InputError(f"active stage: RS0 = {self.RS0!r} must be positive")
 
