@@ -29,7 +29,7 @@ import numpy as np
 
 from creepcomp.errors import InputError
 from creepcomp.lti import LagExpansion
-from creepcomp.network import CAPACITANCE_RANGE, RESISTANCE_RANGE, parallel
+from creepcomp.network import CAPACITANCE_RANGE, MAX_CELLS, RESISTANCE_RANGE, parallel
 from creepcomp.units import format_quantity
 
 if TYPE_CHECKING:
@@ -103,8 +103,9 @@ class ActiveStage:
     def __post_init__(self):
         terms = tuple(t if isinstance(t, ActiveTerm) else ActiveTerm(**t) for t in self.terms)
         object.__setattr__(self, "terms", terms)
-        if not terms:
-            raise InputError("an active stage needs at least one term")
+        if not terms or len(terms) > MAX_CELLS:
+            raise InputError(f"an active stage has 1 to {MAX_CELLS} terms (one per creep term), "
+                             f"not {len(terms)}")
         for j, t in enumerate(terms, 1):
             for name in ("RT", "C", "RA", "RB", "RG", "RS"):
                 v = getattr(t, name)
