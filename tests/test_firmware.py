@@ -345,6 +345,8 @@ def test_every_template_file_is_used(monkeypatch):
         generate_firmware(CreepModel(MODEL.beta, MODEL.tau, MODEL.gain, MODEL.offset,
                                      temperature=TemperatureLaw.arrhenius(43000.0)),
                           precision=precision, rate=RATE)
+    generate_firmware(MODEL, rate=RATE, full_scale=1.0,
+                      extension={"play": {"ratio": 0.05, "half_width": 0.01}})
     used = set().union(*(firmware._template_tree(t) for t in rendered))
     files = {f.name for f in resources.files("creepcomp.digital").joinpath("templates").iterdir()
              if f.is_file()}

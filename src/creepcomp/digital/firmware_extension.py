@@ -1,0 +1,192 @@
+"""The C corrector of a model with an extension the diagnosis writes (``creepcomp firmware``).
+
+Each extension's ``firmware_output`` hook (:mod:`creepcomp.diagnose.effects`) gives it as a map
+in signal units; this module writes its C step (float32, fixed rate, subtractive: the
+linear step's creep sum and states, the extension's own arithmetic and state words in
+double) and its bound (:mod:`creepcomp.digital.firmware_bound`). The step does what the
+creep correction (:func:`creepcomp.diagnose.effects.compensate_extended`) does, sample by
+sample, with the load held between samples:
+
+- ``reloading``: the load ``X`` whose response ``X (1 - softening g(1 - |X|/m))`` is ``S``,
+  ``m`` the running maximum of ``|X|`` (one state word), ``X = S`` at or beyond it;
+- ``peak``: the load whose response ``X (1 - k m)`` is ``S``, ``m`` the running maximum of
+  ``|X|`` including this sample (one state word);
+- ``play``: the load with ``X + ratio (P - X) = S``, ``P`` a play operator of ``X`` (one
+  state word), the creep terms driven by ``X``;
+- ``recovery``: one creep term steps with ``a_recovery`` over the steps where its state
+  shrinks towards the input's mean over the step, with ``a`` otherwise (two state words:
+  the last ``S`` and the last mode).
+
+The static polynomial (``polynomial``) is written by :func:`creepcomp.digital.firmware.generate_firmware`
+itself.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from creepcomp.digital.firmware_bound import (ROOT_STEPS, ErrorBound, firmware_bound, float32_value,
+                                              peak_bound, play_bound, recovery_bound,
+                                              reloading_bound)
+from creepcomp.errors import InputError
+from creepcomp.model import CreepModel
+
+__all__ = ["EXTENSION_KINDS", "extension_kind", "check_extension", "extension_parts", "recovery_ambiguity"]
+
+#: The extension maps the C corrector writes (besides the static ``polynomial``), with what
+#: each is in words.
+EXTENSION_KINDS = {"reloading": "softening below the running maximum of the load",
+                   "peak": "softening by the largest load magnitude so far",
+                   "play": "a play operator (rate-independent hysteresis)",
+                   "recovery": "recovery with its own time constant, switched by the state"}
+
+
+def extension_kind(extension: dict) -> str:
+    """The kind of an extension map (its one key), checked."""
+    if not isinstance(extension, dict) or len(extension) != 1 or next(iter(extension)) not in EXTENSION_KINDS:
+        raise InputError(f"internal error: extension map {extension!r} is none of "
+                         f"{', '.join(EXTENSION_KINDS)}")
+    return next(iter(extension))
+
+
+def check_extension(extension: dict, method: str, precision: str, max_interval, temperature) -> None:
+    """Refuse, naming the extension, what its C corrector does not do: q31, the supplemental
+    method, the dt step, a temperature law."""
+    kind = extension_kind(extension)
+    what = EXTENSION_KINDS[kind]
+    if precision != "float32":
+        raise InputError(f"the model's extension ({what}) has a C corrector in float32 only: its map "
+                         f"and state words are computed in double, which the integer-only q31 "
+                         f"step does not use; give --precision float32")
+    if method != "subtractive":
+        raise InputError(f"the model's extension ({what}) has a C corrector for the subtractive "
+                         f"method only (the load is what it finds); give --method subtractive")
+    if max_interval is not None:
+        raise InputError(f"the model's extension ({what}) has a C corrector at a fixed rate only; "
+                         f"give --rate instead of --max-interval")
+    if temperature:
+        raise InputError(f"the model's extension ({what}) has no C corrector together with a "
+                         f"temperature law")
+
+
+def _c_double(value: float) -> str:
+    return repr(float(value))
+
+
+def extension_parts(model: CreepModel, rate: float, full_scale: float, name: str,
+                    extension: dict) -> tuple[ErrorBound, dict, list[str], dict]:
+    """The bound, the template's ``extension`` values, the derivation's lines and the values
+    to verify with, of one extension map.
+
+    Returns
+    -------
+    (ErrorBound, dict, list of str, dict)
+        ``extension`` holds ``kind``, ``words`` (state words, double), ``constants`` (C
+        lines), ``summary`` (header lines), ``drive`` (what the creep terms follow), and
+        per kind ``steps``, ``shaped``, ``exp``, ``term``; the last dict (``check``) what
+        :func:`creepcomp.digital.firmware_check.verify_firmware` needs (the recovery's
+        switching margin).
+    """
+    kind = extension_kind(extension)
+    p = extension[kind]
+    values = {"kind": kind, "words": 1, "drive": "S", "steps": str(ROOT_STEPS), "shaped": False,
+              "exp": False, "term": "0"}
+    offset, offset_st = float(model.offset), float32_value(model.offset)
+    check: dict = {"kind": kind}
+    if kind in ("reloading", "peak"):
+        linear = firmware_bound(model, "subtractive", "float32", rate, full_scale)
+    if kind == "reloading":
+        sigma, shape, chord = p["softening"], p["shape"], p["chord"]
+        bound = reloading_bound(linear, sigma, shape, chord, offset, offset_st)
+        shaped = abs(shape) >= chord
+        if shaped and abs(shape) > 30:
+            raise InputError(f"the reloading curve's shape {shape:g} is beyond the C corrector's "
+                             f"exponential (|shape| <= 30)")
+        constants = [f"static const double {name}_softening = {_c_double(sigma)};"]
+        if shaped:
+            constants += [f"static const double {name}_shape = {_c_double(shape)};",
+                          f"static const double {name}_expm1_shape = {_c_double(math.expm1(-shape))};"]
+        values.update(shaped=shaped, exp=shaped,
+                      summary=["with the load X found from S through the reloading curve below its running maximum m:",
+                               "  S = X (1 - softening g(1 - |X|/m)) for |X| < m, S = X (and m = |X|) beyond it"])
+        lines = [f"Softening below the running maximum m of |X|: softening = {sigma:.9g}, "
+                 + (f"g(z) = expm1(-{shape:.9g} z) / expm1(-{shape:.9g}) (expm1 without libm)" if shaped
+                    else "g(z) = z (the chord)") + f"; |X| by {ROOT_STEPS} bisection steps in double."]
+    elif kind == "peak":
+        k = p["softening"] / p["scale"]
+        bound = peak_bound(linear, p["softening"], p["scale"], offset, offset_st)
+        reach = bound.peak_fs * full_scale
+        constants = [f"static const double {name}_k = {_c_double(k)};",
+                     f"static const double {name}_reach = {_c_double(reach)};"]
+        values["summary"] = ["with the load X found from S = X (1 - k m), m the largest |X| so far including this sample"]
+        lines = [f"Softening by the largest magnitude so far: k = softening / scale = {k:.9g} per signal unit; "
+                 f"a new largest |X| by {ROOT_STEPS} bisection steps in double up to {reach:.9g}."]
+    elif kind == "play":
+        ratio, half = p["ratio"], p["half_width"]
+        bound = play_bound(model, rate, full_scale, ratio, half)
+        constants = [f"static const double {name}_ratio = {_c_double(ratio)};",
+                     f"static const double {name}_half_width = {_c_double(half)};",
+                     f"static const double {name}_one_minus_ratio = {_c_double(1.0 - ratio)};"]
+        values.update(drive="X", summary=[
+            "with the load X found from S = X + ratio (P - X), P = clip(P_prev, X - r, X + r) the play",
+            "operator (from P = 0), and the creep terms driven by X: c_k[n+1] = c_k[n] + a_k (X[n] - c_k[n])"])
+        lines = [f"Play operator: ratio = weight / gain = {ratio:.9g}, half width r = {half:.9g} signal units; "
+                 "X and P in double."]
+    else:
+        term, tau_r = int(p["term"]), float(p["tau_recovery"])
+        bound, switch = recovery_bound(model, rate, full_scale, term, tau_r)
+        band = p["dead_band"] * full_scale
+        a_rec = switch["a_recovery"]
+        constants = [f"static const float {name}_a_recovery = {float32_value(a_rec):.9e}f;",
+                     f"static const double {name}_band = {_c_double(band)};"]
+        values.update(words=2, term=str(term), summary=[
+            f"except term {term}, which steps with a_recovery over the steps where its state shrinks towards",
+            "the input's mean over the step, sign(c)((S[n] + S[n+1])/2 - c) < -band, with a_k otherwise"])
+        lines = [f"Recovery of term {term}: tau_recovery = {tau_r:.9g} s, a_recovery = {a_rec:.12g} "
+                 f"(stored {float32_value(a_rec):.9e}); dead band {band:.3g} signal units.",
+                 f"The bound holds where each mode decision of the exact corrector is {switch['margin']:.3g} "
+                 f"signal units or more from its threshold (and its state that far from 0); where one is not, "
+                 f"{switch['switch_gain']:.3g} x FS per signal unit of |S[n] - c[n]| there adds to it "
+                 "(creepcomp firmware --verify finds such steps)."]
+        check.update(switch, term=term, tau=float(model.tau[term]), tau_recovery=tau_r,
+                     dead_band=float(p["dead_band"]))
+    values["constants"] = constants
+    return bound, values, lines, check
+
+
+def recovery_ambiguity(check: dict, time, output, offset: float) -> dict:
+    """The steps of a record whose mode decision the C corrector may take otherwise than the
+    exact one (its decision quantity within ``margin`` of 0, or its state within the state
+    error of 0), and what they add to the bound (:func:`creepcomp.digital.firmware_bound.recovery_bound`).
+
+    ``output``: the exact corrector's output (signal units); the term's states are stepped
+    from it with the exact modes.
+
+    Returns
+    -------
+    dict
+        ``steps`` (how many), ``largest`` (``|h_n - c_n|`` there, signal units) and
+        ``added_fs`` (what it adds to the bound).
+    """
+    t = np.asarray(time, float)
+    h = np.asarray(output, float) - offset
+    e = -np.expm1(-np.diff(t) / check["tau"])
+    e_r = -np.expm1(-np.diff(t) / check["tau_recovery"])
+    band = check["dead_band"] * max(float(np.max(np.abs(h))), 1e-300)
+    margin, state_error = check["margin"], check["state_error"]
+    c = 0.0
+    largest, steps = 0.0, 0
+    # until a step after the first non-zero input both states are exactly 0 (the C's input
+    # x = raw - offset is exactly 0 too before it): no mode
+    unloaded = np.concatenate([[True], np.cumsum(h[:-1] != 0) == 0])
+    for n in range(len(h) - 1):
+        q = math.copysign(1.0, c) * (0.5 * (h[n] + h[n + 1]) - c) if c != 0 else 0.0
+        near = abs(q + band) <= margin or abs(c) <= state_error
+        if near and not unloaded[n]:
+            steps += 1
+            largest = max(largest, abs(h[n] - c) + state_error)
+        recovering = c != 0 and q < -band
+        c = c + (e_r[n] if recovering else e[n]) * (h[n] - c)
+    return {"steps": steps, "largest": largest, "added_fs": check["switch_gain"] * largest}
