@@ -32,6 +32,8 @@ EXTENSIONS = {
     "rate_independent_hysteresis/negative": {"width": 0.5, "weight": -0.01},
     "asymmetric_recovery": {"tau": 45.0, "tau_recovery": 150.0},
     "asymmetric_recovery/fast": {"tau": 45.0, "tau_recovery": 9.0},
+    "transition_overshoot": {"amplitude": 0.002, "tau": 5.0, "exponent": 1.0, "load_scale": 10.0},
+    "transition_overshoot/stretched": {"amplitude": -0.001, "tau": 3.0, "exponent": 0.7, "load_scale": 10.0},
 }
 
 RATE = 10.0
@@ -50,12 +52,16 @@ def _linear(model: CreepModel) -> CreepModel:
     return CreepModel(model.beta, model.tau, model.gain, model.offset)
 
 
-def _record(model: CreepModel, seed: int = 0, quiet_start: bool = False):
+#: The load without the swings.
+CALM = np.where(T > 540, 0.0, LOAD)
+
+
+def _record(model: CreepModel, seed: int = 0, quiet_start: bool = False, load=LOAD):
     """The model's signal with noise (from the first load on only, ``quiet_start``)."""
     noise = 2e-5 * np.random.default_rng(seed).standard_normal(len(T))
     if quiet_start:
-        noise[:np.argmax(LOAD != 0)] = 0.0
-    return simulate_extended(model, T, LOAD, hold="zero") + noise
+        noise[:np.argmax(load != 0)] = 0.0
+    return simulate_extended(model, T, load, hold="zero") + noise
 
 
 @needs_gcc
@@ -63,7 +69,9 @@ def _record(model: CreepModel, seed: int = 0, quiet_start: bool = False):
 def test_measured_error_against_correct_within_the_bound(key):
     model = _model(key)
     # a recovery's state switch decides by the state's sign: noise at rest would leave it to chance
-    y = _record(model, quiet_start=key.startswith("asymmetric_recovery"))
+    # an overshoot's bound needs a load that turns seldom within its decay (not the swings)
+    y = _record(model, quiet_start=key.startswith("asymmetric_recovery"),
+                load=CALM if key.startswith("transition_overshoot") else LOAD)
     reference = compensate_extended(T, y, model, initial="relaxed", hold="zero", strict=True)
     full_scale = float(np.max(np.abs(y - model.offset)))
     fw = generate_firmware(_linear(model), rate=RATE, full_scale=full_scale,
@@ -79,10 +87,24 @@ def test_measured_error_against_correct_within_the_bound(key):
     if key.startswith("asymmetric_recovery"):
         assert check.switching is not None and check.switching["steps"] >= 0
         assert check.bound_fs == pytest.approx(fw.bound.total_fs + check.switching["added_fs"])
+    if key.startswith("transition_overshoot"):
+        assert check.switching["events"] >= 1 and check.bound_fs >= fw.bound.total_fs
 
 
 @needs_gcc
-@pytest.mark.parametrize("key", ["mullins_softening/shaped", "rate_independent_hysteresis", "asymmetric_recovery"])
+def test_an_overshoot_on_a_load_that_turns_every_sample_has_no_bound():
+    model = _model("transition_overshoot")
+    y = _record(model)
+    reference = compensate_extended(T, y, model, initial="relaxed", hold="zero", strict=True)
+    fw = generate_firmware(_linear(model), rate=RATE, full_scale=float(np.max(np.abs(y - model.offset))),
+                           extension=firmware_output(model))
+    with pytest.raises(InputError, match=r"the load turns [\d.]+ times, discounted, within its decay\): no error bound"):
+        verify_firmware(fw, T, y, repeats=1, reference=reference)
+
+
+@needs_gcc
+@pytest.mark.parametrize("key", ["mullins_softening/shaped", "rate_independent_hysteresis", "asymmetric_recovery",
+                                 "transition_overshoot/stretched"])
 def test_compiles_strictly_without_libm_and_names_its_state_words(tmp_path, key):
     model = _model(key)
     fw = generate_firmware(_linear(model), rate=RATE, full_scale=1.0, extension=firmware_output(model))
@@ -91,7 +113,8 @@ def test_compiles_strictly_without_libm_and_names_its_state_words(tmp_path, key)
                                    check=True).stdout.split()) - {"U"}
     assert undefined <= {"memcpy"}, undefined
     assert "math.h" not in re.sub(r"/\*.*?\*/", "", fw.source, flags=re.S)
-    words = 2 if key.startswith("asymmetric") else 1
+    out = firmware_output(model)
+    words = 2 + len(out["overshoot"]["taus"]) if "overshoot" in out else 2 if "recovery" in out else 1
     assert f"#define CREEP_EXTENSION_WORDS {words}" in fw.header and "double ext[CREEP_EXTENSION_WORDS]" in fw.header
     assert f"{fw.bound.total_fs:.3e}" in fw.header
 
@@ -121,7 +144,8 @@ int main(void)
 
 
 @needs_gcc
-@pytest.mark.parametrize("key", ["mullins_softening", "rate_independent_hysteresis", "asymmetric_recovery"])
+@pytest.mark.parametrize("key", ["mullins_softening", "rate_independent_hysteresis", "asymmetric_recovery",
+                                 "transition_overshoot"])
 def test_extension_state_saved_and_restored_across_a_power_cycle(tmp_path, key):
     model = _model(key)
     fw = generate_firmware(_linear(model), rate=RATE, full_scale=1.0, extension=firmware_output(model))
@@ -130,7 +154,7 @@ def test_extension_state_saved_and_restored_across_a_power_cycle(tmp_path, key):
     exe = tmp_path / "main"
     subprocess.run(["gcc", *STRICT_FLAGS, "-I", tmp_path, tmp_path / "main.c", obj, "-o", exe], check=True)
     out = subprocess.run([exe], capture_output=True, text=True, check=True).stdout.split()
-    words = 2 if key.startswith("asymmetric") else 1
+    words = {"asymmetric_recovery": 2, "transition_overshoot": 3}.get(key, 1)
     assert out == ["0", str(2 + 2 * 2 + 2 * words)]      # identical continuation
 
 

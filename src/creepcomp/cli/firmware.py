@@ -193,7 +193,11 @@ def _render(result: dict, firmware, check) -> None:
     console.print(table)
     if check is not None:
         verdict = "within the bound" if check.passed else "ABOVE THE BOUND"
-        if check.switching is not None:
+        if check.switching is not None and "events" in check.switching:
+            console.print(f"the load's turns within the overshoot's decay on this record (discounted): "
+                          f"{check.switching['events']:.3g}; bound on this record {check.bound_fs:.3e}",
+                          soft_wrap=True)
+        elif check.switching is not None:
             console.print(f"mode decisions within the switching margin on this record: "
                           f"{check.switching['steps']}, adding {check.switching['added_fs']:.3e} of full "
                           f"scale: bound on this record {check.bound_fs:.3e}", soft_wrap=True)

@@ -25,7 +25,8 @@ __all__ = ["PRECISIONS", "FULL_SCALE_WORD", "REFERENCE_ALLOWANCE", "MIN_INTERVAL
            "check_interval", "exact_coefficients", "stored_coefficients", "dt_scheme",
            "float32_value", "temperature_scheme", "q31_temperature_scheme", "temperature_bound",
            "TEMPERATURE_STEP_Q", "ROOT_STEPS", "polynomial_bound", "EXP_RELATIVE_ERROR",
-           "reloading_bound", "peak_bound", "play_bound", "recovery_bound"]
+           "reloading_bound", "peak_bound", "play_bound", "recovery_bound", "overshoot_bound",
+           "OVERSHOOT_EVENTS"]
 
 PRECISIONS = ("float32", "q31")
 #: q31: the input word of a full-scale signal (the words keep one bit of headroom).
@@ -925,6 +926,54 @@ def play_bound(model: CreepModel, rate: float, full_scale: float, ratio: float,
     reach = x_exact + half_width
     ext = 2 * _U64 * reach * abs(ratio) / abs(1.0 - ratio) + 8 * _U64 * reach * lip
     return _loop_bound(model, rate, full_scale, lip, x_exact, ext, "play operator")
+
+
+#: The discounted count of the load's turns the overshoot's printed bound assumes
+#: (:func:`overshoot_bound`): the current run and two turns within its decay time.
+OVERSHOOT_EVENTS = 3.0
+
+
+def overshoot_bound(model: CreepModel, rate: float, full_scale: float, ratio: float,
+                    half_width: float, weights, taus, events: float = OVERSHOOT_EVENTS) -> ErrorBound:
+    """The bound of the corrector whose creep states are driven by the load ``X`` found from
+    ``S = X + ratio sum_i w_i D_i``, ``D_i = (1 - a_i) D_i + |Q - Q_prev|`` (the total
+    variation ``v`` of the play ``Q`` of ``X``, less its lag: ``v - lag_i(v)``).
+
+    With ``E`` the known part ``ratio sum_i w_i (1 - a_i) D_i`` and ``W = sum_i w_i``, ``X(S - E,
+    Q_prev)`` is continuous and piecewise linear: ``|dX| <= L1 (|dS| + |dE|) + L2 |dQ|``,
+    ``L1 = 1 / (1 - |ratio W|)``, ``L2 = |ratio W| L1``; the play is 1-Lipschitz, ``|dQ| <= E_X``.
+    The total variation's error telescopes along each run of moves in one direction (summation
+    by parts: ``sum_j (1 - a)^(n-j) s (dQ_j - dQ_j-1)`` is at most ``2 (1 - a)^(n - end) max|dQ|``),
+    so ``|dD_i| <= 2 R E_X`` with ``R`` the count of runs (the load's turns) and of samples where
+    the C's play may move otherwise than the exact one (within the error of its dead band's
+    edge), each discounted by ``(1 - a)`` per sample since: ``|dE| <= |ratio| K E_X``, ``K = 2 R
+    sum_i w_i (1 - a_i)``, and ``E_X <= L1 E_S / (1 - g)``, ``g = L1 |ratio| K + L2 < 1``: the
+    inverse's error gain of :func:`_loop_bound`. ``events``: ``R`` (a record's own from
+    :func:`creepcomp.digital.firmware_extension.overshoot_events`). The magnitudes follow the
+    same way: ``D_i <= 2 R X_max``. The double arithmetic adds a few roundings per sample, and
+    the decays' ``6 u X_max / a_i^2`` (rounding of ``D_i`` accumulated).
+    """
+    w, tau = np.asarray(weights, float), np.asarray(taus, float)
+    a = -np.expm1(-(1.0 / rate) / tau)
+    total = abs(ratio) * float(np.sum(w))
+    if total >= 1.0:
+        raise InputError("the overshoot's amplitude is not below the gain: no C corrector for it")
+    l1 = 1.0 / (1.0 - total)
+    gain = l1 * abs(ratio) * 2 * events * float(np.sum(w * (1 - a))) + total * l1
+    if gain >= 1.0:
+        raise InputError(f"the overshoot's error gain through the total variation of the load is "
+                         f"{gain:.3g} (the load turns {events:.3g} times, discounted, within its decay): "
+                         "no error bound")
+    sum_beta = float(np.sum(np.abs(model.beta)))
+    room = 1.0 - sum_beta - 2 * abs(ratio) * float(np.sum(w)) * events
+    if room <= 0:
+        raise InputError("the overshoot and the creep terms together can reach any size: no error bound")
+    x_exact = full_scale / room
+    reach = x_exact + half_width
+    lip = l1 / (1.0 - gain)
+    ext = lip * _U64 * (8 * (reach + 2 * total * events * x_exact)
+                        + abs(ratio) * float(np.sum(w * 6 * x_exact / a ** 2)))
+    return _loop_bound(model, rate, full_scale, lip, x_exact, ext, "overshoot")
 
 
 def _loop_bound(model: CreepModel, rate: float, full_scale: float, lip: float, x_exact: float,

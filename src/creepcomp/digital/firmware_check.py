@@ -45,7 +45,10 @@ class Verification:
     switching : dict or None
         For a recovery extension: ``steps`` (decisions within the switching margin),
         ``largest`` (signal units) and ``added_fs`` (see
-        :func:`creepcomp.digital.firmware_extension.recovery_ambiguity`).
+        :func:`creepcomp.digital.firmware_extension.recovery_ambiguity`); for an overshoot:
+        ``events`` (the record's discounted count of the load's turns), ``bound_fs``,
+        ``reference_fs`` and ``added_fs`` (see
+        :func:`creepcomp.digital.firmware_extension.overshoot_record_bound`).
     """
 
     samples: int
@@ -212,10 +215,17 @@ def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler
     reference = np.asarray(reference, dtype=float)
     y, ns, size = run_firmware(firmware, x, start, repeats, compiler, temperatures=temps)
     switching = None
-    if firmware.extension is not None and "margin" in firmware.extension:
+    kind = (firmware.extension or {}).get("kind")
+    if kind == "recovery":
         from creepcomp.digital.firmware_extension import recovery_ambiguity
 
         switching = recovery_ambiguity(firmware.extension, t, reference, firmware.model.offset)
+    elif kind == "overshoot":
+        from creepcomp.digital.firmware_extension import overshoot_record_bound
+
+        on_record = overshoot_record_bound(firmware.extension, reference, firmware.model.offset,
+                                           firmware.bound)
+        switching = dict(on_record, added_fs=on_record["bound_fs"] - firmware.bound.total_fs)
     return _compare(firmware, y, reference, ns, size, switching)
 
 

@@ -13,6 +13,9 @@ sample, with the load held between samples:
   ``|X|`` including this sample (one state word);
 - ``play``: the load with ``X + ratio (P - X) = S``, ``P`` a play operator of ``X`` (one
   state word), the creep terms driven by ``X``;
+- ``overshoot``: the load with ``S = X + ratio sum_i w_i (v - lag_i(v))``, ``v`` the total
+  variation of a play of ``X`` (one lag, or several for a stretched decay; state words: the
+  play, a start flag, one per lag), the creep terms driven by ``X``;
 - ``recovery``: one creep term steps with ``a_recovery`` over the steps where its state
   shrinks towards the input's mean over the step, with ``a`` otherwise (two state words:
   the last ``S`` and the last mode).
@@ -27,20 +30,23 @@ import math
 
 import numpy as np
 
-from creepcomp.digital.firmware_bound import (ROOT_STEPS, ErrorBound, firmware_bound, float32_value,
+from creepcomp.digital.firmware_bound import (OVERSHOOT_EVENTS, ROOT_STEPS, ErrorBound,
+                                              firmware_bound, float32_value, overshoot_bound,
                                               peak_bound, play_bound, recovery_bound,
                                               reloading_bound)
 from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 
-__all__ = ["EXTENSION_KINDS", "extension_kind", "check_extension", "extension_parts", "recovery_ambiguity"]
+__all__ = ["EXTENSION_KINDS", "extension_kind", "check_extension", "extension_parts", "recovery_ambiguity",
+           "overshoot_events", "overshoot_record_bound"]
 
 #: The extension maps the C corrector writes (besides the static ``polynomial``), with what
 #: each is in words.
 EXTENSION_KINDS = {"reloading": "softening below the running maximum of the load",
                    "peak": "softening by the largest load magnitude so far",
                    "play": "a play operator (rate-independent hysteresis)",
-                   "recovery": "recovery with its own time constant, switched by the state"}
+                   "recovery": "recovery with its own time constant, switched by the state",
+                   "overshoot": "a decaying transient after every load change (total variation)"}
 
 
 def extension_kind(extension: dict) -> str:
@@ -92,7 +98,7 @@ def extension_parts(model: CreepModel, rate: float, full_scale: float, name: str
     kind = extension_kind(extension)
     p = extension[kind]
     values = {"kind": kind, "words": 1, "drive": "S", "steps": str(ROOT_STEPS), "shaped": False,
-              "exp": False, "term": "0"}
+              "exp": False, "term": "0", "lags": "0"}
     offset, offset_st = float(model.offset), float32_value(model.offset)
     check: dict = {"kind": kind}
     if kind in ("reloading", "peak"):
@@ -134,6 +140,30 @@ def extension_parts(model: CreepModel, rate: float, full_scale: float, name: str
             "operator (from P = 0), and the creep terms driven by X: c_k[n+1] = c_k[n] + a_k (X[n] - c_k[n])"])
         lines = [f"Play operator: ratio = weight / gain = {ratio:.9g}, half width r = {half:.9g} signal units; "
                  "X and P in double."]
+    elif kind == "overshoot":
+        ratio, half = p["ratio"], p["half_width"]
+        weights, taus = list(map(float, p["weights"])), list(map(float, p["taus"]))
+        bound = overshoot_bound(model, rate, full_scale, ratio, half, weights, taus)
+        keep = np.exp(-(1.0 / rate) / np.array(taus))
+        ratio_w = ratio * float(np.sum(weights))
+        constants = [f"static const double {name}_ratio = {_c_double(ratio)};",
+                     f"static const double {name}_ratio_w = {_c_double(ratio_w)};",
+                     f"static const double {name}_half_width = {_c_double(half)};",
+                     f"static const double {name}_weight[{len(weights)}] = "
+                     + "{" + ", ".join(_c_double(x) for x in weights) + "};",
+                     f"static const double {name}_keep[{len(weights)}] = "
+                     + "{" + ", ".join(_c_double(x) for x in keep) + "};"]
+        values.update(drive="X", words=2 + len(weights), lags=str(len(weights)), summary=[
+            "with the load X found from S = X + ratio sum_i w_i D_i, D_i = (1 - a_i) D_i + |Q - Q_prev| (the total",
+            "variation of the play Q of X less its lag), and the creep terms driven by X"])
+        lines = [f"Overshoot: ratio = amplitude / |gain| = {ratio:.9g}, dead band half width {half:.9g} signal units, "
+                 f"{len(weights)} lag(s): tau = " + ", ".join(f"{t:.6g}" for t in taus) + " s, weights "
+                 + ", ".join(f"{x:.6g}" for x in weights) + "; X, Q and D_i in double.",
+                 f"The bound assumes the load turns at most {OVERSHOOT_EVENTS:g} times within the decay (discounted "
+                 "count R of the play's runs and of its moves at the dead band's edge); creepcomp firmware "
+                 "--verify gives the bound of the record's own R."]
+        check.update(ratio=ratio, half_width=half, weights=weights, taus=taus, rate=float(rate),
+                     full_scale=float(full_scale), model=model)
     else:
         term, tau_r = int(p["term"]), float(p["tau_recovery"])
         bound, switch = recovery_bound(model, rate, full_scale, term, tau_r)
@@ -190,3 +220,61 @@ def recovery_ambiguity(check: dict, time, output, offset: float) -> dict:
         recovering = c != 0 and q < -band
         c = c + (e_r[n] if recovering else e[n]) * (h[n] - c)
     return {"steps": steps, "largest": largest, "added_fs": check["switch_gain"] * largest}
+
+
+def overshoot_events(check: dict, output, offset: float, error: float) -> float:
+    """The discounted count ``R`` of an overshoot's events on a record
+    (:func:`creepcomp.digital.firmware_bound.overshoot_bound`): the turns of the exact
+    corrector's play and the samples where the load found is within ``2 error`` (signal
+    units: the C's error, which may move its play otherwise) of the dead band's edge opposite
+    to the play's last move (where the C's play may turn a sample apart from the exact one),
+    each discounted by the slowest lag's ``1 - a`` per sample since; the largest over the
+    record, with the current run. Where one play moves and the other does not, or both the
+    same way, the variation's error telescopes (``|q~| - |q| = s (dQ_n - dQ_n-1)`` with the
+    moving one's sign ``s``)."""
+    x = np.asarray(output, float) - offset
+    r = check["half_width"]
+    keep = math.exp(-(1.0 / check["rate"]) / max(check["taus"]))
+    q, direction, count, largest = float(x[0]), 0, 0.0, 1.0
+    for value in x[1:].tolist():
+        # at the edge the play last moved towards, the C's can only move the same way (the
+        # variation's error still telescopes); at the other it may turn one sample apart
+        gap = abs(value - q) if direction == 0 else direction * (q - value)
+        near = abs(gap - r) <= 2 * error
+        moved = min(max(q, value - r), value + r)
+        step = int(moved > q) - int(moved < q)
+        count *= keep
+        if near or (step != 0 and direction != 0 and step != direction):
+            count += 1.0
+        if step != 0:
+            direction = step
+        q = moved
+        largest = max(largest, 1.0 + count)
+    return largest
+
+
+def overshoot_record_bound(check: dict, output, offset: float, bound: ErrorBound) -> dict:
+    """The overshoot's bound on a record: at the record's own event count ``R``
+    (:func:`overshoot_events`, the near-edge samples found with the bound's own error, to a
+    fixed point), plus the float64 reference's rounding of the total variation it subtracts
+    (``4 u |ratio| W v``, ``v`` the record's total variation).
+
+    Returns
+    -------
+    dict
+        ``events`` (R), ``bound_fs`` and ``reference_fs``.
+    """
+    fs = check["full_scale"]
+    x = np.asarray(output, float) - offset
+    current = bound
+    for _ in range(6):
+        events = overshoot_events(check, output, offset, current.total_fs * fs)
+        current = overshoot_bound(check["model"], check["rate"], fs, check["ratio"], check["half_width"],
+                                  check["weights"], check["taus"], events=max(events, OVERSHOOT_EVENTS))
+        if overshoot_events(check, output, offset, current.total_fs * fs) <= max(events, OVERSHOOT_EVENTS):
+            break
+    else:
+        raise InputError("the overshoot's bound on this record does not settle: no error bound")
+    v = float(np.sum(np.abs(np.diff(x))))
+    reference = 4 * 2.0 ** -53 * abs(check["ratio"]) * float(np.sum(check["weights"])) * v / fs
+    return {"events": events, "bound_fs": current.total_fs + reference, "reference_fs": reference}
