@@ -240,7 +240,9 @@ def _extension_firmware(model: CreepModel, rate: float, full_scale: float, name:
     header_values["model_id"] = f"0x{_fnv1a(repr(identity)):08x}u"
     header = _render("fixed_rate.h.j2", **header_values, extension=values,
                      derivation=_derivation(model, method, precision, rate, full_scale, c, st) + lines,
-                     bound=_bound_lines(bound, full_scale), bound_fs=f"{bound.total_fs:.3e}")
+                     bound=[line.replace("from a relaxed or settled start", "from the relaxed start")
+                            .replace("Largest |S|", "Largest |X|") for line in _bound_lines(bound, full_scale)],
+                     bound_fs=f"{bound.total_fs:.3e}")
     source = _render("float32_extension.c.j2", name=name, NAME=name.upper(), version=_version(),
                      method=method, irregular=False, temperature=False, extension=values,
                      **_coefficient_values(precision, st, None))
