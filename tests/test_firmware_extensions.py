@@ -64,9 +64,14 @@ def _record(model: CreepModel, seed: int = 0, quiet_start: bool = False, load=LO
     return simulate_extended(model, T, load, hold="zero") + noise
 
 
+#: Each kind with its precisions: q31 carries the recovery's switch.
+CASES = [(key, "float32") for key in sorted(EXTENSIONS)] + [
+    (key, "q31") for key in sorted(EXTENSIONS) if key.startswith("asymmetric_recovery")]
+
+
 @needs_gcc
-@pytest.mark.parametrize("key", sorted(EXTENSIONS))
-def test_measured_error_against_correct_within_the_bound(key):
+@pytest.mark.parametrize("key, precision", CASES)
+def test_measured_error_against_correct_within_the_bound(key, precision):
     model = _model(key)
     # a recovery's state switch decides by the state's sign: noise at rest would leave it to chance
     # an overshoot's bound needs a load that turns seldom within its decay (not the swings)
@@ -74,16 +79,18 @@ def test_measured_error_against_correct_within_the_bound(key):
                 load=CALM if key.startswith("transition_overshoot") else LOAD)
     reference = compensate_extended(T, y, model, initial="relaxed", hold="zero", strict=True)
     full_scale = float(np.max(np.abs(y - model.offset)))
-    fw = generate_firmware(_linear(model), rate=RATE, full_scale=full_scale,
+    fw = generate_firmware(_linear(model), precision=precision, rate=RATE, full_scale=full_scale,
                            extension=firmware_output(model))
     check = verify_firmware(fw, T, y, repeats=1, reference=reference)
     # a recovery's decisions near their threshold (the load held, the noise) add to its bound
     assert check.passed and 0 < check.max_error_fs <= check.bound_fs < 2e-5, (check, fw.bound.terms)
     assert fw.bound.total_fs < 2e-6
     # the extension matters: the linear corrector's output is far from correct's
-    plain = verify_firmware(generate_firmware(_linear(model), rate=RATE, full_scale=full_scale), T, y,
-                            repeats=1, reference=reference)
+    plain = verify_firmware(generate_firmware(_linear(model), precision=precision, rate=RATE,
+                                              full_scale=full_scale), T, y, repeats=1, reference=reference)
     assert plain.max_error_fs > 100 * check.bound_fs
+    if precision == "q31":
+        assert check.bound_fs < 1e-8
     if key.startswith("asymmetric_recovery"):
         assert check.switching is not None and check.switching["steps"] >= 0
         assert check.bound_fs == pytest.approx(fw.bound.total_fs + check.switching["added_fs"])
@@ -144,13 +151,20 @@ int main(void)
 
 
 @needs_gcc
-@pytest.mark.parametrize("key", ["mullins_softening", "rate_independent_hysteresis", "asymmetric_recovery",
-                                 "transition_overshoot"])
-def test_extension_state_saved_and_restored_across_a_power_cycle(tmp_path, key):
+@pytest.mark.parametrize("key, precision", [
+    ("mullins_softening", "float32"), ("rate_independent_hysteresis", "float32"),
+    ("asymmetric_recovery", "float32"), ("transition_overshoot", "float32"), ("asymmetric_recovery", "q31")])
+def test_extension_state_saved_and_restored_across_a_power_cycle(tmp_path, key, precision):
     model = _model(key)
-    fw = generate_firmware(_linear(model), rate=RATE, full_scale=1.0, extension=firmware_output(model))
+    fw = generate_firmware(_linear(model), precision=precision, rate=RATE, full_scale=1.0,
+                           extension=firmware_output(model))
     obj = compile_object(fw, tmp_path)
-    (tmp_path / "main.c").write_text(SAVE_RESTORE_TEST)
+    test = SAVE_RESTORE_TEST
+    if precision == "q31":        # words: 2^30 per full scale
+        for value in ("0.002f", "0.5f", "0.2f", "0.3f", "0.1f"):
+            test = test.replace(value, str(round(float(value[:-1]) * 2 ** 30)))
+        test = test.replace("const float x", "const int32_t x")
+    (tmp_path / "main.c").write_text(test)
     exe = tmp_path / "main"
     subprocess.run(["gcc", *STRICT_FLAGS, "-I", tmp_path, tmp_path / "main.c", obj, "-o", exe], check=True)
     out = subprocess.run([exe], capture_output=True, text=True, check=True).stdout.split()

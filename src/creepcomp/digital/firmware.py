@@ -178,7 +178,7 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
     if extension is not None:
         check_extension(extension, method, precision, max_interval,
                         model.temperature is not None or temperature_range is not None)
-        return _extension_firmware(model, rate, full_scale, name, extension)
+        return _extension_firmware(model, rate, full_scale, name, extension, precision)
     if output_polynomial is not None and (precision != "float32" or method != "subtractive"
                                           or max_interval is not None or model.temperature is not None
                                           or temperature_range is not None):
@@ -228,11 +228,12 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
 
 
 def _extension_firmware(model: CreepModel, rate: float, full_scale: float, name: str,
-                        extension: dict) -> Firmware:
-    """The float32 fixed-rate subtractive step of a model with an extension map."""
-    method, precision = "subtractive", "float32"
+                        extension: dict, precision: str) -> Firmware:
+    """The fixed-rate subtractive step of a model with an extension map (float32; q31 for
+    those of :data:`~creepcomp.digital.firmware_extension.INTEGER_KINDS`)."""
+    method = "subtractive"
     check_arguments(model, method, precision, rate, full_scale, name)
-    bound, values, lines, check = extension_parts(model, rate, full_scale, name, extension)
+    bound, values, lines, check = extension_parts(model, rate, full_scale, name, extension, precision)
     c = exact_coefficients(model, rate)
     st = stored_coefficients(c, precision)
     header_values = _header_values(model, method, precision, rate, full_scale, name, c, None, None)
@@ -243,7 +244,7 @@ def _extension_firmware(model: CreepModel, rate: float, full_scale: float, name:
                      bound=[line.replace("from a relaxed or settled start", "from the relaxed start")
                             .replace("Largest |S|", "Largest |X|") for line in _bound_lines(bound, full_scale)],
                      bound_fs=f"{bound.total_fs:.3e}")
-    source = _render("float32_extension.c.j2", name=name, NAME=name.upper(), version=_version(),
+    source = _render(f"{precision}_extension.c.j2", name=name, NAME=name.upper(), version=_version(),
                      method=method, irregular=False, temperature=False, extension=values,
                      **_coefficient_values(precision, st, None))
     harness = _render("harness.c.j2", name=name, NAME=name.upper(), precision=precision,

@@ -1027,7 +1027,7 @@ def _loop_bound(model: CreepModel, rate: float, full_scale: float, lip: float, x
 
 
 def recovery_bound(model: CreepModel, rate: float, full_scale: float, term: int,
-                   tau_recovery: float) -> tuple[ErrorBound, dict]:
+                   tau_recovery: float, precision: str = "float32") -> tuple[ErrorBound, dict]:
     """The bound of the corrector whose term ``term`` steps with ``a`` or ``a_r`` (the
     recovery's ``1 - exp(-T/tau_recovery)``) by the mode its state's step is in.
 
@@ -1048,15 +1048,20 @@ def recovery_bound(model: CreepModel, rate: float, full_scale: float, term: int,
         (signal units; ``switch_gain`` per signal unit, as a fraction of full scale).
     """
     c = exact_coefficients(model, rate)
-    st = stored_coefficients(c, "float32")
+    st = stored_coefficients(c, precision)
     a_rec = -math.expm1(-c["T"] / tau_recovery)
-    a_rec_st = float32_value(a_rec)
+    a_rec_q = _mantissa(a_rec, "a_recovery = 1 - exp(-T/tau_recovery)")
+    a_rec_st = float32_value(a_rec) if precision == "float32" else a_rec_q[0] * 2.0 ** -(31 + a_rec_q[1])
     a_lo, a_hi = c["a"].copy(), c["a"].copy()
     a_lo[term], a_hi[term] = min(c["a"][term], a_rec), max(c["a"][term], a_rec)
     rel = np.abs(st["a"] / c["a"] - 1)
     rel[term] = max(rel[term], abs(a_rec_st / a_rec - 1))
+    k = len(c["a"])
+    # q31: per unit a, the input's rounding to 30 bits; the update's last shift (2^-60 FS)
+    sch = ({"rel_a": rel, "nu": 0.0} if precision == "float32" else
+           {"rel_a": rel, "extra": np.full(k, _Q_IN), "nu": np.full(k, _Q_STATE)})
     errors: list = []
-    bound = _invariant_bound(c, st, {"rel_a": rel, "nu": 0.0}, a_hi, a_lo, "subtractive", "float32",
+    bound = _invariant_bound(c, st, sch, a_hi, a_lo, "subtractive", precision,
                              full_scale, "coefficients a_k, a_recovery (state updates)", errors)
     fs = full_scale
     state_error = errors[0] * fs
@@ -1064,4 +1069,4 @@ def recovery_bound(model: CreepModel, rate: float, full_scale: float, term: int,
     margin = (bound.total_fs * fs + state_error + 2e-9 * x_max + 8 * _U64 * x_max) * (1 + 1e-6)
     switch_gain = bound.gains["state"][term] * abs(a_rec - c["a"][term]) / a_lo[term] / fs
     return bound, {"margin": margin, "state_error": state_error, "switch_gain": switch_gain,
-                   "a_recovery": a_rec}
+                   "a_recovery": a_rec, "a_recovery_q": a_rec_q}

@@ -37,7 +37,7 @@ from creepcomp.digital.firmware_bound import (OVERSHOOT_EVENTS, ROOT_STEPS, Erro
 from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 
-__all__ = ["EXTENSION_KINDS", "extension_kind", "check_extension", "extension_parts", "recovery_ambiguity",
+__all__ = ["EXTENSION_KINDS", "INTEGER_KINDS", "extension_kind", "check_extension", "extension_parts", "recovery_ambiguity",
            "overshoot_events", "overshoot_record_bound"]
 
 #: The extension maps the C corrector writes (besides the static ``polynomial``), with what
@@ -47,6 +47,10 @@ EXTENSION_KINDS = {"reloading": "softening below the running maximum of the load
                    "play": "a play operator (rate-independent hysteresis)",
                    "recovery": "recovery with its own time constant, switched by the state",
                    "overshoot": "a decaying transient after every load change (total variation)"}
+
+
+#: The kinds the q31 step carries too (in integers: a mode switch, no map to invert).
+INTEGER_KINDS = ("recovery",)
 
 
 def extension_kind(extension: dict) -> str:
@@ -62,7 +66,7 @@ def check_extension(extension: dict, method: str, precision: str, max_interval, 
     method, the dt step, a temperature law."""
     kind = extension_kind(extension)
     what = EXTENSION_KINDS[kind]
-    if precision != "float32":
+    if precision != "float32" and kind not in INTEGER_KINDS:
         raise InputError(f"the model's extension ({what}) has a C corrector in float32 only: its map "
                          f"and state words are computed in double, which the integer-only q31 "
                          f"step does not use; give --precision float32")
@@ -82,7 +86,7 @@ def _c_double(value: float) -> str:
 
 
 def extension_parts(model: CreepModel, rate: float, full_scale: float, name: str,
-                    extension: dict) -> tuple[ErrorBound, dict, list[str], dict]:
+                    extension: dict, precision: str = "float32") -> tuple[ErrorBound, dict, list[str], dict]:
     """The bound, the template's ``extension`` values, the derivation's lines and the values
     to verify with, of one extension map.
 
@@ -166,16 +170,25 @@ def extension_parts(model: CreepModel, rate: float, full_scale: float, name: str
                      full_scale=float(full_scale), model=model)
     else:
         term, tau_r = int(p["term"]), float(p["tau_recovery"])
-        bound, switch = recovery_bound(model, rate, full_scale, term, tau_r)
+        bound, switch = recovery_bound(model, rate, full_scale, term, tau_r, precision)
         band = p["dead_band"] * full_scale
         a_rec = switch["a_recovery"]
-        constants = [f"static const float {name}_a_recovery = {float32_value(a_rec):.9e}f;",
-                     f"static const double {name}_band = {_c_double(band)};"]
+        if precision == "float32":
+            constants = [f"static const float {name}_a_recovery = {float32_value(a_rec):.9e}f;",
+                         f"static const double {name}_band = {_c_double(band)};"]
+        else:
+            m, shift = switch["a_recovery_q"]
+            constants = [f"static const int64_t {name}_a_recovery_m = {m};",
+                         f"static const unsigned {name}_a_recovery_s = {1 + shift};",
+                         f"static const int64_t {name}_band = {round(p['dead_band'] * 2 ** 60)};"
+                         "     /* dead band, 2^60 per full scale */"]
         values.update(words=2, term=str(term), summary=[
             f"except term {term}, which steps with a_recovery over the steps where its state shrinks towards",
             "the input's mean over the step, sign(c)((S[n] + S[n+1])/2 - c) < -band, with a_k otherwise"])
+        stored = (f"{float32_value(a_rec):.9e}" if precision == "float32" else
+                  f"{switch['a_recovery_q'][0]} * 2^-{31 + switch['a_recovery_q'][1]}")
         lines = [f"Recovery of term {term}: tau_recovery = {tau_r:.9g} s, a_recovery = {a_rec:.12g} "
-                 f"(stored {float32_value(a_rec):.9e}); dead band {band:.3g} signal units.",
+                 f"(stored {stored}); dead band {band:.3g} signal units.",
                  f"The bound holds where each mode decision of the exact corrector is {switch['margin']:.3g} "
                  f"signal units or more from its threshold (and its state that far from 0); where one is not, "
                  f"{switch['switch_gain']:.3g} x FS per signal unit of |S[n] - c[n]| there adds to it "
