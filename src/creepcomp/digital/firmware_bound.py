@@ -907,7 +907,7 @@ def peak_bound(linear: ErrorBound, softening: float, scale: float, offset: float
 
 
 def play_bound(model: CreepModel, rate: float, full_scale: float, ratio: float,
-               half_width: float) -> ErrorBound:
+               half_width: float, precision: str = "float32") -> ErrorBound:
     """The bound of the corrector whose creep states are driven by the load ``X`` found from
     ``S = X + ratio (P - X)``, ``P = clip(P_prev, X - r, X + r)`` a play operator.
 
@@ -924,8 +924,21 @@ def play_bound(model: CreepModel, rate: float, full_scale: float, ratio: float,
     sum_beta = float(np.sum(np.abs(model.beta)))
     x_exact = (full_scale + abs(ratio) * half_width) / max(1.0 - sum_beta, 1e-300)
     reach = x_exact + half_width
-    ext = 2 * _U64 * reach * abs(ratio) / abs(1.0 - ratio) + 8 * _U64 * reach * lip
-    return _loop_bound(model, rate, full_scale, lip, x_exact, ext, "play operator")
+    if precision == "float32":
+        ext = 2 * _U64 * reach * abs(ratio) / abs(1.0 - ratio) + 8 * _U64 * reach * lip
+    else:
+        if reach / full_scale >= 1.9:     # |S - P| below 2^32 words: its product fits 64 bits
+            raise InputError("the play operator reaches beyond the q31 words' headroom (2 x full "
+                             "scale); use float32")
+        # words of 2^-30 FS: ratio r and r rounded (half a word each), the dead band's product
+        # rounded (half a word) with the stored ratio / (1 - ratio)'s error on |S - P|; P's
+        # own rounding through L_P
+        k2 = ratio / (1.0 - ratio)
+        m, sh = _mantissa(k2, "ratio / (1 - ratio)")
+        k2_err = abs(m * 2.0 ** -(31 + sh) - k2)
+        word = _Q_IN * full_scale
+        ext = (3 * word + k2_err * 2 * reach) + abs(ratio) / abs(1.0 - ratio) * word
+    return _loop_bound(model, rate, full_scale, lip, x_exact, ext, "play operator", precision)
 
 
 #: The discounted count of the load's turns the overshoot's printed bound assumes
@@ -977,7 +990,7 @@ def overshoot_bound(model: CreepModel, rate: float, full_scale: float, ratio: fl
 
 
 def _loop_bound(model: CreepModel, rate: float, full_scale: float, lip: float, x_exact: float,
-                ext: float, label: str) -> ErrorBound:
+                ext: float, label: str, precision: str = "float32") -> ErrorBound:
     """The bound of a float32 fixed-rate subtractive corrector whose states are driven by
     ``X``, a map of ``S`` (and of its own states) with error gain ``lip`` and evaluation
     error ``ext`` (signal units), ``|X| <= x_exact`` exactly.
@@ -990,7 +1003,7 @@ def _loop_bound(model: CreepModel, rate: float, full_scale: float, lip: float, x
     when ``lip sum|beta| < 1``."""
     fs = full_scale
     c = exact_coefficients(model, rate)
-    st = stored_coefficients(c, "float32")
+    st = stored_coefficients(c, precision)
     beta, a = c["beta"], c["a"]
     sum_beta = float(np.sum(np.abs(beta)))
     loop = lip * sum_beta
@@ -1001,13 +1014,17 @@ def _loop_bound(model: CreepModel, rate: float, full_scale: float, lip: float, x
     gain = 1.0 / (1.0 - loop)
     cmax = x_exact / fs * (1.0 + 1e-3)
     for _ in range(8):
-        eps, _, _, _ = _sample_errors("float32", st, c, len(beta), cmax, fs, sum_beta, "subtractive")
+        eps, _, _, _ = _sample_errors(precision, st, c, len(beta), cmax, fs, sum_beta, "subtractive")
         eps_total = sum(eps.values())
         d = 2 * cmax
         c_hi = cmax * (1 + u)
-        eta = (np.abs(st["a"] - a) * d * (1 + u) ** 3 + a * d * ((1 + u) ** 3 - 1) + a * u * c_hi
-               + u * u * c_hi)
-        rounding = float(np.max(eta / a)) + u * cmax       # and the target (float)X
+        if precision == "float32":
+            eta = (np.abs(st["a"] - a) * d * (1 + u) ** 3 + a * d * ((1 + u) ** 3 - 1) + a * u * c_hi
+                   + u * u * c_hi)
+            rounding = float(np.max(eta / a)) + u * cmax       # and the target (float)X
+        else:                                                  # the target X is a word already
+            eta = np.abs(st["a"] - a) * d + st["a"] * _Q_IN + _Q_STATE
+            rounding = float(np.max(eta / a))
         state = gain * (lip * eps_total + ext / fs + rounding)
         if cmax >= x_exact / fs + state:
             break
@@ -1017,7 +1034,10 @@ def _loop_bound(model: CreepModel, rate: float, full_scale: float, lip: float, x
     terms = {f"{name} (per sample, x{lip * gain:.4g})": lip * gain * v for name, v in eps.items()}
     terms[f"{label} in double (x{gain:.4g})"] = gain * ext / fs
     terms[f"state updates, coefficients a_k (x{loop * gain:.4g})"] = loop * gain * rounding
-    terms["output rounding (float32)"] = _output_rounding(c["offset"], st["offset"], x_exact + state * fs) / fs
+    if precision == "float32":
+        terms["output rounding (float32)"] = _output_rounding(c["offset"], st["offset"], x_exact + state * fs) / fs
+    else:
+        _check_q31_range(x_exact / fs, cmax, 1.0, "subtractive")
     terms["float64 reference (allowance)"] = REFERENCE_ALLOWANCE
     total = sum(terms.values()) * _MARGIN
     return ErrorBound(total_fs=float(total), terms={n: float(v) for n, v in terms.items()},

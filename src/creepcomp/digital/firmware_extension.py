@@ -30,7 +30,7 @@ import math
 
 import numpy as np
 
-from creepcomp.digital.firmware_bound import (OVERSHOOT_EVENTS, ROOT_STEPS, ErrorBound,
+from creepcomp.digital.firmware_bound import (OVERSHOOT_EVENTS, _mantissa, ROOT_STEPS, ErrorBound,
                                               firmware_bound, float32_value, overshoot_bound,
                                               peak_bound, play_bound, recovery_bound,
                                               reloading_bound)
@@ -49,8 +49,8 @@ EXTENSION_KINDS = {"reloading": "softening below the running maximum of the load
                    "overshoot": "a decaying transient after every load change (total variation)"}
 
 
-#: The kinds the q31 step carries too (in integers: a mode switch, no map to invert).
-INTEGER_KINDS = ("recovery",)
+#: The kinds the q31 step carries too (in integers: a mode switch; a piecewise linear map).
+INTEGER_KINDS = ("recovery", "play")
 
 
 def extension_kind(extension: dict) -> str:
@@ -69,7 +69,8 @@ def check_extension(extension: dict, method: str, precision: str, max_interval, 
     if precision != "float32" and kind not in INTEGER_KINDS:
         raise InputError(f"the model's extension ({what}) has a C corrector in float32 only: its map "
                          f"and state words are computed in double, which the integer-only q31 "
-                         f"step does not use; give --precision float32")
+                         f"step does not use (q31 carries a play and the recovery switch); give "
+                         f"--precision float32")
     if method != "subtractive":
         raise InputError(f"the model's extension ({what}) has a C corrector for the subtractive "
                          f"method only (the load is what it finds); give --method subtractive")
@@ -135,10 +136,18 @@ def extension_parts(model: CreepModel, rate: float, full_scale: float, name: str
                  f"a new largest |X| by {ROOT_STEPS} bisection steps in double up to {reach:.9g}."]
     elif kind == "play":
         ratio, half = p["ratio"], p["half_width"]
-        bound = play_bound(model, rate, full_scale, ratio, half)
-        constants = [f"static const double {name}_ratio = {_c_double(ratio)};",
-                     f"static const double {name}_half_width = {_c_double(half)};",
-                     f"static const double {name}_one_minus_ratio = {_c_double(1.0 - ratio)};"]
+        bound = play_bound(model, rate, full_scale, ratio, half, precision)
+        if precision == "float32":
+            constants = [f"static const double {name}_ratio = {_c_double(ratio)};",
+                         f"static const double {name}_half_width = {_c_double(half)};",
+                         f"static const double {name}_one_minus_ratio = {_c_double(1.0 - ratio)};"]
+        else:
+            m, shift = _mantissa(ratio / (1.0 - ratio), "ratio / (1 - ratio)")
+            word = 2 ** 30 / full_scale
+            constants = [f"static const int64_t {name}_half_width = {round(half * word)};     /* words */",
+                         f"static const int64_t {name}_ratio_half_width = {round(ratio * half * word)};",
+                         f"static const int64_t {name}_band_m = {m};     /* ratio / (1 - ratio) = band_m 2^-(30 + band_s) */",
+                         f"static const unsigned {name}_band_s = {1 + shift};"]
         values.update(drive="X", summary=[
             "with the load X found from S = X + ratio (P - X), P = clip(P_prev, X - r, X + r) the play",
             "operator (from P = 0), and the creep terms driven by X: c_k[n+1] = c_k[n] + a_k (X[n] - c_k[n])"])
