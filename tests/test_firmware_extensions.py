@@ -239,3 +239,18 @@ def test_cli_verifies_an_extended_model_against_correct(run_cli, tmp_path):
                              "--precision", "q31")
     assert status == 2 and "float32 only" in " ".join(err.split()) and "Traceback" not in err
     assert not (tmp_path / "c" / "creep.o").exists()
+
+
+@needs_gcc
+@pytest.mark.parametrize("key, says", [("asymmetric_recovery", "mode decisions within the switching margin"),
+                                       ("transition_overshoot", "the load's turns within the overshoot's decay")])
+def test_cli_prints_the_bound_on_the_record(run_cli, tmp_path, key, says):
+    model = _model(key)
+    y = _record(model, quiet_start=True, load=CALM)
+    write_record(tmp_path / "r.csv", Record(T, CALM, y))
+    (tmp_path / "m.json").write_text(json.dumps(model.to_dict()))
+    status, out, err = run_cli("firmware", tmp_path / "m.json", "--verify", tmp_path / "r.csv",
+                               "--precision", "q31" if key == "asymmetric_recovery" else "float32")
+    text = " ".join(out.split())
+    assert status == 0, err
+    assert says in text and "bound on this record" in text and "within the bound" in text

@@ -1,9 +1,10 @@
 """The C corrector of a model with an extension the diagnosis writes (``creepcomp firmware``).
 
 Each extension's ``firmware_output`` hook (:mod:`creepcomp.diagnose.effects`) gives it as a map
-in signal units; this module writes its C step (float32, fixed rate, subtractive: the
-linear step's creep sum and states, the extension's own arithmetic and state words in
-double) and its bound (:mod:`creepcomp.digital.firmware_bound`). The step does what the
+in signal units; this module writes its C step (fixed rate, subtractive; float32: the linear
+step's creep sum and states, the extension's own arithmetic and state words in double; q31,
+for :data:`INTEGER_KINDS`: everything in integers) and its bound
+(:mod:`creepcomp.digital.firmware_bound`). The step does what the
 creep correction (:func:`creepcomp.diagnose.effects.compensate_extended`) does, sample by
 sample, with the load held between samples:
 
@@ -62,8 +63,8 @@ def extension_kind(extension: dict) -> str:
 
 
 def check_extension(extension: dict, method: str, precision: str, max_interval, temperature) -> None:
-    """Refuse, naming the extension, what its C corrector does not do: q31, the supplemental
-    method, the dt step, a temperature law."""
+    """Refuse, naming the extension, what its C corrector does not do: q31 (but for
+    :data:`INTEGER_KINDS`), the supplemental method, the dt step, a temperature law."""
     kind = extension_kind(extension)
     what = EXTENSION_KINDS[kind]
     if precision != "float32" and kind not in INTEGER_KINDS:
@@ -152,7 +153,8 @@ def extension_parts(model: CreepModel, rate: float, full_scale: float, name: str
             "with the load X found from S = X + ratio (P - X), P = clip(P_prev, X - r, X + r) the play",
             "operator (from P = 0), and the creep terms driven by X: c_k[n+1] = c_k[n] + a_k (X[n] - c_k[n])"])
         lines = [f"Play operator: ratio = weight / gain = {ratio:.9g}, half width r = {half:.9g} signal units; "
-                 "X and P in double."]
+                 + ("X and P in double." if precision == "float32" else
+                    "X and P in words (2^30 per full scale), ratio / (1 - ratio) a 31-bit mantissa.")]
     elif kind == "overshoot":
         ratio, half = p["ratio"], p["half_width"]
         weights, taus = list(map(float, p["weights"])), list(map(float, p["taus"]))
