@@ -963,8 +963,8 @@ def overshoot_bound(model: CreepModel, rate: float, full_scale: float, ratio: fl
     sum_i w_i (1 - a_i)``, and ``E_X <= L1 E_S / (1 - g)``, ``g = L1 |ratio| K + L2 < 1``: the
     inverse's error gain of :func:`_loop_bound`. ``events``: ``R`` (a record's own from
     :func:`creepcomp.digital.firmware_extension.overshoot_events`). The magnitudes follow the
-    same way: ``D_i <= 2 R X_max``. The double arithmetic adds a few roundings per sample, and
-    the decays' ``6 u X_max / a_i^2`` (rounding of ``D_i`` accumulated).
+    same way: ``D_i <= 2 R (X_max + r)``. The double arithmetic adds a few roundings per
+    sample, and each decay's rounding accumulated, ``3 u (D_max + 2 (X_max + r)) / a_i``.
     """
     w, tau = np.asarray(weights, float), np.asarray(taus, float)
     a = -np.expm1(-(1.0 / rate) / tau)
@@ -978,14 +978,18 @@ def overshoot_bound(model: CreepModel, rate: float, full_scale: float, ratio: fl
                          f"{gain:.3g} (the load turns {events:.3g} times, discounted, within its decay): "
                          "no error bound")
     sum_beta = float(np.sum(np.abs(model.beta)))
-    room = 1.0 - sum_beta - 2 * abs(ratio) * float(np.sum(w)) * events
+    spread = 2 * abs(ratio) * float(np.sum(w)) * events
+    room = 1.0 - sum_beta - spread
     if room <= 0:
         raise InputError("the overshoot and the creep terms together can reach any size: no error bound")
-    x_exact = full_scale / room
+    x_exact = (full_scale + spread * half_width) / room
     reach = x_exact + half_width
+    d_max = 2 * events * reach                     # |D_i|: each run moves the play by 2 reach at most
     lip = l1 / (1.0 - gain)
-    ext = lip * _U64 * (8 * (reach + 2 * total * events * x_exact)
-                        + abs(ratio) * float(np.sum(w * 6 * x_exact / a ** 2)))
+    # X in double: a few roundings of its terms; D_i: 3 roundings of |D_i| + |change| a step,
+    # decaying with 1 - a_i
+    ext = lip * _U64 * (8 * (reach + total * d_max)
+                        + abs(ratio) * float(np.sum(w * 3 * (d_max + 2 * reach) / a)))
     return _loop_bound(model, rate, full_scale, lip, x_exact, ext, "overshoot")
 
 
