@@ -844,7 +844,8 @@ def _reloading_shape(softening: float, shape: float, chord: float) -> tuple[floa
 
 
 def _map_bound(linear: ErrorBound, offset: float, offset_stored: float, least: float, lm: float,
-               x_max: float, evaluation: float, maximum_gain: float, label: str) -> ErrorBound:
+               x_max: float, evaluation: float, maximum_gain: float, label: str,
+               precision: str = "float32") -> ErrorBound:
     """The bound of an output map ``X = f^-1(S; m)`` with a running maximum ``m`` of ``|X|``
     (the linear corrector unchanged, its states driven by ``S``).
 
@@ -854,15 +855,19 @@ def _map_bound(linear: ErrorBound, offset: float, offset_stored: float, least: f
     largest error ``E_S`` of ``S`` (the linear bound) plus its own evaluation's. The bisection's
     comparison is right wherever ``|f - S|`` exceeds ``e_f``, the evaluation error of ``f`` in
     double, so ``|dX| <= (E_S + e_f + lm E_m) / least + br`` (``br``: the bracket's last
-    width)."""
+    width: ``2^-64`` of the range in double, a word in q31). q31 outputs the word found: no
+    output rounding."""
     fs = linear.full_scale
-    bracket = x_max * 2.0 ** -ROOT_STEPS
+    bracket = x_max * 2.0 ** -ROOT_STEPS if precision == "float32" else 2 * _Q_IN * fs
     gain = (1.0 + lm * maximum_gain) / least              # of E_S, directly and through m
     own = (evaluation + lm * (maximum_gain * evaluation + bracket)) / least + bracket
     terms = {f"linear corrector (x{gain:.4g}: least slope {least:.4g}, running maximum {lm:.4g})":
              linear.total_fs * gain,
-             f"{label} in double, bisection bracket": own / fs,
-             "output rounding (float32)": _output_rounding(offset, offset_stored, x_max) / fs}
+             f"{label} ({'in double' if precision == 'float32' else 'in words'}), bisection bracket": own / fs}
+    if precision == "float32":
+        terms["output rounding (float32)"] = _output_rounding(offset, offset_stored, x_max) / fs
+    else:
+        _check_q31_range(x_max / fs, x_max / fs, 1.0, "subtractive")
     total = sum(terms.values()) * _MARGIN
     return ErrorBound(total_fs=float(total), terms={n: float(v) for n, v in terms.items()},
                       full_scale=fs, peak_fs=float(x_max / fs),
@@ -870,24 +875,32 @@ def _map_bound(linear: ErrorBound, offset: float, offset_stored: float, least: f
 
 
 def reloading_bound(linear: ErrorBound, softening: float, shape: float, chord: float,
-                    offset: float, offset_stored: float) -> ErrorBound:
+                    offset: float, offset_stored: float, precision: str = "float32") -> ErrorBound:
     """The bound of the reloading curve's inverse (softening below the running maximum ``m``
     of ``|X|``): ``S = X (1 - softening g(1 - |X|/m))`` below ``m``, ``S = X`` on the virgin
     curve, so ``m`` is the running maximum of ``|S|`` and ``|X| <= m`` (see :func:`_map_bound`,
     ``maximum_gain`` 1, ``m`` set exactly). ``f`` is evaluated with at most 8 roundings of its
     size, and ``g`` of a shaped curve with two ``expm1`` of relative error
-    :data:`EXP_RELATIVE_ERROR` each."""
+    :data:`EXP_RELATIVE_ERROR` each. q31 (the chord): ``t (m - t) / m`` truncated to a word,
+    its product with the stored softening rounded to half a word, the stored softening's
+    error on ``t (m - t) / m <= m / 4``."""
     least, lm = _reloading_shape(softening, shape, chord)
     if least <= 0:
         raise InputError("the reloading curve does not rise: no C corrector for it")
     x_max = (linear.peak_fs + linear.total_fs) * linear.full_scale
-    g_error = 0.0 if abs(shape) < chord else 2.2 * EXP_RELATIVE_ERROR
-    evaluation = x_max * (8 * _U64 * (1 + abs(softening)) + abs(softening) * g_error)
-    return _map_bound(linear, offset, offset_stored, least, lm, x_max, evaluation, 1.0, "reloading curve")
+    if precision == "float32":
+        g_error = 0.0 if abs(shape) < chord else 2.2 * EXP_RELATIVE_ERROR
+        evaluation = x_max * (8 * _U64 * (1 + abs(softening)) + abs(softening) * g_error)
+    else:
+        m, sh = _mantissa(softening, "softening")
+        word = 2 * _Q_IN * linear.full_scale
+        evaluation = (abs(softening) + 0.5) * word + abs(m * 2.0 ** -(31 + sh) - softening) * x_max / 4
+    return _map_bound(linear, offset, offset_stored, least, lm, x_max, evaluation, 1.0, "reloading curve",
+                      precision)
 
 
 def peak_bound(linear: ErrorBound, softening: float, scale: float, offset: float,
-               offset_stored: float) -> ErrorBound:
+               offset_stored: float, precision: str = "float32") -> ErrorBound:
     """The bound of the inverse of ``S = X (1 - k m)``, ``k = softening / scale``, ``m`` the
     running maximum of ``|X|`` including this sample (see :func:`_map_bound`): ``m`` is the
     virgin inverse of the running maximum of ``|S|``, the root ``t`` of ``t (1 - k t) = |S|``,
@@ -901,9 +914,18 @@ def peak_bound(linear: ErrorBound, softening: float, scale: float, offset: float
                          "corrector for it")
     x_max = 2 * s_max / (1 + math.sqrt(1 - 4 * k * s_max)) if k > 0 else s_max
     least = 1.0 - 2.0 * max(k, 0.0) * x_max
-    evaluation = 6 * _U64 * x_max * (1 + abs(k) * x_max)
+    if precision == "float32":
+        evaluation = 6 * _U64 * x_max * (1 + abs(k) * x_max)
+    else:
+        # k FS stored as a mantissa; k t^2 from t^2 rounded to 2^30 and the product to half a
+        # word; below m the quotient S 2^30 / (2^30 - k m) truncated (a word), its divisor rounded
+        fs = linear.full_scale
+        m, sh = _mantissa(k * fs, "k x full scale")
+        word = 2 * _Q_IN * fs
+        k_err = abs(m * 2.0 ** -(31 + sh) - k * fs) / fs
+        evaluation = 2 * word + k_err * x_max ** 2 + (word + k_err * x_max * x_max) / least
     return _map_bound(linear, offset, offset_stored, least, abs(k) * x_max, x_max, evaluation,
-                      1.0 / least, "softened response")
+                      1.0 / least, "softened response", precision)
 
 
 def play_bound(model: CreepModel, rate: float, full_scale: float, ratio: float,

@@ -50,8 +50,9 @@ EXTENSION_KINDS = {"reloading": "softening below the running maximum of the load
                    "overshoot": "a decaying transient after every load change (total variation)"}
 
 
-#: The kinds the q31 step carries too (in integers: a mode switch; a piecewise linear map).
-INTEGER_KINDS = ("recovery", "play")
+#: The kinds the q31 step carries too (in integers: a mode switch; a piecewise linear map; a
+#: running maximum with a root by bisection, but for a shaped reloading curve's exponential).
+INTEGER_KINDS = ("recovery", "play", "reloading", "peak")
 
 
 def extension_kind(extension: dict) -> str:
@@ -70,7 +71,8 @@ def check_extension(extension: dict, method: str, precision: str, max_interval, 
     if precision != "float32" and kind not in INTEGER_KINDS:
         raise InputError(f"the model's extension ({what}) has a C corrector in float32 only: its map "
                          f"and state words are computed in double, which the integer-only q31 "
-                         f"step does not use (q31 carries a play and the recovery switch); give "
+                         f"step does not use (q31 carries a play, the recovery switch and Mullins "
+                         f"softening's chord and largest magnitude); give "
                          f"--precision float32")
     if method != "subtractive":
         raise InputError(f"the model's extension ({what}) has a C corrector for the subtractive "
@@ -107,16 +109,25 @@ def extension_parts(model: CreepModel, rate: float, full_scale: float, name: str
               "exp": False, "term": "0", "lags": "0"}
     offset, offset_st = float(model.offset), float32_value(model.offset)
     check: dict = {"kind": kind}
+    word = 2 ** 30 / full_scale
     if kind in ("reloading", "peak"):
-        linear = firmware_bound(model, "subtractive", "float32", rate, full_scale)
+        linear = firmware_bound(model, "subtractive", precision, rate, full_scale)
     if kind == "reloading":
         sigma, shape, chord = p["softening"], p["shape"], p["chord"]
-        bound = reloading_bound(linear, sigma, shape, chord, offset, offset_st)
         shaped = abs(shape) >= chord
+        if shaped and precision == "q31":
+            raise InputError(f"the model's reloading curve is shaped (shape {shape:g}): its exponential "
+                             "has a C corrector in float32 only; give --precision float32")
+        bound = reloading_bound(linear, sigma, shape, chord, offset, offset_st, precision)
         if shaped and abs(shape) > 30:
             raise InputError(f"the reloading curve's shape {shape:g} is beyond the C corrector's "
                              f"exponential (|shape| <= 30)")
-        constants = [f"static const double {name}_softening = {_c_double(sigma)};"]
+        if precision == "q31":
+            m, shift = _mantissa(sigma, "softening")
+            constants = [f"static const int64_t {name}_softening_m = {m};     /* softening_m 2^-(30 + softening_s) */",
+                         f"static const unsigned {name}_softening_s = {1 + shift};"]
+        else:
+            constants = [f"static const double {name}_softening = {_c_double(sigma)};"]
         if shaped:
             constants += [f"static const double {name}_shape = {_c_double(shape)};",
                           f"static const double {name}_expm1_shape = {_c_double(math.expm1(-shape))};"]
@@ -128,10 +139,16 @@ def extension_parts(model: CreepModel, rate: float, full_scale: float, name: str
                     else "g(z) = z (the chord)") + f"; |X| by {ROOT_STEPS} bisection steps in double."]
     elif kind == "peak":
         k = p["softening"] / p["scale"]
-        bound = peak_bound(linear, p["softening"], p["scale"], offset, offset_st)
+        bound = peak_bound(linear, p["softening"], p["scale"], offset, offset_st, precision)
         reach = bound.peak_fs * full_scale
-        constants = [f"static const double {name}_k = {_c_double(k)};",
-                     f"static const double {name}_reach = {_c_double(reach)};"]
+        if precision == "q31":
+            m, shift = _mantissa(k * full_scale, "k x full scale")
+            constants = [f"static const int64_t {name}_k_m = {m};     /* k FS = k_m 2^-(30 + k_s) */",
+                         f"static const unsigned {name}_k_s = {1 + shift};",
+                         f"static const int64_t {name}_reach = {math.ceil(reach * word)};     /* words */"]
+        else:
+            constants = [f"static const double {name}_k = {_c_double(k)};",
+                         f"static const double {name}_reach = {_c_double(reach)};"]
         values["summary"] = ["with the load X found from S = X (1 - k m), m the largest |X| so far including this sample"]
         lines = [f"Softening by the largest magnitude so far: k = softening / scale = {k:.9g} per signal unit; "
                  f"a new largest |X| by {ROOT_STEPS} bisection steps in double up to {reach:.9g}."]
@@ -144,7 +161,6 @@ def extension_parts(model: CreepModel, rate: float, full_scale: float, name: str
                          f"static const double {name}_one_minus_ratio = {_c_double(1.0 - ratio)};"]
         else:
             m, shift = _mantissa(ratio / (1.0 - ratio), "ratio / (1 - ratio)")
-            word = 2 ** 30 / full_scale
             constants = [f"static const int64_t {name}_half_width = {round(half * word)};     /* words */",
                          f"static const int64_t {name}_ratio_half_width = {round(ratio * half * word)};",
                          f"static const int64_t {name}_band_m = {m};     /* ratio / (1 - ratio) = band_m 2^-(30 + band_s) */",
