@@ -97,7 +97,7 @@ def extension_parts(model: CreepModel, rate: float, full_scale: float, name: str
     Returns
     -------
     (ErrorBound, dict, list of str, dict)
-        ``extension`` holds ``kind``, ``words`` (state words, double), ``constants`` (C
+        ``extension`` holds ``kind``, ``words`` (state words: double, or int64 for q31), ``constants`` (C
         lines), ``summary`` (header lines), ``drive`` (what the creep terms follow), and
         per kind ``steps``, ``shaped``, ``exp``, ``term``; the last dict (``check``) what
         :func:`creepcomp.digital.firmware_check.verify_firmware` needs (the recovery's
@@ -136,7 +136,9 @@ def extension_parts(model: CreepModel, rate: float, full_scale: float, name: str
                                "  S = X (1 - softening g(1 - |X|/m)) for |X| < m, S = X (and m = |X|) beyond it"])
         lines = [f"Softening below the running maximum m of |X|: softening = {sigma:.9g}, "
                  + (f"g(z) = expm1(-{shape:.9g} z) / expm1(-{shape:.9g}) (expm1 without libm)" if shaped
-                    else "g(z) = z (the chord)") + f"; |X| by {ROOT_STEPS} bisection steps in double."]
+                    else "g(z) = z (the chord)")
+                 + (f"; |X| by {ROOT_STEPS} bisection steps in double." if precision == "float32" else
+                    "; |X| by bisection in words, to one word.")]
     elif kind == "peak":
         k = p["softening"] / p["scale"]
         bound = peak_bound(linear, p["softening"], p["scale"], offset, offset_st, precision)
@@ -150,8 +152,10 @@ def extension_parts(model: CreepModel, rate: float, full_scale: float, name: str
             constants = [f"static const double {name}_k = {_c_double(k)};",
                          f"static const double {name}_reach = {_c_double(reach)};"]
         values["summary"] = ["with the load X found from S = X (1 - k m), m the largest |X| so far including this sample"]
+        how = (f"{ROOT_STEPS} bisection steps in double" if precision == "float32" else
+               "bisection in words, to one word,")
         lines = [f"Softening by the largest magnitude so far: k = softening / scale = {k:.9g} per signal unit; "
-                 f"a new largest |X| by {ROOT_STEPS} bisection steps in double up to {reach:.9g}."]
+                 f"a new largest |X| by {how} up to {reach:.9g}."]
     elif kind == "play":
         ratio, half = p["ratio"], p["half_width"]
         bound = play_bound(model, rate, full_scale, ratio, half, precision)
