@@ -165,7 +165,7 @@ def test_every_effect_that_writes_an_extension_is_checked_here():
     assert writers == {key.split("/")[0] for key in EXTENSIONS}
 
 
-@pytest.mark.parametrize("key", ["mullins_softening", "asymmetric_recovery", "thermal_retardation"])
+@pytest.mark.parametrize("key", ["thermal_retardation"])
 def test_firmware_refuses_an_extension_it_cannot_write_by_name(run_cli, tmp_path, key):
     (tmp_path / "m.json").write_text(json.dumps(_model(key).to_dict()))
     status, _, err = run_cli("firmware", tmp_path / "m.json", "-o", tmp_path / "c")

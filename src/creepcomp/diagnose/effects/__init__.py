@@ -221,10 +221,13 @@ class Effect(abc.ABC):
         return None
 
     def firmware_output(self, entry: dict, model: CreepModel) -> dict | None:
-        """The extension as a map of the C corrector's output, sample by sample, when it is
-        one the generator can write (``entry``: its parameters): ``{"polynomial": (c2, c3)}``,
-        the load ``X`` (signal units above the offset) whose instantaneous response
-        ``X + c2 X^2 + c3 X^3`` is the linear corrector's output. None: no C corrector."""
+        """The extension as a map the C corrector writes, sample by sample, when it is one
+        the generator can write (``entry``: its parameters; ``X``: the load in signal units
+        above the offset): ``{"polynomial": (c2, c3)}``, the load whose instantaneous
+        response ``X + c2 X^2 + c3 X^3`` is the linear corrector's output, or one of the maps
+        of :mod:`creepcomp.digital.firmware_extension` (``reloading``, ``peak``, ``play``,
+        ``recovery``, ``overshoot``), each a dict of its parameters. None: no C corrector;
+        an InputError names why where that is not plain."""
         return None
 
 
