@@ -470,9 +470,18 @@ INVERSE_TOLERANCE = 1e-6
 STRICT_ITERATIONS = 400
 
 
+def law_from_extension(model: CreepModel) -> bool:
+    """Whether the model's ``temperature`` block restates one of its extensions (the law of
+    the same slope a diagnosis writes beside, e.g., ``thermal_retardation``): the creep
+    correction then applies the extension, the form that was fitted, and not the block too."""
+    return model.temperature is not None and any(
+        type(get(name)).temperature_law is not Effect.temperature_law for name in model.extensions or {})
+
+
 def extension_inverses(model: CreepModel) -> dict[str, str]:
     """How the creep correction undoes each extension of ``model`` (:meth:`Effect.inverse`),
-    by name; one clear refusal naming the first it cannot undo."""
+    by name; one clear refusal naming the first it cannot undo, or a temperature block
+    beside extensions that it does not restate."""
     out = {}
     for name, entry in (model.extensions or {}).items():
         effect = get(name)
@@ -481,7 +490,7 @@ def extension_inverses(model: CreepModel) -> dict[str, str]:
             raise InputError(f"the model's extension '{name}' cannot be inverted causally by the "
                              f"creep correction; {BASELINE_ADVICE}")
         out[name] = how
-    if out and model.temperature is not None:
+    if out and model.temperature is not None and not law_from_extension(model):
         raise InputError(f"the model's temperature law cannot be applied together with its "
                          f"extensions ({', '.join(out)}); {BASELINE_ADVICE}")
     return out
