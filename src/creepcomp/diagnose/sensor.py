@@ -251,7 +251,7 @@ class CatchAll(Effect):
         t = data.time
         taus = np.array(applied.setting("taus"))
         scale = data.load_scale
-        lo, hi = 2.0 * data.dt_median, data.span
+        lo, hi = 2.0 * data.dt_resolved, data.span
         grid = np.geomspace(lo, hi, max(2, int(2 * np.log10(hi / lo)) + 1))
         grid = [g for g in grid if np.min(np.abs(np.log(taus / g))) > np.log(1.5)]
         out = {}
@@ -664,7 +664,8 @@ def _verdict(data: Data, search: Search, correction: bool, reduced, t_start: flo
     """The verdict on the search's model (step 3 and 4 of the module's description): the
     catch-all, the gain, the faults of the record, the findings in order."""
     current, base, findings = search.current, search.base, list(search.findings)
-    floor = noise_floor(data.signal, data.load, data.time, follows_lag=True)
+    floor = noise_floor(data.signal, data.load, data.time, follows_lag=True, weights=data.weights,
+                        samples=data.samples)
     catch, unexplained = _unexplained(data, current, findings, floor)
     extensions = _extensions(current)
     extended_model = _with_temperature_law(model_file_dict(data, current, extensions=extensions), current)
