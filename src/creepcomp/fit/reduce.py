@@ -66,25 +66,28 @@ def reduce_record(record: Record, max_samples: int = MAX_FIT_SAMPLES) -> tuple[R
     if n <= max_samples:
         return record, None
     change = np.flatnonzero(record.load[1:] != record.load[:-1]) + 1
-    starts, note, within = _plan(n, record.duration, change, len(change), max_samples)
+    starts, note, within, weighted = _plan(n, record.duration, change, len(change), max_samples)
     weights = block_weights(starts, n, parabola=within)
     columns = {}
     for name in COLUMNS:
         values = getattr(record, name)
         if values is not None:
             columns[name] = np.add.reduceat(values * weights, starts)
-    metadata = _reduced_metadata(record.metadata, note, starts, n, within)
+    metadata = _reduced_metadata(record.metadata, note, starts, n, within, weighted)
     return replace(record, metadata=metadata, **columns), note
 
 
-def _reduced_metadata(metadata: Mapping, note: str, starts: np.ndarray, n: int, parabola: bool) -> dict:
-    """The reduced record's metadata: the note, and per sample the full record's samples it
-    holds and its white-noise variance relative to one of them (:func:`block_variance`), from
-    which a fit weighs it (:class:`~creepcomp.fit.data.Data`); both as tuples, so that two
-    reductions compare equal."""
-    h = np.diff(np.append(starts, n))
+def _reduced_metadata(metadata: Mapping, note: str, starts: np.ndarray, n: int, parabola: bool,
+                      weighted: bool) -> dict:
+    """The reduced record's metadata: the note, and when its blocks grow after load changes,
+    per sample the full record's samples it holds and its white-noise variance relative to one
+    of them (:func:`block_variance`), from which a fit weighs it (:class:`~creepcomp.fit.data.Data`);
+    both as tuples, so that two reductions compare equal."""
     out = dict(metadata)
     out["reduced"] = note
+    if not weighted:
+        return out
+    h = np.diff(np.append(starts, n))
     out[BLOCK_SAMPLES] = tuple(h.tolist())
     out[BLOCK_VARIANCE] = tuple(block_variance(h, parabola).tolist())
     return out
@@ -102,44 +105,52 @@ def block_variance(h: np.ndarray, parabola: bool = True) -> np.ndarray:
 
 
 def _plan(n: int, duration: float, change: np.ndarray | None, change_count: int,
-          max_samples: int) -> tuple[np.ndarray, str, bool]:
-    """First sample of every block of :func:`reduce_record`, the note that says so, and
-    whether the blocks lie within constant-load stretches (then each is its parabola's centre).
+          max_samples: int) -> tuple[np.ndarray, str, bool, bool]:
+    """First sample of every block of :func:`reduce_record`, the note that says so, whether
+    the blocks lie within constant-load stretches (then each is its parabola's centre), and
+    whether they grow after each load change (then each sample is weighted by what it holds).
 
     ``change`` holds the samples where the load changes (None: more than ``max_samples // 4``
     of them, ``change_count`` in all).
     """
     dt = duration / (n - 1)
     k = math.ceil(n / max_samples)
-    starts = None
+    interval = "new interval"
     if change is not None and change_count + 1 <= max_samples // 4:
         bounds = np.concatenate(([0], change, [n]))
-        starts, cap = _growing_blocks(bounds, max_samples)
-        within = True
-        if starts is not None:
-            k = cap
+        # each stretch: its first and last sample, and up to one partly filled block
+        k = math.ceil(n / (max_samples - 3 * (len(bounds) - 1)))
+        starts, cap = _growing_blocks(bounds, max_samples) if k >= GROWING_FROM else (None, 0)
+        within, weighted = True, starts is not None
+        if weighted:
+            k, interval = cap, "longest interval"
             how = (f"blocks within each of the {len(bounds) - 1} constant-load stretches that "
-                   f"grow with the time since the stretch began (at most {BLOCK_GROWTH:g} of it) up to "
-                   f"{cap} samples (the centre of each block's least-squares parabola), the first and "
-                   "last sample of each kept (load steps stay sharp)")
+                   f"grow with the time since the stretch began (at most {BLOCK_GROWTH:g} of it) up "
+                   f"to {cap} samples (the centre of each block's least-squares parabola, weighted "
+                   "by the samples it holds), the first and last sample of each kept (load steps "
+                   "stay sharp)")
         else:
-            # each stretch: its first and last sample, and up to one partly filled block
-            k = math.ceil(n / (max_samples - 3 * (len(bounds) - 1)))
             starts = _stretch_blocks(bounds, k)
             how = (f"blocks of up to {k} samples within each of the {len(bounds) - 1} "
                    "constant-load stretches (the centre of each block's least-squares parabola), "
                    "the first and last sample of each kept (load steps stay sharp)")
-    if starts is None:
+    else:
         starts = np.arange(0, n, k)
-        within = False
+        within, weighted = False, False
         how = (f"block means of {k} samples over the whole record (the load changes at "
                f"{change_count} samples: it is not held long enough to average within)")
     note = (f"record reduced from {n} to {len(starts)} samples for the fit by {how}: an "
-            f"anti-aliasing filter; longest interval about {format_quantity(k * dt, 's')} "
-            f"(was {format_quantity(dt, 's')}); each sample weighted by the samples it holds")
-    return starts, note, within
+            f"anti-aliasing filter; {interval} about {format_quantity(k * dt, 's')} "
+            f"(was {format_quantity(dt, 's')})")
+    return starts, note, within, weighted
 
 
+#: Blocks of equal length within each stretch up to this many samples, blocks that grow after
+#: each load change from it on: equal blocks of a few samples are short against any time
+#: constant the fit then resolves (down to two of them), and they keep the samples' weights
+#: equal, which suits noise of any colour (a block's variance goes as ``1 / h`` only for white
+#: noise or over blocks longer than the noise's memory).
+GROWING_FROM = 10
 #: A block after a load change spans at most this share of the time since the change: creep of
 #: any time constant is resolved while it moves, and the parabola through a block stays exact to
 #: far below the noise left in it (its error grows with the fourth power of the block's length
@@ -276,13 +287,13 @@ def _read_reduced_chunks(path, targets, columns, delimiter, progress, block_byte
     n = scan.samples
     plans = [_plan(n, scan.last_time - scan.first_time, scan.load_changes, scan.load_change_count, m)
              for m in targets]
-    sums = [{name: np.zeros(len(starts)) for name in scan.names} for starts, _, _ in plans]
+    sums = [{name: np.zeros(len(starts)) for name in scan.names} for starts, *_ in plans]
     if progress:
         progress(0, n, "reducing the record")
     lo = 0
     for piece in stream:
         hi = lo + len(piece)
-        for (starts, _, within), total in zip(plans, sums):
+        for (starts, _, within, _), total in zip(plans, sums):
             first = int(np.searchsorted(starts, lo, side="right")) - 1
             inner = starts[first + 1:np.searchsorted(starts, hi, side="left")]
             local = np.concatenate(([0], inner - lo))
@@ -296,7 +307,7 @@ def _read_reduced_chunks(path, targets, columns, delimiter, progress, block_byte
     if stream.whole_reason is not None or lo != n:
         return None                             # the file changed between the passes
     out = []
-    for (starts, note, within), total in zip(plans, sums):
-        metadata = _reduced_metadata(scan.metadata, note, starts, n, within)
+    for (starts, note, within, weighted), total in zip(plans, sums):
+        metadata = _reduced_metadata(scan.metadata, note, starts, n, within, weighted)
         out.append((Record(source=scan.source, metadata=metadata, **total), note))
     return out
