@@ -8,6 +8,20 @@ samples (:func:`block_weights`), a low-pass filter applied equally to every colu
 model that relates the columns is unchanged. A plain block mean would not do: it is off by
 the creep's curvature times ``h^2 dt^2 / 24``, which over long blocks after a load change is
 many times the noise left in a block, and a fit then finds creep terms that are not there.
+
+Blocks of equal length as long as the creep's time constant do not resolve it either: right
+after a load change the parabola cannot follow the exponential, and the fit's shortest time
+constant (two sample intervals) is then longer than the creep's. Where equal blocks would hold
+:data:`GROWING_FROM` samples or more, the blocks therefore grow with the time since each load
+change (:data:`BLOCK_GROWTH`), from single samples up to the longest length the target
+allows. Their values are then of very unequal noise, and each is weighted by the inverse of its
+white-noise variance relative to one full-rate sample (:func:`block_variance`; the metadata
+:data:`~creepcomp.fit.data.BLOCK_SAMPLES` and :data:`~creepcomp.fit.data.BLOCK_VARIANCE`):
+the fit's residual, its AR noise model (fitted to the weighted residual's sequence, which
+whitens what remains correlated between neighbouring blocks), the noise floor and the misfit
+ratio are in the full record's noise units, and gaps are judged in full-record intervals. For
+noise whose memory is longer than a block the white-noise weights over-weight long blocks a
+little; the held-out tests, whose spread follows the residual's spectrum, stay the judge.
 """
 
 from __future__ import annotations
