@@ -248,10 +248,11 @@ def check_outputs(files: Mapping[str, str | Path | None] | None = None,
 _HELD: dict[Path, int] = {}
 
 
-def lock_path(path: str | Path) -> Path:
-    """The lock file of an output file or folder ``NAME``: ``.NAME.lock`` beside it."""
-    p = Path(path)
-    return p.with_name(f".{p.name}.lock")
+def lock_path(path: str | Path) -> Path | None:
+    """The lock file of an output file or folder ``NAME``: ``.NAME.lock`` beside it (None for
+    the root folder, which has no name)."""
+    p = Path(os.path.abspath(path))
+    return p.with_name(f".{p.name}.lock") if p.name else None
 
 
 def hold_lock(path: Path, busy: Callable[[str], str]) -> int:
@@ -310,8 +311,10 @@ def lock_output(path: str | Path, option: str = "-o") -> None:
         When another creepcomp run holds it: its output would replace this one's.
     """
     lock = lock_path(path)
+    if lock is None or not lock.parent.is_dir():
+        return
     key = lock.parent.resolve() / lock.name
-    if key in _HELD or not lock.parent.is_dir():
+    if key in _HELD:
         return
 
     def busy(holder: str) -> str:
