@@ -64,7 +64,8 @@ __all__ = ["MAX_EFFECTS", "REFINED", "CORRECTION_WORSE", "REMAINING_LIMIT", "Fin
 MAX_EFFECTS = 4
 #: Samples the diagnosis works on at most: a longer record is reduced by blocks within
 #: constant-load stretches (:func:`~creepcomp.fit.reduce.reduce_record`), which keeps its load
-#: steps sharp and everything slower than a few new sample intervals. 6,000: above the 5,001
+#: steps sharp and, where the blocks would be long, makes them grow after each load change (each
+#: sample weighted by what it holds), so creep is resolved while it moves. 6,000: above the 5,001
 #: samples of the confusion benchmark's records (``docs/benchmarks.md``), and a 30-minute
 #: record at 10 Hz (4,500 samples after reduction) diagnosed within 10 s (a search of four
 #: steps over 10,000 samples took up to 23 s).
