@@ -339,7 +339,9 @@ atexit.register(release_outputs)
 def csv_cell(text: str) -> str:
     """A cell a spreadsheet cannot run: text starting with ``=``, ``+``, ``-``, ``@``, a tab
     or a carriage return (a formula to a spreadsheet) gets a leading ``'``; a number stays
-    a number."""
+    a number, and a lone ``-`` (no value) stays itself."""
+    if text == "-":
+        return text
     try:
         float(text)
         return text
