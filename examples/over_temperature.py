@@ -6,13 +6,17 @@ The script compares over -10 .. 40 °C (every 5 K):
 
 - (a) the usual design, E24/E6 parts sized at 20 °C;
 - (b) fixed E24/E6 parts sized for the range (smallest worst case);
-- (c) a network whose R1 and R2 are catalogue NTC thermistors (``analog.parts.NTC_THERMISTORS``)
-  with a fixed resistor in series or across,
+- (c-passive) a lead network whose R1 and R2 are catalogue NTC thermistors
+  (``analog.parts.NTC_THERMISTORS``) with a fixed resistor in series or across: it needs a
+  capacitor of tens of mF;
+- (c) the active stage: an integrator loop whose time constant is set by one catalogue NTC
+  thermistor and a 10 uF film capacitor, the correction's amplitude by fixed resistors,
 
 prints the worst peak residual creep of each and where, and the residual at every temperature,
 and writes into ``--out``:
 
-- ``design.json``: the tracking design (its ``parts`` block names the thermistors);
+- ``design.json``: the design ``size --tracking ntc`` writes, the active stage (its ``parts``
+  block names the thermistor);
 - ``over-temperature.png``: peak residual creep against temperature, worst cases marked.
 
 Run it::
@@ -61,11 +65,11 @@ def main(argv: list[str] | None = None) -> int:
         parts = ", ".join(f"{label} {format_quantity(v, 'Ω' if k == 'R' else 'F')}"
                           for label, k, v in d.network.parts())
         print(f"{d.label}: worst {format_percent(p.worst)} at {p.worst_at:g} °C ({parts})")
-    print("°C     " + "  ".join(f"{d.label[:3]:>9}" for d in comparison.designs))
+    print("°C     " + "  ".join(f"{d.label.split()[0]:>11}" for d in comparison.designs))
     for k, t in enumerate(comparison.designs[0].prediction.temperatures):
-        print(f"{t:>5g}  " + "  ".join(f"{format_percent(d.prediction.peak_residual[k]):>9}"
+        print(f"{t:>5g}  " + "  ".join(f"{format_percent(d.prediction.peak_residual[k]):>11}"
                                        for d in comparison.designs))
-    ntc = comparison.design("ntc")
+    ntc = comparison.written
     for label, use in ntc.plan.thermistors.items():
         extra = (f" + {format_quantity(use.series, 'Ω')} in series" if use.series else "") + \
                 (f", {format_quantity(use.parallel, 'Ω')} across" if use.parallel else "")
@@ -75,6 +79,8 @@ def main(argv: list[str] | None = None) -> int:
 
     args.out.mkdir(parents=True, exist_ok=True)
     design = reference.design_dict()
+    for key in ("cells", "R2", "shunt"):
+        design.pop(key, None)
     design.update({k: v for k, v in ntc.network.to_dict().items()})
     design["parts"] = ntc.plan.to_dict()
     design["over_temperature"] = ntc.prediction.to_dict()

@@ -107,6 +107,7 @@ def test_bom_rows_name_value_technology_and_escape_formulas():
     assert all(cell[:1] not in "=+@" for line in table for cell in line if cell)
     assert csv_cell("=1+1") == "'=1+1" and csv_cell("@x") == "'@x" and csv_cell("3 MΩ") == "3 MΩ"
     assert csv_cell("-2+3") == "'-2+3" and csv_cell("\tx") == "'\tx" and csv_cell("-2e-4") == "-2e-4"
+    assert csv_cell("-") == "-" and csv_cell("-x") == "'-x"
 
 
 def test_bom_thermistor_row_gives_b_and_r25():

@@ -135,6 +135,30 @@ def test_a_temperature_extension_needs_the_records_temperature(run_cli, tmp_path
     assert status == 2 and "temperature" in err and "Traceback" not in err
 
 
+def test_a_diagnosed_thermal_retardation_model_is_corrected_by_its_extension(run_cli, tmp_path):
+    """The diagnosis writes the temperature block of the same slope beside the extension: the
+    correction applies the extension (the form fitted) and not the block as well."""
+    from creepcomp.temperature import TemperatureLaw
+
+    base = _model("thermal_retardation")
+    law = TemperatureLaw.from_kappa(0.05, 25.0)
+    model = CreepModel.from_dict({**base.to_dict(), "temperature": law.to_dict()})
+    assert model.temperature is not None and set(extension_inverses(model)) == {"thermal_retardation"}
+    y = simulate_extended(base, T, LOAD, TEMPERATURE, "relaxed", "zero")
+    write_record(tmp_path / "r.csv", Record(T, LOAD, y, temperature=TEMPERATURE))
+    (tmp_path / "m.json").write_text(json.dumps(model.to_dict()))
+    status, out, err = run_cli("correct", tmp_path / "r.csv", "--model", tmp_path / "m.json",
+                               "--hold", "zero", "--initial", "relaxed", "--json")
+    assert status == 0, err
+    result = json.loads(out)
+    assert result["temperature"]["source"] == "column"
+    assert result["creep_error"]["after"]["peak"] < 1e-6 * result["creep_error"]["before"]["peak"]
+    # a block that restates no extension still cannot go with one
+    other = CreepModel.from_dict({**_model("viscous_flow").to_dict(), "temperature": law.to_dict()})
+    with pytest.raises(InputError, match="temperature law cannot be applied together"):
+        extension_inverses(other)
+
+
 @pytest.mark.slow
 def test_the_demo_records_extended_model_corrects_as_the_diagnosis_says(run_cli, tmp_path):
     from importlib.resources import files
@@ -165,7 +189,7 @@ def test_every_effect_that_writes_an_extension_is_checked_here():
     assert writers == {key.split("/")[0] for key in EXTENSIONS}
 
 
-@pytest.mark.parametrize("key", ["mullins_softening", "asymmetric_recovery", "thermal_retardation"])
+@pytest.mark.parametrize("key", ["thermal_retardation"])
 def test_firmware_refuses_an_extension_it_cannot_write_by_name(run_cli, tmp_path, key):
     (tmp_path / "m.json").write_text(json.dumps(_model(key).to_dict()))
     status, _, err = run_cli("firmware", tmp_path / "m.json", "-o", tmp_path / "c")

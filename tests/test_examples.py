@@ -231,6 +231,6 @@ def test_over_temperature(tmp_path):
     worst = [percent(rf"\({k}\) [^:]+: worst", stdout)[0] for k in "abc"]
     assert worst[2] < worst[1] < worst[0]
     assert worst[2] < worst[0] / 3.5                        # E12 in --fast; E24 gives a quarter
-    design = read_design(tmp_path / "design.json")
-    assert set(design.extra["parts"]["thermistors"]) == {"R1", "R2"}
+    design = read_design(tmp_path / "design.json", active=True)
+    assert set(design.extra["parts"]["thermistors"]) == {"RT1"} and design.network.topology == "active"
     assert design.extra["over_temperature"]["worst"] == pytest.approx(worst[2], rel=5e-3)

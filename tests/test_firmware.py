@@ -345,6 +345,10 @@ def test_every_template_file_is_used(monkeypatch):
         generate_firmware(CreepModel(MODEL.beta, MODEL.tau, MODEL.gain, MODEL.offset,
                                      temperature=TemperatureLaw.arrhenius(43000.0)),
                           precision=precision, rate=RATE)
+    generate_firmware(MODEL, rate=RATE, full_scale=1.0,
+                      extension={"play": {"ratio": 0.05, "half_width": 0.01}})
+    generate_firmware(MODEL, "subtractive", "q31", RATE, 1.0,
+                      extension={"recovery": {"term": 0, "tau_recovery": 20.0, "dead_band": 1e-9}})
     used = set().union(*(firmware._template_tree(t) for t in rendered))
     files = {f.name for f in resources.files("creepcomp.digital").joinpath("templates").iterdir()
              if f.is_file()}

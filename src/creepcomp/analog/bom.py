@@ -98,43 +98,87 @@ def bom_rows(network: Network, plan: PartsPlan | None = None,
     """
     plan = plan or PartsPlan()
     series = series or {}
+    if getattr(network, "topology", None) == "active":
+        return _active_rows(network, plan, series, model)
     rows = []
     for label, kind, value in network.parts():
         role = _role(label, network, model)
-        tol = _percent(part_tolerance(label, kind, value, plan))
-        if label in plan.thermistors:
-            th = plan.thermistors[label]
-            t = PART_REFERENCE + ZERO_CELSIUS
-            rows.append(BomRow(label, format_quantity(th.r25, "Ω"), "-", tol, "NTC thermistor",
-                               _ppm(-th.b / t ** 2),
-                               f"{th.part}: B = {th.b:.0f} K, R25 = {format_quantity(th.r25, 'Ω')} "
-                               f"(±{_percent(th.b_tolerance)} on B); {role}"))
-            for suffix, fixed, how in (("s", th.series, "in series with"),
-                                       ("p", th.parallel, "in parallel with")):
-                if fixed:
-                    rows.append(BomRow(f"{label}{suffix}", format_quantity(fixed, "Ω"),
-                                       series.get("R") or "-", _percent(plan.resistor_tolerance),
-                                       RESISTORS[plan.resistor].name, _ppm(plan.resistor_tc),
-                                       f"fixed resistor {how} the thermistor {label}"))
-            continue
-        if kind == "R":
-            tech = resistor_technology(value, plan)
-            if tech is None:
-                technology, tc, note = "not made", plan.resistor_tc, f"no technology makes it; {role}"
-            else:
-                technology = RESISTORS[tech].name
-                tc = plan.resistor_tc if tech == plan.resistor else RESISTORS[tech].tc
-                note = role if tech == plan.resistor else (
-                    f"{RESISTORS[plan.resistor].name} is made up to "
-                    f"{format_quantity(RESISTORS[plan.resistor].value_range[1], 'Ω')}; {role}")
-            rows.append(BomRow(label, format_quantity(value, "Ω"), series.get("R") or "-", tol,
-                               technology, _ppm(tc), note))
+        rows += _part_rows(label, kind, value, role, plan, series)
+    return rows
+
+
+def _part_rows(label: str, kind: str, value: float, role: str, plan: PartsPlan,
+               series: dict) -> list[BomRow]:
+    """The rows of one part: a resistor, a capacitor, or a thermistor and its fixed resistors."""
+    rows = []
+    tol = _percent(part_tolerance(label, kind, value, plan))
+    if label in plan.thermistors:
+        th = plan.thermistors[label]
+        t = PART_REFERENCE + ZERO_CELSIUS
+        rows.append(BomRow(label, format_quantity(th.r25, "Ω"), "-", tol, "NTC thermistor",
+                           _ppm(-th.b / t ** 2),
+                           f"{th.part}: B = {th.b:.0f} K, R25 = {format_quantity(th.r25, 'Ω')} "
+                           f"(±{_percent(th.b_tolerance)} on B); {role}"))
+        for suffix, fixed, how in (("s", th.series, "in series with"),
+                                   ("p", th.parallel, "in parallel with")):
+            if fixed:
+                rows.append(BomRow(f"{label}{suffix}", format_quantity(fixed, "Ω"),
+                                   series.get("R") or "-", _percent(plan.resistor_tolerance),
+                                   RESISTORS[plan.resistor].name, _ppm(plan.resistor_tc),
+                                   f"fixed resistor {how} the thermistor {label}"))
+        return rows
+    if kind == "R":
+        tech = resistor_technology(value, plan)
+        if tech is None:
+            technology, tc, note = "not made", plan.resistor_tc, f"no technology makes it; {role}"
         else:
-            d = DIELECTRICS[plan.capacitor]
-            lo, hi = d.absorption
-            rows.append(BomRow(label, format_quantity(value, "F"), series.get("C") or "-", tol,
-                               _dielectric_name(plan.capacitor), _ppm(plan.capacitor_tc),
-                               f"dielectric absorption {_percent(lo)} .. {_percent(hi)}; {role}"))
+            technology = RESISTORS[tech].name
+            tc = plan.resistor_tc if tech == plan.resistor else RESISTORS[tech].tc
+            note = role if tech == plan.resistor else (
+                f"{RESISTORS[plan.resistor].name} is made up to "
+                f"{format_quantity(RESISTORS[plan.resistor].value_range[1], 'Ω')}; {role}")
+        rows.append(BomRow(label, format_quantity(value, "Ω"), series.get("R") or "-", tol,
+                           technology, _ppm(tc), note))
+    else:
+        d = DIELECTRICS[plan.capacitor]
+        lo, hi = d.absorption
+        rows.append(BomRow(label, format_quantity(value, "F"), series.get("C") or "-", tol,
+                           _dielectric_name(plan.capacitor), _ppm(plan.capacitor_tc),
+                           f"dielectric absorption {_percent(lo)} .. {_percent(hi)}; {role}"))
+    return rows
+
+
+def _active_role(label: str, stage, model: CreepModel | None) -> str:
+    """What a part of the active stage does."""
+    if label == "RS0":
+        return "output summer, from the input: with each RSj sets the amplitude RS0/RSj"
+    j = int(label.lstrip("RTCABGS")) - 1
+    t = stage.terms[j]
+    k = j + 1
+    return {"RT": f"integrator {k}'s input resistor: with C{k} and the divider sets the "
+                  f"time constant {format_quantity(t.time_constant, 's')} (at 25 °C)",
+            "C": f"integrator {k}'s capacitor (U{k} feedback)",
+            "RA": f"divider {k}, from the input",
+            "RB": f"divider {k}, from integrator {k}'s output",
+            "RG": f"divider {k}, to ground: ratio {t.alpha:.4g}",
+            "RS": f"output summer, from integrator {k}: amplitude RS0/RS{k}"}[label.rstrip("0123456789")]
+
+
+def _active_rows(stage, plan: PartsPlan, series: dict, model: CreepModel | None) -> list[BomRow]:
+    """The active stage's parts and its op amps (:data:`~creepcomp.analog.active.OP_AMP`)."""
+    from creepcomp.analog.active import OP_AMP
+
+    rows = []
+    for label, kind, value in stage.parts():
+        rows += _part_rows(label, kind, value, _active_role(label, stage, model), plan, series)
+    for k in range(1, len(stage.terms) + 1):
+        rows.append(BomRow(f"U{k}", "op amp", "-", "-", "op amp", "-",
+                           f"integrator {k}: {OP_AMP.text()}" if k == 1 else
+                           f"integrator {k}: as U1"))
+    rows.append(BomRow("U0", "op amp", "-", "-", "op amp", "-", "output follower: as U1"))
+    if stage.input_buffer:
+        rows.append(BomRow("Uin", "op amp", "-", "-", "op amp", "-",
+                           "input follower (the sensor has a source resistance): as U1"))
     return rows
 
 

@@ -42,7 +42,7 @@ from creepcomp.units import format_quantity
 __all__ = ["OverTemperature", "network_over", "over_temperature", "worst_case", "effective_sizing",
            "size_fixed_for_range", "TrackingDesign", "check_tracking", "size_ntc_tracking",
            "TRACKING_RECHECKS", "TRACKING_SHORTLIST", "RangeDesign", "RangeComparison",
-           "compare_over_range"]
+           "compare_over_range", "TOPOLOGIES"]
 
 #: Candidates re-checked with the exact prediction after the closed-form screen.
 TRACKING_RECHECKS = 6
@@ -54,6 +54,10 @@ def network_over(network: Network, plan: PartsPlan, temperature: float) -> Netwo
     """The network at ``temperature`` (°C): every part's value (:func:`network_at`) and each
     cell capacitor's insulation resistance ``R_ins C / C`` across it (in parallel with any
     leakage the network already has)."""
+    if getattr(network, "topology", None) == "active":
+        from creepcomp.analog.active import stage_over
+
+        return stage_over(network, plan, temperature)
     net = network_at(network, plan, temperature)
     dielectric = DIELECTRICS[plan.capacitor]
     cells = tuple(replace(c, leakage=parallel(c.leakage, dielectric.insulation_time(temperature) / c.C))
@@ -114,10 +118,13 @@ class OverTemperature:
                 "note": self.note}
 
 
-def _tracking_dict(plan: PartsPlan) -> dict:
+def _tracking_dict(plan: PartsPlan, topology: str = "lead") -> dict:
     if not plan.thermistors:
         return {"kind": "none"}
-    return {"kind": "ntc", "thermistors": {k: v.to_dict() for k, v in plan.thermistors.items()}}
+    out = {"kind": "ntc", "thermistors": {k: v.to_dict() for k, v in plan.thermistors.items()}}
+    if topology == "active":
+        out["topology"] = "active"
+    return out
 
 
 def over_temperature(model: CreepModel, network: Network, plan: PartsPlan,
@@ -146,7 +153,7 @@ def over_temperature(model: CreepModel, network: Network, plan: PartsPlan,
         peaks.append(step_peak(sensor, network_over(network, plan, float(t)))[0])
         bare.append(step_peak(sensor, None)[0])
     return OverTemperature(tuple(float(t) for t in grid), tuple(peaks), tuple(bare),
-                           _tracking_dict(plan), model.temperature is not None)
+                           _tracking_dict(plan, network.topology), model.temperature is not None)
 
 
 def worst_case(model: CreepModel, network: Network, plan: PartsPlan, temperatures) -> float:
@@ -297,13 +304,20 @@ def _shaping_values(r25: float, series: str) -> list[float]:
     return [float(v) for v in eseries.values_in_range(series, r25 / 30.0, r25 * 30.0)]
 
 
-def check_tracking(model: CreepModel, tracking: str) -> None:
-    """Refuse a tracking this module cannot size for ``model``, naming the way out."""
+def check_tracking(model: CreepModel, tracking: str, topology: str = "auto") -> None:
+    """Refuse a tracking this module cannot size for ``model``, naming the way out: the
+    passive lead network tracks one creep term, the active stage any number, both only
+    positive creep."""
     if tracking not in ("none", "ntc"):
         raise InputError(f"--tracking {tracking!r}: expected none or ntc")
-    if tracking == "ntc" and (model.n_terms != 1 or model.beta[0] <= 0):
-        raise InputError("--tracking ntc: sized for one creep term with beta0 > 0 (a one-cell "
-                         "lead network); use fixed parts or the digital correction")
+    if tracking != "ntc":
+        return
+    if any(b <= 0 for b in model.beta):
+        raise InputError("--tracking ntc: sized for positive creep (every beta > 0); use fixed "
+                         "parts or the digital correction")
+    if topology == "passive" and model.n_terms != 1:
+        raise InputError("--tracking ntc --topology passive: sized for one creep term (a one-cell "
+                         "lead network); use --topology active, fixed parts or the digital correction")
 
 
 def size_ntc_tracking(model: CreepModel, low: float, high: float, plan: PartsPlan | None = None,
@@ -324,7 +338,7 @@ def size_ntc_tracking(model: CreepModel, low: float, high: float, plan: PartsPla
     InputError
         For a model of several terms or of negative creep (no one-cell lead network).
     """
-    check_tracking(model, "ntc")
+    check_tracking(model, "ntc", "passive")
     plan = plan or PartsPlan()
     grid = temperature_grid(low, high)
     beta, mid = model.beta[0], 0.5 * (low + high)
@@ -400,7 +414,8 @@ class RangeDesign:
     warnings: tuple[str, ...] = ()
 
     def to_dict(self) -> dict:
-        out = {k: v for k, v in self.network.to_dict().items() if k in ("cells", "R2", "shunt")}
+        out = {k: v for k, v in self.network.to_dict().items()
+               if k in ("cells", "R2", "shunt", "topology", "active")}
         out.update(label=self.label, parts=self.plan.to_dict(), worst=self.prediction.worst,
                    worst_at=self.prediction.worst_at, peak_residual=list(self.prediction.peak_residual),
                    warnings=list(self.warnings))
@@ -442,17 +457,21 @@ def compare_over_range(model: CreepModel, reference: Network, low: float, high: 
                        plan: PartsPlan | None = None, tracking: str = "none", rule: str = "exact",
                        resistor_series: str = "E24", capacitor_series: str = "E6",
                        res_range: tuple[float, float] = DEFAULT_RES_RANGE,
-                       reference_warnings=()) -> RangeComparison:
+                       reference_warnings=(), topology: str = "auto") -> RangeComparison:
     """(a) ``reference`` (fixed parts sized at the model's reference temperature), (b) fixed
-    parts sized for ``low .. high`` °C at the same capacitor, and with ``tracking="ntc"`` (c) a
-    thermistor network, each predicted over the range.
+    parts sized for ``low .. high`` °C at the same capacitor, and with ``tracking="ntc"`` (c)
+    thermistor tracking, each predicted over the range: the passive lead network
+    (``topology`` ``passive``), the active stage (:mod:`creepcomp.analog.active`, ``active``),
+    or both with the passive one written when it is practical (``auto``).
 
     Raises
     ------
     InputError
-        For a tracking other than ``none`` or ``ntc``.
+        For a tracking other than ``none`` or ``ntc``, a topology not in :data:`TOPOLOGIES`.
     """
-    check_tracking(model, tracking)
+    if topology not in TOPOLOGIES:
+        raise InputError(f"--topology {topology!r}: expected {', '.join(TOPOLOGIES)}")
+    check_tracking(model, tracking, topology)
     plan = plan or PartsPlan()
     # near the reference's impedance level: two capacitor values either side of its own
     c_ref = max(v for _, k, v in reference.parts() if k == "C")
@@ -467,11 +486,46 @@ def compare_over_range(model: CreepModel, reference: Network, low: float, high: 
                            + (f"({t_eff:.1f} °C, {factor:.2f} beta)" if model.temperature is not None
                               else "(the parts' drift only)"), fixed, plan,
                            over_temperature(model, fixed, plan, low, high))]
+    chosen = "range"
     if tracking == "ntc":
+        chosen = _add_tracking(designs, model, low, high, plan, topology, resistor_series,
+                               capacitor_series, reference)
+    return RangeComparison(low, high, tuple(designs), chosen, t_eff, factor, count)
+
+
+#: How ``--tracking ntc`` is built: ``auto`` writes the passive lead network when it is
+#: practical, else the active stage.
+TOPOLOGIES = ("auto", "passive", "active")
+
+
+def _add_tracking(designs: list, model: CreepModel, low: float, high: float, plan: PartsPlan,
+                  topology: str, resistor_series: str, capacitor_series: str, reference: Network) -> str:
+    """Append the NTC tracking designs ``topology`` asks for; return the key to write."""
+    from creepcomp.analog.active import size_active_tracking
+
+    practical = None
+    if topology == "passive" or (topology == "auto" and model.n_terms == 1):
         ntc = size_ntc_tracking(model, low, high, plan, resistor_series, capacitor_series,
                                 source_resistance=reference.source_resistance,
                                 load_resistance=reference.load_resistance)
-        designs.append(RangeDesign("ntc", "(c) NTC thermistor tracking", ntc.network, ntc.plan,
+        designs.append(RangeDesign("ntc", "(c-passive) NTC thermistor tracking, passive lead network",
+                                   ntc.network, ntc.plan,
                                    over_temperature(model, ntc.network, ntc.plan, low, high), ntc.warnings))
-    return RangeComparison(low, high, tuple(designs), "ntc" if tracking == "ntc" else "range", t_eff,
-                           factor, count)
+        if topology == "passive":
+            return "ntc"
+        from creepcomp.analog.practicality import judge_network
+
+        practical = judge_network(model, ntc.network, ntc.plan).practical
+    try:
+        stage, stage_plan, _ = size_active_tracking(model, low, high, plan, resistor_series,
+                                                    capacitor_series,
+                                                    source_resistance=reference.source_resistance,
+                                                    load_resistance=reference.load_resistance)
+    except InputError:
+        if practical is None:
+            raise
+        return "ntc"           # the passive network is written; the verdict judges it
+    why = "" if practical is None else " (the passive one is impractical)" if not practical else ""
+    designs.append(RangeDesign("active", "(c) NTC thermistor tracking, active stage" + why,
+                               stage, stage_plan, over_temperature(model, stage, stage_plan, low, high)))
+    return "ntc" if practical else "active"

@@ -44,7 +44,8 @@ from creepcomp.network import Network, modal_form, parallel, state_matrices
 from creepcomp.units import format_percent, format_quantity
 
 __all__ = ["ASSUMED_BIAS", "MAX_CORNERS", "Verdict", "WayOut", "made_range",
-           "resistor_technology", "part_tolerance", "judge", "judge_network", "find_way_out"]
+           "resistor_technology", "part_tolerance", "judge", "judge_network", "judge_active",
+           "find_way_out"]
 
 #: Input bias current of a CMOS/JFET-input buffer (A), for the offset reported.
 ASSUMED_BIAS = 1e-12
@@ -111,13 +112,16 @@ class Verdict:
     output_resistance: float
     bias_offset: float
     corners: int
+    op_amp: dict | None = None
 
     def to_dict(self) -> dict:
-        return {"practical": self.practical, "reasons": list(self.reasons),
+        extra = {} if self.op_amp is None else {"op_amp": self.op_amp}
+        return {**extra, "practical": self.practical, "reasons": list(self.reasons),
                 "uncorrected_peak": self.uncorrected_peak, "leakage_peak": self.leakage_peak,
                 "worst_case_peak": self.worst_case_peak,
                 "output_resistance": self.output_resistance,
-                "bias_current": ASSUMED_BIAS, "bias_offset": self.bias_offset,
+                "bias_current": self.op_amp["bias_current"] if self.op_amp else ASSUMED_BIAS,
+                "bias_offset": self.bias_offset,
                 "leakage_to_ground": ASSUMED_LEAKAGE, "tolerance_corners": self.corners}
 
 
@@ -186,6 +190,8 @@ def judge_network(model: CreepModel, network: Network, plan: PartsPlan | None = 
     Verdict
     """
     plan = plan or PartsPlan()
+    if getattr(network, "topology", None) == "active":
+        return judge_active(model, network, plan)
     reasons = _outside_made(network, plan)
     uncorrected = step_peak(model, None)[0]
     leak = step_peak(model, leaky_network(network, plan))[0]
@@ -203,6 +209,51 @@ def judge_network(model: CreepModel, network: Network, plan: PartsPlan | None = 
     r_out = output_resistance(network)
     return Verdict(not reasons, tuple(reasons), uncorrected, leak, worst, r_out,
                    r_out * ASSUMED_BIAS, corners)
+
+
+def judge_active(model: CreepModel, stage, plan: PartsPlan | None = None) -> Verdict:
+    """The verdict on an active stage (:class:`~creepcomp.analog.active.ActiveStage`).
+
+    The same three checks as a passive network's: parts made; leakage (each integrator
+    capacitor's insulation at 25 °C and a :data:`~creepcomp.analog.sizing.ASSUMED_LEAKAGE`
+    board path across it, where a leak makes the integrator lossy; the follower drives the
+    output, so a leak there changes nothing); the worst corner of the tolerance box
+    (thermistors at their ``R25`` tolerance). ``bias_offset`` is the largest constant output
+    offset op amps at :data:`~creepcomp.analog.active.OP_AMP`'s limits give at the coldest
+    end of the parts' use (25 °C here; ``size`` reports the range's), ``op_amp`` the requirement.
+    """
+    from creepcomp.analog.active import OP_AMP, output_offset
+
+    plan = plan or PartsPlan()
+    reasons = _outside_made(stage, plan)
+    uncorrected = step_peak(model, None)[0]
+    tau_ins = DIELECTRICS[plan.capacitor].insulation_time(PART_REFERENCE)
+    leaky = stage.with_leakage([parallel(tau_ins / t.C, ASSUMED_LEAKAGE) for t in stage.terms])
+    leak = step_peak(model, leaky)[0]
+    if leak >= uncorrected:
+        reasons.append(
+            f"the capacitors' insulation and a {format_quantity(ASSUMED_LEAKAGE, 'Ω')} board path "
+            f"across each leave a peak residual creep of {format_percent(leak)}, no better than "
+            f"the uncorrected {format_percent(uncorrected)}")
+    parts = stage.parts()
+    nominal = np.array([v for _, _, v in parts])
+    tol = np.array([part_tolerance(label, kind, v, plan) for label, kind, v in parts])
+    m = len(parts)
+    if 2 ** m <= MAX_CORNERS:
+        bits = (np.arange(2 ** m)[:, None] >> np.arange(m)[None, :]) & 1
+    else:
+        bits = np.random.default_rng(0).integers(0, 2, (MAX_CORNERS, m))
+    values = nominal * (1.0 + np.where(bits == 1, tol, -tol))
+    lags = [stage.with_parts(v).lag_expansion() for v in values]
+    worst = float(screening_deviation(model, np.array([g.direct for g in lags]),
+                                      np.array([g.gains for g in lags]),
+                                      np.array([g.taus for g in lags])).max())
+    if worst >= uncorrected:
+        reasons.append(
+            f"at the worst corner of the parts' tolerances the peak residual creep is "
+            f"{format_percent(worst)}, no better than the uncorrected {format_percent(uncorrected)}")
+    return Verdict(not reasons, tuple(reasons), uncorrected, leak, worst, 0.0,
+                   output_offset(stage, plan, PART_REFERENCE), len(values), OP_AMP.to_dict())
 
 
 def judge(report: SizingReport) -> Verdict:

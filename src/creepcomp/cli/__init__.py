@@ -142,6 +142,15 @@ def _stopped() -> int:
 
 
 def _main(argv: list[str] | None) -> int:
+    from creepcomp.io.outputs import release_outputs
+
+    try:
+        return _command(argv)
+    finally:
+        release_outputs()     # the outputs' locks, taken when they were checked
+
+
+def _command(argv: list[str] | None) -> int:
     command = typer.main.get_command(app)
     try:
         # a command may end with typer.Exit(status) (firmware --verify: 3 when the bound fails)

@@ -17,11 +17,13 @@ def _read_target(target: Path, digital: bool):
     """The design or the model in TARGET: a design file has a network (``cells``)."""
     from creepcomp.io.jsonfiles import read_design, read_json, read_model
 
+    from creepcomp.active_stage import is_active
+
     data = read_json(target, "creep-test target")
-    if "cells" in data:
+    if "cells" in data or is_active(data):
         if digital:
             raise InputError(f"{target}: --digital needs a model file (beta, tau ...), not a design file")
-        return "design", read_design(target)
+        return "design", read_design(target, active=True)
     return ("digital" if digital else "sensor"), read_model(target)
 
 

@@ -64,7 +64,7 @@ def firmware_command(
     precision = precision.strip().lower()
     if precision not in PRECISIONS:
         raise InputError(f"--precision '{precision}': use float32 or q31")
-    model, polynomial = _linear_part(read_model(model_file))
+    model, polynomial, extension = _linear_part(read_model(model_file))
     rate_hz = quantity(rate, "hertz", "--rate", positive=True)
     longest = quantity(max_interval, "second", "--max-interval", positive=True)
     scale = quantity(full_scale, "number", "--full-scale", positive=True)
@@ -94,7 +94,7 @@ def firmware_command(
     firmware = generate_firmware(model, method, precision, rate_hz or 1.0, scale, name,
                                  max_interval=longest,
                                  temperature_range=_celsius_range(temperature_range),
-                                 output_polynomial=polynomial)
+                                 output_polynomial=polynomial, extension=extension)
     result = {"model": str(model_file), "method": method, "precision": precision,
               "rate": firmware.rate, "max_interval": firmware.max_interval, "full_scale": firmware.full_scale, "name": name,
               "signal_unit": unit, "files": [], "bound_fs": firmware.bound.total_fs,
@@ -129,15 +129,19 @@ def firmware_command(
 
 
 def _linear_part(model):
-    """The model without its extensions, and the output map of the one the C corrector
-    applies (None: no extension); a refusal naming an extension it cannot apply."""
+    """The model without its extensions, the static polynomial of the one the C corrector
+    applies or the map of another (None: no extension); a refusal naming an extension it
+    cannot apply."""
     if not model.extensions:
-        return model, None
+        return model, None, None
     from creepcomp.diagnose.effects import firmware_output
     from creepcomp.model import CreepModel
 
     out = firmware_output(model)
-    return CreepModel(model.beta, model.tau, model.gain, model.offset), out["polynomial"]
+    linear = CreepModel(model.beta, model.tau, model.gain, model.offset)
+    if "polynomial" in out:
+        return linear, out["polynomial"], None
+    return linear, None, out
 
 
 def _extended_reference(model, firmware, record):
@@ -189,6 +193,14 @@ def _render(result: dict, firmware, check) -> None:
     console.print(table)
     if check is not None:
         verdict = "within the bound" if check.passed else "ABOVE THE BOUND"
+        if check.switching is not None and "events" in check.switching:
+            console.print(f"the load's turns within the overshoot's decay on this record (discounted): "
+                          f"{check.switching['events']:.3g}; bound on this record {check.bound_fs:.3e}",
+                          soft_wrap=True)
+        elif check.switching is not None:
+            console.print(f"mode decisions within the switching margin on this record: "
+                          f"{check.switching['steps']}, adding {check.switching['added_fs']:.3e} of full "
+                          f"scale: bound on this record {check.bound_fs:.3e}", soft_wrap=True)
         console.print(f"verified on {result['record']}: {check.samples} samples, largest error "
                       f"{check.max_error_fs:.3e} of full scale ({verdict}); "
                       f"{check.ns_per_sample:.1f} ns per sample on this machine; object "

@@ -57,7 +57,7 @@ class Drive:
 def read_drive(design_path: Path, program: str, record: Path | None, columns: str | None,
                duration: str | None, points: int, signal: str) -> Drive:
     """Check and read the options shared by ``netlist`` and ``simulate``."""
-    design = read_design(design_path)
+    design = read_design(design_path, active=True)
     name = program.strip().lower()
     if name not in PROGRAMS:
         raise InputError(f"--program '{program}': choose one of {', '.join(PROGRAMS)}")

@@ -119,6 +119,10 @@ def size_command(
     tracking: str = typer.Option("none", "--tracking", metavar="none|ntc",
                                  help="With --temperature-range: ntc makes R1 and R2 catalogue "
                                       "NTC thermistors that follow the creep."),
+    topology: str = typer.Option("auto", "--topology", metavar="auto|passive|active",
+                                 help="With --tracking ntc: passive lead network, active stage "
+                                      "(integrators, one NTC per term, fixed gains), or auto: the "
+                                      "passive one when it is practical, else the active one."),
     activation_energy: Optional[str] = typer.Option(
         None, "--activation-energy", metavar="J/mol",
         help="Arrhenius law of the creep for --beta0/--tau, e.g. 43kJ/mol or 43k."),
@@ -162,7 +166,11 @@ def size_command(
     if span is not None:
         from creepcomp.analog.over_temperature import check_tracking
 
-        check_tracking(model, tracking.strip().lower())
+        from creepcomp.analog.over_temperature import TOPOLOGIES
+
+        if topology.strip().lower() not in TOPOLOGIES:
+            raise InputError(f"--topology '{topology}': expected {', '.join(TOPOLOGIES)}")
+        check_tracking(model, tracking.strip().lower(), topology.strip().lower())
     warn_creep(model, str(model_file) if model_file is not None else "--term" if terms else "--beta0")
     rule = rule.strip().lower()
     plan = parts_plan(resistor_technology, dielectric, resistor_tolerance, capacitor_tolerance)
@@ -189,7 +197,8 @@ def size_command(
         ("--capacitor-tolerance", capacitor_tolerance, None),
         ("--activation-energy", activation_energy, None),
         ("--reference-temperature", reference_temperature, "20"),
-        ("--temperature-range", temperature_range, None), ("--tracking", tracking, "none")], terms)
+        ("--temperature-range", temperature_range, None), ("--tracking", tracking, "none"),
+        ("--topology", topology, "auto")], terms)
     try:
         report = size(model, plan=plan, **options)
     except NoNetworkInRange as exc:
@@ -198,7 +207,8 @@ def size_command(
         refuse(model, options, plan, (str(exc),), None, given, as_json)
     comparison, at_reference = None, report
     if span is not None:
-        report, comparison = size_over_range(report, span, tracking.strip().lower(), rule)
+        report, comparison = size_over_range(report, span, tracking.strip().lower(), rule,
+                                             topology.strip().lower())
     from creepcomp.analog.practicality import judge
 
     verdict = judge(report)
@@ -258,7 +268,9 @@ def size_command(
                       else None)
         render_over_range(comparison)
     render_bom(rows)
-    if verdict.practical:
+    if verdict.practical and report.chosen.topology == "active":
+        render_active_verdict(verdict, report, span)
+    elif verdict.practical:
         console.print(f"practical: every part is made; with a {format_quantity(verdict.to_dict()['leakage_to_ground'], 'Ω')} "
                       f"leakage path the peak residual creep is {format_percent(verdict.leakage_peak)}, "
                       f"at the worst tolerance corner {format_percent(verdict.worst_case_peak)} "
@@ -561,7 +573,25 @@ def temperature_span(text: str | None, tracking: str) -> tuple[float, float] | N
     return temperature_range_option(text)
 
 
-def size_over_range(report: SizingReport, span: tuple[float, float], tracking: str, rule: str):
+def render_active_verdict(verdict, report: SizingReport, span) -> None:
+    """The verdict line of an active stage: leakage, tolerance corner, the op amps and the
+    constant output offset they give at the range's ends."""
+    from creepcomp.analog.active import OP_AMP, output_offset
+
+    temps = span if span is not None else (25.0,)
+    offset = max(output_offset(report.chosen, report.plan, t) for t in temps)
+    console.print(f"practical: every part is made; with the capacitors' insulation and a "
+                  f"{format_quantity(verdict.to_dict()['leakage_to_ground'], 'Ω')} board path "
+                  f"across each the peak residual creep is {format_percent(verdict.leakage_peak)}, "
+                  f"at the worst tolerance corner {format_percent(verdict.worst_case_peak)} "
+                  f"(uncorrected {format_percent(verdict.uncorrected_peak)})", soft_wrap=True)
+    console.print(f"op amps: {OP_AMP.text()}; at those limits their constant output offset is at "
+                  f"most {format_quantity(offset, 'V')} over the range (tared, not creep)",
+                  soft_wrap=True, markup=False)
+
+
+def size_over_range(report: SizingReport, span: tuple[float, float], tracking: str, rule: str,
+                    topology: str = "auto"):
     """The comparison over the range, and the sizing report of the design to write."""
     import dataclasses
 
@@ -572,7 +602,7 @@ def size_over_range(report: SizingReport, span: tuple[float, float], tracking: s
                                     tracking=tracking, rule=rule,
                                     resistor_series=report.resistor_series or "E24",
                                     capacitor_series=report.capacitor_series or "E6",
-                                    reference_warnings=report.warnings)
+                                    reference_warnings=report.warnings, topology=topology)
     chosen = comparison.written
     if chosen.key == "reference":
         return report, comparison

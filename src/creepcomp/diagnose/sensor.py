@@ -64,7 +64,8 @@ __all__ = ["MAX_EFFECTS", "REFINED", "CORRECTION_WORSE", "REMAINING_LIMIT", "Fin
 MAX_EFFECTS = 4
 #: Samples the diagnosis works on at most: a longer record is reduced by blocks within
 #: constant-load stretches (:func:`~creepcomp.fit.reduce.reduce_record`), which keeps its load
-#: steps sharp and everything slower than a few new sample intervals. 6,000: above the 5,001
+#: steps sharp and, where the blocks would be long, makes them grow after each load change (each
+#: sample weighted by what it holds), so creep is resolved while it moves. 6,000: above the 5,001
 #: samples of the confusion benchmark's records (``docs/benchmarks.md``), and a 30-minute
 #: record at 10 Hz (4,500 samples after reduction) diagnosed within 10 s (a search of four
 #: steps over 10,000 samples took up to 23 s).
@@ -251,7 +252,7 @@ class CatchAll(Effect):
         t = data.time
         taus = np.array(applied.setting("taus"))
         scale = data.load_scale
-        lo, hi = 2.0 * data.dt_median, data.span
+        lo, hi = 2.0 * data.dt_resolved, data.span
         grid = np.geomspace(lo, hi, max(2, int(2 * np.log10(hi / lo)) + 1))
         grid = [g for g in grid if np.min(np.abs(np.log(taus / g))) > np.log(1.5)]
         out = {}
@@ -664,7 +665,8 @@ def _verdict(data: Data, search: Search, correction: bool, reduced, t_start: flo
     """The verdict on the search's model (step 3 and 4 of the module's description): the
     catch-all, the gain, the faults of the record, the findings in order."""
     current, base, findings = search.current, search.base, list(search.findings)
-    floor = noise_floor(data.signal, data.load, data.time, follows_lag=True)
+    floor = noise_floor(data.signal, data.load, data.time, follows_lag=True, weights=data.weights,
+                        samples=data.samples)
     catch, unexplained = _unexplained(data, current, findings, floor)
     extensions = _extensions(current)
     extended_model = _with_temperature_law(model_file_dict(data, current, extensions=extensions), current)

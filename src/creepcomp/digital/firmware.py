@@ -49,6 +49,7 @@ from creepcomp.digital.firmware_bound import (DEFAULT_TEMPERATURE_RANGE, FULL_SC
                                               polynomial_bound,
                                               q31_temperature_scheme, stored_coefficients,
                                               temperature_bound, temperature_scheme)
+from creepcomp.digital.firmware_extension import check_extension, extension_parts
 from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 
@@ -78,6 +79,9 @@ class Firmware:
     temperature_range : tuple of float or None
         ``(low, high)`` (°C) of the temperature step (a model with a temperature law): the
         step clamps to it and the bound holds over it; None without a law.
+    extension : dict or None
+        For the step of an extension map (:mod:`creepcomp.digital.firmware_extension`): its
+        kind and what its verification needs; None otherwise.
     """
 
     model: CreepModel
@@ -93,6 +97,7 @@ class Firmware:
     coefficients: dict
     max_interval: float | None = None
     temperature_range: tuple[float, float] | None = None
+    extension: dict | None = None
 
     @property
     def irregular(self) -> bool:
@@ -126,7 +131,8 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
                       rate: float = 100.0, full_scale: float = 1.0, name: str = "creep",
                       max_interval: float | None = None,
                       temperature_range: tuple[float, float] | None = None,
-                      output_polynomial: tuple[float, float] | None = None) -> Firmware:
+                      output_polynomial: tuple[float, float] | None = None,
+                      extension: dict | None = None) -> Firmware:
     """Generate the C99 corrector of a model, with its derivation and error bound in comments.
 
     Parameters
@@ -159,12 +165,20 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
         equal to the linear corrector's output, found in double; its bound
         (:func:`~creepcomp.digital.firmware_bound.polynomial_bound`) covers the root. float32
         at a fixed rate, subtractive only.
+    extension : dict, optional
+        Another extension map of the diagnosis (:func:`creepcomp.diagnose.effects.firmware_output`:
+        ``reloading``, ``peak``, ``play`` or ``recovery``), written by
+        :mod:`creepcomp.digital.firmware_extension`: float32, at a fixed rate, subtractive only.
 
     Returns
     -------
     Firmware
     """
     check_no_extensions(model)
+    if extension is not None:
+        check_extension(extension, method, precision, max_interval,
+                        model.temperature is not None or temperature_range is not None)
+        return _extension_firmware(model, rate, full_scale, name, extension, precision)
     if output_polynomial is not None and (precision != "float32" or method != "subtractive"
                                           or max_interval is not None or model.temperature is not None
                                           or temperature_range is not None):
@@ -211,6 +225,34 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
                     full_scale=float(full_scale), name=name, header=header, source=source,
                     harness=harness, bound=bound, coefficients=_coefficient_table(c, st, precision),
                     max_interval=float(scheme["dt_max"]) if irregular else None)
+
+
+def _extension_firmware(model: CreepModel, rate: float, full_scale: float, name: str,
+                        extension: dict, precision: str) -> Firmware:
+    """The fixed-rate subtractive step of a model with an extension map (float32; q31 for
+    those of :data:`~creepcomp.digital.firmware_extension.INTEGER_KINDS`)."""
+    method = "subtractive"
+    check_arguments(model, method, precision, rate, full_scale, name)
+    bound, values, lines, check = extension_parts(model, rate, full_scale, name, extension, precision)
+    c = exact_coefficients(model, rate)
+    st = stored_coefficients(c, precision)
+    header_values = _header_values(model, method, precision, rate, full_scale, name, c, None, None)
+    identity = (header_values["model_id"], repr(extension))
+    header_values["model_id"] = f"0x{_fnv1a(repr(identity)):08x}u"
+    header = _render("fixed_rate.h.j2", **header_values, extension=values,
+                     derivation=_derivation(model, method, precision, rate, full_scale, c, st) + lines,
+                     bound=[line.replace("from a relaxed or settled start", "from the relaxed start")
+                            .replace("Largest |S|", "Largest |X|") for line in _bound_lines(bound, full_scale)],
+                     bound_fs=f"{bound.total_fs:.3e}")
+    source = _render(f"{precision}_extension.c.j2", name=name, NAME=name.upper(), version=_version(),
+                     method=method, irregular=False, temperature=False, extension=values,
+                     **_coefficient_values(precision, st, None))
+    harness = _render("harness.c.j2", name=name, NAME=name.upper(), precision=precision,
+                      irregular=False, temperature=False)
+    return Firmware(model=model, method=method, precision=precision, rate=float(rate),
+                    full_scale=float(full_scale), name=name, header=header, source=source,
+                    harness=harness, bound=bound, coefficients=_coefficient_table(c, st, precision),
+                    extension=check)
 
 
 def check_no_extensions(model: CreepModel) -> None:
@@ -562,10 +604,16 @@ def _template_variables(template: str) -> frozenset[str]:
                                for t in _template_tree(template)))
 
 
+#: Values a template may go without (tested with ``is defined``): the extension map's, which
+#: only the step of a model with an extension has.
+_OPTIONAL = frozenset({"extension"})
+
+
 def _render(template: str, **values) -> str:
-    """Render a template with exactly the values it uses (each a final text, or a list of them)."""
+    """Render a template with exactly the values it uses (each a final text, or a list of them;
+    those of :data:`_OPTIONAL` may be left out)."""
     needed = _template_variables(template)
-    missing, unused = sorted(needed - values.keys()), sorted(values.keys() - needed)
+    missing, unused = sorted(needed - values.keys() - _OPTIONAL), sorted(values.keys() - needed)
     if missing or unused:
         raise RuntimeError(f"internal error: template {template}"
                            + (f" has no value for {', '.join(missing)}" if missing else "")

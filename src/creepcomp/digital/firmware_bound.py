@@ -24,7 +24,9 @@ __all__ = ["PRECISIONS", "FULL_SCALE_WORD", "REFERENCE_ALLOWANCE", "MIN_INTERVAL
            "DEFAULT_TEMPERATURE_RANGE", "ErrorBound", "firmware_bound", "check_arguments",
            "check_interval", "exact_coefficients", "stored_coefficients", "dt_scheme",
            "float32_value", "temperature_scheme", "q31_temperature_scheme", "temperature_bound",
-           "TEMPERATURE_STEP_Q", "ROOT_STEPS", "polynomial_bound"]
+           "TEMPERATURE_STEP_Q", "ROOT_STEPS", "polynomial_bound", "EXP_RELATIVE_ERROR",
+           "reloading_bound", "peak_bound", "play_bound", "recovery_bound", "overshoot_bound",
+           "OVERSHOOT_EVENTS"]
 
 PRECISIONS = ("float32", "q31")
 #: q31: the input word of a full-scale signal (the words keep one bit of headroom).
@@ -683,12 +685,14 @@ def _irregular_bound(model: CreepModel, method: str, precision: str, max_interva
 
 
 def _invariant_bound(c: dict, st: dict, sch: dict, a_max: np.ndarray, a_min: np.ndarray,
-                     method: str, precision: str, full_scale: float, coef_label: str) -> ErrorBound:
+                     method: str, precision: str, full_scale: float, coef_label: str,
+                     state_error: list | None = None) -> ErrorBound:
     """The bound of a step whose ``a_k`` changes from sample to sample within
     ``[a_min_k, a_max_k]`` (dt step, temperature step), from :func:`_invariant_gains`.
 
     ``sch`` gives the relative error ``rel_a`` of the computed ``a_k``, and the rounding
-    ``nu`` (and ``extra``, q31) of the state update.
+    ``nu`` (and ``extra``, q31) of the state update. ``state_error``: a list to which the
+    bound of the states' errors (fraction of full scale) is appended.
     """
     beta = c["beta"]
     zmat, _ = _invariant_gains(beta, a_max)
@@ -731,6 +735,8 @@ def _invariant_bound(c: dict, st: dict, sch: dict, a_max: np.ndarray, a_min: np.
     terms["output"] = out_offset + out_scale
     terms["float64 reference (allowance)"] = REFERENCE_ALLOWANCE
     total = sum(terms.values()) * _MARGIN
+    if state_error is not None:
+        state_error.append(float(np.max(z_err)))
     return ErrorBound(total_fs=float(total), terms={n: float(v) for n, v in terms.items()},
                       full_scale=float(full_scale), peak_fs=float(peak),
                       gains={"sample": float(gain_sample), "state": [float(g) for g in gain_state]})
@@ -800,3 +806,313 @@ def polynomial_bound(linear: ErrorBound, c2: float, c3: float, offset: float) ->
     return ErrorBound(total_fs=float(total), terms={n: float(v) for n, v in terms.items()},
                       full_scale=fs, peak_fs=float(reach / fs),
                       gains=dict(linear.gains, least_slope=float(m))), float(reach)
+
+
+# ------------------------------------------------------------ extensions of the diagnosis
+
+#: Relative error of ``expm1(y)``, ``|y| <= 32``, as the C corrector computes it in double
+#: without libm (range reduction by ``ln 2`` in two parts, 18 Taylor terms of ``exp(f)`` for
+#: ``|f| <= ln2 / 2``, 20 of ``expm1(y)`` for ``|y| < 1/2``): at most about 12 roundings of
+#: the result's size; 32 is taken.
+EXP_RELATIVE_ERROR = 32 * _U64
+
+
+def _output_rounding(offset: float, offset_stored: float, x_max: float) -> float:
+    """``(float)((double) offset + X)``: the float32 offset's error and the final rounding
+    (signal units)."""
+    return abs(offset_stored - offset) + _U32 * (abs(offset) + x_max) * (1 + 2 * _U64)
+
+
+def _reloading_shape(softening: float, shape: float, chord: float) -> tuple[float, float]:
+    """Least slope in ``|x|`` of ``t (1 - softening g(1 - t/m))`` over ``0 <= t <= m`` (and 1
+    on the virgin curve), and the largest ``|d/dm|`` of it, ``|softening| (1 - z)^2 |g'(z)|``.
+
+    Evaluated on 20001 points of ``z`` in [0, 1]; the least slope is lowered by the grid's
+    half step times a bound of its derivative (``|softening| (2 max|g'| + max|g''|)``), so it
+    is a lower bound."""
+    z = np.linspace(0.0, 1.0, 20001)
+    if abs(shape) < chord:
+        g, dg, ddg = z, np.ones_like(z), np.zeros_like(z)
+    else:
+        den = math.expm1(-shape)
+        g, dg, ddg = (np.expm1(-shape * z) / den, -shape * np.exp(-shape * z) / den,
+                      shape * shape * np.exp(-shape * z) / den)
+    slope = 1.0 - softening * (g - (1.0 - z) * dg)
+    change = abs(softening) * (2 * float(np.max(np.abs(dg))) + float(np.max(np.abs(ddg))))
+    least = min(1.0, float(np.min(slope)) - 0.5 * (z[1] - z[0]) * change)
+    return least, abs(softening) * float(np.max((1.0 - z) ** 2 * np.abs(dg)))
+
+
+def _map_bound(linear: ErrorBound, offset: float, offset_stored: float, least: float, lm: float,
+               x_max: float, evaluation: float, maximum_gain: float, label: str,
+               precision: str = "float32") -> ErrorBound:
+    """The bound of an output map ``X = f^-1(S; m)`` with a running maximum ``m`` of ``|X|``
+    (the linear corrector unchanged, its states driven by ``S``).
+
+    ``f`` rises in ``|X|`` with slope at least ``least`` and ``|df/dm| <= lm``. Below ``m``
+    the response's size is below the virgin response's at ``m``, so ``m`` is the virgin
+    inverse of the running maximum of ``|S|``: its error is at most ``maximum_gain`` times the
+    largest error ``E_S`` of ``S`` (the linear bound) plus its own evaluation's. The bisection's
+    comparison is right wherever ``|f - S|`` exceeds ``e_f``, the evaluation error of ``f`` in
+    double, so ``|dX| <= (E_S + e_f + lm E_m) / least + br`` (``br``: the bracket's last
+    width: ``2^-64`` of the range in double, a word in q31). q31 outputs the word found: no
+    output rounding."""
+    fs = linear.full_scale
+    bracket = x_max * 2.0 ** -ROOT_STEPS if precision == "float32" else 2 * _Q_IN * fs
+    gain = (1.0 + lm * maximum_gain) / least              # of E_S, directly and through m
+    own = (evaluation + lm * (maximum_gain * evaluation + bracket)) / least + bracket
+    terms = {f"linear corrector (x{gain:.4g}: least slope {least:.4g}, running maximum {lm:.4g})":
+             linear.total_fs * gain,
+             f"{label} ({'in double' if precision == 'float32' else 'in words'}), bisection bracket": own / fs}
+    if precision == "float32":
+        terms["output rounding (float32)"] = _output_rounding(offset, offset_stored, x_max) / fs
+    else:
+        _check_q31_range(x_max / fs, x_max / fs, 1.0, "subtractive")
+    total = sum(terms.values()) * _MARGIN
+    return ErrorBound(total_fs=float(total), terms={n: float(v) for n, v in terms.items()},
+                      full_scale=fs, peak_fs=float(x_max / fs),
+                      gains=dict(linear.gains, least_slope=float(least), maximum_gain=float(lm)))
+
+
+def reloading_bound(linear: ErrorBound, softening: float, shape: float, chord: float,
+                    offset: float, offset_stored: float, precision: str = "float32") -> ErrorBound:
+    """The bound of the reloading curve's inverse (softening below the running maximum ``m``
+    of ``|X|``): ``S = X (1 - softening g(1 - |X|/m))`` below ``m``, ``S = X`` on the virgin
+    curve, so ``m`` is the running maximum of ``|S|`` and ``|X| <= m`` (see :func:`_map_bound`,
+    ``maximum_gain`` 1, ``m`` set exactly). ``f`` is evaluated with at most 8 roundings of its
+    size, and ``g`` of a shaped curve with two ``expm1`` of relative error
+    :data:`EXP_RELATIVE_ERROR` each. q31 (the chord): ``t (m - t) / m`` truncated to a word,
+    its product with the stored softening rounded to half a word, the stored softening's
+    error on ``t (m - t) / m <= m / 4``."""
+    least, lm = _reloading_shape(softening, shape, chord)
+    if least <= 0:
+        raise InputError("the reloading curve does not rise: no C corrector for it")
+    x_max = (linear.peak_fs + linear.total_fs) * linear.full_scale
+    if precision == "float32":
+        g_error = 0.0 if abs(shape) < chord else 2.2 * EXP_RELATIVE_ERROR
+        evaluation = x_max * (8 * _U64 * (1 + abs(softening)) + abs(softening) * g_error)
+    else:
+        m, sh = _mantissa(softening, "softening")
+        word = 2 * _Q_IN * linear.full_scale
+        evaluation = (abs(softening) + 0.5) * word + abs(m * 2.0 ** -(31 + sh) - softening) * x_max / 4
+    return _map_bound(linear, offset, offset_stored, least, lm, x_max, evaluation, 1.0, "reloading curve",
+                      precision)
+
+
+def peak_bound(linear: ErrorBound, softening: float, scale: float, offset: float,
+               offset_stored: float, precision: str = "float32") -> ErrorBound:
+    """The bound of the inverse of ``S = X (1 - k m)``, ``k = softening / scale``, ``m`` the
+    running maximum of ``|X|`` including this sample (see :func:`_map_bound`): ``m`` is the
+    virgin inverse of the running maximum of ``|S|``, the root ``t`` of ``t (1 - k t) = |S|``,
+    so ``|X| <= m <= X_max``, the root at the largest ``|S|``; below ``m`` the slope is
+    ``1 - k m``, on the virgin curve ``1 - 2 k |X|`` (its inverse's gain ``1 / least``);
+    ``|df/dm| <= |k| X_max``."""
+    k = softening / scale
+    s_max = (linear.peak_fs + linear.total_fs) * linear.full_scale * 1.01
+    if k > 0 and 4 * k * s_max >= 1:
+        raise InputError("the softened response does not rise over the corrector's range: no C "
+                         "corrector for it")
+    x_max = 2 * s_max / (1 + math.sqrt(1 - 4 * k * s_max)) if k > 0 else s_max
+    least = 1.0 - 2.0 * max(k, 0.0) * x_max
+    if precision == "float32":
+        evaluation = 6 * _U64 * x_max * (1 + abs(k) * x_max)
+    else:
+        # k FS stored as a mantissa; k t^2 from t^2 rounded to 2^30 and the product to half a
+        # word; below m the quotient S 2^30 / (2^30 - k m) truncated (a word), its divisor rounded
+        fs = linear.full_scale
+        m, sh = _mantissa(k * fs, "k x full scale")
+        word = 2 * _Q_IN * fs
+        k_err = abs(m * 2.0 ** -(31 + sh) - k * fs) / fs
+        evaluation = 2 * word + k_err * x_max ** 2 + (word + k_err * x_max * x_max) / least
+    return _map_bound(linear, offset, offset_stored, least, abs(k) * x_max, x_max, evaluation,
+                      1.0 / least, "softened response", precision)
+
+
+def play_bound(model: CreepModel, rate: float, full_scale: float, ratio: float,
+               half_width: float, precision: str = "float32") -> ErrorBound:
+    """The bound of the corrector whose creep states are driven by the load ``X`` found from
+    ``S = X + ratio (P - X)``, ``P = clip(P_prev, X - r, X + r)`` a play operator.
+
+    ``X(S, P_prev)`` is continuous and piecewise linear: on the branches that follow the
+    load ``X = S +- ratio r`` (slopes 1 and 0), in the dead band ``X = (S - ratio P_prev) /
+    (1 - ratio)``; so ``|dX| <= max(1, (1 + |ratio|) / |1 - ratio|) max(|dS|, |dP_prev|)``.
+    ``P`` is copied in the dead band and recomputed from ``S`` on the branches (slopes
+    ``(0, 1)`` and ``(1, 0)`` in ``(S, P_prev)``), so ``|dP| <= max(|dP_prev|, |dS|)``: its
+    error never exceeds the largest error of ``S`` (plus its own rounding). The states then
+    obey the max-norm invariant of :func:`_loop_bound`. ``|X| <= |S| + |ratio| r``."""
+    if not abs(1.0 - ratio) > 0 or ratio >= 1.0:
+        raise InputError("the play operator's weight is not below the gain: no C corrector for it")
+    lip = max(1.0, (1.0 + abs(ratio)) / abs(1.0 - ratio))
+    sum_beta = float(np.sum(np.abs(model.beta)))
+    x_exact = (full_scale + abs(ratio) * half_width) / max(1.0 - sum_beta, 1e-300)
+    reach = x_exact + half_width
+    if precision == "float32":
+        ext = 2 * _U64 * reach * abs(ratio) / abs(1.0 - ratio) + 8 * _U64 * reach * lip
+    else:
+        if reach / full_scale >= 1.9:     # |S - P| below 2^32 words: its product fits 64 bits
+            raise InputError("the play operator reaches beyond the q31 words' headroom (2 x full "
+                             "scale); use float32")
+        # words of 2^-30 FS: ratio r and r rounded (half a word each), the dead band's product
+        # rounded (half a word) with the stored ratio / (1 - ratio)'s error on |S - P|; P's
+        # own rounding through L_P
+        k2 = ratio / (1.0 - ratio)
+        m, sh = _mantissa(k2, "ratio / (1 - ratio)")
+        k2_err = abs(m * 2.0 ** -(31 + sh) - k2)
+        word = _Q_IN * full_scale
+        ext = (3 * word + k2_err * 2 * reach) + abs(ratio) / abs(1.0 - ratio) * word
+    return _loop_bound(model, rate, full_scale, lip, x_exact, ext, "play operator", precision)
+
+
+#: The discounted count of the load's turns the overshoot's printed bound assumes
+#: (:func:`overshoot_bound`): the current run and two turns within its decay time.
+OVERSHOOT_EVENTS = 3.0
+
+
+def overshoot_bound(model: CreepModel, rate: float, full_scale: float, ratio: float,
+                    half_width: float, weights, taus, events: float = OVERSHOOT_EVENTS) -> ErrorBound:
+    """The bound of the corrector whose creep states are driven by the load ``X`` found from
+    ``S = X + ratio sum_i w_i D_i``, ``D_i = (1 - a_i) D_i + |Q - Q_prev|`` (the total
+    variation ``v`` of the play ``Q`` of ``X``, less its lag: ``v - lag_i(v)``).
+
+    With ``E`` the known part ``ratio sum_i w_i (1 - a_i) D_i`` and ``W = sum_i w_i``, ``X(S - E,
+    Q_prev)`` is continuous and piecewise linear: ``|dX| <= L1 (|dS| + |dE|) + L2 |dQ|``,
+    ``L1 = 1 / (1 - |ratio W|)``, ``L2 = |ratio W| L1``; the play is 1-Lipschitz, ``|dQ| <= E_X``.
+    The total variation's error telescopes along each run of moves in one direction (summation
+    by parts: ``sum_j (1 - a)^(n-j) s (dQ_j - dQ_j-1)`` is at most ``2 (1 - a)^(n - end) max|dQ|``),
+    so ``|dD_i| <= 2 R E_X`` with ``R`` the count of runs (the load's turns) and of samples where
+    the C's play may move otherwise than the exact one (within the error of its dead band's
+    edge), each discounted by ``(1 - a)`` per sample since: ``|dE| <= |ratio| K E_X``, ``K = 2 R
+    sum_i w_i (1 - a_i)``, and ``E_X <= L1 E_S / (1 - g)``, ``g = L1 |ratio| K + L2 < 1``: the
+    inverse's error gain of :func:`_loop_bound`. ``events``: ``R`` (a record's own from
+    :func:`creepcomp.digital.firmware_extension.overshoot_events`). The magnitudes follow the
+    same way: ``D_i <= 2 R (X_max + r)``. The double arithmetic adds a few roundings per
+    sample, and each decay's rounding accumulated, ``3 u (D_max + 2 (X_max + r)) / a_i``.
+    """
+    w, tau = np.asarray(weights, float), np.asarray(taus, float)
+    a = -np.expm1(-(1.0 / rate) / tau)
+    total = abs(ratio) * float(np.sum(w))
+    if total >= 1.0:
+        raise InputError("the overshoot's amplitude is not below the gain: no C corrector for it")
+    l1 = 1.0 / (1.0 - total)
+    gain = l1 * abs(ratio) * 2 * events * float(np.sum(w * (1 - a))) + total * l1
+    if gain >= 1.0:
+        raise InputError(f"the overshoot's error gain through the total variation of the load is "
+                         f"{gain:.3g} (the load turns {events:.3g} times, discounted, within its decay): "
+                         "no error bound")
+    sum_beta = float(np.sum(np.abs(model.beta)))
+    spread = 2 * abs(ratio) * float(np.sum(w)) * events
+    room = 1.0 - sum_beta - spread
+    if room <= 0:
+        raise InputError("the overshoot and the creep terms together can reach any size: no error bound")
+    x_exact = (full_scale + spread * half_width) / room
+    reach = x_exact + half_width
+    d_max = 2 * events * reach                     # |D_i|: each run moves the play by 2 reach at most
+    lip = l1 / (1.0 - gain)
+    # X in double: a few roundings of its terms; D_i: 3 roundings of |D_i| + |change| a step,
+    # decaying with 1 - a_i
+    ext = lip * _U64 * (8 * (reach + total * d_max)
+                        + abs(ratio) * float(np.sum(w * 3 * (d_max + 2 * reach) / a)))
+    return _loop_bound(model, rate, full_scale, lip, x_exact, ext, "overshoot")
+
+
+def _loop_bound(model: CreepModel, rate: float, full_scale: float, lip: float, x_exact: float,
+                ext: float, label: str, precision: str = "float32") -> ErrorBound:
+    """The bound of a float32 fixed-rate subtractive corrector whose states are driven by
+    ``X``, a map of ``S`` (and of its own states) with error gain ``lip`` and evaluation
+    error ``ext`` (signal units), ``|X| <= x_exact`` exactly.
+
+    With ``D`` a bound of every state's error, ``|dS| <= sum|beta| D + eps`` (``eps``: the
+    local errors of ``S``, :func:`_sample_errors`) and ``|dX| <= lip |dS| + ext``; a state's
+    update ``c += a (X~ - c)`` then gives ``|d'| <= (1 - a) D + a (|dX| + u |X| + eta / a)``,
+    which is at most ``D`` when ``D (1 - lip sum|beta|) >= lip eps + ext + u X + max eta/a``:
+    the invariant holds from the relaxed start (no error) for every input in the range,
+    when ``lip sum|beta| < 1``."""
+    fs = full_scale
+    c = exact_coefficients(model, rate)
+    st = stored_coefficients(c, precision)
+    beta, a = c["beta"], c["a"]
+    sum_beta = float(np.sum(np.abs(beta)))
+    loop = lip * sum_beta
+    if loop >= 1.0:
+        raise InputError(f"{label}: the creep terms' coupling (sum of |beta| {sum_beta:.3g}) times the "
+                         f"inverse's error gain {lip:.3g} is not below 1: no error bound")
+    u = _U32
+    gain = 1.0 / (1.0 - loop)
+    cmax = x_exact / fs * (1.0 + 1e-3)
+    for _ in range(8):
+        eps, _, _, _ = _sample_errors(precision, st, c, len(beta), cmax, fs, sum_beta, "subtractive")
+        eps_total = sum(eps.values())
+        d = 2 * cmax
+        c_hi = cmax * (1 + u)
+        if precision == "float32":
+            eta = (np.abs(st["a"] - a) * d * (1 + u) ** 3 + a * d * ((1 + u) ** 3 - 1) + a * u * c_hi
+                   + u * u * c_hi)
+            rounding = float(np.max(eta / a)) + u * cmax       # and the target (float)X
+        else:                                                  # the target X is a word already
+            eta = np.abs(st["a"] - a) * d + st["a"] * _Q_IN + _Q_STATE
+            rounding = float(np.max(eta / a))
+        state = gain * (lip * eps_total + ext / fs + rounding)
+        if cmax >= x_exact / fs + state:
+            break
+        cmax = 2 * (x_exact / fs + state)
+    else:  # pragma: no cover
+        raise InputError("the corrector's rounding error is of the order of its signal: no useful bound")
+    terms = {f"{name} (per sample, x{lip * gain:.4g})": lip * gain * v for name, v in eps.items()}
+    terms[f"{label} in double (x{gain:.4g})"] = gain * ext / fs
+    terms[f"state updates, coefficients a_k (x{loop * gain:.4g})"] = loop * gain * rounding
+    if precision == "float32":
+        terms["output rounding (float32)"] = _output_rounding(c["offset"], st["offset"], x_exact + state * fs) / fs
+    else:
+        _check_q31_range(x_exact / fs, cmax, 1.0, "subtractive")
+    terms["float64 reference (allowance)"] = REFERENCE_ALLOWANCE
+    total = sum(terms.values()) * _MARGIN
+    return ErrorBound(total_fs=float(total), terms={n: float(v) for n, v in terms.items()},
+                      full_scale=float(fs), peak_fs=float(x_exact / fs),
+                      gains={"sample": float(lip * gain), "state_error": float(state),
+                             "loop": float(loop)})
+
+
+def recovery_bound(model: CreepModel, rate: float, full_scale: float, term: int,
+                   tau_recovery: float, precision: str = "float32") -> tuple[ErrorBound, dict]:
+    """The bound of the corrector whose term ``term`` steps with ``a`` or ``a_r`` (the
+    recovery's ``1 - exp(-T/tau_recovery)``) by the mode its state's step is in.
+
+    Given the modes, it is the step of a time-varying ``a_k`` in ``[min(a, a_r), max(a,
+    a_r)]``, bounded by the componentwise invariant of the temperature and dt steps
+    (:func:`_invariant_bound`). The mode is exact where the reference's decision quantity
+    ``q = sign(c)((h_n + h_n+1)/2 - c) + band`` is farther from 0 than the error of the C's
+    (``margin``: the output's and the state's bounds, the dead band, roundings) and the
+    state farther from 0 than its error; at a step where it is not, taking the other mode
+    adds ``|a_r - a| |h_n - c_n|`` to the state, a local error of ``|a_r - a| / a_min`` per
+    unit ``a``: ``switch_gain`` times the largest ``|h_n - c_n|`` of such steps adds to the
+    bound (:func:`creepcomp.digital.firmware_check.verify_firmware` finds them).
+
+    Returns
+    -------
+    (ErrorBound, dict)
+        The bound given the modes, and ``{"margin", "state_error", "switch_gain", "a_recovery"}``
+        (signal units; ``switch_gain`` per signal unit, as a fraction of full scale).
+    """
+    c = exact_coefficients(model, rate)
+    st = stored_coefficients(c, precision)
+    a_rec = -math.expm1(-c["T"] / tau_recovery)
+    a_rec_q = _mantissa(a_rec, "a_recovery = 1 - exp(-T/tau_recovery)")
+    a_rec_st = float32_value(a_rec) if precision == "float32" else a_rec_q[0] * 2.0 ** -(31 + a_rec_q[1])
+    a_lo, a_hi = c["a"].copy(), c["a"].copy()
+    a_lo[term], a_hi[term] = min(c["a"][term], a_rec), max(c["a"][term], a_rec)
+    rel = np.abs(st["a"] / c["a"] - 1)
+    rel[term] = max(rel[term], abs(a_rec_st / a_rec - 1))
+    k = len(c["a"])
+    # q31: per unit a, the input's rounding to 30 bits; the update's last shift (2^-60 FS)
+    sch = ({"rel_a": rel, "nu": 0.0} if precision == "float32" else
+           {"rel_a": rel, "extra": np.full(k, _Q_IN), "nu": np.full(k, _Q_STATE)})
+    errors: list = []
+    bound = _invariant_bound(c, st, sch, a_hi, a_lo, "subtractive", precision,
+                             full_scale, "coefficients a_k, a_recovery (state updates)", errors)
+    fs = full_scale
+    state_error = errors[0] * fs
+    x_max = (bound.peak_fs + bound.total_fs) * fs
+    margin = (bound.total_fs * fs + state_error + 2e-9 * x_max + 8 * _U64 * x_max) * (1 + 1e-6)
+    switch_gain = bound.gains["state"][term] * abs(a_rec - c["a"][term]) / a_lo[term] / fs
+    return bound, {"margin": margin, "state_error": state_error, "switch_gain": switch_gain,
+                   "a_recovery": a_rec, "a_recovery_q": a_rec_q}

@@ -40,7 +40,15 @@ class Verification:
     object_bytes : int
         Code and constant data of the compiled corrector (``size``: text + data, ``-O2``).
     bound_fs : float or None
-        The proven bound (None for the naive recursion).
+        The proven bound (None for the naive recursion), with what the record's mode
+        decisions near their threshold add for a recovery extension.
+    switching : dict or None
+        For a recovery extension: ``steps`` (decisions within the switching margin),
+        ``largest`` (signal units) and ``added_fs`` (see
+        :func:`creepcomp.digital.firmware_extension.recovery_ambiguity`); for an overshoot:
+        ``events`` (the record's discounted count of the load's turns), ``bound_fs``,
+        ``reference_fs`` and ``added_fs`` (see
+        :func:`creepcomp.digital.firmware_extension.overshoot_record_bound`).
     """
 
     samples: int
@@ -49,6 +57,7 @@ class Verification:
     ns_per_sample: float
     object_bytes: int
     bound_fs: float | None
+    switching: dict | None = None
 
     @property
     def passed(self) -> bool:
@@ -57,9 +66,12 @@ class Verification:
 
     def to_dict(self) -> dict:
         """JSON form."""
-        return {"samples": self.samples, "max_error_fs": self.max_error_fs,
-                "worst_sample": self.worst_sample, "ns_per_sample": self.ns_per_sample,
-                "object_bytes": self.object_bytes, "within_bound": self.passed}
+        out = {"samples": self.samples, "max_error_fs": self.max_error_fs,
+               "worst_sample": self.worst_sample, "ns_per_sample": self.ns_per_sample,
+               "object_bytes": self.object_bytes, "within_bound": self.passed}
+        if self.switching is not None:
+            out.update(switching=dict(self.switching), record_bound_fs=self.bound_fs)
+        return out
 
 
 def find_compiler(compiler: str | None = None) -> str:
@@ -202,7 +214,19 @@ def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler
                                temperature=temps)
     reference = np.asarray(reference, dtype=float)
     y, ns, size = run_firmware(firmware, x, start, repeats, compiler, temperatures=temps)
-    return _compare(firmware, y, reference, ns, size)
+    switching = None
+    kind = (firmware.extension or {}).get("kind")
+    if kind == "recovery":
+        from creepcomp.digital.firmware_extension import recovery_ambiguity
+
+        switching = recovery_ambiguity(firmware.extension, t, reference, firmware.model.offset)
+    elif kind == "overshoot":
+        from creepcomp.digital.firmware_extension import overshoot_record_bound
+
+        on_record = overshoot_record_bound(firmware.extension, reference, firmware.model.offset,
+                                           firmware.bound)
+        switching = dict(on_record, added_fs=on_record["bound_fs"] - firmware.bound.total_fs)
+    return _compare(firmware, y, reference, ns, size, switching)
 
 
 def _temperatures(firmware: Firmware, temperature, n: int) -> np.ndarray | None:
@@ -282,12 +306,14 @@ def _verify_irregular(firmware, t, x, repeats, compiler) -> Verification:
     return _compare(firmware, y, reference, ns, size)
 
 
-def _compare(firmware, y, reference, ns, size) -> Verification:
+def _compare(firmware, y, reference, ns, size, switching=None) -> Verification:
     error = np.abs(y - reference) / firmware.full_scale
     worst = int(np.argmax(error))
+    bound = None if firmware.bound is None else firmware.bound.total_fs
+    if switching is not None:
+        bound += switching["added_fs"]
     return Verification(samples=len(y), max_error_fs=float(error[worst]), worst_sample=worst,
-                        ns_per_sample=ns, object_bytes=size,
-                        bound_fs=None if firmware.bound is None else firmware.bound.total_fs)
+                        ns_per_sample=ns, object_bytes=size, bound_fs=bound, switching=switching)
 
 
 def _check_range(firmware, x) -> None:

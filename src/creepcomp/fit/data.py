@@ -10,16 +10,30 @@ import numpy as np
 from creepcomp.errors import InputError
 from creepcomp.io.records import Record
 
-__all__ = ["check_scales", "MAX_TIME", "VALUE_RANGE", "GAP_FACTOR", "CONSTANT_LOAD_TOLERANCE", "Data", "gaps", "prepare"]
+__all__ = ["BLOCK_SAMPLES", "BLOCK_VARIANCE", "check_scales", "MAX_TIME", "VALUE_RANGE", "GAP_FACTOR", "CONSTANT_LOAD_TOLERANCE", "Data", "gaps", "prepare"]
 
 #: A time step longer than this many median steps is a gap: the noise model forgets across it.
 GAP_FACTOR = 5.0
 
 
-def gaps(time: np.ndarray) -> np.ndarray:
+#: Metadata of a reduced record (:func:`creepcomp.fit.reduce.reduce_record`): the number of
+#: samples of the full record each sample holds, and its noise variance relative to one sample's
+#: (white noise).
+BLOCK_SAMPLES = "reduced.samples"
+BLOCK_VARIANCE = "reduced.variance"
+
+
+def gaps(time: np.ndarray, samples: np.ndarray | None = None) -> np.ndarray:
     """True for each sample that follows a gap in the sampling (a step longer than
-    :data:`GAP_FACTOR` median steps); never the first sample."""
+    :data:`GAP_FACTOR` median steps); never the first sample.
+
+    ``samples``: of a reduced record, the full record's samples each one holds; a step is
+    then measured in the full record's intervals (between the centres of two blocks of ``h1``
+    and ``h2`` samples, ``(h1 + h2) / 2`` of them), so blocks of different lengths are no gap.
+    """
     dt = np.diff(time)
+    if samples is not None:
+        dt = dt / (0.5 * (samples[1:] + samples[:-1]))
     return np.concatenate([[False], dt > GAP_FACTOR * np.median(dt)])
 
 
@@ -43,6 +57,12 @@ class Data:
     fixed_offset : bool
         The load never changes within the record, so offset and gain cannot be told apart:
         the offset is fixed at zero (the signal is taken as zero at zero load).
+    weights : numpy.ndarray or None
+        Of a reduced record: each sample's inverse noise variance relative to one sample of the
+        full record (:data:`BLOCK_VARIANCE`); residuals are taken times its square root
+        (:meth:`weighted`), in the full record's noise units. None: all samples alike.
+    samples : numpy.ndarray or None
+        Of a reduced record: the full record's samples each sample holds (:data:`BLOCK_SAMPLES`).
     """
 
     time: np.ndarray
@@ -55,6 +75,8 @@ class Data:
     hold: str
     segment: np.ndarray
     fixed_offset: bool
+    weights: np.ndarray | None = None
+    samples: np.ndarray | None = None
 
     @property
     def n(self) -> int:
@@ -83,6 +105,22 @@ class Data:
         return float(np.median(np.diff(self.time)))
 
     @property
+    def dt_resolved(self) -> float:
+        """Finest sampling step (s) the record resolves: the median step, or of a reduced
+        record, whose blocks after each load change begin as single samples, the full record's."""
+        if self.samples is None:
+            return self.dt_median
+        return float(np.median(np.diff(self.time) / (0.5 * (self.samples[1:] + self.samples[:-1]))))
+
+    def weighted(self, residual: np.ndarray) -> np.ndarray:
+        """A residual on every sample (or columns of them) times the square root of each
+        sample's weight: unchanged unless the record is reduced."""
+        if self.weights is None:
+            return residual
+        root = np.sqrt(self.weights)
+        return residual * (root if np.ndim(residual) == 1 else root[:, None])
+
+    @property
     def dt_small(self) -> float:
         """Finest sampling step that the record uses often (5th percentile, s)."""
         return float(np.percentile(np.diff(self.time), 5))
@@ -101,7 +139,7 @@ class Data:
         """Retardation times the record can resolve: from two sampling steps (a faster lag
         cannot be told from the instantaneous response; after a known load step, down to half
         the time to the first sample) to a few times the record's length (s)."""
-        low = 2.0 * self.dt_median
+        low = 2.0 * self.dt_resolved
         if self.load_step_at is not None:
             low = min(low, 0.5 * (self.t0 - self.load_step_at) or low, 2.0 * self.dt_small)
         return low, 3.0 * self.span
@@ -199,6 +237,14 @@ def prepare(record: Record, initial: str = "free", load_step_at: float | None = 
         raise InputError(f"{record.source}: the load is constant ({load[0]:g}) throughout, so "
                          "creep cannot be told from offset: give the time of the load step "
                          "(--load-step-at, e.g. 0 for a creep test whose step was at t = 0)")
+    samples, variance = record.metadata.get(BLOCK_SAMPLES), record.metadata.get(BLOCK_VARIANCE)
+    weights = None
+    if samples is not None and variance is not None and len(samples) == len(record):
+        samples = np.asarray(samples, float)
+        weights = 1.0 / np.asarray(variance, float)
+    else:
+        samples = None
     return Data(time=record.time, load=load, signal=record.signal, temperature=record.temperature,
                 source=record.source, initial=initial, load_step_at=load_step_at, hold=hold,
-                segment=np.cumsum(gaps(record.time)), fixed_offset=constant)
+                segment=np.cumsum(gaps(record.time, samples)), fixed_offset=constant,
+                weights=weights, samples=samples)

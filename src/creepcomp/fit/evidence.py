@@ -189,7 +189,7 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
     blocks = block_index(data) if blocks is None else blocks
     start = {p.name: fit.values[p.name] for p in fit.params}
     anchor = {n: v for n, v in fit.values.items() if n not in start}
-    jac = jacobian(data, fit) if refine and start else None
+    jac = data.weighted(jacobian(data, fit)) if refine and start else None
 
     def refit(keep: np.ndarray) -> np.ndarray:
         frozen = _undetermined(jac, keep, list(start), start) if jac is not None else None

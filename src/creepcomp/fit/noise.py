@@ -11,7 +11,7 @@ import numpy as np
 from scipy import linalg
 from scipy.interpolate import make_lsq_spline
 
-from creepcomp.fit.data import Data
+from creepcomp.fit.data import Data, gaps
 from creepcomp.lti import lag_states
 
 __all__ = ["MAX_AR_ORDER", "ARNoise", "rows_for", "whiten", "fit_noise", "ljung_box",
@@ -214,7 +214,7 @@ def quantisation_step(y: np.ndarray) -> float:
 
 
 def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW,
-                follows_lag: bool = False) -> NoiseFloor:
+                follows_lag: bool = False, weights=None, samples=None) -> NoiseFloor:
     """The measurement noise's RMS from the record alone (no creep model).
 
     The record is cut into windows of ``window`` samples (not across gaps in the sampling);
@@ -236,6 +236,11 @@ def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW,
         The signal may follow the load through lags (creep): in windows where the load
         changes, two more columns, the load times time and the load through a lag of a quarter
         of the window's span, so that creep after a turn of a sweep does not count as noise.
+    weights, samples : array_like, optional
+        Of a reduced record (:class:`~creepcomp.fit.data.Data`): each sample's inverse noise
+        variance relative to one sample of the full record, and the samples it holds. Each
+        window is then fitted by weighted least squares, so the floor is the full record's
+        noise, as the weighted residual of a fit; blocks of different lengths are no gap.
 
     Returns
     -------
@@ -246,8 +251,8 @@ def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW,
     t = np.arange(n, dtype=float) if time is None else np.asarray(time, float)
     x = None if load is None else np.asarray(load, float)
     w = int(min(window, max(8, n // 4)))
-    dt = np.diff(t)
-    breaks = np.flatnonzero(dt > 5.0 * np.median(dt)) + 1 if n > 2 else np.array([], int)
+    root = None if weights is None else np.sqrt(np.asarray(weights, float))
+    breaks = np.flatnonzero(gaps(t, samples)) if n > 2 else np.array([], int)
     edges = np.concatenate([[0], breaks, [n]])
     variances, dofs = [], []
     for a, b in zip(edges[:-1], edges[1:]):
@@ -262,9 +267,11 @@ def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW,
                     cols.append(cols[-1] * tt / span)
                     lagged = lag_states(t[sl], x[sl], [0.25 * span], initial="settled")[:, 0]
                     cols.append(lagged - lagged.mean())
-            a_ = np.column_stack(cols)
-            coef, *_ = np.linalg.lstsq(a_, y[sl], rcond=None)
-            r = y[sl] - a_ @ coef
+            a_, y_ = np.column_stack(cols), y[sl]
+            if root is not None:
+                a_, y_ = a_ * root[sl, None], y_ * root[sl]
+            coef, *_ = np.linalg.lstsq(a_, y_, rcond=None)
+            r = y_ - a_ @ coef
             dof = w - a_.shape[1]
             variances.append(float(r @ r) / dof)
             dofs.append(dof)

@@ -8,6 +8,20 @@ samples (:func:`block_weights`), a low-pass filter applied equally to every colu
 model that relates the columns is unchanged. A plain block mean would not do: it is off by
 the creep's curvature times ``h^2 dt^2 / 24``, which over long blocks after a load change is
 many times the noise left in a block, and a fit then finds creep terms that are not there.
+
+Blocks of equal length as long as the creep's time constant do not resolve it either: right
+after a load change the parabola cannot follow the exponential, and the fit's shortest time
+constant (two sample intervals) is then longer than the creep's. Where equal blocks would hold
+:data:`GROWING_FROM` samples or more, the blocks therefore grow with the time since each load
+change (:data:`BLOCK_GROWTH`), from single samples up to the longest length the target
+allows. Their values are then of very unequal noise, and each is weighted by the inverse of its
+white-noise variance relative to one full-rate sample (:func:`block_variance`; the metadata
+:data:`~creepcomp.fit.data.BLOCK_SAMPLES` and :data:`~creepcomp.fit.data.BLOCK_VARIANCE`):
+the fit's residual, its AR noise model (fitted to the weighted residual's sequence, which
+whitens what remains correlated between neighbouring blocks), the noise floor and the misfit
+ratio are in the full record's noise units, and gaps are judged in full-record intervals. For
+noise whose memory is longer than a block the white-noise weights over-weight long blocks a
+little; the held-out tests, whose spread follows the residual's spectrum, stay the judge.
 """
 
 from __future__ import annotations
@@ -19,10 +33,11 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
+from creepcomp.fit.data import BLOCK_SAMPLES, BLOCK_VARIANCE
 from creepcomp.io.records import COLUMNS, STREAM_BYTES, Record, open_record_stream
 from creepcomp.units import format_quantity
 
-__all__ = ["MAX_FIT_SAMPLES", "reduce_record", "read_reduced", "block_weights"]
+__all__ = ["MAX_FIT_SAMPLES", "reduce_record", "read_reduced", "block_weights", "block_variance"]
 
 #: Samples a fit works on at most (more are reduced by :func:`reduce_record`).
 MAX_FIT_SAMPLES = 50_000
@@ -65,46 +80,142 @@ def reduce_record(record: Record, max_samples: int = MAX_FIT_SAMPLES) -> tuple[R
     if n <= max_samples:
         return record, None
     change = np.flatnonzero(record.load[1:] != record.load[:-1]) + 1
-    starts, note, within = _plan(n, record.duration, change, len(change), max_samples)
+    starts, note, within, weighted = _plan(n, record.duration, change, len(change), max_samples)
     weights = block_weights(starts, n, parabola=within)
     columns = {}
     for name in COLUMNS:
         values = getattr(record, name)
         if values is not None:
             columns[name] = np.add.reduceat(values * weights, starts)
-    metadata = dict(record.metadata)
-    metadata["reduced"] = note
+    metadata = _reduced_metadata(record.metadata, note, starts, n, within, weighted)
     return replace(record, metadata=metadata, **columns), note
 
 
+def _reduced_metadata(metadata: Mapping, note: str, starts: np.ndarray, n: int, parabola: bool,
+                      weighted: bool) -> dict:
+    """The reduced record's metadata: the note, and when its blocks grow after load changes,
+    per sample the full record's samples it holds and its white-noise variance relative to one
+    of them (:func:`block_variance`), from which a fit weighs it (:class:`~creepcomp.fit.data.Data`);
+    both as tuples, so that two reductions compare equal."""
+    out = dict(metadata)
+    out["reduced"] = note
+    if not weighted:
+        return out
+    h = np.diff(np.append(starts, n))
+    out[BLOCK_SAMPLES] = tuple(h.tolist())
+    out[BLOCK_VARIANCE] = tuple(block_variance(h, parabola).tolist())
+    return out
+
+
+def block_variance(h: np.ndarray, parabola: bool = True) -> np.ndarray:
+    """Variance of the value of blocks of ``h`` samples of unit white noise (the sum of their
+    squared :func:`block_weights`): ``1 / h`` for a mean, and for the parabola's centre its
+    weight at the centre, ``3 (3 h^2 - 7) / (4 h (h^2 - 4))`` (about ``2.25 / h``; the
+    smoothing is a projection, so a point's weight on itself is its weights' sum of squares)."""
+    h = np.asarray(h, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        centre = 3.0 * (3.0 * h * h - 7.0) / (4.0 * h * (h * h - 4.0))
+    return np.where(h >= 3, centre, 1.0 / h) if parabola else 1.0 / h
+
+
 def _plan(n: int, duration: float, change: np.ndarray | None, change_count: int,
-          max_samples: int) -> tuple[np.ndarray, str, bool]:
-    """First sample of every block of :func:`reduce_record`, the note that says so, and
-    whether the blocks lie within constant-load stretches (then each is its parabola's centre).
+          max_samples: int) -> tuple[np.ndarray, str, bool, bool]:
+    """First sample of every block of :func:`reduce_record`, the note that says so, whether
+    the blocks lie within constant-load stretches (then each is its parabola's centre), and
+    whether they grow after each load change (then each sample is weighted by what it holds).
 
     ``change`` holds the samples where the load changes (None: more than ``max_samples // 4``
     of them, ``change_count`` in all).
     """
+    dt = duration / (n - 1)
     k = math.ceil(n / max_samples)
+    interval = "new interval"
     if change is not None and change_count + 1 <= max_samples // 4:
         bounds = np.concatenate(([0], change, [n]))
         # each stretch: its first and last sample, and up to one partly filled block
         k = math.ceil(n / (max_samples - 3 * (len(bounds) - 1)))
-        starts = _stretch_blocks(bounds, k)
-        how = (f"blocks of up to {k} samples within each of the {len(bounds) - 1} "
-               "constant-load stretches (the centre of each block's least-squares parabola), "
-               "the first and last sample of each kept (load steps stay sharp)")
-        within = True
+        starts, cap = _growing_blocks(bounds, max_samples) if k >= GROWING_FROM else (None, 0)
+        within, weighted = True, starts is not None
+        if weighted:
+            k, interval = cap, "longest interval"
+            how = (f"blocks within each of the {len(bounds) - 1} constant-load stretches that "
+                   f"grow with the time since the stretch began (at most {BLOCK_GROWTH:g} of it) up "
+                   f"to {cap} samples (the centre of each block's least-squares parabola, weighted "
+                   "by the samples it holds), the first and last sample of each kept (load steps "
+                   "stay sharp)")
+        else:
+            starts = _stretch_blocks(bounds, k)
+            how = (f"blocks of up to {k} samples within each of the {len(bounds) - 1} "
+                   "constant-load stretches (the centre of each block's least-squares parabola), "
+                   "the first and last sample of each kept (load steps stay sharp)")
     else:
         starts = np.arange(0, n, k)
-        within = False
+        within, weighted = False, False
         how = (f"block means of {k} samples over the whole record (the load changes at "
                f"{change_count} samples: it is not held long enough to average within)")
-    dt = duration / (n - 1)
     note = (f"record reduced from {n} to {len(starts)} samples for the fit by {how}: an "
-            f"anti-aliasing filter; new interval about {format_quantity(k * dt, 's')} "
+            f"anti-aliasing filter; {interval} about {format_quantity(k * dt, 's')} "
             f"(was {format_quantity(dt, 's')})")
-    return starts, note, within
+    return starts, note, within, weighted
+
+
+#: Blocks of equal length within each stretch up to this many samples, blocks that grow after
+#: each load change from it on: equal blocks of a few samples are short against any time
+#: constant the fit then resolves (down to two of them), and they keep the samples' weights
+#: equal, which suits noise of any colour (a block's variance goes as ``1 / h`` only for white
+#: noise or over blocks longer than the noise's memory).
+GROWING_FROM = 10
+#: A block after a load change spans at most this share of the time since the change: creep of
+#: any time constant is resolved while it moves, and the parabola through a block stays exact to
+#: far below the noise left in it (its error grows with the fourth power of the block's length
+#: over the time constant, times the creep left, which decays as the blocks grow).
+BLOCK_GROWTH = 0.1
+
+
+def _block_offsets(length: int, cap: int) -> np.ndarray:
+    """First sample of every block within ``length`` samples after a stretch's first sample:
+    ``max(1, BLOCK_GROWTH * p)`` samples at ``p`` samples since the stretch began, at most ``cap``."""
+    out, p = [], 0
+    while p < length:
+        out.append(p)
+        h = int(BLOCK_GROWTH * (p + 1))
+        if h >= cap:
+            out.extend(range(p + cap, length, cap))
+            break
+        p += max(1, h)
+    return np.array(out, dtype=np.int64)
+
+
+def _growing_blocks(bounds: np.ndarray, max_samples: int) -> tuple[np.ndarray | None, int]:
+    """First sample of every block: per constant-load stretch ``[s, e)``, the samples ``s``
+    and ``e - 1`` alone and between them blocks that grow with the time since ``s``
+    (:func:`_block_offsets`), capped at the smallest length that keeps the total within
+    ``max_samples``; None when even uncapped growth needs more."""
+    inner = np.maximum(np.diff(bounds) - 2, 0)
+    longest = int(inner.max())
+    singles = int(np.sum(np.minimum(np.diff(bounds), 2)))
+
+    def count(cap):
+        offsets = _block_offsets(longest, cap)
+        return singles + int(np.sum(np.searchsorted(offsets, inner)))
+
+    if longest == 0 or count(longest) > max_samples:
+        return None, 0
+    lo, hi = 1, longest                          # count(hi) fits; find the smallest cap that does
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if count(mid) <= max_samples:
+            hi = mid
+        else:
+            lo = mid + 1
+    offsets = _block_offsets(longest, lo)
+    pieces = []
+    for s, e, m in zip(bounds[:-1], bounds[1:], inner):
+        pieces.append(np.array([s]))
+        pieces.append(s + 1 + offsets[:np.searchsorted(offsets, m)])
+        if e - s > 1:
+            pieces.append(np.array([e - 1]))
+    return np.concatenate(pieces), lo
 
 
 def block_weights(starts: np.ndarray, n: int, lo: int = 0, hi: int | None = None,
@@ -190,13 +301,13 @@ def _read_reduced_chunks(path, targets, columns, delimiter, progress, block_byte
     n = scan.samples
     plans = [_plan(n, scan.last_time - scan.first_time, scan.load_changes, scan.load_change_count, m)
              for m in targets]
-    sums = [{name: np.zeros(len(starts)) for name in scan.names} for starts, _, _ in plans]
+    sums = [{name: np.zeros(len(starts)) for name in scan.names} for starts, *_ in plans]
     if progress:
         progress(0, n, "reducing the record")
     lo = 0
     for piece in stream:
         hi = lo + len(piece)
-        for (starts, _, within), total in zip(plans, sums):
+        for (starts, _, within, _), total in zip(plans, sums):
             first = int(np.searchsorted(starts, lo, side="right")) - 1
             inner = starts[first + 1:np.searchsorted(starts, hi, side="left")]
             local = np.concatenate(([0], inner - lo))
@@ -210,8 +321,7 @@ def _read_reduced_chunks(path, targets, columns, delimiter, progress, block_byte
     if stream.whole_reason is not None or lo != n:
         return None                             # the file changed between the passes
     out = []
-    for (starts, note, _), total in zip(plans, sums):
-        metadata = dict(scan.metadata)
-        metadata["reduced"] = note
+    for (starts, note, within, weighted), total in zip(plans, sums):
+        metadata = _reduced_metadata(scan.metadata, note, starts, n, within, weighted)
         out.append((Record(source=scan.source, metadata=metadata, **total), note))
     return out

@@ -63,7 +63,8 @@ class Fit:
     noise : ARNoise
         Noise model of the residual.
     prediction, residual : numpy.ndarray
-        Simulated signal and measured minus simulated, on every sample.
+        Simulated signal and measured minus simulated, on every sample (of a reduced record,
+        times the square root of each sample's weight: :meth:`~creepcomp.fit.data.Data.weighted`).
     loglik, bic : float
         Gaussian AR(p) log-likelihood on the prewhitened rows, and its BIC.
     n_params : int
@@ -248,6 +249,11 @@ class Problem:
         if len(self.likelihood_rows) < 10:
             raise InputError(f"{data.source}: too few samples left to fit")
         self.y = data.signal[self.rows]
+        # a reduced record's samples weighed by what each holds (Data.weights): rows of the
+        # signal and of the basis times the square root of their weights
+        self.root_weight = None if data.weights is None else np.sqrt(data.weights[self.rows])
+        if self.root_weight is not None:
+            self.y = self.y * self.root_weight
         self.fixed = dict(fixed or {})
         self.anchor = dict(anchor or {})
         # the optimiser's tolerances are partly absolute: work on a residual of order one
@@ -275,6 +281,8 @@ class Problem:
         """Basis, linear coefficients and residual (on the fitted rows) at ``x``."""
         b = self.basis(x)
         a = b.columns[self.rows]
+        if self.root_weight is not None:
+            a = a * self.root_weight[:, None]
         held = np.array([n in self.fixed for n in b.names])
         coef = np.array([self.fixed.get(n, 0.0) for n in b.names])
         prior = None
@@ -385,7 +393,7 @@ def _finish(problem: Problem, x: np.ndarray, noise: ARNoise | None, with_cov: bo
     values = problem.values(x)
     values.update({name: float(c) for name, c in zip(b.names, coef)})
     prediction = b.columns @ coef
-    residual = data.signal - prediction
+    residual = data.weighted(data.signal - prediction)
     if noise is None:
         noise = fit_noise(residual, problem.likelihood_rows)
     fit = Fit(structure=structure, values=values, noise=noise, prediction=prediction,
@@ -448,7 +456,7 @@ def _covariance(problem: Problem, x, coef, noise: ARNoise) -> np.ndarray | None:
     held = [len(x) + i for i, n in enumerate(b.names) if n in problem.fixed]
     full[:, held] = 0.0
     z = np.zeros_like(full)
-    z[rows] = full[rows]
+    z[rows] = problem.data.weighted(full)[rows]
     return sandwich_covariance([z], [noise])
 
 

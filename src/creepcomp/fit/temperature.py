@@ -155,11 +155,13 @@ class _Joint:
             a, names = self.columns(r, model)
             norms = np.sqrt(np.einsum("ij,ij->j", a, a))
             norms[norms == 0] = 1.0
-            coef, *_ = linalg.lstsq(a / norms, d.signal, lapack_driver="gelsy", cond=1e-13)
+            # a reduced record's samples weighted by what each holds (Data.weighted)
+            coef, *_ = linalg.lstsq(d.weighted(a / norms), d.weighted(d.signal), lapack_driver="gelsy",
+                                    cond=1e-13)
             coef = coef / norms
             bases.append((a, names))
             coefs.append(coef)
-            residuals.append((d.signal - a @ coef) / self.scales[r])
+            residuals.append(d.weighted(d.signal - a @ coef) / self.scales[r])
         return bases, coefs, residuals
 
     def residual(self, x: np.ndarray) -> np.ndarray:

@@ -36,7 +36,7 @@ from creepcomp.fleet.discover import find_records, unit_names
 from creepcomp.fleet.table import arrow_table, write_table
 from creepcomp.fleet.unit import OIML_C3_CREEP, done_row, empty_row, one_line, process_unit, run_settings
 from creepcomp.io.atomic import write_text_atomic
-from creepcomp.io.outputs import check_output_dir
+from creepcomp.io.outputs import check_output_dir, free_lock, hold_lock
 
 __all__ = ["SERIAL", "WORKER_CONFIG", "LOCK_FILE", "SETTINGS_FILE", "FleetResult", "run",
            "local_cluster", "folder_lock", "claim_folder"]
@@ -181,43 +181,21 @@ def run(records: Iterable[str | Path], out_dir: str | Path, workers: int | None 
 @contextlib.contextmanager
 def folder_lock(out: Path):
     """Hold the lock file :data:`LOCK_FILE` of the folder ``out`` (an advisory ``flock``, freed
-    by the system when the process ends, however it ends); the file is removed on release.
+    by the system when the process ends, however it ends: :func:`creepcomp.io.outputs.hold_lock`);
+    the file is removed on release.
 
     Raises
     ------
     InputError
         When another process holds it.
     """
-    try:
-        import fcntl
-    except ImportError:  # no flock on this system: no lock
-        yield
-        return
     path = out / LOCK_FILE
-    while True:
-        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            holder = os.read(fd, 64).decode("ascii", "replace").strip() or "unknown"
-            os.close(fd)
-            raise InputError(f"-o {out}: another fleet run (process {holder}) is writing in this "
-                             "folder; wait for it to end or choose another folder") from None
-        try:  # the holder before may have removed the file between our open and our lock
-            same = os.stat(path).st_ino == os.fstat(fd).st_ino
-        except FileNotFoundError:
-            same = False
-        if same:
-            break
-        os.close(fd)
+    fd = hold_lock(path, lambda holder: f"-o {out}: another fleet run (process {holder}) is "
+                   "writing in this folder; wait for it to end or choose another folder")
     try:
-        os.ftruncate(fd, 0)
-        os.write(fd, f"{os.getpid()}\n".encode("ascii"))
         yield
     finally:
-        with contextlib.suppress(OSError):
-            os.unlink(path)
-        os.close(fd)
+        free_lock(path, fd)
 
 
 def claim_folder(out: Path, settings: dict) -> None:

@@ -11,6 +11,7 @@ from typing import Any
 from creepcomp.errors import InputError
 from creepcomp.io.atomic import write_text_atomic
 from creepcomp.io.inputs import MAX_JSON_BYTES, check_input_file
+from creepcomp.active_stage import ActiveStage, is_active
 from creepcomp.model import CreepModel
 from creepcomp.network import Network
 
@@ -103,13 +104,27 @@ class Design:
         return out
 
 
-def read_design(path: str | Path) -> Design:
-    """Read and check a design file."""
+def read_design(path: str | Path, active: bool = False) -> Design:
+    """Read and check a design file.
+
+    ``active``: accept the active stage (``topology`` ``"active"``,
+    :class:`~creepcomp.active_stage.ActiveStage` as the design's network); without it such
+    a file is refused by name, for the commands that take a passive network only.
+    """
     data = read_json(path, "design file")
     where = f"design file {path}"
     if "creep" not in data:
         raise InputError(f"{where}: missing 'creep' (found keys: {', '.join(data)})")
     model = CreepModel.from_dict(data["creep"], where=f"{where}: 'creep'")
+    if is_active(data):
+        if not active:
+            raise InputError(f"{where}: an active stage (topology 'active'); this command takes a "
+                             "passive network (cells, R2): simulate, netlist and creep-test take "
+                             "the active stage")
+        stage = ActiveStage.from_dict(data, where=where)
+        stage.check_buildable(where)
+        known = {"creep", "topology", "active", "source_resistance", "load_resistance"}
+        return Design(model, stage, {k: v for k, v in data.items() if k not in known})
     network = Network.from_dict(data, where=where)
     network.check_buildable(where)
     known = {"creep", "cells", "R2", "shunt", "source_resistance", "load_resistance"}

@@ -11,21 +11,27 @@ path names.
 
 Every command that writes files calls :func:`check_outputs` first, so a long run never ends
 in "cannot write" and never overwrites the file it read; the files themselves are then
-written atomically (:mod:`creepcomp.io.atomic`).
+written atomically (:mod:`creepcomp.io.atomic`). :func:`check_outputs` also takes each
+output's lock (:func:`hold_lock`, held until :func:`release_outputs` or the process ends): a
+second run writing the same file or folder meanwhile is refused instead of silently replacing
+the first one's result.
 """
 
 from __future__ import annotations
 
+import atexit
+import contextlib
 import os
 import stat
 import tempfile
 from pathlib import Path
-from typing import Iterable, Mapping, Sequence
+from typing import Callable, Iterable, Mapping, Sequence
 
 from creepcomp.errors import InputError
 
 __all__ = ["PLOT_SUFFIXES", "OUTPUT_SUFFIXES", "check_outputs", "check_output_file",
-           "check_output_dir", "check_replaceable", "file_kind", "csv_cell"]
+           "check_output_dir", "check_replaceable", "file_kind", "csv_cell", "hold_lock",
+           "free_lock", "lock_output", "release_outputs", "lock_path"]
 
 #: File endings a plot can be saved as (matplotlib's formats); no ending is PNG.
 PLOT_SUFFIXES = ("png", "pdf", "svg", "svgz", "eps", "ps", "jpg", "jpeg", "tif", "tiff", "webp",
@@ -231,12 +237,111 @@ def check_outputs(files: Mapping[str, str | Path | None] | None = None,
     for option, path in (dirs or {}).items():
         if path is not None:
             check_output_dir(path, option, inputs, (contents or {}).get(option, ()))
+    for option, p in seen:
+        lock_output(p, option)
+    for option, path in (dirs or {}).items():
+        if path is not None:
+            lock_output(path, option)
+
+
+#: Lock file -> open descriptor, for the locks this process holds (:func:`lock_output`).
+_HELD: dict[Path, int] = {}
+
+
+def lock_path(path: str | Path) -> Path | None:
+    """The lock file of an output file or folder ``NAME``: ``.NAME.lock`` beside it (None for
+    the root folder, which has no name)."""
+    p = Path(os.path.abspath(path))
+    return p.with_name(f".{p.name}.lock") if p.name else None
+
+
+def hold_lock(path: Path, busy: Callable[[str], str]) -> int:
+    """Take the advisory lock (``flock``) of the lock file ``path`` and write this process's id
+    in it; returns its descriptor (-1 where the system has no ``flock``). The system frees the
+    lock when the process ends, however it ends: a lock file left by a process that died is
+    simply taken over.
+
+    Raises
+    ------
+    InputError
+        ``busy(holder)`` when another process holds it (``holder``: its process id as written).
+    """
+    try:
+        import fcntl
+    except ImportError:  # no flock on this system: no lock
+        return -1
+    while True:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            holder = os.read(fd, 64).decode("ascii", "replace").strip() or "unknown"
+            os.close(fd)
+            raise InputError(busy(holder)) from None
+        try:  # the holder before may have removed the file between our open and our lock
+            same = os.stat(path).st_ino == os.fstat(fd).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            break
+        os.close(fd)
+    os.ftruncate(fd, 0)
+    os.write(fd, f"{os.getpid()}\n".encode("ascii"))
+    return fd
+
+
+def free_lock(path: Path, fd: int) -> None:
+    """Remove the lock file ``path`` and free its lock (``fd`` from :func:`hold_lock`)."""
+    if fd < 0:
+        return
+    with contextlib.suppress(OSError):
+        os.unlink(path)
+    with contextlib.suppress(OSError):
+        os.close(fd)
+
+
+def lock_output(path: str | Path, option: str = "-o") -> None:
+    """Hold the lock of an output file or folder (:func:`lock_path`) until
+    :func:`release_outputs` or the end of the process; one this process holds already is kept.
+    In a folder that does not exist yet there is no lock (nothing is made before the work).
+
+    Raises
+    ------
+    InputError
+        When another creepcomp run holds it: its output would replace this one's.
+    """
+    lock = lock_path(path)
+    if lock is None or not lock.parent.is_dir():
+        return
+    key = lock.parent.resolve() / lock.name
+    if key in _HELD:
+        return
+
+    def busy(holder: str) -> str:
+        return (f"{option} {path}: is being written by another creepcomp run (pid {holder}); wait "
+                "for it to end or choose another path")
+    try:
+        _HELD[key] = hold_lock(lock, busy)
+    except OSError:  # no lock file can be made there: the checks above judged the folder
+        return
+
+
+def release_outputs() -> None:
+    """Free every output lock this process holds (:func:`lock_output`)."""
+    while _HELD:
+        path, fd = _HELD.popitem()
+        free_lock(path, fd)
+
+
+atexit.register(release_outputs)
 
 
 def csv_cell(text: str) -> str:
     """A cell a spreadsheet cannot run: text starting with ``=``, ``+``, ``-``, ``@``, a tab
     or a carriage return (a formula to a spreadsheet) gets a leading ``'``; a number stays
-    a number."""
+    a number, and a lone ``-`` (no value) stays itself."""
+    if text == "-":
+        return text
     try:
         float(text)
         return text

@@ -15,7 +15,7 @@ from creepcomp.io.atomic import atomic_path, write_text_atomic
 from creepcomp.network import Network
 from creepcomp.units import format_quantity
 
-__all__ = ["schematic_drawing", "schematic_svg", "draw_network"]
+__all__ = ["schematic_drawing", "active_drawing", "schematic_svg", "draw_network"]
 
 #: Height of a parallel R ‖ C cell's arms above and below the signal line.
 _ARM = 1.1
@@ -56,6 +56,8 @@ def schematic_drawing(network: Network, plan: PartsPlan | None = None, canvas: s
     import schemdraw.elements as elm
 
     plan = plan or PartsPlan()
+    if getattr(network, "topology", None) == "active":
+        return active_drawing(network, plan, canvas)
     values = {label: (kind, v) for label, kind, v in network.parts()}
     d = schemdraw.Drawing(canvas=canvas, show=False)
     d.config(fontsize=11, unit=2.5)
@@ -123,6 +125,88 @@ def schematic_drawing(network: Network, plan: PartsPlan | None = None, canvas: s
         d.add(elm.Ground())
     if not branches:
         d.add(elm.Line().right(1.0).at(top))
+    return d
+
+
+#: Vertical distance between the integrator loops of an active stage.
+_LOOP_PITCH = 7.0
+
+
+def active_drawing(stage, plan: PartsPlan | None = None, canvas: str = "svg"):
+    """The active stage (:class:`~creepcomp.analog.active.ActiveStage`) as a
+    ``schemdraw.Drawing``: per term the divider ``RA``/``RB``/``RG``, the integrator ``Uj``
+    with ``RTj`` (a thermistor when the plan says so) and ``Cj``, its summing resistor
+    ``RSj``; ``RS0`` from the input and the output follower ``U0``."""
+    import schemdraw
+    import schemdraw.elements as elm
+
+    plan = plan or PartsPlan()
+    d = schemdraw.Drawing(canvas=canvas, show=False)
+    d.config(fontsize=10, unit=2.5)
+    source = d.add(elm.SourceV().up().label("sensor", loc="bottom"))
+    d.add(elm.Ground().at(source.start))
+    if stage.source_resistance > 0:
+        d.add(elm.Resistor().right().at(source.end)
+              .label(f"Rs\n{format_quantity(stage.source_resistance, 'Ω')}"))
+    else:
+        d.add(elm.Line().right(1.0).at(source.end))
+    if stage.input_buffer:
+        d.add(elm.Line().right(0.5))
+        buffer = d.add(elm.Opamp(leads=True).anchor("in2").label("Uin", loc="center", ofst=(-0.4, 0)))
+        d.add(elm.Line().at(buffer.out).right(0.6))
+        tap = d.here
+        d.add(elm.Line().at(buffer.in1).up(1.2))
+        d.add(elm.Line().to((tap[0], d.here[1])))
+        d.add(elm.Line().to(tap))
+        d.add(elm.Line().at(tap).right(0.4))
+    node_in = d.add(elm.Dot().label("in", loc="top")).center
+    bus_x = None
+    outs = []
+    for j, t in enumerate(stage.terms, 1):
+        y = node_in[1] - (j - 1) * _LOOP_PITCH
+        start = (node_in[0], y)
+        if j > 1:
+            d.add(elm.Line().at((node_in[0], y + _LOOP_PITCH)).to(start))
+            d.add(elm.Dot().at(start))
+        d.add(elm.Resistor().right().at(start).label(f"RA{j}\n{format_quantity(t.RA, 'Ω')}"))
+        e = d.add(elm.Dot()).center
+        d.add(elm.Resistor().down().at(e).label(f"RG{j}\n{format_quantity(t.RG, 'Ω')}", loc="bottom"))
+        d.add(elm.Ground())
+        text, thermistor = _value(f"RT{j}", "R", t.RT, plan)
+        d.add((elm.Thermistor if thermistor else elm.Resistor)().right().at(e).label(text))
+        minus = d.add(elm.Dot()).center
+        op = d.add(elm.Opamp(leads=True).anchor("in1").at(minus).label(f"U{j}", loc="center",
+                                                                         ofst=(-0.4, 0)))
+        d.add(elm.Ground().at(op.in2))
+        d.add(elm.Line().up(1.6).at(minus))
+        top = d.here
+        d.add(elm.Capacitor().right().to((op.out[0], top[1]))
+              .label(f"C{j}\n{format_quantity(t.C, 'F')}"))
+        d.add(elm.Line().to(op.out))
+        d.add(elm.Line().up(3.4).at(e))
+        d.add(elm.Resistor().right().to((op.out[0] + 0.8, e[1] + 3.4))
+              .label(f"RB{j}\n{format_quantity(t.RB, 'Ω')}"))
+        d.add(elm.Line().to((op.out[0] + 0.8, op.out[1])))
+        d.add(elm.Dot().at((op.out[0] + 0.8, op.out[1])))
+        d.add(elm.Line().at(op.out).right(0.8))
+        d.add(elm.Resistor().right().label(f"RS{j}\n{format_quantity(t.RS, 'Ω')}"))
+        outs.append(d.here)
+        bus_x = d.here[0] if bus_x is None else max(bus_x, d.here[0])
+    low = node_in[1] - (len(stage.terms) - 1) * _LOOP_PITCH - 4.5
+    d.add(elm.Line().at((node_in[0], node_in[1] - (len(stage.terms) - 1) * _LOOP_PITCH))
+          .to((node_in[0], low)))
+    d.add(elm.Resistor().right().to((bus_x, low)).label(f"RS0\n{format_quantity(stage.RS0, 'Ω')}"))
+    for p in outs:
+        d.add(elm.Line().at(p).to((bus_x, p[1])))
+    d.add(elm.Line().at((bus_x, outs[0][1])).to((bus_x, low)))
+    s_node = d.add(elm.Dot().at((bus_x, low)).label("s", loc="top")).center
+    d.add(elm.Line().right(0.8).at(s_node))
+    follower = d.add(elm.Opamp(leads=True).anchor("in2").label("U0", loc="center", ofst=(-0.4, 0)))
+    d.add(elm.Line().at(follower.out).right(0.8))
+    out = d.add(elm.Dot().label("out", loc="top")).center
+    d.add(elm.Line().at(follower.in1).up(1.2))
+    d.add(elm.Line().to((out[0], d.here[1])))
+    d.add(elm.Line().to(out))
     return d
 
 

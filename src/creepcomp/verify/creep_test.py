@@ -511,6 +511,10 @@ def design_at(design, temperature: float):
     from creepcomp.analog.parts import DIELECTRICS, network_at, plan_of
 
     plan = plan_of(design)
+    if design.network.topology == "active":
+        from creepcomp.analog.active import stage_over
+
+        return design.model.at_temperature(temperature), stage_over(design.network, plan, temperature)
     net = network_at(design.network, plan, temperature)
     insulation = DIELECTRICS[plan.capacitor].insulation_time(temperature)
     cells = tuple(Cell(c.R, c.C, insulation / c.C if c.C > 0 else None, c.absorption_R, c.absorption_C)
@@ -537,7 +541,8 @@ def design_test(design, temperatures: Sequence[float], limits: CreepLimits,
     lags = {float(T): _cascade_form(*design_at(design, T)) for T in temperatures}
     result = _lag_test("design", lags, limits, program)
     plan = plan_of(design)
-    result.settings = {"tracking": plan.tracking, "capacitor": plan.capacitor}
+    result.settings = {"tracking": plan.tracking, "capacitor": plan.capacitor,
+                       "topology": design.network.topology}
     result.notes += _law_note(design.model)
     return result
 

@@ -38,7 +38,7 @@ from creepcomp.verify.drive import (DEFAULT_POINTS, DEFAULT_SIGNAL, MAX_STEP_FRA
 
 __all__ = [
     "MAX_STEP_FRACTION", "RECORD_MAX_STEP_FRACTION", "RELTOL", "TRTOL", "VOLTAGE_TOLERANCE",
-    "REFERENCE_CAPACITANCE", "ascii_text", "Deck", "program_deck", "shift_expression", "record_arrays",
+    "REFERENCE_CAPACITANCE", "OP_AMP_GAIN", "ascii_text", "Deck", "program_deck", "shift_expression", "record_arrays",
     "record_deck", "record_data", "write_record_data", "write_deck", "reference_designs", "reference_deck",
     "write_reference_netlists",
 ]
@@ -199,6 +199,9 @@ def _network_lines(out: _Lines, network: Network, input_node: str, ground: str =
     next stage's input resistance when the network has one. With a ``plan``, its parts move
     with ``temper`` (TCs about ``tnom``, thermistors)."""
     n = spice_number
+    if getattr(network, "topology", None) == "active":
+        _active_lines(out, network, input_node, ground, plan)
+        return
     many = len(network.cells) > 1
     out.comment("correction network: series cells R1 || C1 from the sensor to the output")
     node = input_node
@@ -230,6 +233,43 @@ def _network_lines(out: _Lines, network: Network, input_node: str, ground: str =
     if network.load_resistance is not None:
         out.comment("input resistance of the next stage")
         out.add("R", "L", "out", ground, n(network.load_resistance))
+
+
+#: Open-loop gain of the op amps of an active stage (VCVS): the ideal op amp of its
+#: ``H(s)`` within ``1e-9``.
+OP_AMP_GAIN = 1e9
+
+
+def _active_lines(out: _Lines, stage, input_node: str, ground: str = "0",
+                  plan: PartsPlan | None = None) -> None:
+    """The active stage (:class:`creepcomp.active_stage.ActiveStage`) between ``input_node``
+    and ``out``: op amps as voltage-controlled voltage sources of gain :data:`OP_AMP_GAIN`."""
+    n = spice_number
+    gain = n(OP_AMP_GAIN)
+    out.comment(f"active correction stage: op amps as VCVS of gain {gain} (+ input at ground for "
+                "an integrator)")
+    if stage.input_buffer:
+        out.comment("input follower Uin: the stage's input current does not load the sensor")
+        out.raw(f"EUin buf {ground} {input_node} buf {gain}")
+        input_node = "buf"
+    for j, t in enumerate(stage.terms, 1):
+        out.comment(f"term {j}: divider RA{j}/RB{j}/RG{j} at e{j}; integrator U{j} (RT{j}, C{j}) "
+                    f"with output w{j}; summing resistor RS{j}")
+        _resistor(out, f"A{j}", input_node, f"e{j}", f"RA{j}", t.RA, plan)
+        _resistor(out, f"B{j}", f"w{j}", f"e{j}", f"RB{j}", t.RB, plan)
+        _resistor(out, f"G{j}", f"e{j}", ground, f"RG{j}", t.RG, plan)
+        _resistor(out, f"T{j}", f"e{j}", f"m{j}", f"RT{j}", t.RT, plan)
+        _capacitor(out, f"{j}", f"m{j}", f"w{j}", t.C, plan)
+        if t.leakage is not None:
+            out.add("R", f"leak{j}", f"m{j}", f"w{j}", n(t.leakage))
+        out.raw(f"EU{j} w{j} {ground} {ground} m{j} {gain}")
+        _resistor(out, f"S{j}", f"w{j}", "s", f"RS{j}", t.RS, plan)
+    out.comment("output summer RS0 from the input; follower U0")
+    _resistor(out, "S0", input_node, "s", "RS0", stage.RS0, plan)
+    out.raw(f"EU0 out {ground} s out {gain}")
+    if stage.load_resistance is not None:
+        out.comment("input resistance of the next stage")
+        out.add("R", "L", "out", ground, n(stage.load_resistance))
 
 
 def _source_resistance_lines(out: _Lines, network: Network, emf_node: str) -> str:

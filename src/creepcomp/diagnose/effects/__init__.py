@@ -221,10 +221,13 @@ class Effect(abc.ABC):
         return None
 
     def firmware_output(self, entry: dict, model: CreepModel) -> dict | None:
-        """The extension as a map of the C corrector's output, sample by sample, when it is
-        one the generator can write (``entry``: its parameters): ``{"polynomial": (c2, c3)}``,
-        the load ``X`` (signal units above the offset) whose instantaneous response
-        ``X + c2 X^2 + c3 X^3`` is the linear corrector's output. None: no C corrector."""
+        """The extension as a map the C corrector writes, sample by sample, when it is one
+        the generator can write (``entry``: its parameters; ``X``: the load in signal units
+        above the offset): ``{"polynomial": (c2, c3)}``, the load whose instantaneous
+        response ``X + c2 X^2 + c3 X^3`` is the linear corrector's output, or one of the maps
+        of :mod:`creepcomp.digital.firmware_extension` (``reloading``, ``peak``, ``play``,
+        ``recovery``, ``overshoot``), each a dict of its parameters. None: no C corrector;
+        an InputError names why where that is not plain."""
         return None
 
 
@@ -467,9 +470,18 @@ INVERSE_TOLERANCE = 1e-6
 STRICT_ITERATIONS = 400
 
 
+def law_from_extension(model: CreepModel) -> bool:
+    """Whether the model's ``temperature`` block restates one of its extensions (the law of
+    the same slope a diagnosis writes beside, e.g., ``thermal_retardation``): the creep
+    correction then applies the extension, the form that was fitted, and not the block too."""
+    return model.temperature is not None and any(
+        type(get(name)).temperature_law is not Effect.temperature_law for name in model.extensions or {})
+
+
 def extension_inverses(model: CreepModel) -> dict[str, str]:
     """How the creep correction undoes each extension of ``model`` (:meth:`Effect.inverse`),
-    by name; one clear refusal naming the first it cannot undo."""
+    by name; one clear refusal naming the first it cannot undo, or a temperature block
+    beside extensions that it does not restate."""
     out = {}
     for name, entry in (model.extensions or {}).items():
         effect = get(name)
@@ -478,7 +490,7 @@ def extension_inverses(model: CreepModel) -> dict[str, str]:
             raise InputError(f"the model's extension '{name}' cannot be inverted causally by the "
                              f"creep correction; {BASELINE_ADVICE}")
         out[name] = how
-    if out and model.temperature is not None:
+    if out and model.temperature is not None and not law_from_extension(model):
         raise InputError(f"the model's temperature law cannot be applied together with its "
                          f"extensions ({', '.join(out)}); {BASELINE_ADVICE}")
     return out

@@ -102,6 +102,18 @@ class AsymmetricRecovery(SensorEffect):
                     "sample; dead band 1 % of the record's largest load), tau otherwise")
         return "the term's time constant tau_recovery on the steps where its state shrinks, tau where it grows"
 
+    def firmware_output(self, entry, model):
+        if entry.get("switch", "state") != "state":
+            raise InputError("the model's extension 'asymmetric_recovery' switched by the load's direction "
+                             "has no C corrector: its dead band is 1 % of the largest load of the whole "
+                             "record (of each 4096-sample segment), which a corrector running sample by "
+                             "sample does not know; generate the firmware of the baseline model "
+                             "(baseline-model.json), or correct records in Python with creepcomp correct")
+        taus = np.array(model.tau)
+        return {"recovery": {"term": int(np.argmin(np.abs(np.log(taus / float(entry["tau"]))))),
+                             "tau_recovery": float(entry["tau_recovery"]),
+                             "dead_band": _BAND}}
+
     # -- generator ---------------------------------------------------------------------------
     def draw_default(self, rng, scales, mixture):
         f = rng.uniform(2.5, 5.0)
@@ -129,10 +141,14 @@ EFFECT = AsymmetricRecovery()
 _DIFFERENT_STEPS = 0.01
 
 
+#: The dead band of the state switch, relative to the largest |input| of the lag.
+_BAND = 1e-9
+
+
 def _band(h: np.ndarray) -> float:
     # a state at its target is in neither mode: a small dead band keeps rounding from
     # flipping modes (and the fixed-point iteration from never settling)
-    return 1e-9 * max(float(np.max(np.abs(h))), 1e-300)
+    return _BAND * max(float(np.max(np.abs(h))), 1e-300)
 
 
 def _shrinking(h: np.ndarray, c: np.ndarray) -> np.ndarray:

@@ -172,6 +172,14 @@ class MullinsSoftening(SensorEffect):
         return ("each sample's load from the reloading curve x (1 - softening g(1 - |x|/m)), m the running "
                 "maximum of the load found so far")
 
+    def firmware_output(self, entry, model):
+        softening = float(entry["softening"])
+        if entry.get("form", "reloading") == "peak":
+            # x (1 - softening m / M) in signal units: m and M scale with |gain|
+            return {"peak": {"softening": softening, "scale": abs(model.gain) * float(entry["load_scale"])}}
+        return {"reloading": {"softening": softening, "shape": float(entry.get("shape", 0.0)),
+                              "chord": _CHORD}}
+
     # -- generator ---------------------------------------------------------------------------
     def draw(self, rng, scales, form):
         if form == "peak":

@@ -204,6 +204,12 @@ class RateIndependentHysteresis(SensorEffect):
             return None
         return "weight (play(x) - x), the play operator run on the load found up to each sample, taken out of the signal"
 
+    def firmware_output(self, entry, model):
+        # in signal units X = gain x: weight (play(x) - x) = ratio (play(X) - X), the play's
+        # half width |gain| width / 2; it starts virgin at zero
+        return {"play": {"ratio": float(entry["weight"]) / model.gain,
+                         "half_width": 0.5 * abs(model.gain) * float(entry["width"])}}
+
     # -- generator ---------------------------------------------------------------------------
     def draw(self, rng, scales, form):
         s = scales

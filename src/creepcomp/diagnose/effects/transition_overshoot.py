@@ -19,6 +19,7 @@ import numpy as np
 
 from scipy.optimize import nnls
 
+from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
@@ -130,6 +131,24 @@ class TransitionOvershoot(SensorEffect):
     def inverse(self, entry, model):
         return ("the transient amplitude (v - lag_tau(v)), v the total variation of the load found up to each "
                 "sample, taken out of the signal")
+
+    def firmware_output(self, entry, model):
+        # in signal units X = gain x: amplitude v = (amplitude / |gain|) v_X, the play's half
+        # width |gain| DEAD_BAND load_scale / 2; the decay a sum of lags (one unless stretched)
+        if "load_scale" not in entry:
+            raise InputError("the model's extension 'transition_overshoot' has no 'load_scale' (its "
+                             "dead band's scale): no C corrector for it; give it in the model file")
+        exponent = float(entry.get("exponent", 1.0))
+        tau = float(entry["tau"])
+        if exponent >= 1.0:
+            weights, taus = [1.0], [tau]
+        else:
+            w = stretched_weights(exponent)
+            used = w > 1e-9
+            weights, taus = w[used].tolist(), (tau * STRETCH_GRID[used]).tolist()
+        return {"overshoot": {"ratio": float(entry["amplitude"]) / abs(model.gain),
+                              "half_width": 0.5 * abs(model.gain) * DEAD_BAND * float(entry["load_scale"]),
+                              "weights": weights, "taus": taus}}
 
     # -- generator ---------------------------------------------------------------------------
     def draw(self, rng, scales, form):
