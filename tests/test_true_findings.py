@@ -190,3 +190,25 @@ def test_a_step_time_counts_once_whatever_the_terms():
     assert steps == 6
     # a further term costs its time constant, initial state and amplitude, not the steps again
     assert two.n_params - one.n_params == 3
+
+
+def test_every_model_file_diagnose_writes_can_be_read(run_cli, tmp_path):
+    """A delayed signal's baseline is a term of beta below -1 standing in for the delay: no
+    command could read it, so it is not written, and the output says why."""
+    from creepcomp.io.jsonfiles import read_model
+    from creepcomp.io.records import write_record
+
+    record = synth.generate(synth.random_spec("time_offset", 1, max_samples=2500)).record
+    write_record(tmp_path / "r.csv", record)
+    (tmp_path / "d").mkdir()
+    (tmp_path / "d" / "baseline-model.json").write_text("{}")      # from an earlier run
+    status, out, err = run_cli("diagnose", tmp_path / "r.csv", "-o", tmp_path / "d", "--json")
+    assert status == 0, err
+    import json
+    files = json.loads(out)["files"]
+    for key in ("model", "baseline_model"):
+        if key in files:
+            read_model(files[key])
+    if "baseline_model" not in files:
+        assert "beta" in files["baseline_model_not_written"]
+        assert not (tmp_path / "d" / "baseline-model.json").exists()

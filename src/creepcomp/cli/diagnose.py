@@ -77,11 +77,12 @@ def diagnose_command(
     with progress_bar("diagnosing the sensor side", disable=as_json):
         result = diagnose(record, initial=init, load_step_at=step, candidates=sensor_candidates)
     units = {c: record.unit(c) for c in ("signal", "load")}
-    paths = {}
+    paths, not_written = {}, None
     if output is not None:
-        from creepcomp.report.diagnosis import write_report
+        from creepcomp.report.diagnosis import unreadable_baseline, write_report
 
         paths = write_report(result, output, units, circuit=circuit)
+        not_written = unreadable_baseline(result)
     if as_json:
         out = result.to_dict() if circuit is None else combine(result.to_dict(), circuit)
         if reduction:
@@ -90,6 +91,8 @@ def diagnose_command(
             out["circuit_record_reduction"] = full_reduction
         if paths:
             out["files"] = {k: str(v) for k, v in paths.items()}
+            if not_written:
+                out["files"]["baseline_model_not_written"] = not_written
         print_json(out)
         return
     render_diagnosis(record, result)
@@ -102,6 +105,9 @@ def diagnose_command(
         console.print(f"[yellow]note:[/yellow] circuit side: {full_reduction}", soft_wrap=True)
     for label, path in paths.items():
         console.print(f"{label.replace('_', ' ')} written to {path}")
+    if paths and not_written:
+        console.print(f"[yellow]note:[/yellow] baseline-model.json not written: {not_written}",
+                      soft_wrap=True)
 
 
 def split_candidates(text: str | None) -> tuple[list | None, list | None]:

@@ -274,5 +274,24 @@ def write_report(diagnosis, out_dir, units: dict | None = None, circuit=None) ->
     else:
         write_json(paths["diagnosis"], diagnosis.to_dict())
     write_json(paths["model"], diagnosis.extended_model)
-    write_json(paths["baseline_model"], diagnosis.baseline_model)
+    if unreadable_baseline(diagnosis) is None:
+        write_json(paths["baseline_model"], diagnosis.baseline_model)
+    else:
+        # a model file no command could read is not written, and none left from an earlier run
+        stale = paths.pop("baseline_model")
+        if stale.is_file() and not stale.is_symlink():
+            stale.unlink()
     return paths
+
+
+def unreadable_baseline(diagnosis) -> str | None:
+    """Why the diagnosis's baseline model is not a model file (e.g. a term of beta below -1
+    standing in for a delay, whose correction has no causal inverse), or None."""
+    from creepcomp.errors import InputError
+    from creepcomp.model import CreepModel
+
+    try:
+        CreepModel.from_dict(diagnosis.baseline_model, where="baseline model")
+    except InputError as exc:
+        return str(exc)
+    return None
