@@ -20,7 +20,7 @@ from scipy import linalg, optimize
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.noise import ARNoise, fit_noise, gaussian_bic, rows_for, whiten
-from creepcomp.fit.structure import Param, Structure, basis, taus_of
+from creepcomp.fit.structure import Param, Structure, basis, lag_jacobian, taus_of
 from creepcomp.model import CreepModel
 
 __all__ = ["Fit", "ANCHOR_WEIGHT", "Problem", "best_of_starts", "fit_structure", "with_noise",
@@ -207,10 +207,11 @@ class Problem:
         self.frozen = dict(frozen or {})
         self.params = [p for p in self.all_params if p.name not in self.frozen]
         self.rows = np.arange(data.n) if mask is None else np.flatnonzero(mask)   # fitted
+        self.take = slice(None) if mask is None else self.rows    # (a view when all are fitted)
         self.likelihood_rows = rows_for(data, mask)                               # prewhitened
         if len(self.likelihood_rows) < 10:
             raise InputError(f"{data.source}: too few samples left to fit")
-        self.y = data.signal[self.rows]
+        self.y = data.signal[self.take]
         self.fixed = dict(fixed or {})
         self.anchor = dict(anchor or {})
         # the optimiser's tolerances are partly absolute: work on a residual of order one
@@ -229,8 +230,12 @@ class Problem:
 
     def project(self, x: np.ndarray):
         """Basis, linear coefficients and residual (on the fitted rows) at ``x``."""
+        key = np.asarray(x, float).tobytes()
+        last = self.cache.get("project")
+        if last is not None and last[0] == key:
+            return last[1]
         b = basis(self.data, self.structure, self.values(x), self.cache)
-        a = b.columns[self.rows]
+        a = b.columns[self.take]
         held = np.array([n in self.fixed for n in b.names])
         known = np.array([self.fixed.get(n, 0.0) for n in b.names])
         target = self.y - a[:, held] @ known[held] if held.any() else self.y
@@ -240,7 +245,9 @@ class Problem:
             prior = np.array([float(self.anchor.get(n, 0.0)) for n in b.names])[~held]
         if not held.all():
             coef[~held] = _solve(a[:, ~held], target, prior)
-        return b, coef, self.y - a @ coef
+        out = (b, coef, self.y - a @ coef)
+        self.cache["project"] = (key, out)
+        return out
 
     def residual(self, x: np.ndarray) -> np.ndarray:
         """Residual with the linear part projected out, relative to the signal's range."""
@@ -248,6 +255,41 @@ class Problem:
             return self.project(x)[2] / self.scale
         except (FloatingPointError, ValueError, linalg.LinAlgError):
             return np.full(len(self.rows), 1e30)
+
+    def analytic(self) -> bool:
+        """True when the residual's Jacobian is analytic (a plain Prony model)."""
+        return not self.structure.effects
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        """Jacobian of :meth:`residual` (variable projection, Golub and Pereyra): for each
+        nonlinear parameter, ``-(dA c + A dc)`` with the linear coefficients' response
+        ``dc = G^-1 (dA^T r - A^T dA c)`` on the free columns (``G = A^T A``); the lags'
+        derivatives come from their own recursion (:func:`creepcomp.fit.structure.lag_jacobian`).
+        """
+        b, coef, r = self.project(x)
+        moves = lag_jacobian(self.data, self.structure, self.values(x), b, self.params)
+        a = b.columns[self.take]
+        free = np.flatnonzero([n not in self.fixed for n in b.names])
+        moved = np.column_stack([coef[col] * d[self.take] for col, d in moves])   # dA c
+        jac = -moved
+        if len(free):
+            af = a[:, free]
+            norms = np.sqrt(np.einsum("ij,ij->j", af, af))
+            norms[norms == 0] = 1.0
+            # G^+ A^T in scaled coordinates: z = (A D^-1)^+ M, and A G^+ e_i = (A D^-1) G_s^+ e_i / D_i
+            gram = (af.T @ af) / np.outer(norms, norms)
+            eig, vec = np.linalg.eigh(gram)
+            keep = eig > (1e-8 if eig[0] > 1e-8 * eig[-1] else 1e-26) * eig[-1]
+            inverse = (vec[:, keep] / eig[keep]) @ vec[:, keep].T          # G_s^+
+            jac = jac + (af / norms) @ (inverse @ ((af.T @ moved) / norms[:, None]))
+            where = {c: i for i, c in enumerate(free)}
+            pick = [(j, where[col], float(d[self.take] @ r)) for j, (col, d) in enumerate(moves)
+                    if col in where]
+            if pick:
+                js, cols, dots = map(np.array, zip(*pick))
+                weights = inverse[:, cols] / norms[:, None] / norms[cols][None, :] * dots[None, :]
+                jac[:, js] -= af @ weights
+        return jac / self.scale
 
     def cost(self, values: dict) -> float:
         """Sum of squared residuals at a start value dictionary."""
@@ -261,7 +303,8 @@ class Problem:
         if len(x0) == 0:
             return x0
         lo, hi = zip(*(p.bounds() for p in self.params))
-        res = optimize.least_squares(self.residual, x0, bounds=(lo, hi), method="trf",
+        jac = self.jacobian if self.analytic() else "2-point"
+        res = optimize.least_squares(self.residual, x0, jac=jac, bounds=(lo, hi), method="trf",
                                      x_scale=1.0, max_nfev=max_nfev or 40 * (len(x0) + 1),
                                      diff_step=1e-6, xtol=1e-8, ftol=1e-8, gtol=1e-8)
         return res.x

@@ -23,9 +23,9 @@ from typing import Any
 import numpy as np
 
 from creepcomp.fit.data import Data
-from creepcomp.lti import lag_states, varying_lag_states
+from creepcomp.lti import lag_states, lag_tau_derivatives, varying_lag_states
 
-__all__ = ["Param", "Applied", "Structure", "taus_of", "Basis", "basis"]
+__all__ = ["Param", "Applied", "Structure", "taus_of", "Basis", "basis", "lag_jacobian"]
 
 #: Iterations of the mode switching of lags whose time constant depends on their state.
 _MODE_ITERATIONS = 50
@@ -260,3 +260,38 @@ def basis(data: Data, structure: Structure, values: dict, cache: dict | None = N
             cols.append(col)
             names.append(f"{a.name}.{name}")
     return Basis(np.column_stack(cols), tuple(names), x, s, h, lags)
+
+
+def lag_jacobian(data: Data, structure: Structure, values: dict, b: Basis,
+                 params) -> list[tuple[int, np.ndarray]] | None:
+    """Analytic derivatives of the basis by the nonlinear parameters of a plain Prony model
+    (no effects): each of ``params`` (time constants, initial states) moves one lag column.
+
+    Returns
+    -------
+    list of (int, numpy.ndarray) or None
+        Per parameter, the index of the column it moves and that column's derivative by the
+        parameter's search coordinate; None when the structure applies effects (their
+        parameters may move any column: differentiate numerically).
+    """
+    if structure.effects:
+        return None
+    t, h = data.time, b.creep_input
+    taus = taus_of(values, structure.n_terms)
+    slope = None
+    if data.initial == "step":
+        since = data.t0 - data.load_step_at
+        slope = -h[0] * np.exp(-since / taus) * since / taus ** 2
+    needs_tau = any(p.name.startswith("tau[") for p in params)
+    dtau = lag_tau_derivatives(t, h, taus, b.lags, data.hold, slope) if needs_tau else None
+    out = []
+    for p in params:
+        k = int(p.name[p.name.index("[") + 1:-1])
+        column = b.names.index(f"a[{k}]")
+        if p.name.startswith("tau["):
+            out.append((column, dtau[:, k] * taus[k]))          # search coordinate: log tau
+        elif p.name.startswith("c0["):
+            out.append((column, np.exp(-(t - t[0]) / taus[k]) * p.scale))
+        else:
+            return None
+    return out
