@@ -219,6 +219,33 @@ def _same_lag_inputs(last, h, key) -> bool:
     return same_init and same_own and np.array_equal(taus0, taus) and np.array_equal(h0, h)
 
 
+#: Lag states shared by every fit of the process (the candidate effects of a diagnosis all
+#: start from the same time constants): the last few, by their inputs.
+_SHARED: dict = {}
+_SHARED_SIZE = 32
+
+
+def _lag_key(data: Data, h, taus, init) -> tuple:
+    init_key = init if isinstance(init, str) else np.asarray(init, float).tobytes()
+    return (hash(data.time.tobytes()), hash(np.asarray(h).tobytes()), np.asarray(taus, float).tobytes(),
+            init_key, data.hold)
+
+
+def _shared_lags(data: Data, h, taus, init):
+    """Lag states of plain lags computed before for the same inputs (None: not held)."""
+    hit = _SHARED.get(_lag_key(data, h, taus, init))
+    if hit is not None and np.array_equal(hit[0], data.time) and np.array_equal(hit[1], h):
+        return hit[2]
+    return None
+
+
+def _share_lags(data: Data, h, taus, init, lags) -> None:
+    if len(_SHARED) >= _SHARED_SIZE:
+        _SHARED.pop(next(iter(_SHARED)))
+    lags.flags.writeable = False          # shared: nobody may change them
+    _SHARED[_lag_key(data, h, taus, init)] = (data.time, np.asarray(h), lags)
+
+
 def basis(data: Data, structure: Structure, values: dict, cache: dict | None = None) -> Basis:
     """Evaluate the model's linear basis for given nonlinear parameter values."""
     t = data.time
@@ -243,7 +270,11 @@ def basis(data: Data, structure: Structure, values: dict, cache: dict | None = N
     if last is not None and _same_lag_inputs(last[0], h, key):
         lags = last[1]
     else:
-        lags = _lags(data, h, taus, init, dynamic, values, cache)
+        lags = _shared_lags(data, h, taus, init) if not dynamic else None
+        if lags is None:
+            lags = _lags(data, h, taus, init, dynamic, values, cache)
+            if not dynamic:
+                _share_lags(data, h, taus, init, lags)
         if cache is not None:
             cache["lags"] = ((h, key), lags)
     cols, names = [], []
