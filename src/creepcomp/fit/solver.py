@@ -416,8 +416,9 @@ def _covariance(problem: Problem, x, coef, noise: ARNoise) -> np.ndarray | None:
     ``(J^T J)^-1 J^T Sigma J (J^T J)^-1`` with ``Sigma = sigma^2 W^-1 W^-T``."""
     data, rows = problem.data, problem.rows
     b = basis(data, problem.structure, problem.values(x), problem.cache)
-    cols = []
-    for j in range(len(x)):
+    moves = lag_jacobian(data, problem.structure, problem.values(x), b, problem.params)
+    cols = [] if moves is None else [coef[col] * d for col, d in moves]
+    for j in range(len(x) if moves is None else 0):
         h = 1e-6 * max(1.0, abs(x[j]))
         xp, xm = x.copy(), x.copy()
         xp[j] += h
