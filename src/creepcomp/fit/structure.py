@@ -17,6 +17,7 @@ so only the time constants, the initial states and an effect's own nonlinear par
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -222,7 +223,8 @@ def _same_lag_inputs(last, h, key) -> bool:
 #: Lag states shared by every fit of the process (the candidate effects of a diagnosis all
 #: start from the same time constants): the last few, by their inputs.
 _SHARED: dict = {}
-_SHARED_SIZE = 32
+_SHARED_SIZE = 8
+_SHARED_LOCK = threading.Lock()          # a fleet's worker runs units on several threads
 
 
 def _lag_key(data: Data, h, taus, init) -> tuple:
@@ -233,17 +235,20 @@ def _lag_key(data: Data, h, taus, init) -> tuple:
 
 def _shared_lags(data: Data, h, taus, init):
     """Lag states of plain lags computed before for the same inputs (None: not held)."""
-    hit = _SHARED.get(_lag_key(data, h, taus, init))
+    with _SHARED_LOCK:
+        hit = _SHARED.get(_lag_key(data, h, taus, init))
     if hit is not None and np.array_equal(hit[0], data.time) and np.array_equal(hit[1], h):
         return hit[2]
     return None
 
 
 def _share_lags(data: Data, h, taus, init, lags) -> None:
-    if len(_SHARED) >= _SHARED_SIZE:
-        _SHARED.pop(next(iter(_SHARED)))
     lags.flags.writeable = False          # shared: nobody may change them
-    _SHARED[_lag_key(data, h, taus, init)] = (data.time, np.asarray(h), lags)
+    key = _lag_key(data, h, taus, init)
+    with _SHARED_LOCK:
+        while len(_SHARED) >= _SHARED_SIZE:
+            _SHARED.pop(next(iter(_SHARED)))
+        _SHARED[key] = (data.time, np.asarray(h), lags)
 
 
 def basis(data: Data, structure: Structure, values: dict, cache: dict | None = None) -> Basis:
