@@ -9,7 +9,8 @@ of phi 0.99 (same variance), where stated uncertainties are tested against actua
 Printed per tool: terms chosen, parameter errors (relative, terms matched by tau), held-out
 error (fitted on the first 70 % of the record, RMS of the prediction of the rest, in units
 of the noise), warm CPU time (in-process, second fit; also with the number of terms given)
-and cold wall time (a fresh interpreter: import and one fit), and the coverage of the stated one-sigma and two-sigma intervals over seeds.
+and cold wall time (a fresh interpreter: import and one fit), and the coverage of the stated
+one-sigma and two-sigma intervals over seeds.
 
 Usage::
 
