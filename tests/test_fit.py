@@ -264,3 +264,18 @@ def test_projected_jacobian_matches_finite_differences(initial):
         fd = np.column_stack([(problem.residual(x + 1e-5 * e) - problem.residual(x - 1e-5 * e)) / 2e-5
                               for e in np.eye(len(x))])
         assert np.all(np.max(np.abs(jac - fd), axis=0) <= 1e-5 * np.max(np.abs(fd), axis=0))
+
+
+def test_free_start_gives_way_to_settled_on_a_record_that_starts_at_rest():
+    """A record at rest before its load step: the settled start is kept (the free initial
+    states do not earn their parameters) and the terms are found; one that starts creeping
+    keeps its fitted initial states."""
+    t = np.arange(0.0, 1800.0, 0.5)
+    load = np.where(t >= 30.0, 1.0, 0.0)
+    noise = np.random.default_rng(3).normal(0.0, 1e-4, t.size)
+    signal = load + lag_states(t, load, [8.0, 300.0]) @ np.array([0.02, 0.04]) + noise
+    result = fit_prony(prepare(Record(t, load, signal)))
+    assert result.data.initial == "settled" and result.fit.structure.n_terms == 2
+    assert sorted(result.fit.taus) == pytest.approx([8.0, 300.0], rel=0.05)
+    creeping = load + lag_states(t, load, [300.0], initial=np.array([-0.5])) @ np.array([0.04]) + noise
+    assert fit_prony(prepare(Record(t, load, creeping))).data.initial == "free"
