@@ -256,9 +256,15 @@ class Problem:
         except (FloatingPointError, ValueError, linalg.LinAlgError):
             return np.full(len(self.rows), 1e30)
 
-    def analytic(self) -> bool:
-        """True when the residual's Jacobian is analytic (a plain Prony model)."""
-        return not self.structure.effects
+    def analytic(self, x: np.ndarray) -> bool:
+        """True when the residual's Jacobian at ``x`` is analytic (a plain Prony model)."""
+        if self.structure.effects:
+            return False
+        try:
+            b = self.project(x)[0]
+        except (FloatingPointError, ValueError, linalg.LinAlgError):
+            return False
+        return lag_jacobian(self.data, self.structure, self.values(x), b, self.params) is not None
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
         """Jacobian of :meth:`residual` (variable projection, Golub and Pereyra): for each
@@ -303,7 +309,7 @@ class Problem:
         if len(x0) == 0:
             return x0
         lo, hi = zip(*(p.bounds() for p in self.params))
-        jac = self.jacobian if self.analytic() else "2-point"
+        jac = self.jacobian if self.analytic(x0) else "2-point"
         res = optimize.least_squares(self.residual, x0, jac=jac, bounds=(lo, hi), method="trf",
                                      x_scale=1.0, max_nfev=max_nfev or 40 * (len(x0) + 1),
                                      diff_step=1e-6, xtol=1e-8, ftol=1e-8, gtol=1e-8)

@@ -307,11 +307,12 @@ def lag_jacobian(data: Data, structure: Structure, values: dict, b: Basis,
     -------
     list of (int, numpy.ndarray) or None
         Per parameter, the index of the column it moves and that column's derivative by the
-        parameter's search coordinate; None when the structure applies effects (their
-        parameters may move any column: differentiate numerically).
+        parameter's search coordinate; None when the structure applies effects or the basis
+        has other columns (they may move with any parameter: differentiate numerically).
     """
-    if structure.effects:
-        return None
+    plain = {"offset", "gain"} | {f"a[{k}]" for k in range(structure.n_terms)}
+    if structure.effects or not set(b.names) <= plain:
+        return None              # other columns may move with the parameters too
     t, h = data.time, b.creep_input
     taus = taus_of(values, structure.n_terms)
     slope = None
