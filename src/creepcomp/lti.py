@@ -22,7 +22,7 @@ if TYPE_CHECKING:
 
 __all__ = ["LagExpansion", "UNIFORM_RTOL", "lag_coefficients", "is_uniform", "lag_states",
            "cascade_matrices", "cascade_step", "cascade_step_arrays", "triangle_lag_gap",
-           "cascade_lags", "varying_lag_states"]
+           "cascade_lags", "varying_lag_states", "lag_tau_derivatives"]
 
 #: Relative spread of time steps below which sampling counts as uniform (then scipy's lfilter
 #: runs the recursion; the coefficient error this tolerance allows is below 1e-9 * dt / tau).
@@ -439,4 +439,71 @@ def varying_lag_states(time, u, taus, hold: str = "linear", initial="relaxed") -
             growth = np.exp(decay[i0 + 1:i1] - decay[i0])     # <= exp(500) within a block
             acc = np.cumsum(drive[i0:i1 - 1] * growth, axis=0)
             out[i0 + 1:i1] = (c + acc) / growth
+    return out
+
+
+def _exprel_slope(x: np.ndarray) -> np.ndarray:
+    """d/dx of ``(1 - exp(-x)) / x``: ``(exp(-x) - g) / x``, by its series for small x."""
+    x = np.asarray(x, dtype=float)
+    small = x < 1e-2
+    xs = np.where(small, x, 0.0)
+    series = -0.5 + xs / 3.0 - xs ** 2 / 8.0 + xs ** 3 / 30.0 - xs ** 4 / 144.0
+    from scipy import special
+
+    xl = np.where(small, 1.0, x)
+    exact = (np.exp(-xl) - special.exprel(-xl)) / xl
+    return np.where(small, series, exact)
+
+
+def lag_tau_derivatives(time, u, taus, states, hold: str = "linear", initial_slope=None) -> np.ndarray:
+    """Derivatives ``d c_k / d tau_k`` of the states of :func:`lag_states`, exact for the
+    discretisation: differentiating ``c[n+1] = e c[n] + b0 u[n] + b1 u[n+1]`` gives the same
+    recursion ``d[n+1] = e d[n] + e' c[n] + b0' u[n] + b1' u[n+1]`` (primes: d/d tau).
+
+    Parameters
+    ----------
+    time, u : array_like, shape (N,)
+    taus : array_like, shape (K,)
+    states : numpy.ndarray, shape (N, K)
+        The lags' states (:func:`lag_states` with the same arguments).
+    hold : {"linear", "zero"}
+    initial_slope : array_like, shape (K,), optional
+        ``d c_k[0] / d tau_k`` (default zero: an initial state that does not depend on tau).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(N, K)``.
+    """
+    t = np.asarray(time, dtype=float)
+    u = np.asarray(u, dtype=float)
+    taus = np.atleast_1d(np.asarray(taus, dtype=float))
+    n, k = len(t), len(taus)
+    out = np.empty((n, k))
+    out[0] = 0.0 if initial_slope is None else np.asarray(initial_slope, float)
+    if n < 2 or k == 0:
+        return out
+    dt = np.diff(t)
+    uniform = is_uniform(t)
+    step = np.full((1, 1), float(np.mean(dt))) if uniform else dt[:, None]
+    x = step / taus[None, :]
+    e = np.exp(-x)
+    dx = -x / taus[None, :]                   # dx / d tau
+    de = -e * dx
+    if hold == "zero":
+        db0, db1 = -de, np.zeros_like(de)
+    elif hold == "linear":
+        dg = _exprel_slope(x) * dx
+        db0, db1 = dg - de, -dg
+    else:
+        raise InputError(f"hold '{hold}': use 'linear' or 'zero'")
+    drive = de * states[:-1] + db0 * u[:-1, None] + db1 * u[1:, None]
+    if uniform:
+        from scipy import signal
+
+        for j in range(k):
+            ej = float(e[0, j])
+            out[1:, j], _ = signal.lfilter([1.0], [1.0, -ej], drive[:, j], zi=[ej * out[0, j]])
+        return out
+    _scan(t, taus, np.broadcast_to(e, drive.shape), drive, out[0].copy(), out)
     return out

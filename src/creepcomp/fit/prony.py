@@ -3,14 +3,14 @@ the evidence supports it, and the model file with uncertainties and fit statisti
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 from scipy import linalg
 
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
-from creepcomp.fit.evidence import FOLDS, Evidence, compare, heldout
+from creepcomp.fit.evidence import BIC_STRONG, FOLDS, Evidence, compare, heldout
 from creepcomp.fit.noise import ARNoise
 from creepcomp.fit.solver import Fit, fit_structure
 from creepcomp.fit.starts import cluster_taus, extra_term_starts, nnls_spectrum, one_term_starts, tau_grid
@@ -78,7 +78,9 @@ def fit_prony(data: Data, max_terms: int = 6, n_terms: int | None = None,
     first term that is not supported (or at ``max_terms``). ``n_terms`` fixes the number.
     Each model's likelihood has its own AR noise (its parameters counted by BIC).
     ``effects`` are applied to every model (e.g. ``(Applied(effects.get("viscous_flow")),)``
-    for the Burgers model).
+    for the Burgers model). With a free initial state, the record is also fitted as starting
+    settled at its first load (at rest when that load is zero), and that fit is kept unless
+    the free start lowers BIC by :data:`BIC_STRONG` (its initial states are parameters too).
 
     Examples
     --------
@@ -98,6 +100,21 @@ def fit_prony(data: Data, max_terms: int = 6, n_terms: int | None = None,
     >>> print(f"{model.n_terms} term: beta = {model.beta[0]:.3f}, tau = {model.tau[0]:.0f} s")
     1 term: beta = 0.030, tau = 45 s
     """
+    result = _orders(data, max_terms, n_terms, folds, effects)
+    if data.initial != "free":
+        return result
+    # a record that starts settled (at rest, or long at its first load) is told from one that
+    # starts creeping by the evidence: the free start must earn its parameters
+    try:
+        settled = _orders(replace(data, initial="settled"), max_terms, n_terms, folds, effects)
+    except InputError:
+        return result
+    return settled if settled.fit.bic < result.fit.bic + BIC_STRONG else result
+
+
+def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
+            effects: tuple[Applied, ...]) -> PronyResult:
+    """Fits of 1, 2, ... terms while the evidence supports another (see :func:`fit_prony`)."""
     steps: list[OrderStep] = []
     chosen = 0
     previous = None
@@ -138,7 +155,9 @@ def fit_summary(data: Data, fit: Fit) -> dict:
         "n_samples": data.n,
         "duration_s": data.duration,
         "initial_state": {"free": "fitted (free initial creep states)",
-                          "relaxed": "relaxed (assumed)", "settled": "settled at the first load (assumed)",
+                          "relaxed": "relaxed (assumed)",
+                          "settled": "settled at the first load (assumed, or chosen over a free "
+                                     "start by BIC)",
                           "step": f"load step at {data.load_step_at} s"}[data.initial],
         "structure": fit.structure.describe(),
         "residual_rms": fit.residual_rms,

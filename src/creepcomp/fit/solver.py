@@ -20,7 +20,8 @@ from scipy import linalg, optimize
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.noise import ARNoise, fit_noise, gaussian_bic, rows_for, whiten
-from creepcomp.fit.structure import Basis, Param, Structure, basis, taus_of, with_step_times
+from creepcomp.fit.structure import (Basis, Param, Structure, basis, basis_derivatives, taus_of,
+                                     with_step_times)
 from creepcomp.model import CreepModel
 
 __all__ = ["Fit", "ANCHOR_WEIGHT", "Problem", "best_of_starts", "fit_structure", "with_noise",
@@ -233,6 +234,17 @@ def _within_step_bounds(b: Basis, coef: np.ndarray, free: np.ndarray, limits: np
     return out if (out != free).any() else free
 
 
+def _scaled_inverse(a: np.ndarray):
+    """Columns scaled to unit norm, their norms, and the pseudo-inverse of their Gram matrix
+    (directions below a relative 1e-8 of its largest eigenvalue dropped when ill-posed)."""
+    norms = np.sqrt(np.einsum("ij,ij->j", a, a))
+    norms[norms == 0] = 1.0
+    an = a / norms
+    eig, vec = np.linalg.eigh(an.T @ an)
+    keep = eig > (1e-8 if eig[0] > 1e-8 * eig[-1] else 1e-26) * eig[-1]
+    return an, norms, (vec[:, keep] / eig[keep]) @ vec[:, keep].T
+
+
 class Problem:
     """Variable projection (least squares) for one structure on one record, or part of it."""
 
@@ -244,10 +256,11 @@ class Problem:
         self.frozen = dict(frozen or {})
         self.params = [p for p in self.all_params if p.name not in self.frozen]
         self.rows = np.arange(data.n) if mask is None else np.flatnonzero(mask)   # fitted
+        self.take = slice(None) if mask is None else self.rows    # (a view when all are fitted)
         self.likelihood_rows = rows_for(data, mask)                               # prewhitened
         if len(self.likelihood_rows) < 10:
             raise InputError(f"{data.source}: too few samples left to fit")
-        self.y = data.signal[self.rows]
+        self.y = data.signal[self.take]
         self.fixed = dict(fixed or {})
         self.anchor = dict(anchor or {})
         # the optimiser's tolerances are partly absolute: work on a residual of order one
@@ -273,8 +286,17 @@ class Problem:
 
     def project(self, x: np.ndarray):
         """Basis, linear coefficients and residual (on the fitted rows) at ``x``."""
+        return self._projection(x)[:3]
+
+    def _projection(self, x: np.ndarray):
+        """:meth:`project` and the mask of the coefficients solved for (not held at given
+        values or at a step time's bound); the last point's is kept."""
+        key = np.asarray(x, float).tobytes()
+        last = self.cache.get("project")
+        if last is not None and last[0] == key:
+            return last[1]
         b = self.basis(x)
-        a = b.columns[self.rows]
+        a = b.columns[self.take]
         held = np.array([n in self.fixed for n in b.names])
         coef = np.array([self.fixed.get(n, 0.0) for n in b.names])
         prior = None
@@ -293,7 +315,9 @@ class Problem:
             if narrowed is free:
                 break
             free = narrowed
-        return b, coef, self.y - a @ coef
+        out = (b, coef, self.y - a @ coef, free)
+        self.cache["project"] = (key, out)
+        return out
 
     def residual(self, x: np.ndarray) -> np.ndarray:
         """Residual with the linear part projected out, relative to the signal's range."""
@@ -301,6 +325,71 @@ class Problem:
             return self.project(x)[2] / self.scale
         except (FloatingPointError, ValueError, linalg.LinAlgError):
             return np.full(len(self.rows), 1e30)
+
+    def analytic(self) -> bool:
+        """True when the residual's Jacobian is analytic (a Prony model without effects)."""
+        return not self.structure.effects and all(
+            p.name.startswith(("tau[", "c0[")) for p in self.params)
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        """Jacobian of :meth:`residual` (variable projection, Golub and Pereyra): for each
+        nonlinear parameter, ``-(dA c + A dc)`` with the linear coefficients' response
+        ``dc = G^-1 (dA^T r - A^T dA c)`` on the free columns (``G = A^T A``); the columns'
+        derivatives are analytic (:func:`creepcomp.fit.structure.basis_derivatives`). A step
+        time held at its bound moves with the creep amplitude that sets the bound."""
+        b, coef, r, free = self._projection(x)
+        moves = basis_derivatives(self.data, self.structure, self.values(x), b, self.params)
+        a = b.columns[self.take]
+        dot_r = np.zeros((len(b.names), len(moves)))                  # dA^T r
+        moved = np.zeros((len(r), len(moves)))                         # dA c
+        for j, m in enumerate(moves):
+            for col, d in m:
+                dj = d[self.take]
+                moved[:, j] += coef[col] * dj
+                dot_r[col, j] = dj @ r
+        total = moved + a @ self._bound_response(b, a, coef, free, moves)   # dA c + A dc (held)
+        jac = -total
+        free = np.flatnonzero(free)
+        if len(free):
+            scaled, norms, inverse = _scaled_inverse(a[:, free])
+            jac = jac + scaled @ (inverse @ (scaled.T @ total - dot_r[free] / norms[:, None]))
+        return jac / self.scale
+
+    def _bound_response(self, b: Basis, a: np.ndarray, coef: np.ndarray, free: np.ndarray,
+                        moves) -> np.ndarray:
+        """Derivatives of the coefficients (rows; zero but for step times held at their
+        bound, ``|a_k|`` times a half interval with ``a_k`` solved without the step times)
+        by the nonlinear parameters (columns)."""
+        out = np.zeros((len(b.names), len(moves)))
+        bound = [(col, k, half) for col, k, half in b.step_bounds
+                 if not free[col] and b.names[col] not in self.fixed]
+        if not bound:
+            return out
+        steps = np.zeros(len(b.names), bool)
+        steps[[col for col, _, _ in b.step_bounds]] = True
+        plain = np.array([n not in self.fixed for n in b.names]) & ~steps
+        if not plain.any():
+            return out                  # the amplitudes setting the bounds are held too
+        trial = np.array([self.fixed.get(n, 0.0) for n in b.names])
+        target = self.y - a[:, ~plain] @ trial[~plain]
+        scaled, norms, inverse = _scaled_inverse(a[:, plain])
+        trial[plain] = (inverse @ (scaled.T @ target)) / norms
+        rp = target - a[:, plain] @ trial[plain]
+        moved = np.zeros((len(rp), len(moves)))
+        dot_r = np.zeros((len(b.names), len(moves)))
+        for j, m in enumerate(moves):
+            for col, d in m:
+                if not steps[col]:
+                    moved[:, j] += trial[col] * d[self.take]
+                    dot_r[col, j] = d[self.take] @ rp
+        dtrial = (inverse @ (dot_r[plain] / norms[:, None] - scaled.T @ moved)) / norms[:, None]
+        where = {c: i for i, c in enumerate(np.flatnonzero(plain))}
+        for col, k, half in bound:
+            amplitude = b.names.index(f"a[{k}]")
+            if amplitude in where:
+                out[col] = (np.sign(coef[col]) * half * np.sign(trial[amplitude])
+                            * dtrial[where[amplitude]])
+        return out
 
     def cost(self, values: dict) -> float:
         """Sum of squared residuals at a start value dictionary."""
@@ -314,7 +403,8 @@ class Problem:
         if len(x0) == 0:
             return x0
         lo, hi = zip(*(p.bounds() for p in self.params))
-        res = optimize.least_squares(self.residual, x0, bounds=(lo, hi), method="trf",
+        jac = self.jacobian if self.analytic() else "2-point"
+        res = optimize.least_squares(self.residual, x0, jac=jac, bounds=(lo, hi), method="trf",
                                      x_scale=1.0, max_nfev=max_nfev or 40 * (len(x0) + 1),
                                      diff_step=1e-6, xtol=1e-8, ftol=1e-8, gtol=1e-8)
         return res.x
@@ -434,9 +524,11 @@ def _covariance(problem: Problem, x, coef, noise: ARNoise) -> np.ndarray | None:
     """Covariance of the least-squares estimates under AR noise (sandwich):
     ``(J^T J)^-1 J^T Sigma J (J^T J)^-1`` with ``Sigma = sigma^2 W^-1 W^-T``."""
     rows = problem.rows
-    b = problem.basis(x)
-    cols = []
-    for j in range(len(x)):
+    b, _, _, free = problem._projection(x)
+    moves = (basis_derivatives(problem.data, problem.structure, problem.values(x), b, problem.params)
+             if problem.analytic() else None)
+    cols = [] if moves is None else [sum(coef[col] * d for col, d in m) for m in moves]
+    for j in range(len(x) if moves is None else 0):
         h = 1e-6 * max(1.0, abs(x[j]))
         xp, xm = x.copy(), x.copy()
         xp[j] += h
@@ -445,8 +537,8 @@ def _covariance(problem: Problem, x, coef, noise: ARNoise) -> np.ndarray | None:
         bm = problem.basis(xm).columns @ coef
         cols.append((bp - bm) / (2 * h))
     full = np.column_stack(cols + [b.columns]) if cols else b.columns
-    held = [len(x) + i for i, n in enumerate(b.names) if n in problem.fixed]
-    full[:, held] = 0.0
+    # coefficients held at given values or at a step time's bound are not estimated
+    full[:, len(x) + np.flatnonzero(~free)] = 0.0
     z = np.zeros_like(full)
     z[rows] = full[rows]
     return sandwich_covariance([z], [noise])
