@@ -53,12 +53,15 @@ class PronyResult:
 
 
 def fit_terms(data: Data, n_terms: int, previous: Fit | None = None, noise: ARNoise | None = None,
-              effects: tuple[Applied, ...] = ()) -> Fit:
+              effects: tuple[Applied, ...] = (), start: dict | None = None, with_cov: bool = True,
+              ftol: float = 1e-8) -> Fit:
     """Fit ``n_terms`` Prony terms (plus ``effects`` applied to every model, e.g. viscous flow):
     starts from the non-negative spectrum and, when given, from the previous fit plus one grid
-    time; refine; keep the best."""
+    time (or from the values ``start`` alone); refine; keep the best."""
     structure = Structure(n_terms, tuple(effects))
-    if n_terms == 1:
+    if start is not None:
+        starts = [start]
+    elif n_terms == 1:
         starts = one_term_starts(data)
     else:
         grid = tau_grid(data, per_decade=6)
@@ -66,7 +69,8 @@ def fit_terms(data: Data, n_terms: int, previous: Fit | None = None, noise: ARNo
         starts = [{f"tau[{k}]": t for k, t in enumerate(cluster_taus(grid, amps, n_terms))}]
         if previous is not None:
             starts += extra_term_starts(data, previous, structure)
-    return fit_structure(data, structure, starts, noise=noise, n_refine=3)
+    return fit_structure(data, structure, starts, noise=noise, n_refine=3, with_cov=with_cov,
+                         ftol=ftol)
 
 
 def fit_prony(data: Data, max_terms: int = 6, n_terms: int | None = None,
@@ -100,15 +104,25 @@ def fit_prony(data: Data, max_terms: int = 6, n_terms: int | None = None,
     >>> print(f"{model.n_terms} term: beta = {model.beta[0]:.3f}, tau = {model.tau[0]:.0f} s")
     1 term: beta = 0.030, tau = 45 s
     """
-    result = _orders(data, max_terms, n_terms, folds, effects)
     if data.initial != "free":
-        return result
+        return _orders(data, max_terms, n_terms, folds, effects)
     # a record that starts settled (at rest, or long at its first load) is told from one that
-    # starts creeping by the evidence: the free start must earn its parameters
+    # starts creeping by the evidence: the free start must earn its parameters. The free
+    # start is first tried at the settled choice's number of terms (from the settled fit: the
+    # free model holds it); only when it wins there are its own numbers of terms searched.
     try:
         settled = _orders(replace(data, initial="settled"), max_terms, n_terms, folds, effects)
     except InputError:
-        return result
+        return _orders(data, max_terms, n_terms, folds, effects)
+    try:
+        # (converged far enough to tell a BIC difference of BIC_STRONG)
+        trial = fit_terms(data, settled.fit.structure.n_terms, effects=effects,
+                          start=settled.fit.values, with_cov=False, ftol=0.1 * BIC_STRONG / data.n)
+    except (InputError, linalg.LinAlgError):
+        trial = None
+    if trial is not None and not trial.bic < settled.fit.bic - BIC_STRONG:
+        return settled
+    result = _orders(data, max_terms, n_terms, folds, effects)
     return settled if settled.fit.bic < result.fit.bic + BIC_STRONG else result
 
 

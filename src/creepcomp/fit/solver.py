@@ -396,7 +396,7 @@ class Problem:
         r = self.residual(self.start_vector(values))
         return float(r @ r)
 
-    def refine(self, x0: np.ndarray, max_nfev: int | None = None) -> np.ndarray:
+    def refine(self, x0: np.ndarray, max_nfev: int | None = None, ftol: float = 1e-8) -> np.ndarray:
         """Refine the nonlinear parameters from the search point ``x0``; returns the search
         point. ``max_nfev`` caps the iterations (each also evaluates a finite-difference
         Jacobian)."""
@@ -406,14 +406,15 @@ class Problem:
         jac = self.jacobian if self.analytic() else "2-point"
         res = optimize.least_squares(self.residual, x0, jac=jac, bounds=(lo, hi), method="trf",
                                      x_scale=1.0, max_nfev=max_nfev or 40 * (len(x0) + 1),
-                                     diff_step=1e-6, xtol=1e-8, ftol=1e-8, gtol=1e-8)
+                                     diff_step=1e-6, xtol=1e-8, ftol=ftol, gtol=1e-8)
         return res.x
 
 
 def fit_structure(data: Data, structure: Structure, starts: Sequence[dict], noise: ARNoise | None = None,
                   mask: np.ndarray | None = None, max_nfev: int | None = None,
                   n_refine: int = 2, with_cov: bool = True, fixed: dict | None = None,
-                  anchor: dict | None = None, refine: bool = True, frozen: dict | None = None) -> Fit:
+                  anchor: dict | None = None, refine: bool = True, frozen: dict | None = None,
+                  ftol: float = 1e-8) -> Fit:
     """Fit a structure by least squares (variable projection); likelihood, BIC and
     uncertainties with an AR noise model.
 
@@ -450,13 +451,15 @@ def fit_structure(data: Data, structure: Structure, starts: Sequence[dict], nois
         Refine the nonlinear parameters (False: keep the best start, solve the linear part).
     frozen : dict, optional
         Nonlinear parameters held at given values (not searched).
+    ftol : float
+        Relative change of the cost at which a refinement stops.
     """
     problem = Problem(data, structure, mask, fixed=fixed, anchor=anchor, frozen=frozen)
     starts = [problem.start_vector(s) for s in starts]
     if not starts:
         raise InputError("no start values")
     x = best_of_starts(problem.residual, starts, n_refine,
-                       (lambda x0: problem.refine(x0, max_nfev)) if refine else None)
+                       (lambda x0: problem.refine(x0, max_nfev, ftol)) if refine else None)
     return _finish(problem, x, noise, with_cov)
 
 
