@@ -20,8 +20,8 @@ from scipy import linalg, optimize
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.noise import ARNoise, fit_noise, gaussian_bic, rows_for, whiten
-from creepcomp.fit.structure import (Basis, Param, Structure, basis, basis_derivatives, taus_of,
-                                     with_step_times)
+from creepcomp.fit.structure import (Basis, Param, Structure, basis, basis_derivatives, load_steps,
+                                     taus_of, with_step_times)
 from creepcomp.model import CreepModel
 
 __all__ = ["Fit", "ANCHOR_WEIGHT", "Problem", "best_of_starts", "fit_structure", "with_noise",
@@ -458,9 +458,54 @@ def fit_structure(data: Data, structure: Structure, starts: Sequence[dict], nois
     starts = [problem.start_vector(s) for s in starts]
     if not starts:
         raise InputError("no start values")
+    coarse = _coarse(problem) if refine and mask is None and not fixed and not anchor else None
+    if coarse is not None:
+        # the starts are searched on the coarse record; its best point is refined on all
+        starts = [best_of_starts(coarse.residual, starts, n_refine,
+                                 lambda x0: coarse.refine(x0, max_nfev, max(ftol, COARSE_FTOL)))]
+        # from there, converged until the cost moves the log-likelihood by under 0.005
+        ftol = max(ftol, 0.01 / len(problem.rows))
     x = best_of_starts(problem.residual, starts, n_refine,
                        (lambda x0: problem.refine(x0, max_nfev, ftol)) if refine else None)
     return _finish(problem, x, noise, with_cov)
+
+
+#: Samples of the coarse record on which the starts of a long record's fit are searched.
+COARSE_SAMPLES = 2000
+#: Relative change of the cost at which a refinement on the coarse record stops.
+COARSE_FTOL = 1e-6
+
+
+def _coarse(problem: Problem) -> "Problem | None":
+    """The problem on a coarse record (every m-th sample, and both samples of every load
+    step and the ends of every segment: a load that steps or holds between kept samples is
+    the same load, and so are the lags), with the full problem's parameters and bounds; None
+    for a model with effects (they may depend on every sample) or a record too short to
+    gain by it."""
+    data = problem.data
+    step = data.n // COARSE_SAMPLES
+    if problem.structure.effects or step < 4:
+        return None
+    keep = np.zeros(data.n, bool)
+    keep[::step] = True
+    keep[-1] = True
+    steps = load_steps(data)
+    keep[steps] = keep[steps + 1] = True
+    ends = np.flatnonzero(np.diff(data.segment) != 0)
+    keep[ends] = keep[ends + 1] = True
+    if np.count_nonzero(keep) * 4 > data.n:
+        return None
+    rows = np.flatnonzero(keep)
+    coarse = replace(data, time=data.time[rows], load=data.load[rows], signal=data.signal[rows],
+                     segment=data.segment[rows],
+                     temperature=None if data.temperature is None else data.temperature[rows])
+    try:
+        out = Problem(coarse, problem.structure, frozen=problem.frozen)
+    except InputError:
+        return None
+    out.all_params, out.params = problem.all_params, problem.params
+    out.scale = problem.scale
+    return out
 
 
 def _counted_linear(names, fixed: dict) -> int:
