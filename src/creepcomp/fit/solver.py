@@ -16,6 +16,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 from scipy import linalg, optimize
+from scipy.linalg import lapack
 
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
@@ -560,12 +561,18 @@ def with_noise(fit: Fit, noise: ARNoise) -> Fit:
 
 def _inverse_ar_transpose(z: np.ndarray, noise: ARNoise) -> np.ndarray:
     """``W^-T z`` for the AR prewhitening filter ``W`` (the inverse filter run backwards)."""
-    from scipy import signal as sps
-
     if noise.order == 0:
         return z
-    den = np.concatenate([[1.0], -np.array(noise.phi)])
-    return sps.lfilter([1.0], den, z[::-1], axis=0)[::-1]
+    # the all-pole filter 1 / (1 - sum phi_i q^-i) run backwards: a banded triangular solve
+    z = np.asarray(z, dtype=float)
+    band = np.zeros((noise.order + 1, len(z)))
+    band[0] = 1.0
+    for i, phi in enumerate(noise.phi, start=1):
+        band[i, :len(z) - i] = -phi
+    out, info = lapack.dtbtrs(band, z[::-1].reshape(len(z), -1), uplo="L")
+    if info != 0:
+        raise linalg.LinAlgError(f"AR filter: LAPACK dtbtrs info {info}")
+    return out.reshape(z.shape)[::-1]
 
 
 def _covariance(problem: Problem, x, coef, noise: ARNoise) -> np.ndarray | None:
