@@ -319,7 +319,7 @@ def load_steps(data: Data) -> np.ndarray:
     return np.flatnonzero((d > ABRUPT_FACTOR * neighbours) & big & same_segment & (d > 0))
 
 
-def with_step_times(data: Data, b: Basis, taus: np.ndarray) -> Basis:
+def with_step_times(data: Data, b: Basis, taus: np.ndarray, cache: dict | None = None) -> Basis:
     """The basis with the record's unknown step times: a load step between two samples
     happened anywhere between them, but the lags are driven by the load taken linear between
     samples, which for a lag much slower than the sampling is a step at the interval's middle.
@@ -329,11 +329,27 @@ def with_step_times(data: Data, b: Basis, taus: np.ndarray) -> Basis:
     combination of the load and the lag states), so the first step is the reference: one
     column per later step and term, whose coefficient the solver bounds by ``|a_k|`` times
     the half intervals of that step and the first (:attr:`Basis.step_bounds`). Only with the
-    load linear between samples."""
-    steps = load_steps(data) if data.hold == "linear" else np.zeros(0, int)
-    if len(steps) < 2 or b.lags.shape[1] == 0:
+    load linear between samples. With a ``cache`` (one per fitting problem), the steps and
+    the last columns (for the same time constants and creep input) are kept."""
+    if b.lags.shape[1] == 0:
         return b
     t, h = data.time, b.creep_input
+    if cache is None:
+        cache = {}
+    steps = cache.get("load_steps")
+    if steps is None:
+        steps = load_steps(data) if data.hold == "linear" else np.zeros(0, int)
+        cache["load_steps"] = steps
+    if len(steps) < 2:
+        return b
+    key = np.asarray(taus, float).tobytes()
+    last = cache.get("step_times")
+    if last is not None and last[0] == key and (last[1] is h or np.array_equal(last[1], h)):
+        cols, names, bounds, mids = last[2]
+        first = b.columns.shape[1]
+        bounds = [(first + i, k, half) for i, (_, k, half) in enumerate(bounds)]
+        return replace(b, columns=np.column_stack([b.columns, cols]), names=b.names + names,
+                       step_bounds=tuple(bounds), step_mids=mids)
     cols, names, bounds, mids = [], [], [], []
     first = b.columns.shape[1]
     reference = 0.5 * float(t[steps[0] + 1] - t[steps[0]])
@@ -347,7 +363,9 @@ def with_step_times(data: Data, b: Basis, taus: np.ndarray) -> Basis:
             names.append(f"step_time[{j}][{k}]")
             bounds.append((first + len(bounds), k, 0.5 * float(t[i + 1] - t[i]) + reference))
             mids.append(mid)
-    return replace(b, columns=np.column_stack([b.columns] + cols), names=b.names + tuple(names),
+    cols = np.column_stack(cols)
+    cache["step_times"] = (key, h, (cols, tuple(names), tuple(bounds), tuple(mids)))
+    return replace(b, columns=np.column_stack([b.columns, cols]), names=b.names + tuple(names),
                    step_bounds=tuple(bounds), step_mids=tuple(mids))
 
 
