@@ -592,6 +592,12 @@ def _covariance(problem: Problem, x, coef, noise: ARNoise) -> np.ndarray | None:
         bm = problem.basis(xm).columns @ coef
         cols.append((bp - bm) / (2 * h))
     full = np.column_stack(cols + [b.columns]) if cols else b.columns
+    # a step time held at its bound moves with the creep amplitude that sets the bound
+    for col, k, half in b.step_bounds:
+        amplitude = b.names.index(f"a[{k}]")
+        if not free[col] and b.names[col] not in problem.fixed and free[amplitude]:
+            full[:, len(x) + amplitude] += (np.sign(coef[col]) * half * np.sign(coef[amplitude])
+                                           * b.columns[:, col])
     # coefficients held at given values or at a step time's bound are not estimated
     full[:, len(x) + np.flatnonzero(~free)] = 0.0
     z = np.zeros_like(full)
