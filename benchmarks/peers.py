@@ -88,8 +88,8 @@ def creepcomp_step(t, load, y, n_terms=None, initial="free"):
     sig = (np.array([r["beta_sigma"] for r in rows]), np.array([r["tau_sigma"] for r in rows]))
 
     def predict(tt):
-        return fit.simulate(prepare(Record(tt, np.where(tt >= STEP_AT, 1.0, 0.0), np.zeros_like(tt)),
-                                     initial=initial))
+        step = np.where(tt >= STEP_AT, 1.0, 0.0)      # (the signal is not used: the load, to be valid)
+        return fit.simulate(prepare(Record(tt, step, step), initial=result.data.initial))
     return betas, taus, sig, predict
 
 

@@ -11,7 +11,7 @@ covariance; p = 0 ... 5 chosen by BIC, its memory broken at gaps).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from typing import Callable, Sequence
 
 import numpy as np
@@ -497,9 +497,9 @@ def _coarse(problem: Problem) -> "Problem | None":
     if np.count_nonzero(keep) * 4 > data.n:
         return None
     rows = np.flatnonzero(keep)
-    coarse = replace(data, time=data.time[rows], load=data.load[rows], signal=data.signal[rows],
-                     segment=data.segment[rows],
-                     temperature=None if data.temperature is None else data.temperature[rows])
+    per_sample = {f.name: getattr(data, f.name)[rows] for f in fields(data)
+                  if isinstance(getattr(data, f.name), np.ndarray) and len(getattr(data, f.name)) == data.n}
+    coarse = replace(data, **per_sample)
     try:
         out = Problem(coarse, problem.structure, frozen=problem.frozen)
     except InputError:
