@@ -222,3 +222,61 @@ def test_halves_only_for_noise_that_carries_from_block_to_block():
         simple, rich = fits(noise)
         assert compare_with_halves(simple, rich, across(simple, rich)).supported
         assert bool(asked) is expected
+
+
+@pytest.mark.parametrize("uniform", [True, False])
+@pytest.mark.parametrize("hold", ["linear", "zero"])
+def test_lag_tau_derivatives_match_finite_differences(uniform, hold):
+    from creepcomp.lti import lag_tau_derivatives
+
+    rng = np.random.default_rng(1)
+    t = np.arange(0.0, 200.0, 0.1) if uniform else np.cumsum(rng.uniform(0.05, 0.3, 1500))
+    u = np.sin(t / 7.0) + (t > 30.0)
+    taus = np.array([0.05, 3.0, 40.0, 5000.0])
+    c0 = np.array([0.3, -0.2, 1.0, 0.5])
+    states = lag_states(t, u, taus, hold=hold, initial=c0)
+    slope = lag_tau_derivatives(t, u, taus, states, hold)
+    for j, tau in enumerate(taus):
+        up, down = taus.copy(), taus.copy()
+        up[j] *= 1.0 + 1e-5
+        down[j] *= 1.0 - 1e-5
+        fd = (lag_states(t, u, up, hold=hold, initial=c0)[:, j]
+              - lag_states(t, u, down, hold=hold, initial=c0)[:, j]) / (2e-5 * tau)
+        assert np.max(np.abs(slope[:, j] - fd)) <= 1e-6 * np.max(np.abs(fd))
+
+
+@pytest.mark.parametrize("initial", ["free", "relaxed", "step"])
+def test_projected_jacobian_matches_finite_differences(initial):
+    """The analytic variable-projection Jacobian (lags' own derivative recursion, linear part
+    projected out) equals central differences of the projected residual, with a mask and a
+    held coefficient too."""
+    from creepcomp.fit.solver import Problem
+
+    t = np.arange(0.0, 600.0, 0.5)
+    load = np.where(t >= 30.0, 1.0, 0.0) + 0.5 * (t >= 300.0)
+    signal = load + lag_states(t, load, [8.0, 90.0]) @ np.array([0.02, 0.03])
+    signal = signal + np.random.default_rng(0).normal(0.0, 1e-4, t.size)
+    record = Record(t, load + 0.1, signal) if initial == "step" else Record(t, load, signal)
+    data = (prepare(record, load_step_at=-5.0) if initial == "step" else prepare(record, initial=initial))
+    for mask, fixed in ((None, None), (np.arange(t.size) % 7 != 0, {"offset": 0.001})):
+        problem = Problem(data, Structure(2), mask=mask, fixed=fixed)
+        x = problem.start_vector({"tau[0]": 5.0, "tau[1]": 70.0, "c0[0]": 0.1, "c0[1]": -0.2})
+        jac = problem.jacobian(x)
+        fd = np.column_stack([(problem.residual(x + 1e-5 * e) - problem.residual(x - 1e-5 * e)) / 2e-5
+                              for e in np.eye(len(x))])
+        assert np.all(np.max(np.abs(jac - fd), axis=0) <= 1e-5 * np.max(np.abs(fd), axis=0))
+
+
+def test_free_start_gives_way_to_settled_on_a_record_that_starts_at_rest():
+    """A record at rest before its load step: the settled start is kept (the free initial
+    states do not earn their parameters) and the terms are found; one that starts creeping
+    keeps its fitted initial states."""
+    t = np.arange(0.0, 1800.0, 0.5)
+    load = np.where(t >= 30.0, 1.0, 0.0)
+    noise = np.random.default_rng(3).normal(0.0, 1e-4, t.size)
+    signal = load + lag_states(t, load, [8.0, 300.0]) @ np.array([0.02, 0.04]) + noise
+    result = fit_prony(prepare(Record(t, load, signal)))
+    assert result.data.initial == "settled" and result.fit.structure.n_terms == 2
+    assert sorted(result.fit.taus) == pytest.approx([8.0, 300.0], rel=0.05)
+    creeping = load + lag_states(t, load, [300.0], initial=np.array([-0.5])) @ np.array([0.04]) + noise
+    assert fit_prony(prepare(Record(t, load, creeping))).data.initial == "free"

@@ -179,20 +179,19 @@ def test_correct_writes_the_corrected_record_and_its_error(records, tmp_path):
 
 def test_a_fit_no_corrector_can_invert_is_reported_not_judged_and_says_why(records, tmp_path,
                                                                            monkeypatch):
-    import creepcomp.fit
+    from dataclasses import replace
 
-    real = creepcomp.fit.fit_prony
+    import creepcomp.diagnose
 
-    class Uninvertible:
-        """The real fit with its terms replaced by two of beta0 = -1.2."""
+    real = creepcomp.diagnose.diagnose
 
-        def __init__(self, data):
-            self.fitted = real(data)
+    def uninvertible(record, *args, **kwargs):
+        """The real diagnosis with its baseline model's terms replaced by two of beta0 = -1.2."""
+        result = real(record, *args, **kwargs)
+        return replace(result, baseline_model=dict(result.baseline_model, beta=[-0.7, -0.5],
+                                                   tau=[20.0, 25.0]))
 
-        def to_dict(self):
-            return dict(self.fitted.to_dict(), beta=[-0.7, -0.5], tau=[20.0, 25.0])
-
-    monkeypatch.setattr(creepcomp.fit, "fit_prony", Uninvertible)
+    monkeypatch.setattr(creepcomp.diagnose, "diagnose", uninvertible)
     result = run([records / "S1.csv"], tmp_path, scheduler=SERIAL, correct=True, report=False)
     row = result.table.to_pylist()[0]
     assert row["status"] == "ok" and row["error"] is None and row["cause"]

@@ -1,3 +1,5 @@
+import math
+
 import control
 import numpy as np
 import pytest
@@ -111,3 +113,32 @@ def test_lag_expansion_gains_and_forms_agree():
     tf = lag.transfer_function()
     np.testing.assert_allclose(fr, tf(1j * w), rtol=1e-12)
     np.testing.assert_allclose(lag.step(np.array([0.0, 1e9])), [0.9, 0.97], atol=1e-15)
+
+
+@pytest.mark.parametrize("rate", [0.0, 1e-9, 1e-3, 0.05, 0.5, 15.5, 29.9, 40.0, np.inf])
+def test_first_order_filter_is_the_recursion(rate):
+    """The blocked filter equals the plain recursion c[n+1] = e c[n] + drive[n] to rounding,
+    from a decay slower than the record to one faster than a sample."""
+    from creepcomp.lti import first_order_filter
+
+    rng = np.random.default_rng(3)
+    drive = rng.normal(size=5000) + (np.arange(5000) > 1000)
+    e, c = math.exp(-rate), 0.7
+    expected = np.empty(5000)
+    for n, d in enumerate(drive):
+        c = e * c + d
+        expected[n] = c
+    got = first_order_filter(e, drive, 0.7)
+    assert np.max(np.abs(got - expected)) <= 1e-12 * np.max(np.abs(expected))
+
+
+def test_inverse_ar_transpose_is_the_backward_all_pole_filter():
+    from creepcomp.fit.noise import ARNoise
+    from creepcomp.fit.solver import _inverse_ar_transpose
+
+    phi = (1.2, -0.5, 0.1)
+    z = np.random.default_rng(4).normal(size=(400, 3))
+    y = np.zeros_like(z)
+    for n in range(len(z) - 1, -1, -1):          # y[n] = z[n] + sum phi_i y[n + i]
+        y[n] = z[n] + sum(p * y[n + i] for i, p in enumerate(phi, start=1) if n + i < len(z))
+    assert np.allclose(_inverse_ar_transpose(z, ARNoise(phi=phi, sigma=1.0)), y, rtol=1e-12, atol=1e-12)

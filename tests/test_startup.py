@@ -43,3 +43,24 @@ def test_sizing_imports_neither_python_control_nor_matplotlib():
 def test_import_creepcomp_imports_nothing_heavy():
     loaded = modules_after("import creepcomp")
     assert heavy(loaded) == [] and "numpy" not in loaded
+
+
+def test_fit_imports_only_what_a_fit_uses(tmp_path):
+    """A fit needs scipy.optimize and nothing heavier: not scipy.signal (which loads
+    scipy.stats), interpolation, the diagnosis or any other command's module."""
+    import numpy as np
+
+    t = np.arange(0.0, 300.0, 0.5)
+    load = np.where(t >= 10.0, 1.0, 0.0)
+    signal = load * (1.0 + 0.03 * -np.expm1(-np.clip(t - 10.0, 0.0, None) / 20.0))
+    path = tmp_path / "step.csv"
+    np.savetxt(path, np.column_stack([t, load, signal + 1e-4 * np.sin(7.0 * t)]), delimiter=",",
+               header="time,load,signal", comments="")
+    loaded = modules_after("from creepcomp.cli import main\n"
+                           "import contextlib, io\n"
+                           "with contextlib.redirect_stdout(io.StringIO()):\n"
+                           f"    assert main(['fit', {str(path)!r}, '--json']) == 0")
+    assert "creepcomp.fit.prony" in loaded and "scipy.optimize" in loaded
+    assert [m for m in ("control", "scipy.signal", "scipy.stats", "scipy.interpolate", "matplotlib",
+                        "PySpice", "dask", "creepcomp.diagnose", "creepcomp.cli.mc")
+            if m in loaded] == []

@@ -9,6 +9,7 @@ linearly between samples (``hold="linear"``), on uniform or irregular time point
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 from dataclasses import dataclass
@@ -22,10 +23,11 @@ if TYPE_CHECKING:
 
 __all__ = ["LagExpansion", "UNIFORM_RTOL", "lag_coefficients", "is_uniform", "lag_states",
            "cascade_matrices", "cascade_step", "cascade_step_arrays", "triangle_lag_gap",
-           "cascade_lags", "varying_lag_states"]
+           "cascade_lags", "varying_lag_states", "lag_tau_derivatives", "first_order_filter"]
 
-#: Relative spread of time steps below which sampling counts as uniform (then scipy's lfilter
-#: runs the recursion; the coefficient error this tolerance allows is below 1e-9 * dt / tau).
+#: Relative spread of time steps below which sampling counts as uniform (then a recursion
+#: with constant coefficients runs, :func:`first_order_filter`; the coefficient error this
+#: tolerance allows is below 1e-9 * dt / tau).
 UNIFORM_RTOL = 1e-9
 
 #: Decay (in units of the fastest time constant) spanned by one block of the irregular scan;
@@ -221,18 +223,56 @@ def lag_states(time, u, taus, hold: str = "linear", initial="relaxed", u_before=
     if not np.all(dt > 0):
         raise InputError("time must be strictly increasing")
     if is_uniform(t):
-        from scipy import signal
-
         step = float(np.mean(dt))
         for j, tau in enumerate(taus):
             e, b0, b1 = (float(c) for c in lag_coefficients(step, tau, hold))
-            drive = b0 * u[:-1] + b1 * ub[1:]
-            out[1:, j], _ = signal.lfilter([1.0], [1.0, -e], drive, zi=[e * c0[j]])
+            out[1:, j] = first_order_filter(e, b0 * u[:-1] + b1 * ub[1:], c0[j])
         return out
     e, b0, b1 = lag_coefficients(dt[:, None], taus[None, :], hold)
     drive = b0 * u[:-1, None] + b1 * ub[1:, None]
     _scan(t, taus, e, drive, c0, out)
     return out
+
+
+#: Decay (in e-foldings) over a block of :func:`first_order_filter`: the block's growth
+#: factors stay below e^30, and a state carried over three blocks is below e^-45 of it.
+_FILTER_BLOCK_DECAY = 30.0
+
+
+def first_order_filter(e: float, drive: np.ndarray, c0: float) -> np.ndarray:
+    """``c[1:]`` of the recursion ``c[n+1] = e c[n] + drive[n]``, ``c[0] = c0``, with
+    ``0 <= e <= 1``: in blocks of :data:`_FILTER_BLOCK_DECAY` e-foldings, each a scaled
+    cumulative sum, and the states carried between blocks (over at most three blocks: the
+    rest has decayed below rounding). Vectorised numpy, as exact as the recursion."""
+    drive = np.asarray(drive, dtype=float)
+    n = len(drive)
+    rate = -math.log(e) if e > 0 else math.inf          # decay per sample
+    if n == 0:
+        return drive.copy()
+    if rate > _FILTER_BLOCK_DECAY:                       # e below rounding of e^-30
+        out = drive.copy()
+        out[0] += e * c0
+        out[1:] += e * drive[:-1]
+        return out
+    size = n if rate * n <= _FILTER_BLOCK_DECAY else max(1, int(_FILTER_BLOCK_DECAY / rate))
+    blocks = -(-n // size)
+    x = np.zeros(blocks * size)
+    x[:n] = drive
+    x = x.reshape(blocks, size)
+    grow = np.exp(rate * np.arange(1, size + 1))         # e^-(j+1)
+    within = np.cumsum(x * grow, axis=1) / grow          # each block started from zero
+    decay = 1.0 / grow                                   # e^(j+1)
+    if blocks > 1:
+        ends, across = within[:, -1], decay[-1]
+        carried = ends.copy()                            # state at each block's end
+        carried[1:] += across * ends[:-1]
+        carried[2:] += across ** 2 * ends[:-2]
+        carried += c0 * np.exp(-rate * size * np.arange(1, blocks + 1))
+        start = np.concatenate([[c0], carried[:-1]])
+    else:
+        start = np.array([c0])
+    within += decay[None, :] * start[:, None]
+    return within.ravel()[:n]
 
 
 def _scan(t, taus, e, drive, c0, out):
@@ -439,4 +479,68 @@ def varying_lag_states(time, u, taus, hold: str = "linear", initial="relaxed") -
             growth = np.exp(decay[i0 + 1:i1] - decay[i0])     # <= exp(500) within a block
             acc = np.cumsum(drive[i0:i1 - 1] * growth, axis=0)
             out[i0 + 1:i1] = (c + acc) / growth
+    return out
+
+
+def _exprel_slope(x: np.ndarray) -> np.ndarray:
+    """d/dx of ``(1 - exp(-x)) / x``: ``(exp(-x) - g) / x``, by its series for small x."""
+    x = np.asarray(x, dtype=float)
+    small = x < 1e-2
+    xs = np.where(small, x, 0.0)
+    series = -0.5 + xs / 3.0 - xs ** 2 / 8.0 + xs ** 3 / 30.0 - xs ** 4 / 144.0
+    from scipy import special
+
+    xl = np.where(small, 1.0, x)
+    exact = (np.exp(-xl) - special.exprel(-xl)) / xl
+    return np.where(small, series, exact)
+
+
+def lag_tau_derivatives(time, u, taus, states, hold: str = "linear", initial_slope=None) -> np.ndarray:
+    """Derivatives ``d c_k / d tau_k`` of the states of :func:`lag_states`, exact for the
+    discretisation: differentiating ``c[n+1] = e c[n] + b0 u[n] + b1 u[n+1]`` gives the same
+    recursion ``d[n+1] = e d[n] + e' c[n] + b0' u[n] + b1' u[n+1]`` (primes: d/d tau).
+
+    Parameters
+    ----------
+    time, u : array_like, shape (N,)
+    taus : array_like, shape (K,)
+    states : numpy.ndarray, shape (N, K)
+        The lags' states (:func:`lag_states` with the same arguments).
+    hold : {"linear", "zero"}
+    initial_slope : array_like, shape (K,), optional
+        ``d c_k[0] / d tau_k`` (default zero: an initial state that does not depend on tau).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(N, K)``.
+    """
+    t = np.asarray(time, dtype=float)
+    u = np.asarray(u, dtype=float)
+    taus = np.atleast_1d(np.asarray(taus, dtype=float))
+    n, k = len(t), len(taus)
+    out = np.empty((n, k))
+    out[0] = 0.0 if initial_slope is None else np.asarray(initial_slope, float)
+    if n < 2 or k == 0:
+        return out
+    dt = np.diff(t)
+    uniform = is_uniform(t)
+    step = np.full((1, 1), float(np.mean(dt))) if uniform else dt[:, None]
+    x = step / taus[None, :]
+    e = np.exp(-x)
+    dx = -x / taus[None, :]                   # dx / d tau
+    de = -e * dx
+    if hold == "zero":
+        db0, db1 = -de, np.zeros_like(de)
+    elif hold == "linear":
+        dg = _exprel_slope(x) * dx
+        db0, db1 = dg - de, -dg
+    else:
+        raise InputError(f"hold '{hold}': use 'linear' or 'zero'")
+    drive = de * states[:-1] + db0 * u[:-1, None] + db1 * u[1:, None]
+    if uniform:
+        for j in range(k):
+            out[1:, j] = first_order_filter(float(e[0, j]), drive[:, j], out[0, j])
+        return out
+    _scan(t, taus, np.broadcast_to(e, drive.shape), drive, out[0].copy(), out)
     return out

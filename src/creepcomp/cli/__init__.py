@@ -8,6 +8,7 @@ worker processes are stopped): one line, exit status 130 (SIGINT) or 143 (SIGTER
 
 from __future__ import annotations
 
+import importlib
 import os
 import signal
 import sys
@@ -20,18 +21,21 @@ from typer.exceptions import Abort, Exit, TyperException
 from creepcomp.errors import CreepcompError
 from creepcomp.cli.common import app, environment_fault, fail, tolerant_streams
 
-# Subcommand modules register themselves on import.
-from creepcomp.cli import size as _size  # noqa: E402,F401
-from creepcomp.cli import demo as _demo  # noqa: E402,F401
-from creepcomp.cli import correct as _correct  # noqa: E402,F401
-from creepcomp.cli import mc as _mc  # noqa: E402,F401
-from creepcomp.cli import creep_test as _creep_test  # noqa: E402,F401
-from creepcomp.cli import netlist as _netlist  # noqa: E402,F401
-from creepcomp.cli import simulate as _simulate  # noqa: E402,F401
-from creepcomp.cli import fit as _fit  # noqa: E402,F401
-from creepcomp.cli import diagnose as _diagnose  # noqa: E402,F401
-from creepcomp.cli import firmware as _firmware  # noqa: E402,F401
-from creepcomp.cli import fleet as _fleet  # noqa: E402,F401
+#: The module of each command; a module registers its command on :data:`app` when imported.
+COMMAND_MODULES = {"size": "size", "netlist": "netlist", "simulate": "simulate", "mc": "mc",
+                   "creep-test": "creep_test", "correct": "correct", "firmware": "firmware",
+                   "fit": "fit", "diagnose": "diagnose", "fleet": "fleet", "demo": "demo"}
+
+
+def register_commands(argv: list[str] | None = None) -> None:
+    """Import the command modules: only the named command's when ``argv`` names one (a
+    command's start-up pays for its own imports), else all of them (the help lists them)."""
+    args = sys.argv[1:] if argv is None else list(argv)
+    first = next((a for a in args if not a.startswith("-")), None)
+    for name in [first] if first in COMMAND_MODULES else COMMAND_MODULES:
+        importlib.import_module(f"creepcomp.cli.{COMMAND_MODULES[name]}")
+    _group_commands()
+
 
 #: The help's command groups, in the order of the work; commands in the order listed (one
 #: not listed comes last, in the default group).
@@ -75,8 +79,6 @@ def _options(
     pass
 
 
-# after every command module's import above (a module imported later would be listed last)
-_group_commands()
 
 
 #: Exit status after SIGTERM (128 + its number), beside 130 after Ctrl-C.
@@ -151,6 +153,7 @@ def _main(argv: list[str] | None) -> int:
 
 
 def _command(argv: list[str] | None) -> int:
+    register_commands(argv)
     command = typer.main.get_command(app)
     try:
         # a command may end with typer.Exit(status) (firmware --verify: 3 when the bound fails)

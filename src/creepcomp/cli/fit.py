@@ -140,12 +140,15 @@ def fit_command(
     [record_path] = record_paths
     [(record, reduction)] = load_reduced(record_path, (MAX_FIT_SAMPLES,), columns, delimiter,
                                          duplicate_times, taxel, sheet, quiet=as_json)
-    from creepcomp.diagnose import effects
     from creepcomp.fit import Applied, fit_prony, prepare
 
     with progress_bar("fitting", disable=as_json):
         data = prepare(record, initial=init, load_step_at=step)
-        extra = (Applied(effects.flow_effect()),) if flow else ()
+        extra = ()
+        if flow:        # (the diagnosis's effects are imported only for it)
+            from creepcomp.diagnose.effects import flow_effect
+
+            extra = (Applied(flow_effect()),)
         result = fit_prony(data, max_terms=max_terms, n_terms=fixed, effects=extra)
     model = result.to_dict()
     if reduction:
@@ -304,7 +307,6 @@ def render_temperature_fit(records: list[Record], result: TemperatureFit) -> Non
 
 def render_fit(record: Record, result: PronyResult, fixed: int | None) -> None:
     """Print the order search and the chosen model."""
-    from creepcomp.diagnose.effects import flow_effect
     from creepcomp.fit import BIC_STRONG, HELDOUT_Z, term_table
 
     data, fit = result.data, result.fit
@@ -339,8 +341,12 @@ def render_fit(record: Record, result: PronyResult, fixed: int | None) -> None:
     for k, t in enumerate(terms):
         t2.add_row(f"beta[{k}]", format_percent(t["beta"], 4), format_percent(t["beta_sigma"], 2))
         t2.add_row(f"tau[{k}]", format_quantity(t["tau"], "s"), format_quantity(t["tau_sigma"], "s", 2))
-    flow = flow_effect()
-    if fit.structure.has(flow.name):
+    flow = None
+    if fit.structure.effects:
+        from creepcomp.diagnose.effects import flow_effect
+
+        flow = flow_effect()
+    if flow is not None and fit.structure.has(flow.name):
         rate = flow.rate(fit)
         t2.add_row("viscous flow rate (1/s, of the instantaneous signal)", f"{rate[0]:.4g}", f"{rate[1]:.2g}")
     console.print(t2)

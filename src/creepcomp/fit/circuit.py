@@ -27,7 +27,7 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy import ndimage, optimize
+from scipy import optimize
 
 from creepcomp.errors import InputError
 from creepcomp.fit.data import gaps
@@ -138,6 +138,8 @@ def input_breaks(signal: np.ndarray, gaps: np.ndarray) -> np.ndarray:
     du = np.diff(signal)
     noise = noise_level(signal)
     size = np.abs(du)
+    from scipy import ndimage      # (imported here: a plain sensor fit does without it)
+
     local = ndimage.median_filter(size, size=11, mode="nearest")
     jump = (size > 10.0 * noise) & (size > 4.0 * local) & (size > 0)
     k = np.flatnonzero(jump)

@@ -22,7 +22,7 @@ from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.noise import spectral_variance
 from creepcomp.fit.solver import Fit, fit_structure
-from creepcomp.fit.structure import basis
+from creepcomp.fit.structure import basis, basis_derivatives
 
 __all__ = ["BIC_STRONG", "HELDOUT_Z", "FOLDS", "BLOCKS", "MIN_BLOCK_SAMPLES",
            "UNDETERMINED_VARIANCE_RATIO", "SLOW_NOISE_RATIO", "HeldOut", "block_index",
@@ -110,12 +110,16 @@ UNDETERMINED_VARIANCE_RATIO = 10.0
 
 
 def jacobian(data: Data, fit: Fit) -> np.ndarray:
-    """Derivatives of the fitted signal by every nonlinear parameter (search coordinates, by
-    central differences) and by the linear coefficients (the basis), all samples."""
+    """Derivatives of the fitted signal by every nonlinear parameter (search coordinates;
+    analytic for a plain Prony model, else by central differences) and by the linear
+    coefficients (the basis), all samples."""
     values = fit.values
     cache: dict = {}
     b = basis(data, fit.structure, values, cache)
     coef = np.array([values[n] for n in b.names])
+    moves = basis_derivatives(data, fit.structure, values, b, fit.params)
+    if moves is not None:
+        return np.column_stack([sum(coef[col] * d for col, d in m) for m in moves] + [b.columns])
     cols = []
     for p in fit.params:
         x = p.to_search(values[p.name])

@@ -9,7 +9,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import linalg
-from scipy.interpolate import make_lsq_spline
 
 from creepcomp.fit.data import Data, gaps
 from creepcomp.lti import lag_states
@@ -316,6 +315,8 @@ def slow_drift(residual: np.ndarray, time: np.ndarray, spacing: float) -> np.nda
     # knots at quantiles of the sample times: every interval holds samples (Schoenberg-Whitney)
     inner = np.quantile(t, np.linspace(0.0, 1.0, intervals + 1)[1:-1]) if intervals > 1 else np.zeros(0)
     knots = np.r_[[t[0]] * 4, inner, [t[-1]] * 4]
+    from scipy.interpolate import make_lsq_spline   # (imported here: most fits do without it)
+
     return make_lsq_spline(t, np.asarray(residual, float), knots, 3)(t)
 
 

@@ -3,14 +3,14 @@ the evidence supports it, and the model file with uncertainties and fit statisti
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 from scipy import linalg
 
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
-from creepcomp.fit.evidence import FOLDS, Evidence, compare, heldout
+from creepcomp.fit.evidence import BIC_STRONG, FOLDS, Evidence, compare, heldout
 from creepcomp.fit.noise import ARNoise
 from creepcomp.fit.solver import Fit, fit_structure
 from creepcomp.fit.starts import cluster_taus, extra_term_starts, nnls_spectrum, one_term_starts, tau_grid
@@ -53,12 +53,15 @@ class PronyResult:
 
 
 def fit_terms(data: Data, n_terms: int, previous: Fit | None = None, noise: ARNoise | None = None,
-              effects: tuple[Applied, ...] = ()) -> Fit:
+              effects: tuple[Applied, ...] = (), start: dict | None = None, with_cov: bool = True,
+              ftol: float = 1e-8) -> Fit:
     """Fit ``n_terms`` Prony terms (plus ``effects`` applied to every model, e.g. viscous flow):
     starts from the non-negative spectrum and, when given, from the previous fit plus one grid
-    time; refine; keep the best."""
+    time (or from the values ``start`` alone); refine; keep the best."""
     structure = Structure(n_terms, tuple(effects))
-    if n_terms == 1:
+    if start is not None:
+        starts = [start]
+    elif n_terms == 1:
         starts = one_term_starts(data)
     else:
         grid = tau_grid(data, per_decade=6)
@@ -66,7 +69,8 @@ def fit_terms(data: Data, n_terms: int, previous: Fit | None = None, noise: ARNo
         starts = [{f"tau[{k}]": t for k, t in enumerate(cluster_taus(grid, amps, n_terms))}]
         if previous is not None:
             starts += extra_term_starts(data, previous, structure)
-    return fit_structure(data, structure, starts, noise=noise, n_refine=3)
+    return fit_structure(data, structure, starts, noise=noise, n_refine=3, with_cov=with_cov,
+                         ftol=ftol)
 
 
 def fit_prony(data: Data, max_terms: int = 6, n_terms: int | None = None,
@@ -78,7 +82,9 @@ def fit_prony(data: Data, max_terms: int = 6, n_terms: int | None = None,
     first term that is not supported (or at ``max_terms``). ``n_terms`` fixes the number.
     Each model's likelihood has its own AR noise (its parameters counted by BIC).
     ``effects`` are applied to every model (e.g. ``(Applied(effects.get("viscous_flow")),)``
-    for the Burgers model).
+    for the Burgers model). With a free initial state, the record is also fitted as starting
+    settled at its first load (at rest when that load is zero), and that fit is kept unless
+    the free start lowers BIC by :data:`BIC_STRONG` (its initial states are parameters too).
 
     Examples
     --------
@@ -98,6 +104,31 @@ def fit_prony(data: Data, max_terms: int = 6, n_terms: int | None = None,
     >>> print(f"{model.n_terms} term: beta = {model.beta[0]:.3f}, tau = {model.tau[0]:.0f} s")
     1 term: beta = 0.030, tau = 45 s
     """
+    if data.initial != "free":
+        return _orders(data, max_terms, n_terms, folds, effects)
+    # a record that starts settled (at rest, or long at its first load) is told from one that
+    # starts creeping by the evidence: the free start must earn its parameters. The free
+    # start is first tried at the settled choice's number of terms (from the settled fit: the
+    # free model holds it); only when it wins there are its own numbers of terms searched.
+    try:
+        settled = _orders(replace(data, initial="settled"), max_terms, n_terms, folds, effects)
+    except InputError:
+        return _orders(data, max_terms, n_terms, folds, effects)
+    try:
+        # (converged far enough to tell a BIC difference of BIC_STRONG)
+        trial = fit_terms(data, settled.fit.structure.n_terms, effects=effects,
+                          start=settled.fit.values, with_cov=False, ftol=0.1 * BIC_STRONG / data.n)
+    except (InputError, linalg.LinAlgError):
+        trial = None
+    if trial is not None and not trial.bic < settled.fit.bic - BIC_STRONG:
+        return settled
+    result = _orders(data, max_terms, n_terms, folds, effects)
+    return settled if settled.fit.bic < result.fit.bic + BIC_STRONG else result
+
+
+def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
+            effects: tuple[Applied, ...]) -> PronyResult:
+    """Fits of 1, 2, ... terms while the evidence supports another (see :func:`fit_prony`)."""
     steps: list[OrderStep] = []
     chosen = 0
     previous = None
@@ -138,7 +169,9 @@ def fit_summary(data: Data, fit: Fit) -> dict:
         "n_samples": data.n,
         "duration_s": data.duration,
         "initial_state": {"free": "fitted (free initial creep states)",
-                          "relaxed": "relaxed (assumed)", "settled": "settled at the first load (assumed)",
+                          "relaxed": "relaxed (assumed)",
+                          "settled": "settled at the first load (assumed, or chosen over a free "
+                                     "start by BIC)",
                           "step": f"load step at {data.load_step_at} s"}[data.initial],
         "structure": fit.structure.describe(),
         "residual_rms": fit.residual_rms,

@@ -11,16 +11,18 @@ covariance; p = 0 ... 5 chosen by BIC, its memory broken at gaps).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from typing import Callable, Sequence
 
 import numpy as np
 from scipy import linalg, optimize
+from scipy.linalg import lapack
 
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.noise import ARNoise, fit_noise, gaussian_bic, rows_for, whiten
-from creepcomp.fit.structure import Basis, Param, Structure, basis, taus_of, with_step_times
+from creepcomp.fit.structure import (Basis, Param, Structure, basis, basis_derivatives, load_steps,
+                                     taus_of, with_step_times)
 from creepcomp.model import CreepModel
 
 __all__ = ["Fit", "ANCHOR_WEIGHT", "Problem", "best_of_starts", "fit_structure", "with_noise",
@@ -234,6 +236,17 @@ def _within_step_bounds(b: Basis, coef: np.ndarray, free: np.ndarray, limits: np
     return out if (out != free).any() else free
 
 
+def _scaled_inverse(a: np.ndarray):
+    """Columns scaled to unit norm, their norms, and the pseudo-inverse of their Gram matrix
+    (directions below a relative 1e-8 of its largest eigenvalue dropped when ill-posed)."""
+    norms = np.sqrt(np.einsum("ij,ij->j", a, a))
+    norms[norms == 0] = 1.0
+    an = a / norms
+    eig, vec = np.linalg.eigh(an.T @ an)
+    keep = eig > (1e-8 if eig[0] > 1e-8 * eig[-1] else 1e-26) * eig[-1]
+    return an, norms, (vec[:, keep] / eig[keep]) @ vec[:, keep].T
+
+
 class Problem:
     """Variable projection (least squares) for one structure on one record, or part of it."""
 
@@ -245,15 +258,14 @@ class Problem:
         self.frozen = dict(frozen or {})
         self.params = [p for p in self.all_params if p.name not in self.frozen]
         self.rows = np.arange(data.n) if mask is None else np.flatnonzero(mask)   # fitted
+        self.take = slice(None) if mask is None else self.rows    # (a view when all are fitted)
         self.likelihood_rows = rows_for(data, mask)                               # prewhitened
         if len(self.likelihood_rows) < 10:
             raise InputError(f"{data.source}: too few samples left to fit")
-        self.y = data.signal[self.rows]
         # a reduced record's samples weighed by what each holds (Data.weights): rows of the
-        # signal and of the basis times the square root of their weights
-        self.root_weight = None if data.weights is None else np.sqrt(data.weights[self.rows])
-        if self.root_weight is not None:
-            self.y = self.y * self.root_weight
+        # signal and of the basis times the square root of their weights (:meth:`on_rows`)
+        self.root_weight = None if data.weights is None else np.sqrt(data.weights[self.take])
+        self.y = self.on_rows(data.signal)
         self.fixed = dict(fixed or {})
         self.anchor = dict(anchor or {})
         # the optimiser's tolerances are partly absolute: work on a residual of order one
@@ -277,12 +289,27 @@ class Problem:
         b = basis(self.data, self.structure, values, self.cache)
         return with_step_times(self.data, b, taus_of(values, self.structure.n_terms))
 
+    def on_rows(self, values: np.ndarray) -> np.ndarray:
+        """The fitted rows of a per-sample array or of basis columns, each times the square
+        root of its sample's weight (a view when every sample is fitted unweighted)."""
+        out = values[self.take]
+        if self.root_weight is None:
+            return out
+        return out * (self.root_weight if out.ndim == 1 else self.root_weight[:, None])
+
     def project(self, x: np.ndarray):
         """Basis, linear coefficients and residual (on the fitted rows) at ``x``."""
+        return self._projection(x)[:3]
+
+    def _projection(self, x: np.ndarray):
+        """:meth:`project` and the mask of the coefficients solved for (not held at given
+        values or at a step time's bound); the last point's is kept."""
+        key = np.asarray(x, float).tobytes()
+        last = self.cache.get("project")
+        if last is not None and last[0] == key:
+            return last[1]
         b = self.basis(x)
-        a = b.columns[self.rows]
-        if self.root_weight is not None:
-            a = a * self.root_weight[:, None]
+        a = self.on_rows(b.columns)
         held = np.array([n in self.fixed for n in b.names])
         coef = np.array([self.fixed.get(n, 0.0) for n in b.names])
         prior = None
@@ -301,7 +328,9 @@ class Problem:
             if narrowed is free:
                 break
             free = narrowed
-        return b, coef, self.y - a @ coef
+        out = (b, coef, self.y - a @ coef, free)
+        self.cache["project"] = (key, out)
+        return out
 
     def residual(self, x: np.ndarray) -> np.ndarray:
         """Residual with the linear part projected out, relative to the signal's range."""
@@ -310,28 +339,96 @@ class Problem:
         except (FloatingPointError, ValueError, linalg.LinAlgError):
             return np.full(len(self.rows), 1e30)
 
+    def analytic(self) -> bool:
+        """True when the residual's Jacobian is analytic (a Prony model without effects)."""
+        return not self.structure.effects and all(
+            p.name.startswith(("tau[", "c0[")) for p in self.params)
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        """Jacobian of :meth:`residual` (variable projection, Golub and Pereyra): for each
+        nonlinear parameter, ``-(dA c + A dc)`` with the linear coefficients' response
+        ``dc = G^-1 (dA^T r - A^T dA c)`` on the free columns (``G = A^T A``); the columns'
+        derivatives are analytic (:func:`creepcomp.fit.structure.basis_derivatives`). A step
+        time held at its bound moves with the creep amplitude that sets the bound."""
+        b, coef, r, free = self._projection(x)
+        moves = basis_derivatives(self.data, self.structure, self.values(x), b, self.params)
+        a = self.on_rows(b.columns)
+        dot_r = np.zeros((len(b.names), len(moves)))                  # dA^T r
+        moved = np.zeros((len(r), len(moves)))                         # dA c
+        for j, m in enumerate(moves):
+            for col, d in m:
+                dj = self.on_rows(d)
+                moved[:, j] += coef[col] * dj
+                dot_r[col, j] = dj @ r
+        total = moved + a @ self._bound_response(b, a, coef, free, moves)   # dA c + A dc (held)
+        jac = -total
+        free = np.flatnonzero(free)
+        if len(free):
+            scaled, norms, inverse = _scaled_inverse(a[:, free])
+            jac = jac + scaled @ (inverse @ (scaled.T @ total - dot_r[free] / norms[:, None]))
+        return jac / self.scale
+
+    def _bound_response(self, b: Basis, a: np.ndarray, coef: np.ndarray, free: np.ndarray,
+                        moves) -> np.ndarray:
+        """Derivatives of the coefficients (rows; zero but for step times held at their
+        bound, ``|a_k|`` times a half interval with ``a_k`` solved without the step times)
+        by the nonlinear parameters (columns)."""
+        out = np.zeros((len(b.names), len(moves)))
+        bound = [(col, k, half) for col, k, half in b.step_bounds
+                 if not free[col] and b.names[col] not in self.fixed]
+        if not bound:
+            return out
+        steps = np.zeros(len(b.names), bool)
+        steps[[col for col, _, _ in b.step_bounds]] = True
+        plain = np.array([n not in self.fixed for n in b.names]) & ~steps
+        if not plain.any():
+            return out                  # the amplitudes setting the bounds are held too
+        trial = np.array([self.fixed.get(n, 0.0) for n in b.names])
+        target = self.y - a[:, ~plain] @ trial[~plain]
+        scaled, norms, inverse = _scaled_inverse(a[:, plain])
+        trial[plain] = (inverse @ (scaled.T @ target)) / norms
+        rp = target - a[:, plain] @ trial[plain]
+        moved = np.zeros((len(rp), len(moves)))
+        dot_r = np.zeros((len(b.names), len(moves)))
+        for j, m in enumerate(moves):
+            for col, d in m:
+                if not steps[col]:
+                    dj = self.on_rows(d)
+                    moved[:, j] += trial[col] * dj
+                    dot_r[col, j] = dj @ rp
+        dtrial = (inverse @ (dot_r[plain] / norms[:, None] - scaled.T @ moved)) / norms[:, None]
+        where = {c: i for i, c in enumerate(np.flatnonzero(plain))}
+        for col, k, half in bound:
+            amplitude = b.names.index(f"a[{k}]")
+            if amplitude in where:
+                out[col] = (np.sign(coef[col]) * half * np.sign(trial[amplitude])
+                            * dtrial[where[amplitude]])
+        return out
+
     def cost(self, values: dict) -> float:
         """Sum of squared residuals at a start value dictionary."""
         r = self.residual(self.start_vector(values))
         return float(r @ r)
 
-    def refine(self, x0: np.ndarray, max_nfev: int | None = None) -> np.ndarray:
+    def refine(self, x0: np.ndarray, max_nfev: int | None = None, ftol: float = 1e-8) -> np.ndarray:
         """Refine the nonlinear parameters from the search point ``x0``; returns the search
         point. ``max_nfev`` caps the iterations (each also evaluates a finite-difference
         Jacobian)."""
         if len(x0) == 0:
             return x0
         lo, hi = zip(*(p.bounds() for p in self.params))
-        res = optimize.least_squares(self.residual, x0, bounds=(lo, hi), method="trf",
+        jac = self.jacobian if self.analytic() else "2-point"
+        res = optimize.least_squares(self.residual, x0, jac=jac, bounds=(lo, hi), method="trf",
                                      x_scale=1.0, max_nfev=max_nfev or 40 * (len(x0) + 1),
-                                     diff_step=1e-6, xtol=1e-8, ftol=1e-8, gtol=1e-8)
+                                     diff_step=1e-6, xtol=1e-8, ftol=ftol, gtol=1e-8)
         return res.x
 
 
 def fit_structure(data: Data, structure: Structure, starts: Sequence[dict], noise: ARNoise | None = None,
                   mask: np.ndarray | None = None, max_nfev: int | None = None,
                   n_refine: int = 2, with_cov: bool = True, fixed: dict | None = None,
-                  anchor: dict | None = None, refine: bool = True, frozen: dict | None = None) -> Fit:
+                  anchor: dict | None = None, refine: bool = True, frozen: dict | None = None,
+                  ftol: float = 1e-8) -> Fit:
     """Fit a structure by least squares (variable projection); likelihood, BIC and
     uncertainties with an AR noise model.
 
@@ -368,14 +465,61 @@ def fit_structure(data: Data, structure: Structure, starts: Sequence[dict], nois
         Refine the nonlinear parameters (False: keep the best start, solve the linear part).
     frozen : dict, optional
         Nonlinear parameters held at given values (not searched).
+    ftol : float
+        Relative change of the cost at which a refinement stops.
     """
     problem = Problem(data, structure, mask, fixed=fixed, anchor=anchor, frozen=frozen)
     starts = [problem.start_vector(s) for s in starts]
     if not starts:
         raise InputError("no start values")
+    coarse = _coarse(problem) if refine and mask is None and not fixed and not anchor else None
+    if coarse is not None:
+        # the starts are searched on the coarse record; its best point is refined on all
+        starts = [best_of_starts(coarse.residual, starts, n_refine,
+                                 lambda x0: coarse.refine(x0, max_nfev, max(ftol, COARSE_FTOL)))]
+        # from there, converged until the cost moves the log-likelihood by under 0.005
+        ftol = max(ftol, 0.01 / len(problem.rows))
     x = best_of_starts(problem.residual, starts, n_refine,
-                       (lambda x0: problem.refine(x0, max_nfev)) if refine else None)
+                       (lambda x0: problem.refine(x0, max_nfev, ftol)) if refine else None)
     return _finish(problem, x, noise, with_cov)
+
+
+#: Samples of the coarse record on which the starts of a long record's fit are searched.
+COARSE_SAMPLES = 2000
+#: Relative change of the cost at which a refinement on the coarse record stops.
+COARSE_FTOL = 1e-6
+
+
+def _coarse(problem: Problem) -> "Problem | None":
+    """The problem on a coarse record (every m-th sample, and both samples of every load
+    step and the ends of every segment: a load that steps or holds between kept samples is
+    the same load, and so are the lags), with the full problem's parameters and bounds; None
+    for a model with effects (they may depend on every sample) or a record too short to
+    gain by it."""
+    data = problem.data
+    step = data.n // COARSE_SAMPLES
+    if problem.structure.effects or step < 4:
+        return None
+    keep = np.zeros(data.n, bool)
+    keep[::step] = True
+    keep[-1] = True
+    steps = load_steps(data)
+    keep[steps] = keep[steps + 1] = True
+    ends = np.flatnonzero(np.diff(data.segment) != 0)
+    keep[ends] = keep[ends + 1] = True
+    if np.count_nonzero(keep) * 4 > data.n:
+        return None
+    rows = np.flatnonzero(keep)
+    per_sample = {f.name: getattr(data, f.name)[rows] for f in fields(data)
+                  if isinstance(getattr(data, f.name), np.ndarray) and len(getattr(data, f.name)) == data.n}
+    coarse = replace(data, **per_sample)
+    try:
+        out = Problem(coarse, problem.structure, frozen=problem.frozen)
+    except InputError:
+        return None
+    out.all_params, out.params = problem.all_params, problem.params
+    out.scale = problem.scale
+    return out
 
 
 def _counted_linear(names, fixed: dict) -> int:
@@ -430,21 +574,29 @@ def with_noise(fit: Fit, noise: ARNoise) -> Fit:
 
 def _inverse_ar_transpose(z: np.ndarray, noise: ARNoise) -> np.ndarray:
     """``W^-T z`` for the AR prewhitening filter ``W`` (the inverse filter run backwards)."""
-    from scipy import signal as sps
-
     if noise.order == 0:
         return z
-    den = np.concatenate([[1.0], -np.array(noise.phi)])
-    return sps.lfilter([1.0], den, z[::-1], axis=0)[::-1]
+    # the all-pole filter 1 / (1 - sum phi_i q^-i) run backwards: a banded triangular solve
+    z = np.asarray(z, dtype=float)
+    band = np.zeros((noise.order + 1, len(z)))
+    band[0] = 1.0
+    for i, phi in enumerate(noise.phi, start=1):
+        band[i, :len(z) - i] = -phi
+    out, info = lapack.dtbtrs(band, z[::-1].reshape(len(z), -1), uplo="L")
+    if info != 0:
+        raise linalg.LinAlgError(f"AR filter: LAPACK dtbtrs info {info}")
+    return out.reshape(z.shape)[::-1]
 
 
 def _covariance(problem: Problem, x, coef, noise: ARNoise) -> np.ndarray | None:
     """Covariance of the least-squares estimates under AR noise (sandwich):
     ``(J^T J)^-1 J^T Sigma J (J^T J)^-1`` with ``Sigma = sigma^2 W^-1 W^-T``."""
     rows = problem.rows
-    b = problem.basis(x)
-    cols = []
-    for j in range(len(x)):
+    b, _, _, free = problem._projection(x)
+    moves = (basis_derivatives(problem.data, problem.structure, problem.values(x), b, problem.params)
+             if problem.analytic() else None)
+    cols = [] if moves is None else [sum(coef[col] * d for col, d in m) for m in moves]
+    for j in range(len(x) if moves is None else 0):
         h = 1e-6 * max(1.0, abs(x[j]))
         xp, xm = x.copy(), x.copy()
         xp[j] += h
@@ -453,8 +605,14 @@ def _covariance(problem: Problem, x, coef, noise: ARNoise) -> np.ndarray | None:
         bm = problem.basis(xm).columns @ coef
         cols.append((bp - bm) / (2 * h))
     full = np.column_stack(cols + [b.columns]) if cols else b.columns
-    held = [len(x) + i for i, n in enumerate(b.names) if n in problem.fixed]
-    full[:, held] = 0.0
+    # a step time held at its bound moves with the creep amplitude that sets the bound
+    for col, k, half in b.step_bounds:
+        amplitude = b.names.index(f"a[{k}]")
+        if not free[col] and b.names[col] not in problem.fixed and free[amplitude]:
+            full[:, len(x) + amplitude] += (np.sign(coef[col]) * half * np.sign(coef[amplitude])
+                                           * b.columns[:, col])
+    # coefficients held at given values or at a step time's bound are not estimated
+    full[:, len(x) + np.flatnonzero(~free)] = 0.0
     z = np.zeros_like(full)
     z[rows] = problem.data.weighted(full)[rows]
     return sandwich_covariance([z], [noise])

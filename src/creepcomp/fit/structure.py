@@ -17,16 +17,17 @@ so only the time constants, the initial states and an effect's own nonlinear par
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from creepcomp.fit.data import Data
-from creepcomp.lti import lag_states, varying_lag_states
+from creepcomp.lti import lag_states, lag_tau_derivatives, varying_lag_states
 
 __all__ = ["Param", "Applied", "Structure", "taus_of", "Basis", "basis", "ABRUPT_FACTOR", "load_steps",
-           "with_step_times"]
+           "with_step_times", "basis_derivatives"]
 
 #: Iterations of the mode switching of lags whose time constant depends on their state.
 _MODE_ITERATIONS = 50
@@ -139,6 +140,7 @@ class Basis:
     creep_input: np.ndarray      # h: what drives the lags
     lags: np.ndarray             # (N, K)
     step_bounds: tuple = ()      # (column, term k, half width in s) of each step-time column
+    step_mids: tuple = ()        # the middle (s) of each step-time column's sample interval
 
 
 #: Samples per segment when lags whose time constant depends on their own state are solved.
@@ -221,6 +223,37 @@ def _same_lag_inputs(last, h, key) -> bool:
     return same_init and same_own and np.array_equal(taus0, taus) and np.array_equal(h0, h)
 
 
+#: Lag states shared by every fit of the process (the candidate effects of a diagnosis all
+#: start from the same time constants): the last few, by their inputs.
+_SHARED: dict = {}
+_SHARED_SIZE = 8
+_SHARED_LOCK = threading.Lock()          # a fleet's worker runs units on several threads
+
+
+def _lag_key(data: Data, h, taus, init) -> tuple:
+    init_key = init if isinstance(init, str) else np.asarray(init, float).tobytes()
+    return (hash(data.time.tobytes()), hash(np.asarray(h).tobytes()), np.asarray(taus, float).tobytes(),
+            init_key, data.hold)
+
+
+def _shared_lags(data: Data, h, taus, init):
+    """Lag states of plain lags computed before for the same inputs (None: not held)."""
+    with _SHARED_LOCK:
+        hit = _SHARED.get(_lag_key(data, h, taus, init))
+    if hit is not None and np.array_equal(hit[0], data.time) and np.array_equal(hit[1], h):
+        return hit[2]
+    return None
+
+
+def _share_lags(data: Data, h, taus, init, lags) -> None:
+    lags.flags.writeable = False          # shared: nobody may change them
+    key = _lag_key(data, h, taus, init)
+    with _SHARED_LOCK:
+        while len(_SHARED) >= _SHARED_SIZE:
+            _SHARED.pop(next(iter(_SHARED)))
+        _SHARED[key] = (data.time, np.asarray(h), lags)
+
+
 def basis(data: Data, structure: Structure, values: dict, cache: dict | None = None) -> Basis:
     """Evaluate the model's linear basis for given nonlinear parameter values."""
     t = data.time
@@ -245,7 +278,11 @@ def basis(data: Data, structure: Structure, values: dict, cache: dict | None = N
     if last is not None and _same_lag_inputs(last[0], h, key):
         lags = last[1]
     else:
-        lags = _lags(data, h, taus, init, dynamic, values, cache)
+        lags = _shared_lags(data, h, taus, init) if not dynamic else None
+        if lags is None:
+            lags = _lags(data, h, taus, init, dynamic, values, cache)
+            if not dynamic:
+                _share_lags(data, h, taus, init, lags)
         if cache is not None:
             cache["lags"] = ((h, key), lags)
     cols, names = [], []
@@ -282,7 +319,7 @@ def load_steps(data: Data) -> np.ndarray:
     return np.flatnonzero((d > ABRUPT_FACTOR * neighbours) & big & same_segment & (d > 0))
 
 
-def with_step_times(data: Data, b: Basis, taus: np.ndarray) -> Basis:
+def with_step_times(data: Data, b: Basis, taus: np.ndarray, cache: dict | None = None) -> Basis:
     """The basis with the record's unknown step times: a load step between two samples
     happened anywhere between them, but the lags are driven by the load taken linear between
     samples, which for a lag much slower than the sampling is a step at the interval's middle.
@@ -292,12 +329,28 @@ def with_step_times(data: Data, b: Basis, taus: np.ndarray) -> Basis:
     combination of the load and the lag states), so the first step is the reference: one
     column per later step and term, whose coefficient the solver bounds by ``|a_k|`` times
     the half intervals of that step and the first (:attr:`Basis.step_bounds`). Only with the
-    load linear between samples."""
-    steps = load_steps(data) if data.hold == "linear" else np.zeros(0, int)
-    if len(steps) < 2 or b.lags.shape[1] == 0:
+    load linear between samples. With a ``cache`` (one per fitting problem), the steps and
+    the last columns (for the same time constants and creep input) are kept."""
+    if b.lags.shape[1] == 0:
         return b
     t, h = data.time, b.creep_input
-    cols, names, bounds = [], [], []
+    if cache is None:
+        cache = {}
+    steps = cache.get("load_steps")
+    if steps is None:
+        steps = load_steps(data) if data.hold == "linear" else np.zeros(0, int)
+        cache["load_steps"] = steps
+    if len(steps) < 2:
+        return b
+    key = np.asarray(taus, float).tobytes()
+    last = cache.get("step_times")
+    if last is not None and last[0] == key and (last[1] is h or np.array_equal(last[1], h)):
+        cols, names, bounds, mids = last[2]
+        first = b.columns.shape[1]
+        bounds = [(first + i, k, half) for i, (_, k, half) in enumerate(bounds)]
+        return replace(b, columns=np.column_stack([b.columns, cols]), names=b.names + names,
+                       step_bounds=tuple(bounds), step_mids=mids)
+    cols, names, bounds, mids = [], [], [], []
     first = b.columns.shape[1]
     reference = 0.5 * float(t[steps[0] + 1] - t[steps[0]])
     for j, i in enumerate(steps[1:], start=1):
@@ -309,5 +362,53 @@ def with_step_times(data: Data, b: Basis, taus: np.ndarray) -> Basis:
             cols.append(col)
             names.append(f"step_time[{j}][{k}]")
             bounds.append((first + len(bounds), k, 0.5 * float(t[i + 1] - t[i]) + reference))
-    return replace(b, columns=np.column_stack([b.columns] + cols), names=b.names + tuple(names),
-                   step_bounds=tuple(bounds))
+            mids.append(mid)
+    cols = np.column_stack(cols)
+    cache["step_times"] = (key, h, (cols, tuple(names), tuple(bounds), tuple(mids)))
+    return replace(b, columns=np.column_stack([b.columns, cols]), names=b.names + tuple(names),
+                   step_bounds=tuple(bounds), step_mids=tuple(mids))
+
+
+def basis_derivatives(data: Data, structure: Structure, values: dict, b: Basis,
+                      params) -> list[list[tuple[int, np.ndarray]]] | None:
+    """Analytic derivatives of the basis by the nonlinear parameters of a Prony model without
+    effects: a time constant moves its lag column (derivatives by the lags' own recursion,
+    :func:`~creepcomp.lti.lag_tau_derivatives`) and its step-time columns
+    (:func:`with_step_times`); an initial state moves its lag column.
+
+    Returns
+    -------
+    list of list of (int, numpy.ndarray) or None
+        Per parameter of ``params``, the columns it moves: (column index, that column's
+        derivative by the parameter's search coordinate); None when the structure applies
+        effects (their columns may move with any parameter: differentiate numerically).
+    """
+    if structure.effects:
+        return None
+    t, h = data.time, b.creep_input
+    taus = taus_of(values, structure.n_terms)
+    slope = None
+    if data.initial == "step":
+        since = data.t0 - data.load_step_at
+        slope = -h[0] * np.exp(-since / taus) * since / taus ** 2
+    needs_tau = any(p.name.startswith("tau[") for p in params)
+    dtau = lag_tau_derivatives(t, h, taus, b.lags, data.hold, slope) if needs_tau else None
+    steps: dict[int, list[tuple[int, float]]] = {}
+    for (col, k, _), mid in zip(b.step_bounds, b.step_mids):
+        steps.setdefault(k, []).append((col, mid))
+    out = []
+    for p in params:
+        k = int(p.name[p.name.index("[") + 1:-1])
+        column = b.names.index(f"a[{k}]")
+        if p.name.startswith("tau["):
+            moves = [(column, dtau[:, k] * taus[k])]          # search coordinate: log tau
+            for col, mid in steps.get(k, ()):
+                # a step column -dh/tau exp(-(t - mid)/tau) (zero before its step): by log tau
+                # it is the column times ((t - mid)/tau - 1)
+                moves.append((col, b.columns[:, col] * ((t - mid) / taus[k] - 1.0)))
+            out.append(moves)
+        elif p.name.startswith("c0["):
+            out.append([(column, np.exp(-(t - t[0]) / taus[k]) * p.scale)])
+        else:
+            return None
+    return out

@@ -1,8 +1,9 @@
 """One unit of a fleet: read its record (on the worker), fit, diagnose, optionally correct,
 write its files, and return its row of the results table.
 
-A unit's files go to ``DIR/units/<unit>/``, each written atomically: ``model.json`` (the fitted
-model, as ``creepcomp fit -o``), ``diagnosis.json`` (as ``creepcomp diagnose --json``),
+A unit's files go to ``DIR/units/<unit>/``, each written atomically: ``model.json`` (the
+diagnosis's baseline model, as ``creepcomp diagnose -o`` writes ``baseline-model.json``: the
+unit pays for one analysis), ``diagnosis.json`` (as ``creepcomp diagnose --json``),
 ``extended-model.json``, with ``correct`` ``corrected.csv`` (as ``creepcomp correct -o``), with
 ``unit_reports`` ``report.html``; and last ``result.json``, whose presence marks the unit done.
 """
@@ -235,16 +236,15 @@ def _analyse(path: Path, folder: Path, row: dict, spec: float, correct: bool,
              unit_reports: bool) -> None:
     from creepcomp.diagnose import diagnose
     from creepcomp.digital.correctors import compensate, creep_error
-    from creepcomp.fit import fit_prony, prepare
+    from creepcomp.fit import prepare
     from creepcomp.io.records import read_record, write_record
 
     record = read_record(path)
     row.update(n_samples=len(record), duration_s=record.duration,
                signal_unit=record.unit("signal"), load_unit=record.unit("load"))
     data = prepare(record)
-    fitted = fit_prony(data)
-    model = fitted.to_dict()
     diagnosis = diagnose(record)
+    model = diagnosis.baseline_model     # one analysis per unit: the diagnosis's own baseline fit
     result = diagnosis.to_dict()
     row_from(row, model, result)
     folder.mkdir(parents=True, exist_ok=True)
