@@ -154,13 +154,9 @@ def leaky_network(network: Network, plan: PartsPlan) -> Network:
                    load_resistance=parallel(network.load_resistance, ASSUMED_LEAKAGE))
 
 
-def worst_corner(model: CreepModel, network: Network, plan: PartsPlan,
-                 seed: int = 0) -> tuple[float, int]:
-    """Largest peak residual creep over the corners of the parts' tolerance box (closed form).
-
-    Returns the value and the number of corners evaluated.
-    """
-    parts = network.parts()
+def tolerance_corners(parts, plan: PartsPlan, seed: int = 0) -> np.ndarray:
+    """Part values at the corners of the tolerance box (one row per corner; a random
+    :data:`MAX_CORNERS` of them when there are more), from ``(label, kind, value)`` parts."""
     nominal = np.array([v for _, _, v in parts])
     tol = np.array([part_tolerance(label, kind, v, plan) for label, kind, v in parts])
     m = len(parts)
@@ -168,7 +164,16 @@ def worst_corner(model: CreepModel, network: Network, plan: PartsPlan,
         bits = (np.arange(2 ** m)[:, None] >> np.arange(m)[None, :]) & 1
     else:
         bits = np.random.default_rng(seed).integers(0, 2, (MAX_CORNERS, m))
-    values = nominal * (1.0 + np.where(bits == 1, tol, -tol))
+    return nominal * (1.0 + np.where(bits == 1, tol, -tol))
+
+
+def worst_corner(model: CreepModel, network: Network, plan: PartsPlan,
+                 seed: int = 0) -> tuple[float, int]:
+    """Largest peak residual creep over the corners of the parts' tolerance box (closed form).
+
+    Returns the value and the number of corners evaluated.
+    """
+    values = tolerance_corners(network.parts(), plan, seed)
     d, r, p = modal_form(*state_matrices(*network.batch_arrays(values)))
     return float(screening_deviation(model, d, r, p).max()), len(values)
 
@@ -235,15 +240,7 @@ def judge_active(model: CreepModel, stage, plan: PartsPlan | None = None) -> Ver
             f"the capacitors' insulation and a {format_quantity(ASSUMED_LEAKAGE, 'Ω')} board path "
             f"across each leave a peak residual creep of {format_percent(leak)}, no better than "
             f"the uncorrected {format_percent(uncorrected)}")
-    parts = stage.parts()
-    nominal = np.array([v for _, _, v in parts])
-    tol = np.array([part_tolerance(label, kind, v, plan) for label, kind, v in parts])
-    m = len(parts)
-    if 2 ** m <= MAX_CORNERS:
-        bits = (np.arange(2 ** m)[:, None] >> np.arange(m)[None, :]) & 1
-    else:
-        bits = np.random.default_rng(0).integers(0, 2, (MAX_CORNERS, m))
-    values = nominal * (1.0 + np.where(bits == 1, tol, -tol))
+    values = tolerance_corners(stage.parts(), plan)
     lags = [stage.with_parts(v).lag_expansion() for v in values]
     worst = float(screening_deviation(model, np.array([g.direct for g in lags]),
                                       np.array([g.gains for g in lags]),
