@@ -84,7 +84,7 @@ def test_zero_load_and_short_record_are_refused():
     with pytest.raises(InputError, match="zero throughout"):
         prepare(Record(t, np.zeros_like(t), t))
     with pytest.raises(InputError, match="too few"):
-        prepare(Record(t[:5], t[:5], t[:5]))
+        prepare(Record(t[:4], t[:4], t[:4]))
 
 
 def test_ar_noise_model_is_recovered():

@@ -10,7 +10,7 @@ import numpy as np
 from creepcomp.errors import InputError
 from creepcomp.io.records import Record
 
-__all__ = ["BLOCK_SAMPLES", "BLOCK_VARIANCE", "check_scales", "MAX_TIME", "VALUE_RANGE", "GAP_FACTOR", "CONSTANT_LOAD_TOLERANCE", "Data", "gaps", "prepare"]
+__all__ = ["BLOCK_SAMPLES", "BLOCK_VARIANCE", "check_scales", "MAX_TIME", "VALUE_RANGE", "GAP_FACTOR", "CONSTANT_LOAD_TOLERANCE", "Data", "gaps", "MIN_SAMPLES", "prepare"]
 
 #: A time step longer than this many median steps is a gap: the noise model forgets across it.
 GAP_FACTOR = 5.0
@@ -195,8 +195,14 @@ def check_scales(record: Record) -> None:
                          f"{record.signal[0]:g}): nothing to fit a creep model to")
 
 
+#: Fewest samples a creep model is fitted to: one term (gain, offset or a known load step,
+#: beta, tau) and the noise variance; records of fewer than
+#: :data:`~creepcomp.fit.noise.SPARSE_SAMPLES` get white noise and a small-sample covariance.
+MIN_SAMPLES = 5
+
+
 def prepare(record: Record, initial: str = "free", load_step_at: float | None = None,
-            hold: str = "linear", min_samples: int = 20) -> Data:
+            hold: str = "linear", min_samples: int = MIN_SAMPLES) -> Data:
     """Check a record and prepare it for fitting.
 
     Parameters
@@ -210,12 +216,16 @@ def prepare(record: Record, initial: str = "free", load_step_at: float | None = 
         test: the load was zero before it and ``load[0]`` after it).
     hold : {"linear", "zero"}
     min_samples : int
+        Fewest samples accepted (:data:`MIN_SAMPLES`).
 
     Returns
     -------
     Data
     """
-    record.require(n_samples=min_samples, what="fitting a creep model")
+    if len(record) < min_samples:
+        raise InputError(f"{record.source}: {len(record)} samples is too few for fitting a creep "
+                         f"model (needs at least {min_samples}: one term's gain, offset, beta and "
+                         "tau, and the noise)")
     if hold not in ("linear", "zero"):
         raise InputError(f"hold '{hold}': use 'linear' or 'zero'")
     if initial not in ("free", "relaxed", "settled"):

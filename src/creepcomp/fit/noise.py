@@ -13,13 +13,23 @@ from scipy import linalg
 from creepcomp.fit.data import Data, gaps
 from creepcomp.lti import lag_states
 
-__all__ = ["MAX_AR_ORDER", "ARNoise", "rows_for", "whiten", "fit_noise", "ljung_box",
+__all__ = ["MAX_AR_ORDER", "SPARSE_SAMPLES", "ar_order_for", "ARNoise", "rows_for", "whiten", "fit_noise", "ljung_box",
            "autocorrelation", "spectral_variance", "gaussian_bic", "FLOOR_WINDOW", "FEW_WINDOWS", "MISFIT_LIMIT",
            "NoiseFloor", "noise_floor", "quantisation_step", "misfit_ratio", "explained_share",
            "slow_drift", "none_statement"]
 
 #: Largest order of the autoregressive noise model.
 MAX_AR_ORDER = 5
+#: Records of fewer samples are sparse: their noise is taken as white (AR order 0), since a
+#: handful of residuals cannot tell a correlation from structure, and the order's
+#: predecessors would take the few rows there are out of the likelihood.
+SPARSE_SAMPLES = 20
+
+
+def ar_order_for(n_samples: int) -> int:
+    """Largest AR noise order fitted on a record of ``n_samples`` (0 for a sparse record,
+    :data:`SPARSE_SAMPLES`)."""
+    return MAX_AR_ORDER if n_samples >= SPARSE_SAMPLES else 0
 
 
 def gaussian_bic(rss: float, n: int, n_params: int) -> tuple[float, float]:
@@ -61,9 +71,11 @@ class ARNoise:
                 "memory_s": self.correlation_samples() * dt}
 
 
-def rows_for(data: Data, mask: np.ndarray | None = None, order: int = MAX_AR_ORDER) -> np.ndarray:
-    """Samples that have ``order`` predecessors in the same segment and inside ``mask``."""
+def rows_for(data: Data, mask: np.ndarray | None = None, order: int | None = None) -> np.ndarray:
+    """Samples that have ``order`` predecessors in the same segment and inside ``mask``
+    (default: the record's largest AR order, :func:`ar_order_for`)."""
     n = data.n
+    order = ar_order_for(n) if order is None else order
     ok = np.ones(n, bool) if mask is None else np.asarray(mask, bool).copy()
     good = ok.copy()
     for i in range(1, order + 1):
@@ -81,8 +93,10 @@ def whiten(z: np.ndarray, rows: np.ndarray, noise: ARNoise) -> np.ndarray:
     return out
 
 
-def fit_noise(residual: np.ndarray, rows: np.ndarray, max_order: int = MAX_AR_ORDER) -> ARNoise:
-    """AR(p) noise of a residual, p chosen by BIC (least squares on the given rows)."""
+def fit_noise(residual: np.ndarray, rows: np.ndarray, max_order: int | None = None) -> ARNoise:
+    """AR(p) noise of a residual, p chosen by BIC (least squares on the given rows); ``p`` up
+    to ``max_order`` (default: :func:`ar_order_for` the residual's length)."""
+    max_order = ar_order_for(len(residual)) if max_order is None else max_order
     y = residual[rows]
     n = len(rows)
     best, best_bic = ARNoise((), float(np.sqrt(np.mean(y ** 2)))), n * np.log(np.mean(y ** 2) + 1e-300)

@@ -11,8 +11,8 @@ from scipy import linalg
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.evidence import BIC_STRONG, FOLDS, Evidence, compare, heldout
-from creepcomp.fit.noise import ARNoise
-from creepcomp.fit.solver import Fit, fit_structure
+from creepcomp.fit.noise import SPARSE_SAMPLES, ARNoise
+from creepcomp.fit.solver import Fit, fit_structure, small_sample_inflation
 from creepcomp.fit.starts import cluster_taus, extra_term_starts, nnls_spectrum, one_term_starts, tau_grid
 from creepcomp.fit.structure import Applied, Structure
 from creepcomp.model import CreepModel
@@ -122,7 +122,10 @@ def fit_prony(data: Data, max_terms: int = 6, n_terms: int | None = None,
         trial = None
     if trial is not None and not trial.bic < settled.fit.bic - BIC_STRONG:
         return settled
-    result = _orders(data, max_terms, n_terms, folds, effects)
+    try:
+        result = _orders(data, max_terms, n_terms, folds, effects)
+    except InputError:   # (a sparse record may not carry the initial states as well)
+        return settled
     return settled if settled.fit.bic < result.fit.bic + BIC_STRONG else result
 
 
@@ -189,6 +192,17 @@ def fit_summary(data: Data, fit: Fit) -> dict:
     return out
 
 
+def _uncertainty_note(data: Data, fit: Fit) -> str:
+    """What the stated standard deviations are."""
+    note = "one standard deviation: Jacobian of the prewhitened residual, Gaussian AR noise, locally linear model"
+    if data.n >= SPARSE_SAMPLES:
+        return note
+    dof = fit.n_rows - (fit.n_params - 1)
+    return (note + f"; a sparse record ({data.n} samples, {dof} degrees of freedom): white noise, "
+            f"covariance times {small_sample_inflation(fit.n_rows, fit.n_params - 1):.3g} (unbiased "
+            "variance and Student's t one-sigma quantile)")
+
+
 def model_file_dict(data: Data, fit: Fit, steps: Sequence[OrderStep] = (), chosen: int = 0,
                     extensions: dict | None = None) -> dict:
     """Model file: ``beta``, ``tau``, ``gain``, ``offset`` (+ ``extensions``), with
@@ -210,8 +224,7 @@ def model_file_dict(data: Data, fit: Fit, steps: Sequence[OrderStep] = (), chose
     model["uncertainty"] = {"beta": [t["beta_sigma"] for t in terms],
                             "tau": [t["tau_sigma"] for t in terms],
                             "gain": gain[1], "offset": offset[1] if not data.fixed_offset else 0.0,
-                            "note": "one standard deviation: Jacobian of the prewhitened residual, "
-                                    "Gaussian AR noise, locally linear model"}
+                            "note": _uncertainty_note(data, fit)}
     model["fit"] = fit_summary(data, fit)
     if steps:
         model["fit"]["orders"] = [{

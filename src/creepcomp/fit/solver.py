@@ -20,13 +20,13 @@ from scipy.linalg import lapack
 
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
-from creepcomp.fit.noise import ARNoise, fit_noise, gaussian_bic, rows_for, whiten
+from creepcomp.fit.noise import SPARSE_SAMPLES, ARNoise, fit_noise, gaussian_bic, rows_for, whiten
 from creepcomp.fit.structure import (Basis, Param, Structure, basis, basis_derivatives, load_steps,
                                      taus_of, with_step_times)
 from creepcomp.model import CreepModel
 
 __all__ = ["Fit", "ANCHOR_WEIGHT", "Problem", "best_of_starts", "fit_structure", "with_noise",
-           "sandwich_covariance"]
+           "sandwich_covariance", "small_sample_inflation"]
 
 
 def best_of_starts(residual: Callable[[np.ndarray], np.ndarray], starts: Sequence[np.ndarray],
@@ -260,7 +260,8 @@ class Problem:
         self.rows = np.arange(data.n) if mask is None else np.flatnonzero(mask)   # fitted
         self.take = slice(None) if mask is None else self.rows    # (a view when all are fitted)
         self.likelihood_rows = rows_for(data, mask)                               # prewhitened
-        if len(self.likelihood_rows) < 10:
+        self.sparse = data.n < SPARSE_SAMPLES
+        if not self.sparse and len(self.likelihood_rows) < 10:
             raise InputError(f"{data.source}: too few samples left to fit")
         # a reduced record's samples weighed by what each holds (Data.weights): rows of the
         # signal and of the basis times the square root of their weights (:meth:`on_rows`)
@@ -271,6 +272,14 @@ class Problem:
         # the optimiser's tolerances are partly absolute: work on a residual of order one
         self.scale = data.signal_scale
         self.cache: dict = {}
+        if self.sparse:
+            # a sparse record must leave the noise a degree of freedom beyond the parameters
+            names = self.basis(np.array([0.5 * sum(p.bounds()) for p in self.params])).names
+            k = len(self.params) + _counted_linear(names, self.fixed)
+            if len(self.likelihood_rows) <= k:
+                raise InputError(f"{data.source}: {len(self.likelihood_rows)} samples cannot "
+                                 f"determine {structure.describe()} ({k} parameters and the "
+                                 f"noise need at least {k + 1})")
 
     def values(self, x: np.ndarray) -> dict:
         """Natural values of the nonlinear parameters at search point ``x``."""
@@ -549,8 +558,31 @@ def _finish(problem: Problem, x: np.ndarray, noise: ARNoise | None, with_cov: bo
                       "linear": _counted_linear(b.names, problem.fixed)})
     fit = with_noise(fit, noise)
     if with_cov:
-        fit = replace(fit, cov=_covariance(problem, x, coef, fit.noise))
+        cov = _covariance(problem, x, coef, fit.noise)
+        if cov is not None and problem.sparse:
+            cov = cov * small_sample_inflation(len(problem.likelihood_rows), fit.n_params - 1)
+        fit = replace(fit, cov=cov)
     return fit
+
+
+#: Share of a normal distribution within one standard deviation of its mean, each side.
+_ONE_SIGMA = 0.5 * (1.0 + math.erf(1.0 / math.sqrt(2.0)))
+
+
+def small_sample_inflation(n_rows: int, n_params: int) -> float:
+    """Factor on the covariance of a sparse record's estimates (fewer than
+    :data:`~creepcomp.fit.noise.SPARSE_SAMPLES` samples) so that one stated standard deviation
+    spans what it would with the noise known: the innovation variance estimated without bias
+    (``n / (n - k)`` on the maximum-likelihood one) and Student's t with ``n - k`` degrees of
+    freedom, whose one-sigma quantile is ``t_(n-k)(0.841)`` instead of 1 (1.84 with one degree
+    of freedom, 1.32 with two, 1.14 with four). Linearised: the profile would be exact but
+    costs a refit per parameter and point, and on so few samples its shape is itself uncertain."""
+    from scipy import stats
+
+    dof = n_rows - n_params
+    if dof < 1:
+        return float("inf")
+    return (n_rows / dof) * float(stats.t.ppf(_ONE_SIGMA, dof)) ** 2
 
 
 def with_noise(fit: Fit, noise: ARNoise) -> Fit:
