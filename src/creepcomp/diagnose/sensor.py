@@ -45,7 +45,7 @@ from creepcomp.diagnose.effects import Effect, compensate_extended
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data, prepare
 from creepcomp.fit.structure import Applied, Structure
-from creepcomp.fit.noise import (MISFIT_LIMIT, NoiseFloor, autocorrelation, explained_share,
+from creepcomp.fit.noise import (MISFIT_LIMIT, SPARSE_SAMPLES, NoiseFloor, autocorrelation, explained_share,
     ljung_box, misfit_ratio as ratio_to_floor, noise_floor, rows_for, whiten)
 from creepcomp.fit.solver import Fit, Problem, fit_structure
 from creepcomp.fit.evidence import (BIC_STRONG, HELDOUT_Z, Evidence, compare, compare_with_halves,
@@ -623,7 +623,8 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
     reduced = record.metadata.get("reduced")    # reduced once already, while read (fit.reduce)
     if max_samples is not None and reduced is None:
         record, reduced = reduce_record(record, max_samples)
-    data = prepare(record, initial=initial, load_step_at=load_step_at)
+    # (a diagnosis needs the noise floor's windows: fit's sparse minimum is not its own)
+    data = prepare(record, initial=initial, load_step_at=load_step_at, min_samples=SPARSE_SAMPLES)
     pool = effects_pkg.sensor_effects() if candidates is None else [effects_pkg.get(c) for c in candidates]
     search = _search(data, pool, max_effects)
     return _verdict(data, search, correction, reduced, t_start)

@@ -223,9 +223,10 @@ def prepare(record: Record, initial: str = "free", load_step_at: float | None = 
     Data
     """
     if len(record) < min_samples:
+        why = (": one term's gain, offset, beta and tau, and the noise"
+               if min_samples == MIN_SAMPLES else "")
         raise InputError(f"{record.source}: {len(record)} samples is too few for fitting a creep "
-                         f"model (needs at least {min_samples}: one term's gain, offset, beta and "
-                         "tau, and the noise)")
+                         f"model (needs at least {min_samples}{why})")
     if hold not in ("linear", "zero"):
         raise InputError(f"hold '{hold}': use 'linear' or 'zero'")
     if initial not in ("free", "relaxed", "settled"):

@@ -13,7 +13,8 @@ from scipy import linalg
 from creepcomp.fit.data import Data, gaps
 from creepcomp.lti import lag_states
 
-__all__ = ["MAX_AR_ORDER", "SPARSE_SAMPLES", "ar_order_for", "ARNoise", "rows_for", "whiten", "fit_noise", "ljung_box",
+__all__ = ["MAX_AR_ORDER", "SPARSE_SAMPLES", "ar_order_for",
+           "ARNoise", "rows_for", "whiten", "fit_noise", "ljung_box",
            "autocorrelation", "spectral_variance", "gaussian_bic", "FLOOR_WINDOW", "FEW_WINDOWS", "MISFIT_LIMIT",
            "NoiseFloor", "noise_floor", "quantisation_step", "misfit_ratio", "explained_share",
            "slow_drift", "none_statement"]

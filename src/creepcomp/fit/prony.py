@@ -194,7 +194,8 @@ def fit_summary(data: Data, fit: Fit) -> dict:
 
 def _uncertainty_note(data: Data, fit: Fit) -> str:
     """What the stated standard deviations are."""
-    note = "one standard deviation: Jacobian of the prewhitened residual, Gaussian AR noise, locally linear model"
+    note = ("one standard deviation: Jacobian of the prewhitened residual, Gaussian AR noise, "
+            "locally linear model")
     if data.n >= SPARSE_SAMPLES:
         return note
     dof = fit.n_rows - (fit.n_params - 1)
