@@ -55,6 +55,9 @@ def test_five_samples_with_a_load_step_inside_fit_one_term_settled():
     assert result.data.initial == "settled" and result.fit.structure.n_terms == 1
     assert np.isfinite(result.fit.cov).all()
     assert "sparse record (5 samples, 1 degrees of freedom)" in result.to_dict()["uncertainty"]["note"]
+    # held out: a fold's four samples refit the linear part (not all four parameters), so
+    # the held-out residual is a prediction, not the in-sample residual again
+    assert result.fit.heldout.rms > 1.5 * result.fit.residual_rms
 
 
 def test_four_samples_are_refused_by_name_with_the_reason():

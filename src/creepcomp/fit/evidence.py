@@ -20,7 +20,7 @@ from scipy import linalg
 
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
-from creepcomp.fit.noise import spectral_variance
+from creepcomp.fit.noise import SPARSE_SAMPLES, spectral_variance
 from creepcomp.fit.solver import Fit, fit_structure
 from creepcomp.fit.structure import basis, basis_derivatives
 
@@ -201,6 +201,13 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
             return fit_structure(data, fit.structure, [start], noise=fit.noise, mask=keep,
                                  max_nfev=3, with_cov=False, anchor=anchor, refine=refine,
                                  frozen=frozen).residual
+        except InputError:
+            if data.n >= SPARSE_SAMPLES or not start:
+                return fit.residual
+        try:  # a sparse record's remaining samples: the linear part alone is refitted
+            return fit_structure(data, fit.structure, [start], noise=fit.noise, mask=keep,
+                                 with_cov=False, anchor=anchor, refine=False,
+                                 frozen=start).residual
         except InputError:
             return fit.residual
 
