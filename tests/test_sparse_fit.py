@@ -82,3 +82,10 @@ def test_records_of_the_old_minimum_keep_the_ar_noise_model_rows():
     fit, sparse = one_term(SPARSE_SAMPLES), one_term(SPARSE_SAMPLES - 1)
     assert fit.n_rows == SPARSE_SAMPLES - 5          # five predecessors for the AR model
     assert sparse.n_rows == SPARSE_SAMPLES - 1       # white: every sample
+
+
+def test_more_terms_than_a_sparse_record_carries_are_refused_with_the_count():
+    data = prepare(creep_test(5, 0), load_step_at=0.0)
+    with pytest.raises(InputError, match=r"5 samples cannot determine 2 terms \(5 parameters and "
+                                         r"the noise need at least 6\)"):
+        fit_prony(data, n_terms=2)

@@ -139,7 +139,11 @@ def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
     for k in range(1, top + 1):
         try:
             fit = heldout(data, fit_terms(data, k, previous, None, effects), folds)
-        except (InputError, linalg.LinAlgError):
+        except InputError:
+            if n_terms is not None and data.n < SPARSE_SAMPLES:
+                raise   # (the terms asked for are more than a sparse record carries: the reason)
+            break
+        except linalg.LinAlgError:
             break
         ev = compare(previous, fit) if previous is not None else None
         steps.append(OrderStep(k, fit, ev))
