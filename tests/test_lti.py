@@ -142,3 +142,18 @@ def test_inverse_ar_transpose_is_the_backward_all_pole_filter():
     for n in range(len(z) - 1, -1, -1):          # y[n] = z[n] + sum phi_i y[n + i]
         y[n] = z[n] + sum(p * y[n + i] for i, p in enumerate(phi, start=1) if n + i < len(z))
     assert np.allclose(_inverse_ar_transpose(z, ARNoise(phi=phi, sigma=1.0)), y, rtol=1e-12, atol=1e-12)
+
+
+def test_varying_lag_states_with_a_vanishing_time_constant_follow_the_input():
+    """A step decaying by more than a float can hold (dt / tau = inf) settles the lag at its
+    input, as the exact recursion does, instead of spoiling the rest of the record."""
+    from creepcomp.lti import varying_lag_states
+
+    t = np.arange(12.0)
+    u = np.linspace(0.0, 1.0, 12)
+    taus = np.full((11, 1), 2.0)
+    taus[4] = 1e-320
+    out = varying_lag_states(t, u, taus, hold="zero", initial="relaxed")
+    assert np.all(np.isfinite(out)) and out[5, 0] == pytest.approx(u[4])
+    reference = varying_lag_states(t[5:], u[5:], taus[5:], hold="zero", initial=[out[5, 0]])
+    assert np.allclose(out[5:], reference, rtol=1e-12, atol=1e-15)

@@ -459,7 +459,9 @@ def varying_lag_states(time, u, taus, hold: str = "linear", initial="relaxed") -
         raise InputError("time constants must be positive")
     e, b0, b1 = lag_coefficients(dt[:, None], taus, hold)
     drive = b0 * u[:-1, None] + b1 * u[1:, None]
-    rates = dt[:, None] / taus
+    # a step of more decay than a block holds ends its block (its own e is exact there), so
+    # capping it keeps the cumulative decay finite when a time constant is tiny
+    rates = np.minimum(dt[:, None] / taus, _BLOCK_DECAY)
     decay = np.zeros((n, k))
     np.cumsum(rates, axis=0, out=decay[1:])
     # blocks of bounded decay for every lag at once: the decay of the fastest lag at each step
