@@ -51,9 +51,10 @@ def reduce_record(record: Record, max_samples: int = MAX_FIT_SAMPLES) -> tuple[R
     - **load steps stay sharp**: blocks never straddle a change of the load; the first and
       the last sample of every constant-load stretch are kept as they are (time, load,
       signal), so a step happens between the same two samples as in the full record;
-    - within a stretch, blocks of consecutive samples become one sample at their centre
-      time holding the parabola-centre value of every column (signal, load, temperature,
-      corrected; :func:`block_weights`): the same linear filter on every column, exact for
+    - within a stretch, blocks of consecutive samples become one sample at their mean time
+      (which keeps irregular times in order; for even sampling the centre) holding the
+      parabola-centre value of every other column (signal, load, temperature,
+      corrected; :func:`block_weights`): the same linear filter on each of them, exact for
       any part of the signal that is a parabola over the block, and lowering white noise
       by about ``1.5 / sqrt(h)`` for a block of ``h`` samples;
     - metadata and source are kept, and ``metadata["reduced"]`` says what was done.
@@ -82,11 +83,12 @@ def reduce_record(record: Record, max_samples: int = MAX_FIT_SAMPLES) -> tuple[R
     change = np.flatnonzero(record.load[1:] != record.load[:-1]) + 1
     starts, note, within, weighted = _plan(n, record.duration, change, len(change), max_samples)
     weights = block_weights(starts, n, parabola=within)
+    means = block_weights(starts, n, parabola=False)
     columns = {}
     for name in COLUMNS:
         values = getattr(record, name)
         if values is not None:
-            columns[name] = np.add.reduceat(values * weights, starts)
+            columns[name] = np.add.reduceat(values * (means if name == "time" else weights), starts)
     metadata = _reduced_metadata(record.metadata, note, starts, n, within, weighted)
     return replace(record, metadata=metadata, **columns), note
 
@@ -312,9 +314,10 @@ def _read_reduced_chunks(path, targets, columns, delimiter, progress, block_byte
             inner = starts[first + 1:np.searchsorted(starts, hi, side="left")]
             local = np.concatenate(([0], inner - lo))
             weights = block_weights(starts, n, lo, hi, parabola=within)
+            means = block_weights(starts, n, lo, hi, parabola=False)
             for name in scan.names:
-                total[name][first:first + len(local)] += np.add.reduceat(getattr(piece, name) * weights,
-                                                                         local)
+                w = means if name == "time" else weights
+                total[name][first:first + len(local)] += np.add.reduceat(getattr(piece, name) * w, local)
         lo = hi
         if progress:
             progress(lo, n)
