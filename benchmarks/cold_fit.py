@@ -5,19 +5,28 @@ each; and the start-up alone (``from creepcomp.cli import run``).
 
 Printed per size: the median wall time over ``--repeat`` runs and the CPU time of the
 process (user + system; on a busy machine the wall time grows, the CPU time much less).
-Records longer than :data:`~creepcomp.fit.reduce.MAX_FIT_SAMPLES` are reduced by block
-means while they are read (part of the timed run).
+Records longer than :data:`~creepcomp.fit.reduce.MAX_FIT_SAMPLES` are reduced by blocks
+while they are read (part of the timed run). With ``--phases``, one more run per size says
+where its time went: start-up imports, reading and reducing the record, the fit (``prepare``
+and ``fit_prony``), and the rest (option parsing, the command's own imports, the output).
+
+The runs use compiled bytecode as an installed package does: when this interpreter does not
+write bytecode (``PYTHONDONTWRITEBYTECODE``), the runs write and reuse it in a temporary
+folder (``PYTHONPYCACHEPREFIX``), so that no run compiles creepcomp's modules from source.
 
 Usage::
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/cold_fit.py [--repeat 3] [--sizes 10000,100000,1000000]
+    OPENBLAS_NUM_THREADS=1 python benchmarks/cold_fit.py [--repeat 3] [--sizes 10000,100000,1000000] [--phases]
 """
 
 from __future__ import annotations
 
 import argparse
+import atexit
+import json
 import os
 import resource
+import shutil
 import statistics
 import subprocess
 import sys
@@ -33,11 +42,59 @@ import peers  # noqa: E402
 CLI = [sys.executable, "-c", "from creepcomp.cli import run; run()"]
 
 
+#: A fresh process that runs ``creepcomp fit`` (its arguments after the script's) and prints
+#: wall and CPU seconds of each phase as JSON.
+PHASES = """
+import json, sys, time
+marks = [("start", time.perf_counter(), time.process_time())]
+def mark(label):
+    marks.append((label, time.perf_counter(), time.process_time()))
+from creepcomp.cli import main
+import creepcomp.cli.fit as cli_fit, creepcomp.fit as fit
+mark("start-up and fit imports")
+spent = {"read and reduce": [0.0, 0.0], "fit": [0.0, 0.0]}
+def timing(phase, function):
+    def run(*args, **kwargs):
+        wall, cpu = time.perf_counter(), time.process_time()
+        try:
+            return function(*args, **kwargs)
+        finally:
+            spent[phase][0] += time.perf_counter() - wall
+            spent[phase][1] += time.process_time() - cpu
+    return run
+cli_fit.load_reduced = timing("read and reduce", cli_fit.load_reduced)
+fit.prepare = timing("fit", fit.prepare)
+fit.fit_prony = timing("fit", fit.fit_prony)
+status = main(sys.argv[1:])
+mark("command")
+(_, w0, c0), (_, w1, c1), (_, w2, c2) = marks
+out = {"start-up and fit imports": [w1 - w0, c1 - c0], **spent}
+out["the rest"] = [w2 - w1 - sum(v[0] for v in spent.values()), c2 - c1 - sum(v[1] for v in spent.values())]
+print(json.dumps(out), file=sys.stderr)
+sys.exit(status)
+"""
+
+
+def child_environment() -> dict:
+    """The environment of the runs: bytecode written and reused (in a temporary folder when
+    this interpreter does not write it)."""
+    env = dict(os.environ)
+    if sys.dont_write_bytecode and "PYTHONPYCACHEPREFIX" not in env:
+        env.pop("PYTHONDONTWRITEBYTECODE", None)
+        env["PYTHONPYCACHEPREFIX"] = folder = tempfile.mkdtemp(prefix="creepcomp-pycache-")
+        atexit.register(shutil.rmtree, folder, ignore_errors=True)
+    return env
+
+
+ENV = child_environment()
+
+
 def timed(command: list[str]) -> tuple[float, float]:
     """Wall and CPU seconds (user + system) of one run of ``command`` (a failure stops)."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
-    subprocess.run(command, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    subprocess.run(command, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                   env=ENV)
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
@@ -49,12 +106,24 @@ def write_record(path: Path, n: int) -> None:
                comments="", fmt=("%.6f", "%.6g", "%.9g"))
 
 
+def print_phases(arguments: list[str]) -> None:
+    """Run the command once more, split into its phases, and print them."""
+    done = subprocess.run([sys.executable, "-c", PHASES] + arguments, check=True, env=ENV,
+                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    for phase, (wall, cpu) in json.loads(done.stderr.strip().splitlines()[-1]).items():
+        print(f"  {phase:26s} {wall:11.2f}s {cpu:10.2f}s")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--sizes", default="10000,100000,1000000")
+    ap.add_argument("--phases", action="store_true",
+                    help="one more run per size: where its time went")
     args = ap.parse_args(argv)
     print(f"load average {os.getloadavg()[0]:.2f}")
+    if "PYTHONPYCACHEPREFIX" in ENV and "PYTHONPYCACHEPREFIX" not in os.environ:
+        print(f"bytecode written and reused in {ENV['PYTHONPYCACHEPREFIX']} (as installed)")
     print(f"{'run':28s} {'wall median':>12s} {'CPU median':>11s}")
     runs = [("start-up (import)", [sys.executable, "-c", "from creepcomp.cli import run"])]
     with tempfile.TemporaryDirectory(prefix="creepcomp-cold-") as folder:
@@ -67,6 +136,8 @@ def main(argv=None):
             walls, cpus = zip(*(timed(command) for _ in range(args.repeat)))
             print(f"{label:28s} {statistics.median(walls):11.2f}s {statistics.median(cpus):10.2f}s",
                   flush=True)
+            if args.phases and command[:len(CLI)] == CLI:
+                print_phases(command[len(CLI):])
     print(f"load average {os.getloadavg()[0]:.2f}; goal: each fit 1 s or less, start-up included")
 
 

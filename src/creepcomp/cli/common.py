@@ -162,12 +162,15 @@ def progress_bar(description: str, total: int | None = None, disable: bool = Fal
     callable
         ``update(done, total=None)`` moves the bar.
     """
+    if disable or not err_console.is_terminal:
+        yield lambda done, total=None, description=None: None
+        return
     from rich.progress import (BarColumn, Progress, SpinnerColumn, TaskProgressColumn, TextColumn,
                                TimeElapsedColumn)
 
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), BarColumn(),
-                  TaskProgressColumn(), TimeElapsedColumn(), console=err_console, transient=True,
-                  disable=disable or not err_console.is_terminal) as bar:
+                  TaskProgressColumn(), TimeElapsedColumn(), console=err_console,
+                  transient=True) as bar:
         task = bar.add_task(description, total=total)
 
         def update(done, total=None, description=None):

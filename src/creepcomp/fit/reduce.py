@@ -27,6 +27,8 @@ little; the held-out tests, whose spread follows the residual's spectrum, stay t
 from __future__ import annotations
 
 import math
+import os
+import stat
 from dataclasses import replace
 from pathlib import Path
 from typing import Callable, Mapping, Sequence
@@ -37,10 +39,14 @@ from creepcomp.fit.data import BLOCK_SAMPLES, BLOCK_VARIANCE
 from creepcomp.io.records import COLUMNS, STREAM_BYTES, Record, open_record_stream
 from creepcomp.units import format_quantity
 
-__all__ = ["MAX_FIT_SAMPLES", "reduce_record", "read_reduced", "block_weights", "block_variance"]
+__all__ = ["MAX_FIT_SAMPLES", "WHOLE_PIECES", "reduce_record", "read_reduced", "block_weights", "block_variance"]
 
 #: Samples a fit works on at most (more are reduced by :func:`reduce_record`).
 MAX_FIT_SAMPLES = 50_000
+#: :func:`read_reduced` reads a file of at most this many pieces of CSV text whole (64 MiB for
+#: the default pieces, about 2.5 million rows of three columns): one parse instead of the two
+#: passes of the piecewise reduction, for the memory of some times the file's values.
+WHOLE_PIECES = 64
 
 
 def reduce_record(record: Record, max_samples: int = MAX_FIT_SAMPLES) -> tuple[Record, str | None]:
@@ -182,8 +188,8 @@ def _block_offsets(length: int, cap: int) -> np.ndarray:
         out.append(p)
         h = int(BLOCK_GROWTH * (p + 1))
         if h >= cap:
-            out.extend(range(p + cap, length, cap))
-            break
+            return np.concatenate((np.array(out, dtype=np.int64),
+                                   np.arange(p + cap, length, cap, dtype=np.int64)))
         p += max(1, h)
     return np.array(out, dtype=np.int64)
 
@@ -232,13 +238,20 @@ def block_weights(starts: np.ndarray, n: int, lo: int = 0, hi: int | None = None
     ``parabola`` is false, are plain means.
     """
     hi = n if hi is None else hi
-    ends = np.append(starts[1:], n)
-    block = np.searchsorted(starts, np.arange(lo, hi), side="right") - 1
-    h = (ends - starts)[block].astype(float)
-    z = np.arange(lo, hi) - starts[block] - (h - 1.0) / 2.0
+    # the blocks that overlap lo .. hi-1, and how many of their samples lie there
+    first = int(np.searchsorted(starts, lo, side="right")) - 1
+    last = int(np.searchsorted(starts, hi, side="left"))
+    begin = starts[first:last]
+    end = np.append(starts[first + 1:last + 1], n)[:len(begin)]
+    inside = np.minimum(end, hi) - np.maximum(begin, lo)
+    size = (end - begin).astype(float)
+    if not parabola:
+        return np.repeat(1.0 / size, inside)
+    h = np.repeat(size, inside)
+    z = np.arange(lo, hi) - np.repeat(begin + (size - 1.0) / 2.0, inside)
     with np.errstate(divide="ignore", invalid="ignore"):
         centre = (3.0 * (3.0 * h * h - 7.0) - 60.0 * z * z) / (4.0 * h * (h * h - 4.0))
-    return np.where(h >= 3, centre, 1.0 / h) if parabola else 1.0 / h
+    return np.where(h >= 3, centre, 1.0 / h)
 
 
 def _stretch_blocks(bounds: np.ndarray, k: int) -> np.ndarray:
@@ -260,11 +273,12 @@ def read_reduced(path: str | Path, max_samples: Sequence[int] = (MAX_FIT_SAMPLES
                  block_bytes: int = STREAM_BYTES) -> list[tuple[Record, str | None]]:
     """Read a record file and reduce it (:func:`reduce_record`) to each of ``max_samples``.
 
-    A long plain CSV record is never held whole: one pass finds its length and load steps,
-    a second sums the blocks of every reduction while reading (the result equals
-    :func:`reduce_record` of the whole record to rounding). Other files, records no longer
-    than the largest of ``max_samples``, and anything the chunked reader leaves to the full
-    one (:attr:`~creepcomp.io.records.RecordStream.whole_reason`) are read whole
+    A plain CSV file of more than :data:`WHOLE_PIECES` pieces is never held whole: one pass
+    finds its length and load steps, a second sums the blocks of every reduction while reading
+    (the result equals :func:`reduce_record` of the whole record to rounding). Smaller files,
+    other files, records no longer than the largest of ``max_samples``, and anything the
+    chunked reader leaves to the full one
+    (:attr:`~creepcomp.io.records.RecordStream.whole_reason`) are read whole
     (:func:`creepcomp.io.formats.read_any`) and reduced.
 
     Parameters
@@ -276,6 +290,9 @@ def read_reduced(path: str | Path, max_samples: Sequence[int] = (MAX_FIT_SAMPLES
         As :func:`creepcomp.io.formats.read_any`.
     progress : callable, optional
         Called as ``progress(rows_done, rows=None, description=None)``.
+    block_bytes : int
+        CSV text per piece of the piecewise reading
+        (:func:`~creepcomp.io.records.open_record_stream`).
 
     Returns
     -------
@@ -285,13 +302,23 @@ def read_reduced(path: str | Path, max_samples: Sequence[int] = (MAX_FIT_SAMPLES
     from creepcomp.io.formats import read_any
 
     targets = [max(int(m), 100) for m in max_samples]
-    if duplicate_times.strip().lower() == "error" and taxel is None and sheet is None:
+    if (duplicate_times.strip().lower() == "error" and taxel is None and sheet is None
+            and _file_bytes(path) > WHOLE_PIECES * block_bytes):
         reduced = _read_reduced_chunks(path, targets, columns, delimiter, progress, block_bytes)
         if reduced is not None:
             return reduced
     record = read_any(path, columns, delimiter=delimiter, duplicate_times=duplicate_times,
                       taxel=taxel, sheet=sheet)
     return [reduce_record(record, m) for m in targets]
+
+
+def _file_bytes(path) -> int:
+    """Size of a regular file; 0 for anything else (the whole reader words what it is)."""
+    try:
+        st = os.stat(path)
+    except (OSError, ValueError):
+        return 0
+    return st.st_size if stat.S_ISREG(st.st_mode) else 0
 
 
 def _read_reduced_chunks(path, targets, columns, delimiter, progress, block_bytes):
