@@ -10,9 +10,8 @@ while they are read (part of the timed run). With ``--phases``, one more run per
 where its time went: start-up imports, reading and reducing the record, the fit (``prepare``
 and ``fit_prony``), and the rest (option parsing, the command's own imports, the output).
 
-The runs use compiled bytecode as an installed package does: when this interpreter does not
-write bytecode (``PYTHONDONTWRITEBYTECODE``), the runs write and reuse it in a temporary
-folder (``PYTHONPYCACHEPREFIX``), so that no run compiles creepcomp's modules from source.
+The runs use compiled byte-code as an installed package does
+(:func:`startup.installed_environment`): no run compiles creepcomp's modules from source.
 
 Usage::
 
@@ -22,11 +21,9 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import atexit
 import json
 import os
 import resource
-import shutil
 import statistics
 import subprocess
 import sys
@@ -38,6 +35,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import peers  # noqa: E402
+from startup import ENV  # noqa: E402
 
 CLI = [sys.executable, "-c", "from creepcomp.cli import run; run()"]
 
@@ -75,18 +73,6 @@ sys.exit(status)
 """
 
 
-def child_environment() -> dict:
-    """The environment of the runs: bytecode written and reused (in a temporary folder when
-    this interpreter does not write it)."""
-    env = dict(os.environ)
-    if sys.dont_write_bytecode and "PYTHONPYCACHEPREFIX" not in env:
-        env.pop("PYTHONDONTWRITEBYTECODE", None)
-        env["PYTHONPYCACHEPREFIX"] = folder = tempfile.mkdtemp(prefix="creepcomp-pycache-")
-        atexit.register(shutil.rmtree, folder, ignore_errors=True)
-    return env
-
-
-ENV = child_environment()
 
 
 def timed(command: list[str]) -> tuple[float, float]:
@@ -123,7 +109,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     print(f"load average {os.getloadavg()[0]:.2f}")
     if "PYTHONPYCACHEPREFIX" in ENV and "PYTHONPYCACHEPREFIX" not in os.environ:
-        print(f"bytecode written and reused in {ENV['PYTHONPYCACHEPREFIX']} (as installed)")
+        print(f"byte-code written and reused in {ENV['PYTHONPYCACHEPREFIX']} (as installed)")
     print(f"{'run':28s} {'wall median':>12s} {'CPU median':>11s}")
     runs = [("start-up (import)", [sys.executable, "-c", "from creepcomp.cli import run"])]
     with tempfile.TemporaryDirectory(prefix="creepcomp-cold-") as folder:

@@ -93,6 +93,25 @@ def test_reduction_while_reading_equals_the_reduction_of_the_whole_record(tmp_pa
     assert none is None and np.array_equal(same.signal, whole.signal)
 
 
+def test_a_file_of_few_pieces_is_read_whole_and_a_longer_one_in_pieces(tmp_path, monkeypatch):
+    from creepcomp.fit import reduce as reduction
+
+    t, load, signal = _staircase(20_000)
+    path = write_record(tmp_path / "rec.csv", Record(t, load, signal))
+    want, want_note = reduction.reduce_record(read_record(path), 2_000)
+    streamed = []
+    monkeypatch.setattr(reduction, "open_record_stream",
+                        lambda *args, **kw: streamed.append(1) or open_record_stream(*args, **kw))
+    fewest = -(-path.stat().st_size // reduction.WHOLE_PIECES)    # bytes per piece: whole
+    [(whole, note)] = reduction.read_reduced(path, (2_000,), block_bytes=fewest)
+    assert streamed == [] and note == want_note and whole.metadata == want.metadata
+    for name in ("time", "load", "signal"):
+        assert np.array_equal(getattr(whole, name), getattr(want, name))
+    [(piecewise, note)] = reduction.read_reduced(path, (2_000,), block_bytes=fewest - 1)
+    assert streamed == [1] and note == want_note and piecewise.metadata == want.metadata
+    np.testing.assert_allclose(piecewise.signal, want.signal, rtol=1e-13, atol=1e-13)
+
+
 @pytest.mark.parametrize("irregular", [False, True])
 def test_correct_in_pieces_equals_the_whole_record_correction(tmp_path, irregular):
     from creepcomp.digital.correctors import compensate, creep_error
