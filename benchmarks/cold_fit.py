@@ -15,7 +15,8 @@ The runs use compiled byte-code as an installed package does
 
 Usage::
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/cold_fit.py [--repeat 3] [--sizes 10000,100000,1000000] [--phases]
+    OPENBLAS_NUM_THREADS=1 python benchmarks/cold_fit.py [--repeat 3] [--phases]
+        [--sizes 10000,100000,1000000]
 """
 
 from __future__ import annotations
@@ -92,12 +93,19 @@ def write_record(path: Path, n: int) -> None:
                comments="", fmt=("%.6f", "%.6g", "%.9g"))
 
 
-def print_phases(arguments: list[str]) -> None:
-    """Run the command once more, split into its phases, and print them."""
-    done = subprocess.run([sys.executable, "-c", PHASES] + arguments, check=True, env=ENV,
-                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+def print_phases(arguments: list[str], folder: Path) -> None:
+    """Run the command once more, writing the model file, split into its phases; print them
+    and the model's creep terms (a fast fit is only worth its time when it finds them)."""
+    model = folder / "model.json"
+    done = subprocess.run([sys.executable, "-c", PHASES] + arguments + ["-o", str(model)],
+                          check=True, env=ENV, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                          text=True)
     for phase, (wall, cpu) in json.loads(done.stderr.strip().splitlines()[-1]).items():
         print(f"  {phase:26s} {wall:11.2f}s {cpu:10.2f}s")
+    fitted = json.loads(model.read_text())
+    terms = ", ".join(f"{100 * b:.3g} % at {t:.4g} s" for b, t in zip(fitted["beta"], fitted["tau"]))
+    print(f"  model: {len(fitted['tau'])} term(s): {terms} (true: "
+          + ", ".join(f"{100 * b:.3g} % at {t:.4g} s" for b, t in zip(peers.BETAS, peers.TAUS)) + ")")
 
 
 def main(argv=None):
@@ -123,7 +131,7 @@ def main(argv=None):
             print(f"{label:28s} {statistics.median(walls):11.2f}s {statistics.median(cpus):10.2f}s",
                   flush=True)
             if args.phases and command[:len(CLI)] == CLI:
-                print_phases(command[len(CLI):])
+                print_phases(command[len(CLI):], Path(folder))
     print(f"load average {os.getloadavg()[0]:.2f}; goal: each fit 1 s or less, start-up included")
 
 

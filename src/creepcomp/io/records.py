@@ -448,10 +448,9 @@ def _read_fast(path: Path, mapping: dict, delimiter: str | None,
             table = pacsv.read_csv(fh, **_csv_options(head))
         except (pa.ArrowException, ValueError):
             return None
-    n, columns = table.num_rows, _columns_of(table, head)
-    del table                 # each column's text-parsed chunks are released once converted
-    arrays = _plain_arrays(columns, head, n) if n else None
-    del columns
+    n = table.num_rows
+    arrays = _plain_arrays(_columns_of(table, head), head, n) if n else None
+    del table
     if arrays is None:
         return None
     arrays = finish_arrays(arrays, head, time_scale, duplicate_times)
