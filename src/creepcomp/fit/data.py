@@ -4,6 +4,7 @@ the segments that gaps in the sampling cut it into."""
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -99,12 +100,12 @@ class Data:
         start = self.load_step_at if self.load_step_at is not None else self.t0
         return float(self.time[-1] - start)
 
-    @property
+    @cached_property
     def dt_median(self) -> float:
         """Median sampling step (s)."""
         return float(np.median(np.diff(self.time)))
 
-    @property
+    @cached_property
     def dt_resolved(self) -> float:
         """Finest sampling step (s) the record resolves: the median step, or of a reduced
         record, whose blocks after each load change begin as single samples, the full record's."""
@@ -117,10 +118,14 @@ class Data:
         sample's weight: unchanged unless the record is reduced."""
         if self.weights is None:
             return residual
-        root = np.sqrt(self.weights)
+        root = self._root_weights
         return residual * (root if np.ndim(residual) == 1 else root[:, None])
 
-    @property
+    @cached_property
+    def _root_weights(self) -> np.ndarray:
+        return np.sqrt(self.weights)
+
+    @cached_property
     def dt_small(self) -> float:
         """Finest sampling step that the record uses often (5th percentile, s)."""
         return float(np.percentile(np.diff(self.time), 5))
