@@ -47,7 +47,8 @@ MAX_FIT_SAMPLES = 50_000
 #: :func:`read_reduced` reads a file of at most this many pieces of CSV text whole (32 MiB for
 #: the default pieces, about 1.3 million rows of three columns): one parse instead of the two
 #: passes of the piecewise reduction, for a peak memory of about five times the file's size
-#: (the piecewise passes hold about 70 MB, whatever the size).
+#: (the piecewise passes hold about 70 MB, whatever the size): up to this size, below the
+#: peak of the fit of the reduced record that follows (about 300 MB for 50,000 samples).
 WHOLE_PIECES = 32
 
 
