@@ -7,7 +7,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, List, Optional
 
 import typer
-from rich.table import Table
 
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import write_json
@@ -262,6 +261,8 @@ def law_lines(result: TemperatureFit) -> list[str]:
 
 def render_temperature_fit(records: list[Record], result: TemperatureFit) -> None:
     """Print the records, the model at the reference temperature and its law."""
+    from rich.table import Table
+
     law = result.law
     several = len(records) > 1
     console.print(f"[bold]creepcomp fit[/bold]: {len(records)} record{'s' if several else ''}, one "
@@ -307,6 +308,8 @@ def render_temperature_fit(records: list[Record], result: TemperatureFit) -> Non
 
 def render_fit(record: Record, result: PronyResult, fixed: int | None) -> None:
     """Print the order search and the chosen model."""
+    from rich.table import Table
+
     from creepcomp.fit import BIC_STRONG, HELDOUT_Z, term_table
 
     data, fit = result.data, result.fit
