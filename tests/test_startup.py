@@ -64,3 +64,5 @@ def test_fit_imports_only_what_a_fit_uses(tmp_path):
     assert [m for m in ("control", "scipy.signal", "scipy.stats", "scipy.interpolate", "matplotlib",
                         "PySpice", "dask", "creepcomp.diagnose", "creepcomp.cli.mc")
             if m in loaded] == []
+    # off a terminal no progress bar is drawn, and a JSON answer prints no table
+    assert "rich.progress" not in loaded and "rich.table" not in loaded
