@@ -21,7 +21,7 @@ from scipy import linalg
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.noise import SPARSE_SAMPLES, spectral_variance
-from creepcomp.fit.solver import Fit, fit_structure
+from creepcomp.fit.solver import ANCHOR_WEIGHT, Fit, fit_structure
 from creepcomp.fit.structure import basis, basis_derivatives
 
 __all__ = ["BIC_STRONG", "HELDOUT_Z", "FOLDS", "BLOCKS", "MIN_BLOCK_SAMPLES",
@@ -131,20 +131,33 @@ def jacobian(data: Data, fit: Fit) -> np.ndarray:
     return np.column_stack(cols + [b.columns])
 
 
-def _undetermined(jac: np.ndarray, keep: np.ndarray, names: list, values: dict) -> dict | None:
+def _undetermined(jac: np.ndarray, keep: np.ndarray, names: list, values: dict,
+                  kept_gram: np.ndarray | None = None) -> dict | None:
     """The nonlinear parameters (first columns of ``jac``) that the kept samples leave
-    undetermined, with their values."""
-    def variances(rows):
-        j = jac[rows]
-        norms = np.sqrt(np.sum(j ** 2, axis=0))
-        norms[norms == 0] = 1.0
-        inv = linalg.pinvh((j / norms).T @ (j / norms))
+    undetermined, with their values (``kept_gram``: ``jac[keep].T @ jac[keep]`` when known)."""
+    def variances(gram):
+        norms = np.sqrt(np.diag(gram))
+        norms = np.where(norms == 0, 1.0, norms)
+        inv = linalg.pinvh(gram / np.outer(norms, norms))
         return np.diag(inv)[:len(names)] / norms[:len(names)] ** 2
-    full = variances(slice(None))
-    part = variances(keep)
+    full = variances(jac.T @ jac)
+    part = variances(jac[keep].T @ jac[keep] if kept_gram is None else kept_gram)
     out = {n: values[n] for n, vf, vp in zip(names, full, part)
            if not vp <= UNDETERMINED_VARIANCE_RATIO * vf}
     return out or None
+
+
+def _gauss_newton_step(gram: np.ndarray, rhs: np.ndarray, free: np.ndarray) -> np.ndarray:
+    """The least-squares step ``G^-1 rhs`` on the ``free`` columns (zero on the others), by
+    scaled normal equations with the weak ridge of :data:`~creepcomp.fit.solver.ANCHOR_WEIGHT`
+    (directions the rows leave undetermined are not moved)."""
+    step = np.zeros(len(rhs))
+    g = gram[np.ix_(free, free)]
+    norms = np.sqrt(np.diag(g))
+    norms = np.where(norms == 0, 1.0, norms)
+    scaled = g / np.outer(norms, norms) + ANCHOR_WEIGHT * np.eye(len(norms))
+    step[free] = linalg.lstsq(scaled, rhs[free] / norms, cond=1e-13)[0] / norms
+    return step
 
 
 def load_halves(load: np.ndarray) -> np.ndarray:
@@ -177,10 +190,16 @@ def halves(data: Data, fit: Fit, refine: bool = True) -> HeldOut:
 
 
 def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
-            blocks: np.ndarray | None = None) -> Fit:
+            blocks: np.ndarray | None = None, iterate: bool = False) -> Fit:
     """The fit with its held-out prediction: the record is cut into :data:`BLOCKS` blocks;
     for each of ``folds`` folds its (interleaved) blocks are left out, the model is refitted on the rest
     (from the fit's own values, same noise model) and simulated from the load over them.
+
+    The refit is a Gauss-Newton step from the full fit with its Jacobian restricted to the
+    kept samples, the linear part then solved exactly at the new nonlinear values (the full
+    fit is close to each fold's optimum: one step lands within rounding of where an iterative
+    refit of a few steps does, without its set-up). ``iterate``: refit by the iterative least
+    squares of :func:`~creepcomp.fit.solver.fit_structure` instead (three evaluations).
 
     Directions the remaining data leave undetermined keep the full fit's values: linear ones
     weakly (gain against offset when the rest has one load level,
@@ -194,10 +213,31 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
     start = {p.name: fit.values[p.name] for p in fit.params}
     anchor = {n: v for n, v in fit.values.items() if n not in start}
     jac = data.weighted(jacobian(data, fit)) if refine and start else None
+    names = list(start)
+    by_name = {p.name: p for p in fit.params}
+
+    def stepped(keep: np.ndarray) -> tuple[dict, dict | None]:
+        """The nonlinear values one Gauss-Newton step from the full fit on the kept rows,
+        and those held at the full fit's values."""
+        jk = jac[keep]
+        gram = jk.T @ jk
+        frozen = _undetermined(jac, keep, names, start, gram)
+        free = np.array([i >= len(names) or names[i] not in (frozen or {})
+                         for i in range(jac.shape[1])])
+        step = _gauss_newton_step(gram, jk.T @ fit.residual[keep], free)
+        values = {n: by_name[n].from_search(by_name[n].to_search(start[n]) + step[i])
+                  for i, n in enumerate(names)}
+        return values, frozen
 
     def refit(keep: np.ndarray) -> np.ndarray:
-        frozen = _undetermined(jac, keep, list(start), start) if jac is not None else None
         try:  # (refit from the fit's own values, same noise model)
+            if jac is not None and not iterate:
+                values, frozen = stepped(keep)
+                # (the step kept only when it lowers the kept samples' cost, as a refit would)
+                return fit_structure(data, fit.structure, [values, start], noise=fit.noise, mask=keep,
+                                     with_cov=False, anchor=anchor, refine=False,
+                                     frozen=frozen).residual
+            frozen = _undetermined(jac, keep, names, start) if jac is not None else None
             return fit_structure(data, fit.structure, [start], noise=fit.noise, mask=keep,
                                  max_nfev=3, with_cov=False, anchor=anchor, refine=refine,
                                  frozen=frozen).residual

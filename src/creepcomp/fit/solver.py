@@ -196,9 +196,10 @@ def _solve(aw: np.ndarray, yw: np.ndarray, prior: np.ndarray | None = None) -> n
     """Least squares by scaled normal equations (fast for tall, narrow bases); falls back to
     a rank-revealing solver when they are too ill-conditioned. With ``prior``, a weak ridge
     pulls the solution towards it in directions the data do not determine."""
-    norms = np.sqrt(np.einsum("ij,ij->j", aw, aw))
-    norms[norms == 0] = 1.0
-    gram = (aw.T @ aw) / np.outer(norms, norms)
+    gram = aw.T @ aw
+    norms = np.sqrt(np.diag(gram))
+    norms = np.where(norms == 0, 1.0, norms)
+    gram = gram / np.outer(norms, norms)
     rhs = (aw.T @ yw) / norms
     if prior is not None:
         gram = gram + ANCHOR_WEIGHT * np.eye(len(norms))
@@ -237,14 +238,15 @@ def _within_step_bounds(b: Basis, coef: np.ndarray, free: np.ndarray, limits: np
 
 
 def _scaled_inverse(a: np.ndarray):
-    """Columns scaled to unit norm, their norms, and the pseudo-inverse of their Gram matrix
-    (directions below a relative 1e-8 of its largest eigenvalue dropped when ill-posed)."""
-    norms = np.sqrt(np.einsum("ij,ij->j", a, a))
-    norms[norms == 0] = 1.0
-    an = a / norms
-    eig, vec = np.linalg.eigh(an.T @ an)
+    """The norms of the columns and the pseudo-inverse of the Gram matrix of the columns
+    scaled to unit norm (directions below a relative 1e-8 of its largest eigenvalue dropped
+    when ill-posed): ``(a / norms)^+ = inverse @ (a / norms).T``."""
+    gram = a.T @ a
+    norms = np.sqrt(np.diag(gram))
+    norms = np.where(norms == 0, 1.0, norms)
+    eig, vec = np.linalg.eigh(gram / np.outer(norms, norms))
     keep = eig > (1e-8 if eig[0] > 1e-8 * eig[-1] else 1e-26) * eig[-1]
-    return an, norms, (vec[:, keep] / eig[keep]) @ vec[:, keep].T
+    return norms, (vec[:, keep] / eig[keep]) @ vec[:, keep].T
 
 
 class Problem:
@@ -296,7 +298,7 @@ class Problem:
         (:func:`~creepcomp.fit.structure.with_step_times`)."""
         values = self.values(x)
         b = basis(self.data, self.structure, values, self.cache)
-        return with_step_times(self.data, b, taus_of(values, self.structure.n_terms))
+        return with_step_times(self.data, b, taus_of(values, self.structure.n_terms), self.cache)
 
     def on_rows(self, values: np.ndarray) -> np.ndarray:
         """The fitted rows of a per-sample array or of basis columns, each times the square
@@ -363,19 +365,23 @@ class Problem:
         moves = basis_derivatives(self.data, self.structure, self.values(x), b, self.params)
         a = self.on_rows(b.columns)
         dot_r = np.zeros((len(b.names), len(moves)))                  # dA^T r
-        moved = np.zeros((len(r), len(moves)))                         # dA c
+        moved = np.zeros((len(moves), len(r)))                         # (dA c)^T
         for j, m in enumerate(moves):
             for col, d in m:
                 dj = self.on_rows(d)
-                moved[:, j] += coef[col] * dj
+                moved[j] += coef[col] * dj
                 dot_r[col, j] = dj @ r
-        total = moved + a @ self._bound_response(b, a, coef, free, moves)   # dA c + A dc (held)
-        jac = -total
+        total = moved.T
+        if any(not free[col] for col, _, _ in b.step_bounds):
+            total = total + a @ self._bound_response(b, a, coef, free, moves)   # + A dc (held)
         free = np.flatnonzero(free)
-        if len(free):
-            scaled, norms, inverse = _scaled_inverse(a[:, free])
-            jac = jac + scaled @ (inverse @ (scaled.T @ total - dot_r[free] / norms[:, None]))
-        return jac / self.scale
+        if not len(free):
+            return -total / self.scale
+        af = a if len(free) == a.shape[1] else a[:, free]
+        norms, inverse = _scaled_inverse(af)
+        # -(dA c + A dc) with dc = G^-1 (dA^T r - A^T dA c) on the free columns
+        shift = inverse @ ((af.T @ total) / norms[:, None] - dot_r[free] / norms[:, None])
+        return (af @ (shift / norms[:, None]) - total) / self.scale
 
     def _bound_response(self, b: Basis, a: np.ndarray, coef: np.ndarray, free: np.ndarray,
                         moves) -> np.ndarray:
@@ -394,9 +400,10 @@ class Problem:
             return out                  # the amplitudes setting the bounds are held too
         trial = np.array([self.fixed.get(n, 0.0) for n in b.names])
         target = self.y - a[:, ~plain] @ trial[~plain]
-        scaled, norms, inverse = _scaled_inverse(a[:, plain])
-        trial[plain] = (inverse @ (scaled.T @ target)) / norms
-        rp = target - a[:, plain] @ trial[plain]
+        ap = a[:, plain]
+        norms, inverse = _scaled_inverse(ap)
+        trial[plain] = (inverse @ ((ap.T @ target) / norms)) / norms
+        rp = target - ap @ trial[plain]
         moved = np.zeros((len(rp), len(moves)))
         dot_r = np.zeros((len(b.names), len(moves)))
         for j, m in enumerate(moves):
@@ -405,7 +412,7 @@ class Problem:
                     dj = self.on_rows(d)
                     moved[:, j] += trial[col] * dj
                     dot_r[col, j] = dj @ rp
-        dtrial = (inverse @ (dot_r[plain] / norms[:, None] - scaled.T @ moved)) / norms[:, None]
+        dtrial = (inverse @ ((dot_r[plain] - ap.T @ moved) / norms[:, None])) / norms[:, None]
         where = {c: i for i, c in enumerate(np.flatnonzero(plain))}
         for col, k, half in bound:
             amplitude = b.names.index(f"a[{k}]")

@@ -230,9 +230,15 @@ _SHARED_SIZE = 8
 _SHARED_LOCK = threading.Lock()          # a fleet's worker runs units on several threads
 
 
+def _fingerprint(x: np.ndarray) -> tuple:
+    """A few numbers that tell arrays apart cheaply (a match is confirmed in full)."""
+    x = np.asarray(x)
+    return (len(x), float(x[0]), float(x[len(x) // 2]), float(x[-1]), float(np.sum(x))) if len(x) else (0,)
+
+
 def _lag_key(data: Data, h, taus, init) -> tuple:
     init_key = init if isinstance(init, str) else np.asarray(init, float).tobytes()
-    return (hash(data.time.tobytes()), hash(np.asarray(h).tobytes()), np.asarray(taus, float).tobytes(),
+    return (_fingerprint(data.time), _fingerprint(h), np.asarray(taus, float).tobytes(),
             init_key, data.hold)
 
 
@@ -240,7 +246,8 @@ def _shared_lags(data: Data, h, taus, init):
     """Lag states of plain lags computed before for the same inputs (None: not held)."""
     with _SHARED_LOCK:
         hit = _SHARED.get(_lag_key(data, h, taus, init))
-    if hit is not None and np.array_equal(hit[0], data.time) and np.array_equal(hit[1], h):
+    if hit is not None and (hit[0] is data.time or np.array_equal(hit[0], data.time)) and (
+            hit[1] is h or np.array_equal(hit[1], h)):
         return hit[2]
     return None
 
@@ -408,7 +415,8 @@ def basis_derivatives(data: Data, structure: Structure, values: dict, b: Basis,
                 moves.append((col, b.columns[:, col] * ((t - mid) / taus[k] - 1.0)))
             out.append(moves)
         elif p.name.startswith("c0["):
-            out.append([(column, np.exp(-(t - t[0]) / taus[k]) * p.scale)])
+            # (floored: an exponential that underflows is slow, and its value is nil)
+            out.append([(column, np.exp(np.maximum((t - t[0]) * (-1.0 / taus[k]), -700.0)) * p.scale)])
         else:
             return None
     return out
