@@ -23,7 +23,8 @@ if TYPE_CHECKING:
 
 __all__ = ["LagExpansion", "UNIFORM_RTOL", "lag_coefficients", "is_uniform", "lag_states",
            "cascade_matrices", "cascade_step", "cascade_step_arrays", "triangle_lag_gap",
-           "cascade_lags", "varying_lag_states", "lag_tau_derivatives", "first_order_filter"]
+           "cascade_lags", "varying_lag_states", "lag_tau_derivatives", "first_order_filter",
+           "decay", "DECAY_FLOOR"]
 
 #: Relative spread of time steps below which sampling counts as uniform (then a recursion
 #: with constant coefficients runs, :func:`first_order_filter`; the coefficient error this
@@ -212,7 +213,7 @@ def lag_states(time, u, taus, hold: str = "linear", initial="relaxed", u_before=
         raise InputError(f"time and input must be 1-D of equal length (got {t.shape} and {u.shape})")
     ub = u if u_before is None else np.asarray(u_before, dtype=float)
     n, k = len(t), len(taus)
-    out = np.empty((n, k))
+    out = np.empty((n, k), order="F")       # (filled lag by lag)
     if n == 0:
         return out
     c0 = _initial_states(initial, u[0], k)
@@ -265,7 +266,7 @@ def _held_runs(t, u, taus, changes, c0, out) -> None:
         level = u[first]
         run = out[first:last + 1]
         for k, tau in enumerate(taus):           # (column by column: contiguous and fast)
-            run[:, k] = level + (c[k] - level) * _decay(since, tau)
+            run[:, k] = level + (c[k] - level) * decay(since, tau)
         if j < len(changes):
             c = e[j] * run[-1] + b0[j] * u[last] + b1[j] * u[last + 1]
             first = last + 1
@@ -285,21 +286,29 @@ def _held_runs_derivatives(t, u, taus, states, changes, slope0, out) -> None:
         since = t[first:last + 1] - t[first]
         run = out[first:last + 1]
         for k, tau in enumerate(taus):
-            run[:, k] = (d[k] + (states[first, k] - u[first]) / tau ** 2 * since) * _decay(since, tau)
+            run[:, k] = (d[k] + (states[first, k] - u[first]) / tau ** 2 * since) * decay(since, tau)
         if j < len(changes):
             d = (e[j] * run[-1] + de[j] * states[last] + (dg[j] - de[j]) * u[last]
                  - dg[j] * u[last + 1])
             first = last + 1
 
 
-#: Largest decay (e-foldings) taken by an exponential of :func:`_held_runs`: beyond it the
-#: state has settled to far below rounding (and an underflowing exponential is slow).
-_EXP_FLOOR = 700.0
+#: Decay (e-foldings) beyond which :func:`decay` is zero: far below rounding of anything
+#: it multiplies, and clear of subnormal numbers (whose arithmetic is slow).
+DECAY_FLOOR = 460.0
 
 
-def _decay(since: np.ndarray, tau: float) -> np.ndarray:
-    """``exp(-since / tau)``, zero beyond :data:`_EXP_FLOOR` e-foldings."""
-    return np.exp(np.maximum(since * (-1.0 / tau), -_EXP_FLOOR))
+def decay(since: np.ndarray, tau: float) -> np.ndarray:
+    """``exp(-since / tau)`` for non-decreasing ``since >= 0``, exactly zero beyond
+    :data:`DECAY_FLOOR` e-foldings (one exponential per sample that has not decayed)."""
+    since = np.asarray(since, dtype=float)
+    out = np.zeros(since.shape)
+    if not tau > 0:
+        out[since == 0] = 1.0
+        return out
+    live = int(np.searchsorted(since, DECAY_FLOOR * tau, side="left"))
+    np.exp(since[:live] * (-1.0 / tau), out=out[:live])
+    return out
 
 
 #: Decay (in e-foldings) over a block of :func:`first_order_filter`: the block's growth
@@ -589,7 +598,7 @@ def lag_tau_derivatives(time, u, taus, states, hold: str = "linear", initial_slo
     u = np.asarray(u, dtype=float)
     taus = np.atleast_1d(np.asarray(taus, dtype=float))
     n, k = len(t), len(taus)
-    out = np.empty((n, k))
+    out = np.empty((n, k), order="F")
     out[0] = 0.0 if initial_slope is None else np.asarray(initial_slope, float)
     if n < 2 or k == 0:
         return out

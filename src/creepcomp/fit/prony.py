@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import Sequence
 
+import numpy as np
 from scipy import linalg
 
 from creepcomp.errors import InputError
@@ -17,7 +18,7 @@ from creepcomp.fit.starts import cluster_taus, extra_term_starts, nnls_spectrum,
 from creepcomp.fit.structure import Applied, Structure
 from creepcomp.model import CreepModel
 
-__all__ = ["OrderStep", "PronyResult", "fit_terms", "fit_prony", "term_table", "fit_summary",
+__all__ = ["OrderStep", "PronyResult", "fit_terms", "spectrum_of", "fit_prony", "term_table", "fit_summary",
            "model_file_dict"]
 
 
@@ -54,23 +55,30 @@ class PronyResult:
 
 def fit_terms(data: Data, n_terms: int, previous: Fit | None = None, noise: ARNoise | None = None,
               effects: tuple[Applied, ...] = (), start: dict | None = None, with_cov: bool = True,
-              ftol: float = 1e-8) -> Fit:
+              ftol: float = 1e-8, spectrum: tuple | None = None) -> Fit:
     """Fit ``n_terms`` Prony terms (plus ``effects`` applied to every model, e.g. viscous flow):
     starts from the non-negative spectrum and, when given, from the previous fit plus one grid
-    time (or from the values ``start`` alone); refine; keep the best."""
+    time (or from the values ``start`` alone); refine; keep the best. ``spectrum``: the
+    record's (:func:`spectrum_of`), when known."""
     structure = Structure(n_terms, tuple(effects))
     if start is not None:
         starts = [start]
     elif n_terms == 1:
         starts = one_term_starts(data)
     else:
-        grid = tau_grid(data, per_decade=6)
-        amps, _ = nnls_spectrum(data, grid)
+        grid, amps = spectrum or spectrum_of(data)
         starts = [{f"tau[{k}]": t for k, t in enumerate(cluster_taus(grid, amps, n_terms))}]
         if previous is not None:
             starts += extra_term_starts(data, previous, structure)
     return fit_structure(data, structure, starts, noise=noise, n_refine=3, with_cov=with_cov,
                          ftol=ftol)
+
+
+def spectrum_of(data: Data) -> tuple[np.ndarray, np.ndarray]:
+    """The grid of time constants the starts of :func:`fit_terms` come from (six a decade)
+    and the record's non-negative creep spectrum on it."""
+    grid = tau_grid(data, per_decade=6)
+    return grid, nnls_spectrum(data, grid)[0]
 
 
 def fit_prony(data: Data, max_terms: int = 6, n_terms: int | None = None,
@@ -136,9 +144,12 @@ def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
     chosen = 0
     previous = None
     top = n_terms or max_terms
+    spectrum = None
     for k in range(1, top + 1):
         try:
-            fit = heldout(data, fit_terms(data, k, previous, None, effects), folds)
+            if k > 1 and spectrum is None:
+                spectrum = spectrum_of(data)
+            fit = heldout(data, fit_terms(data, k, previous, None, effects, spectrum=spectrum), folds)
         except InputError:
             if n_terms is not None and data.n < SPARSE_SAMPLES:
                 raise   # (the terms asked for are more than a sparse record carries: the reason)

@@ -192,11 +192,13 @@ class Fit:
 ANCHOR_WEIGHT = 1e-6
 
 
-def _solve(aw: np.ndarray, yw: np.ndarray, prior: np.ndarray | None = None) -> np.ndarray:
+def _solve(aw: np.ndarray, yw: np.ndarray, prior: np.ndarray | None = None,
+           gram: np.ndarray | None = None) -> np.ndarray:
     """Least squares by scaled normal equations (fast for tall, narrow bases); falls back to
     a rank-revealing solver when they are too ill-conditioned. With ``prior``, a weak ridge
-    pulls the solution towards it in directions the data do not determine."""
-    gram = aw.T @ aw
+    pulls the solution towards it in directions the data do not determine. ``gram``:
+    ``aw.T @ aw`` when known."""
+    gram = aw.T @ aw if gram is None else gram
     norms = np.sqrt(np.diag(gram))
     norms = np.where(norms == 0, 1.0, norms)
     gram = gram / np.outer(norms, norms)
@@ -237,16 +239,21 @@ def _within_step_bounds(b: Basis, coef: np.ndarray, free: np.ndarray, limits: np
     return out if (out != free).any() else free
 
 
-def _scaled_inverse(a: np.ndarray):
+def _scaled_inverse(a: np.ndarray, gram: np.ndarray | None = None):
     """The norms of the columns and the pseudo-inverse of the Gram matrix of the columns
     scaled to unit norm (directions below a relative 1e-8 of its largest eigenvalue dropped
-    when ill-posed): ``(a / norms)^+ = inverse @ (a / norms).T``."""
-    gram = a.T @ a
+    when ill-posed): ``(a / norms)^+ = inverse @ (a / norms).T``. ``gram``: ``a.T @ a`` when
+    known."""
+    gram = a.T @ a if gram is None else gram
     norms = np.sqrt(np.diag(gram))
     norms = np.where(norms == 0, 1.0, norms)
     eig, vec = np.linalg.eigh(gram / np.outer(norms, norms))
     keep = eig > (1e-8 if eig[0] > 1e-8 * eig[-1] else 1e-26) * eig[-1]
     return norms, (vec[:, keep] / eig[keep]) @ vec[:, keep].T
+
+
+#: Points whose projection a :class:`Problem` keeps.
+_PROJECTIONS_KEPT = 3
 
 
 class Problem:
@@ -314,13 +321,15 @@ class Problem:
 
     def _projection(self, x: np.ndarray):
         """:meth:`project` and the mask of the coefficients solved for (not held at given
-        values or at a step time's bound); the last point's is kept."""
+        values or at a step time's bound); the last few points' are kept (the optimiser's
+        last evaluation need not be its result, nor the last start the best)."""
         key = np.asarray(x, float).tobytes()
-        last = self.cache.get("project")
-        if last is not None and last[0] == key:
-            return last[1]
+        kept = self.cache.setdefault("project", {})
+        if key in kept:
+            return kept[key][0]
         b = self.basis(x)
         a = self.on_rows(b.columns)
+        gram = a.T @ a
         held = np.array([n in self.fixed for n in b.names])
         coef = np.array([self.fixed.get(n, 0.0) for n in b.names])
         prior = None
@@ -331,8 +340,12 @@ class Problem:
         for _ in range(4):   # the step times found beyond their bounds are set to them
             if not free.any():
                 break
-            target = self.y - a[:, ~free] @ coef[~free] if (~free).any() else self.y
-            coef[free] = _solve(a[:, free], target, None if prior is None else prior[free])
+            if free.all():
+                coef = _solve(a, self.y, prior, gram)
+            else:
+                target = self.y - a[:, ~free] @ coef[~free] if (~free).any() else self.y
+                coef[free] = _solve(a[:, free], target, None if prior is None else prior[free],
+                                    gram[np.ix_(free, free)])
             if limits is None:
                 break
             narrowed = _within_step_bounds(b, coef, free, limits)
@@ -340,8 +353,15 @@ class Problem:
                 break
             free = narrowed
         out = (b, coef, self.y - a @ coef, free)
-        self.cache["project"] = (key, out)
+        while len(kept) >= _PROJECTIONS_KEPT:
+            kept.pop(next(iter(kept)))
+        kept[key] = (out, gram)
         return out
+
+    def _gram(self, x: np.ndarray) -> np.ndarray:
+        """``A^T A`` of the (weighted) basis on the fitted rows at ``x``."""
+        self._projection(x)
+        return self.cache["project"][np.asarray(x, float).tobytes()][1]
 
     def residual(self, x: np.ndarray) -> np.ndarray:
         """Residual with the linear part projected out, relative to the signal's range."""
@@ -371,17 +391,19 @@ class Problem:
                 dj = self.on_rows(d)
                 moved[j] += coef[col] * dj
                 dot_r[col, j] = dj @ r
-        total = moved.T
+        # (worked on transposed: one row per parameter, each contiguous)
         if any(not free[col] for col, _, _ in b.step_bounds):
-            total = total + a @ self._bound_response(b, a, coef, free, moves)   # + A dc (held)
+            moved += self._bound_response(b, a, coef, free, moves).T @ a.T    # + A dc (held)
         free = np.flatnonzero(free)
         if not len(free):
-            return -total / self.scale
+            return -moved.T / self.scale
         af = a if len(free) == a.shape[1] else a[:, free]
-        norms, inverse = _scaled_inverse(af)
+        norms, inverse = _scaled_inverse(af, self._gram(x)[np.ix_(free, free)])
         # -(dA c + A dc) with dc = G^-1 (dA^T r - A^T dA c) on the free columns
-        shift = inverse @ ((af.T @ total) / norms[:, None] - dot_r[free] / norms[:, None])
-        return (af @ (shift / norms[:, None]) - total) / self.scale
+        shift = inverse @ (((moved @ af).T - dot_r[free]) / norms[:, None])
+        jac = (shift / norms[:, None]).T @ af.T
+        jac -= moved
+        return jac.T / self.scale
 
     def _bound_response(self, b: Basis, a: np.ndarray, coef: np.ndarray, free: np.ndarray,
                         moves) -> np.ndarray:

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from creepcomp.fit.data import Data
-from creepcomp.lti import lag_states, lag_tau_derivatives, varying_lag_states
+from creepcomp.lti import decay, lag_states, lag_tau_derivatives, varying_lag_states
 
 __all__ = ["Param", "Applied", "Structure", "taus_of", "Basis", "basis", "ABRUPT_FACTOR", "load_steps",
            "with_step_times", "basis_derivatives"]
@@ -261,6 +261,18 @@ def _share_lags(data: Data, h, taus, init, lags) -> None:
         _SHARED[key] = (data.time, np.asarray(h), lags)
 
 
+def _stack(parts) -> np.ndarray:
+    """Columns (1-D arrays, or 2-D blocks of them) side by side, column-major: every column
+    is contiguous, to fill and to use one at a time."""
+    parts = [p[:, None] if p.ndim == 1 else p for p in parts]
+    out = np.empty((len(parts[0]), sum(p.shape[1] for p in parts)), order="F")
+    at = 0
+    for p in parts:
+        out[:, at:at + p.shape[1]] = p
+        at += p.shape[1]
+    return out
+
+
 def basis(data: Data, structure: Structure, values: dict, cache: dict | None = None) -> Basis:
     """Evaluate the model's linear basis for given nonlinear parameter values."""
     t = data.time
@@ -305,7 +317,7 @@ def basis(data: Data, structure: Structure, values: dict, cache: dict | None = N
         for name, col in a.effect.columns(data, s, h, lags, a.own(values), a).items():
             cols.append(col)
             names.append(f"{a.name}.{name}")
-    return Basis(np.column_stack(cols), tuple(names), x, s, h, lags)
+    return Basis(_stack(cols), tuple(names), x, s, h, lags)
 
 
 #: A load change between two samples is a step when it is this many times larger than the
@@ -355,7 +367,7 @@ def with_step_times(data: Data, b: Basis, taus: np.ndarray, cache: dict | None =
         cols, names, bounds, mids = last[2]
         first = b.columns.shape[1]
         bounds = [(first + i, k, half) for i, (_, k, half) in enumerate(bounds)]
-        return replace(b, columns=np.column_stack([b.columns, cols]), names=b.names + names,
+        return replace(b, columns=_stack([b.columns, cols]), names=b.names + names,
                        step_bounds=tuple(bounds), step_mids=mids)
     cols, names, bounds, mids = [], [], [], []
     first = b.columns.shape[1]
@@ -365,14 +377,14 @@ def with_step_times(data: Data, b: Basis, taus: np.ndarray, cache: dict | None =
         after = t[i + 1:] - mid
         for k, tau in enumerate(taus):
             col = np.zeros(len(t))
-            col[i + 1:] = -dh / tau * np.exp(-after / tau)
+            col[i + 1:] = -dh / tau * decay(after, tau)
             cols.append(col)
             names.append(f"step_time[{j}][{k}]")
             bounds.append((first + len(bounds), k, 0.5 * float(t[i + 1] - t[i]) + reference))
             mids.append(mid)
-    cols = np.column_stack(cols)
+    cols = _stack(cols)
     cache["step_times"] = (key, h, (cols, tuple(names), tuple(bounds), tuple(mids)))
-    return replace(b, columns=np.column_stack([b.columns, cols]), names=b.names + tuple(names),
+    return replace(b, columns=_stack([b.columns, cols]), names=b.names + tuple(names),
                    step_bounds=tuple(bounds), step_mids=tuple(mids))
 
 
@@ -415,8 +427,7 @@ def basis_derivatives(data: Data, structure: Structure, values: dict, b: Basis,
                 moves.append((col, b.columns[:, col] * ((t - mid) / taus[k] - 1.0)))
             out.append(moves)
         elif p.name.startswith("c0["):
-            # (floored: an exponential that underflows is slow, and its value is nil)
-            out.append([(column, np.exp(np.maximum((t - t[0]) * (-1.0 / taus[k]), -700.0)) * p.scale)])
+            out.append([(column, decay(t - t[0], taus[k]) * p.scale)])
         else:
             return None
     return out
