@@ -21,7 +21,7 @@ from scipy import linalg
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.noise import SPARSE_SAMPLES, spectral_variance
-from creepcomp.fit.solver import ANCHOR_WEIGHT, Fit, fit_structure
+from creepcomp.fit.solver import ANCHOR_WEIGHT, Fit, Problem, best_of_starts, fit_structure
 from creepcomp.fit.structure import basis, basis_derivatives
 
 __all__ = ["BIC_STRONG", "HELDOUT_Z", "FOLDS", "BLOCKS", "MIN_BLOCK_SAMPLES",
@@ -131,17 +131,22 @@ def jacobian(data: Data, fit: Fit) -> np.ndarray:
     return np.column_stack(cols + [b.columns])
 
 
+def _variances(gram: np.ndarray, count: int) -> np.ndarray:
+    """Variances (up to the noise's) of the first ``count`` parameters of a linear least-squares
+    problem with Gram matrix ``gram``."""
+    norms = np.sqrt(np.diag(gram))
+    norms = np.where(norms == 0, 1.0, norms)
+    inv = linalg.pinvh(gram / np.outer(norms, norms))
+    return np.diag(inv)[:count] / norms[:count] ** 2
+
+
 def _undetermined(jac: np.ndarray, keep: np.ndarray, names: list, values: dict,
-                  kept_gram: np.ndarray | None = None) -> dict | None:
+                  kept_gram: np.ndarray | None = None, full: np.ndarray | None = None) -> dict | None:
     """The nonlinear parameters (first columns of ``jac``) that the kept samples leave
-    undetermined, with their values (``kept_gram``: ``jac[keep].T @ jac[keep]`` when known)."""
-    def variances(gram):
-        norms = np.sqrt(np.diag(gram))
-        norms = np.where(norms == 0, 1.0, norms)
-        inv = linalg.pinvh(gram / np.outer(norms, norms))
-        return np.diag(inv)[:len(names)] / norms[:len(names)] ** 2
-    full = variances(jac.T @ jac)
-    part = variances(jac[keep].T @ jac[keep] if kept_gram is None else kept_gram)
+    undetermined, with their values (``kept_gram``: ``jac[keep].T @ jac[keep]``, and ``full``:
+    the variances on all samples, when known)."""
+    full = _variances(jac.T @ jac, len(names)) if full is None else full
+    part = _variances(jac[keep].T @ jac[keep] if kept_gram is None else kept_gram, len(names))
     out = {n: values[n] for n, vf, vp in zip(names, full, part)
            if not vp <= UNDETERMINED_VARIANCE_RATIO * vf}
     return out or None
@@ -155,8 +160,9 @@ def _gauss_newton_step(gram: np.ndarray, rhs: np.ndarray, free: np.ndarray) -> n
     g = gram[np.ix_(free, free)]
     norms = np.sqrt(np.diag(g))
     norms = np.where(norms == 0, 1.0, norms)
-    scaled = g / np.outer(norms, norms) + ANCHOR_WEIGHT * np.eye(len(norms))
-    step[free] = linalg.lstsq(scaled, rhs[free] / norms, cond=1e-13)[0] / norms
+    eig, vec = np.linalg.eigh(g / np.outer(norms, norms) + ANCHOR_WEIGHT * np.eye(len(norms)))
+    keep = eig > 1e-13 * eig[-1]
+    step[free] = (vec[:, keep] @ ((vec[:, keep].T @ (rhs[free] / norms)) / eig[keep])) / norms
     return step
 
 
@@ -215,13 +221,14 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
     jac = data.weighted(jacobian(data, fit)) if refine and start else None
     names = list(start)
     by_name = {p.name: p for p in fit.params}
+    full = _variances(jac.T @ jac, len(names)) if jac is not None else None
 
     def stepped(keep: np.ndarray) -> tuple[dict, dict | None]:
         """The nonlinear values one Gauss-Newton step from the full fit on the kept rows,
         and those held at the full fit's values."""
         jk = jac[keep]
         gram = jk.T @ jk
-        frozen = _undetermined(jac, keep, names, start, gram)
+        frozen = _undetermined(jac, keep, names, start, gram, full)
         free = np.array([i >= len(names) or names[i] not in (frozen or {})
                          for i in range(jac.shape[1])])
         step = _gauss_newton_step(gram, jk.T @ fit.residual[keep], free)
@@ -233,11 +240,12 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
         try:  # (refit from the fit's own values, same noise model)
             if jac is not None and not iterate:
                 values, frozen = stepped(keep)
+                problem = Problem(data, fit.structure, keep, anchor=anchor, frozen=frozen)
                 # (the step kept only when it lowers the kept samples' cost, as a refit would)
-                return fit_structure(data, fit.structure, [values, start], noise=fit.noise, mask=keep,
-                                     with_cov=False, anchor=anchor, refine=False,
-                                     frozen=frozen).residual
-            frozen = _undetermined(jac, keep, names, start) if jac is not None else None
+                x = best_of_starts(problem.residual, [problem.start_vector(values),
+                                                      problem.start_vector(start)], 2, None)
+                return problem.full_residual(x)[1]
+            frozen = _undetermined(jac, keep, names, start, full=full) if jac is not None else None
             return fit_structure(data, fit.structure, [start], noise=fit.noise, mask=keep,
                                  max_nfev=3, with_cov=False, anchor=anchor, refine=refine,
                                  frozen=frozen).residual

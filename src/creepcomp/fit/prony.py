@@ -13,7 +13,7 @@ from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.evidence import BIC_STRONG, FOLDS, Evidence, compare, heldout
 from creepcomp.fit.noise import SPARSE_SAMPLES, ARNoise
-from creepcomp.fit.solver import Fit, fit_structure, small_sample_inflation
+from creepcomp.fit.solver import Fit, fit_structure, small_sample_inflation, with_covariance
 from creepcomp.fit.starts import cluster_taus, extra_term_starts, nnls_spectrum, one_term_starts, tau_grid
 from creepcomp.fit.structure import Applied, Structure
 from creepcomp.model import CreepModel
@@ -149,7 +149,9 @@ def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
         try:
             if k > 1 and spectrum is None:
                 spectrum = spectrum_of(data)
-            fit = heldout(data, fit_terms(data, k, previous, None, effects, spectrum=spectrum), folds)
+            # (the covariance only of the fit chosen, below)
+            fit = heldout(data, fit_terms(data, k, previous, None, effects, with_cov=False,
+                                          spectrum=spectrum), folds)
         except InputError:
             if n_terms is not None and data.n < SPARSE_SAMPLES:
                 raise   # (the terms asked for are more than a sparse record carries: the reason)
@@ -167,6 +169,7 @@ def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
         previous = fit
     if not steps:
         raise InputError(f"{data.source}: no creep model could be fitted")
+    steps[chosen] = replace(steps[chosen], fit=with_covariance(data, steps[chosen].fit))
     return PronyResult(data, tuple(steps), chosen)
 
 

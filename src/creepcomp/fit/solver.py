@@ -26,6 +26,7 @@ from creepcomp.fit.structure import (Basis, Param, Structure, basis, basis_deriv
 from creepcomp.model import CreepModel
 
 __all__ = ["Fit", "ANCHOR_WEIGHT", "Problem", "best_of_starts", "fit_structure", "with_noise",
+           "with_covariance",
            "sandwich_covariance", "small_sample_inflation"]
 
 
@@ -363,6 +364,13 @@ class Problem:
         self._projection(x)
         return self.cache["project"][np.asarray(x, float).tobytes()][1]
 
+    def full_residual(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Prediction and measured minus predicted on every sample (those not fitted too;
+        weighted as :attr:`Fit.residual`), the linear part solved on the fitted rows."""
+        b, coef, _ = self.project(x)
+        prediction = b.columns @ coef
+        return prediction, self.data.weighted(self.data.signal - prediction)
+
     def residual(self, x: np.ndarray) -> np.ndarray:
         """Residual with the linear part projected out, relative to the signal's range."""
         try:
@@ -574,8 +582,7 @@ def _finish(problem: Problem, x: np.ndarray, noise: ARNoise | None, with_cov: bo
     b, coef, _ = problem.project(x)
     values = problem.values(x)
     values.update({name: float(c) for name, c in zip(b.names, coef)})
-    prediction = b.columns @ coef
-    residual = data.weighted(data.signal - prediction)
+    prediction, residual = problem.full_residual(x)
     if noise is None:
         noise = fit_noise(residual, problem.likelihood_rows)
     fit = Fit(structure=structure, values=values, noise=noise, prediction=prediction,
@@ -592,6 +599,19 @@ def _finish(problem: Problem, x: np.ndarray, noise: ARNoise | None, with_cov: bo
             cov = cov * small_sample_inflation(len(problem.likelihood_rows), fit.n_params - 1)
         fit = replace(fit, cov=cov)
     return fit
+
+
+def with_covariance(data: Data, fit: Fit) -> Fit:
+    """A fit of :func:`fit_structure` made without its covariance (``with_cov=False``, on
+    every sample, no coefficients held), with it: as :func:`fit_structure` would have
+    computed it."""
+    problem = Problem(data, fit.structure)
+    x = np.array([p.to_search(fit.values[p.name]) for p in problem.params])
+    _, coef, _ = problem.project(x)
+    cov = _covariance(problem, x, coef, fit.noise)
+    if cov is not None and problem.sparse:
+        cov = cov * small_sample_inflation(len(problem.likelihood_rows), fit.n_params - 1)
+    return replace(fit, cov=cov)
 
 
 #: Share of a normal distribution within one standard deviation of its mean, each side.
