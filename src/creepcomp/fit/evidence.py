@@ -196,16 +196,19 @@ def halves(data: Data, fit: Fit, refine: bool = True) -> HeldOut:
 
 
 def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
-            blocks: np.ndarray | None = None, iterate: bool = False) -> Fit:
+            blocks: np.ndarray | None = None, linearised: bool = False) -> Fit:
     """The fit with its held-out prediction: the record is cut into :data:`BLOCKS` blocks;
     for each of ``folds`` folds its (interleaved) blocks are left out, the model is refitted on the rest
     (from the fit's own values, same noise model) and simulated from the load over them.
 
-    The refit is a Gauss-Newton step from the full fit with its Jacobian restricted to the
-    kept samples, the linear part then solved exactly at the new nonlinear values (the full
-    fit is close to each fold's optimum: one step lands within rounding of where an iterative
-    refit of a few steps does, without its set-up). ``iterate``: refit by the iterative least
-    squares of :func:`~creepcomp.fit.solver.fit_structure` instead (three evaluations).
+    The refit is a few steps of :func:`~creepcomp.fit.solver.fit_structure`'s least squares
+    (three evaluations). ``linearised``: one Gauss-Newton step from the full fit instead, with
+    its Jacobian restricted to the kept samples (kept only when it lowers their cost), the
+    linear part then solved exactly at the new nonlinear values: where the model holds, the
+    full fit is close to each fold's optimum and the step lands where the iteration does,
+    without its set-up; where it does not (a model short of terms), the step is the
+    reproducible first-order refit, which the few iterations are not (they stop wherever their
+    third evaluation falls). Models compared by :func:`compare` must be held out alike.
 
     Directions the remaining data leave undetermined keep the full fit's values: linear ones
     weakly (gain against offset when the rest has one load level,
@@ -223,27 +226,37 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
     by_name = {p.name: p for p in fit.params}
     full = _variances(jac.T @ jac, len(names)) if jac is not None else None
 
-    def stepped(keep: np.ndarray) -> tuple[dict, dict | None]:
+    # the basis of the Jacobian leaves out the step-time columns (with_step_times)
+    step_times = any(n.startswith("step_time[") for n in fit.values)
+
+    def stepped(keep: np.ndarray) -> tuple[dict, dict | None, float]:
         """The nonlinear values one Gauss-Newton step from the full fit on the kept rows,
-        and those held at the full fit's values."""
+        those held at the full fit's values, and the kept rows' squared residual at the full
+        fit's nonlinear values with the linear part refitted (exact but for step times)."""
         jk = jac[keep]
         gram = jk.T @ jk
+        rk = fit.residual[keep]
+        rhs = jk.T @ rk
         frozen = _undetermined(jac, keep, names, start, gram, full)
-        free = np.array([i >= len(names) or names[i] not in (frozen or {})
-                         for i in range(jac.shape[1])])
-        step = _gauss_newton_step(gram, jk.T @ fit.residual[keep], free)
+        linear = np.arange(jac.shape[1]) >= len(names)
+        free = linear | np.array([i < len(names) and names[i] not in (frozen or {})
+                                  for i in range(jac.shape[1])])
+        step = _gauss_newton_step(gram, rhs, free)
         values = {n: by_name[n].from_search(by_name[n].to_search(start[n]) + step[i])
                   for i, n in enumerate(names)}
-        return values, frozen
+        at_start = float(rk @ rk - rhs @ _gauss_newton_step(gram, rhs, linear))
+        return values, frozen, at_start
 
     def refit(keep: np.ndarray) -> np.ndarray:
         try:  # (refit from the fit's own values, same noise model)
-            if jac is not None and not iterate:
-                values, frozen = stepped(keep)
+            if jac is not None and linearised:
+                values, frozen, at_start = stepped(keep)
                 problem = Problem(data, fit.structure, keep, anchor=anchor, frozen=frozen)
-                # (the step kept only when it lowers the kept samples' cost, as a refit would)
-                x = best_of_starts(problem.residual, [problem.start_vector(values),
-                                                      problem.start_vector(start)], 2, None)
+                # the step is kept only when it lowers the kept samples' cost, as a refit's
+                x = problem.start_vector(values)
+                r = problem.residual(x) * problem.scale
+                if step_times or float(r @ r) > at_start:
+                    x = best_of_starts(problem.residual, [x, problem.start_vector(start)], 2, None)
                 return problem.full_residual(x)[1]
             frozen = _undetermined(jac, keep, names, start, full=full) if jac is not None else None
             return fit_structure(data, fit.structure, [start], noise=fit.noise, mask=keep,

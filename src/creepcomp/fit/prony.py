@@ -151,7 +151,7 @@ def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
                 spectrum = spectrum_of(data)
             # (the covariance only of the fit chosen, below)
             fit = heldout(data, fit_terms(data, k, previous, None, effects, with_cov=False,
-                                          spectrum=spectrum), folds)
+                                          spectrum=spectrum), folds, linearised=True)
         except InputError:
             if n_terms is not None and data.n < SPARSE_SAMPLES:
                 raise   # (the terms asked for are more than a sparse record carries: the reason)
