@@ -208,7 +208,9 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
     full fit is close to each fold's optimum and the step lands where the iteration does,
     without its set-up; where it does not (a model short of terms), the step is the
     reproducible first-order refit, which the few iterations are not (they stop wherever their
-    third evaluation falls). Models compared by :func:`compare` must be held out alike.
+    third evaluation falls). Models compared by :func:`compare` must be held out alike. A fit
+    with step-time columns (:func:`~creepcomp.fit.structure.with_step_times`, which
+    :func:`jacobian` leaves out) is refitted iteratively in any case.
 
     Directions the remaining data leave undetermined keep the full fit's values: linear ones
     weakly (gain against offset when the rest has one load level,
@@ -226,13 +228,13 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
     by_name = {p.name: p for p in fit.params}
     full = _variances(jac.T @ jac, len(names)) if jac is not None else None
 
-    # the basis of the Jacobian leaves out the step-time columns (with_step_times)
-    step_times = any(n.startswith("step_time[") for n in fit.values)
+    # (the Jacobian leaves out the step-time columns: no linearised refit with them)
+    linearised = linearised and not any(n.startswith("step_time[") for n in fit.values)
 
     def stepped(keep: np.ndarray) -> tuple[dict, dict | None, float]:
         """The nonlinear values one Gauss-Newton step from the full fit on the kept rows,
         those held at the full fit's values, and the kept rows' squared residual at the full
-        fit's nonlinear values with the linear part refitted (exact but for step times)."""
+        fit's nonlinear values with the linear part refitted."""
         jk = jac[keep]
         gram = jk.T @ jk
         rk = fit.residual[keep]
@@ -255,7 +257,7 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
                 # the step is kept only when it lowers the kept samples' cost, as a refit's
                 x = problem.start_vector(values)
                 r = problem.residual(x) * problem.scale
-                if step_times or float(r @ r) > at_start:
+                if float(r @ r) > at_start:
                     x = best_of_starts(problem.residual, [x, problem.start_vector(start)], 2, None)
                 return problem.full_residual(x)[1]
             frozen = _undetermined(jac, keep, names, start, full=full) if jac is not None else None
