@@ -12,8 +12,8 @@ from scipy import linalg
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.evidence import BIC_STRONG, FOLDS, Evidence, compare, heldout
-from creepcomp.fit.noise import SPARSE_SAMPLES, ARNoise
-from creepcomp.fit.solver import Fit, fit_structure, small_sample_inflation, with_covariance
+from creepcomp.fit.noise import SPARSE_SAMPLES, ARNoise, fit_noise
+from creepcomp.fit.solver import Fit, fit_structure, small_sample_inflation, with_covariance, with_noise
 from creepcomp.fit.starts import cluster_taus, extra_term_starts, nnls_spectrum, one_term_starts, tau_grid
 from creepcomp.fit.structure import Applied, Structure
 from creepcomp.model import CreepModel
@@ -74,6 +74,10 @@ def fit_terms(data: Data, n_terms: int, previous: Fit | None = None, noise: ARNo
                          ftol=ftol)
 
 
+#: Noise model of the fits only compared (their BIC is that of white noise in any case).
+_WHITE = ARNoise()
+
+
 def spectrum_of(data: Data) -> tuple[np.ndarray, np.ndarray]:
     """The grid of time constants the starts of :func:`fit_terms` come from (six a decade)
     and the record's non-negative creep spectrum on it."""
@@ -124,7 +128,7 @@ def fit_prony(data: Data, max_terms: int = 6, n_terms: int | None = None,
         return _orders(data, max_terms, n_terms, folds, effects)
     try:
         # (converged far enough to tell a BIC difference of BIC_STRONG)
-        trial = fit_terms(data, settled.fit.structure.n_terms, effects=effects,
+        trial = fit_terms(data, settled.fit.structure.n_terms, noise=_WHITE, effects=effects,
                           start=settled.fit.values, with_cov=False, ftol=0.1 * BIC_STRONG / data.n)
     except (InputError, linalg.LinAlgError):
         trial = None
@@ -149,8 +153,9 @@ def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
         try:
             if k > 1 and spectrum is None:
                 spectrum = spectrum_of(data)
-            # (the covariance only of the fit chosen, below)
-            fit = heldout(data, fit_terms(data, k, previous, None, effects, with_cov=False,
+            # (the noise model and covariance only of the fit chosen, below: the order is
+            # chosen by the white likelihood and the held-out test, which need neither)
+            fit = heldout(data, fit_terms(data, k, previous, _WHITE, effects, with_cov=False,
                                           spectrum=spectrum), folds, linearised=True)
         except InputError:
             if n_terms is not None and data.n < SPARSE_SAMPLES:
@@ -169,7 +174,9 @@ def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
         previous = fit
     if not steps:
         raise InputError(f"{data.source}: no creep model could be fitted")
-    steps[chosen] = replace(steps[chosen], fit=with_covariance(data, steps[chosen].fit))
+    fit = steps[chosen].fit
+    fit = with_noise(fit, fit_noise(fit.residual, fit.extras["rows"]))
+    steps[chosen] = replace(steps[chosen], fit=with_covariance(data, fit))
     return PronyResult(data, tuple(steps), chosen)
 
 
