@@ -55,11 +55,13 @@ class PronyResult:
 
 def fit_terms(data: Data, n_terms: int, previous: Fit | None = None, noise: ARNoise | None = None,
               effects: tuple[Applied, ...] = (), start: dict | None = None, with_cov: bool = True,
-              ftol: float = 1e-8, spectrum: tuple | None = None) -> Fit:
+              ftol: float = 1e-8, spectrum: tuple | None = None,
+              coarse_ftol: float | None = None) -> Fit:
     """Fit ``n_terms`` Prony terms (plus ``effects`` applied to every model, e.g. viscous flow):
     starts from the non-negative spectrum and, when given, from the previous fit plus one grid
     time (or from the values ``start`` alone); refine; keep the best. ``spectrum``: the
-    record's (:func:`spectrum_of`), when known."""
+    record's (:func:`spectrum_of`), when known; ``coarse_ftol``: see
+    :func:`~creepcomp.fit.solver.fit_structure`."""
     structure = Structure(n_terms, tuple(effects))
     if start is not None:
         starts = [start]
@@ -71,9 +73,13 @@ def fit_terms(data: Data, n_terms: int, previous: Fit | None = None, noise: ARNo
         if previous is not None:
             starts += extra_term_starts(data, previous, structure)
     return fit_structure(data, structure, starts, noise=noise, n_refine=3, with_cov=with_cov,
-                         ftol=ftol)
+                         ftol=ftol, coarse_ftol=coarse_ftol)
 
 
+#: Relative change of the cost at which the starts of the order search stop on the coarse
+#: record: they only seed the refinement on the full record, which converges from any of them
+#: (a change of the coarse log-likelihood of about 0.01).
+ORDER_COARSE_FTOL = 1e-5
 #: Noise model of the fits only compared (their BIC is that of white noise in any case).
 _WHITE = ARNoise()
 
@@ -129,7 +135,8 @@ def fit_prony(data: Data, max_terms: int = 6, n_terms: int | None = None,
     try:
         # (converged far enough to tell a BIC difference of BIC_STRONG)
         trial = fit_terms(data, settled.fit.structure.n_terms, noise=_WHITE, effects=effects,
-                          start=settled.fit.values, with_cov=False, ftol=0.1 * BIC_STRONG / data.n)
+                          start=settled.fit.values, with_cov=False, ftol=0.1 * BIC_STRONG / data.n,
+                          coarse_ftol=ORDER_COARSE_FTOL)
     except (InputError, linalg.LinAlgError):
         trial = None
     if trial is not None and not trial.bic < settled.fit.bic - BIC_STRONG:
@@ -156,7 +163,8 @@ def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
             # (the noise model and covariance only of the fit chosen, below: the order is
             # chosen by the white likelihood and the held-out test, which need neither)
             fit = heldout(data, fit_terms(data, k, previous, _WHITE, effects, with_cov=False,
-                                          spectrum=spectrum), folds, linearised=True)
+                                          spectrum=spectrum, coarse_ftol=ORDER_COARSE_FTOL),
+                          folds, linearised=True)
         except InputError:
             if n_terms is not None and data.n < SPARSE_SAMPLES:
                 raise   # (the terms asked for are more than a sparse record carries: the reason)

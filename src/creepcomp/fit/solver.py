@@ -474,7 +474,7 @@ def fit_structure(data: Data, structure: Structure, starts: Sequence[dict], nois
                   mask: np.ndarray | None = None, max_nfev: int | None = None,
                   n_refine: int = 2, with_cov: bool = True, fixed: dict | None = None,
                   anchor: dict | None = None, refine: bool = True, frozen: dict | None = None,
-                  ftol: float = 1e-8) -> Fit:
+                  ftol: float = 1e-8, coarse_ftol: float | None = None) -> Fit:
     """Fit a structure by least squares (variable projection); likelihood, BIC and
     uncertainties with an AR noise model.
 
@@ -513,6 +513,9 @@ def fit_structure(data: Data, structure: Structure, starts: Sequence[dict], nois
         Nonlinear parameters held at given values (not searched).
     ftol : float
         Relative change of the cost at which a refinement stops.
+    coarse_ftol : float, optional
+        The same for the search of a long record's starts on its coarse record (default
+        :data:`COARSE_FTOL`).
     """
     problem = Problem(data, structure, mask, fixed=fixed, anchor=anchor, frozen=frozen)
     starts = [problem.start_vector(s) for s in starts]
@@ -521,8 +524,9 @@ def fit_structure(data: Data, structure: Structure, starts: Sequence[dict], nois
     coarse = _coarse(problem) if refine and mask is None and not fixed and not anchor else None
     if coarse is not None:
         # the starts are searched on the coarse record; its best point is refined on all
+        coarse_ftol = max(ftol, coarse_ftol or COARSE_FTOL)
         starts = [best_of_starts(coarse.residual, starts, n_refine,
-                                 lambda x0: coarse.refine(x0, max_nfev, max(ftol, COARSE_FTOL)))]
+                                 lambda x0: coarse.refine(x0, max_nfev, coarse_ftol))]
         # from there, converged until the cost moves the log-likelihood by under 0.005
         ftol = max(ftol, 0.01 / len(problem.rows))
     x = best_of_starts(problem.residual, starts, n_refine,
