@@ -266,7 +266,9 @@ def _held_runs(t, u, taus, changes, c0, out) -> None:
         level = u[first]
         run = out[first:last + 1]
         for k, tau in enumerate(taus):           # (column by column: contiguous and fast)
-            run[:, k] = level + (c[k] - level) * decay(since, tau)
+            live, head = _decay_head(since, tau)
+            run[:live, k] = head * (c[k] - level) + level
+            run[live:, k] = level
         if j < len(changes):
             c = e[j] * run[-1] + b0[j] * u[last] + b1[j] * u[last + 1]
             first = last + 1
@@ -286,7 +288,10 @@ def _held_runs_derivatives(t, u, taus, states, changes, slope0, out) -> None:
         since = t[first:last + 1] - t[first]
         run = out[first:last + 1]
         for k, tau in enumerate(taus):
-            run[:, k] = (d[k] + (states[first, k] - u[first]) / tau ** 2 * since) * decay(since, tau)
+            live, head = _decay_head(since, tau)
+            head *= since[:live] * ((states[first, k] - u[first]) / tau ** 2) + d[k]
+            run[:live, k] = head
+            run[live:, k] = 0.0
         if j < len(changes):
             d = (e[j] * run[-1] + de[j] * states[last] + (dg[j] - de[j]) * u[last]
                  - dg[j] * u[last + 1])
@@ -303,12 +308,20 @@ def decay(since: np.ndarray, tau: float) -> np.ndarray:
     :data:`DECAY_FLOOR` e-foldings (one exponential per sample that has not decayed)."""
     since = np.asarray(since, dtype=float)
     out = np.zeros(since.shape)
-    if not tau > 0:
-        out[since == 0] = 1.0
-        return out
-    live = int(np.searchsorted(since, DECAY_FLOOR * tau, side="left"))
-    np.exp(since[:live] * (-1.0 / tau), out=out[:live])
+    live, head = _decay_head(since, tau)
+    out[:live] = head
     return out
+
+
+def _decay_head(since: np.ndarray, tau: float) -> tuple[int, np.ndarray]:
+    """The samples of :func:`decay` that have not decayed (a leading run of ``since``) and
+    their exponentials."""
+    if not tau > 0:
+        live = int(np.searchsorted(since, 0.0, side="right"))
+        return live, np.ones(live)
+    live = int(np.searchsorted(since, DECAY_FLOOR * tau, side="left"))
+    head = np.multiply(since[:live], -1.0 / tau)
+    return live, np.exp(head, out=head)
 
 
 #: Decay (in e-foldings) over a block of :func:`first_order_filter`: the block's growth

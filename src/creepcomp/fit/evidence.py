@@ -226,19 +226,27 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
     jac = data.weighted(jacobian(data, fit)) if refine and start else None
     names = list(start)
     by_name = {p.name: p for p in fit.params}
-    full = _variances(jac.T @ jac, len(names)) if jac is not None else None
-
     # (the Jacobian leaves out the step-time columns: no linearised refit with them)
     linearised = linearised and not any(n.startswith("step_time[") for n in fit.values)
+    gram_all = jac.T @ jac if jac is not None else None
+    full = _variances(gram_all, len(names)) if jac is not None else None
+    if jac is not None and linearised:
+        rhs_all, rr_all = jac.T @ fit.residual, float(fit.residual @ fit.residual)
 
     def stepped(keep: np.ndarray) -> tuple[dict, dict | None, float]:
         """The nonlinear values one Gauss-Newton step from the full fit on the kept rows,
         those held at the full fit's values, and the kept rows' squared residual at the full
         fit's nonlinear values with the linear part refitted."""
-        jk = jac[keep]
-        gram = jk.T @ jk
-        rk = fit.residual[keep]
-        rhs = jk.T @ rk
+        # the kept rows' sums as all rows' less the held-out ones' (a fifth of the work), unless
+        # a column lives mostly in the held-out rows (then the difference would lose it)
+        out = ~keep
+        jo, ro = jac[out], fit.residual[out]
+        gram = gram_all - jo.T @ jo
+        if np.any(np.diag(gram) < 1e-6 * np.diag(gram_all)):
+            jk = jac[keep]
+            gram = jk.T @ jk
+        rhs = rhs_all - jo.T @ ro
+        rr = rr_all - float(ro @ ro)
         frozen = _undetermined(jac, keep, names, start, gram, full)
         linear = np.arange(jac.shape[1]) >= len(names)
         free = linear | np.array([i < len(names) and names[i] not in (frozen or {})
@@ -246,7 +254,7 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
         step = _gauss_newton_step(gram, rhs, free)
         values = {n: by_name[n].from_search(by_name[n].to_search(start[n]) + step[i])
                   for i, n in enumerate(names)}
-        at_start = float(rk @ rk - rhs @ _gauss_newton_step(gram, rhs, linear))
+        at_start = float(rr - rhs @ _gauss_newton_step(gram, rhs, linear))
         return values, frozen, at_start
 
     def refit(keep: np.ndarray) -> np.ndarray:
