@@ -21,7 +21,7 @@ from scipy import linalg
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.noise import SPARSE_SAMPLES, spectral_variance
-from creepcomp.fit.solver import ANCHOR_WEIGHT, Fit, Problem, best_of_starts, fit_structure
+from creepcomp.fit.solver import ANCHOR_WEIGHT, Fit, Problem, _solve, best_of_starts, fit_structure
 from creepcomp.fit.structure import basis, basis_derivatives
 
 __all__ = ["BIC_STRONG", "HELDOUT_Z", "FOLDS", "BLOCKS", "MIN_BLOCK_SAMPLES",
@@ -166,6 +166,29 @@ def _gauss_newton_step(gram: np.ndarray, rhs: np.ndarray, free: np.ndarray) -> n
     return step
 
 
+def _linear_refit(data: Data, fit: Fit, values: dict, keep: np.ndarray,
+                  anchor: dict) -> tuple[np.ndarray, float]:
+    """The residual on every sample (weighted as :attr:`Fit.residual`) of ``fit``'s structure at
+    the nonlinear ``values`` (moved inside their bounds) with the linear part fitted on the
+    ``keep`` samples (weakly anchored, as :class:`~creepcomp.fit.solver.Problem` does), and
+    its squared sum over them. For a fit without step-time columns: the kept rows' sums are
+    all rows' less the others' (a fifth of the work), unless that loses a column."""
+    values = dict(values, **{p.name: p.clip(values[p.name]) for p in fit.params})
+    b = basis(data, fit.structure, values)
+    aw, yw = data.weighted(b.columns), data.weighted(data.signal)
+    out = ~keep
+    ao, yo = aw[out], yw[out]
+    gram_all = aw.T @ aw
+    gram = gram_all - ao.T @ ao
+    prior = np.array([float(anchor.get(n, 0.0)) for n in b.names])
+    if np.any(np.diag(gram) < 1e-6 * np.diag(gram_all)):
+        coef = _solve(aw[keep], yw[keep], prior)
+    else:
+        coef = _solve(aw, yw, prior, gram, rhs=aw.T @ yw - ao.T @ yo, rows=keep)
+    r = yw - aw @ coef
+    return r, float(r @ r - r[out] @ r[out])
+
+
 def load_halves(load: np.ndarray) -> np.ndarray:
     """Two parts of a record as blocks 0 and 1, each with a load change when it can be:
     its two halves (:func:`half_blocks`), unless every load change falls in one of them (a
@@ -261,8 +284,11 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
         try:  # (refit from the fit's own values, same noise model)
             if jac is not None and linearised:
                 values, frozen, at_start = stepped(keep)
+                if data.n >= SPARSE_SAMPLES:
+                    # the step is kept only when it lowers the kept samples' cost, as a refit's
+                    r, cost = _linear_refit(data, fit, values, keep, anchor)
+                    return r if cost <= at_start else _linear_refit(data, fit, start, keep, anchor)[0]
                 problem = Problem(data, fit.structure, keep, anchor=anchor, frozen=frozen)
-                # the step is kept only when it lowers the kept samples' cost, as a refit's
                 x = problem.start_vector(values)
                 r = problem.residual(x) * problem.scale
                 if float(r @ r) > at_start:

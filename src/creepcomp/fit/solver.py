@@ -194,22 +194,26 @@ ANCHOR_WEIGHT = 1e-6
 
 
 def _solve(aw: np.ndarray, yw: np.ndarray, prior: np.ndarray | None = None,
-           gram: np.ndarray | None = None) -> np.ndarray:
+           gram: np.ndarray | None = None, rhs: np.ndarray | None = None,
+           rows: np.ndarray | None = None) -> np.ndarray:
     """Least squares by scaled normal equations (fast for tall, narrow bases); falls back to
     a rank-revealing solver when they are too ill-conditioned. With ``prior``, a weak ridge
-    pulls the solution towards it in directions the data do not determine. ``gram``:
-    ``aw.T @ aw`` when known."""
+    pulls the solution towards it in directions the data do not determine. ``gram`` and
+    ``rhs``: ``aw.T @ aw`` and ``aw.T @ yw`` when known; ``rows``: the rows of ``aw`` and
+    ``yw`` they are of (default all)."""
     gram = aw.T @ aw if gram is None else gram
     norms = np.sqrt(np.diag(gram))
     norms = np.where(norms == 0, 1.0, norms)
     gram = gram / np.outer(norms, norms)
-    rhs = (aw.T @ yw) / norms
+    rhs = (aw.T @ yw if rhs is None else rhs) / norms
     if prior is not None:
         gram = gram + ANCHOR_WEIGHT * np.eye(len(norms))
         rhs = rhs + ANCHOR_WEIGHT * prior * norms
     eig = np.linalg.eigvalsh(gram)
     if eig[0] > 1e-8 * eig[-1]:          # normal equations lose cond^2: keep them well-posed
         return np.linalg.solve(gram, rhs) / norms
+    if rows is not None:
+        aw, yw = aw[rows], yw[rows]
     coef, *_ = linalg.lstsq(aw / norms, yw, lapack_driver="gelsy", cond=1e-13)
     return coef / norms
 
