@@ -9,13 +9,13 @@ of phi 0.99 (same variance), where stated uncertainties are tested against actua
 Printed per tool: terms chosen, parameter errors (relative, terms matched by tau), held-out
 error (fitted on the first 70 % of the record, RMS of the prediction of the rest, in units
 of the noise), warm CPU time (in-process, after a first fit: the least of ``--repeat``
-fits; also with the number of terms given)
+fits, the tools taking turns; also with the number of terms given)
 and cold wall time (a fresh interpreter: import and one fit), and the coverage of the stated
 one-sigma and two-sigma intervals over seeds.
 
 Usage::
 
-    python benchmarks/peers.py [--seeds 10] [--no-cold] [--repeat 3]
+    python benchmarks/peers.py [--seeds 10] [--no-cold] [--repeat 5]
 """
 
 from __future__ import annotations
@@ -145,32 +145,38 @@ def coverage(tool: str, seeds: int, phi: float) -> tuple[float, float, int]:
     return float(np.mean(z < 1)), float(np.mean(z < 2)), len(z)
 
 
-def cpu_seconds(run, repeat: int):
-    """The least CPU time of ``repeat`` calls of ``run`` (the others are what the machine's
-    other work added), and the last call's result."""
-    best = float("inf")
+def warm_seconds(t, load, y, repeat: int) -> dict:
+    """Per tool, the least CPU time of ``repeat`` in-process fits (terms chosen, and 3 given)
+    and the last fit's result. The tools take turns, so that the machine's other work falls on
+    all of them alike."""
+    for tool in TOOLS:
+        TOOLS[tool](t, load, y)                          # warm up
+    out = {tool: [float("inf"), float("inf"), None] for tool in TOOLS}
     for _ in range(repeat):
-        start = time.process_time()
-        out = run()
-        best = min(best, time.process_time() - start)
-    return best, out
+        for tool, run in TOOLS.items():
+            start = time.process_time()
+            out[tool][2] = run(t, load, y)
+            middle = time.process_time()
+            run(t, load, y, 3)
+            out[tool][0] = min(out[tool][0], middle - start)
+            out[tool][1] = min(out[tool][1], time.process_time() - middle)
+    return out
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--no-cold", action="store_true")
-    ap.add_argument("--repeat", type=int, default=3, help="warm fits timed per tool (the least counts)")
+    ap.add_argument("--repeat", type=int, default=5, help="warm fits timed per tool, in turns (the least counts)")
     args = ap.parse_args(argv)
     t, load, y = record(0)
     print(f"record: step at {STEP_AT:g} s, beta {BETAS}, tau {TAUS} s, {len(t)} samples at 10 Hz, "
           f"white noise {SIGMA:g}")
     print(f"{'tool':28s} {'terms':>5s} {'beta err':>9s} {'tau err':>9s} {'held-out':>9s} "
           f"{'warm s':>8s} {'3 given':>8s} {'cold s':>8s} {'cover 1sd':>9s} {'cover 2sd':>9s}")
+    timed = warm_seconds(t, load, y, args.repeat)
     for tool in TOOLS:
-        TOOLS[tool](t, load, y)                          # warm up
-        warm, (betas, taus, _, _) = cpu_seconds(lambda: TOOLS[tool](t, load, y), args.repeat)
-        warm3, _ = cpu_seconds(lambda: TOOLS[tool](t, load, y, 3), args.repeat)
+        warm, warm3, (betas, taus, _, _) = timed[tool]
         eb, et = errors(betas, taus)
         held = heldout_rms(tool, t, load, y)
         cold = float("nan") if args.no_cold else cold_seconds(tool)
