@@ -23,7 +23,8 @@ if TYPE_CHECKING:
 
 __all__ = ["LagExpansion", "UNIFORM_RTOL", "lag_coefficients", "is_uniform", "lag_states",
            "cascade_matrices", "cascade_step", "cascade_step_arrays", "triangle_lag_gap",
-           "cascade_lags", "varying_lag_states", "lag_tau_derivatives", "first_order_filter"]
+           "cascade_lags", "varying_lag_states", "lag_tau_derivatives", "first_order_filter",
+           "decay", "DECAY_FLOOR"]
 
 #: Relative spread of time steps below which sampling counts as uniform (then a recursion
 #: with constant coefficients runs, :func:`first_order_filter`; the coefficient error this
@@ -212,7 +213,7 @@ def lag_states(time, u, taus, hold: str = "linear", initial="relaxed", u_before=
         raise InputError(f"time and input must be 1-D of equal length (got {t.shape} and {u.shape})")
     ub = u if u_before is None else np.asarray(u_before, dtype=float)
     n, k = len(t), len(taus)
-    out = np.empty((n, k))
+    out = np.empty((n, k), order="F")       # (filled lag by lag)
     if n == 0:
         return out
     c0 = _initial_states(initial, u[0], k)
@@ -222,6 +223,10 @@ def lag_states(time, u, taus, hold: str = "linear", initial="relaxed", u_before=
     dt = np.diff(t)
     if not np.all(dt > 0):
         raise InputError("time must be strictly increasing")
+    changes = _input_changes(u, hold) if u_before is None else None
+    if changes is not None:
+        _held_runs(t, u, taus, changes, c0, out)
+        return out
     if is_uniform(t):
         step = float(np.mean(dt))
         for j, tau in enumerate(taus):
@@ -232,6 +237,91 @@ def lag_states(time, u, taus, hold: str = "linear", initial="relaxed", u_before=
     drive = b0 * u[:-1, None] + b1 * ub[1:, None]
     _scan(t, taus, e, drive, c0, out)
     return out
+
+
+#: Most load changes, as a share of the samples, for which lags are solved run by run
+#: (:func:`_held_runs`): the closed form costs one exponential per sample and lag, the
+#: recursion between runs a Python step per change.
+_RUNS_SHARE = 1.0 / 200.0
+
+
+def _input_changes(u: np.ndarray, hold: str) -> np.ndarray | None:
+    """Sample intervals over which a linearly held input changes, when they are few enough
+    (:data:`_RUNS_SHARE`) for :func:`_held_runs`; else None."""
+    if hold != "linear" or len(u) < 2:
+        return None
+    changes = np.flatnonzero(u[1:] != u[:-1])
+    return changes if len(changes) <= _RUNS_SHARE * len(u) else None
+
+
+def _held_runs(t, u, taus, changes, c0, out) -> None:
+    """Lag states for an input that is constant but over a few sample intervals (``changes``,
+    linear hold): within a run of constant input ``U`` the exact solution
+    ``U + (c - U) exp(-(t - t_start) / tau)``, the changing intervals by the recursion of
+    :func:`lag_states`. Fills ``out`` (N, K)."""
+    e, b0, b1 = lag_coefficients((t[changes + 1] - t[changes])[:, None], taus[None, :], "linear")
+    first, c = 0, np.asarray(c0, float)
+    for j, last in enumerate(list(changes) + [len(t) - 1]):
+        since = t[first:last + 1] - t[first]
+        level = u[first]
+        run = out[first:last + 1]
+        for k, tau in enumerate(taus):           # (column by column: contiguous and fast)
+            live, head = _decay_head(since, tau)
+            run[:live, k] = head * (c[k] - level) + level
+            run[live:, k] = level
+        if j < len(changes):
+            c = e[j] * run[-1] + b0[j] * u[last] + b1[j] * u[last + 1]
+            first = last + 1
+
+
+def _held_runs_derivatives(t, u, taus, states, changes, slope0, out) -> None:
+    """``d c_k / d tau_k`` of :func:`_held_runs`: within a run ``exp(-s / tau) (d_start +
+    (c_start - U) s / tau^2)`` (``s`` the time since the run's start), the changing
+    intervals by the differentiated recursion (:func:`lag_tau_derivatives`)."""
+    x = (t[changes + 1] - t[changes])[:, None] / taus[None, :]
+    e = np.exp(-x)
+    dx = -x / taus[None, :]
+    de = -e * dx
+    dg = _exprel_slope(x) * dx
+    first, d = 0, np.asarray(slope0, float)
+    for j, last in enumerate(list(changes) + [len(t) - 1]):
+        since = t[first:last + 1] - t[first]
+        run = out[first:last + 1]
+        for k, tau in enumerate(taus):
+            live, head = _decay_head(since, tau)
+            head *= since[:live] * ((states[first, k] - u[first]) / tau ** 2) + d[k]
+            run[:live, k] = head
+            run[live:, k] = 0.0
+        if j < len(changes):
+            d = (e[j] * run[-1] + de[j] * states[last] + (dg[j] - de[j]) * u[last]
+                 - dg[j] * u[last + 1])
+            first = last + 1
+
+
+#: Decay (e-foldings) beyond which :func:`decay` is zero: far below rounding of anything
+#: it multiplies, and clear of subnormal numbers (whose arithmetic is slow).
+DECAY_FLOOR = 460.0
+
+
+def decay(since: np.ndarray, tau: float) -> np.ndarray:
+    """``exp(-since / tau)`` for non-decreasing ``since >= 0``, exactly zero beyond
+    :data:`DECAY_FLOOR` e-foldings (one exponential per sample that has not decayed)."""
+    since = np.asarray(since, dtype=float)
+    out = np.zeros(since.shape)
+    live, head = _decay_head(since, tau)
+    out[:live] = head
+    return out
+
+
+def _decay_head(since: np.ndarray, tau: float) -> tuple[int, np.ndarray]:
+    """The samples of :func:`decay` that have not decayed (a leading run of ``since``) and
+    their exponentials."""
+    if not tau > 0:
+        live = int(np.searchsorted(since, 0.0, side="right"))
+        return live, np.ones(live)
+    live = int(np.searchsorted(since, DECAY_FLOOR * tau, side="left"))
+    head = np.multiply(since[:live], -1.0 / tau)
+    return live, np.exp(head, out=head)
 
 
 #: Decay (in e-foldings) over a block of :func:`first_order_filter`: the block's growth
@@ -521,9 +611,13 @@ def lag_tau_derivatives(time, u, taus, states, hold: str = "linear", initial_slo
     u = np.asarray(u, dtype=float)
     taus = np.atleast_1d(np.asarray(taus, dtype=float))
     n, k = len(t), len(taus)
-    out = np.empty((n, k))
+    out = np.empty((n, k), order="F")
     out[0] = 0.0 if initial_slope is None else np.asarray(initial_slope, float)
     if n < 2 or k == 0:
+        return out
+    changes = _input_changes(u, hold)
+    if changes is not None:
+        _held_runs_derivatives(t, u, taus, states, changes, out[0].copy(), out)
         return out
     dt = np.diff(t)
     uniform = is_uniform(t)

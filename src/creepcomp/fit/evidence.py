@@ -21,7 +21,7 @@ from scipy import linalg
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.noise import SPARSE_SAMPLES, spectral_variance
-from creepcomp.fit.solver import Fit, fit_structure
+from creepcomp.fit.solver import ANCHOR_WEIGHT, Fit, Problem, _solve, best_of_starts, fit_structure
 from creepcomp.fit.structure import basis, basis_derivatives
 
 __all__ = ["BIC_STRONG", "HELDOUT_Z", "FOLDS", "BLOCKS", "MIN_BLOCK_SAMPLES",
@@ -131,20 +131,62 @@ def jacobian(data: Data, fit: Fit) -> np.ndarray:
     return np.column_stack(cols + [b.columns])
 
 
-def _undetermined(jac: np.ndarray, keep: np.ndarray, names: list, values: dict) -> dict | None:
+def _variances(gram: np.ndarray, count: int) -> np.ndarray:
+    """Variances (up to the noise's) of the first ``count`` parameters of a linear least-squares
+    problem with Gram matrix ``gram``."""
+    norms = np.sqrt(np.diag(gram))
+    norms = np.where(norms == 0, 1.0, norms)
+    inv = linalg.pinvh(gram / np.outer(norms, norms))
+    return np.diag(inv)[:count] / norms[:count] ** 2
+
+
+def _undetermined(jac: np.ndarray, keep: np.ndarray, names: list, values: dict,
+                  kept_gram: np.ndarray | None = None, full: np.ndarray | None = None) -> dict | None:
     """The nonlinear parameters (first columns of ``jac``) that the kept samples leave
-    undetermined, with their values."""
-    def variances(rows):
-        j = jac[rows]
-        norms = np.sqrt(np.sum(j ** 2, axis=0))
-        norms[norms == 0] = 1.0
-        inv = linalg.pinvh((j / norms).T @ (j / norms))
-        return np.diag(inv)[:len(names)] / norms[:len(names)] ** 2
-    full = variances(slice(None))
-    part = variances(keep)
+    undetermined, with their values (``kept_gram``: ``jac[keep].T @ jac[keep]``, and ``full``:
+    the variances on all samples, when known)."""
+    full = _variances(jac.T @ jac, len(names)) if full is None else full
+    part = _variances(jac[keep].T @ jac[keep] if kept_gram is None else kept_gram, len(names))
     out = {n: values[n] for n, vf, vp in zip(names, full, part)
            if not vp <= UNDETERMINED_VARIANCE_RATIO * vf}
     return out or None
+
+
+def _gauss_newton_step(gram: np.ndarray, rhs: np.ndarray, free: np.ndarray) -> np.ndarray:
+    """The least-squares step ``G^-1 rhs`` on the ``free`` columns (zero on the others), by
+    scaled normal equations with the weak ridge of :data:`~creepcomp.fit.solver.ANCHOR_WEIGHT`
+    (directions the rows leave undetermined are not moved)."""
+    step = np.zeros(len(rhs))
+    g = gram[np.ix_(free, free)]
+    norms = np.sqrt(np.diag(g))
+    norms = np.where(norms == 0, 1.0, norms)
+    eig, vec = np.linalg.eigh(g / np.outer(norms, norms) + ANCHOR_WEIGHT * np.eye(len(norms)))
+    keep = eig > 1e-13 * eig[-1]
+    step[free] = (vec[:, keep] @ ((vec[:, keep].T @ (rhs[free] / norms)) / eig[keep])) / norms
+    return step
+
+
+def _linear_refit(data: Data, fit: Fit, values: dict, keep: np.ndarray,
+                  anchor: dict) -> tuple[np.ndarray, float]:
+    """The residual on every sample (weighted as :attr:`Fit.residual`) of ``fit``'s structure at
+    the nonlinear ``values`` (moved inside their bounds) with the linear part fitted on the
+    ``keep`` samples (weakly anchored, as :class:`~creepcomp.fit.solver.Problem` does), and
+    its squared sum over them. For a fit without step-time columns: the kept rows' sums are
+    all rows' less the others' (a fifth of the work), unless that loses a column."""
+    values = dict(values, **{p.name: p.clip(values[p.name]) for p in fit.params})
+    b = basis(data, fit.structure, values)
+    aw, yw = data.weighted(b.columns), data.weighted(data.signal)
+    out = ~keep
+    ao, yo = aw[out], yw[out]
+    gram_all = aw.T @ aw
+    gram = gram_all - ao.T @ ao
+    prior = np.array([float(anchor.get(n, 0.0)) for n in b.names])
+    if np.any(np.diag(gram) < 1e-6 * np.diag(gram_all)):
+        coef = _solve(aw[keep], yw[keep], prior)
+    else:
+        coef = _solve(aw, yw, prior, gram, rhs=aw.T @ yw - ao.T @ yo, rows=keep)
+    r = yw - aw @ coef
+    return r, float(r @ r - r[out] @ r[out])
 
 
 def load_halves(load: np.ndarray) -> np.ndarray:
@@ -177,10 +219,21 @@ def halves(data: Data, fit: Fit, refine: bool = True) -> HeldOut:
 
 
 def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
-            blocks: np.ndarray | None = None) -> Fit:
+            blocks: np.ndarray | None = None, linearised: bool = False) -> Fit:
     """The fit with its held-out prediction: the record is cut into :data:`BLOCKS` blocks;
     for each of ``folds`` folds its (interleaved) blocks are left out, the model is refitted on the rest
     (from the fit's own values, same noise model) and simulated from the load over them.
+
+    The refit is a few steps of :func:`~creepcomp.fit.solver.fit_structure`'s least squares
+    (three evaluations). ``linearised``: one Gauss-Newton step from the full fit instead, with
+    its Jacobian restricted to the kept samples (kept only when it lowers their cost), the
+    linear part then solved exactly at the new nonlinear values: where the model holds, the
+    full fit is close to each fold's optimum and the step lands where the iteration does,
+    without its set-up; where it does not (a model short of terms), the step is the
+    reproducible first-order refit, which the few iterations are not (they stop wherever their
+    third evaluation falls). Models compared by :func:`compare` must be held out alike. A fit
+    with step-time columns (:func:`~creepcomp.fit.structure.with_step_times`, which
+    :func:`jacobian` leaves out) is refitted iteratively in any case.
 
     Directions the remaining data leave undetermined keep the full fit's values: linear ones
     weakly (gain against offset when the rest has one load level,
@@ -194,10 +247,54 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
     start = {p.name: fit.values[p.name] for p in fit.params}
     anchor = {n: v for n, v in fit.values.items() if n not in start}
     jac = data.weighted(jacobian(data, fit)) if refine and start else None
+    names = list(start)
+    by_name = {p.name: p for p in fit.params}
+    # (the Jacobian leaves out the step-time columns: no linearised refit with them)
+    linearised = linearised and not any(n.startswith("step_time[") for n in fit.values)
+    gram_all = jac.T @ jac if jac is not None else None
+    full = _variances(gram_all, len(names)) if jac is not None else None
+    if jac is not None and linearised:
+        rhs_all, rr_all = jac.T @ fit.residual, float(fit.residual @ fit.residual)
+
+    def stepped(keep: np.ndarray) -> tuple[dict, dict | None, float]:
+        """The nonlinear values one Gauss-Newton step from the full fit on the kept rows,
+        those held at the full fit's values, and the kept rows' squared residual at the full
+        fit's nonlinear values with the linear part refitted."""
+        # the kept rows' sums as all rows' less the held-out ones' (a fifth of the work), unless
+        # a column lives mostly in the held-out rows (then the difference would lose it)
+        out = ~keep
+        jo, ro = jac[out], fit.residual[out]
+        gram = gram_all - jo.T @ jo
+        if np.any(np.diag(gram) < 1e-6 * np.diag(gram_all)):
+            jk = jac[keep]
+            gram = jk.T @ jk
+        rhs = rhs_all - jo.T @ ro
+        rr = rr_all - float(ro @ ro)
+        frozen = _undetermined(jac, keep, names, start, gram, full)
+        linear = np.arange(jac.shape[1]) >= len(names)
+        free = linear | np.array([i < len(names) and names[i] not in (frozen or {})
+                                  for i in range(jac.shape[1])])
+        step = _gauss_newton_step(gram, rhs, free)
+        values = {n: by_name[n].from_search(by_name[n].to_search(start[n]) + step[i])
+                  for i, n in enumerate(names)}
+        at_start = float(rr - rhs @ _gauss_newton_step(gram, rhs, linear))
+        return values, frozen, at_start
 
     def refit(keep: np.ndarray) -> np.ndarray:
-        frozen = _undetermined(jac, keep, list(start), start) if jac is not None else None
         try:  # (refit from the fit's own values, same noise model)
+            if jac is not None and linearised:
+                values, frozen, at_start = stepped(keep)
+                if data.n >= SPARSE_SAMPLES:
+                    # the step is kept only when it lowers the kept samples' cost, as a refit's
+                    r, cost = _linear_refit(data, fit, values, keep, anchor)
+                    return r if cost <= at_start else _linear_refit(data, fit, start, keep, anchor)[0]
+                problem = Problem(data, fit.structure, keep, anchor=anchor, frozen=frozen)
+                x = problem.start_vector(values)
+                r = problem.residual(x) * problem.scale
+                if float(r @ r) > at_start:
+                    x = best_of_starts(problem.residual, [x, problem.start_vector(start)], 2, None)
+                return problem.full_residual(x)[1]
+            frozen = _undetermined(jac, keep, names, start, full=full) if jac is not None else None
             return fit_structure(data, fit.structure, [start], noise=fit.noise, mask=keep,
                                  max_nfev=3, with_cov=False, anchor=anchor, refine=refine,
                                  frozen=frozen).residual

@@ -6,18 +6,19 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import Sequence
 
+import numpy as np
 from scipy import linalg
 
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.evidence import BIC_STRONG, FOLDS, Evidence, compare, heldout
-from creepcomp.fit.noise import SPARSE_SAMPLES, ARNoise
-from creepcomp.fit.solver import Fit, fit_structure, small_sample_inflation
+from creepcomp.fit.noise import SPARSE_SAMPLES, ARNoise, fit_noise
+from creepcomp.fit.solver import Fit, fit_structure, small_sample_inflation, with_covariance, with_noise
 from creepcomp.fit.starts import cluster_taus, extra_term_starts, nnls_spectrum, one_term_starts, tau_grid
 from creepcomp.fit.structure import Applied, Structure
 from creepcomp.model import CreepModel
 
-__all__ = ["OrderStep", "PronyResult", "fit_terms", "fit_prony", "term_table", "fit_summary",
+__all__ = ["OrderStep", "PronyResult", "fit_terms", "spectrum_of", "fit_prony", "term_table", "fit_summary",
            "model_file_dict"]
 
 
@@ -54,23 +55,40 @@ class PronyResult:
 
 def fit_terms(data: Data, n_terms: int, previous: Fit | None = None, noise: ARNoise | None = None,
               effects: tuple[Applied, ...] = (), start: dict | None = None, with_cov: bool = True,
-              ftol: float = 1e-8) -> Fit:
+              ftol: float = 1e-8, spectrum: tuple | None = None,
+              coarse_ftol: float | None = None) -> Fit:
     """Fit ``n_terms`` Prony terms (plus ``effects`` applied to every model, e.g. viscous flow):
     starts from the non-negative spectrum and, when given, from the previous fit plus one grid
-    time (or from the values ``start`` alone); refine; keep the best."""
+    time (or from the values ``start`` alone); refine; keep the best. ``spectrum``: the
+    record's (:func:`spectrum_of`), when known; ``coarse_ftol``: see
+    :func:`~creepcomp.fit.solver.fit_structure`."""
     structure = Structure(n_terms, tuple(effects))
     if start is not None:
         starts = [start]
     elif n_terms == 1:
         starts = one_term_starts(data)
     else:
-        grid = tau_grid(data, per_decade=6)
-        amps, _ = nnls_spectrum(data, grid)
+        grid, amps = spectrum or spectrum_of(data)
         starts = [{f"tau[{k}]": t for k, t in enumerate(cluster_taus(grid, amps, n_terms))}]
         if previous is not None:
             starts += extra_term_starts(data, previous, structure)
     return fit_structure(data, structure, starts, noise=noise, n_refine=3, with_cov=with_cov,
-                         ftol=ftol)
+                         ftol=ftol, coarse_ftol=coarse_ftol)
+
+
+#: Relative change of the cost at which the starts of the order search stop on the coarse
+#: record: they only seed the refinement on the full record, which converges from any of them
+#: (a change of the coarse log-likelihood of about 0.01).
+ORDER_COARSE_FTOL = 1e-5
+#: Noise model of the fits only compared (their BIC is that of white noise in any case).
+_WHITE = ARNoise()
+
+
+def spectrum_of(data: Data) -> tuple[np.ndarray, np.ndarray]:
+    """The grid of time constants the starts of :func:`fit_terms` come from (six a decade)
+    and the record's non-negative creep spectrum on it."""
+    grid = tau_grid(data, per_decade=6)
+    return grid, nnls_spectrum(data, grid)[0]
 
 
 def fit_prony(data: Data, max_terms: int = 6, n_terms: int | None = None,
@@ -116,8 +134,9 @@ def fit_prony(data: Data, max_terms: int = 6, n_terms: int | None = None,
         return _orders(data, max_terms, n_terms, folds, effects)
     try:
         # (converged far enough to tell a BIC difference of BIC_STRONG)
-        trial = fit_terms(data, settled.fit.structure.n_terms, effects=effects,
-                          start=settled.fit.values, with_cov=False, ftol=0.1 * BIC_STRONG / data.n)
+        trial = fit_terms(data, settled.fit.structure.n_terms, noise=_WHITE, effects=effects,
+                          start=settled.fit.values, with_cov=False, ftol=0.1 * BIC_STRONG / data.n,
+                          coarse_ftol=ORDER_COARSE_FTOL)
     except (InputError, linalg.LinAlgError):
         trial = None
     if trial is not None and not trial.bic < settled.fit.bic - BIC_STRONG:
@@ -136,9 +155,16 @@ def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
     chosen = 0
     previous = None
     top = n_terms or max_terms
+    spectrum = None
     for k in range(1, top + 1):
         try:
-            fit = heldout(data, fit_terms(data, k, previous, None, effects), folds)
+            if k > 1 and spectrum is None:
+                spectrum = spectrum_of(data)
+            # (the noise model and covariance only of the fit chosen, below: the order is
+            # chosen by the white likelihood and the held-out test, which need neither)
+            fit = heldout(data, fit_terms(data, k, previous, _WHITE, effects, with_cov=False,
+                                          spectrum=spectrum, coarse_ftol=ORDER_COARSE_FTOL),
+                          folds, linearised=True)
         except InputError:
             if n_terms is not None and data.n < SPARSE_SAMPLES:
                 raise   # (the terms asked for are more than a sparse record carries: the reason)
@@ -156,6 +182,9 @@ def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
         previous = fit
     if not steps:
         raise InputError(f"{data.source}: no creep model could be fitted")
+    fit = steps[chosen].fit
+    fit = with_noise(fit, fit_noise(fit.residual, fit.extras["rows"]))
+    steps[chosen] = replace(steps[chosen], fit=with_covariance(data, fit))
     return PronyResult(data, tuple(steps), chosen)
 
 

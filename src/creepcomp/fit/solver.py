@@ -26,6 +26,7 @@ from creepcomp.fit.structure import (Basis, Param, Structure, basis, basis_deriv
 from creepcomp.model import CreepModel
 
 __all__ = ["Fit", "ANCHOR_WEIGHT", "Problem", "best_of_starts", "fit_structure", "with_noise",
+           "with_covariance",
            "sandwich_covariance", "small_sample_inflation"]
 
 
@@ -192,20 +193,27 @@ class Fit:
 ANCHOR_WEIGHT = 1e-6
 
 
-def _solve(aw: np.ndarray, yw: np.ndarray, prior: np.ndarray | None = None) -> np.ndarray:
+def _solve(aw: np.ndarray, yw: np.ndarray, prior: np.ndarray | None = None,
+           gram: np.ndarray | None = None, rhs: np.ndarray | None = None,
+           rows: np.ndarray | None = None) -> np.ndarray:
     """Least squares by scaled normal equations (fast for tall, narrow bases); falls back to
     a rank-revealing solver when they are too ill-conditioned. With ``prior``, a weak ridge
-    pulls the solution towards it in directions the data do not determine."""
-    norms = np.sqrt(np.einsum("ij,ij->j", aw, aw))
-    norms[norms == 0] = 1.0
-    gram = (aw.T @ aw) / np.outer(norms, norms)
-    rhs = (aw.T @ yw) / norms
+    pulls the solution towards it in directions the data do not determine. ``gram`` and
+    ``rhs``: ``aw.T @ aw`` and ``aw.T @ yw`` when known; ``rows``: the rows of ``aw`` and
+    ``yw`` they are of (default all)."""
+    gram = aw.T @ aw if gram is None else gram
+    norms = np.sqrt(np.diag(gram))
+    norms = np.where(norms == 0, 1.0, norms)
+    gram = gram / np.outer(norms, norms)
+    rhs = (aw.T @ yw if rhs is None else rhs) / norms
     if prior is not None:
         gram = gram + ANCHOR_WEIGHT * np.eye(len(norms))
         rhs = rhs + ANCHOR_WEIGHT * prior * norms
     eig = np.linalg.eigvalsh(gram)
     if eig[0] > 1e-8 * eig[-1]:          # normal equations lose cond^2: keep them well-posed
         return np.linalg.solve(gram, rhs) / norms
+    if rows is not None:
+        aw, yw = aw[rows], yw[rows]
     coef, *_ = linalg.lstsq(aw / norms, yw, lapack_driver="gelsy", cond=1e-13)
     return coef / norms
 
@@ -236,15 +244,21 @@ def _within_step_bounds(b: Basis, coef: np.ndarray, free: np.ndarray, limits: np
     return out if (out != free).any() else free
 
 
-def _scaled_inverse(a: np.ndarray):
-    """Columns scaled to unit norm, their norms, and the pseudo-inverse of their Gram matrix
-    (directions below a relative 1e-8 of its largest eigenvalue dropped when ill-posed)."""
-    norms = np.sqrt(np.einsum("ij,ij->j", a, a))
-    norms[norms == 0] = 1.0
-    an = a / norms
-    eig, vec = np.linalg.eigh(an.T @ an)
+def _scaled_inverse(a: np.ndarray, gram: np.ndarray | None = None):
+    """The norms of the columns and the pseudo-inverse of the Gram matrix of the columns
+    scaled to unit norm (directions below a relative 1e-8 of its largest eigenvalue dropped
+    when ill-posed): ``(a / norms)^+ = inverse @ (a / norms).T``. ``gram``: ``a.T @ a`` when
+    known."""
+    gram = a.T @ a if gram is None else gram
+    norms = np.sqrt(np.diag(gram))
+    norms = np.where(norms == 0, 1.0, norms)
+    eig, vec = np.linalg.eigh(gram / np.outer(norms, norms))
     keep = eig > (1e-8 if eig[0] > 1e-8 * eig[-1] else 1e-26) * eig[-1]
-    return an, norms, (vec[:, keep] / eig[keep]) @ vec[:, keep].T
+    return norms, (vec[:, keep] / eig[keep]) @ vec[:, keep].T
+
+
+#: Points whose projection a :class:`Problem` keeps.
+_PROJECTIONS_KEPT = 3
 
 
 class Problem:
@@ -296,7 +310,7 @@ class Problem:
         (:func:`~creepcomp.fit.structure.with_step_times`)."""
         values = self.values(x)
         b = basis(self.data, self.structure, values, self.cache)
-        return with_step_times(self.data, b, taus_of(values, self.structure.n_terms))
+        return with_step_times(self.data, b, taus_of(values, self.structure.n_terms), self.cache)
 
     def on_rows(self, values: np.ndarray) -> np.ndarray:
         """The fitted rows of a per-sample array or of basis columns, each times the square
@@ -312,13 +326,15 @@ class Problem:
 
     def _projection(self, x: np.ndarray):
         """:meth:`project` and the mask of the coefficients solved for (not held at given
-        values or at a step time's bound); the last point's is kept."""
+        values or at a step time's bound); the last few points' are kept (the optimiser's
+        last evaluation need not be its result, nor the last start the best)."""
         key = np.asarray(x, float).tobytes()
-        last = self.cache.get("project")
-        if last is not None and last[0] == key:
-            return last[1]
+        kept = self.cache.setdefault("project", {})
+        if key in kept:
+            return kept[key][0]
         b = self.basis(x)
         a = self.on_rows(b.columns)
+        gram = a.T @ a
         held = np.array([n in self.fixed for n in b.names])
         coef = np.array([self.fixed.get(n, 0.0) for n in b.names])
         prior = None
@@ -329,8 +345,12 @@ class Problem:
         for _ in range(4):   # the step times found beyond their bounds are set to them
             if not free.any():
                 break
-            target = self.y - a[:, ~free] @ coef[~free] if (~free).any() else self.y
-            coef[free] = _solve(a[:, free], target, None if prior is None else prior[free])
+            if free.all():
+                coef = _solve(a, self.y, prior, gram)
+            else:
+                target = self.y - a[:, ~free] @ coef[~free] if (~free).any() else self.y
+                coef[free] = _solve(a[:, free], target, None if prior is None else prior[free],
+                                    gram[np.ix_(free, free)])
             if limits is None:
                 break
             narrowed = _within_step_bounds(b, coef, free, limits)
@@ -338,8 +358,22 @@ class Problem:
                 break
             free = narrowed
         out = (b, coef, self.y - a @ coef, free)
-        self.cache["project"] = (key, out)
+        while len(kept) >= _PROJECTIONS_KEPT:
+            kept.pop(next(iter(kept)))
+        kept[key] = (out, gram)
         return out
+
+    def _gram(self, x: np.ndarray) -> np.ndarray:
+        """``A^T A`` of the (weighted) basis on the fitted rows at ``x``."""
+        self._projection(x)
+        return self.cache["project"][np.asarray(x, float).tobytes()][1]
+
+    def full_residual(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Prediction and measured minus predicted on every sample (those not fitted too;
+        weighted as :attr:`Fit.residual`), the linear part solved on the fitted rows."""
+        b, coef, _ = self.project(x)
+        prediction = b.columns @ coef
+        return prediction, self.data.weighted(self.data.signal - prediction)
 
     def residual(self, x: np.ndarray) -> np.ndarray:
         """Residual with the linear part projected out, relative to the signal's range."""
@@ -363,19 +397,25 @@ class Problem:
         moves = basis_derivatives(self.data, self.structure, self.values(x), b, self.params)
         a = self.on_rows(b.columns)
         dot_r = np.zeros((len(b.names), len(moves)))                  # dA^T r
-        moved = np.zeros((len(r), len(moves)))                         # dA c
+        moved = np.zeros((len(moves), len(r)))                         # (dA c)^T
         for j, m in enumerate(moves):
             for col, d in m:
                 dj = self.on_rows(d)
-                moved[:, j] += coef[col] * dj
+                moved[j] += coef[col] * dj
                 dot_r[col, j] = dj @ r
-        total = moved + a @ self._bound_response(b, a, coef, free, moves)   # dA c + A dc (held)
-        jac = -total
+        # (worked on transposed: one row per parameter, each contiguous)
+        if any(not free[col] for col, _, _ in b.step_bounds):
+            moved += self._bound_response(b, a, coef, free, moves).T @ a.T    # + A dc (held)
         free = np.flatnonzero(free)
-        if len(free):
-            scaled, norms, inverse = _scaled_inverse(a[:, free])
-            jac = jac + scaled @ (inverse @ (scaled.T @ total - dot_r[free] / norms[:, None]))
-        return jac / self.scale
+        if not len(free):
+            return -moved.T / self.scale
+        af = a if len(free) == a.shape[1] else a[:, free]
+        norms, inverse = _scaled_inverse(af, self._gram(x)[np.ix_(free, free)])
+        # -(dA c + A dc) with dc = G^-1 (dA^T r - A^T dA c) on the free columns
+        shift = inverse @ (((moved @ af).T - dot_r[free]) / norms[:, None])
+        jac = (shift / norms[:, None]).T @ af.T
+        jac -= moved
+        return jac.T / self.scale
 
     def _bound_response(self, b: Basis, a: np.ndarray, coef: np.ndarray, free: np.ndarray,
                         moves) -> np.ndarray:
@@ -394,9 +434,10 @@ class Problem:
             return out                  # the amplitudes setting the bounds are held too
         trial = np.array([self.fixed.get(n, 0.0) for n in b.names])
         target = self.y - a[:, ~plain] @ trial[~plain]
-        scaled, norms, inverse = _scaled_inverse(a[:, plain])
-        trial[plain] = (inverse @ (scaled.T @ target)) / norms
-        rp = target - a[:, plain] @ trial[plain]
+        ap = a[:, plain]
+        norms, inverse = _scaled_inverse(ap)
+        trial[plain] = (inverse @ ((ap.T @ target) / norms)) / norms
+        rp = target - ap @ trial[plain]
         moved = np.zeros((len(rp), len(moves)))
         dot_r = np.zeros((len(b.names), len(moves)))
         for j, m in enumerate(moves):
@@ -405,7 +446,7 @@ class Problem:
                     dj = self.on_rows(d)
                     moved[:, j] += trial[col] * dj
                     dot_r[col, j] = dj @ rp
-        dtrial = (inverse @ (dot_r[plain] / norms[:, None] - scaled.T @ moved)) / norms[:, None]
+        dtrial = (inverse @ ((dot_r[plain] - ap.T @ moved) / norms[:, None])) / norms[:, None]
         where = {c: i for i, c in enumerate(np.flatnonzero(plain))}
         for col, k, half in bound:
             amplitude = b.names.index(f"a[{k}]")
@@ -437,7 +478,7 @@ def fit_structure(data: Data, structure: Structure, starts: Sequence[dict], nois
                   mask: np.ndarray | None = None, max_nfev: int | None = None,
                   n_refine: int = 2, with_cov: bool = True, fixed: dict | None = None,
                   anchor: dict | None = None, refine: bool = True, frozen: dict | None = None,
-                  ftol: float = 1e-8) -> Fit:
+                  ftol: float = 1e-8, coarse_ftol: float | None = None) -> Fit:
     """Fit a structure by least squares (variable projection); likelihood, BIC and
     uncertainties with an AR noise model.
 
@@ -476,6 +517,9 @@ def fit_structure(data: Data, structure: Structure, starts: Sequence[dict], nois
         Nonlinear parameters held at given values (not searched).
     ftol : float
         Relative change of the cost at which a refinement stops.
+    coarse_ftol : float, optional
+        The same for the search of a long record's starts on its coarse record (default
+        :data:`COARSE_FTOL`).
     """
     problem = Problem(data, structure, mask, fixed=fixed, anchor=anchor, frozen=frozen)
     starts = [problem.start_vector(s) for s in starts]
@@ -484,8 +528,9 @@ def fit_structure(data: Data, structure: Structure, starts: Sequence[dict], nois
     coarse = _coarse(problem) if refine and mask is None and not fixed and not anchor else None
     if coarse is not None:
         # the starts are searched on the coarse record; its best point is refined on all
+        coarse_ftol = max(ftol, coarse_ftol or COARSE_FTOL)
         starts = [best_of_starts(coarse.residual, starts, n_refine,
-                                 lambda x0: coarse.refine(x0, max_nfev, max(ftol, COARSE_FTOL)))]
+                                 lambda x0: coarse.refine(x0, max_nfev, coarse_ftol))]
         # from there, converged until the cost moves the log-likelihood by under 0.005
         ftol = max(ftol, 0.01 / len(problem.rows))
     x = best_of_starts(problem.residual, starts, n_refine,
@@ -545,8 +590,7 @@ def _finish(problem: Problem, x: np.ndarray, noise: ARNoise | None, with_cov: bo
     b, coef, _ = problem.project(x)
     values = problem.values(x)
     values.update({name: float(c) for name, c in zip(b.names, coef)})
-    prediction = b.columns @ coef
-    residual = data.weighted(data.signal - prediction)
+    prediction, residual = problem.full_residual(x)
     if noise is None:
         noise = fit_noise(residual, problem.likelihood_rows)
     fit = Fit(structure=structure, values=values, noise=noise, prediction=prediction,
@@ -563,6 +607,19 @@ def _finish(problem: Problem, x: np.ndarray, noise: ARNoise | None, with_cov: bo
             cov = cov * small_sample_inflation(len(problem.likelihood_rows), fit.n_params - 1)
         fit = replace(fit, cov=cov)
     return fit
+
+
+def with_covariance(data: Data, fit: Fit) -> Fit:
+    """A fit of :func:`fit_structure` made without its covariance (``with_cov=False``, on
+    every sample, no coefficients held), with it: as :func:`fit_structure` would have
+    computed it."""
+    problem = Problem(data, fit.structure)
+    x = np.array([p.to_search(fit.values[p.name]) for p in problem.params])
+    _, coef, _ = problem.project(x)
+    cov = _covariance(problem, x, coef, fit.noise)
+    if cov is not None and problem.sparse:
+        cov = cov * small_sample_inflation(len(problem.likelihood_rows), fit.n_params - 1)
+    return replace(fit, cov=cov)
 
 
 #: Share of a normal distribution within one standard deviation of its mean, each side.

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from creepcomp.fit.data import Data
-from creepcomp.lti import lag_states, lag_tau_derivatives, varying_lag_states
+from creepcomp.lti import decay, lag_states, lag_tau_derivatives, varying_lag_states
 
 __all__ = ["Param", "Applied", "Structure", "taus_of", "Basis", "basis", "ABRUPT_FACTOR", "load_steps",
            "with_step_times", "basis_derivatives"]
@@ -230,9 +230,15 @@ _SHARED_SIZE = 8
 _SHARED_LOCK = threading.Lock()          # a fleet's worker runs units on several threads
 
 
+def _fingerprint(x: np.ndarray) -> tuple:
+    """A few numbers that tell arrays apart cheaply (a match is confirmed in full)."""
+    x = np.asarray(x)
+    return (len(x), float(x[0]), float(x[len(x) // 2]), float(x[-1]), float(np.sum(x))) if len(x) else (0,)
+
+
 def _lag_key(data: Data, h, taus, init) -> tuple:
     init_key = init if isinstance(init, str) else np.asarray(init, float).tobytes()
-    return (hash(data.time.tobytes()), hash(np.asarray(h).tobytes()), np.asarray(taus, float).tobytes(),
+    return (_fingerprint(data.time), _fingerprint(h), np.asarray(taus, float).tobytes(),
             init_key, data.hold)
 
 
@@ -240,7 +246,8 @@ def _shared_lags(data: Data, h, taus, init):
     """Lag states of plain lags computed before for the same inputs (None: not held)."""
     with _SHARED_LOCK:
         hit = _SHARED.get(_lag_key(data, h, taus, init))
-    if hit is not None and np.array_equal(hit[0], data.time) and np.array_equal(hit[1], h):
+    if hit is not None and (hit[0] is data.time or np.array_equal(hit[0], data.time)) and (
+            hit[1] is h or np.array_equal(hit[1], h)):
         return hit[2]
     return None
 
@@ -252,6 +259,18 @@ def _share_lags(data: Data, h, taus, init, lags) -> None:
         while len(_SHARED) >= _SHARED_SIZE:
             _SHARED.pop(next(iter(_SHARED)))
         _SHARED[key] = (data.time, np.asarray(h), lags)
+
+
+def _stack(parts) -> np.ndarray:
+    """Columns (1-D arrays, or 2-D blocks of them) side by side, column-major: every column
+    is contiguous, to fill and to use one at a time."""
+    parts = [p[:, None] if p.ndim == 1 else p for p in parts]
+    out = np.empty((len(parts[0]), sum(p.shape[1] for p in parts)), order="F")
+    at = 0
+    for p in parts:
+        out[:, at:at + p.shape[1]] = p
+        at += p.shape[1]
+    return out
 
 
 def basis(data: Data, structure: Structure, values: dict, cache: dict | None = None) -> Basis:
@@ -298,7 +317,7 @@ def basis(data: Data, structure: Structure, values: dict, cache: dict | None = N
         for name, col in a.effect.columns(data, s, h, lags, a.own(values), a).items():
             cols.append(col)
             names.append(f"{a.name}.{name}")
-    return Basis(np.column_stack(cols), tuple(names), x, s, h, lags)
+    return Basis(_stack(cols), tuple(names), x, s, h, lags)
 
 
 #: A load change between two samples is a step when it is this many times larger than the
@@ -348,7 +367,7 @@ def with_step_times(data: Data, b: Basis, taus: np.ndarray, cache: dict | None =
         cols, names, bounds, mids = last[2]
         first = b.columns.shape[1]
         bounds = [(first + i, k, half) for i, (_, k, half) in enumerate(bounds)]
-        return replace(b, columns=np.column_stack([b.columns, cols]), names=b.names + names,
+        return replace(b, columns=_stack([b.columns, cols]), names=b.names + names,
                        step_bounds=tuple(bounds), step_mids=mids)
     cols, names, bounds, mids = [], [], [], []
     first = b.columns.shape[1]
@@ -358,14 +377,14 @@ def with_step_times(data: Data, b: Basis, taus: np.ndarray, cache: dict | None =
         after = t[i + 1:] - mid
         for k, tau in enumerate(taus):
             col = np.zeros(len(t))
-            col[i + 1:] = -dh / tau * np.exp(-after / tau)
+            col[i + 1:] = -dh / tau * decay(after, tau)
             cols.append(col)
             names.append(f"step_time[{j}][{k}]")
             bounds.append((first + len(bounds), k, 0.5 * float(t[i + 1] - t[i]) + reference))
             mids.append(mid)
-    cols = np.column_stack(cols)
+    cols = _stack(cols)
     cache["step_times"] = (key, h, (cols, tuple(names), tuple(bounds), tuple(mids)))
-    return replace(b, columns=np.column_stack([b.columns, cols]), names=b.names + tuple(names),
+    return replace(b, columns=_stack([b.columns, cols]), names=b.names + tuple(names),
                    step_bounds=tuple(bounds), step_mids=tuple(mids))
 
 
@@ -408,7 +427,7 @@ def basis_derivatives(data: Data, structure: Structure, values: dict, b: Basis,
                 moves.append((col, b.columns[:, col] * ((t - mid) / taus[k] - 1.0)))
             out.append(moves)
         elif p.name.startswith("c0["):
-            out.append([(column, np.exp(-(t - t[0]) / taus[k]) * p.scale)])
+            out.append([(column, decay(t - t[0], taus[k]) * p.scale)])
         else:
             return None
     return out

@@ -1,0 +1,84 @@
+"""The fast paths of the fit agree with the general ones: lags of a rarely changing input in
+closed form, the linearised held-out refit, the covariance added after the fit."""
+
+import numpy as np
+import pytest
+
+from creepcomp import lti
+from creepcomp.fit.data import prepare
+from creepcomp.fit.evidence import heldout
+from creepcomp.fit.prony import fit_terms
+from creepcomp.fit.solver import with_covariance
+from creepcomp.io.records import Record
+
+
+def _recursion(monkeypatch, fn, *args, **kwargs):
+    """``fn`` with the run-by-run closed form switched off (the plain recursion)."""
+    with monkeypatch.context() as m:
+        m.setattr(lti, "_RUNS_SHARE", -1.0)
+        return fn(*args, **kwargs)
+
+
+@pytest.mark.parametrize("uniform", [True, False])
+@pytest.mark.parametrize("initial", ["relaxed", "settled", "array"])
+def test_lags_of_a_stepped_input_in_closed_form_equal_the_recursion(monkeypatch, uniform, initial):
+    rng = np.random.default_rng(4)
+    t = np.arange(0.0, 3000.0, 0.25) if uniform else np.cumsum(rng.uniform(0.05, 0.45, 12000))
+    u = np.zeros(t.size)
+    for at, size in ((10, 1.0), (4000, -0.4), (4001, 0.7), (9000, -1.3)):   # (two in a row)
+        u[at:] += size
+    taus = np.array([1e-3, 0.7, 8.0, 90.0, 900.0, 1e5])
+    init = np.linspace(-0.5, 0.5, taus.size) if initial == "array" else initial
+    assert lti._input_changes(u, "linear") is not None          # the closed form runs
+    got = lti.lag_states(t, u, taus, initial=init)
+    want = _recursion(monkeypatch, lti.lag_states, t, u, taus, initial=init)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+    slope0 = np.linspace(0.0, 0.01, taus.size)
+    got_d = lti.lag_tau_derivatives(t, u, taus, got, initial_slope=slope0)
+    want_d = _recursion(monkeypatch, lti.lag_tau_derivatives, t, u, taus, want, initial_slope=slope0)
+    np.testing.assert_allclose(got_d, want_d, rtol=0, atol=1e-11 * np.max(np.abs(want_d)))
+
+
+def test_decay_is_the_exponential_and_zero_past_its_floor():
+    since = np.linspace(0.0, 1000.0, 10001)
+    got = lti.decay(since, 2.0)
+    live = since < lti.DECAY_FLOOR * 2.0
+    np.testing.assert_allclose(got[live], np.exp(-since[live] / 2.0), rtol=1e-14)
+    assert np.all(got[~live] == 0.0) and (~live).any()
+    assert list(lti.decay(np.array([0.0, 1.0]), 0.0)) == [1.0, 0.0]
+
+
+def _two_term_record(seed=2, release=True):
+    t = np.arange(0.0, 1200.0, 0.5)
+    load = np.where(t >= 30.0, 1.0, 0.0) - (0.6 * (t >= 700.0) if release else 0.0)
+    signal = load + lti.lag_states(t, load, [12.0, 150.0]) @ np.array([0.03, 0.02])
+    signal = signal + np.random.default_rng(seed).normal(0.0, 1e-4, t.size)
+    return prepare(Record(t, load, signal), initial="settled")
+
+
+def test_linearised_heldout_lands_where_the_iterative_refit_does_when_the_model_holds():
+    data = _two_term_record(release=False)
+    fit = fit_terms(data, 2, with_cov=False)
+    step = heldout(data, fit, linearised=True).heldout
+    iterated = heldout(data, fit).heldout
+    assert step.rms == pytest.approx(iterated.rms, rel=1e-3)
+    # the predictions of each held-out sample differ by far less than the noise
+    assert np.max(np.abs(step.residual - iterated.residual)) < 0.1 * 1e-4
+    again = heldout(data, fit, linearised=True).heldout
+    assert np.array_equal(again.residual, step.residual)
+
+
+def test_a_fit_with_step_times_is_held_out_iteratively():
+    data = _two_term_record()
+    fit = fit_terms(data, 2, with_cov=False)
+    assert any(name.startswith("step_time[") for name in fit.values)
+    step = heldout(data, fit, linearised=True).heldout
+    assert np.array_equal(step.residual, heldout(data, fit).heldout.residual)
+
+
+def test_covariance_added_after_the_fit_is_the_fits_own():
+    data = _two_term_record(5)
+    with_cov = fit_terms(data, 2)
+    later = with_covariance(data, fit_terms(data, 2, with_cov=False))
+    assert later.cov is not None
+    np.testing.assert_allclose(later.cov, with_cov.cov, rtol=1e-10, atol=0)
