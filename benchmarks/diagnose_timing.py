@@ -15,7 +15,11 @@ records, against the goal.
 
 Usage::
 
-    python benchmarks/diagnose_timing.py [--repeat 3] [--seeds 2]
+    python benchmarks/diagnose_timing.py [--repeat 3] [--seeds 2] [--sizes 0,1] [--kinds clean,time_offset]
+
+``--sizes``: which of :data:`SIZES` to run (by index, 0: the 30-minute record at 10 Hz);
+``--kinds``: only records whose label starts with one of these (the fixed ones and the random
+kinds alike).
 """
 
 from __future__ import annotations
@@ -45,8 +49,15 @@ RANDOM_KINDS = ([("clean", None, None)] + [(e, e, None) for e in EFFECTS]
                 + [(e, e, None) for e in NO_TEMPLATE])
 
 
-def _records(rate: float, duration: float, seeds: int):
-    """(label, record) of the fixed cases, then of ``seeds`` random records per kind."""
+def _records(rate: float, duration: float, seeds: int, kinds=None):
+    """(label, record) of the fixed cases, then of ``seeds`` random records per kind (only
+    labels starting with one of ``kinds``, when given)."""
+    for label, record in _all_records(rate, duration, seeds):
+        if kinds is None or label.startswith(tuple(kinds)):
+            yield label, record
+
+
+def _all_records(rate: float, duration: float, seeds: int):
     for name, hidden in CASES.items():
         spec = synth.Spec(hidden=hidden, beta=(0.03,), tau=(45.0,), gain=1.0, rate=rate, duration=duration,
                           program="staircase", noise=synth.NoiseSpec(white=5e-4), seed=30)
@@ -61,12 +72,16 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--seeds", type=int, default=0, help="random records per kind (0: the fixed three only)")
+    ap.add_argument("--sizes", default=None, help="indices of the sizes to run, comma-separated (default: all)")
+    ap.add_argument("--kinds", default=None, help="record labels to run (prefixes, comma-separated)")
     args = ap.parse_args(argv)
+    sizes_run = SIZES if args.sizes is None else [SIZES[int(i)] for i in args.sizes.split(",")]
+    kinds = None if args.kinds is None else args.kinds.split(",")
     print(f"load average before: {os.getloadavg()[0]:.2f}")
     summary = []
-    for rate, duration, goal in SIZES:
+    for rate, duration, goal in sizes_run:
         walls, cpus, sizes = [], [], set()
-        for label, record in _records(rate, duration, args.seeds):
+        for label, record in _records(rate, duration, args.seeds, kinds):
             n = len(record)
             sizes.add(n)
             times, cpu, cause = [], [], None

@@ -53,6 +53,13 @@ __all__ = ["Effect", "SensorEffect", "Scales", "SignalPath", "Simulated", "REGIS
            "firmware_output"]
 
 
+#: Most evaluations of each refinement of a quick fit (``refine="own"``) whose creep term starts
+#: afresh (:meth:`SensorEffect.with_fresh_term`): from a grid of starts, a flat optimum (a
+#: delay near zero on a record without one) takes ten times as many for a BIC lower by a unit
+#: or two; a candidate whose quick fit is promising is refined again without the cap.
+SCREEN_ITERATIONS = 20
+
+
 class Effect(abc.ABC):
     """Interface of a candidate effect (subclass it; override what the effect changes).
 
@@ -286,11 +293,13 @@ class SensorEffect(Effect, Simulated):
         return alt if alt.bic < fit.bic else fit
 
     def with_fresh_term(self, data: Data, base: Fit, fit: Fit, refine: str, start: dict | None,
-                        settings: tuple | None) -> Fit:
+                        settings: tuple | None, screening: bool | None = None) -> Fit:
         """``fit`` (this effect on a one-term ``base``), or the effect fitted with the creep
         term started afresh from a grid of time constants when that fits better: for effects
         that the base's one term may have mimicked (a delay by a fast term of large beta, flow
-        by a term longer than the record), whose fit from the base's values then stays there."""
+        by a term longer than the record), whose fit from the base's values then stays there.
+        ``screening``: a quick fit, whose refinements stop after :data:`SCREEN_ITERATIONS`
+        (default: when ``refine`` is ``own``)."""
         if refine == "none" or start is not None or base.structure.n_terms != 1 or base.structure.effects:
             return fit
         from creepcomp.fit.starts import one_term_starts
@@ -299,7 +308,9 @@ class SensorEffect(Effect, Simulated):
         fresh = [dict(t, **{self._key(applied, k): v for k, v in own.items()})
                  for t in one_term_starts(data) for own in self.starts(data, base, applied)]
         try:
-            alt = fit_structure(data, structure, fresh, n_refine=4, with_cov=refine == "all")
+            alt = fit_structure(data, structure, fresh, n_refine=4, with_cov=refine == "all",
+                                max_nfev=SCREEN_ITERATIONS if screening or (screening is None and refine == "own")
+                                else None)
         except (InputError, np.linalg.LinAlgError, ValueError):
             return fit
         return alt if alt.bic < fit.bic else fit

@@ -98,8 +98,12 @@ class MullinsSoftening(SensorEffect):
         if settings is not None or not _new_peaks(data.load):
             return super().fit_on(data, base, refine, start, settings)
         peak = (("form", "peak"), ("load_scale", data.load_scale))
-        return min((super(MullinsSoftening, self).fit_on(data, base, refine, start, s)
-                    for s in (self.settings(data, base), peak)), key=lambda f: f.bic)
+        forms = (self.settings(data, base), peak)
+        if start is not None:
+            # a refinement from a fit of one form (the shaped one has a shape): that form only
+            forms = forms[:1] if f"{self.name}.shape" in start else forms[1:]
+        return min((super(MullinsSoftening, self).fit_on(data, base, refine, start, s) for s in forms),
+                   key=lambda f: f.bic)
 
     def plain_settings(self, data, base):
         return ()

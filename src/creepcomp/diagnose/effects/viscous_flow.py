@@ -50,12 +50,13 @@ class ViscousFlow(SensorEffect):
         return (("span", data.span), ("load_scale", data.load_scale))
 
     def fit_on(self, data, base, refine="all", start=None, settings=None):
-        if refine == "own" and start is None:
+        screening = refine == "own"
+        if screening and start is None:
             # a long creep term of the base absorbs flow (and its exponent costs a parameter):
             # the screening frees the base's time constants too, or flow never ranks
             refine = "all"
         fit = super().fit_on(data, base, refine, start, settings)
-        return self.with_fresh_term(data, base, fit, refine, start, settings)
+        return self.with_fresh_term(data, base, fit, refine, start, settings, screening=screening)
 
     def plain_settings(self, data, base):
         return (("span", data.span),)
