@@ -82,3 +82,21 @@ def test_covariance_added_after_the_fit_is_the_fits_own():
     later = with_covariance(data, fit_terms(data, 2, with_cov=False))
     assert later.cov is not None
     np.testing.assert_allclose(later.cov, with_cov.cov, rtol=1e-10, atol=0)
+
+
+def test_two_terms_at_one_time_constant_are_not_a_second_term():
+    """The left insole record (every 4th sample), fitted as starting settled: the best two-term
+    fit puts both terms at about 10 ks with amplitudes of +-6e7 and opposite sign, and lowers
+    BIC by 98; it is one term and the t·exp(-t/tau) shape, so the search keeps one term."""
+    from dataclasses import replace
+
+    from creepcomp import data
+    from creepcomp.fit.prony import coalesced, fit_prony
+
+    assert coalesced([10262.4, 10262.9]) and coalesced([1.0, 3.0, 3.1])
+    assert not coalesced([8.0, 90.0, 900.0]) and not coalesced([45.0])
+    record = data.insole_left_steps()
+    record = record.with_columns(time=record.time[::4], load=record.load[::4], signal=record.signal[::4])
+    result = fit_prony(replace(prepare(record), initial="settled"), max_terms=2)
+    assert len(result.steps) == 2 and coalesced(result.steps[1].fit.taus)
+    assert result.fit.structure.n_terms == 1

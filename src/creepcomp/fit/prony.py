@@ -84,6 +84,18 @@ ORDER_COARSE_FTOL = 1e-5
 _WHITE = ARNoise()
 
 
+#: Ratio of two time constants below which two terms are one: no record resolves them, and a
+#: fit that puts two terms there pairs huge amplitudes of opposite sign (the pair then models
+#: t·exp(-t/tau), not two exponentials).
+COALESCED_RATIO = 1.05
+
+
+def coalesced(taus) -> bool:
+    """Whether two of the time constants ``taus`` are within :data:`COALESCED_RATIO`."""
+    ordered = np.sort(np.asarray(taus, dtype=float))
+    return bool(np.any(ordered[1:] < COALESCED_RATIO * ordered[:-1]))
+
+
 def spectrum_of(data: Data) -> tuple[np.ndarray, np.ndarray]:
     """The grid of time constants the starts of :func:`fit_terms` come from (six a decade)
     and the record's non-negative creep spectrum on it."""
@@ -96,8 +108,9 @@ def fit_prony(data: Data, max_terms: int = 6, n_terms: int | None = None,
     """Identify gain, offset and Prony terms, adding terms while the evidence supports them.
 
     A term is added when it lowers BIC by at least :data:`BIC_STRONG` *and* predicts held-out
-    data better by at least :data:`HELDOUT_Z` standard deviations; the search stops at the
-    first term that is not supported (or at ``max_terms``). ``n_terms`` fixes the number.
+    data better by at least :data:`HELDOUT_Z` standard deviations, and its time constant is not
+    one an earlier term holds (:func:`coalesced`); the search stops at the first term that is
+    not supported (or at ``max_terms``). ``n_terms`` fixes the number.
     Each model's likelihood has its own AR noise (its parameters counted by BIC).
     ``effects`` are applied to every model (e.g. ``(Applied(effects.get("viscous_flow")),)``
     for the Burgers model). With a free initial state, the record is also fitted as starting
@@ -175,7 +188,7 @@ def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
         steps.append(OrderStep(k, fit, ev))
         if n_terms is not None:
             chosen = len(steps) - 1
-        elif ev is None or ev.supported:
+        elif ev is None or (ev.supported and not coalesced(fit.taus)):
             chosen = len(steps) - 1
         else:
             break
