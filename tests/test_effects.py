@@ -161,3 +161,32 @@ def test_nonlinear_creep_needs_more_than_one_load_level():
     effect = effects.get("nonlinear_creep")
     assert "one level" in effect.applicable(effects.arrays_data(t, one), Structure(1))
     assert effect.applicable(effects.arrays_data(t, _staircase(t)[1]), Structure(1)) is None
+
+
+def test_an_extra_term_at_a_base_terms_time_constant_is_refused():
+    """An extra term within 5 % of the base term's tau is one term, not a finding; one a decade
+    away is a finding."""
+    from creepcomp.fit.data import prepare
+    from creepcomp.fit.prony import fit_terms
+    from creepcomp.fit.solver import fit_structure
+    from creepcomp.fit.structure import Applied
+    from creepcomp.io.records import Record
+    from creepcomp.lti import lag_states
+
+    t = np.arange(0.0, 600.0, 0.5)
+    load = np.where(t >= 20.0, 1.0, 0.0)
+    signal = load + 0.03 * lag_states(t, load, [45.0])[:, 0]
+    signal = signal + np.random.default_rng(1).normal(0.0, 1e-4, t.size)
+    data = prepare(Record(t, load, signal), initial="relaxed")
+    base = fit_terms(data, 1)
+    effect = effects.get("extra_retardation")
+    applied = Applied(effect, effect.settings(data, base))
+    structure = effect.extend(base.structure, applied)
+    reasons = {}
+    for extra in (1.02 * base.taus[0], 4.5):
+        start = {"tau[0]": float(base.taus[0]), "tau[1]": float(extra)}
+        fit = fit_structure(data, structure, [start], refine=False, with_cov=False)
+        reasons[extra] = effect.unphysical(fit, applied)
+    close, far = reasons.values()
+    assert close is not None and "within 5 %" in close
+    assert far is None

@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from creepcomp.fit.data import Data
+from creepcomp.fit.prony import COALESCED_RATIO, coalesced
 from creepcomp.fit.structure import Applied, Structure
 from creepcomp.fit.solver import Fit, fit_structure
 from creepcomp.fit.starts import extra_term_starts
@@ -69,6 +70,10 @@ class ExtraRetardation(SensorEffect):
             # settles against the load's direction
             return (f"1 + sum(beta) = {settled:.3g}: the settled response would have the opposite "
                     f"sign of the instantaneous one, which no passive material does")
+        n = applied.setting("term") + 1
+        if coalesced(fit.taus[:n]):
+            return (f"tau = {tau:.3g} s: within {(COALESCED_RATIO - 1) * 100:.0f} % of another term's time "
+                    f"constant; two terms there are one term")
         longest = applied.setting("longest")
         if tau > longest:
             # its free initial state then decays as a ramp in time: drift, not creep
