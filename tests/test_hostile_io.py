@@ -349,3 +349,22 @@ def test_a_sigterm_whose_exception_is_lost_is_delivered_again():
     finally:
         cli._cancel_redelivery()
         signal.signal(signal.SIGTERM, previous)
+
+
+def test_a_second_signal_does_not_cut_the_pools_shutdown_short():
+    """SIGTERM is delivered again while ``mc`` stops: the pool's shutdown is waited for to its
+    end, not left half done (which made the interpreter's exit wait for the pool)."""
+    from creepcomp.verify.montecarlo import _shut_down
+
+    class Pool:
+        calls = 0
+        done = False
+
+        def shutdown(self, wait, cancel_futures):
+            Pool.calls += 1
+            if Pool.calls < 3:
+                raise KeyboardInterrupt
+            Pool.done = True
+
+    _shut_down(Pool())
+    assert Pool.calls == 3 and Pool.done

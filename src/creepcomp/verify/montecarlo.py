@@ -354,13 +354,25 @@ def run_monte_carlo(design: Design, spec: ToleranceSpec, n: int, seed: int = 0,
             # it holds (a chunk: tens of ms). Terminating a worker while it writes its result
             # left the pool's result thread waiting for the rest of the message, and the
             # interpreter's exit waiting for that thread: a hang after "interrupted".
-            pool.shutdown(wait=True, cancel_futures=True)
+            _shut_down(pool)
         raise
     if pool is not None:
         pool.shutdown()
     return MonteCarloResult(design, spec, box, first_values, first_metrics, seed,
                             _time.perf_counter() - start, period, n, stats, limit, metric, within,
                             tuple(int(c) for c in within_t), tuple(int(c) for c in worst_counts))
+
+
+def _shut_down(pool: ProcessPoolExecutor) -> None:
+    """Stop ``pool`` after Ctrl-C or SIGTERM: queued batches dropped, running ones finished. A
+    second signal while it waits (SIGTERM is delivered again until the command reports it)
+    does not cut the wait short: a pool left half shut down makes the interpreter's exit wait."""
+    while True:
+        try:
+            pool.shutdown(wait=True, cancel_futures=True)
+            return
+        except KeyboardInterrupt:
+            continue
 
 
 def _joined(parts: list[Metrics]) -> Metrics:
