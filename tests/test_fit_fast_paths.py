@@ -100,3 +100,5 @@ def test_two_terms_at_one_time_constant_are_not_a_second_term():
     result = fit_prony(replace(prepare(record), initial="settled"), max_terms=2)
     assert len(result.steps) == 2 and coalesced(result.steps[1].fit.taus)
     assert result.fit.structure.n_terms == 1
+    orders = result.to_dict()["fit"]["orders"]
+    assert [o.get("coalesced", False) for o in orders] == [False, True]

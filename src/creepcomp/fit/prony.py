@@ -278,5 +278,6 @@ def model_file_dict(data: Data, fit: Fit, steps: Sequence[OrderStep] = (), chose
             "n_terms": s.n_terms, "bic": s.fit.bic, "residual_rms": s.fit.residual_rms,
             "heldout_residual_rms": s.fit.heldout.rms if s.fit.heldout else None,
             **({"evidence": s.evidence.to_dict()} if s.evidence else {}),
+            **({"coalesced": True} if coalesced(s.fit.taus) else {}),
             "chosen": i == chosen} for i, s in enumerate(steps)]
     return model
