@@ -279,10 +279,7 @@ def _held_runs_derivatives(t, u, taus, states, changes, slope0, out) -> None:
     (c_start - U) s / tau^2)`` (``s`` the time since the run's start), the changing
     intervals by the differentiated recursion (:func:`lag_tau_derivatives`)."""
     x = (t[changes + 1] - t[changes])[:, None] / taus[None, :]
-    e = np.exp(-x)
-    dx = -x / taus[None, :]
-    de = -e * dx
-    dg = _exprel_slope(x) * dx
+    e, de, db0, db1 = _coefficient_slopes(x, taus[None, :], "linear")
     first, d = 0, np.asarray(slope0, float)
     for j, last in enumerate(list(changes) + [len(t) - 1]):
         since = t[first:last + 1] - t[first]
@@ -293,8 +290,7 @@ def _held_runs_derivatives(t, u, taus, states, changes, slope0, out) -> None:
             run[:live, k] = head
             run[live:, k] = 0.0
         if j < len(changes):
-            d = (e[j] * run[-1] + de[j] * states[last] + (dg[j] - de[j]) * u[last]
-                 - dg[j] * u[last + 1])
+            d = e[j] * run[-1] + de[j] * states[last] + db0[j] * u[last] + db1[j] * u[last + 1]
             first = last + 1
 
 
@@ -574,6 +570,20 @@ def varying_lag_states(time, u, taus, hold: str = "linear", initial="relaxed") -
     return out
 
 
+def _coefficient_slopes(x: np.ndarray, taus: np.ndarray, hold: str):
+    """The decay ``e = exp(-x)`` of a step ``x = dt / tau`` and the derivatives by tau of the
+    recursion's coefficients ``e``, ``b0``, ``b1`` (:func:`lag_coefficients`)."""
+    e = np.exp(-x)
+    dx = -x / taus                            # dx / d tau
+    de = -e * dx
+    if hold == "zero":
+        return e, de, -de, np.zeros_like(de)
+    if hold == "linear":
+        dg = _exprel_slope(x) * dx
+        return e, de, dg - de, -dg
+    raise InputError(f"hold '{hold}': use 'linear' or 'zero'")
+
+
 def _exprel_slope(x: np.ndarray) -> np.ndarray:
     """d/dx of ``(1 - exp(-x)) / x``: ``(exp(-x) - g) / x``, by its series for small x."""
     x = np.asarray(x, dtype=float)
@@ -622,17 +632,7 @@ def lag_tau_derivatives(time, u, taus, states, hold: str = "linear", initial_slo
     dt = np.diff(t)
     uniform = is_uniform(t)
     step = np.full((1, 1), float(np.mean(dt))) if uniform else dt[:, None]
-    x = step / taus[None, :]
-    e = np.exp(-x)
-    dx = -x / taus[None, :]                   # dx / d tau
-    de = -e * dx
-    if hold == "zero":
-        db0, db1 = -de, np.zeros_like(de)
-    elif hold == "linear":
-        dg = _exprel_slope(x) * dx
-        db0, db1 = dg - de, -dg
-    else:
-        raise InputError(f"hold '{hold}': use 'linear' or 'zero'")
+    e, de, db0, db1 = _coefficient_slopes(step / taus[None, :], taus[None, :], hold)
     drive = de * states[:-1] + db0 * u[:-1, None] + db1 * u[1:, None]
     if uniform:
         for j in range(k):
