@@ -21,7 +21,8 @@ from scipy import linalg
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.noise import SPARSE_SAMPLES, spectral_variance
-from creepcomp.fit.solver import ANCHOR_WEIGHT, Fit, Problem, _solve, best_of_starts, fit_structure
+from creepcomp.fit.solver import (ANCHOR_WEIGHT, Fit, Problem, _solve, best_of_starts, fit_structure,
+                                  unit_scaled)
 from creepcomp.fit.structure import basis, basis_derivatives
 
 __all__ = ["BIC_STRONG", "HELDOUT_Z", "FOLDS", "BLOCKS", "MIN_BLOCK_SAMPLES",
@@ -134,9 +135,8 @@ def jacobian(data: Data, fit: Fit) -> np.ndarray:
 def _variances(gram: np.ndarray, count: int) -> np.ndarray:
     """Variances (up to the noise's) of the first ``count`` parameters of a linear least-squares
     problem with Gram matrix ``gram``."""
-    norms = np.sqrt(np.diag(gram))
-    norms = np.where(norms == 0, 1.0, norms)
-    inv = linalg.pinvh(gram / np.outer(norms, norms))
+    norms, scaled = unit_scaled(gram)
+    inv = linalg.pinvh(scaled)
     return np.diag(inv)[:count] / norms[:count] ** 2
 
 
@@ -157,10 +157,8 @@ def _gauss_newton_step(gram: np.ndarray, rhs: np.ndarray, free: np.ndarray) -> n
     scaled normal equations with the weak ridge of :data:`~creepcomp.fit.solver.ANCHOR_WEIGHT`
     (directions the rows leave undetermined are not moved)."""
     step = np.zeros(len(rhs))
-    g = gram[np.ix_(free, free)]
-    norms = np.sqrt(np.diag(g))
-    norms = np.where(norms == 0, 1.0, norms)
-    eig, vec = np.linalg.eigh(g / np.outer(norms, norms) + ANCHOR_WEIGHT * np.eye(len(norms)))
+    norms, scaled = unit_scaled(gram[np.ix_(free, free)])
+    eig, vec = np.linalg.eigh(scaled + ANCHOR_WEIGHT * np.eye(len(norms)))
     keep = eig > 1e-13 * eig[-1]
     step[free] = (vec[:, keep] @ ((vec[:, keep].T @ (rhs[free] / norms)) / eig[keep])) / norms
     return step

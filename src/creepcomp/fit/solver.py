@@ -26,8 +26,7 @@ from creepcomp.fit.structure import (Basis, Param, Structure, basis, basis_deriv
 from creepcomp.model import CreepModel
 
 __all__ = ["Fit", "ANCHOR_WEIGHT", "Problem", "best_of_starts", "fit_structure", "with_noise",
-           "with_covariance",
-           "sandwich_covariance", "small_sample_inflation"]
+           "with_covariance", "sandwich_covariance", "small_sample_inflation", "unit_scaled"]
 
 
 def best_of_starts(residual: Callable[[np.ndarray], np.ndarray], starts: Sequence[np.ndarray],
@@ -193,6 +192,14 @@ class Fit:
 ANCHOR_WEIGHT = 1e-6
 
 
+def unit_scaled(gram: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The column norms behind a Gram matrix (1 for an empty column) and the Gram matrix of the
+    columns scaled to unit norm."""
+    norms = np.sqrt(np.diag(gram))
+    norms = np.where(norms == 0, 1.0, norms)
+    return norms, gram / np.outer(norms, norms)
+
+
 def _solve(aw: np.ndarray, yw: np.ndarray, prior: np.ndarray | None = None,
            gram: np.ndarray | None = None, rhs: np.ndarray | None = None,
            rows: np.ndarray | None = None) -> np.ndarray:
@@ -201,10 +208,7 @@ def _solve(aw: np.ndarray, yw: np.ndarray, prior: np.ndarray | None = None,
     pulls the solution towards it in directions the data do not determine. ``gram`` and
     ``rhs``: ``aw.T @ aw`` and ``aw.T @ yw`` when known; ``rows``: the rows of ``aw`` and
     ``yw`` they are of (default all)."""
-    gram = aw.T @ aw if gram is None else gram
-    norms = np.sqrt(np.diag(gram))
-    norms = np.where(norms == 0, 1.0, norms)
-    gram = gram / np.outer(norms, norms)
+    norms, gram = unit_scaled(aw.T @ aw if gram is None else gram)
     rhs = (aw.T @ yw if rhs is None else rhs) / norms
     if prior is not None:
         gram = gram + ANCHOR_WEIGHT * np.eye(len(norms))
@@ -249,10 +253,8 @@ def _scaled_inverse(a: np.ndarray, gram: np.ndarray | None = None):
     scaled to unit norm (directions below a relative 1e-8 of its largest eigenvalue dropped
     when ill-posed): ``(a / norms)^+ = inverse @ (a / norms).T``. ``gram``: ``a.T @ a`` when
     known."""
-    gram = a.T @ a if gram is None else gram
-    norms = np.sqrt(np.diag(gram))
-    norms = np.where(norms == 0, 1.0, norms)
-    eig, vec = np.linalg.eigh(gram / np.outer(norms, norms))
+    norms, scaled = unit_scaled(a.T @ a if gram is None else gram)
+    eig, vec = np.linalg.eigh(scaled)
     keep = eig > (1e-8 if eig[0] > 1e-8 * eig[-1] else 1e-26) * eig[-1]
     return norms, (vec[:, keep] / eig[keep]) @ vec[:, keep].T
 
@@ -602,11 +604,17 @@ def _finish(problem: Problem, x: np.ndarray, noise: ARNoise | None, with_cov: bo
                       "linear": _counted_linear(b.names, problem.fixed)})
     fit = with_noise(fit, noise)
     if with_cov:
-        cov = _covariance(problem, x, coef, fit.noise)
-        if cov is not None and problem.sparse:
-            cov = cov * small_sample_inflation(len(problem.likelihood_rows), fit.n_params - 1)
-        fit = replace(fit, cov=cov)
+        fit = replace(fit, cov=_fit_covariance(problem, x, coef, fit))
     return fit
+
+
+def _fit_covariance(problem: Problem, x: np.ndarray, coef: np.ndarray, fit: Fit) -> np.ndarray | None:
+    """The covariance of ``fit`` at its search point ``x`` and coefficients ``coef``: sandwich
+    under its noise model, widened for a sparse record (:func:`small_sample_inflation`)."""
+    cov = _covariance(problem, x, coef, fit.noise)
+    if cov is not None and problem.sparse:
+        cov = cov * small_sample_inflation(len(problem.likelihood_rows), fit.n_params - 1)
+    return cov
 
 
 def with_covariance(data: Data, fit: Fit) -> Fit:
@@ -616,10 +624,7 @@ def with_covariance(data: Data, fit: Fit) -> Fit:
     problem = Problem(data, fit.structure)
     x = np.array([p.to_search(fit.values[p.name]) for p in problem.params])
     _, coef, _ = problem.project(x)
-    cov = _covariance(problem, x, coef, fit.noise)
-    if cov is not None and problem.sparse:
-        cov = cov * small_sample_inflation(len(problem.likelihood_rows), fit.n_params - 1)
-    return replace(fit, cov=cov)
+    return replace(fit, cov=_fit_covariance(problem, x, coef, fit))
 
 
 #: Share of a normal distribution within one standard deviation of its mean, each side.
