@@ -20,7 +20,7 @@ from scipy import linalg
 
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
-from creepcomp.fit.noise import SPARSE_SAMPLES, spectral_variance
+from creepcomp.fit.noise import is_sparse, spectral_variance
 from creepcomp.fit.solver import (ANCHOR_WEIGHT, Fit, Problem, _solve, best_of_starts, fit_structure,
                                   unit_scaled)
 from creepcomp.fit.structure import basis, basis_derivatives
@@ -282,7 +282,7 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
         try:  # (refit from the fit's own values, same noise model)
             if jac is not None and linearised:
                 values, frozen, at_start = stepped(keep)
-                if data.n >= SPARSE_SAMPLES:
+                if not is_sparse(data):
                     # the step is kept only when it lowers the kept samples' cost, as a refit's
                     r, cost = _linear_refit(data, fit, values, keep, anchor)
                     return r if cost <= at_start else _linear_refit(data, fit, start, keep, anchor)[0]
@@ -297,7 +297,7 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
                                  max_nfev=3, with_cov=False, anchor=anchor, refine=refine,
                                  frozen=frozen).residual
         except InputError:
-            if data.n >= SPARSE_SAMPLES or not start:
+            if not is_sparse(data) or not start:
                 return fit.residual
         try:  # a sparse record's remaining samples: the linear part alone is refitted
             return fit_structure(data, fit.structure, [start], noise=fit.noise, mask=keep,

@@ -13,7 +13,7 @@ from scipy import linalg
 from creepcomp.fit.data import Data, gaps
 from creepcomp.lti import lag_states
 
-__all__ = ["MAX_AR_ORDER", "SPARSE_SAMPLES", "ar_order_for",
+__all__ = ["MAX_AR_ORDER", "SPARSE_SAMPLES", "ar_order_for", "is_sparse",
            "ARNoise", "rows_for", "whiten", "fit_noise", "ljung_box",
            "autocorrelation", "spectral_variance", "gaussian_bic", "FLOOR_WINDOW", "FEW_WINDOWS", "MISFIT_LIMIT",
            "NoiseFloor", "noise_floor", "quantisation_step", "misfit_ratio", "explained_share",
@@ -27,10 +27,28 @@ MAX_AR_ORDER = 5
 SPARSE_SAMPLES = 20
 
 
-def ar_order_for(n_samples: int) -> int:
-    """Largest AR noise order fitted on a record of ``n_samples`` (0 for a sparse record,
-    :data:`SPARSE_SAMPLES`)."""
-    return MAX_AR_ORDER if n_samples >= SPARSE_SAMPLES else 0
+def ar_order_for(n_samples: int, segment: np.ndarray | None = None) -> int:
+    """Largest AR noise order fitted on a record of ``n_samples``: 0 for a sparse record
+    (:data:`SPARSE_SAMPLES`). With the record's ``segment`` of each sample, the order is lowered
+    until the samples with that many predecessors in their own segment, and the order, add up
+    to :data:`SPARSE_SAMPLES` (as for a record of that many samples without gaps; one sampled
+    ever more sparsely, as creep tests often are, has a gap at most steps), and is 0 when no
+    order does: such a record is sparse too."""
+    if n_samples < SPARSE_SAMPLES:
+        return 0
+    if segment is None:
+        return MAX_AR_ORDER
+    segment = np.asarray(segment)
+    for order in range(MAX_AR_ORDER, 0, -1):
+        if np.count_nonzero(segment[order:] == segment[:-order]) + order >= SPARSE_SAMPLES:
+            return order
+    return 0
+
+
+def is_sparse(data: Data) -> bool:
+    """Too few samples, or too few with predecessors in their segment, for a noise model
+    with memory (:func:`ar_order_for`): the noise is taken as white."""
+    return ar_order_for(data.n, data.segment) == 0
 
 
 def gaussian_bic(rss: float, n: int, n_params: int) -> tuple[float, float]:
@@ -76,7 +94,7 @@ def rows_for(data: Data, mask: np.ndarray | None = None, order: int | None = Non
     """Samples that have ``order`` predecessors in the same segment and inside ``mask``
     (default: the record's largest AR order, :func:`ar_order_for`)."""
     n = data.n
-    order = ar_order_for(n) if order is None else order
+    order = ar_order_for(n, data.segment) if order is None else order
     ok = np.ones(n, bool) if mask is None else np.asarray(mask, bool).copy()
     good = ok.copy()
     for i in range(1, order + 1):

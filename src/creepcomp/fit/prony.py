@@ -3,6 +3,7 @@ the evidence supports it, and the model file with uncertainties and fit statisti
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from typing import Sequence
 
@@ -12,7 +13,7 @@ from scipy import linalg
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.evidence import BIC_STRONG, FOLDS, Evidence, compare, heldout
-from creepcomp.fit.noise import SPARSE_SAMPLES, ARNoise, fit_noise
+from creepcomp.fit.noise import ARNoise, ar_order_for, fit_noise, is_sparse
 from creepcomp.fit.solver import Fit, fit_structure, small_sample_inflation, with_covariance, with_noise
 from creepcomp.fit.starts import cluster_taus, extra_term_starts, nnls_spectrum, one_term_starts, tau_grid
 from creepcomp.fit.structure import Applied, Structure
@@ -94,6 +95,29 @@ def coalesced(taus) -> bool:
     """Whether two of the time constants ``taus`` are within :data:`COALESCED_RATIO`."""
     ordered = np.sort(np.asarray(taus, dtype=float))
     return bool(np.any(ordered[1:] < COALESCED_RATIO * ordered[:-1]))
+
+
+def _another_term(data: Data, previous: Fit, fit: Fit, evidence: Evidence) -> bool:
+    """Whether ``fit`` (one more term than ``previous``) is supported: strongly by BIC and
+    held-out prediction (:attr:`~creepcomp.fit.evidence.Evidence.supported`); on a sparse
+    record (:func:`~creepcomp.fit.noise.is_sparse`) by a lower small-sample corrected AIC
+    (:func:`corrected_aic`). A handful of samples gives the held-out test no power and cannot
+    meet the strong margin, and held to one term such a record predicts its continuation
+    worse; a plain lower BIC, on the other hand, takes a second term on a third of
+    one-term records of eight samples. (Measured in ``docs/benchmarks.md``, "Sparse records (spruce)".)"""
+    if not is_sparse(data):
+        return evidence.supported
+    return corrected_aic(fit) < corrected_aic(previous)
+
+
+def corrected_aic(fit: Fit) -> float:
+    """Akaike's criterion with its small-sample correction (AICc), ``-2 loglik + 2 k +
+    2 k (k + 1) / (n - k - 1)`` for ``k`` parameters (as BIC counts them) and ``n`` rows;
+    infinite when ``n <= k + 1``."""
+    k, n = fit.n_params, fit.n_rows
+    if n <= k + 1:
+        return math.inf
+    return -2.0 * fit.loglik + 2.0 * k + 2.0 * k * (k + 1) / (n - k - 1)
 
 
 def spectrum_of(data: Data) -> tuple[np.ndarray, np.ndarray]:
@@ -179,7 +203,7 @@ def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
                                           spectrum=spectrum, coarse_ftol=ORDER_COARSE_FTOL),
                           folds, linearised=True)
         except InputError:
-            if n_terms is not None and data.n < SPARSE_SAMPLES:
+            if n_terms is not None and is_sparse(data):
                 raise   # (the terms asked for are more than a sparse record carries: the reason)
             break
         except linalg.LinAlgError:
@@ -188,7 +212,7 @@ def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
         steps.append(OrderStep(k, fit, ev))
         if n_terms is not None:
             chosen = len(steps) - 1
-        elif ev is None or (ev.supported and not coalesced(fit.taus)):
+        elif ev is None or (_another_term(data, previous, fit, ev) and not coalesced(fit.taus)):
             chosen = len(steps) - 1
         else:
             break
@@ -196,7 +220,7 @@ def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
     if not steps:
         raise InputError(f"{data.source}: no creep model could be fitted")
     fit = steps[chosen].fit
-    fit = with_noise(fit, fit_noise(fit.residual, fit.extras["rows"]))
+    fit = with_noise(fit, fit_noise(fit.residual, fit.extras["rows"], ar_order_for(data.n, data.segment)))
     steps[chosen] = replace(steps[chosen], fit=with_covariance(data, fit))
     return PronyResult(data, tuple(steps), chosen)
 
@@ -242,7 +266,7 @@ def _uncertainty_note(data: Data, fit: Fit) -> str:
     """What the stated standard deviations are."""
     note = ("one standard deviation: Jacobian of the prewhitened residual, Gaussian AR noise, "
             "locally linear model")
-    if data.n >= SPARSE_SAMPLES:
+    if not is_sparse(data):
         return note
     dof = fit.n_rows - (fit.n_params - 1)
     return (note + f"; a sparse record ({data.n} samples, {dof} degrees of freedom): white noise, "

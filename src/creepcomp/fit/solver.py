@@ -20,7 +20,7 @@ from scipy.linalg import lapack
 
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
-from creepcomp.fit.noise import SPARSE_SAMPLES, ARNoise, fit_noise, gaussian_bic, rows_for, whiten
+from creepcomp.fit.noise import ARNoise, ar_order_for, fit_noise, gaussian_bic, is_sparse, rows_for, whiten
 from creepcomp.fit.structure import (Basis, Param, Structure, basis, basis_derivatives, load_steps,
                                      taus_of, with_step_times)
 from creepcomp.model import CreepModel
@@ -276,7 +276,7 @@ class Problem:
         self.rows = np.arange(data.n) if mask is None else np.flatnonzero(mask)   # fitted
         self.take = slice(None) if mask is None else self.rows    # (a view when all are fitted)
         self.likelihood_rows = rows_for(data, mask)                               # prewhitened
-        self.sparse = data.n < SPARSE_SAMPLES
+        self.sparse = is_sparse(data)
         if not self.sparse and len(self.likelihood_rows) < 10:
             raise InputError(f"{data.source}: too few samples left to fit")
         # a reduced record's samples weighed by what each holds (Data.weights): rows of the
@@ -594,7 +594,7 @@ def _finish(problem: Problem, x: np.ndarray, noise: ARNoise | None, with_cov: bo
     values.update({name: float(c) for name, c in zip(b.names, coef)})
     prediction, residual = problem.full_residual(x)
     if noise is None:
-        noise = fit_noise(residual, problem.likelihood_rows)
+        noise = fit_noise(residual, problem.likelihood_rows, ar_order_for(data.n, data.segment))
     fit = Fit(structure=structure, values=values, noise=noise, prediction=prediction,
               residual=residual, loglik=0.0, bic=0.0, n_params=0, n_rows=len(problem.likelihood_rows),
               vector_names=tuple(p.name for p in problem.params) + b.names,
