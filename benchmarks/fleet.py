@@ -4,7 +4,8 @@
 ``synth.random_spec``, 600-1200 s at 1-2 Hz) are written to a temporary folder and run
 serially (in this process, no Dask), on a local cluster of 1 worker and on one of 2 workers:
 wall time of each, speed-up, the mean processing time of a unit on its worker (throughput per
-core), and whether each table equals the serial one (every column but ``seconds``).
+core), units per core-hour, and whether each table equals the serial one (every column but
+``seconds``). ``--runs`` chooses the runs (e.g. ``--runs "2 workers"`` alone).
 
 (b) Memory (``--skip-speed``): 50 and 500 short records (300-450 s at 1 Hz) are written, each
 batch is run in a fresh Python process on a local cluster of 2 workers, and the peak resident
@@ -19,6 +20,7 @@ slows the runs (wall times are then noisy; the equality checks are not affected)
 Usage::
 
     OPENBLAS_NUM_THREADS=1 nice -n 10 python benchmarks/fleet.py [--units 200] [--skip-speed] [--skip-memory]
+        [--runs "serial,1 worker,2 workers"]
     OPENBLAS_NUM_THREADS=1 nice -n 10 python benchmarks/fleet.py --unit-cost
 """
 
@@ -54,7 +56,11 @@ def load() -> str:
     return "load average {:.2f} {:.2f} {:.2f}".format(*os.getloadavg())
 
 
-def speed(n: int) -> dict:
+#: The runs of the speed part: label -> keyword arguments of ``fleet.run``.
+RUNS = {"serial": "serial", "1 worker": 1, "2 workers": 2}
+
+
+def speed(n: int, runs=tuple(RUNS)) -> dict:
     from creepcomp.fleet import SERIAL, run
 
     base = Path(tempfile.mkdtemp(prefix="creepcomp-fleet-bench-"))
@@ -63,21 +69,25 @@ def speed(n: int) -> dict:
         write_records(base / "records", n, duration=(600.0, 1200.0), rate=(1.0, 2.0))
         print(f"{n} records written in {time.perf_counter() - t:.1f} s; {load()}", flush=True)
         out, tables = {}, {}
-        for label, kw in (("serial", {"scheduler": SERIAL}), ("1 worker", {"workers": 1}),
-                          ("2 workers", {"workers": 2})):
+        for label in runs:
+            kw = {"scheduler": SERIAL} if RUNS[label] == "serial" else {"workers": RUNS[label]}
             print(f"{label}: {load()}", flush=True)
             r = run([base / "records"], base / label.replace(" ", "_"), report=False, **kw)
             rows = r.table.to_pylist()
             seconds = [x["seconds"] for x in rows]
             tables[label] = r.table.drop_columns(["seconds"]).to_pylist()
+            cores = 1 if RUNS[label] == "serial" else RUNS[label]
             out[label] = {"wall_s": round(r.seconds, 1), "failed": len(r.failed),
                           "unit_mean_s": round(sum(seconds) / len(seconds), 3),
-                          "units_per_hour": round(3600 * n / r.seconds)}
+                          "units_per_hour": round(3600 * n / r.seconds),
+                          "units_per_core_hour": round(3600 * n / r.seconds / cores)}
             print(f"  {out[label]}; {load()}", flush=True)
-        out["speedup_2_vs_1"] = round(out["1 worker"]["wall_s"] / out["2 workers"]["wall_s"], 2)
-        out["identical_to_serial"] = {k: tables[k] == tables["serial"] for k in ("1 worker", "2 workers")}
+        if "1 worker" in out and "2 workers" in out:
+            out["speedup_2_vs_1"] = round(out["1 worker"]["wall_s"] / out["2 workers"]["wall_s"], 2)
+        if "serial" in out:
+            out["identical_to_serial"] = {k: tables[k] == tables["serial"] for k in tables if k != "serial"}
         causes = {}
-        for row in tables["serial"]:
+        for row in tables[runs[0]]:
             causes[row["cause"]] = causes.get(row["cause"], 0) + 1
         out["causes"] = causes
         return out
@@ -169,6 +179,8 @@ def main(argv=None):
     ap.add_argument("--units", type=int, default=200)
     ap.add_argument("--skip-speed", action="store_true")
     ap.add_argument("--skip-memory", action="store_true")
+    ap.add_argument("--runs", default=",".join(RUNS),
+                    help=f"runs of the speed part, comma-separated, of: {', '.join(RUNS)}")
     ap.add_argument("--unit-cost", action="store_true",
                     help="only the CPU time and memory of one unit on production-sized records "
                          "(run it with OPENBLAS_NUM_THREADS=1)")
@@ -183,7 +195,11 @@ def main(argv=None):
         print(json.dumps({"unit_cost": unit_cost()}, indent=1))
         return
     if not args.skip_speed:
-        result["speed"] = speed(args.units)
+        runs = tuple(r.strip() for r in args.runs.split(","))
+        unknown = [r for r in runs if r not in RUNS]
+        if unknown:
+            ap.error(f"--runs: unknown {', '.join(unknown)}; use {', '.join(RUNS)}")
+        result["speed"] = speed(args.units, runs)
     if not args.skip_memory:
         result["memory"] = memory()
     print(json.dumps(result, indent=1))
