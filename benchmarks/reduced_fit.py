@@ -6,12 +6,13 @@ number of terms given (3) and chosen.
 Printed per record length, noise (white, and AR(1) of phi 0.99 with the same variance) and
 target: the samples fitted, the largest relative error of beta and of tau (median over seeds),
 the share of |error| / stated sigma below 1 and 2 over every beta and tau and seed (ideal 68 %
-and 95 %), how many seeds chose 3 terms (a fit that fails is named), and the CPU seconds of the fit (reduction excluded).
+and 95 %), how many seeds chose 3 terms (a fit that fails is named), and the median CPU
+seconds of the fit with 3 terms given (reduction excluded).
 
 Usage::
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/reduced_fit.py [--seeds 10]
-        [--sizes 10000,100000,1000000] [--targets 50000,20000,15000,10000] [--no-auto]
+    python benchmarks/reduced_fit.py [--seeds 10] [--sizes 10000,100000,1000000]
+        [--targets 50000,20000,15000,10000] [--phis 0,0.99] [--no-auto]
 """
 
 from __future__ import annotations

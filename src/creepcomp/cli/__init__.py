@@ -184,7 +184,7 @@ def run() -> None:
     status = main()
     # The process ends here: the interpreter's last garbage collections would walk every object
     # of the imported libraries (0.1 s after scipy's) to free what the system frees at exit
-    # anyway. Frozen, objects are still released by their reference counts as the modules go;
+    # anyway. Frozen objects are still released by their reference counts as the modules go;
     # only reference cycles are left to the system (the command's files are closed by then).
     gc.freeze()
     sys.exit(status)

@@ -39,8 +39,8 @@ from creepcomp.fit.data import BLOCK_SAMPLES, BLOCK_VARIANCE
 from creepcomp.io.records import COLUMNS, STREAM_BYTES, Record, open_record_stream
 from creepcomp.units import format_quantity
 
-__all__ = ["MAX_FIT_SAMPLES", "GROWN_FIT_SAMPLES", "WHOLE_PIECES", "reduce_record", "read_reduced", "block_weights",
-           "block_variance"]
+__all__ = ["MAX_FIT_SAMPLES", "GROWN_FIT_SAMPLES", "WHOLE_PIECES", "reduce_record", "read_reduced",
+           "block_weights", "block_variance"]
 
 #: Samples a fit works on at most (more are reduced by :func:`reduce_record`).
 MAX_FIT_SAMPLES = 50_000
