@@ -1,9 +1,9 @@
 """One BLAS thread while a fit runs.
 
-A fit's matrices are tall and narrow (thousands of rows, a few to a few ten columns): OpenBLAS
-splits their products over its threads for little gain, and where another process uses the
-other cores its threads wait for each other (a fit of the three-term step record took twice
-the CPU time and up to four times the wall time with the default threads). While any
+A fit's matrices are tall and narrow (thousands of rows, a few to a few ten columns), and
+OpenBLAS splits even their products over its threads: where another process uses the other
+cores, the threads wait for each other (on 2 busy cores a fit of the three-term step record
+took four times the CPU time and up to four times the wall time with the default threads). While any
 thread is within :func:`one_blas_thread`, the OpenBLAS libraries bundled with numpy and scipy
 use one thread (``openblas_set_num_threads_local``, OpenBLAS 0.3.27 and later, which sets the
 process's count and returns the one before); the count before is restored when the last
