@@ -6,9 +6,11 @@ each; and the start-up alone (``from creepcomp.cli import run``).
 Printed per size: the median wall time over ``--repeat`` runs and the CPU time of the
 process (user + system; on a busy machine the wall time grows, the CPU time much less).
 Records longer than :data:`~creepcomp.fit.reduce.MAX_FIT_SAMPLES` are reduced by blocks
-while they are read (part of the timed run). With ``--phases``, one more run per size says
-where its time went: start-up imports, reading and reducing the record, the fit (``prepare``
-and ``fit_prony``), and the rest (option parsing, the command's own imports, the output).
+while they are read (part of the timed run; to :data:`~creepcomp.fit.reduce.GROWN_FIT_SAMPLES`
+where the blocks grow). With ``--phases``, one more run per size says where its time went:
+start-up imports, reading and reducing the record, the fit (``prepare`` and ``fit_prony``),
+the rest (option parsing, the command's own imports, the output), and the interpreter's own
+start and exit (the run's wall time less the others; wall only).
 
 The runs use compiled byte-code as an installed package does
 (:func:`startup.installed_environment`): no run compiles creepcomp's modules from source.
@@ -66,6 +68,8 @@ fit.prepare = timing("fit", fit.prepare)
 fit.fit_prony = timing("fit", fit.fit_prony)
 status = main(sys.argv[1:])
 mark("command")
+import gc
+gc.freeze()             # (as the console script's run does)
 (_, w0, c0), (_, w1, c1), (_, w2, c2) = marks
 out = {"start-up and fit imports": [w1 - w0, c1 - c0], **spent}
 out["the rest"] = [w2 - w1 - sum(v[0] for v in spent.values()), c2 - c1 - sum(v[1] for v in spent.values())]
@@ -97,11 +101,15 @@ def print_phases(arguments: list[str], folder: Path) -> None:
     """Run the command once more, writing the model file, split into its phases; print them
     and the model's creep terms (a fast fit is only worth its time when it finds them)."""
     model = folder / "model.json"
+    start = time.perf_counter()
     done = subprocess.run([sys.executable, "-c", PHASES] + arguments + ["-o", str(model)],
                           check=True, env=ENV, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                           text=True)
-    for phase, (wall, cpu) in json.loads(done.stderr.strip().splitlines()[-1]).items():
+    total = time.perf_counter() - start
+    phases = json.loads(done.stderr.strip().splitlines()[-1])
+    for phase, (wall, cpu) in phases.items():
         print(f"  {phase:26s} {wall:11.2f}s {cpu:10.2f}s")
+    print(f"  {'interpreter start and exit':26s} {total - sum(w for w, _ in phases.values()):11.2f}s")
     fitted = json.loads(model.read_text())
     terms = ", ".join(f"{100 * b:.3g} % at {t:.4g} s" for b, t in zip(fitted["beta"], fitted["tau"]))
     print(f"  model: {len(fitted['tau'])} term(s): {terms} (true: "

@@ -66,3 +66,20 @@ def test_fit_imports_only_what_a_fit_uses(tmp_path):
             if m in loaded] == []
     # off a terminal no progress bar is drawn, and a JSON answer prints no table
     assert "rich.progress" not in loaded and "rich.table" not in loaded
+
+
+def test_the_console_script_skips_the_last_garbage_collections(monkeypatch):
+    """``run`` freezes the objects before the interpreter ends (its last collections would
+    walk every object of scipy: 0.1 s), and exits with the command's status."""
+    import gc
+
+    import pytest
+
+    import creepcomp.cli as cli
+
+    frozen = []
+    monkeypatch.setattr(cli, "main", lambda: 3)
+    monkeypatch.setattr(gc, "freeze", lambda: frozen.append(True))
+    with pytest.raises(SystemExit) as stop:
+        cli.run()
+    assert stop.value.code == 3 and frozen == [True]

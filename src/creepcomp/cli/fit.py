@@ -39,17 +39,19 @@ def _reader_options(delimiter: str | None, duplicate_times: str) -> tuple[str | 
 
 def load_reduced(path: Path, max_samples: tuple[int, ...], columns: str | None,
                  delimiter: str | None, duplicate_times: str, taxel: int | None = None,
-                 sheet: str | None = None, quiet: bool = False) -> list[tuple[Record, str | None]]:
+                 sheet: str | None = None, quiet: bool = False,
+                 grown_samples: int | None = None) -> list[tuple[Record, str | None]]:
     """Read a record with the command line's mapping options (and, for insole ``.mat`` files
     and creep ``.xlsx`` workbooks, their taxel or sheet), reduced to each of ``max_samples``
-    (:func:`creepcomp.fit.reduce.read_reduced`: a long CSV is never held whole), with a
-    progress bar."""
+    (or ``grown_samples`` where blocks grow: :func:`creepcomp.fit.reduce.read_reduced`; a long
+    CSV is never held whole), with a progress bar."""
     from creepcomp.fit.reduce import read_reduced
 
     delim, mode = _reader_options(delimiter, duplicate_times)
     with progress_bar(f"reading {path.name}", disable=quiet) as update:
         return read_reduced(path, max_samples, parse_columns(columns), delimiter=delim,
-                            duplicate_times=mode, taxel=taxel, sheet=sheet, progress=update)
+                            duplicate_times=mode, taxel=taxel, sheet=sheet, progress=update,
+                            grown_samples=grown_samples)
 
 
 def record_options(initial: str, load_step_at: str | None) -> tuple[str, float | None]:
@@ -134,11 +136,12 @@ def fit_command(
                              beta_per_kelvin, fixed, max_terms, flow, plot, init, step, output, as_json,
                              (columns, delimiter, duplicate_times, taxel, sheet))
         return
-    from creepcomp.fit.reduce import MAX_FIT_SAMPLES
+    from creepcomp.fit.reduce import GROWN_FIT_SAMPLES, MAX_FIT_SAMPLES
 
     [record_path] = record_paths
     [(record, reduction)] = load_reduced(record_path, (MAX_FIT_SAMPLES,), columns, delimiter,
-                                         duplicate_times, taxel, sheet, quiet=as_json)
+                                         duplicate_times, taxel, sheet, quiet=as_json,
+                                         grown_samples=GROWN_FIT_SAMPLES)
     from creepcomp.fit import Applied, fit_prony, prepare
 
     with progress_bar("fitting", disable=as_json):

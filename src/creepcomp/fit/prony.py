@@ -11,6 +11,7 @@ import numpy as np
 from scipy import linalg
 
 from creepcomp.errors import InputError
+from creepcomp.fit.blas import one_blas_thread
 from creepcomp.fit.data import Data
 from creepcomp.fit.evidence import BIC_STRONG, FOLDS, Evidence, compare, heldout
 from creepcomp.fit.noise import ARNoise, ar_order_for, fit_noise, is_sparse
@@ -159,6 +160,13 @@ def fit_prony(data: Data, max_terms: int = 6, n_terms: int | None = None,
     >>> print(f"{model.n_terms} term: beta = {model.beta[0]:.3f}, tau = {model.tau[0]:.0f} s")
     1 term: beta = 0.030, tau = 45 s
     """
+    with one_blas_thread():     # (small matrices: see creepcomp.fit.blas)
+        return _fit_prony(data, max_terms, n_terms, folds, effects)
+
+
+def _fit_prony(data: Data, max_terms: int, n_terms: int | None, folds: int,
+               effects: tuple[Applied, ...]) -> PronyResult:
+    """:func:`fit_prony`'s work."""
     if data.initial != "free":
         return _orders(data, max_terms, n_terms, folds, effects)
     # a record that starts settled (at rest, or long at its first load) is told from one that
