@@ -102,3 +102,20 @@ def test_two_terms_at_one_time_constant_are_not_a_second_term():
     assert result.fit.structure.n_terms == 1
     orders = result.to_dict()["fit"]["orders"]
     assert [o.get("coalesced", False) for o in orders] == [False, True]
+
+
+def test_a_linearised_held_out_step_beyond_a_bound_stops_at_the_bound():
+    # a 250,000-sample step record (three terms at 8, 90 and 900 s) reduced to 50,000: a fold's
+    # Gauss-Newton step for a term the fold hardly sees is huge, and from a log-scaled time
+    # constant it overflowed (OverflowError from math.exp) instead of ending at the bound
+    from creepcomp.fit import fit_prony
+    from creepcomp.fit.reduce import reduce_record
+
+    t = np.arange(0.0, 25000.0, 0.1)
+    load = np.where(t >= 30.0, 1.0, 0.0)
+    noise = np.random.default_rng(104).normal(0.0, 1e-4, t.size)
+    signal = load + lti.lag_states(t, load, [8.0, 90.0, 900.0]) @ np.array([0.02, 0.03, 0.04]) + noise
+    reduced, _ = reduce_record(Record(t, load, signal, source="step-250k"), 50_000)
+    fit = fit_prony(prepare(reduced)).fit
+    assert fit.structure.n_terms == 3
+    assert np.sort(fit.taus) == pytest.approx([8.0, 90.0, 900.0], rel=0.02)

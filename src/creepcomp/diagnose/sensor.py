@@ -43,6 +43,7 @@ import numpy as np
 from creepcomp.diagnose import effects as effects_pkg
 from creepcomp.diagnose.effects import Effect, compensate_extended
 from creepcomp.errors import InputError
+from creepcomp.fit.blas import one_blas_thread
 from creepcomp.fit.data import Data, prepare
 from creepcomp.fit.structure import Applied, Structure
 from creepcomp.fit.noise import (MISFIT_LIMIT, SPARSE_SAMPLES, NoiseFloor, autocorrelation, explained_share,
@@ -656,8 +657,9 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
     # (a diagnosis needs the noise floor's windows: fit's sparse minimum is not its own)
     data = prepare(record, initial=initial, load_step_at=load_step_at, min_samples=SPARSE_SAMPLES)
     pool = effects_pkg.sensor_effects() if candidates is None else [effects_pkg.get(c) for c in candidates]
-    search = _search(data, pool, max_effects)
-    return _verdict(data, search, correction, reduced, t_start)
+    with one_blas_thread():     # (small matrices: see creepcomp.fit.blas)
+        search = _search(data, pool, max_effects)
+        return _verdict(data, search, correction, reduced, t_start)
 
 
 def _unexplained(data: Data, current: Fit, findings: list, floor: NoiseFloor) -> tuple:

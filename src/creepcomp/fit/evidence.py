@@ -273,7 +273,9 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
         free = linear | np.array([i < len(names) and names[i] not in (frozen or {})
                                   for i in range(jac.shape[1])])
         step = _gauss_newton_step(gram, rhs, free)
-        values = {n: by_name[n].from_search(by_name[n].to_search(start[n]) + step[i])
+        # (a step out of a parameter's bounds ends at the bound: a log-scaled one would overflow)
+        values = {n: by_name[n].from_search(float(np.clip(by_name[n].to_search(start[n]) + step[i],
+                                                          *by_name[n].bounds())))
                   for i, n in enumerate(names)}
         at_start = float(rr - rhs @ _gauss_newton_step(gram, rhs, linear))
         return values, frozen, at_start
