@@ -61,12 +61,7 @@ def _heldout_error(record: Record, fit) -> float:
 
 def _bic_choice(d):
     """The fit of least BIC over 1 ... MAX_TERMS terms (the orders that could be fitted)."""
-    fits = []
-    for n in range(1, MAX_TERMS + 1):
-        try:
-            fits.append(fit_prony(d, n_terms=n).fit)
-        except InputError:
-            break
+    fits = _orders(d)
     if not fits:
         raise InputError("no number of terms could be fitted")
     return min(fits, key=lambda f: f.bic)
