@@ -137,7 +137,8 @@ def _variances(gram: np.ndarray, count: int) -> np.ndarray:
     problem with Gram matrix ``gram``."""
     norms, scaled = unit_scaled(gram)
     inv = linalg.pinvh(scaled)
-    return np.diag(inv)[:count] / norms[:count] ** 2
+    with np.errstate(over="ignore"):     # (a column the rows hardly see: its variance is infinite)
+        return np.diag(inv)[:count] / norms[:count] ** 2
 
 
 def _undetermined(jac: np.ndarray, keep: np.ndarray, names: list, values: dict,
