@@ -4,8 +4,10 @@ A fit's matrices are tall and narrow (thousands of rows, a few to a few ten colu
 OpenBLAS splits even their products over its threads: where another process uses the other
 cores, the threads wait for each other (on 2 busy cores a fit of the three-term step record
 took four times the CPU time and up to four times the wall time with the default threads).
-While any thread is within :func:`one_blas_thread`, the BLAS libraries loaded in the process
-use one thread (threadpoolctl); their counts before are restored when the last thread leaves.
+Within :func:`one_blas_thread` the BLAS libraries loaded in the process use one thread
+(threadpoolctl); the count before is restored when the block ends. Newer OpenBLAS keeps the
+count per thread, so a fit in another thread (a Dask worker's) may keep the default: there
+Dask sets one thread for its workers already.
 """
 
 from __future__ import annotations
@@ -18,36 +20,22 @@ __all__ = ["one_blas_thread"]
 
 _lock = threading.Lock()
 _controller = None
-#: Threads within :func:`one_blas_thread`, and the limiter that restores the counts when none is.
-_inside = 0
-_limiter = None
 
 
 def _blas_controller():
     """The thread-pool controller of the libraries loaded (found once: a few milliseconds)."""
     global _controller
-    if _controller is None:
-        import scipy.linalg  # noqa: F401  (loads scipy's BLAS, so that it is found)
-        from threadpoolctl import ThreadpoolController
+    with _lock:
+        if _controller is None:
+            import scipy.linalg  # noqa: F401  (loads scipy's BLAS, so that it is found)
+            from threadpoolctl import ThreadpoolController
 
-        _controller = ThreadpoolController()
-    return _controller
+            _controller = ThreadpoolController()
+        return _controller
 
 
 @contextlib.contextmanager
 def one_blas_thread() -> Iterator[None]:
-    """Within the block, BLAS uses one thread; the counts before are restored when the last
-    thread within such a block leaves it."""
-    global _inside, _limiter
-    with _lock:
-        if _inside == 0:
-            _limiter = _blas_controller().limit(limits=1, user_api="blas")
-        _inside += 1
-    try:
+    """Within the block, BLAS uses one thread; the count before is restored after it."""
+    with _blas_controller().limit(limits=1, user_api="blas"):
         yield
-    finally:
-        with _lock:
-            _inside -= 1
-            if _inside == 0:
-                _limiter.restore_original_limits()
-                _limiter = None
