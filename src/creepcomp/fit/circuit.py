@@ -32,7 +32,7 @@ from scipy import optimize
 from creepcomp.errors import InputError
 from creepcomp.fit.data import gaps
 from creepcomp.fit.evidence import FOLDS, HeldOut, block_index, half_blocks, predict_held_out
-from creepcomp.fit.noise import ar_order_for, fit_noise, gaussian_bic, rows_for, whiten
+from creepcomp.fit.noise import ar_order, fit_noise, gaussian_bic, rows_for, whiten
 from creepcomp.fit.solver import best_of_starts
 from creepcomp.fit.structure import Applied, Param
 from creepcomp.io.jsonfiles import Design
@@ -420,7 +420,7 @@ def _finish(data, applied, params, values, net, residual, rows, generic) -> Circ
     """
     k = len(params) + sum(1 for key in values if key in ("offset", "generic.gain"))
     ar_rows = rows_for(data, rows)
-    noise = fit_noise(residual, ar_rows, ar_order_for(data.n, data.segment))
+    noise = fit_noise(residual, ar_rows, ar_order(data))
     rss = float(np.sum(whiten(residual, ar_rows, noise) ** 2))
     bic = gaussian_bic(rss, len(ar_rows), k + noise.order)[1]
     gen = (values.get("generic.gain"), values.get("generic.tau")) if generic else None

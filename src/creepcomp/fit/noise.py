@@ -13,7 +13,7 @@ from scipy import linalg
 from creepcomp.fit.data import Data, gaps
 from creepcomp.lti import lag_states
 
-__all__ = ["MAX_AR_ORDER", "SPARSE_SAMPLES", "ar_order_for", "is_sparse",
+__all__ = ["MAX_AR_ORDER", "SPARSE_SAMPLES", "ar_order_for", "ar_order", "is_sparse",
            "ARNoise", "rows_for", "whiten", "fit_noise", "ljung_box",
            "autocorrelation", "spectral_variance", "gaussian_bic", "FLOOR_WINDOW", "FEW_WINDOWS", "MISFIT_LIMIT",
            "NoiseFloor", "noise_floor", "quantisation_step", "misfit_ratio", "explained_share",
@@ -45,10 +45,16 @@ def ar_order_for(n_samples: int, segment: np.ndarray | None = None) -> int:
     return 0
 
 
+def ar_order(data: Data) -> int:
+    """Largest AR noise order fitted on a prepared record (:func:`ar_order_for` its samples
+    and segments)."""
+    return ar_order_for(data.n, data.segment)
+
+
 def is_sparse(data: Data) -> bool:
     """Too few samples, or too few with predecessors in their segment, for a noise model
-    with memory (:func:`ar_order_for`): the noise is taken as white."""
-    return ar_order_for(data.n, data.segment) == 0
+    with memory (:func:`ar_order`): the noise is taken as white."""
+    return ar_order(data) == 0
 
 
 def gaussian_bic(rss: float, n: int, n_params: int) -> tuple[float, float]:
@@ -92,9 +98,9 @@ class ARNoise:
 
 def rows_for(data: Data, mask: np.ndarray | None = None, order: int | None = None) -> np.ndarray:
     """Samples that have ``order`` predecessors in the same segment and inside ``mask``
-    (default: the record's largest AR order, :func:`ar_order_for`)."""
+    (default: the record's largest AR order, :func:`ar_order`)."""
     n = data.n
-    order = ar_order_for(n, data.segment) if order is None else order
+    order = ar_order(data) if order is None else order
     ok = np.ones(n, bool) if mask is None else np.asarray(mask, bool).copy()
     good = ok.copy()
     for i in range(1, order + 1):

@@ -14,7 +14,7 @@ from creepcomp.errors import InputError
 from creepcomp.fit.blas import one_blas_thread
 from creepcomp.fit.data import Data
 from creepcomp.fit.evidence import BIC_STRONG, FOLDS, Evidence, compare, heldout
-from creepcomp.fit.noise import ARNoise, ar_order_for, fit_noise, is_sparse
+from creepcomp.fit.noise import ARNoise, ar_order, fit_noise, is_sparse
 from creepcomp.fit.solver import Fit, fit_structure, small_sample_inflation, with_covariance, with_noise
 from creepcomp.fit.starts import cluster_taus, extra_term_starts, nnls_spectrum, one_term_starts, tau_grid
 from creepcomp.fit.structure import Applied, Structure
@@ -228,7 +228,7 @@ def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
     if not steps:
         raise InputError(f"{data.source}: no creep model could be fitted")
     fit = steps[chosen].fit
-    fit = with_noise(fit, fit_noise(fit.residual, fit.extras["rows"], ar_order_for(data.n, data.segment)))
+    fit = with_noise(fit, fit_noise(fit.residual, fit.extras["rows"], ar_order(data)))
     steps[chosen] = replace(steps[chosen], fit=with_covariance(data, fit))
     return PronyResult(data, tuple(steps), chosen)
 

@@ -20,7 +20,7 @@ from scipy.linalg import lapack
 
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
-from creepcomp.fit.noise import ARNoise, ar_order_for, fit_noise, gaussian_bic, is_sparse, rows_for, whiten
+from creepcomp.fit.noise import ARNoise, ar_order, fit_noise, gaussian_bic, is_sparse, rows_for, whiten
 from creepcomp.fit.structure import (Basis, Param, Structure, basis, basis_derivatives, load_steps,
                                      taus_of, with_step_times)
 from creepcomp.model import CreepModel
@@ -594,7 +594,7 @@ def _finish(problem: Problem, x: np.ndarray, noise: ARNoise | None, with_cov: bo
     values.update({name: float(c) for name, c in zip(b.names, coef)})
     prediction, residual = problem.full_residual(x)
     if noise is None:
-        noise = fit_noise(residual, problem.likelihood_rows, ar_order_for(data.n, data.segment))
+        noise = fit_noise(residual, problem.likelihood_rows, ar_order(data))
     fit = Fit(structure=structure, values=values, noise=noise, prediction=prediction,
               residual=residual, loglik=0.0, bic=0.0, n_params=0, n_rows=len(problem.likelihood_rows),
               vector_names=tuple(p.name for p in problem.params) + b.names,

@@ -25,7 +25,7 @@ from scipy import linalg, optimize
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.evidence import BIC_STRONG
-from creepcomp.fit.noise import ARNoise, ar_order_for, fit_noise, gaussian_bic, rows_for, whiten
+from creepcomp.fit.noise import ARNoise, ar_order, fit_noise, gaussian_bic, rows_for, whiten
 from creepcomp.fit.prony import fit_prony, fit_terms
 from creepcomp.fit.solver import best_of_starts, sandwich_covariance
 from creepcomp.fit.starts import tau_grid
@@ -342,7 +342,7 @@ def _supported(larger: tuple, smaller: tuple) -> tuple[bool, float]:
     """Whether the larger model is supported: its BIC on prewhitened residuals (the AR noise of
     each record's residual under the larger model, for both) lower by :data:`BIC_STRONG`."""
     _, _, residuals = larger[0].project(larger[1])
-    noises = [fit_noise(r, rows_for(d), ar_order_for(d.n, d.segment)) for r, d in zip(residuals, larger[0].records)]
+    noises = [fit_noise(r, rows_for(d), ar_order(d)) for r, d in zip(residuals, larger[0].records)]
     delta = _whitened_bic(*larger, noises) - _whitened_bic(*smaller, noises)
     return delta < -BIC_STRONG, delta
 
@@ -376,7 +376,7 @@ def _record_summary(d: Data, temp: np.ndarray, given: bool, names: list[str], co
 def _finish(problem: _Joint, x: np.ndarray, given: bool, orders: list[dict]) -> TemperatureFit:
     """Values, AR noises, covariance and the model file of the chosen joint fit."""
     bases, coefs, residuals = problem.project(x)
-    noises = [fit_noise(r, rows_for(d), ar_order_for(d.n, d.segment)) for r, d in zip(residuals, problem.records)]
+    noises = [fit_noise(r, rows_for(d), ar_order(d)) for r, d in zip(residuals, problem.records)]
     cov = problem.covariance(x, bases, coefs, noises)
     n_x = len(x)
     var = np.diag(cov) if cov is not None else np.full(n_x + sum(map(len, coefs)), np.nan)
