@@ -226,6 +226,11 @@ class NoiseFloor:
     windows: int
 
     @property
+    def windows_text(self) -> str:
+        """The number of windows in words ("1 window", "3 windows")."""
+        return windows_text(self.windows)
+
+    @property
     def rough(self) -> bool:
         """Fewer than :data:`FEW_WINDOWS` windows: the floor, and every misfit ratio over it, is
         a rough estimate."""
@@ -320,11 +325,11 @@ def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW,
         var = float(np.median(variances)) / (1.0 - 2.0 / (9.0 * k)) ** 3
     else:
         var = 0.0
-    method = (f"median over {len(variances)} windows of {w} samples of the residual variance "
+    method = (f"median over {windows_text(len(variances))} of {w} samples of the residual variance "
               f"of a local quadratic in time plus the load"
               + (" (and the load times time and through a lag of a quarter window)" if follows_lag else ""))
     if len(variances) < FEW_WINDOWS:
-        method += (f" (only {len(variances)} windows of {w} samples: a rough estimate, and on a sparse "
+        method += (f" (only {windows_text(len(variances))} of {w} samples: a rough estimate, and on a sparse "
                    f"record a window spans enough time for creep to bend within it)")
     if q > 0 and var < q * q / 12.0:
         var = q * q / 12.0
@@ -359,12 +364,17 @@ def slow_drift(residual: np.ndarray, time: np.ndarray, spacing: float) -> np.nda
     return make_lsq_spline(t, np.asarray(residual, float), knots, 3)(t)
 
 
+def windows_text(count: int) -> str:
+    """A number of noise-floor windows in words ("1 window", "3 windows")."""
+    return f"{count} window" + ("" if count == 1 else "s")
+
+
 def none_statement(floor: NoiseFloor | None) -> str:
     """What a diagnosis with no finding says: that the model explains the record to its noise,
     unless the floor is too rough (few windows) to show it."""
     if floor is not None and floor.rough:
         return (f"no effect is supported by the evidence, and the baseline's misfit ratio is under "
-                f"{MISFIT_LIMIT:g}; but the noise floor rests on only {floor.windows} windows (a rough "
+                f"{MISFIT_LIMIT:g}; but the noise floor rests on only {floor.windows_text} (a rough "
                 f"estimate, fewer than {FEW_WINDOWS}): the record is too sparse to show that the paper's "
                 f"model explains it to its noise")
     return ("no effect is supported by the evidence, and the baseline's misfit is consistent with the "

@@ -250,7 +250,7 @@ def _floor(d, result: dict) -> dict | None:
     return {"rms": d.floor.rms, "method": d.floor.method, "baseline": b, "extended": e,
             "limit": f"{MISFIT_LIMIT:g}", "share": "–" if share is None else f"{100 * share:.1f} %",
             "verdict": verdict, "unexplained": unexplained, "rough": d.floor.rough,
-            "windows": d.floor.windows}
+            "windows": d.floor.windows_text}
 
 
 def _sentence(text: str) -> str:
