@@ -259,39 +259,63 @@ def _held_runs(t, u, taus, changes, c0, out) -> None:
     linear hold): within a run of constant input ``U`` the exact solution
     ``U + (c - U) exp(-(t - t_start) / tau)``, the changing intervals by the recursion of
     :func:`lag_states`. Fills ``out`` (N, K)."""
+    runs = _Runs(t, u, changes)
     e, b0, b1 = lag_coefficients((t[changes + 1] - t[changes])[:, None], taus[None, :], "linear")
-    first, c = 0, np.asarray(c0, float)
-    for j, last in enumerate(list(changes) + [len(t) - 1]):
-        since = t[first:last + 1] - t[first]
-        level = u[first]
-        run = out[first:last + 1]
-        for k, tau in enumerate(taus):           # (column by column: contiguous and fast)
-            live, head = _decay_head(since, tau)
-            run[:live, k] = head * (c[k] - level) + level
-            run[live:, k] = level
-        if j < len(changes):
-            c = e[j] * run[-1] + b0[j] * u[last] + b1[j] * u[last + 1]
-            first = last + 1
+    levels = u[runs.first].tolist()
+    before, after = u[changes].tolist(), u[changes + 1].tolist()
+    for k, tau in enumerate(taus):           # (column by column: contiguous and fast)
+        head = runs.heads(tau)
+        ends = head[runs.last].tolist()
+        ek, b0k, b1k = e[:, k].tolist(), b0[:, k].tolist(), b1[:, k].tolist()
+        starts = [float(c0[k])]
+        for j in range(len(changes)):        # (a run's end, then across the change)
+            end = ends[j] * (starts[j] - levels[j]) + levels[j]
+            starts.append(ek[j] * end + b0k[j] * before[j] + b1k[j] * after[j])
+        out[:, k] = head * (np.array(starts)[runs.which] - runs.level) + runs.level
 
 
 def _held_runs_derivatives(t, u, taus, states, changes, slope0, out) -> None:
     """``d c_k / d tau_k`` of :func:`_held_runs`: within a run ``exp(-s / tau) (d_start +
     (c_start - U) s / tau^2)`` (``s`` the time since the run's start), the changing
     intervals by the differentiated recursion (:func:`lag_tau_derivatives`)."""
+    runs = _Runs(t, u, changes)
     x = (t[changes + 1] - t[changes])[:, None] / taus[None, :]
     e, de, db0, db1 = _coefficient_slopes(x, taus[None, :], "linear")
-    first, d = 0, np.asarray(slope0, float)
-    for j, last in enumerate(list(changes) + [len(t) - 1]):
-        since = t[first:last + 1] - t[first]
-        run = out[first:last + 1]
-        for k, tau in enumerate(taus):
-            live, head = _decay_head(since, tau)
-            head *= since[:live] * ((states[first, k] - u[first]) / tau ** 2) + d[k]
-            run[:live, k] = head
-            run[live:, k] = 0.0
-        if j < len(changes):
-            d = e[j] * run[-1] + de[j] * states[last] + db0[j] * u[last] + db1[j] * u[last + 1]
-            first = last + 1
+    before, after = u[changes].tolist(), u[changes + 1].tolist()
+    ends_since = runs.since[runs.last].tolist()
+    for k, tau in enumerate(taus):
+        head = runs.heads(tau)
+        slopes = (states[runs.first, k] - u[runs.first]) / tau ** 2
+        ends, slope = head[runs.last].tolist(), slopes.tolist()
+        at_change = states[changes, k].tolist()
+        ek, dek, db0k, db1k = (c[:, k].tolist() for c in (e, de, db0, db1))
+        starts = [float(slope0[k])]
+        for j in range(len(changes)):
+            end = ends[j] * (ends_since[j] * slope[j] + starts[j])
+            starts.append(ek[j] * end + dek[j] * at_change[j] + db0k[j] * before[j] + db1k[j] * after[j])
+        out[:, k] = head * (runs.since * slopes[runs.which] + np.array(starts)[runs.which])
+
+
+class _Runs:
+    """The runs of constant input between the changing intervals of :func:`_held_runs`: each
+    sample's run (``which``), its time since the run's start and the run's level."""
+
+    def __init__(self, t: np.ndarray, u: np.ndarray, changes: np.ndarray):
+        self.first = np.concatenate([[0], changes + 1])
+        self.last = np.append(changes, len(t) - 1)
+        self.which = np.repeat(np.arange(len(self.first)), self.last - self.first + 1)
+        self.since = t - t[self.first][self.which]
+        self.level = u[self.first][self.which]
+
+    def heads(self, tau: float) -> np.ndarray:
+        """``exp(-since / tau)`` (:func:`decay` of every run at once)."""
+        if not tau > 0:
+            return (self.since <= 0).astype(float)
+        live = self.since < DECAY_FLOOR * tau
+        head = np.multiply(self.since, -1.0 / tau)
+        np.exp(head, out=head, where=live)
+        head[~live] = 0.0
+        return head
 
 
 #: Decay (e-foldings) beyond which :func:`decay` is zero: far below rounding of anything
