@@ -232,7 +232,7 @@ def _step_limits(b: Basis, a: np.ndarray, y: np.ndarray, coef: np.ndarray, free:
     trial = coef.copy()
     trial[steps] = 0.0
     if plain.any():
-        target = y - a[:, ~plain] @ trial[~plain]
+        target = y - a[:, ~plain] @ trial[~plain] if trial[~plain].any() else y
         trial[plain] = _solve(a[:, plain], target, None if prior is None else prior[plain])
     return np.array([abs(trial[b.names.index(f"a[{k}]")]) * half for _, k, half in b.step_bounds])
 

@@ -369,23 +369,38 @@ def with_step_times(data: Data, b: Basis, taus: np.ndarray, cache: dict | None =
         bounds = [(first + i, k, half) for i, (_, k, half) in enumerate(bounds)]
         return replace(b, columns=_stack([b.columns, cols]), names=b.names + names,
                        step_bounds=tuple(bounds), step_mids=mids)
-    cols, names, bounds, mids = [], [], [], []
+    names, bounds, mids = [], [], []
     first = b.columns.shape[1]
     reference = 0.5 * float(t[steps[0] + 1] - t[steps[0]])
+    cols = np.zeros((len(t), (len(steps) - 1) * len(taus)), order="F")
     for j, i in enumerate(steps[1:], start=1):
         mid, dh = 0.5 * (t[i] + t[i + 1]), h[i + 1] - h[i]
-        after = t[i + 1:] - mid
         for k, tau in enumerate(taus):
-            col = np.zeros(len(t))
-            col[i + 1:] = -dh / tau * decay(after, tau)
-            cols.append(col)
+            cols[i + 1:, len(names)] = -dh / tau * _step_decays(t, steps, float(tau), cache)[j - 1]
             names.append(f"step_time[{j}][{k}]")
             bounds.append((first + len(bounds), k, 0.5 * float(t[i + 1] - t[i]) + reference))
             mids.append(mid)
-    cols = _stack(cols)
     cache["step_times"] = (key, h, (cols, tuple(names), tuple(bounds), tuple(mids)))
     return replace(b, columns=_stack([b.columns, cols]), names=b.names + tuple(names),
                    step_bounds=tuple(bounds), step_mids=tuple(mids))
+
+
+#: Time constants whose step-time decays a fitting problem keeps (:func:`_step_decays`).
+_STEP_DECAYS_KEPT = 4
+
+
+def _step_decays(t: np.ndarray, steps: np.ndarray, tau: float, cache: dict) -> list[np.ndarray]:
+    """``exp(-(t - t_mid) / tau)`` after each load step but the first (:func:`with_step_times`),
+    kept in ``cache`` for the last few time constants: they do not depend on the creep input,
+    which the effects' own parameters move."""
+    kept = cache.setdefault("step_decays", {})
+    out = kept.get(tau)
+    if out is None:
+        out = [decay(t[i + 1:] - 0.5 * (t[i] + t[i + 1]), tau) for i in steps[1:]]
+        while len(kept) >= _STEP_DECAYS_KEPT:
+            kept.pop(next(iter(kept)))
+        kept[tau] = out
+    return out
 
 
 def basis_derivatives(data: Data, structure: Structure, values: dict, b: Basis,
