@@ -393,10 +393,12 @@ class Problem:
         """Jacobian of :meth:`residual` (variable projection, Golub and Pereyra): for each
         nonlinear parameter, ``-(dA c + A dc)`` with the linear coefficients' response
         ``dc = G^-1 (dA^T r - A^T dA c)`` on the free columns (``G = A^T A``); the columns'
-        derivatives are analytic (:func:`creepcomp.fit.structure.basis_derivatives`). A step
+        derivatives are analytic where the lag recursion gives them, else forward differences
+        of the basis alone (:func:`creepcomp.fit.structure.basis_derivatives`). A step
         time held at its bound moves with the creep amplitude that sets the bound."""
         b, coef, r, free = self._projection(x)
-        moves = basis_derivatives(self.data, self.structure, self.values(x), b, self.params)
+        moves = basis_derivatives(self.data, self.structure, self.values(x), b, self.params,
+                                  with_effects=True, cache=self.cache)
         a = self.on_rows(b.columns)
         dot_r = np.zeros((len(b.names), len(moves)))                  # dA^T r
         moved = np.zeros((len(moves), len(r)))                         # (dA c)^T
@@ -457,6 +459,14 @@ class Problem:
                             * dtrial[where[amplitude]])
         return out
 
+    def _search_jacobian(self, x: np.ndarray) -> np.ndarray:
+        """:meth:`jacobian` for the optimiser: zero where the model cannot be evaluated (as
+        :meth:`residual` is then constant)."""
+        try:
+            return self.jacobian(x)
+        except (FloatingPointError, ValueError, linalg.LinAlgError):
+            return np.zeros((len(self.rows), len(x)))
+
     def cost(self, values: dict) -> float:
         """Sum of squared residuals at a start value dictionary."""
         r = self.residual(self.start_vector(values))
@@ -464,12 +474,12 @@ class Problem:
 
     def refine(self, x0: np.ndarray, max_nfev: int | None = None, ftol: float = 1e-8) -> np.ndarray:
         """Refine the nonlinear parameters from the search point ``x0``; returns the search
-        point. ``max_nfev`` caps the iterations (each also evaluates a finite-difference
-        Jacobian)."""
+        point. ``max_nfev`` caps the iterations (each also evaluates the Jacobian,
+        :meth:`jacobian`)."""
         if len(x0) == 0:
             return x0
         lo, hi = zip(*(p.bounds() for p in self.params))
-        jac = self.jacobian if self.analytic() else "2-point"
+        jac = self._search_jacobian
         res = optimize.least_squares(self.residual, x0, jac=jac, bounds=(lo, hi), method="trf",
                                      x_scale=1.0, max_nfev=max_nfev or 40 * (len(x0) + 1),
                                      diff_step=1e-6, xtol=1e-8, ftol=ftol, gtol=1e-8)

@@ -388,46 +388,122 @@ def with_step_times(data: Data, b: Basis, taus: np.ndarray, cache: dict | None =
                    step_bounds=tuple(bounds), step_mids=tuple(mids))
 
 
-def basis_derivatives(data: Data, structure: Structure, values: dict, b: Basis,
-                      params) -> list[list[tuple[int, np.ndarray]]] | None:
-    """Analytic derivatives of the basis by the nonlinear parameters of a Prony model without
-    effects: a time constant moves its lag column (derivatives by the lags' own recursion,
+def basis_derivatives(data: Data, structure: Structure, values: dict, b: Basis, params,
+                      with_effects: bool = False,
+                      cache: dict | None = None) -> list[list[tuple[int, np.ndarray]]] | None:
+    """Derivatives of the basis by the nonlinear parameters.
+
+    Analytic for a time constant or an initial state of lags that no effect changes: a time
+    constant moves its lag column (derivatives by the lags' own recursion,
     :func:`~creepcomp.lti.lag_tau_derivatives`) and its step-time columns
-    (:func:`with_step_times`); an initial state moves its lag column.
+    (:func:`with_step_times`); an initial state moves its lag column; an effect's columns
+    that read the lags (:attr:`Effect.columns_from_lags`) move with them (a difference of
+    those columns along the lags' derivative). Any other parameter (an effect's own, or a
+    time constant of lags an effect changes) moves the columns by a forward difference of
+    the basis alone (:func:`_column_differences`).
+
+    Parameters
+    ----------
+    data, structure, values, b
+        The record, the model, the values at which ``b`` is the basis.
+    params : sequence of Param
+        The parameters to differentiate by.
+    with_effects : bool
+        Also for a structure that applies effects (default: None for it).
+    cache : dict, optional
+        The fitting problem's cache (:func:`basis`), for the differences.
 
     Returns
     -------
     list of list of (int, numpy.ndarray) or None
         Per parameter of ``params``, the columns it moves: (column index, that column's
         derivative by the parameter's search coordinate); None when the structure applies
-        effects (their columns may move with any parameter: differentiate numerically).
+        effects and ``with_effects`` is False.
     """
-    if structure.effects:
+    if structure.effects and not with_effects:
         return None
     t, h = data.time, b.creep_input
     taus = taus_of(values, structure.n_terms)
+    plain_lags = not any(a.effect.changes_lags for a in structure.effects)
     slope = None
     if data.initial == "step":
         since = data.t0 - data.load_step_at
         slope = -h[0] * np.exp(-since / taus) * since / taus ** 2
-    needs_tau = any(p.name.startswith("tau[") for p in params)
+    needs_tau = plain_lags and any(p.name.startswith("tau[") for p in params)
     dtau = lag_tau_derivatives(t, h, taus, b.lags, data.hold, slope) if needs_tau else None
     steps: dict[int, list[tuple[int, float]]] = {}
     for (col, k, _), mid in zip(b.step_bounds, b.step_mids):
         steps.setdefault(k, []).append((col, mid))
     out = []
     for p in params:
+        if not (plain_lags and p.name.startswith(("tau[", "c0["))):
+            if not structure.effects:
+                return None
+            out.append(_column_differences(data, structure, values, b, p, cache))
+            continue
         k = int(p.name[p.name.index("[") + 1:-1])
         column = b.names.index(f"a[{k}]")
         if p.name.startswith("tau["):
-            moves = [(column, dtau[:, k] * taus[k])]          # search coordinate: log tau
+            lag = dtau[:, k] * taus[k]          # search coordinate: log tau
+            moves = [(column, lag)]
             for col, mid in steps.get(k, ()):
                 # a step column -dh/tau exp(-(t - mid)/tau) (zero before its step): by log tau
                 # it is the column times ((t - mid)/tau - 1)
                 moves.append((col, b.columns[:, col] * ((t - mid) / taus[k] - 1.0)))
-            out.append(moves)
-        elif p.name.startswith("c0["):
-            out.append([(column, decay(t - t[0], taus[k]) * p.scale)])
         else:
-            return None
+            lag = decay(t - t[0], taus[k]) * p.scale
+            moves = [(column, lag)]
+        moves += _lag_reading_moves(data, structure, values, b, k, lag)
+        out.append(moves)
+    return out
+
+
+#: Relative step of the forward differences of :func:`_column_differences` (that of the
+#: optimiser's own differences).
+_DIFF_STEP = 1e-6
+
+
+def _column_differences(data: Data, structure: Structure, values: dict, b: Basis, p: Param,
+                        cache: dict | None) -> list[tuple[int, np.ndarray]]:
+    """The columns of ``b`` that a parameter moves, and their derivatives by its search
+    coordinate, by a forward difference of the basis (step :data:`_DIFF_STEP` relative, away
+    from the nearer bound as the optimiser steps): the basis alone is evaluated again (its
+    lags reused when the parameter does not change them), not the projection."""
+    x = p.to_search(values[p.name])
+    step = _DIFF_STEP * (1.0 if x >= 0 else -1.0) * max(1.0, abs(x))
+    lo, hi = p.bounds()
+    if not lo <= x + step <= hi:
+        step = -step
+    moved = dict(values)
+    moved[p.name] = p.from_search(x + step)
+    bp = basis(data, structure, moved, cache)
+    if b.step_bounds:
+        bp = with_step_times(data, bp, taus_of(moved, structure.n_terms), cache)
+    diff = bp.columns - b.columns
+    diff /= step
+    return [(col, diff[:, col]) for col in np.flatnonzero(np.any(diff != 0.0, axis=0))]
+
+
+def _lag_reading_moves(data: Data, structure: Structure, values: dict, b: Basis, k: int,
+                       lag: np.ndarray) -> list[tuple[int, np.ndarray]]:
+    """The effect columns that read the lag states (:attr:`Effect.columns_from_lags`) and
+    their derivatives when lag ``k`` moves by ``lag`` per unit of a parameter: a forward
+    difference of those columns alone."""
+    readers = [a for a in structure.effects if getattr(a.effect, "columns_from_lags", True)]
+    if not readers:
+        return []
+    size = float(np.max(np.abs(lag)))
+    if size == 0.0:
+        return []
+    step = _DIFF_STEP * max(1.0, float(np.max(np.abs(b.lags[:, k])))) / size
+    lags = b.lags.copy()
+    lags[:, k] += step * lag
+    out = []
+    for a in readers:
+        own = a.own(values)
+        for name, col in a.effect.columns(data, b.instant, b.creep_input, lags, own, a).items():
+            at = b.names.index(f"{a.name}.{name}")
+            d = (col - b.columns[:, at]) / step
+            if np.any(d != 0.0):
+                out.append((at, d))
     return out
