@@ -21,8 +21,8 @@ from scipy.linalg import lapack
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.noise import SPARSE_SAMPLES, ARNoise, fit_noise, gaussian_bic, rows_for, whiten
-from creepcomp.fit.structure import (Basis, Param, Structure, basis, basis_derivatives, load_steps,
-                                     taus_of, with_step_times)
+from creepcomp.fit.structure import (DIFF_STEP, Basis, Param, Structure, basis, basis_derivatives,
+                                     load_steps, taus_of, with_step_times)
 from creepcomp.model import CreepModel
 
 __all__ = ["Fit", "ANCHOR_WEIGHT", "Problem", "best_of_starts", "fit_structure", "with_noise",
@@ -259,6 +259,14 @@ def _scaled_inverse(a: np.ndarray, gram: np.ndarray | None = None):
     return norms, (vec[:, keep] / eig[keep]) @ vec[:, keep].T
 
 
+def _anchored_inverse(gram: np.ndarray):
+    """The norms of the columns and the inverse of their unit-scaled Gram matrix plus the
+    anchor's ridge (:data:`ANCHOR_WEIGHT`): the response of the coefficients :func:`_solve`
+    finds with a ``prior``, as :func:`_scaled_inverse` is of those it finds without."""
+    norms, scaled = unit_scaled(gram)
+    return norms, np.linalg.inv(scaled + ANCHOR_WEIGHT * np.eye(len(norms)))
+
+
 #: Points whose projection a :class:`Problem` keeps.
 _PROJECTIONS_KEPT = 3
 
@@ -414,7 +422,8 @@ class Problem:
         if not len(free):
             return -moved.T / self.scale
         af = a if len(free) == a.shape[1] else a[:, free]
-        norms, inverse = _scaled_inverse(af, self._gram(x)[np.ix_(free, free)])
+        gram = self._gram(x)[np.ix_(free, free)]
+        norms, inverse = _anchored_inverse(gram) if self.anchor else _scaled_inverse(af, gram)
         # -(dA c + A dc) with dc = G^-1 (dA^T r - A^T dA c) on the free columns
         shift = inverse @ (((moved @ af).T - dot_r[free]) / norms[:, None])
         jac = (shift / norms[:, None]).T @ af.T
@@ -439,8 +448,11 @@ class Problem:
         trial = np.array([self.fixed.get(n, 0.0) for n in b.names])
         target = self.y - a[:, ~plain] @ trial[~plain]
         ap = a[:, plain]
-        norms, inverse = _scaled_inverse(ap)
-        trial[plain] = (inverse @ ((ap.T @ target) / norms)) / norms
+        norms, inverse = _anchored_inverse(ap.T @ ap) if self.anchor else _scaled_inverse(ap)
+        rhs = (ap.T @ target) / norms
+        if self.anchor:          # as _step_limits solves it: pulled towards the anchor
+            rhs += ANCHOR_WEIGHT * np.array([float(self.anchor.get(n, 0.0)) for n in b.names])[plain] * norms
+        trial[plain] = (inverse @ rhs) / norms
         rp = target - ap @ trial[plain]
         moved = np.zeros((len(rp), len(moves)))
         dot_r = np.zeros((len(b.names), len(moves)))
@@ -460,12 +472,21 @@ class Problem:
         return out
 
     def _search_jacobian(self, x: np.ndarray) -> np.ndarray:
-        """:meth:`jacobian` for the optimiser: zero where the model cannot be evaluated (as
-        :meth:`residual` is then constant)."""
+        """:meth:`jacobian` for the optimiser, with the derivatives by a parameter that moves
+        the residual less than its rounding over a step of :data:`DIFF_STEP` set to zero: a
+        direction the fitted samples do not see (an initial state decayed before them) would
+        otherwise be moved as far as the trust region allows, by a gradient of rounding
+        size. Zero where the model cannot be evaluated (:meth:`residual` is then constant)."""
         try:
-            return self.jacobian(x)
+            jac = self.jacobian(x)
         except (FloatingPointError, ValueError, linalg.LinAlgError):
             return np.zeros((len(self.rows), len(x)))
+        r = self.residual(x)
+        unseen = (np.max(np.abs(jac), axis=0) * DIFF_STEP * np.maximum(1.0, np.abs(x))
+                  <= np.finfo(float).eps * np.max(np.abs(r)))
+        if unseen.any():
+            jac[:, unseen] = 0.0
+        return jac
 
     def cost(self, values: dict) -> float:
         """Sum of squared residuals at a start value dictionary."""
@@ -482,7 +503,7 @@ class Problem:
         jac = self._search_jacobian
         res = optimize.least_squares(self.residual, x0, jac=jac, bounds=(lo, hi), method="trf",
                                      x_scale=1.0, max_nfev=max_nfev or 40 * (len(x0) + 1),
-                                     diff_step=1e-6, xtol=1e-8, ftol=ftol, gtol=1e-8)
+                                     xtol=1e-8, ftol=ftol, gtol=1e-8)
         return res.x
 
 

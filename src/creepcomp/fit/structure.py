@@ -27,7 +27,7 @@ from creepcomp.fit.data import Data
 from creepcomp.lti import decay, lag_states, lag_tau_derivatives, varying_lag_states
 
 __all__ = ["Param", "Applied", "Structure", "taus_of", "Basis", "basis", "ABRUPT_FACTOR", "load_steps",
-           "with_step_times", "basis_derivatives"]
+           "with_step_times", "basis_derivatives", "DIFF_STEP"]
 
 #: Iterations of the mode switching of lags whose time constant depends on their state.
 _MODE_ITERATIONS = 50
@@ -458,19 +458,19 @@ def basis_derivatives(data: Data, structure: Structure, values: dict, b: Basis, 
     return out
 
 
-#: Relative step of the forward differences of :func:`_column_differences` (that of the
-#: optimiser's own differences).
-_DIFF_STEP = 1e-6
+#: Relative step of the differences of the basis (:func:`_column_differences`), and the
+#: resolution of a parameter in a refinement (:meth:`~creepcomp.fit.solver.Problem.refine`).
+DIFF_STEP = 1e-6
 
 
 def _column_differences(data: Data, structure: Structure, values: dict, b: Basis, p: Param,
                         cache: dict | None) -> list[tuple[int, np.ndarray]]:
     """The columns of ``b`` that a parameter moves, and their derivatives by its search
-    coordinate, by a forward difference of the basis (step :data:`_DIFF_STEP` relative, away
+    coordinate, by a forward difference of the basis (step :data:`DIFF_STEP` relative, away
     from the nearer bound as the optimiser steps): the basis alone is evaluated again (its
     lags reused when the parameter does not change them), not the projection."""
     x = p.to_search(values[p.name])
-    step = _DIFF_STEP * (1.0 if x >= 0 else -1.0) * max(1.0, abs(x))
+    step = DIFF_STEP * (1.0 if x >= 0 else -1.0) * max(1.0, abs(x))
     lo, hi = p.bounds()
     if not lo <= x + step <= hi:
         step = -step
@@ -495,7 +495,7 @@ def _lag_reading_moves(data: Data, structure: Structure, values: dict, b: Basis,
     size = float(np.max(np.abs(lag)))
     if size == 0.0:
         return []
-    step = _DIFF_STEP * max(1.0, float(np.max(np.abs(b.lags[:, k])))) / size
+    step = DIFF_STEP * max(1.0, float(np.max(np.abs(b.lags[:, k])))) / size
     lags = b.lags.copy()
     lags[:, k] += step * lag
     out = []
