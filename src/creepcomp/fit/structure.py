@@ -24,7 +24,8 @@ from typing import Any
 import numpy as np
 
 from creepcomp.fit.data import Data
-from creepcomp.lti import decay, lag_states, lag_tau_derivatives, varying_lag_states
+from creepcomp.lti import (decay, lag_states, lag_tau_derivatives, varying_lag_derivatives,
+                           varying_lag_states)
 
 __all__ = ["Param", "Applied", "Structure", "taus_of", "Basis", "basis", "ABRUPT_FACTOR", "load_steps",
            "with_step_times", "basis_derivatives", "DIFF_STEP"]
@@ -424,11 +425,11 @@ def basis_derivatives(data: Data, structure: Structure, values: dict, b: Basis, 
         return None
     t, h = data.time, b.creep_input
     taus = taus_of(values, structure.n_terms)
-    plain_lags = not any(a.effect.changes_lags for a in structure.effects)
-    slope = None
-    if data.initial == "step":
-        since = data.t0 - data.load_step_at
-        slope = -h[0] * np.exp(-since / taus) * since / taus ** 2
+    dynamic = [a for a in structure.effects if a.effect.changes_lags]
+    if dynamic and all(a.effect.state_dependent for a in dynamic):
+        return _state_dependent_derivatives(data, structure, values, b, params, dynamic, cache)
+    plain_lags = not dynamic
+    slope = _initial_slope(data, h, taus)
     needs_tau = plain_lags and any(p.name.startswith("tau[") for p in params)
     dtau = lag_tau_derivatives(t, h, taus, b.lags, data.hold, slope) if needs_tau else None
     steps: dict[int, list[tuple[int, float]]] = {}
@@ -453,7 +454,97 @@ def basis_derivatives(data: Data, structure: Structure, values: dict, b: Basis, 
         else:
             lag = decay(t - t[0], taus[k]) * p.scale
             moves = [(column, lag)]
-        moves += _lag_reading_moves(data, structure, values, b, k, lag)
+        lags = np.zeros_like(b.lags)
+        lags[:, k] = lag
+        moves += _lag_reading_moves(data, structure, values, b, lags)
+        out.append(moves)
+    return out
+
+
+def _initial_slope(data: Data, h: np.ndarray, taus: np.ndarray) -> np.ndarray | None:
+    """``d c_k[0] / d tau_k`` of the lags' initial state (None: it does not depend on tau)."""
+    if data.initial != "step":
+        return None
+    since = data.t0 - data.load_step_at
+    return -h[0] * np.exp(-since / taus) * since / taus ** 2
+
+
+def _step_taus(data: Data, h, lags, taus, effects, values) -> np.ndarray:
+    """The time constants of the lags over each sample step, shape (N-1, K), that the
+    ``state_dependent`` ``effects`` give for these lag states (the modes of
+    :func:`_state_dependent_lags`, found again on the same segments)."""
+    n = len(h)
+    out = np.empty((n - 1, len(taus)))
+    start = 0
+    while start < n - 1:
+        end = min(start + _SEGMENT, n - 1)
+        factor = np.ones((end - start, len(taus)))
+        for a in effects:
+            factor = factor * a.effect.tau_factor(data, h[start:end + 1], lags[start:end + 1], taus,
+                                                  a.own(values), a)
+        out[start:end] = factor
+        start = end
+    return out * taus[None, :]
+
+
+def _lags_only(effect) -> bool:
+    """The effect changes nothing but the lags' time constants (its parameters enter the
+    basis through :meth:`tau_factor` alone)."""
+    kind = type(effect)
+    for stage in ("load_transform", "instant", "creep_input", "columns"):
+        first = [c for c in kind.__mro__ if stage in vars(c)][-1]     # where the default is
+        if getattr(kind, stage) is not vars(first)[stage]:
+            return False
+    return True
+
+
+def _state_dependent_derivatives(data: Data, structure: Structure, values: dict, b: Basis, params,
+                                 dynamic, cache: dict | None) -> list[list[tuple[int, np.ndarray]]]:
+    """:func:`basis_derivatives` of a structure whose lags' time constants depend on their
+    state (and on no other lag-changing effect): with the modes held (they switch at
+    isolated points), the time constants of the steps move with a time constant or an
+    effect's own parameter (a difference of :meth:`tau_factor` alone, the lags held) and the
+    lags by the forward-mode recursion :func:`~creepcomp.lti.varying_lag_derivatives`; an
+    initial state moves the lags through the same recursion. Parameters that enter the basis
+    elsewhere are differenced (:func:`_column_differences`)."""
+    t, h = data.time, b.creep_input
+    n_terms = structure.n_terms
+    taus = taus_of(values, n_terms)
+    step_taus = _step_taus(data, h, b.lags, taus, dynamic, values)
+    slope = _initial_slope(data, h, taus)
+    lag_columns = [b.names.index(f"a[{k}]") for k in range(n_terms)]
+    steps: dict[int, list[tuple[int, float]]] = {}
+    for (col, k, _), mid in zip(b.step_bounds, b.step_mids):
+        steps.setdefault(k, []).append((col, mid))
+    own = {f"{a.name}.{p.name}" for a in dynamic if _lags_only(a.effect)
+           for p in a.effect.nonlinear_params(data, a)}
+    out = []
+    for p in params:
+        is_tau, is_c0 = p.name.startswith("tau["), p.name.startswith("c0[")
+        if not (is_tau or is_c0 or p.name in own):
+            out.append(_column_differences(data, structure, values, b, p, cache))
+            continue
+        initial = np.zeros(n_terms)
+        tau_slopes = np.zeros_like(step_taus)
+        if is_c0:
+            k = int(p.name[3:-1])
+            initial[k] = p.scale
+        else:
+            x = p.to_search(values[p.name])
+            step = DIFF_STEP * max(1.0, abs(x))
+            moved = dict(values, **{p.name: p.from_search(x + step)})
+            tau_slopes = (_step_taus(data, h, b.lags, taus_of(moved, n_terms), dynamic, moved)
+                          - step_taus) / step
+            if is_tau and slope is not None:
+                k = int(p.name[4:-1])
+                initial[k] = slope[k] * taus[k]
+        lags = varying_lag_derivatives(t, h, step_taus, b.lags, tau_slopes, data.hold, initial)
+        moves = [(col, lags[:, k]) for k, col in enumerate(lag_columns) if np.any(lags[:, k] != 0.0)]
+        if is_tau:
+            k = int(p.name[4:-1])
+            for col, mid in steps.get(k, ()):
+                moves.append((col, b.columns[:, col] * ((t - mid) / taus[k] - 1.0)))
+        moves += _lag_reading_moves(data, structure, values, b, lags)
         out.append(moves)
     return out
 
@@ -484,20 +575,19 @@ def _column_differences(data: Data, structure: Structure, values: dict, b: Basis
     return [(col, diff[:, col]) for col in np.flatnonzero(np.any(diff != 0.0, axis=0))]
 
 
-def _lag_reading_moves(data: Data, structure: Structure, values: dict, b: Basis, k: int,
-                       lag: np.ndarray) -> list[tuple[int, np.ndarray]]:
+def _lag_reading_moves(data: Data, structure: Structure, values: dict, b: Basis,
+                       slopes: np.ndarray) -> list[tuple[int, np.ndarray]]:
     """The effect columns that read the lag states (:attr:`Effect.columns_from_lags`) and
-    their derivatives when lag ``k`` moves by ``lag`` per unit of a parameter: a forward
-    difference of those columns alone."""
+    their derivatives when the lags move by ``slopes`` (N, K) per unit of a parameter: a
+    forward difference of those columns alone."""
     readers = [a for a in structure.effects if getattr(a.effect, "columns_from_lags", True)]
     if not readers:
         return []
-    size = float(np.max(np.abs(lag)))
+    size = float(np.max(np.abs(slopes)))
     if size == 0.0:
         return []
-    step = DIFF_STEP * max(1.0, float(np.max(np.abs(b.lags[:, k])))) / size
-    lags = b.lags.copy()
-    lags[:, k] += step * lag
+    step = DIFF_STEP * max(1.0, float(np.max(np.abs(b.lags)))) / size
+    lags = b.lags + step * slopes
     out = []
     for a in readers:
         own = a.own(values)
