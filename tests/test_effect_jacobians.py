@@ -66,3 +66,39 @@ def test_lag_parameters_of_a_plain_lag_model_are_analytic():
         assert [c for c, _ in m1] == [c for c, _ in m2]
         for (_, d1), (_, d2) in zip(m1, m2):
             np.testing.assert_array_equal(d1, d2)
+
+
+@pytest.mark.parametrize("hold", ["linear", "zero"])
+def test_varying_lag_derivatives_match_central_differences(hold):
+    """The forward-mode recursion of lags whose time constants change step by step equals
+    central differences of the lags along a direction of those time constants and of the
+    initial state."""
+    from creepcomp.lti import varying_lag_derivatives, varying_lag_states
+
+    rng = np.random.default_rng(1)
+    t = np.cumsum(rng.uniform(0.05, 0.3, 3000))
+    u = np.repeat(rng.normal(size=30), 100)
+    taus = np.column_stack([np.where(np.arange(2999) % 700 < 350, 2.0, 9.0), np.full(2999, 60.0)])
+    slopes = np.column_stack([taus[:, 0] * (np.arange(2999) % 700 < 350), taus[:, 1]])
+    c0 = np.array([0.3, -0.2])
+    states = varying_lag_states(t, u, taus, hold=hold, initial=c0)
+    out = varying_lag_derivatives(t, u, taus, states, slopes, hold, initial_slope=[0.5, 0.0])
+    h = 1e-6
+    fd = (varying_lag_states(t, u, taus + h * slopes, hold=hold, initial=c0 + h * np.array([0.5, 0.0]))
+          - varying_lag_states(t, u, taus - h * slopes, hold=hold, initial=c0 - h * np.array([0.5, 0.0]))) / (2 * h)
+    assert np.max(np.abs(out - fd)) <= 1e-6 * np.max(np.abs(fd))
+
+
+def test_recovery_switched_by_the_load_direction_has_the_jacobian_of_its_differences():
+    problem, x = _problem("asymmetric_recovery")
+    effect = effects.get("asymmetric_recovery")
+    applied = problem.structure.effects[-1]
+    structure = Structure(problem.structure.n_terms,
+                          (type(applied)(effect, applied.settings + (("switch", "direction"),)),))
+    problem = Problem(problem.data, structure)
+    jac = problem.jacobian(x)
+    step = 1e-6 * np.maximum(1.0, np.abs(x))
+    fd = np.column_stack([(problem.residual(x + h * e) - problem.residual(x - h * e)) / (2 * h)
+                          for h, e in zip(step, np.eye(len(x)))])
+    scale = np.max(np.abs(fd), axis=0)
+    assert np.all(np.max(np.abs(jac - fd), axis=0) <= 1e-3 * scale + 1e-6 * scale.max())
