@@ -568,11 +568,18 @@ def _column_differences(data: Data, structure: Structure, values: dict, b: Basis
     moved = dict(values)
     moved[p.name] = p.from_search(x + step)
     bp = basis(data, structure, moved, cache)
-    if b.step_bounds:
-        bp = with_step_times(data, bp, taus_of(moved, structure.n_terms), cache)
-    diff = bp.columns - b.columns
+    own = bp.columns.shape[1]                  # the columns before the step times'
+    diff = bp.columns - b.columns[:, :own]
     diff /= step
-    return [(col, diff[:, col]) for col in np.flatnonzero(np.any(diff != 0.0, axis=0))]
+    out = [(col, diff[:, col]) for col in np.flatnonzero(np.any(diff != 0.0, axis=0))]
+    taus = taus_of(moved, structure.n_terms)
+    if b.step_bounds and not (np.array_equal(taus, taus_of(values, structure.n_terms))
+                              and np.array_equal(bp.creep_input, b.creep_input)):
+        # the step-time columns follow the time constants and the creep input only
+        steps = with_step_times(data, bp, taus, cache).columns[:, own:] - b.columns[:, own:]
+        steps /= step
+        out += [(own + j, steps[:, j]) for j in np.flatnonzero(np.any(steps != 0.0, axis=0))]
+    return out
 
 
 def _lag_reading_moves(data: Data, structure: Structure, values: dict, b: Basis,
