@@ -22,9 +22,9 @@ if TYPE_CHECKING:
     import control
 
 __all__ = ["LagExpansion", "UNIFORM_RTOL", "lag_coefficients", "is_uniform", "lag_states",
-           "varying_lag_derivatives", "cascade_matrices", "cascade_step", "cascade_step_arrays", "triangle_lag_gap",
+           "cascade_matrices", "cascade_step", "cascade_step_arrays", "triangle_lag_gap",
            "cascade_lags", "varying_lag_states", "lag_tau_derivatives", "first_order_filter",
-           "decay", "DECAY_FLOOR"]
+           "decay", "DECAY_FLOOR", "varying_lag_derivatives"]
 
 #: Relative spread of time steps below which sampling counts as uniform (then a recursion
 #: with constant coefficients runs, :func:`first_order_filter`; the coefficient error this
