@@ -393,7 +393,8 @@ class Problem:
             return np.full(len(self.rows), 1e30)
 
     def analytic(self) -> bool:
-        """True when the residual's Jacobian is analytic (a Prony model without effects)."""
+        """True when the basis's derivatives are analytic for every parameter (a Prony model
+        without effects): the covariance then uses them (else central differences)."""
         return not self.structure.effects and all(
             p.name.startswith(("tau[", "c0[")) for p in self.params)
 
@@ -451,7 +452,8 @@ class Problem:
         norms, inverse = _anchored_inverse(ap.T @ ap) if self.anchor else _scaled_inverse(ap)
         rhs = (ap.T @ target) / norms
         if self.anchor:          # as _step_limits solves it: pulled towards the anchor
-            rhs += ANCHOR_WEIGHT * np.array([float(self.anchor.get(n, 0.0)) for n in b.names])[plain] * norms
+            prior = np.array([float(self.anchor.get(n, 0.0)) for n in b.names])
+            rhs += ANCHOR_WEIGHT * prior[plain] * norms
         trial[plain] = (inverse @ rhs) / norms
         rp = target - ap @ trial[plain]
         moved = np.zeros((len(rp), len(moves)))
