@@ -539,7 +539,8 @@ def _state_dependent_derivatives(data: Data, structure: Structure, values: dict,
                 k = int(p.name[4:-1])
                 initial[k] = slope[k] * taus[k]
         lags = varying_lag_derivatives(t, h, step_taus, b.lags, tau_slopes, data.hold, initial)
-        moves = [(col, lags[:, k]) for k, col in enumerate(lag_columns) if np.any(lags[:, k] != 0.0)]
+        moves = [(col, lags[:, k]) for k, col in enumerate(lag_columns)
+                 if np.any(lags[:, k] != 0.0)]
         if is_tau:
             k = int(p.name[4:-1])
             for col, mid in steps.get(k, ()):
