@@ -399,9 +399,10 @@ def basis_derivatives(data: Data, structure: Structure, values: dict, b: Basis, 
     :func:`~creepcomp.lti.lag_tau_derivatives`) and its step-time columns
     (:func:`with_step_times`); an initial state moves its lag column; an effect's columns
     that read the lags (:attr:`Effect.columns_from_lags`) move with them (a difference of
-    those columns along the lags' derivative). Any other parameter (an effect's own, or a
-    time constant of lags an effect changes) moves the columns by a forward difference of
-    the basis alone (:func:`_column_differences`).
+    those columns along the lags' derivative). Lags whose time constants depend on their
+    own state: by a forward-mode recursion (:func:`_state_dependent_derivatives`). Any other
+    parameter (an effect's own, or a time constant of lags another effect changes) moves the
+    columns by a forward difference of the basis alone (:func:`_column_differences`).
 
     Parameters
     ----------
