@@ -24,7 +24,7 @@ if TYPE_CHECKING:
 __all__ = ["LagExpansion", "UNIFORM_RTOL", "lag_coefficients", "is_uniform", "lag_states",
            "cascade_matrices", "cascade_step", "cascade_step_arrays", "triangle_lag_gap",
            "cascade_lags", "varying_lag_states", "lag_tau_derivatives", "first_order_filter",
-           "decay", "DECAY_FLOOR"]
+           "decay", "DECAY_FLOOR", "varying_lag_derivatives"]
 
 #: Relative spread of time steps below which sampling counts as uniform (then a recursion
 #: with constant coefficients runs, :func:`first_order_filter`; the coefficient error this
@@ -569,6 +569,14 @@ def varying_lag_states(time, u, taus, hold: str = "linear", initial="relaxed") -
         raise InputError("time constants must be positive")
     e, b0, b1 = lag_coefficients(dt[:, None], taus, hold)
     drive = b0 * u[:-1, None] + b1 * u[1:, None]
+    _varying_solve(dt, taus, e, drive, c0, out)
+    return out
+
+
+def _varying_solve(dt, taus, e, drive, c0, out) -> None:
+    """Solve ``c[n+1] = e[n] c[n] + drive[n]`` (``e[n] = exp(-dt[n] / taus[n])``) into ``out``
+    from ``c[0] = c0``, in vectorised blocks of bounded decay (:func:`varying_lag_states`)."""
+    n, k = out.shape
     # a step of more decay than a block holds ends its block (its own e is exact there), so
     # capping it keeps the cumulative decay finite when a time constant is tiny
     rates = np.minimum(dt[:, None] / taus, _BLOCK_DECAY)
@@ -591,6 +599,44 @@ def varying_lag_states(time, u, taus, hold: str = "linear", initial="relaxed") -
             growth = np.exp(decay[i0 + 1:i1] - decay[i0])     # <= exp(500) within a block
             acc = np.cumsum(drive[i0:i1 - 1] * growth, axis=0)
             out[i0 + 1:i1] = (c + acc) / growth
+
+
+def varying_lag_derivatives(time, u, taus, states, tau_slopes, hold: str = "linear",
+                            initial_slope=None) -> np.ndarray:
+    """Derivatives of the states of :func:`varying_lag_states` by one parameter that moves
+    the time constants of the steps, exact for the discretisation (forward mode): with
+    ``T`` the time constants and ``T'`` their derivatives, differentiating
+    ``c[n+1] = e c[n] + b0 u[n] + b1 u[n+1]`` gives the same recursion
+    ``d[n+1] = e d[n] + (e_T c[n] + b0_T u[n] + b1_T u[n+1]) T'[n]``.
+
+    Parameters
+    ----------
+    time, u : array_like, shape (N,)
+    taus, tau_slopes : array_like, shape (N-1, K)
+        The time constants of each lag over each step, and their derivatives.
+    states : numpy.ndarray, shape (N, K)
+        The lags' states (:func:`varying_lag_states` with the same arguments).
+    hold : {"linear", "zero"}
+    initial_slope : array_like, shape (K,), optional
+        Derivatives of the states at ``time[0]`` (default zero).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(N, K)``.
+    """
+    t = np.asarray(time, dtype=float)
+    u = np.asarray(u, dtype=float)
+    taus = np.asarray(taus, dtype=float)
+    n, k = states.shape
+    out = np.empty((n, k))
+    out[0] = 0.0 if initial_slope is None else np.asarray(initial_slope, float)
+    if n < 2 or k == 0:
+        return out
+    dt = np.diff(t)
+    e, de, db0, db1 = _coefficient_slopes(dt[:, None] / taus, taus, hold)
+    drive = (de * states[:-1] + db0 * u[:-1, None] + db1 * u[1:, None]) * tau_slopes
+    _varying_solve(dt, taus, e, drive, out[0].copy(), out)
     return out
 
 

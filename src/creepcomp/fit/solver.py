@@ -21,8 +21,8 @@ from scipy.linalg import lapack
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.noise import ARNoise, ar_order, fit_noise, gaussian_bic, is_sparse, rows_for, whiten
-from creepcomp.fit.structure import (Basis, Param, Structure, basis, basis_derivatives, load_steps,
-                                     taus_of, with_step_times)
+from creepcomp.fit.structure import (DIFF_STEP, Basis, Param, Structure, basis, basis_derivatives,
+                                     load_steps, taus_of, with_step_times)
 from creepcomp.model import CreepModel
 
 __all__ = ["Fit", "ANCHOR_WEIGHT", "Problem", "best_of_starts", "fit_structure", "with_noise",
@@ -259,6 +259,14 @@ def _scaled_inverse(a: np.ndarray, gram: np.ndarray | None = None):
     return norms, (vec[:, keep] / eig[keep]) @ vec[:, keep].T
 
 
+def _anchored_inverse(gram: np.ndarray):
+    """The norms of the columns and the inverse of their unit-scaled Gram matrix plus the
+    anchor's ridge (:data:`ANCHOR_WEIGHT`): the response of the coefficients :func:`_solve`
+    finds with a ``prior``, as :func:`_scaled_inverse` is of those it finds without."""
+    norms, scaled = unit_scaled(gram)
+    return norms, np.linalg.inv(scaled + ANCHOR_WEIGHT * np.eye(len(norms)))
+
+
 #: Points whose projection a :class:`Problem` keeps.
 _PROJECTIONS_KEPT = 3
 
@@ -385,7 +393,8 @@ class Problem:
             return np.full(len(self.rows), 1e30)
 
     def analytic(self) -> bool:
-        """True when the residual's Jacobian is analytic (a Prony model without effects)."""
+        """True when the basis's derivatives are analytic for every parameter (a Prony model
+        without effects): the covariance then uses them (else central differences)."""
         return not self.structure.effects and all(
             p.name.startswith(("tau[", "c0[")) for p in self.params)
 
@@ -393,10 +402,12 @@ class Problem:
         """Jacobian of :meth:`residual` (variable projection, Golub and Pereyra): for each
         nonlinear parameter, ``-(dA c + A dc)`` with the linear coefficients' response
         ``dc = G^-1 (dA^T r - A^T dA c)`` on the free columns (``G = A^T A``); the columns'
-        derivatives are analytic (:func:`creepcomp.fit.structure.basis_derivatives`). A step
+        derivatives are analytic where the lag recursion gives them, else forward differences
+        of the basis alone (:func:`creepcomp.fit.structure.basis_derivatives`). A step
         time held at its bound moves with the creep amplitude that sets the bound."""
         b, coef, r, free = self._projection(x)
-        moves = basis_derivatives(self.data, self.structure, self.values(x), b, self.params)
+        moves = basis_derivatives(self.data, self.structure, self.values(x), b, self.params,
+                                  with_effects=True, cache=self.cache)
         a = self.on_rows(b.columns)
         dot_r = np.zeros((len(b.names), len(moves)))                  # dA^T r
         moved = np.zeros((len(moves), len(r)))                         # (dA c)^T
@@ -412,7 +423,8 @@ class Problem:
         if not len(free):
             return -moved.T / self.scale
         af = a if len(free) == a.shape[1] else a[:, free]
-        norms, inverse = _scaled_inverse(af, self._gram(x)[np.ix_(free, free)])
+        gram = self._gram(x)[np.ix_(free, free)]
+        norms, inverse = _anchored_inverse(gram) if self.anchor else _scaled_inverse(af, gram)
         # -(dA c + A dc) with dc = G^-1 (dA^T r - A^T dA c) on the free columns
         shift = inverse @ (((moved @ af).T - dot_r[free]) / norms[:, None])
         jac = (shift / norms[:, None]).T @ af.T
@@ -437,8 +449,12 @@ class Problem:
         trial = np.array([self.fixed.get(n, 0.0) for n in b.names])
         target = self.y - a[:, ~plain] @ trial[~plain]
         ap = a[:, plain]
-        norms, inverse = _scaled_inverse(ap)
-        trial[plain] = (inverse @ ((ap.T @ target) / norms)) / norms
+        norms, inverse = _anchored_inverse(ap.T @ ap) if self.anchor else _scaled_inverse(ap)
+        rhs = (ap.T @ target) / norms
+        if self.anchor:          # as _step_limits solves it: pulled towards the anchor
+            prior = np.array([float(self.anchor.get(n, 0.0)) for n in b.names])
+            rhs += ANCHOR_WEIGHT * prior[plain] * norms
+        trial[plain] = (inverse @ rhs) / norms
         rp = target - ap @ trial[plain]
         moved = np.zeros((len(rp), len(moves)))
         dot_r = np.zeros((len(b.names), len(moves)))
@@ -457,6 +473,23 @@ class Problem:
                             * dtrial[where[amplitude]])
         return out
 
+    def _search_jacobian(self, x: np.ndarray) -> np.ndarray:
+        """:meth:`jacobian` for the optimiser, with the derivatives by a parameter that moves
+        the residual less than its rounding over a step of :data:`DIFF_STEP` set to zero: a
+        direction the fitted samples do not see (an initial state decayed before them) would
+        otherwise be moved as far as the trust region allows, by a gradient of rounding
+        size. Zero where the model cannot be evaluated (:meth:`residual` is then constant)."""
+        try:
+            jac = self.jacobian(x)
+        except (FloatingPointError, ValueError, linalg.LinAlgError):
+            return np.zeros((len(self.rows), len(x)))
+        r = self.residual(x)
+        unseen = (np.max(np.abs(jac), axis=0) * DIFF_STEP * np.maximum(1.0, np.abs(x))
+                  <= np.finfo(float).eps * np.max(np.abs(r)))
+        if unseen.any():
+            jac[:, unseen] = 0.0
+        return jac
+
     def cost(self, values: dict) -> float:
         """Sum of squared residuals at a start value dictionary."""
         r = self.residual(self.start_vector(values))
@@ -464,15 +497,15 @@ class Problem:
 
     def refine(self, x0: np.ndarray, max_nfev: int | None = None, ftol: float = 1e-8) -> np.ndarray:
         """Refine the nonlinear parameters from the search point ``x0``; returns the search
-        point. ``max_nfev`` caps the iterations (each also evaluates a finite-difference
-        Jacobian)."""
+        point. ``max_nfev`` caps the iterations (each also evaluates the Jacobian,
+        :meth:`jacobian`)."""
         if len(x0) == 0:
             return x0
         lo, hi = zip(*(p.bounds() for p in self.params))
-        jac = self.jacobian if self.analytic() else "2-point"
+        jac = self._search_jacobian
         res = optimize.least_squares(self.residual, x0, jac=jac, bounds=(lo, hi), method="trf",
                                      x_scale=1.0, max_nfev=max_nfev or 40 * (len(x0) + 1),
-                                     diff_step=1e-6, xtol=1e-8, ftol=ftol, gtol=1e-8)
+                                     xtol=1e-8, ftol=ftol, gtol=1e-8)
         return res.x
 
 

@@ -24,10 +24,11 @@ from typing import Any
 import numpy as np
 
 from creepcomp.fit.data import Data
-from creepcomp.lti import decay, lag_states, lag_tau_derivatives, varying_lag_states
+from creepcomp.lti import (decay, lag_states, lag_tau_derivatives, varying_lag_derivatives,
+                           varying_lag_states)
 
 __all__ = ["Param", "Applied", "Structure", "taus_of", "Basis", "basis", "ABRUPT_FACTOR", "load_steps",
-           "with_step_times", "basis_derivatives"]
+           "with_step_times", "basis_derivatives", "DIFF_STEP"]
 
 #: Iterations of the mode switching of lags whose time constant depends on their state.
 _MODE_ITERATIONS = 50
@@ -403,46 +404,220 @@ def _step_decays(t: np.ndarray, steps: np.ndarray, tau: float, cache: dict) -> l
     return out
 
 
-def basis_derivatives(data: Data, structure: Structure, values: dict, b: Basis,
-                      params) -> list[list[tuple[int, np.ndarray]]] | None:
-    """Analytic derivatives of the basis by the nonlinear parameters of a Prony model without
-    effects: a time constant moves its lag column (derivatives by the lags' own recursion,
+def basis_derivatives(data: Data, structure: Structure, values: dict, b: Basis, params,
+                      with_effects: bool = False,
+                      cache: dict | None = None) -> list[list[tuple[int, np.ndarray]]] | None:
+    """Derivatives of the basis by the nonlinear parameters.
+
+    Analytic for a time constant or an initial state of lags that no effect changes: a time
+    constant moves its lag column (derivatives by the lags' own recursion,
     :func:`~creepcomp.lti.lag_tau_derivatives`) and its step-time columns
-    (:func:`with_step_times`); an initial state moves its lag column.
+    (:func:`with_step_times`); an initial state moves its lag column; an effect's columns
+    that read the lags (:attr:`Effect.columns_from_lags`) move with them (a difference of
+    those columns along the lags' derivative). Lags whose time constants depend on their
+    own state: by a forward-mode recursion (:func:`_state_dependent_derivatives`). Any other
+    parameter (an effect's own, or a time constant of lags another effect changes) moves the
+    columns by a forward difference of the basis alone (:func:`_column_differences`).
+
+    Parameters
+    ----------
+    data, structure, values, b
+        The record, the model, the values at which ``b`` is the basis.
+    params : sequence of Param
+        The parameters to differentiate by.
+    with_effects : bool
+        Also for a structure that applies effects (default: None for it).
+    cache : dict, optional
+        The fitting problem's cache (:func:`basis`), for the differences.
 
     Returns
     -------
     list of list of (int, numpy.ndarray) or None
         Per parameter of ``params``, the columns it moves: (column index, that column's
         derivative by the parameter's search coordinate); None when the structure applies
-        effects (their columns may move with any parameter: differentiate numerically).
+        effects and ``with_effects`` is False.
     """
-    if structure.effects:
+    if structure.effects and not with_effects:
         return None
     t, h = data.time, b.creep_input
     taus = taus_of(values, structure.n_terms)
-    slope = None
-    if data.initial == "step":
-        since = data.t0 - data.load_step_at
-        slope = -h[0] * np.exp(-since / taus) * since / taus ** 2
-    needs_tau = any(p.name.startswith("tau[") for p in params)
+    dynamic = [a for a in structure.effects if a.effect.changes_lags]
+    if dynamic and all(a.effect.state_dependent for a in dynamic):
+        return _state_dependent_derivatives(data, structure, values, b, params, dynamic, cache)
+    plain_lags = not dynamic
+    slope = _initial_slope(data, h, taus)
+    needs_tau = plain_lags and any(p.name.startswith("tau[") for p in params)
     dtau = lag_tau_derivatives(t, h, taus, b.lags, data.hold, slope) if needs_tau else None
     steps: dict[int, list[tuple[int, float]]] = {}
     for (col, k, _), mid in zip(b.step_bounds, b.step_mids):
         steps.setdefault(k, []).append((col, mid))
     out = []
     for p in params:
+        if not (plain_lags and p.name.startswith(("tau[", "c0["))):
+            if not structure.effects:
+                return None
+            out.append(_column_differences(data, structure, values, b, p, cache))
+            continue
         k = int(p.name[p.name.index("[") + 1:-1])
         column = b.names.index(f"a[{k}]")
         if p.name.startswith("tau["):
-            moves = [(column, dtau[:, k] * taus[k])]          # search coordinate: log tau
+            lag = dtau[:, k] * taus[k]          # search coordinate: log tau
+            moves = [(column, lag)]
             for col, mid in steps.get(k, ()):
                 # a step column -dh/tau exp(-(t - mid)/tau) (zero before its step): by log tau
                 # it is the column times ((t - mid)/tau - 1)
                 moves.append((col, b.columns[:, col] * ((t - mid) / taus[k] - 1.0)))
-            out.append(moves)
-        elif p.name.startswith("c0["):
-            out.append([(column, decay(t - t[0], taus[k]) * p.scale)])
         else:
-            return None
+            lag = decay(t - t[0], taus[k]) * p.scale
+            moves = [(column, lag)]
+        lags = np.zeros_like(b.lags)
+        lags[:, k] = lag
+        moves += _lag_reading_moves(data, structure, values, b, lags)
+        out.append(moves)
+    return out
+
+
+def _initial_slope(data: Data, h: np.ndarray, taus: np.ndarray) -> np.ndarray | None:
+    """``d c_k[0] / d tau_k`` of the lags' initial state (None: it does not depend on tau)."""
+    if data.initial != "step":
+        return None
+    since = data.t0 - data.load_step_at
+    return -h[0] * np.exp(-since / taus) * since / taus ** 2
+
+
+def _step_taus(data: Data, h, lags, taus, effects, values) -> np.ndarray:
+    """The time constants of the lags over each sample step, shape (N-1, K), that the
+    ``state_dependent`` ``effects`` give for these lag states (the modes of
+    :func:`_state_dependent_lags`, found again on the same segments)."""
+    n = len(h)
+    out = np.empty((n - 1, len(taus)))
+    start = 0
+    while start < n - 1:
+        end = min(start + _SEGMENT, n - 1)
+        factor = np.ones((end - start, len(taus)))
+        for a in effects:
+            factor = factor * a.effect.tau_factor(data, h[start:end + 1], lags[start:end + 1], taus,
+                                                  a.own(values), a)
+        out[start:end] = factor
+        start = end
+    return out * taus[None, :]
+
+
+def _lags_only(effect) -> bool:
+    """The effect changes nothing but the lags' time constants (its parameters enter the
+    basis through :meth:`tau_factor` alone)."""
+    kind = type(effect)
+    for stage in ("load_transform", "instant", "creep_input", "columns"):
+        first = [c for c in kind.__mro__ if stage in vars(c)][-1]     # where the default is
+        if getattr(kind, stage) is not vars(first)[stage]:
+            return False
+    return True
+
+
+def _state_dependent_derivatives(data: Data, structure: Structure, values: dict, b: Basis, params,
+                                 dynamic, cache: dict | None) -> list[list[tuple[int, np.ndarray]]]:
+    """:func:`basis_derivatives` of a structure whose lags' time constants depend on their
+    state (and on no other lag-changing effect): with the modes held (they switch at
+    isolated points), the time constants of the steps move with a time constant or an
+    effect's own parameter (a difference of :meth:`tau_factor` alone, the lags held) and the
+    lags by the forward-mode recursion :func:`~creepcomp.lti.varying_lag_derivatives`; an
+    initial state moves the lags through the same recursion. Parameters that enter the basis
+    elsewhere are differenced (:func:`_column_differences`)."""
+    t, h = data.time, b.creep_input
+    n_terms = structure.n_terms
+    taus = taus_of(values, n_terms)
+    step_taus = _step_taus(data, h, b.lags, taus, dynamic, values)
+    slope = _initial_slope(data, h, taus)
+    lag_columns = [b.names.index(f"a[{k}]") for k in range(n_terms)]
+    steps: dict[int, list[tuple[int, float]]] = {}
+    for (col, k, _), mid in zip(b.step_bounds, b.step_mids):
+        steps.setdefault(k, []).append((col, mid))
+    own = {f"{a.name}.{p.name}" for a in dynamic if _lags_only(a.effect)
+           for p in a.effect.nonlinear_params(data, a)}
+    out = []
+    for p in params:
+        is_tau, is_c0 = p.name.startswith("tau["), p.name.startswith("c0[")
+        if not (is_tau or is_c0 or p.name in own):
+            out.append(_column_differences(data, structure, values, b, p, cache))
+            continue
+        initial = np.zeros(n_terms)
+        tau_slopes = np.zeros_like(step_taus)
+        if is_c0:
+            k = int(p.name[3:-1])
+            initial[k] = p.scale
+        else:
+            x = p.to_search(values[p.name])
+            step = DIFF_STEP * max(1.0, abs(x))
+            moved = dict(values, **{p.name: p.from_search(x + step)})
+            tau_slopes = (_step_taus(data, h, b.lags, taus_of(moved, n_terms), dynamic, moved)
+                          - step_taus) / step
+            if is_tau and slope is not None:
+                k = int(p.name[4:-1])
+                initial[k] = slope[k] * taus[k]
+        lags = varying_lag_derivatives(t, h, step_taus, b.lags, tau_slopes, data.hold, initial)
+        moves = [(col, lags[:, k]) for k, col in enumerate(lag_columns)
+                 if np.any(lags[:, k] != 0.0)]
+        if is_tau:
+            k = int(p.name[4:-1])
+            for col, mid in steps.get(k, ()):
+                moves.append((col, b.columns[:, col] * ((t - mid) / taus[k] - 1.0)))
+        moves += _lag_reading_moves(data, structure, values, b, lags)
+        out.append(moves)
+    return out
+
+
+#: Relative step of the differences of the basis (:func:`_column_differences`), and the
+#: resolution of a parameter in a refinement (:meth:`~creepcomp.fit.solver.Problem.refine`).
+DIFF_STEP = 1e-6
+
+
+def _column_differences(data: Data, structure: Structure, values: dict, b: Basis, p: Param,
+                        cache: dict | None) -> list[tuple[int, np.ndarray]]:
+    """The columns of ``b`` that a parameter moves, and their derivatives by its search
+    coordinate, by a forward difference of the basis (step :data:`DIFF_STEP` relative, away
+    from the nearer bound as the optimiser steps): the basis alone is evaluated again (its
+    lags reused when the parameter does not change them), not the projection."""
+    x = p.to_search(values[p.name])
+    step = DIFF_STEP * (1.0 if x >= 0 else -1.0) * max(1.0, abs(x))
+    lo, hi = p.bounds()
+    if not lo <= x + step <= hi:
+        step = -step
+    moved = dict(values)
+    moved[p.name] = p.from_search(x + step)
+    bp = basis(data, structure, moved, cache)
+    own = bp.columns.shape[1]                  # the columns before the step times'
+    diff = bp.columns - b.columns[:, :own]
+    diff /= step
+    out = [(col, diff[:, col]) for col in np.flatnonzero(np.any(diff != 0.0, axis=0))]
+    taus = taus_of(moved, structure.n_terms)
+    if b.step_bounds and not (np.array_equal(taus, taus_of(values, structure.n_terms))
+                              and np.array_equal(bp.creep_input, b.creep_input)):
+        # the step-time columns follow the time constants and the creep input only
+        steps = with_step_times(data, bp, taus, cache).columns[:, own:] - b.columns[:, own:]
+        steps /= step
+        out += [(own + j, steps[:, j]) for j in np.flatnonzero(np.any(steps != 0.0, axis=0))]
+    return out
+
+
+def _lag_reading_moves(data: Data, structure: Structure, values: dict, b: Basis,
+                       slopes: np.ndarray) -> list[tuple[int, np.ndarray]]:
+    """The effect columns that read the lag states (:attr:`Effect.columns_from_lags`) and
+    their derivatives when the lags move by ``slopes`` (N, K) per unit of a parameter: a
+    forward difference of those columns alone."""
+    readers = [a for a in structure.effects if getattr(a.effect, "columns_from_lags", True)]
+    if not readers:
+        return []
+    size = float(np.max(np.abs(slopes)))
+    if size == 0.0:
+        return []
+    step = DIFF_STEP * max(1.0, float(np.max(np.abs(b.lags)))) / size
+    lags = b.lags + step * slopes
+    out = []
+    for a in readers:
+        own = a.own(values)
+        for name, col in a.effect.columns(data, b.instant, b.creep_input, lags, own, a).items():
+            at = b.names.index(f"{a.name}.{name}")
+            d = (col - b.columns[:, at]) / step
+            if np.any(d != 0.0):
+                out.append((at, d))
     return out

@@ -87,6 +87,8 @@ class Effect(abc.ABC):
         stay the cause when it makes the creep-corrected signal worse, its note says why.
     vocabulary_index : float
         Position in its side's table of ``docs/diagnosis.md`` (effects without one come last, by name).
+    columns_from_lags : bool
+        Its :meth:`columns` read the lag states (they then move with the time constants).
     """
 
     name = ""
@@ -99,6 +101,7 @@ class Effect(abc.ABC):
     summary = ""
     describes_record = False
     vocabulary_index: float = math.inf
+    columns_from_lags = True
 
     # -- applicability and fitting -------------------------------------------------------
     def applicable(self, data: Data, structure: Structure) -> str | None:

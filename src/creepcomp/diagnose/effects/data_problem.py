@@ -280,6 +280,8 @@ class DataProblem(SensorEffect):
         finally:
             self._override = None
 
+    columns_from_lags = False
+
     def columns(self, data, s, h, lags, p, applied):
         index = np.arange(data.n)
         return {f"jump[{j}]": (index >= i).astype(float) for j, i in enumerate(applied.setting("jumps"))}

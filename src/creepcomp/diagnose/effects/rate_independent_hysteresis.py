@@ -136,6 +136,8 @@ class RateIndependentHysteresis(SensorEffect):
         own = self.starts(data, base, Applied(self, (("load_scale", data.load_scale),)))
         return self.with_tau_restarts(data, base, fit, own, settings)
 
+    columns_from_lags = False
+
     def columns(self, data, s, h, lags, p, applied):
         return {"weight": play(s, p["width"]) - s}
 

@@ -52,6 +52,8 @@ class ThermalDrift(SensorEffect):
         return [{"lag": _shortest(data)}] + [{"lag": f * data.span} for f in (0.01, 0.03, 0.1)
                                               if f * data.span > _shortest(data)]
 
+    columns_from_lags = False
+
     def columns(self, data, s, h, lags, p, applied):
         dT = data.temperature - applied.setting("reference_temperature")
         lag = p.get("lag", 0.0)

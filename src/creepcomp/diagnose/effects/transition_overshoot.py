@@ -94,6 +94,8 @@ class TransitionOvershoot(SensorEffect):
         return [{"tau": float(t), "exponent": b} for t in np.geomspace(2 * lo, min(hi, data.span) / 3, 7)
                 for b in shapes]
 
+    columns_from_lags = False
+
     def columns(self, data, s, h, lags, p, applied):
         v = total_variation(s, DEAD_BAND * applied.setting("load_scale"))
         b = p.get("exponent", 1.0)

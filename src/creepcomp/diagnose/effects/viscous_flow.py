@@ -71,6 +71,8 @@ class ViscousFlow(SensorEffect):
             return [{}]
         return [{"exponent": m} for m in (1.0, 2.0, 3.0)]
 
+    columns_from_lags = False
+
     def columns(self, data, s, h, lags, p, applied):
         m = p.get("exponent", 1.0)
         if m != 1.0:
