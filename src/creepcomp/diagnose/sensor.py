@@ -325,13 +325,19 @@ def _catch_all(data: Data, current: Fit) -> Fit | None:
 def _polish(data: Data, current: Fit, candidate: Fit) -> Fit:
     """``current`` refitted from the candidate's values of the parameters they share, kept
     when that fits better: an improvement must come from the candidate's own parameters,
-    not from a better optimum of the shared ones."""
+    not from a better optimum of the shared ones. Not kept when it predicts held-out data
+    worse by the evidence rule's margin (:data:`~creepcomp.fit.evidence.HELDOUT_Z`): the
+    optimum then sits where the record leaves a parameter free (a time offset's width),
+    and against that reference any candidate would seem to predict better."""
     shared = {p.name: candidate.values[p.name] for p in current.params if p.name in candidate.values}
     try:
         alt = fit_structure(data, current.structure, [shared], n_refine=1)
     except (InputError, np.linalg.LinAlgError, ValueError):
         return current
-    return heldout(data, alt) if alt.bic < current.bic - 1e-6 else current
+    if alt.bic >= current.bic - 1e-6:
+        return current
+    alt = heldout(data, alt)
+    return current if compare(current, alt).heldout_z <= -HELDOUT_Z else alt
 
 
 #: Candidates refined fully at each step (the best by the quick fit, plus any that already
