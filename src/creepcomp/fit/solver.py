@@ -202,20 +202,34 @@ def unit_scaled(gram: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _solve(aw: np.ndarray, yw: np.ndarray, prior: np.ndarray | None = None,
            gram: np.ndarray | None = None, rhs: np.ndarray | None = None,
-           rows: np.ndarray | None = None) -> np.ndarray:
+           rows: np.ndarray | None = None, cols: np.ndarray | None = None) -> np.ndarray:
     """Least squares by scaled normal equations (fast for tall, narrow bases); falls back to
     a rank-revealing solver when they are too ill-conditioned. With ``prior``, a weak ridge
     pulls the solution towards it in directions the data do not determine. ``gram`` and
     ``rhs``: ``aw.T @ aw`` and ``aw.T @ yw`` when known; ``rows``: the rows of ``aw`` and
-    ``yw`` they are of (default all)."""
-    norms, gram = unit_scaled(aw.T @ aw if gram is None else gram)
-    rhs = (aw.T @ yw if rhs is None else rhs) / norms
+    ``yw`` they are of (default all); ``cols``: the columns of ``aw`` they are of (default
+    all). A column of zeros (a load step that an effect's shift of the load moved out of
+    its interval) gets the coefficient zero, as the rank-revealing solver would give it."""
+    gram = aw.T @ aw if gram is None else gram
+    rhs = aw.T @ yw if rhs is None else rhs
+    if prior is None:
+        empty = np.diag(gram) == 0
+        if empty.any() and not empty.all():
+            kept = np.flatnonzero(~empty)
+            out = np.zeros(len(empty))
+            out[kept] = _solve(aw, yw, None, gram[np.ix_(kept, kept)], rhs[kept], rows,
+                               kept if cols is None else np.asarray(cols)[kept])
+            return out
+    norms, gram = unit_scaled(gram)
+    rhs = rhs / norms
     if prior is not None:
         gram = gram + ANCHOR_WEIGHT * np.eye(len(norms))
         rhs = rhs + ANCHOR_WEIGHT * prior * norms
     eig = np.linalg.eigvalsh(gram)
     if eig[0] > 1e-8 * eig[-1]:          # normal equations lose cond^2: keep them well-posed
         return np.linalg.solve(gram, rhs) / norms
+    if cols is not None:
+        aw = aw[:, cols]
     if rows is not None:
         aw, yw = aw[rows], yw[rows]
     coef, *_ = linalg.lstsq(aw / norms, yw, lapack_driver="gelsy", cond=1e-13)
@@ -223,17 +237,22 @@ def _solve(aw: np.ndarray, yw: np.ndarray, prior: np.ndarray | None = None,
 
 
 def _step_limits(b: Basis, a: np.ndarray, y: np.ndarray, coef: np.ndarray, free: np.ndarray,
-                 prior: np.ndarray | None) -> np.ndarray:
+                 prior: np.ndarray | None, gram: np.ndarray, aty: np.ndarray) -> np.ndarray:
     """Bounds of the step-time coefficients (:attr:`Basis.step_bounds`): ``|a_k|`` times half
-    the step's interval, ``a_k`` from the model solved without them."""
+    the step's interval, ``a_k`` from the model solved without them (``gram``, ``aty``:
+    ``a.T @ a`` and ``a.T @ y``)."""
     steps = np.array([col for col, _, _ in b.step_bounds])
     plain = free.copy()
     plain[steps] = False
     trial = coef.copy()
     trial[steps] = 0.0
     if plain.any():
-        target = y - a[:, ~plain] @ trial[~plain] if trial[~plain].any() else y
-        trial[plain] = _solve(a[:, plain], target, None if prior is None else prior[plain])
+        cols = np.flatnonzero(plain)
+        sub = None if prior is None else prior[plain]
+        if trial[~plain].any():
+            trial[plain] = _solve(a[:, plain], y - a[:, ~plain] @ trial[~plain], sub)
+        else:
+            trial[plain] = _solve(a, y, sub, gram[np.ix_(cols, cols)], aty[cols], cols=cols)
     return np.array([abs(trial[b.names.index(f"a[{k}]")]) * half for _, k, half in b.step_bounds])
 
 
@@ -351,12 +370,13 @@ class Problem:
         if self.anchor:
             prior = np.array([float(self.anchor.get(n, 0.0)) for n in b.names])
         free = ~held
-        limits = _step_limits(b, a, self.y, coef, free, prior) if b.step_bounds else None
+        aty = a.T @ self.y
+        limits = _step_limits(b, a, self.y, coef, free, prior, gram, aty) if b.step_bounds else None
         for _ in range(4):   # the step times found beyond their bounds are set to them
             if not free.any():
                 break
             if free.all():
-                coef = _solve(a, self.y, prior, gram)
+                coef = _solve(a, self.y, prior, gram, aty)
             else:
                 target = self.y - a[:, ~free] @ coef[~free] if (~free).any() else self.y
                 coef[free] = _solve(a[:, free], target, None if prior is None else prior[free],
