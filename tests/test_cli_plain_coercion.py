@@ -21,7 +21,8 @@ def test_a_fit_command_line_imports_no_pydantic(tmp_path):
     path = _record(tmp_path)
     out = tmp_path / "m.json"
     code = ("import sys\nfrom creepcomp.cli import main\n"
-            f"status = main(['fit', {str(path)!r}, '--terms', '1', '--max-terms', '3', '-o', {str(out)!r}, '--json'])\n"
+            f"status = main(['fit', {str(path)!r}, '--terms', '1', '--max-terms', '3',"
+            f" '-o', {str(out)!r}, '--json'])\n"
             "print(status, 'pydantic' in sys.modules, file=sys.stderr)")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert done.stderr.strip().splitlines()[-1] == "0 False"

@@ -37,7 +37,8 @@ def test_the_two_stage_search_is_fit_terms_search():
     one = fit_terms(data, 1, noise=prony._WHITE, with_cov=False, coarse_ftol=prony.ORDER_COARSE_FTOL)
     structure = Structure(2)
     spectrum = prony.spectrum_of(data)
-    searched = prony._coarse_search(data, structure, prony._term_starts(data, structure, one, None, spectrum))
+    starts = prony._term_starts(data, structure, one, None, spectrum)
+    searched = prony._coarse_search(data, structure, starts)
     assert searched is not None
     problem = searched.problem
     staged = prony._finish(problem, problem.refine(searched.x, None, prony._full_ftol(problem)),

@@ -49,7 +49,8 @@ def _plain_coercion() -> None:
                 return int(value)
             if (lenient_issubclass(annotation, Path) and info.path_type is None
                     and routes_to_path(annotation, info) and isinstance(value, (str, Path))):
-                return annotation(coerce_cli_path(str(value), info, path_type=None, param=param, ctx=ctx))
+                checked = coerce_cli_path(str(value), info, path_type=None, param=param, ctx=ctx)
+                return annotation(checked)
             raise ValueError("not plain")
 
         def _coerce_value(self, value, param, ctx):

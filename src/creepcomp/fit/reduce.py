@@ -38,8 +38,8 @@ from creepcomp.io.records import (COLUMNS, STREAM_BYTES, WHOLE_PIECES, Record, o
                                   reads_whole)
 from creepcomp.units import format_quantity
 
-__all__ = ["MAX_FIT_SAMPLES", "GROWN_FIT_SAMPLES", "WHOLE_PIECES", "reduce_record", "reduce_all", "read_reduced",
-           "block_weights", "block_variance"]
+__all__ = ["MAX_FIT_SAMPLES", "GROWN_FIT_SAMPLES", "WHOLE_PIECES", "reduce_record", "reduce_all",
+           "read_reduced", "block_weights", "block_variance"]
 
 #: Samples a fit works on at most (more are reduced by :func:`reduce_record`).
 MAX_FIT_SAMPLES = 50_000

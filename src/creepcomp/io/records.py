@@ -43,8 +43,8 @@ from creepcomp.io.record_check import (COLUMNS, OPTIONAL, REQUIRED, TIME_UNITS_T
 
 __all__ = ["REQUIRED", "OPTIONAL", "COLUMNS", "TIME_UNITS_TO_SECONDS", "Record", "check_arrays",
            "parse_columns", "read_record", "parse_record", "write_record", "WRITE_ROWS",
-           "NotStreamable", "STREAM_BYTES", "WHOLE_PIECES", "reads_whole", "RecordStream", "open_record_stream",
-           "read_record_chunks", "record_writer", "RecordScan", "scan_record"]
+           "NotStreamable", "STREAM_BYTES", "WHOLE_PIECES", "reads_whole", "RecordStream",
+           "open_record_stream", "read_record_chunks", "record_writer", "RecordScan", "scan_record"]
 
 #: Rows per block when writing a record (bounds the memory of the text being written).
 WRITE_ROWS = 500_000
