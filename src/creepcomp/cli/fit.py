@@ -11,7 +11,7 @@ import typer
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import write_json
 from creepcomp.io.outputs import check_outputs
-from creepcomp.io.records import Record, parse_columns
+from creepcomp.io.records import Record, parse_columns, reads_whole
 from creepcomp.units import format_percent, format_quantity
 from creepcomp.cli.common import (app, console, count_option, print_json, progress_bar, quantity,
                                   temperatures_option)
@@ -45,13 +45,49 @@ def load_reduced(path: Path, max_samples: tuple[int, ...], columns: str | None,
     and creep ``.xlsx`` workbooks, their taxel or sheet), reduced to each of ``max_samples``
     (or ``grown_samples`` where blocks grow: :func:`creepcomp.fit.reduce.read_reduced`; a long
     CSV is never held whole), with a progress bar."""
-    from creepcomp.fit.reduce import read_reduced
-
     delim, mode = _reader_options(delimiter, duplicate_times)
+    mapping = parse_columns(columns)
     with progress_bar(f"reading {path.name}", disable=quiet) as update:
-        return read_reduced(path, max_samples, parse_columns(columns), delimiter=delim,
-                            duplicate_times=mode, taxel=taxel, sheet=sheet, progress=update,
-                            grown_samples=grown_samples)
+        if taxel is None and sheet is None and reads_whole(path, mode):
+            # a text record read whole is parsed while the fit's modules are imported
+            record = _read_while_importing(path, mapping, delim, mode)
+            from creepcomp.fit.reduce import reduce_all
+
+            return reduce_all(record, max_samples, grown_samples)
+        from creepcomp.fit.reduce import read_reduced
+
+        return read_reduced(path, max_samples, mapping, delimiter=delim, duplicate_times=mode,
+                            taxel=taxel, sheet=sheet, progress=update, grown_samples=grown_samples)
+
+
+def _read_while_importing(path: Path, mapping, delimiter: str | None, duplicate_times: str) -> Record:
+    """:func:`~creepcomp.io.formats.read_any` of a text record, in a thread while this one
+    imports :mod:`creepcomp.fit` (scipy's import holds the interpreter; pyarrow's CSV parser
+    and numpy's work on the columns do not). The reader's own imports come first, here: the
+    thread then imports nothing that the fit's imports might be holding."""
+    import threading
+
+    import pyarrow.csv  # noqa: F401
+
+    import creepcomp.lti  # noqa: F401
+    from creepcomp.io.formats import read_any
+
+    outcome: dict = {}
+
+    def read() -> None:
+        try:
+            outcome["record"] = read_any(path, mapping, delimiter=delimiter,
+                                         duplicate_times=duplicate_times)
+        except BaseException as exc:         # (raised again in the command's thread)
+            outcome["error"] = exc
+
+    reader = threading.Thread(target=read, name="creepcomp-read", daemon=True)
+    reader.start()
+    import creepcomp.fit  # noqa: F401
+    reader.join()
+    if "error" in outcome:
+        raise outcome["error"]
+    return outcome["record"]
 
 
 def record_options(initial: str, load_step_at: str | None) -> tuple[str, float | None]:

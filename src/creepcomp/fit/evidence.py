@@ -251,6 +251,7 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
     # (the Jacobian leaves out the step-time columns: no linearised refit with them)
     linearised = linearised and not any(n.startswith("step_time[") for n in fit.values)
     gram_all = jac.T @ jac if jac is not None else None
+    sparse = is_sparse(data)
     full = _variances(gram_all, len(names)) if jac is not None else None
     if jac is not None and linearised:
         rhs_all, rr_all = jac.T @ fit.residual, float(fit.residual @ fit.residual)
@@ -285,7 +286,7 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
         try:  # (refit from the fit's own values, same noise model)
             if jac is not None and linearised:
                 values, frozen, at_start = stepped(keep)
-                if not is_sparse(data):
+                if not sparse:
                     # the step is kept only when it lowers the kept samples' cost, as a refit's
                     r, cost = _linear_refit(data, fit, values, keep, anchor)
                     return r if cost <= at_start else _linear_refit(data, fit, start, keep, anchor)[0]
@@ -300,7 +301,7 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
                                  max_nfev=3, with_cov=False, anchor=anchor, refine=refine,
                                  frozen=frozen).residual
         except InputError:
-            if not is_sparse(data) or not start:
+            if not sparse or not start:
                 return fit.residual
         try:  # a sparse record's remaining samples: the linear part alone is refitted
             return fit_structure(data, fit.structure, [start], noise=fit.noise, mask=keep,

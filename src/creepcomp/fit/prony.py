@@ -15,7 +15,8 @@ from creepcomp.fit.blas import one_blas_thread
 from creepcomp.fit.data import Data
 from creepcomp.fit.evidence import BIC_STRONG, FOLDS, Evidence, compare, heldout
 from creepcomp.fit.noise import ARNoise, ar_order, fit_noise, is_sparse
-from creepcomp.fit.solver import Fit, fit_structure, small_sample_inflation, with_covariance, with_noise
+from creepcomp.fit.solver import (Fit, Problem, _coarse, _finish, best_of_starts, fit_structure,
+                                  small_sample_inflation, with_covariance, with_noise)
 from creepcomp.fit.starts import cluster_taus, extra_term_starts, nnls_spectrum, one_term_starts, tau_grid
 from creepcomp.fit.structure import Applied, Structure
 from creepcomp.model import CreepModel
@@ -65,17 +66,23 @@ def fit_terms(data: Data, n_terms: int, previous: Fit | None = None, noise: ARNo
     record's (:func:`spectrum_of`), when known; ``coarse_ftol``: see
     :func:`~creepcomp.fit.solver.fit_structure`."""
     structure = Structure(n_terms, tuple(effects))
-    if start is not None:
-        starts = [start]
-    elif n_terms == 1:
-        starts = one_term_starts(data)
-    else:
-        grid, amps = spectrum or spectrum_of(data)
-        starts = [{f"tau[{k}]": t for k, t in enumerate(cluster_taus(grid, amps, n_terms))}]
-        if previous is not None:
-            starts += extra_term_starts(data, previous, structure)
+    starts = _term_starts(data, structure, previous, start, spectrum)
     return fit_structure(data, structure, starts, noise=noise, n_refine=3, with_cov=with_cov,
                          ftol=ftol, coarse_ftol=coarse_ftol)
+
+
+def _term_starts(data: Data, structure: Structure, previous: Fit | None, start: dict | None,
+                 spectrum: tuple | None) -> list[dict]:
+    """The start values of :func:`fit_terms`."""
+    if start is not None:
+        return [start]
+    if structure.n_terms == 1:
+        return one_term_starts(data)
+    grid, amps = spectrum or spectrum_of(data)
+    starts = [{f"tau[{k}]": t for k, t in enumerate(cluster_taus(grid, amps, structure.n_terms))}]
+    if previous is not None:
+        starts += extra_term_starts(data, previous, structure)
+    return starts
 
 
 #: Relative change of the cost at which the starts of the order search stop on the coarse
@@ -141,6 +148,10 @@ def fit_prony(data: Data, max_terms: int = 6, n_terms: int | None = None,
     for the Burgers model). With a free initial state, the record is also fitted as starting
     settled at its first load (at rest when that load is zero), and that fit is kept unless
     the free start lowers BIC by :data:`BIC_STRONG` (its initial states are parameters too).
+    Two shortcuts leave the choice as it is: a term that fails BIC's margin already on the
+    coarse record is refined loosely first, and fully only when a refinement could still
+    bring it within the margin (:func:`_rejected_loosely`); the free start is not refined
+    where it cannot win by the margin (:func:`_free_start_may_win`).
 
     Examples
     --------
@@ -177,6 +188,8 @@ def _fit_prony(data: Data, max_terms: int, n_terms: int | None, folds: int,
         settled = _orders(replace(data, initial="settled"), max_terms, n_terms, folds, effects)
     except InputError:
         return _orders(data, max_terms, n_terms, folds, effects)
+    if not _free_start_may_win(data, settled.fit, effects):
+        return settled
     try:
         # (converged far enough to tell a BIC difference of BIC_STRONG)
         trial = fit_terms(data, settled.fit.structure.n_terms, noise=_WHITE, effects=effects,
@@ -193,6 +206,20 @@ def _fit_prony(data: Data, max_terms: int, n_terms: int | None, folds: int,
     return settled if settled.fit.bic < result.fit.bic + BIC_STRONG else result
 
 
+def _free_start_may_win(data: Data, settled: Fit, effects: tuple[Applied, ...]) -> bool:
+    """Whether the free start, refined from the ``settled`` fit, might lower BIC by
+    :data:`BIC_STRONG`: False when its BIC there, less what a refinement can reach
+    (:func:`_reachable_bic`), does not (the free start's initial states add parameters
+    that a record starting settled does not pay back)."""
+    try:
+        problem = Problem(data, Structure(settled.structure.n_terms, tuple(effects)))
+        x = problem.start_vector(settled.values)
+        start = _finish(problem, x, _WHITE, False)
+        return start.bic - _reachable_bic(problem, x, start.n_rows) <= settled.bic - BIC_STRONG
+    except (InputError, linalg.LinAlgError):
+        return True
+
+
 def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
             effects: tuple[Applied, ...]) -> PronyResult:
     """Fits of 1, 2, ... terms while the evidence supports another (see :func:`fit_prony`)."""
@@ -201,15 +228,30 @@ def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
     previous = None
     top = n_terms or max_terms
     spectrum = None
+    coarse_cost = None
     for k in range(1, top + 1):
         try:
             if k > 1 and spectrum is None:
                 spectrum = spectrum_of(data)
             # (the noise model and covariance only of the fit chosen, below: the order is
             # chosen by the white likelihood and the held-out test, which need neither)
-            fit = heldout(data, fit_terms(data, k, previous, _WHITE, effects, with_cov=False,
-                                          spectrum=spectrum, coarse_ftol=ORDER_COARSE_FTOL),
-                          folds, linearised=True)
+            structure = Structure(k, tuple(effects))
+            starts = _term_starts(data, structure, previous, None, spectrum)
+            searched = _coarse_search(data, structure, starts)
+            fit = None
+            if searched is None:
+                fit = fit_terms(data, k, previous, _WHITE, effects, with_cov=False,
+                                spectrum=spectrum, coarse_ftol=ORDER_COARSE_FTOL)
+            elif (previous is not None and n_terms is None and not is_sparse(data)
+                  and _coarse_unpromising(coarse_cost, searched)):
+                fit = _rejected_loosely(data, previous, searched, folds)
+            if fit is None:
+                problem, x = searched.problem, searched.x
+                fit = heldout(data, _finish(problem, problem.refine(x, None, _full_ftol(problem)),
+                                            _WHITE, False), folds, linearised=True)
+            elif fit.heldout is None:
+                fit = heldout(data, fit, folds, linearised=True)
+            coarse_cost = searched.cost if searched is not None else None
         except InputError:
             if n_terms is not None and is_sparse(data):
                 raise   # (the terms asked for are more than a sparse record carries: the reason)
@@ -231,6 +273,110 @@ def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
     fit = with_noise(fit, fit_noise(fit.residual, fit.extras["rows"], ar_order(data)))
     steps[chosen] = replace(steps[chosen], fit=with_covariance(data, fit))
     return PronyResult(data, tuple(steps), chosen)
+
+
+@dataclass(frozen=True)
+class _Searched:
+    """The starts of one structure searched on the coarse record, as
+    :func:`~creepcomp.fit.solver.fit_structure` searches them."""
+
+    problem: Problem            # on all samples
+    x: np.ndarray               # the coarse record's best search point
+    cost: float                 # its squared residual on the coarse record
+    coarse_rows: int
+
+
+def _coarse_search(data: Data, structure: Structure, starts: list[dict]) -> _Searched | None:
+    """:func:`~creepcomp.fit.solver.fit_structure`'s search of ``starts`` on the coarse record
+    (three refined at :data:`ORDER_COARSE_FTOL`, the best kept), from which the refinement on
+    all samples can be taken loosely first (:func:`_rejected_loosely`); None when that fit
+    has no coarse record (then it is :func:`fit_terms`')."""
+    problem = Problem(data, structure)
+    coarse = _coarse(problem)
+    if coarse is None:
+        return None
+    if not starts:
+        raise InputError("no start values")
+    x = best_of_starts(coarse.residual, [problem.start_vector(s) for s in starts], 3,
+                       lambda x0: coarse.refine(x0, None, ORDER_COARSE_FTOL))
+    r = coarse.residual(x)
+    return _Searched(problem, x, float(r @ r), len(coarse.rows))
+
+
+def _full_ftol(problem: Problem) -> float:
+    """The tolerance of :func:`~creepcomp.fit.solver.fit_structure`'s refinement on all samples
+    after a coarse search: until the cost moves the log-likelihood by under 0.005."""
+    return max(1e-8, 0.01 / len(problem.rows))
+
+
+#: Parameters a Prony term adds at least (amplitude and time constant), for the coarse
+#: record's information criterion of :func:`_coarse_unpromising`.
+_TERM_PARAMS = 2
+#: Factor on the decrease of the cost one Gauss-Newton step predicts from a point, taken as
+#: the most a refinement from there can lower it: on the three-term step records of
+#: ``benchmarks/peers.py`` (white and AR(1) noise, 600 and 3600 s) refinements fell by at most
+#: 1.1 times the prediction from a settled fit with free initial states added, and by at
+#: most 4.2 times from an extra term after its first three evaluations (but see
+#: :data:`LOOSE_MARGIN`).
+REACH_FACTOR = 10.0
+#: Evaluations of the loose refinement of an extra term on all samples
+#: (:func:`_rejected_loosely`): the first steps take the cost to its plateau, the rest of a
+#: full refinement moves a term the record does not hold about the flat valley of its cost.
+LOOSE_EVALUATIONS = 3
+#: BIC by which a loosely refined extra term must fail the strong margin beyond what a
+#: refinement can reach (:func:`_reachable_bic`) to be rejected without the full refinement:
+#: an extra term's refinement sometimes leaves the Gauss-Newton step's valley (on random
+#: synthetic records, ``creepcomp.synth.sensor.random_record``, the full refinement lowered
+#: BIC up to 78 times the prediction, by at most 3.5 more than :data:`REACH_FACTOR` times it).
+LOOSE_MARGIN = BIC_STRONG
+
+
+def _coarse_unpromising(previous_cost: float | None, searched: _Searched) -> bool:
+    """Whether one more term fails the strong BIC margin already on the coarse record (its
+    own criterion, ``_TERM_PARAMS`` more parameters): then the term is first fitted loosely,
+    which most likely suffices to reject it."""
+    if previous_cost is None or not searched.cost > 0:
+        return False
+    n = searched.coarse_rows
+    return n * math.log(previous_cost / searched.cost) < _TERM_PARAMS * math.log(n) + BIC_STRONG
+
+
+def _rejected_loosely(data: Data, previous: Fit, searched: _Searched, folds: int) -> Fit | None:
+    """The fit of one more term than ``previous``, refined on all samples only for
+    :data:`LOOSE_EVALUATIONS` evaluations (or until the cost moves BIC by under a tenth of
+    :data:`BIC_STRONG`), with its held-out prediction, when the term is rejected however far
+    the refinement went on: the fit's BIC, less what a refinement can reach from it
+    (:func:`_reachable_bic`), still fails the strong margin over ``previous`` by
+    :data:`LOOSE_MARGIN`; the number of terms is then the full search's (its held-out test is
+    not needed: both must pass). None
+    otherwise: the full refinement, from the same point, decides. The loose fit is the full
+    one's first steps, so a rejected order's figures in the model file are those of its
+    first steps."""
+    problem = searched.problem
+    if _finish(problem, searched.x, _WHITE, False).bic <= previous.bic - BIC_STRONG:
+        return None     # (BIC supports the term already from the start: the refinement decides)
+    x = problem.refine(searched.x, LOOSE_EVALUATIONS,
+                       max(_full_ftol(problem), 0.1 * BIC_STRONG / len(problem.rows)))
+    fit = _finish(problem, x, _WHITE, False)
+    if not fit.bic - _reachable_bic(problem, x, fit.n_rows) > previous.bic - BIC_STRONG + LOOSE_MARGIN:
+        return None
+    return heldout(data, fit, folds, linearised=True)
+
+
+def _reachable_bic(problem: Problem, x: np.ndarray, n_rows: int) -> float:
+    """How far a refinement from the search point ``x`` can lower the white BIC of
+    ``n_rows`` rows at most: :data:`REACH_FACTOR` times the decrease of the cost one
+    Gauss-Newton step predicts (infinite when that is all of the cost, or the Jacobian is
+    not analytic)."""
+    if not problem.analytic():
+        return math.inf
+    r = problem.residual(x)
+    jac = problem.jacobian(x)
+    step, *_ = linalg.lstsq(jac, r, lapack_driver="gelsy")
+    cost, decrease = float(r @ r), float(np.sum((jac @ step) ** 2))
+    if not REACH_FACTOR * decrease < cost:
+        return math.inf
+    return -n_rows * math.log1p(-REACH_FACTOR * decrease / cost)
 
 
 def term_table(fit: Fit) -> list[dict]:

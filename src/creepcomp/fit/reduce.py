@@ -27,8 +27,6 @@ little; the held-out tests, whose spread follows the residual's spectrum, stay t
 from __future__ import annotations
 
 import math
-import os
-import stat
 from dataclasses import replace
 from pathlib import Path
 from typing import Callable, Mapping, Sequence
@@ -36,11 +34,12 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from creepcomp.fit.data import BLOCK_SAMPLES, BLOCK_VARIANCE
-from creepcomp.io.records import COLUMNS, STREAM_BYTES, Record, open_record_stream
+from creepcomp.io.records import (COLUMNS, STREAM_BYTES, WHOLE_PIECES, Record, open_record_stream,
+                                  reads_whole)
 from creepcomp.units import format_quantity
 
-__all__ = ["MAX_FIT_SAMPLES", "GROWN_FIT_SAMPLES", "WHOLE_PIECES", "reduce_record", "read_reduced",
-           "block_weights", "block_variance"]
+__all__ = ["MAX_FIT_SAMPLES", "GROWN_FIT_SAMPLES", "WHOLE_PIECES", "reduce_record", "reduce_all",
+           "read_reduced", "block_weights", "block_variance"]
 
 #: Samples a fit works on at most (more are reduced by :func:`reduce_record`).
 MAX_FIT_SAMPLES = 50_000
@@ -53,12 +52,6 @@ MAX_FIT_SAMPLES = 50_000
 #: lengthened for it: a record of 100,000 samples in blocks of 6 instead of 3 loses the
 #: held-out evidence of its terms.
 GROWN_FIT_SAMPLES = 20_000
-#: :func:`read_reduced` reads a file of at most this many pieces of CSV text whole (32 MiB for
-#: the default pieces, about 1.3 million rows of three columns): one parse instead of the two
-#: passes of the piecewise reduction, for a peak memory of about five times the file's size
-#: (the piecewise passes hold about 70 MB, whatever the size): up to this size, below the
-#: peak of the fit of the reduced record that follows (about 300 MB for 50,000 samples).
-WHOLE_PIECES = 32
 
 
 def reduce_record(record: Record, max_samples: int = MAX_FIT_SAMPLES,
@@ -295,7 +288,8 @@ def read_reduced(path: str | Path, max_samples: Sequence[int] = (MAX_FIT_SAMPLES
                  grown_samples: int | None = None) -> list[tuple[Record, str | None]]:
     """Read a record file and reduce it (:func:`reduce_record`) to each of ``max_samples``.
 
-    A plain CSV file of more than :data:`WHOLE_PIECES` pieces is never held whole: one pass
+    A plain CSV file of more than :data:`~creepcomp.io.records.WHOLE_PIECES` pieces
+    (:func:`~creepcomp.io.records.reads_whole`) is never held whole: one pass
     finds its length and load steps, a second sums the blocks of every reduction while reading
     (the result equals :func:`reduce_record` of the whole record to rounding). Smaller files,
     other files, records no longer than the largest of ``max_samples``, and anything the
@@ -325,25 +319,25 @@ def read_reduced(path: str | Path, max_samples: Sequence[int] = (MAX_FIT_SAMPLES
     """
     from creepcomp.io.formats import read_any
 
-    targets = [max(int(m), 100) for m in max_samples]
-    if (duplicate_times.strip().lower() == "error" and taxel is None and sheet is None
-            and _file_bytes(path) > WHOLE_PIECES * block_bytes):
-        reduced = _read_reduced_chunks(path, targets, columns, delimiter, progress, block_bytes,
-                                       grown_samples)
+    if not reads_whole(path, duplicate_times, taxel, sheet, block_bytes):
+        reduced = _read_reduced_chunks(path, _targets(max_samples), columns, delimiter, progress,
+                                       block_bytes, grown_samples)
         if reduced is not None:
             return reduced
     record = read_any(path, columns, delimiter=delimiter, duplicate_times=duplicate_times,
                       taxel=taxel, sheet=sheet)
-    return [reduce_record(record, m, grown_samples) for m in targets]
+    return reduce_all(record, max_samples, grown_samples)
 
 
-def _file_bytes(path) -> int:
-    """Size of a regular file; 0 for anything else (the whole reader words what it is)."""
-    try:
-        st = os.stat(path)
-    except (OSError, ValueError):
-        return 0
-    return st.st_size if stat.S_ISREG(st.st_mode) else 0
+def _targets(max_samples: Sequence[int]) -> list[int]:
+    return [max(int(m), 100) for m in max_samples]
+
+
+def reduce_all(record: Record, max_samples: Sequence[int] = (MAX_FIT_SAMPLES,),
+               grown_samples: int | None = None) -> list[tuple[Record, str | None]]:
+    """A record read whole, reduced (:func:`reduce_record`) to each of ``max_samples``, as
+    :func:`read_reduced` reduces it."""
+    return [reduce_record(record, m, grown_samples) for m in _targets(max_samples)]
 
 
 def _read_reduced_chunks(path, targets, columns, delimiter, progress, block_bytes, grown_samples):

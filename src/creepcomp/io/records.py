@@ -25,6 +25,8 @@ import csv
 import io
 import itertools
 import math
+import os
+import stat
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable, Iterator, Mapping
@@ -41,8 +43,8 @@ from creepcomp.io.record_check import (COLUMNS, OPTIONAL, REQUIRED, TIME_UNITS_T
 
 __all__ = ["REQUIRED", "OPTIONAL", "COLUMNS", "TIME_UNITS_TO_SECONDS", "Record", "check_arrays",
            "parse_columns", "read_record", "parse_record", "write_record", "WRITE_ROWS",
-           "NotStreamable", "STREAM_BYTES", "RecordStream", "open_record_stream",
-           "read_record_chunks", "record_writer", "RecordScan", "scan_record"]
+           "NotStreamable", "STREAM_BYTES", "WHOLE_PIECES", "reads_whole", "RecordStream",
+           "open_record_stream", "read_record_chunks", "record_writer", "RecordScan", "scan_record"]
 
 #: Rows per block when writing a record (bounds the memory of the text being written).
 WRITE_ROWS = 500_000
@@ -54,6 +56,32 @@ FAST_HEADER_LINES = 10_000
 STREAM_BYTES = 1 << 20
 #: Files the piecewise reader leaves to other readers (:func:`creepcomp.io.formats.read_any`).
 NOT_STREAMED_SUFFIXES = (".gz", ".mat", ".xlsx")
+#: :func:`creepcomp.fit.reduce.read_reduced` reads a file of at most this many pieces of CSV
+#: text whole (32 MiB for the default pieces, about 1.3 million rows of three columns): one
+#: parse instead of the two passes of the piecewise reduction, for a peak memory of about five
+#: times the file's size (the piecewise passes hold about 70 MB, whatever the size): up to this
+#: size, below the peak of the fit of the reduced record that follows (about 300 MB for 50,000
+#: samples).
+WHOLE_PIECES = 32
+
+
+def reads_whole(path: str | Path, duplicate_times: str = "error", taxel: int | None = None,
+                sheet: str | None = None, block_bytes: int = STREAM_BYTES) -> bool:
+    """Whether :func:`creepcomp.fit.reduce.read_reduced` reads the record file whole
+    (:func:`creepcomp.io.formats.read_any`) rather than in pieces: anything but a plain CSV
+    file of more than :data:`WHOLE_PIECES` pieces of ``block_bytes`` read with repeated time
+    stamps an error (the piecewise reader may still leave a file to the whole one)."""
+    return not (duplicate_times.strip().lower() == "error" and taxel is None and sheet is None
+                and _file_bytes(path) > WHOLE_PIECES * block_bytes)
+
+
+def _file_bytes(path) -> int:
+    """Size of a regular file; 0 for anything else (the whole reader words what it is)."""
+    try:
+        st = os.stat(path)
+    except (OSError, ValueError):
+        return 0
+    return st.st_size if stat.S_ISREG(st.st_mode) else 0
 
 
 @dataclass(frozen=True)
