@@ -13,67 +13,6 @@ from creepcomp.errors import CreepcompError, InputError
 from creepcomp.io.jsonfiles import to_json
 from creepcomp.units import parse_quantity
 
-def _plain_coercion() -> None:
-    """Let Typer convert plain values (text, whole numbers, paths, a ``parser=``'s result)
-    without building a pydantic validator for each parameter: importing pydantic and building
-    the validators of one command costs about 0.06 s of every start-up, for conversions that
-    are ``str``, ``int`` and ``Path``. Anything else, and any value the plain conversion does not
-    take as it stands, goes to Typer's own conversion (its messages unchanged). A Typer
-    without these internals keeps its own."""
-    try:
-        import dataclasses
-        from pathlib import Path
-
-        from typer import _coercion, core
-        from typer._param_types import coerce_cli_path, lenient_issubclass, routes_to_path
-        from typer._typing import get_args, get_origin
-    except (ImportError, AttributeError):
-        return
-    if getattr(core, "build_runtime_param", None) is not _coercion.build_runtime_param:
-        return
-    typer_param = _coercion.build_runtime_param
-
-    @dataclasses.dataclass(frozen=True)
-    class PlainParam(_coercion.RuntimeParam):
-        descriptor: object = None
-        typer_own: dict = dataclasses.field(default_factory=dict)
-
-        def _leaf(self, annotation, value, param, ctx):
-            info = self.parameter_info
-            if info.parser is not None:
-                return info.parser(value)
-            if annotation is str and isinstance(value, str):
-                return value
-            if annotation is int and info.min is None and info.max is None and (type(value) is int or (
-                    isinstance(value, str) and value.lstrip("-").isdigit() and value.isascii())):
-                return int(value)
-            if (lenient_issubclass(annotation, Path) and info.path_type is None
-                    and routes_to_path(annotation, info) and isinstance(value, (str, Path))):
-                checked = coerce_cli_path(str(value), info, path_type=None, param=param, ctx=ctx)
-                return annotation(checked)
-            raise ValueError("not plain")
-
-        def _coerce_value(self, value, param, ctx):
-            try:
-                if get_origin(self.annotation) is list and isinstance(value, (list, tuple)):
-                    [item] = get_args(self.annotation)
-                    return [self._leaf(item, v, param, ctx) for v in value]
-                return self._leaf(self.annotation, value, param, ctx)
-            except Exception:   # (Typer's own conversion says what is wrong, in its words)
-                if "param" not in self.typer_own:
-                    self.typer_own["param"] = typer_param(self.descriptor)
-                return self.typer_own["param"]._coerce_value(value, param, ctx)
-
-    def build_runtime_param(descriptor):
-        if descriptor.file_annotation is not None:
-            return typer_param(descriptor)
-        return PlainParam(parameter_info=descriptor.parameter_info, annotation=descriptor.annotation,
-                          descriptor=descriptor)
-
-    core.build_runtime_param = build_runtime_param
-
-
-_plain_coercion()
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
                   help="Remove creep from elastomer-based sensors: size RC correction networks, "
                        "correct signals digitally, fit and diagnose creep models.")
