@@ -10,6 +10,7 @@ linearly between samples (``hold="linear"``), on uniform or irregular time point
 from __future__ import annotations
 
 import math
+import threading
 from typing import TYPE_CHECKING
 
 from dataclasses import dataclass
@@ -259,9 +260,9 @@ def _held_runs(t, u, taus, changes, c0, out) -> None:
     linear hold): within a run of constant input ``U`` the exact solution
     ``U + (c - U) exp(-(t - t_start) / tau)``, the changing intervals by the recursion of
     :func:`lag_states`. Fills ``out`` (N, K)."""
-    runs = _Runs(t, u, changes)
+    runs = _runs(t, u, changes)
     e, b0, b1 = lag_coefficients((t[changes + 1] - t[changes])[:, None], taus[None, :], "linear")
-    levels = u[runs.first].tolist()
+    levels = runs.levels.tolist()
     before, after = u[changes].tolist(), u[changes + 1].tolist()
     for k, tau in enumerate(taus):           # (column by column: contiguous and fast)
         head = runs.heads(tau)
@@ -271,21 +272,23 @@ def _held_runs(t, u, taus, changes, c0, out) -> None:
         for j in range(len(changes)):        # (a run's end, then across the change)
             end = ends[j] * (starts[j] - levels[j]) + levels[j]
             starts.append(ek[j] * end + b0k[j] * before[j] + b1k[j] * after[j])
-        out[:, k] = head * (np.array(starts)[runs.which] - runs.level) + runs.level
+        column = out[:, k]
+        np.multiply(head, runs.spread(np.array(starts) - runs.levels), out=column)
+        column += runs.level
 
 
 def _held_runs_derivatives(t, u, taus, states, changes, slope0, out) -> None:
     """``d c_k / d tau_k`` of :func:`_held_runs`: within a run ``exp(-s / tau) (d_start +
     (c_start - U) s / tau^2)`` (``s`` the time since the run's start), the changing
     intervals by the differentiated recursion (:func:`lag_tau_derivatives`)."""
-    runs = _Runs(t, u, changes)
+    runs = _runs(t, u, changes)
     x = (t[changes + 1] - t[changes])[:, None] / taus[None, :]
     e, de, db0, db1 = _coefficient_slopes(x, taus[None, :], "linear")
     before, after = u[changes].tolist(), u[changes + 1].tolist()
     ends_since = runs.since[runs.last].tolist()
     for k, tau in enumerate(taus):
         head = runs.heads(tau)
-        slopes = (states[runs.first, k] - u[runs.first]) / tau ** 2
+        slopes = (states[runs.first, k] - runs.levels) / tau ** 2
         ends, slope = head[runs.last].tolist(), slopes.tolist()
         at_change = states[changes, k].tolist()
         ek, dek, db0k, db1k = (c[:, k].tolist() for c in (e, de, db0, db1))
@@ -293,19 +296,28 @@ def _held_runs_derivatives(t, u, taus, states, changes, slope0, out) -> None:
         for j in range(len(changes)):
             end = ends[j] * (ends_since[j] * slope[j] + starts[j])
             starts.append(ek[j] * end + dek[j] * at_change[j] + db0k[j] * before[j] + db1k[j] * after[j])
-        out[:, k] = head * (runs.since * slopes[runs.which] + np.array(starts)[runs.which])
+        column = out[:, k]                   # (in place: no temporaries of the record's length)
+        np.multiply(runs.since, runs.spread(slopes), out=column)
+        column += runs.spread(np.array(starts))
+        column *= head
 
 
 class _Runs:
-    """The runs of constant input between the changing intervals of :func:`_held_runs`: each
-    sample's run (``which``), its time since the run's start and the run's level."""
+    """The runs of constant input between the changing intervals of :func:`_held_runs`: their
+    first and last samples and levels, and each sample's time since its run's start and its
+    run's level."""
 
     def __init__(self, t: np.ndarray, u: np.ndarray, changes: np.ndarray):
         self.first = np.concatenate([[0], changes + 1])
         self.last = np.append(changes, len(t) - 1)
-        self.which = np.repeat(np.arange(len(self.first)), self.last - self.first + 1)
-        self.since = t - t[self.first][self.which]
-        self.level = u[self.first][self.which]
+        self.lengths = self.last - self.first + 1
+        self.levels = u[self.first]
+        self.since = t - self.spread(t[self.first])
+        self.level = self.spread(self.levels)
+
+    def spread(self, per_run: np.ndarray) -> np.ndarray:
+        """One value per run, repeated over its samples."""
+        return np.repeat(per_run, self.lengths)
 
     def heads(self, tau: float) -> np.ndarray:
         """``exp(-since / tau)`` (:func:`decay` of every run at once)."""
@@ -316,6 +328,29 @@ class _Runs:
         np.exp(head, out=head, where=live)
         head[~live] = 0.0
         return head
+
+
+#: The runs of the last few inputs (:func:`_runs`): a fit evaluates the lags of one input
+#: for many time constants.
+_RUNS_KEPT = 4
+_RUNS: dict = {}
+_RUNS_LOCK = threading.Lock()           # (a fleet's worker runs units on threads)
+
+
+def _runs(t: np.ndarray, u: np.ndarray, changes: np.ndarray) -> _Runs:
+    """The :class:`_Runs` of ``u`` on ``t``, kept for the last few arrays (by identity)."""
+    key = (id(t), id(u))
+    with _RUNS_LOCK:
+        hit = _RUNS.get(key)
+    if (hit is not None and hit[0] is t and hit[1] is u and np.array_equal(hit[2].last[:-1], changes)
+            and np.array_equal(hit[2].levels, u[hit[2].first])):
+        return hit[2]
+    runs = _Runs(t, u, changes)
+    with _RUNS_LOCK:
+        while len(_RUNS) >= _RUNS_KEPT:
+            _RUNS.pop(next(iter(_RUNS)))
+        _RUNS[key] = (t, u, runs)
+    return runs
 
 
 #: Decay (e-foldings) beyond which :func:`decay` is zero: far below rounding of anything

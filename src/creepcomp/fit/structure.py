@@ -470,9 +470,10 @@ def basis_derivatives(data: Data, structure: Structure, values: dict, b: Basis, 
         else:
             lag = decay(t - t[0], taus[k]) * p.scale
             moves = [(column, lag)]
-        lags = np.zeros_like(b.lags)
-        lags[:, k] = lag
-        moves += _lag_reading_moves(data, structure, values, b, lags)
+        if structure.effects:
+            lags = np.zeros_like(b.lags)
+            lags[:, k] = lag
+            moves += _lag_reading_moves(data, structure, values, b, lags)
         out.append(moves)
     return out
 
