@@ -208,20 +208,9 @@ def _solve(aw: np.ndarray, yw: np.ndarray, prior: np.ndarray | None = None,
     pulls the solution towards it in directions the data do not determine. ``gram`` and
     ``rhs``: ``aw.T @ aw`` and ``aw.T @ yw`` when known; ``rows``: the rows of ``aw`` and
     ``yw`` they are of (default all); ``cols``: the columns of ``aw`` they are of (default
-    all). A column of zeros (a load step that an effect's shift of the load moved out of
-    its interval) gets the coefficient zero, as the rank-revealing solver would give it."""
-    gram = aw.T @ aw if gram is None else gram
-    rhs = aw.T @ yw if rhs is None else rhs
-    if prior is None:
-        empty = np.diag(gram) == 0
-        if empty.any() and not empty.all():
-            kept = np.flatnonzero(~empty)
-            out = np.zeros(len(empty))
-            out[kept] = _solve(aw, yw, None, gram[np.ix_(kept, kept)], rhs[kept], rows,
-                               kept if cols is None else np.asarray(cols)[kept])
-            return out
-    norms, gram = unit_scaled(gram)
-    rhs = rhs / norms
+    all)."""
+    norms, gram = unit_scaled(aw.T @ aw if gram is None else gram)
+    rhs = (aw.T @ yw if rhs is None else rhs) / norms
     if prior is not None:
         gram = gram + ANCHOR_WEIGHT * np.eye(len(norms))
         rhs = rhs + ANCHOR_WEIGHT * prior * norms
