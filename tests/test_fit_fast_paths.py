@@ -39,6 +39,21 @@ def test_lags_of_a_stepped_input_in_closed_form_equal_the_recursion(monkeypatch,
     np.testing.assert_allclose(got_d, want_d, rtol=0, atol=1e-11 * np.max(np.abs(want_d)))
 
 
+def test_kept_runs_follow_an_input_changed_in_place():
+    """The runs of an input are kept by the arrays' identity: the same array with other
+    levels, or its steps elsewhere, gives its own lags."""
+    t = np.arange(0.0, 100.0, 0.5)
+    u = np.zeros(t.size)
+    u[50:] = 1.0
+    first = lti.lag_states(t, u, [5.0]).copy()
+    u[50:] = 2.0                                    # same steps, another level
+    np.testing.assert_allclose(lti.lag_states(t, u, [5.0]), 2.0 * first, rtol=0, atol=1e-12)
+    u[:] = 0.0
+    u[120:] = 2.0                                   # the step elsewhere
+    moved = lti.lag_states(t, u, [5.0])
+    assert np.all(moved[:121] == 0.0) and moved[-1, 0] > 1.9
+
+
 def test_decay_is_the_exponential_and_zero_past_its_floor():
     since = np.linspace(0.0, 1000.0, 10001)
     got = lti.decay(since, 2.0)

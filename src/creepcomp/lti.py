@@ -331,14 +331,18 @@ class _Runs:
 
 
 #: The runs of the last few inputs (:func:`_runs`): a fit evaluates the lags of one input
-#: for many time constants.
+#: for many time constants. Only of records up to :data:`_RUNS_KEPT_SAMPLES` samples (a fit's
+#: reduced record), so that a long record's arrays are not held after use.
 _RUNS_KEPT = 4
+_RUNS_KEPT_SAMPLES = 200_000
 _RUNS: dict = {}
 _RUNS_LOCK = threading.Lock()           # (a fleet's worker runs units on threads)
 
 
 def _runs(t: np.ndarray, u: np.ndarray, changes: np.ndarray) -> _Runs:
     """The :class:`_Runs` of ``u`` on ``t``, kept for the last few arrays (by identity)."""
+    if len(t) > _RUNS_KEPT_SAMPLES:
+        return _Runs(t, u, changes)
     key = (id(t), id(u))
     with _RUNS_LOCK:
         hit = _RUNS.get(key)
