@@ -9,6 +9,7 @@ from creepcomp.errors import InputError
 from creepcomp.fit import prony
 from creepcomp.fit.data import prepare
 from creepcomp.fit.prony import fit_prony, fit_terms
+from creepcomp.fit.solver import refined_ftol
 from creepcomp.fit.structure import Structure
 from creepcomp.io.records import Record
 from creepcomp.lti import lag_states
@@ -41,7 +42,7 @@ def test_the_two_stage_search_is_fit_terms_search():
     searched = prony._coarse_search(data, structure, starts)
     assert searched is not None
     problem = searched.problem
-    staged = prony._finish(problem, problem.refine(searched.x, None, prony._full_ftol(problem)),
+    staged = prony._finish(problem, problem.refine(searched.x, None, refined_ftol(problem)),
                            prony._WHITE, False)
     direct = fit_terms(data, 2, one, prony._WHITE, with_cov=False, spectrum=spectrum,
                        coarse_ftol=prony.ORDER_COARSE_FTOL)

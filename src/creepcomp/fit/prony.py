@@ -16,7 +16,7 @@ from creepcomp.fit.data import Data
 from creepcomp.fit.evidence import BIC_STRONG, FOLDS, Evidence, compare, heldout
 from creepcomp.fit.noise import ARNoise, ar_order, fit_noise, is_sparse
 from creepcomp.fit.solver import (Fit, Problem, _coarse, _finish, best_of_starts, fit_structure,
-                                  small_sample_inflation, with_covariance, with_noise)
+                                  refined_ftol, small_sample_inflation, with_covariance, with_noise)
 from creepcomp.fit.starts import cluster_taus, extra_term_starts, nnls_spectrum, one_term_starts, tau_grid
 from creepcomp.fit.structure import Applied, Structure
 from creepcomp.model import CreepModel
@@ -247,7 +247,7 @@ def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
                 fit = _rejected_loosely(data, previous, searched, folds)
             if fit is None:
                 problem, x = searched.problem, searched.x
-                fit = heldout(data, _finish(problem, problem.refine(x, None, _full_ftol(problem)),
+                fit = heldout(data, _finish(problem, problem.refine(x, None, refined_ftol(problem)),
                                             _WHITE, False), folds, linearised=True)
             elif fit.heldout is None:
                 fit = heldout(data, fit, folds, linearised=True)
@@ -303,12 +303,6 @@ def _coarse_search(data: Data, structure: Structure, starts: list[dict]) -> _Sea
     return _Searched(problem, x, float(r @ r), len(coarse.rows))
 
 
-def _full_ftol(problem: Problem) -> float:
-    """The tolerance of :func:`~creepcomp.fit.solver.fit_structure`'s refinement on all samples
-    after a coarse search: until the cost moves the log-likelihood by under 0.005."""
-    return max(1e-8, 0.01 / len(problem.rows))
-
-
 #: Parameters a Prony term adds at least (amplitude and time constant), for the coarse
 #: record's information criterion of :func:`_coarse_unpromising`.
 _TERM_PARAMS = 2
@@ -356,7 +350,7 @@ def _rejected_loosely(data: Data, previous: Fit, searched: _Searched, folds: int
     if _finish(problem, searched.x, _WHITE, False).bic <= previous.bic - BIC_STRONG:
         return None     # (BIC supports the term already from the start: the refinement decides)
     x = problem.refine(searched.x, LOOSE_EVALUATIONS,
-                       max(_full_ftol(problem), 0.1 * BIC_STRONG / len(problem.rows)))
+                       max(refined_ftol(problem), 0.1 * BIC_STRONG / len(problem.rows)))
     fit = _finish(problem, x, _WHITE, False)
     if not fit.bic - _reachable_bic(problem, x, fit.n_rows) > previous.bic - BIC_STRONG + LOOSE_MARGIN:
         return None

@@ -25,8 +25,8 @@ from creepcomp.fit.structure import (DIFF_STEP, Basis, Param, Structure, basis, 
                                      load_steps, taus_of, with_step_times)
 from creepcomp.model import CreepModel
 
-__all__ = ["Fit", "ANCHOR_WEIGHT", "Problem", "best_of_starts", "fit_structure", "with_noise",
-           "with_covariance", "sandwich_covariance", "small_sample_inflation", "unit_scaled"]
+__all__ = ["Fit", "ANCHOR_WEIGHT", "Problem", "best_of_starts", "fit_structure", "refined_ftol",
+           "with_noise", "with_covariance", "sandwich_covariance", "small_sample_inflation", "unit_scaled"]
 
 
 def best_of_starts(residual: Callable[[np.ndarray], np.ndarray], starts: Sequence[np.ndarray],
@@ -575,11 +575,17 @@ def fit_structure(data: Data, structure: Structure, starts: Sequence[dict], nois
         coarse_ftol = max(ftol, coarse_ftol or COARSE_FTOL)
         starts = [best_of_starts(coarse.residual, starts, n_refine,
                                  lambda x0: coarse.refine(x0, max_nfev, coarse_ftol))]
-        # from there, converged until the cost moves the log-likelihood by under 0.005
-        ftol = max(ftol, 0.01 / len(problem.rows))
+        ftol = refined_ftol(problem, ftol)
     x = best_of_starts(problem.residual, starts, n_refine,
                        (lambda x0: problem.refine(x0, max_nfev, ftol)) if refine else None)
     return _finish(problem, x, noise, with_cov)
+
+
+def refined_ftol(problem: Problem, ftol: float = 1e-8) -> float:
+    """The tolerance of the refinement on all samples from the best point of a coarse search:
+    ``ftol``, or converged until the cost moves the log-likelihood by under 0.005 when that
+    is looser."""
+    return max(ftol, 0.01 / len(problem.rows))
 
 
 #: Samples of the coarse record on which the starts of a long record's fit are searched.
