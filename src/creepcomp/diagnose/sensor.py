@@ -48,7 +48,7 @@ from creepcomp.fit.data import Data, prepare
 from creepcomp.fit.structure import Applied, Structure
 from creepcomp.fit.noise import (MISFIT_LIMIT, SPARSE_SAMPLES, NoiseFloor, autocorrelation, explained_share,
     ljung_box, misfit_ratio as ratio_to_floor, noise_floor, rows_for, whiten)
-from creepcomp.fit.solver import Fit, Problem, fit_structure
+from creepcomp.fit.solver import Fit, Problem, fit_structure, screening
 from creepcomp.fit.evidence import (BIC_STRONG, HELDOUT_Z, Evidence, compare, compare_with_halves,
     halves, heldout)
 from creepcomp.fit.starts import one_term_starts, tau_grid
@@ -439,7 +439,8 @@ def _quick(data: Data, current: Fit, effect: Effect, step: int, trials: list) ->
             trials.append(Trial(step, effect.name, None, None, f"not tried: {reason}"))
         return None
     try:
-        f = effect.fit_on(data, current, refine="own")
+        with screening():
+            f = effect.fit_on(data, current, refine="own")
     except (InputError, np.linalg.LinAlgError, ValueError) as exc:
         trials.append(Trial(step, effect.name, None, None, f"fit failed: {exc}"))
         return None

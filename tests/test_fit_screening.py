@@ -1,0 +1,95 @@
+"""Fits that only rank candidates (``solver.screening``) stop at the likelihood tolerance;
+every other fit, and the held-out refits, keep theirs."""
+
+import threading
+
+import numpy as np
+import pytest
+
+from creepcomp.diagnose import sensor
+from creepcomp.fit import solver
+from creepcomp.fit.data import prepare
+from creepcomp.fit.solver import Problem, fit_structure, refined_ftol, screening
+from creepcomp.fit.starts import one_term_starts
+from creepcomp.fit.structure import Structure
+from creepcomp.io.records import Record
+from creepcomp.lti import lag_states
+
+
+def _data(samples: int = 1500):
+    """A load step at 20 s, creep of 3 % at 40 s, 2 Hz, white noise of 0.01 %."""
+    t = np.arange(samples) * 0.5
+    load = np.where(t >= 20.0, 1.0, 0.0)
+    y = load + 0.03 * lag_states(t, load, [40.0])[:, 0]
+    return prepare(Record(t, load, y + np.random.default_rng(5).normal(0.0, 1e-4, t.size)),
+                   initial="relaxed")
+
+
+def _tolerances(monkeypatch) -> list:
+    seen = []
+    refine = Problem.refine
+
+    def spy(self, x0, max_nfev=None, ftol=1e-8):
+        seen.append(ftol)
+        return refine(self, x0, max_nfev, ftol)
+
+    monkeypatch.setattr(Problem, "refine", spy)
+    return seen
+
+
+def test_only_a_screening_fit_stops_at_the_likelihood_tolerance(monkeypatch):
+    data = _data()
+    seen = _tolerances(monkeypatch)
+    plain = fit_structure(data, Structure(1), one_term_starts(data), n_refine=1)
+    assert seen and set(seen) == {1e-8}
+    seen.clear()
+    with screening():
+        quick = fit_structure(data, Structure(1), one_term_starts(data), n_refine=1)
+    assert set(seen) == {0.01 / data.n} and 0.01 / data.n > 1e-8
+    # a stop that far from the optimum costs well under the 0.005 of log-likelihood it allows
+    assert abs(quick.loglik - plain.loglik) < 0.005
+    seen.clear()
+    fit_structure(data, Structure(1), one_term_starts(data), n_refine=1)
+    assert set(seen) == {1e-8}                      # left with the block
+
+
+def test_screening_ends_with_its_block_on_an_error_and_stays_in_its_thread():
+    with pytest.raises(RuntimeError):
+        with screening():
+            assert solver._SCREENING.get()
+            raise RuntimeError("inside")
+    assert not solver._SCREENING.get()
+    other = []
+    with screening():
+        worker = threading.Thread(target=lambda: other.append(solver._SCREENING.get()))
+        worker.start()
+        worker.join()
+    assert other == [False]          # a fleet worker's other units are not screening
+
+
+def test_the_diagnosis_screens_its_quick_fits_only(monkeypatch):
+    """The quick fits of every candidate run screening, the full fits and held-out refits do
+    not (their held-out prediction follows where the fit stopped)."""
+    data = _data()
+    flags = []
+    fit = solver.fit_structure
+
+    def spy(*args, **kwargs):
+        flags.append((solver._SCREENING.get(), kwargs.get("mask") is not None))
+        return fit(*args, **kwargs)
+
+    monkeypatch.setattr(solver, "fit_structure", spy)
+    for module in ("creepcomp.diagnose.effects", "creepcomp.diagnose.sensor", "creepcomp.fit.evidence"):
+        monkeypatch.setattr(f"{module}.fit_structure", spy, raising=False)
+    sensor.diagnose(Record(data.time, data.load, data.signal), candidates=["time_offset"],
+                    correction=False)
+    assert any(screen for screen, _ in flags)
+    assert any(not screen for screen, _ in flags)
+    assert not any(screen and masked for screen, masked in flags)
+
+
+def test_refined_ftol_is_the_likelihood_tolerance():
+    data = _data()
+    problem = Problem(data, Structure(1))
+    assert refined_ftol(problem) == pytest.approx(0.01 / data.n)
+    assert refined_ftol(problem, 1.0) == 1.0
