@@ -14,7 +14,8 @@ from creepcomp.diagnose.effects.mullins_softening import EFFECT as MULLINS, _new
 from creepcomp.fit.data import prepare
 from creepcomp.fit.solver import Problem, fit_structure
 from creepcomp.fit.starts import one_term_starts
-from creepcomp.fit.structure import Structure, basis, load_steps, with_step_times
+from creepcomp.fit.data import load_steps
+from creepcomp.fit.structure import Structure, basis, with_step_times
 from creepcomp.io.records import Record
 from creepcomp.model import CreepModel
 from creepcomp.programs import LoadProgram

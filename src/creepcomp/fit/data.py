@@ -11,7 +11,8 @@ import numpy as np
 from creepcomp.errors import InputError
 from creepcomp.io.records import Record
 
-__all__ = ["BLOCK_SAMPLES", "BLOCK_VARIANCE", "check_scales", "MAX_TIME", "VALUE_RANGE", "GAP_FACTOR", "CONSTANT_LOAD_TOLERANCE", "Data", "gaps", "MIN_SAMPLES", "prepare"]
+__all__ = ["BLOCK_SAMPLES", "BLOCK_VARIANCE", "check_scales", "MAX_TIME", "VALUE_RANGE", "GAP_FACTOR", "CONSTANT_LOAD_TOLERANCE", "Data", "gaps", "MIN_SAMPLES", "prepare",
+           "ABRUPT_FACTOR", "load_steps", "abrupt_intervals"]
 
 #: A time step longer than this many median steps is a gap: the noise model forgets across it.
 GAP_FACTOR = 5.0
@@ -101,6 +102,12 @@ class Data:
         return float(self.time[-1] - start)
 
     @cached_property
+    def abrupt(self) -> np.ndarray:
+        """The sample intervals across which the load changes abruptly
+        (:func:`abrupt_intervals`, found once)."""
+        return abrupt_intervals(self)
+
+    @cached_property
     def dt_median(self) -> float:
         """Median sampling step (s)."""
         return float(np.median(np.diff(self.time)))
@@ -164,6 +171,42 @@ class Data:
     def with_signal(self, signal) -> "Data":
         """A copy with another signal (e.g. a simulated one)."""
         return replace(self, signal=np.asarray(signal, float))
+
+
+#: A load change between two samples is a step when it is this many times larger than the
+#: changes between the samples on either side (a ramp changes by equal amounts).
+ABRUPT_FACTOR = 10.0
+
+
+def load_steps(data: Data) -> np.ndarray:
+    """Sample intervals ``i`` (from sample ``i`` to ``i + 1``) within which the load steps:
+    its change there is :data:`ABRUPT_FACTOR` times those of the neighbouring intervals and at
+    least a thousandth of the record's load range; intervals across a gap are left out."""
+    d = np.abs(np.diff(data.load))
+    if len(d) == 0:
+        return np.zeros(0, int)
+    neighbours = np.maximum(np.concatenate([[0.0], d[:-1]]), np.concatenate([d[1:], [0.0]]))
+    same_segment = data.segment[1:] == data.segment[:-1]
+    big = d >= 1e-3 * float(np.ptp(data.load))
+    return np.flatnonzero((d > ABRUPT_FACTOR * neighbours) & big & same_segment & (d > 0))
+
+
+def abrupt_intervals(data: Data) -> np.ndarray:
+    """Sample intervals across which the load changes abruptly: those of its steps
+    (:func:`load_steps`), and pairs of consecutive intervals that change it the same way by
+    :data:`ABRUPT_FACTOR` times the intervals on either side (a step inside a reduced record's
+    block: the block's mean lies between the levels)."""
+    d = np.diff(data.load)
+    steps = load_steps(data)
+    if len(d) < 2:
+        return steps
+    a = np.abs(d)
+    total = a[:-1] + a[1:]
+    outside = np.maximum(np.concatenate([[0.0], a[:-2]]), np.concatenate([a[2:], [0.0]]))
+    same = (np.sign(d[:-1]) == np.sign(d[1:])) & (d[:-1] != 0)
+    same &= (data.segment[2:] == data.segment[:-2])
+    pairs = np.flatnonzero(same & (total > ABRUPT_FACTOR * outside) & (total >= 1e-3 * float(np.ptp(data.load))))
+    return np.unique(np.concatenate([steps, pairs, pairs + 1]))
 
 
 #: Relative spread below which a load counts as constant.

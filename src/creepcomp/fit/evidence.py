@@ -113,7 +113,8 @@ UNDETERMINED_VARIANCE_RATIO = 10.0
 def jacobian(data: Data, fit: Fit) -> np.ndarray:
     """Derivatives of the fitted signal by every nonlinear parameter (search coordinates;
     analytic for a plain Prony model, else by central differences) and by the linear
-    coefficients (the basis), all samples."""
+    coefficients (the basis), all samples (zero on those the basis leaves free,
+    :attr:`~creepcomp.fit.structure.Basis.straddling`)."""
     values = fit.values
     cache: dict = {}
     b = basis(data, fit.structure, values, cache)
@@ -122,6 +123,7 @@ def jacobian(data: Data, fit: Fit) -> np.ndarray:
     if moves is not None:
         return np.column_stack([sum(coef[col] * d for col, d in m) for m in moves] + [b.columns])
     cols = []
+    straddled = b.straddling            # (each fitted by its own parameter: no rows of the others)
     for p in fit.params:
         x = p.to_search(values[p.name])
         h = 1e-6 * max(1.0, abs(x))
@@ -129,7 +131,9 @@ def jacobian(data: Data, fit: Fit) -> np.ndarray:
         minus = dict(values, **{p.name: p.from_search(x - h)})
         cols.append((basis(data, fit.structure, plus, cache).columns @ coef
                      - basis(data, fit.structure, minus, cache).columns @ coef) / (2 * h))
-    return np.column_stack(cols + [b.columns])
+    out = np.column_stack(cols + [b.columns])
+    out[straddled] = 0.0
+    return out
 
 
 def _variances(gram: np.ndarray, count: int) -> np.ndarray:

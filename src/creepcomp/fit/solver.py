@@ -21,10 +21,10 @@ from scipy import linalg, optimize
 from scipy.linalg import lapack
 
 from creepcomp.errors import InputError
-from creepcomp.fit.data import Data
+from creepcomp.fit.data import Data, load_steps
 from creepcomp.fit.noise import ARNoise, ar_order, fit_noise, gaussian_bic, is_sparse, rows_for, whiten
 from creepcomp.fit.structure import (DIFF_STEP, Basis, Param, Structure, basis, basis_derivatives,
-                                     load_steps, taus_of, with_step_times)
+                                     taus_of, with_step_times)
 from creepcomp.model import CreepModel
 
 __all__ = ["Fit", "ANCHOR_WEIGHT", "Problem", "best_of_starts", "fit_structure", "refined_ftol",
@@ -332,6 +332,30 @@ class Problem:
         b = basis(self.data, self.structure, values, self.cache)
         return with_step_times(self.data, b, taus_of(values, self.structure.n_terms), self.cache)
 
+    def straddled(self, b: Basis) -> np.ndarray:
+        """Positions among the fitted rows of the samples the basis leaves free
+        (:attr:`Basis.straddling`): each has a parameter of its own, so its residual is zero
+        and it takes no part in the fit of the others."""
+        if not len(b.straddling):
+            return b.straddling
+        return b.straddling if isinstance(self.take, slice) else np.flatnonzero(np.isin(self.rows, b.straddling))
+
+    def on_fitted(self, values: np.ndarray, straddled: np.ndarray) -> np.ndarray:
+        """:meth:`on_rows`, with the rows ``straddled`` (:meth:`straddled`) set to zero."""
+        out = self.on_rows(values)
+        if len(straddled):
+            out = out.copy()
+            out[straddled] = 0.0
+        return out
+
+    def fitted_signal(self, straddled: np.ndarray) -> np.ndarray:
+        """The signal on the fitted rows (:attr:`y`), zero on the rows ``straddled``."""
+        if not len(straddled):
+            return self.y
+        out = self.y.copy()
+        out[straddled] = 0.0
+        return out
+
     def on_rows(self, values: np.ndarray) -> np.ndarray:
         """The fitted rows of a per-sample array or of basis columns, each times the square
         root of its sample's weight (a view when every sample is fitted unweighted)."""
@@ -353,7 +377,9 @@ class Problem:
         if key in kept:
             return kept[key][0]
         b = self.basis(x)
-        a = self.on_rows(b.columns)
+        straddled = self.straddled(b)
+        a = self.on_fitted(b.columns, straddled)
+        y = self.fitted_signal(straddled)
         gram = a.T @ a
         held = np.array([n in self.fixed for n in b.names])
         coef = np.array([self.fixed.get(n, 0.0) for n in b.names])
@@ -361,15 +387,15 @@ class Problem:
         if self.anchor:
             prior = np.array([float(self.anchor.get(n, 0.0)) for n in b.names])
         free = ~held
-        aty = a.T @ self.y
-        limits = _step_limits(b, a, self.y, coef, free, prior, gram, aty) if b.step_bounds else None
+        aty = a.T @ y
+        limits = _step_limits(b, a, y, coef, free, prior, gram, aty) if b.step_bounds else None
         for _ in range(4):   # the step times found beyond their bounds are set to them
             if not free.any():
                 break
             if free.all():
-                coef = _solve(a, self.y, prior, gram, aty)
+                coef = _solve(a, y, prior, gram, aty)
             else:
-                target = self.y - a[:, ~free] @ coef[~free] if (~free).any() else self.y
+                target = y - a[:, ~free] @ coef[~free] if (~free).any() else y
                 coef[free] = _solve(a[:, free], target, None if prior is None else prior[free],
                                     gram[np.ix_(free, free)])
             if limits is None:
@@ -378,7 +404,7 @@ class Problem:
             if narrowed is free:
                 break
             free = narrowed
-        out = (b, coef, self.y - a @ coef, free)
+        out = (b, coef, y - a @ coef, free)
         while len(kept) >= _PROJECTIONS_KEPT:
             kept.pop(next(iter(kept)))
         kept[key] = (out, gram)
@@ -394,12 +420,23 @@ class Problem:
         weighted as :attr:`Fit.residual`), the linear part solved on the fitted rows."""
         b, coef, _ = self.project(x)
         prediction = b.columns @ coef
+        straddled = self.rows[self.straddled(b)]
+        prediction[straddled] = self.data.signal[straddled]       # (each fitted by its own parameter)
         return prediction, self.data.weighted(self.data.signal - prediction)
 
     def residual(self, x: np.ndarray) -> np.ndarray:
-        """Residual with the linear part projected out, relative to the signal's range."""
+        """Residual with the linear part projected out, relative to the signal's range. A row
+        the basis leaves free (:meth:`straddled`) holds the price of its parameter instead of
+        zero: the noise variance times log n, what the criterion charges for it (so the search
+        does not favour points that free more rows)."""
         try:
-            return self.project(x)[2] / self.scale
+            b, _, r = self.project(x)
+            straddled = self.straddled(b)
+            if len(straddled):
+                kept = len(r) - len(straddled)
+                r = r.copy()
+                r[straddled] = math.sqrt(math.log(len(r)) * float(r @ r) / max(kept, 1))
+            return r / self.scale
         except (FloatingPointError, ValueError, linalg.LinAlgError):
             return np.full(len(self.rows), 1e30)
 
@@ -419,17 +456,18 @@ class Problem:
         b, coef, r, free = self._projection(x)
         moves = basis_derivatives(self.data, self.structure, self.values(x), b, self.params,
                                   with_effects=True, cache=self.cache)
-        a = self.on_rows(b.columns)
+        straddled = self.straddled(b)
+        a = self.on_fitted(b.columns, straddled)
         dot_r = np.zeros((len(b.names), len(moves)))                  # dA^T r
         moved = np.zeros((len(moves), len(r)))                         # (dA c)^T
         for j, m in enumerate(moves):
             for col, d in m:
-                dj = self.on_rows(d)
+                dj = self.on_fitted(d, straddled)
                 moved[j] += coef[col] * dj
                 dot_r[col, j] = dj @ r
         # (worked on transposed: one row per parameter, each contiguous)
         if any(not free[col] for col, _, _ in b.step_bounds):
-            moved += self._bound_response(b, a, coef, free, moves).T @ a.T    # + A dc (held)
+            moved += self._bound_response(b, a, coef, free, moves, straddled).T @ a.T    # + A dc (held)
         free = np.flatnonzero(free)
         if not len(free):
             return -moved.T / self.scale
@@ -443,7 +481,7 @@ class Problem:
         return jac.T / self.scale
 
     def _bound_response(self, b: Basis, a: np.ndarray, coef: np.ndarray, free: np.ndarray,
-                        moves) -> np.ndarray:
+                        moves, straddled: np.ndarray) -> np.ndarray:
         """Derivatives of the coefficients (rows; zero but for step times held at their
         bound, ``|a_k|`` times a half interval with ``a_k`` solved without the step times)
         by the nonlinear parameters (columns)."""
@@ -458,7 +496,7 @@ class Problem:
         if not plain.any():
             return out                  # the amplitudes setting the bounds are held too
         trial = np.array([self.fixed.get(n, 0.0) for n in b.names])
-        target = self.y - a[:, ~plain] @ trial[~plain]
+        target = self.fitted_signal(straddled) - a[:, ~plain] @ trial[~plain]
         ap = a[:, plain]
         norms, inverse = _anchored_inverse(ap.T @ ap) if self.anchor else _scaled_inverse(ap)
         rhs = (ap.T @ target) / norms
@@ -472,7 +510,7 @@ class Problem:
         for j, m in enumerate(moves):
             for col, d in m:
                 if not steps[col]:
-                    dj = self.on_rows(d)
+                    dj = self.on_fitted(d, straddled)
                     moved[:, j] += trial[col] * dj
                     dot_r[col, j] = dj @ rp
         dtrial = (inverse @ ((dot_r[plain] - ap.T @ moved) / norms[:, None])) / norms[:, None]
@@ -670,7 +708,7 @@ def _finish(problem: Problem, x: np.ndarray, noise: ARNoise | None, with_cov: bo
               params=tuple(problem.all_params), fixed_offset=data.fixed_offset,
               extras={"rows": problem.likelihood_rows, "fitted": problem.rows,
                       "nonlinear": len(problem.all_params),
-                      "linear": _counted_linear(b.names, problem.fixed)})
+                      "linear": _counted_linear(b.names, problem.fixed) + len(problem.straddled(b))})
     fit = with_noise(fit, noise)
     if with_cov:
         fit = replace(fit, cov=_fit_covariance(problem, x, coef, fit))
@@ -778,6 +816,7 @@ def _covariance(problem: Problem, x, coef, noise: ARNoise) -> np.ndarray | None:
     full[:, len(x) + np.flatnonzero(~free)] = 0.0
     z = np.zeros_like(full)
     z[rows] = problem.data.weighted(full)[rows]
+    z[rows[problem.straddled(b)]] = 0.0          # (each fitted by its own parameter)
     return sandwich_covariance([z], [noise])
 
 

@@ -18,17 +18,17 @@ from __future__ import annotations
 
 import math
 import threading
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
-from creepcomp.fit.data import Data
+from creepcomp.fit.data import Data, load_steps
 from creepcomp.lti import (decay, lag_states, lag_tau_derivatives, varying_lag_derivatives,
                            varying_lag_states)
 
-__all__ = ["Param", "Applied", "Structure", "taus_of", "Basis", "basis", "ABRUPT_FACTOR", "load_steps",
-           "with_step_times", "basis_derivatives", "DIFF_STEP"]
+__all__ = ["Param", "Applied", "Structure", "taus_of", "Basis", "basis", "with_step_times",
+           "basis_derivatives", "DIFF_STEP"]
 
 #: Iterations of the mode switching of lags whose time constant depends on their state.
 _MODE_ITERATIONS = 50
@@ -130,6 +130,9 @@ def taus_of(values: dict, n_terms: int) -> np.ndarray:
     return np.array([values[f"tau[{k}]"] for k in range(n_terms)])
 
 
+_NO_SAMPLES = np.zeros(0, int)
+
+
 @dataclass(frozen=True)
 class Basis:
     """Columns of the linear part of a model for fixed nonlinear parameters."""
@@ -142,6 +145,7 @@ class Basis:
     lags: np.ndarray             # (N, K)
     step_bounds: tuple = ()      # (column, term k, half width in s) of each step-time column
     step_mids: tuple = ()        # the middle (s) of each step-time column's sample interval
+    straddling: np.ndarray = field(default_factory=lambda: _NO_SAMPLES)   # Effect.straddling
 
 
 #: Samples per segment when lags whose time constant depends on their own state are solved.
@@ -318,25 +322,9 @@ def basis(data: Data, structure: Structure, values: dict, cache: dict | None = N
         for name, col in a.effect.columns(data, s, h, lags, a.own(values), a).items():
             cols.append(col)
             names.append(f"{a.name}.{name}")
-    return Basis(_stack(cols), tuple(names), x, s, h, lags)
-
-
-#: A load change between two samples is a step when it is this many times larger than the
-#: changes between the samples on either side (a ramp changes by equal amounts).
-ABRUPT_FACTOR = 10.0
-
-
-def load_steps(data: Data) -> np.ndarray:
-    """Sample intervals ``i`` (from sample ``i`` to ``i + 1``) within which the load steps:
-    its change there is :data:`ABRUPT_FACTOR` times those of the neighbouring intervals and at
-    least a thousandth of the record's load range; intervals across a gap are left out."""
-    d = np.abs(np.diff(data.load))
-    if len(d) == 0:
-        return np.zeros(0, int)
-    neighbours = np.maximum(np.concatenate([[0.0], d[:-1]]), np.concatenate([d[1:], [0.0]]))
-    same_segment = data.segment[1:] == data.segment[:-1]
-    big = d >= 1e-3 * float(np.ptp(data.load))
-    return np.flatnonzero((d > ABRUPT_FACTOR * neighbours) & big & same_segment & (d > 0))
+    straddling = [a.effect.straddling(data, a.own(values), a) for a in effects]
+    straddling = np.unique(np.concatenate(straddling)) if any(len(i) for i in straddling) else _NO_SAMPLES
+    return Basis(_stack(cols), tuple(names), x, s, h, lags, straddling=straddling)
 
 
 def with_step_times(data: Data, b: Basis, taus: np.ndarray, cache: dict | None = None) -> Basis:

@@ -184,6 +184,14 @@ class Effect(abc.ABC):
         """Extra columns of the linear part, by name (their coefficients are fitted)."""
         return {}
 
+    def straddling(self, data: Data, p: dict, applied: Applied) -> np.ndarray:
+        """Samples (indices) whose load seen falls inside the sample interval of a load step
+        (:func:`~creepcomp.fit.data.abrupt_intervals`): the record does not tell on which side
+        of the step it lies, so the fit leaves each free, one parameter each
+        (:class:`~creepcomp.fit.solver.Problem`). None but where the load is read between
+        samples (a time offset)."""
+        return np.zeros(0, int)
+
     # -- results -------------------------------------------------------------------------------
     def unphysical(self, fit: Fit, applied: Applied) -> str | None:
         """Why the fitted parameters cannot be this effect (then it is not named), or None."""

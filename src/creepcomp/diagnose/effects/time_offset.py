@@ -16,6 +16,10 @@ __all__ = ["shifted", "averaged", "latency", "TimeOffset", "EFFECT"]
 
 #: A window narrower than this share of the shortest sample step is a plain delay.
 NARROW = 1e-3
+#: Delays shorter than this share of the sample step read every sample within that share of
+#: its own time, where the load is known: no sample is left free (:meth:`TimeOffset.straddling`),
+#: else a delay of next to nothing would free the first sample after every step.
+STRADDLE_DELAY = 0.1
 #: Widest averaging window fitted, in sample steps.
 MAX_WIDTH_SAMPLES = 32
 
@@ -39,11 +43,16 @@ def _integral_at(time, values, at) -> np.ndarray:
     return inside + x[0] * np.minimum(at - t[0], 0.0) + x[-1] * np.maximum(at - t[-1], 0.0)
 
 
+def _plain_delay(t: np.ndarray, width: float) -> bool:
+    """A window of ``width`` s is a plain delay at these sample times (:data:`NARROW`)."""
+    return len(t) < 2 or width <= NARROW * float(np.min(np.diff(t)))
+
+
 def averaged(time, values, delay: float, width: float) -> np.ndarray:
     """``values`` averaged over ``[t - delay - width/2, t - delay + width/2]`` (``width`` 0: the
     plain delay, :func:`shifted`)."""
     t = np.asarray(time, float)
-    if len(t) < 2 or width <= NARROW * float(np.min(np.diff(t))):
+    if _plain_delay(t, width):
         # the difference of two integrals over a narrow window loses its digits
         return shifted(t, values, delay)
     hi = _integral_at(t, values, t - delay + 0.5 * width)
@@ -96,6 +105,21 @@ class TimeOffset(SensorEffect):
 
     def load_transform(self, data, x, p, applied):
         return averaged(data.time, x, p["delay"], p.get("width", 0.0))
+
+    def straddling(self, data, p, applied):
+        # the load between samples is taken linear: across a step that is only its expected
+        # value (where in the interval the load stepped is unknown), and a sample read there
+        # would be missed by up to the whole step; a window averages the unknown over its width
+        width, steps = p.get("width", 0.0), data.abrupt
+        if not len(steps) or (width > 0 and not _plain_delay(data.time, width)):
+            return np.zeros(0, int)
+        t, delay = data.time, p["delay"]
+        if abs(delay) < STRADDLE_DELAY * data.dt_median:
+            return np.zeros(0, int)
+        first = np.searchsorted(t, t[steps] + delay, side="right")     # reads after the interval's start
+        end = np.searchsorted(t, t[steps + 1] + delay, side="left")    # ... and before its end
+        inside = [np.arange(a, b) for a, b in zip(first.tolist(), end.tolist()) if b > a]
+        return np.unique(np.concatenate(inside)) if inside else np.zeros(0, int)
 
     def report(self, fit: Fit, applied: Applied) -> dict:
         out = {"delay": fit.estimate(lambda v: v["time_offset.delay"])}

@@ -1,0 +1,80 @@
+"""A time offset on a record of load steps: the samples read inside a step's interval are left
+free, and the offset is then named alone."""
+
+import math
+
+import numpy as np
+import pytest
+
+from creepcomp import synth
+from creepcomp.diagnose.effects import time_offset as to
+from creepcomp.diagnose.sensor import diagnose
+from creepcomp.fit.data import abrupt_intervals, load_steps, prepare
+from creepcomp.fit.solver import Problem, _counted_linear, fit_structure
+from creepcomp.fit.structure import Applied, Structure
+from creepcomp.io.records import Record
+
+
+def _record(load, signal=None, dt=1.0):
+    t = np.arange(len(load)) * dt
+    return prepare(Record(time=t, load=np.asarray(load, float),
+                          signal=np.asarray(load, float) if signal is None else signal, source="t"))
+
+
+def test_abrupt_intervals_are_the_steps_and_a_step_split_over_two_intervals():
+    data = _record([0, 0, 0, 1, 1, 1, 1, 0.7, 0.2, 0.2, 0.2, 0.2])
+    assert list(load_steps(data)) == [2]
+    # the step from 1 to 0.2 lies inside a block: its mean (0.7) is between the levels
+    assert list(abrupt_intervals(data)) == [2, 6, 7]
+    ramp = _record(np.linspace(0, 1, 12))
+    assert len(abrupt_intervals(ramp)) == 0
+
+
+def test_straddling_samples_read_inside_a_step_interval():
+    data = _record([0.0] * 10 + [1.0] * 10)                # the step within interval 9 (9 s to 10 s)
+    applied = Applied(to.EFFECT, ())
+    # read 2.4 s early: sample 12 reads at 9.6 s, inside the step's interval
+    assert list(to.EFFECT.straddling(data, {"delay": 2.4, "width": 0.0}, applied)) == [12]
+    assert list(to.EFFECT.straddling(data, {"delay": -1.5, "width": 0.0}, applied)) == [8]
+    # a whole number of samples reads on samples: none is free
+    assert len(to.EFFECT.straddling(data, {"delay": 2.0, "width": 0.0}, applied)) == 0
+    # a delay of next to nothing reads where the load is known
+    assert len(to.EFFECT.straddling(data, {"delay": 0.05, "width": 0.0}, applied)) == 0
+    # a window averages the unknown step time over its width
+    assert len(to.EFFECT.straddling(data, {"delay": 2.4, "width": 3.0}, applied)) == 0
+
+
+def _offset_record(program, seed, delay=0.43):
+    spec = synth.Spec(hidden={"time_offset": {"delay": delay}}, beta=(0.03,), tau=(45.0,), gain=1.0,
+                      rate=10.0, duration=600.0, program=program, noise=synth.NoiseSpec(white=5e-4),
+                      seed=seed)
+    return synth.generate(spec).record
+
+
+def test_the_fit_leaves_straddling_samples_free_and_pays_for_each():
+    data = prepare(_offset_record("staircase", 1))
+    structure = Structure(1, (Applied(to.EFFECT, (("window", True),)),))
+    fit = fit_structure(data, structure, [{"tau[0]": 45.0, "c0[0]": 0.0, "time_offset.delay": 0.43,
+                                           "time_offset.width": 0.0}])
+    problem = Problem(data, structure)
+    x = problem.start_vector({p.name: fit.values[p.name] for p in fit.params})
+    b, _, r = problem.project(x)
+    free = problem.straddled(b)
+    assert len(free) >= 3
+    assert np.all(fit.residual[free] == 0.0) and np.all(r[free] == 0.0)
+    # the search sees each free sample's price: the noise variance times log n
+    search = problem.residual(x) * problem.scale
+    kept = np.delete(r, free)
+    price = math.sqrt(math.log(len(r)) * float(kept @ kept) / len(kept))
+    assert search[free] == pytest.approx(price, rel=1e-9)
+    # counted by the criterion: one parameter each
+    assert fit.extras["linear"] == _counted_linear(b.names, {}) + len(free)
+    assert fit.residual_rms < 1.5 * 5e-4
+
+
+@pytest.mark.parametrize("program, seed", [("staircase", 1), ("step", 2)])
+def test_a_time_offset_on_load_steps_is_named_alone(program, seed):
+    result = diagnose(_offset_record(program, seed), correction=False)
+    assert [f.effect for f in result.findings] == ["time_offset"]
+    delay = result.findings[0]
+    assert abs(delay.parameters["delay"] - 0.43) < 0.05
