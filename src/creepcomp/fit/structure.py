@@ -145,7 +145,8 @@ class Basis:
     lags: np.ndarray             # (N, K)
     step_bounds: tuple = ()      # (column, term k, half width in s) of each step-time column
     step_mids: tuple = ()        # the middle (s) of each step-time column's sample interval
-    straddling: np.ndarray = field(default_factory=lambda: _NO_SAMPLES)   # Effect.straddling
+    # samples each fitted by a parameter of its own (Effect.straddling; Problem.straddled)
+    straddling: np.ndarray = field(default_factory=lambda: _NO_SAMPLES)
 
 
 #: Samples per segment when lags whose time constant depends on their own state are solved.
