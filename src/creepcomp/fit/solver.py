@@ -427,8 +427,8 @@ class Problem:
     def residual(self, x: np.ndarray) -> np.ndarray:
         """Residual with the linear part projected out, relative to the signal's range. A row
         the basis leaves free (:meth:`straddled`) holds the price of its parameter instead of
-        zero: the noise variance times log n, what the criterion charges for it (so the search
-        does not favour points that free more rows)."""
+        zero: squared, the noise variance times log n, what the criterion charges for it (so
+        the search does not favour points that free more rows)."""
         try:
             b, _, r = self.project(x)
             straddled = self.straddled(b)
