@@ -78,3 +78,20 @@ def test_a_time_offset_on_load_steps_is_named_alone(program, seed):
     assert [f.effect for f in result.findings] == ["time_offset"]
     delay = result.findings[0]
     assert abs(delay.parameters["delay"] - 0.43) < 0.05
+
+
+def test_a_held_out_straddling_sample_is_predicted_by_the_template():
+    data = prepare(_offset_record("staircase", 1))
+    structure = Structure(1, (Applied(to.EFFECT, (("window", True),)),))
+    values = {"tau[0]": 45.0, "c0[0]": 0.0, "time_offset.delay": 0.43, "time_offset.width": 0.0}
+    whole = Problem(data, structure)
+    b = whole.basis(whole.start_vector(values))
+    free = b.straddling
+    keep = np.ones(data.n, bool)
+    keep[free[0]] = False                       # the first straddling sample held out
+    part = Problem(data, structure, keep)
+    x = part.start_vector(values)
+    _, residual = part.full_residual(x)
+    assert residual[free[0]] != 0.0             # predicted from the load, not fitted
+    assert np.all(residual[free[1:]] == 0.0)    # the fitted ones each by their own parameter
+    assert len(part.straddled(part.basis(x))) == len(free) - 1
