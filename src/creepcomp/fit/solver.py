@@ -277,6 +277,15 @@ def _anchored_inverse(gram: np.ndarray):
     return norms, np.linalg.inv(scaled + ANCHOR_WEIGHT * np.eye(len(norms)))
 
 
+def _zeroed(values: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """``values`` with ``rows`` set to zero (a copy; ``values`` itself when there are none)."""
+    if not len(rows):
+        return values
+    out = values.copy()
+    out[rows] = 0.0
+    return out
+
+
 #: Points whose projection a :class:`Problem` keeps.
 _PROJECTIONS_KEPT = 3
 
@@ -336,25 +345,19 @@ class Problem:
         """Positions among the fitted rows of the samples the basis leaves free
         (:attr:`Basis.straddling`): each has a parameter of its own, so its residual is zero
         and it takes no part in the fit of the others."""
-        if not len(b.straddling):
-            return b.straddling
-        return b.straddling if isinstance(self.take, slice) else np.flatnonzero(np.isin(self.rows, b.straddling))
+        samples = b.straddling
+        if not len(samples) or isinstance(self.take, slice):
+            return samples
+        at = np.minimum(np.searchsorted(self.rows, samples), len(self.rows) - 1)   # (rows sorted)
+        return at[self.rows[at] == samples]
 
     def on_fitted(self, values: np.ndarray, straddled: np.ndarray) -> np.ndarray:
         """:meth:`on_rows`, with the rows ``straddled`` (:meth:`straddled`) set to zero."""
-        out = self.on_rows(values)
-        if len(straddled):
-            out = out.copy()
-            out[straddled] = 0.0
-        return out
+        return _zeroed(self.on_rows(values), straddled)
 
     def fitted_signal(self, straddled: np.ndarray) -> np.ndarray:
         """The signal on the fitted rows (:attr:`y`), zero on the rows ``straddled``."""
-        if not len(straddled):
-            return self.y
-        out = self.y.copy()
-        out[straddled] = 0.0
-        return out
+        return _zeroed(self.y, straddled)
 
     def on_rows(self, values: np.ndarray) -> np.ndarray:
         """The fitted rows of a per-sample array or of basis columns, each times the square
