@@ -135,3 +135,35 @@ def test_a_linearised_held_out_step_beyond_a_bound_stops_at_the_bound():
     fit = fit_prony(prepare(reduced)).fit
     assert fit.structure.n_terms == 3
     assert np.sort(fit.taus) == pytest.approx([8.0, 90.0, 900.0], rel=0.02)
+
+
+def test_kept_lag_plans_follow_times_changed_in_place():
+    """What the lags take from the sample times alone is kept for the times' array: the same
+    array with other times gives the lags of those times."""
+    rng = np.random.default_rng(5)
+    t = np.cumsum(rng.uniform(0.1, 0.9, 3000))
+    u = rng.normal(size=t.size)
+    first = lti.lag_states(t, u, [2.0, 40.0]).copy()
+    np.testing.assert_array_equal(lti.lag_states(t, u, [2.0, 40.0]), first)     # (kept)
+    np.testing.assert_array_equal(lti.lag_states(t, 3.0 * u, [2.0, 40.0]), lti.lag_states(t.copy(), 3.0 * u, [2.0, 40.0]))
+    t *= 2.0                                        # other times, the same array
+    np.testing.assert_array_equal(lti.lag_states(t, u, [2.0, 40.0]), lti.lag_states(t.copy(), u, [2.0, 40.0]))
+    assert not np.allclose(lti.lag_states(t, u, [2.0, 40.0]), first)
+
+
+def test_an_empty_column_is_solved_as_the_minimum_norm_solution_would():
+    """A column that is all zero (a load step the delayed creep input does not take) gets the
+    coefficient 0 and leaves the others as the rank-revealing solver finds them."""
+    from scipy import linalg
+
+    from creepcomp.fit.solver import _solve
+
+    rng = np.random.default_rng(6)
+    a = rng.normal(size=(400, 5))
+    a[:, 2] = 0.0
+    y = a @ np.array([1.0, -2.0, 0.0, 0.5, 3.0]) + 0.01 * rng.normal(size=400)
+    got = _solve(a, y)
+    want, *_ = linalg.lstsq(a, y, lapack_driver="gelsy")
+    assert got[2] == 0.0
+    np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(_solve(a[:, [0, 1, 3, 4]], y), np.delete(got, 2), rtol=1e-12)

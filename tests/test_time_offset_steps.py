@@ -10,6 +10,7 @@ from creepcomp import synth
 from creepcomp.diagnose.effects import time_offset as to
 from creepcomp.diagnose.sensor import diagnose
 from creepcomp.fit.data import abrupt_intervals, load_steps, prepare
+from creepcomp.fit.reduce import reduce_record
 from creepcomp.fit.solver import Problem, _counted_linear, fit_structure
 from creepcomp.fit.structure import Applied, Structure
 from creepcomp.io.records import Record
@@ -67,8 +68,11 @@ def test_the_fit_leaves_straddling_samples_free_and_pays_for_each():
     kept = np.delete(r, free)
     price = math.sqrt(math.log(len(r)) * float(kept @ kept) / len(kept))
     assert search[free] == pytest.approx(price, rel=1e-9)
-    # counted by the criterion: one parameter each
-    assert fit.extras["linear"] == _counted_linear(b.names, {}) + len(free)
+    # counted by the criterion: one parameter each; the step-time columns, empty where the
+    # delayed creep input does not step (all of them here), are none
+    empty = {n for n, col in zip(b.names, b.columns.T) if not col.any()}
+    assert empty == {n for n in b.names if n.startswith("step_time[")}
+    assert fit.extras["linear"] == _counted_linear(b.names, {}, empty) + len(free) == 3 + len(free)
     assert fit.residual_rms < 1.5 * 5e-4
 
 
@@ -95,3 +99,24 @@ def test_a_held_out_straddling_sample_is_predicted_by_the_template():
     assert residual[free[0]] != 0.0             # predicted from the load, not fitted
     assert np.all(residual[free[1:]] == 0.0)    # the fitted ones each by their own parameter
     assert len(part.straddled(part.basis(x))) == len(free) - 1
+
+
+def test_a_step_the_delayed_creep_input_does_not_take_has_an_empty_step_time_column():
+    """The step-time columns sit at the load's step intervals: where the delayed creep input
+    does not step, its change there is rounding and the column is exactly zero (not a column
+    of rounding that a solver would fit)."""
+    spec = synth.Spec(hidden={"time_offset": {"delay": 0.43}}, beta=(0.03,), tau=(45.0,), gain=1.0,
+                      rate=10.0, duration=1800.0, program="staircase", noise=synth.NoiseSpec(white=5e-4),
+                      seed=1)
+    reduced, _ = reduce_record(synth.generate(spec).record, 3000)    # (block means: loads with rounding)
+    data = prepare(reduced)
+    structure = Structure(1, (Applied(to.EFFECT, (("window", True),)),))
+    problem = Problem(data, structure)
+    delayed = problem.basis(problem.start_vector({"tau[0]": 45.0, "time_offset.delay": 0.43,
+                                                  "time_offset.width": 0.0}))
+    on_time = problem.basis(problem.start_vector({"tau[0]": 45.0, "time_offset.delay": 0.0,
+                                                  "time_offset.width": 0.0}))
+    steps = [i for i, n in enumerate(delayed.names) if n.startswith("step_time[")]
+    assert steps
+    assert np.all(delayed.columns[:, steps] == 0.0)
+    assert np.all(np.any(on_time.columns[:, steps] != 0.0, axis=0))

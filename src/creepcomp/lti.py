@@ -228,16 +228,58 @@ def lag_states(time, u, taus, hold: str = "linear", initial="relaxed", u_before=
     if changes is not None:
         _held_runs(t, u, taus, changes, c0, out)
         return out
-    if is_uniform(t):
-        step = float(np.mean(dt))
-        for j, tau in enumerate(taus):
-            e, b0, b1 = (float(c) for c in lag_coefficients(step, tau, hold))
+    plan = _lag_plan(t, dt, taus, hold)
+    if plan.uniform:
+        for j, (e, b0, b1) in enumerate(plan.coefficients):
             out[1:, j] = first_order_filter(e, b0 * u[:-1] + b1 * ub[1:], c0[j])
         return out
-    e, b0, b1 = lag_coefficients(dt[:, None], taus[None, :], hold)
+    e, b0, b1 = plan.coefficients
     drive = b0 * u[:-1, None] + b1 * ub[1:, None]
-    _scan(t, taus, e, drive, c0, out)
+    _scan(t, taus, e, drive, c0, out, plan.blocks)
     return out
+
+
+@dataclass(frozen=True)
+class _LagPlan:
+    """What :func:`lag_states` computes from the sample times and time constants alone:
+    uniform steps and each lag's coefficients, or the coefficients of every step and the
+    blocks of :func:`_scan` with their growth factors."""
+
+    uniform: bool
+    coefficients: tuple
+    blocks: tuple = ()
+
+
+#: Plans of the last few (sample times, time constants) of :func:`lag_states`: a fit evaluates
+#: the lags of many inputs for the same time constants (an effect's own parameters move the
+#: input only). Only of records up to :data:`_RUNS_KEPT_SAMPLES` samples.
+_PLANS_KEPT = 8
+_PLANS: dict = {}
+_PLANS_LOCK = threading.Lock()
+
+
+def _lag_plan(t: np.ndarray, dt: np.ndarray, taus: np.ndarray, hold: str) -> _LagPlan:
+    """The :class:`_LagPlan` of these sample times and time constants (kept by the times'
+    identity, and used again only while their values are those it was made for)."""
+    key = (id(t), taus.tobytes(), hold)
+    with _PLANS_LOCK:
+        hit = _PLANS.get(key)
+    if hit is not None and hit[0] is t and np.array_equal(hit[1], t):
+        return hit[2]
+    if is_uniform(t):
+        step = float(np.mean(dt))
+        plan = _LagPlan(True, tuple(tuple(float(c) for c in lag_coefficients(step, tau, hold)) for tau in taus))
+    else:
+        coefficients = lag_coefficients(dt[:, None], taus[None, :], hold)
+        for c in coefficients:
+            c.flags.writeable = False           # (shared by every call with this plan)
+        plan = _LagPlan(False, coefficients, _scan_blocks(t, taus))
+    if len(t) <= _RUNS_KEPT_SAMPLES:
+        with _PLANS_LOCK:
+            while len(_PLANS) >= _PLANS_KEPT:
+                _PLANS.pop(next(iter(_PLANS)))
+            _PLANS[key] = (t, t.copy(), plan)
+    return plan
 
 
 #: Most load changes, as a share of the samples, for which lags are solved run by run
@@ -424,19 +466,26 @@ def first_order_filter(e: float, drive: np.ndarray, c0: float) -> np.ndarray:
     return within.ravel()[:n]
 
 
-def _scan(t, taus, e, drive, c0, out):
-    """Solve ``c[n+1] = e[n] c[n] + drive[n]`` in blocks of bounded decay (vectorised)."""
+def _scan_blocks(t, taus) -> tuple:
+    """The blocks of bounded decay of :func:`_scan`: ``(i0, i1, growth)``, ``growth`` the
+    inverse of the product of ``e`` from ``i0`` to each later sample of the block (at most
+    ``exp(500)``; None for a block of one sample)."""
     block = np.floor((t - t[0]) / (_BLOCK_DECAY * taus.min())).astype(np.int64)
     starts = np.flatnonzero(np.diff(block, prepend=block[0] - 1))
     ends = np.append(starts[1:], len(t))
+    return tuple((int(i0), int(i1), np.exp((t[i0 + 1:i1] - t[i0])[:, None] / taus[None, :]) if i1 - i0 > 1
+                  else None) for i0, i1 in zip(starts, ends))
+
+
+def _scan(t, taus, e, drive, c0, out, blocks=None):
+    """Solve ``c[n+1] = e[n] c[n] + drive[n]`` in blocks of bounded decay (vectorised);
+    ``blocks``: those of :func:`_scan_blocks` for ``t`` and ``taus``, when known."""
     c = c0
-    for i0, i1 in zip(starts, ends):
+    for i0, i1, growth in (_scan_blocks(t, taus) if blocks is None else blocks):
         if i0 > 0:
             c = e[i0 - 1] * out[i0 - 1] + drive[i0 - 1]
         out[i0] = c
-        if i1 - i0 > 1:
-            rel = (t[i0 + 1:i1] - t[i0])[:, None] / taus[None, :]
-            growth = np.exp(rel)              # 1 / (product of e from i0 to n), <= exp(500)
+        if growth is not None:
             acc = np.cumsum(drive[i0:i1 - 1] * growth, axis=0)
             out[i0 + 1:i1] = (c + acc) / growth
 

@@ -211,8 +211,19 @@ def _solve(aw: np.ndarray, yw: np.ndarray, prior: np.ndarray | None = None,
     ``rhs``: ``aw.T @ aw`` and ``aw.T @ yw`` when known; ``rows``: the rows of ``aw`` and
     ``yw`` they are of (default all); ``cols``: the columns of ``aw`` they are of (default
     all)."""
-    norms, gram = unit_scaled(aw.T @ aw if gram is None else gram)
-    rhs = (aw.T @ yw if rhs is None else rhs) / norms
+    gram = aw.T @ aw if gram is None else gram
+    rhs = aw.T @ yw if rhs is None else rhs
+    live = np.diag(gram) > 0
+    if prior is None and not live.all():
+        # an empty column (a step the creep input does not take) keeps 0, as the minimum-norm
+        # solution would: solved without it, the normal equations stay well-posed
+        coef = np.zeros(len(live))
+        if live.any():
+            at = np.flatnonzero(live) if cols is None else np.asarray(cols)[live]
+            coef[live] = _solve(aw, yw, None, gram[np.ix_(live, live)], rhs[live], rows, at)
+        return coef
+    norms, gram = unit_scaled(gram)
+    rhs = rhs / norms
     if prior is not None:
         gram = gram + ANCHOR_WEIGHT * np.eye(len(norms))
         rhs = rhs + ANCHOR_WEIGHT * prior * norms
@@ -688,13 +699,19 @@ def _coarse(problem: Problem) -> "Problem | None":
     return out
 
 
-def _counted_linear(names, fixed: dict) -> int:
+def _counted_linear(names, fixed: dict, empty=()) -> int:
     """Free linear coefficients as the criterion counts them: a load step's time is one
     unknown, however many creep terms its columns span (so that a further term is not
-    charged for the record's steps again)."""
-    free = [n for n in names if n not in fixed]
+    charged for the record's steps again); an ``empty`` column (all zero: a step the delayed
+    creep input does not take) is none."""
+    free = [n for n in names if n not in fixed and n not in empty]
     steps = {n.split("]")[0] for n in free if n.startswith("step_time[")}
     return sum(not n.startswith("step_time[") for n in free) + len(steps)
+
+
+def _empty(b: Basis) -> set:
+    """Names of the basis's columns that are all zero."""
+    return {n for n, live in zip(b.names, np.any(b.columns != 0.0, axis=0)) if not live}
 
 
 def _finish(problem: Problem, x: np.ndarray, noise: ARNoise | None, with_cov: bool) -> Fit:
@@ -711,7 +728,7 @@ def _finish(problem: Problem, x: np.ndarray, noise: ARNoise | None, with_cov: bo
               params=tuple(problem.all_params), fixed_offset=data.fixed_offset,
               extras={"rows": problem.likelihood_rows, "fitted": problem.rows,
                       "nonlinear": len(problem.all_params),
-                      "linear": _counted_linear(b.names, problem.fixed) + len(problem.straddled(b))})
+                      "linear": _counted_linear(b.names, problem.fixed, _empty(b)) + len(problem.straddled(b))})
     fit = with_noise(fit, noise)
     if with_cov:
         fit = replace(fit, cov=_fit_covariance(problem, x, coef, fit))

@@ -283,22 +283,23 @@ def basis(data: Data, structure: Structure, values: dict, cache: dict | None = N
     """Evaluate the model's linear basis for given nonlinear parameter values."""
     t = data.time
     effects = structure.effects
+    own = [a.own(values) for a in effects]
     x = data.load
-    for a in effects:
-        x = a.effect.load_transform(data, x, a.own(values), a)
+    for a, p in zip(effects, own):
+        x = a.effect.load_transform(data, x, p, a)
     s = x
-    for a in effects:
-        s = a.effect.instant(data, s, a.own(values), a)
+    for a, p in zip(effects, own):
+        s = a.effect.instant(data, s, p, a)
     h = s
-    for a in effects:
-        h = a.effect.creep_input(data, h, a.own(values), a)
+    for a, p in zip(effects, own):
+        h = a.effect.creep_input(data, h, p, a)
     taus = taus_of(values, structure.n_terms)
     init = data.lag_initial(h, taus, values)
     dynamic = [a for a in effects if a.effect.changes_lags]
     # the lags depend on h, taus, the initial state and the lag-changing effects' parameters
     # only: a step in any other parameter (an effect's own columns, a finite-difference step)
     # reuses the last ones
-    key = (taus, init, [a.own(values) for a in dynamic])
+    key = (taus, init, [p for a, p in zip(effects, own) if a.effect.changes_lags])
     last = None if cache is None else cache.get("lags")
     if last is not None and _same_lag_inputs(last[0], h, key):
         lags = last[1]
@@ -319,13 +320,18 @@ def basis(data: Data, structure: Structure, values: dict, cache: dict | None = N
     for k in range(len(taus)):
         cols.append(lags[:, k])
         names.append(f"a[{k}]")
-    for a in effects:
-        for name, col in a.effect.columns(data, s, h, lags, a.own(values), a).items():
+    for a, p in zip(effects, own):
+        for name, col in a.effect.columns(data, s, h, lags, p, a).items():
             cols.append(col)
             names.append(f"{a.name}.{name}")
-    straddling = [a.effect.straddling(data, a.own(values), a) for a in effects]
+    straddling = [a.effect.straddling(data, p, a) for a, p in zip(effects, own)]
     straddling = np.unique(np.concatenate(straddling)) if any(len(i) for i in straddling) else _NO_SAMPLES
     return Basis(_stack(cols), tuple(names), x, s, h, lags, straddling=straddling)
+
+
+#: A change of the creep input across a load step's interval within this share of its largest
+#: value is rounding: the input does not step there.
+_ROUNDING = 1e-12
 
 
 def with_step_times(data: Data, b: Basis, taus: np.ndarray, cache: dict | None = None) -> Basis:
@@ -363,8 +369,11 @@ def with_step_times(data: Data, b: Basis, taus: np.ndarray, cache: dict | None =
     first = b.columns.shape[1]
     reference = 0.5 * float(t[steps[0] + 1] - t[steps[0]])
     cols = np.zeros((len(t), (len(steps) - 1) * len(taus)), order="F")
+    unseen = _ROUNDING * float(np.max(np.abs(h)))
     for j, i in enumerate(steps[1:], start=1):
         mid, dh = 0.5 * (t[i] + t[i + 1]), h[i + 1] - h[i]
+        if abs(dh) <= unseen:   # the creep input does not step here (a delayed load): an empty column
+            dh = 0.0
         for k, tau in enumerate(taus):
             cols[i + 1:, len(names)] = -dh / tau * _step_decays(t, steps, float(tau), cache)[j - 1]
             names.append(f"step_time[{j}][{k}]")

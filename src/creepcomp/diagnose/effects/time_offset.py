@@ -45,7 +45,7 @@ def _integral_at(time, values, at) -> np.ndarray:
 
 def _plain_delay(t: np.ndarray, width: float) -> bool:
     """A window of ``width`` s is a plain delay at these sample times (:data:`NARROW`)."""
-    return len(t) < 2 or width <= NARROW * float(np.min(np.diff(t)))
+    return len(t) < 2 or width <= 0.0 or width <= NARROW * float(np.min(np.diff(t)))
 
 
 def averaged(time, values, delay: float, width: float) -> np.ndarray:
