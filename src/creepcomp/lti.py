@@ -252,8 +252,10 @@ class _LagPlan:
 
 #: Plans of the last few (sample times, time constants) of :func:`lag_states`: a fit evaluates
 #: the lags of many inputs for the same time constants (an effect's own parameters move the
-#: input only). Only of records up to :data:`_RUNS_KEPT_SAMPLES` samples.
-_PLANS_KEPT = 8
+#: input only). Only up to :data:`_PLAN_KEPT_VALUES` samples times lags (a diagnosis's record;
+#: a plan holds four such arrays).
+_PLANS_KEPT = 4
+_PLAN_KEPT_VALUES = 120_000
 _PLANS: dict = {}
 _PLANS_LOCK = threading.Lock()
 
@@ -274,7 +276,7 @@ def _lag_plan(t: np.ndarray, dt: np.ndarray, taus: np.ndarray, hold: str) -> _La
         for c in coefficients:
             c.flags.writeable = False           # (shared by every call with this plan)
         plan = _LagPlan(False, coefficients, _scan_blocks(t, taus))
-    if len(t) <= _RUNS_KEPT_SAMPLES:
+    if len(t) * len(taus) <= _PLAN_KEPT_VALUES:
         with _PLANS_LOCK:
             while len(_PLANS) >= _PLANS_KEPT:
                 _PLANS.pop(next(iter(_PLANS)))
