@@ -120,3 +120,31 @@ def test_a_step_the_delayed_creep_input_does_not_take_has_an_empty_step_time_col
     assert steps
     assert np.all(delayed.columns[:, steps] == 0.0)
     assert np.all(np.any(on_time.columns[:, steps] != 0.0, axis=0))
+
+
+def test_the_fresh_term_search_over_the_best_offsets_finds_what_the_whole_cross_does(monkeypatch):
+    """The time offset's creep term started afresh crosses the whole grid of time constants
+    with only the best few of its 21 offset starts (ranked at a few time constants): it lands
+    where crossing all of them does."""
+    import creepcomp.diagnose.effects as effects
+    from creepcomp.fit.solver import screening
+    from creepcomp.fit.starts import one_term_starts
+
+    data = prepare(_offset_record("staircase", 2, delay=0.43))
+    base = fit_structure(data, Structure(1), one_term_starts(data))
+    counted = []
+    real_cost = Problem.cost
+    monkeypatch.setattr(Problem, "cost", lambda self, v: counted.append(1) or real_cost(self, v))
+
+    def fresh():
+        counted.clear()
+        with screening():
+            fit = to.EFFECT.fit_on(data, base, refine="own")
+        return fit, len(counted)
+
+    few, ranked = fresh()
+    monkeypatch.setattr(effects, "FRESH_OWN_STARTS", 100)
+    whole, unranked = fresh()
+    assert ranked > 0 and unranked == 0                 # the offsets were ranked first
+    assert few.bic == pytest.approx(whole.bic, abs=0.5)
+    assert few.values["time_offset.delay"] == pytest.approx(whole.values["time_offset.delay"], abs=0.01)

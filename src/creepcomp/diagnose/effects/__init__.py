@@ -42,7 +42,7 @@ import numpy as np
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.structure import Applied, Param, Structure, basis
-from creepcomp.fit.solver import Fit, fit_structure
+from creepcomp.fit.solver import Fit, Problem, fit_structure
 from creepcomp.model import CreepModel
 from creepcomp.temperature import TemperatureLaw
 from creepcomp.diagnose.effects._sensor import Scales, SignalPath, Simulated
@@ -58,6 +58,10 @@ __all__ = ["Effect", "SensorEffect", "Scales", "SignalPath", "Simulated", "REGIS
 #: delay near zero on a record without one) takes ten times as many for a BIC lower by a unit
 #: or two; a candidate whose quick fit is promising is refined again without the cap.
 SCREEN_ITERATIONS = 20
+#: Own start values of an effect crossed with the whole grid of time constants when its creep
+#: term starts afresh (:meth:`SensorEffect.with_fresh_term`): the best at a few time constants
+#: across the grid (a time offset has 21: 111 evaluations on a 30-minute record instead of 252).
+FRESH_OWN_STARTS = 4
 
 
 class Effect(abc.ABC):
@@ -306,7 +310,8 @@ class SensorEffect(Effect, Simulated):
     def with_fresh_term(self, data: Data, base: Fit, fit: Fit, refine: str, start: dict | None,
                         settings: tuple | None, screening: bool | None = None) -> Fit:
         """``fit`` (this effect on a one-term ``base``), or the effect fitted with the creep
-        term started afresh from a grid of time constants when that fits better: for effects
+        term started afresh from a grid of time constants (crossed with the effect's own start
+        values, or the :data:`FRESH_OWN_STARTS` best of them) when that fits better: for effects
         that the base's one term may have mimicked (a delay by a fast term of large beta, flow
         by a term longer than the record), whose fit from the base's values then stays there.
         ``screening``: a quick fit, whose refinements stop after :data:`SCREEN_ITERATIONS`
@@ -316,8 +321,15 @@ class SensorEffect(Effect, Simulated):
         from creepcomp.fit.starts import one_term_starts
 
         applied, structure = self._on(data, base, settings)
-        fresh = [dict(t, **{self._key(applied, k): v for k, v in own.items()})
-                 for t in one_term_starts(data) for own in self.starts(data, base, applied)]
+        grid = one_term_starts(data)
+        owns = [{self._key(applied, k): v for k, v in own.items()} for own in self.starts(data, base, applied)]
+        if len(owns) > FRESH_OWN_STARTS:
+            # ranked at a few time constants across the grid first: each own start's best
+            problem = Problem(data, structure)
+            probe = grid[::max(1, len(grid) // 3)]
+            cost = [min(problem.cost(dict(t, **own)) for t in probe) for own in owns]
+            owns = [owns[i] for i in np.argsort(cost, kind="stable")[:FRESH_OWN_STARTS]]
+        fresh = [dict(t, **own) for t in grid for own in owns]
         try:
             alt = fit_structure(data, structure, fresh, n_refine=4, with_cov=refine == "all",
                                 max_nfev=SCREEN_ITERATIONS if screening or (screening is None and refine == "own")
