@@ -243,11 +243,11 @@ def lag_states(time, u, taus, hold: str = "linear", initial="relaxed", u_before=
 class _LagPlan:
     """What :func:`lag_states` computes from the sample times and time constants alone:
     uniform steps and each lag's coefficients, or the coefficients of every step and the
-    blocks of :func:`_scan` with their growth factors."""
+    blocks of :func:`_scan` with their growth factors (None: found as the scan goes)."""
 
     uniform: bool
     coefficients: tuple
-    blocks: tuple = ()
+    blocks: tuple | None = None
 
 
 #: Plans of the last few (sample times, time constants) of :func:`lag_states`: a fit evaluates
@@ -268,6 +268,7 @@ def _lag_plan(t: np.ndarray, dt: np.ndarray, taus: np.ndarray, hold: str) -> _La
         hit = _PLANS.get(key)
     if hit is not None and hit[0] is t and np.array_equal(hit[1], t):
         return hit[2]
+    kept = len(t) * len(taus) <= _PLAN_KEPT_VALUES
     if is_uniform(t):
         step = float(np.mean(dt))
         plan = _LagPlan(True, tuple(tuple(float(c) for c in lag_coefficients(step, tau, hold)) for tau in taus))
@@ -275,8 +276,9 @@ def _lag_plan(t: np.ndarray, dt: np.ndarray, taus: np.ndarray, hold: str) -> _La
         coefficients = lag_coefficients(dt[:, None], taus[None, :], hold)
         for c in coefficients:
             c.flags.writeable = False           # (shared by every call with this plan)
-        plan = _LagPlan(False, coefficients, _scan_blocks(t, taus))
-    if len(t) * len(taus) <= _PLAN_KEPT_VALUES:
+        # (a plan not kept grows its blocks one at a time, as the scan reaches them)
+        plan = _LagPlan(False, coefficients, tuple(_scan_blocks(t, taus)) if kept else None)
+    if kept:
         with _PLANS_LOCK:
             while len(_PLANS) >= _PLANS_KEPT:
                 _PLANS.pop(next(iter(_PLANS)))
@@ -468,15 +470,16 @@ def first_order_filter(e: float, drive: np.ndarray, c0: float) -> np.ndarray:
     return within.ravel()[:n]
 
 
-def _scan_blocks(t, taus) -> tuple:
-    """The blocks of bounded decay of :func:`_scan`: ``(i0, i1, growth)``, ``growth`` the
-    inverse of the product of ``e`` from ``i0`` to each later sample of the block (at most
-    ``exp(500)``; None for a block of one sample)."""
+def _scan_blocks(t, taus):
+    """The blocks of bounded decay of :func:`_scan`, one at a time: ``(i0, i1, growth)``,
+    ``growth`` the inverse of the product of ``e`` from ``i0`` to each later sample of the
+    block (at most ``exp(500)``; None for a block of one sample)."""
     block = np.floor((t - t[0]) / (_BLOCK_DECAY * taus.min())).astype(np.int64)
     starts = np.flatnonzero(np.diff(block, prepend=block[0] - 1))
     ends = np.append(starts[1:], len(t))
-    return tuple((int(i0), int(i1), np.exp((t[i0 + 1:i1] - t[i0])[:, None] / taus[None, :]) if i1 - i0 > 1
-                  else None) for i0, i1 in zip(starts, ends))
+    for i0, i1 in zip(starts, ends):
+        yield int(i0), int(i1), (np.exp((t[i0 + 1:i1] - t[i0])[:, None] / taus[None, :]) if i1 - i0 > 1
+                                 else None)
 
 
 def _scan(t, taus, e, drive, c0, out, blocks=None):

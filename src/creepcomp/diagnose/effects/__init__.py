@@ -323,14 +323,14 @@ class SensorEffect(Effect, Simulated):
         applied, structure = self._on(data, base, settings)
         grid = one_term_starts(data)
         owns = [{self._key(applied, k): v for k, v in own.items()} for own in self.starts(data, base, applied)]
-        if len(owns) > FRESH_OWN_STARTS:
-            # ranked at a few time constants across the grid first: each own start's best
-            problem = Problem(data, structure)
-            probe = grid[::max(1, len(grid) // 3)]
-            cost = [min(problem.cost(dict(t, **own)) for t in probe) for own in owns]
-            owns = [owns[i] for i in np.argsort(cost, kind="stable")[:FRESH_OWN_STARTS]]
-        fresh = [dict(t, **own) for t in grid for own in owns]
         try:
+            if len(owns) > FRESH_OWN_STARTS:
+                # ranked at a few time constants across the grid first: each own start's best
+                problem = Problem(data, structure)
+                probe = grid[::max(1, len(grid) // 3)]
+                cost = [min(problem.cost(dict(t, **own)) for t in probe) for own in owns]
+                owns = [owns[i] for i in np.argsort(cost, kind="stable")[:FRESH_OWN_STARTS]]
+            fresh = [dict(t, **own) for t in grid for own in owns]
             alt = fit_structure(data, structure, fresh, n_refine=4, with_cov=refine == "all",
                                 max_nfev=SCREEN_ITERATIONS if screening or (screening is None and refine == "own")
                                 else None)
