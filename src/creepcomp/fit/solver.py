@@ -213,7 +213,7 @@ def _solve(aw: np.ndarray, yw: np.ndarray, prior: np.ndarray | None = None,
     all)."""
     gram = aw.T @ aw if gram is None else gram
     rhs = aw.T @ yw if rhs is None else rhs
-    live = np.diag(gram) > 0
+    live = np.diag(gram) != 0.0             # (a column of NaN stays, to fail as before)
     if prior is None and not live.all():
         # an empty column (a step the creep input does not take) keeps 0, as the minimum-norm
         # solution would: solved without it, the normal equations stay well-posed
