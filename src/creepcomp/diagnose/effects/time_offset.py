@@ -111,7 +111,7 @@ class TimeOffset(SensorEffect):
         # value (where in the interval the load stepped is unknown), and a sample read there
         # would be missed by up to the whole step; a window averages the unknown over its width
         width, steps = p.get("width", 0.0), data.abrupt
-        if not len(steps) or (width > 0 and not _plain_delay(data.time, width)):
+        if not len(steps) or not _plain_delay(data.time, width):
             return np.zeros(0, int)
         t, delay = data.time, p["delay"]
         if abs(delay) < STRADDLE_DELAY * data.dt_median:
