@@ -167,3 +167,52 @@ def test_an_empty_column_is_solved_as_the_minimum_norm_solution_would():
     assert got[2] == 0.0
     np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-12)
     np.testing.assert_allclose(_solve(a[:, [0, 1, 3, 4]], y), np.delete(got, 2), rtol=1e-12)
+
+
+def test_deferred_covariance_is_the_one_computed_at_once():
+    """A fit's covariance is computed when first read; the fitting problem it keeps (pruned to
+    the projection at the optimum) gives the matrix that a fresh problem gives, bit for bit."""
+    import pickle
+    from dataclasses import replace
+
+    from creepcomp.diagnose import effects
+    from creepcomp.fit.solver import DeferredCovariance, Problem, _fit_covariance
+
+    data = _two_term_record(3)
+    base = fit_terms(data, 1, with_cov=False)
+    fit = effects.get("time_offset").fit_on(data, base)     # every parameter refined: with covariance
+    deferred = fit.covariance
+    assert isinstance(deferred, DeferredCovariance)
+    _, x, coef, at = deferred._inputs
+    fresh = _fit_covariance(Problem(data, fit.structure), x, coef, at)
+    got = fit.cov
+    assert got is not None and got.shape == (len(fit.vector_names),) * 2
+    np.testing.assert_array_equal(got, fresh)
+    assert fit.cov is got and replace(fit, heldout=None).cov is got      # computed once
+    np.testing.assert_array_equal(pickle.loads(pickle.dumps(fit)).cov, got)
+    assert fit.estimate(lambda v: v["time_offset.delay"])[1] > 0
+
+
+def test_a_diagnosis_computes_the_covariances_it_reads_only(monkeypatch):
+    from creepcomp import data
+    from creepcomp.diagnose.sensor import diagnose
+    from creepcomp.fit import solver
+
+    made, computed = [], []
+    init, compute = solver.DeferredCovariance.__init__, solver._fit_covariance
+
+    def counted_init(self, *args):
+        made.append(self)
+        init(self, *args)
+
+    def counted_compute(*args):
+        computed.append(args)
+        return compute(*args)
+
+    monkeypatch.setattr(solver.DeferredCovariance, "__init__", counted_init)
+    monkeypatch.setattr(solver, "_fit_covariance", counted_compute)
+    result = diagnose(data.hidden_effect())
+    assert result.cause == "asymmetric_recovery"
+    sigmas = [v for v in result.findings[0].uncertainty.values() if isinstance(v, float)]
+    assert sigmas and all(np.isfinite(v) and v > 0 for v in sigmas)
+    assert 0 < len(computed) < len(made) / 2

@@ -27,7 +27,7 @@ from creepcomp.fit.structure import (DIFF_STEP, Basis, Param, Structure, basis, 
                                      taus_of, with_step_times)
 from creepcomp.model import CreepModel
 
-__all__ = ["Fit", "ANCHOR_WEIGHT", "Problem", "best_of_starts", "fit_structure", "refined_ftol",
+__all__ = ["Fit", "DeferredCovariance", "ANCHOR_WEIGHT", "Problem", "best_of_starts", "fit_structure", "refined_ftol",
            "screening", "with_noise", "with_covariance", "sandwich_covariance", "small_sample_inflation", "unit_scaled"]
 
 
@@ -77,9 +77,8 @@ class Fit:
         Prewhitened rows in the likelihood.
     vector_names : tuple of str
         Names of the estimated parameters, in the order of ``cov``.
-    cov : numpy.ndarray
-        Covariance of (search coordinates of nonlinear parameters, linear coefficients),
-        from the Jacobian and the innovation variance (Gaussian AR noise, local linearity).
+    covariance : numpy.ndarray or DeferredCovariance or None
+        What :attr:`cov` reads: the matrix, or what computes it when first read.
     params : tuple of Param
         The nonlinear parameters' definitions.
     heldout : HeldOut or None
@@ -96,11 +95,19 @@ class Fit:
     n_params: int
     n_rows: int
     vector_names: tuple[str, ...] = ()
-    cov: np.ndarray | None = None
+    covariance: "np.ndarray | DeferredCovariance | None" = field(default=None, repr=False, compare=False)
     params: tuple[Param, ...] = ()
     heldout: "HeldOut | None" = None
     fixed_offset: bool = False
     extras: dict = field(default_factory=dict, compare=False)
+
+    @property
+    def cov(self) -> np.ndarray | None:
+        """Covariance of (search coordinates of nonlinear parameters, linear coefficients),
+        from the Jacobian and the innovation variance (Gaussian AR noise, local linearity);
+        None when not computed or singular."""
+        c = self.covariance
+        return c() if isinstance(c, DeferredCovariance) else c
 
     @property
     def taus(self) -> np.ndarray:
@@ -603,7 +610,8 @@ def fit_structure(data: Data, structure: Structure, starts: Sequence[dict], nois
         Cap on model evaluations per refinement.
     n_refine : int
     with_cov : bool
-        Compute the parameter covariance.
+        Give the fit its parameter covariance (computed when first read:
+        :class:`DeferredCovariance`).
     fixed : dict, optional
         Linear coefficients held at given values (by name).
     anchor : dict, optional
@@ -731,8 +739,31 @@ def _finish(problem: Problem, x: np.ndarray, noise: ARNoise | None, with_cov: bo
                       "linear": _counted_linear(b.names, problem.fixed, _empty(b)) + len(problem.straddled(b))})
     fit = with_noise(fit, noise)
     if with_cov:
-        fit = replace(fit, cov=_fit_covariance(problem, x, coef, fit))
+        fit = replace(fit, covariance=DeferredCovariance(problem, x, coef, fit))
     return fit
+
+
+class DeferredCovariance:
+    """A fit's covariance (:func:`_fit_covariance`), computed when first read: a diagnosis
+    fits many candidates and reports the uncertainties of few. The fitting problem is kept
+    with the one projection the computation starts from; the result is the one computed at
+    once."""
+
+    def __init__(self, problem: Problem, x: np.ndarray, coef: np.ndarray, fit: Fit):
+        key = np.asarray(x, float).tobytes()
+        kept = problem.cache.get("project", {})
+        problem.cache = {"project": {key: kept[key]}} if key in kept else {}
+        self._inputs = (problem, x, coef, fit)
+        self._value = None
+
+    def __call__(self) -> np.ndarray | None:
+        if self._inputs is not None:
+            self._value = _fit_covariance(*self._inputs)
+            self._inputs = None
+        return self._value
+
+    def __getstate__(self):
+        return {"_inputs": None, "_value": self()}
 
 
 def _fit_covariance(problem: Problem, x: np.ndarray, coef: np.ndarray, fit: Fit) -> np.ndarray | None:
@@ -751,7 +782,7 @@ def with_covariance(data: Data, fit: Fit) -> Fit:
     problem = Problem(data, fit.structure)
     x = np.array([p.to_search(fit.values[p.name]) for p in problem.params])
     _, coef, _ = problem.project(x)
-    return replace(fit, cov=_fit_covariance(problem, x, coef, fit))
+    return replace(fit, covariance=_fit_covariance(problem, x, coef, fit))
 
 
 #: Share of a normal distribution within one standard deviation of its mean, each side.
