@@ -757,9 +757,10 @@ class DeferredCovariance:
         self._value = None
 
     def __call__(self) -> np.ndarray | None:
-        if self._inputs is not None:
-            self._value = _fit_covariance(*self._inputs)
-            self._inputs = None
+        inputs = self._inputs
+        if inputs is not None:
+            self._value = _fit_covariance(*inputs)
+            self._inputs = None             # (the problem freed; the value set first)
         return self._value
 
     def __getstate__(self):
