@@ -34,7 +34,7 @@ system-deps:
 $(STAMP): pyproject.toml
 	python3 -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e '.[test,docs]'
+	$(PY) -m pip install -q -e '.[test,docs,bench]'
 	touch $(STAMP)
 
 # The documentation site (docs/, mkdocs.yml) into site/; warnings are errors.
