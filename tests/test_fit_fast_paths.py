@@ -216,3 +216,58 @@ def test_a_diagnosis_computes_the_covariances_it_reads_only(monkeypatch):
     sigmas = [v for v in result.findings[0].uncertainty.values() if isinstance(v, float)]
     assert sigmas and all(np.isfinite(v) and v > 0 for v in sigmas)
     assert 0 < len(computed) < len(made) / 2
+
+
+def _with_input(b, h):
+    from dataclasses import replace
+
+    return replace(b, creep_input=h)
+
+
+def test_step_time_columns_are_the_decay_after_each_step():
+    """Each later load step's column of each term is ``-dh / tau exp(-(t - mid) / tau)`` after
+    it and zero before it, bit for bit; a step the creep input does not take (a change of
+    rounding size) is an empty column; the columns follow another input in the same problem."""
+    from creepcomp.fit.data import load_steps
+    from creepcomp.fit.structure import Structure, basis, with_step_times
+
+    t = np.arange(0.0, 600.0, 0.5)
+    load = np.zeros(t.size)
+    for at, level in ((20, 1.0), (300, 0.4), (700, 1.3), (900, 0.0)):
+        load[at:] = level
+    data = prepare(Record(time=t, load=load, signal=load.copy(), source="steps"), initial="relaxed")
+    steps = load_steps(data)
+    assert len(steps) == 4
+    taus = np.array([3.0, 40.0])
+    values = {"tau[0]": 3.0, "tau[1]": 40.0}
+    cache: dict = {}
+    plain = basis(data, Structure(2), values, cache)
+    for h in (plain.creep_input, 2.0 * plain.creep_input):
+        b = with_step_times(data, _with_input(plain, h), taus, cache)
+        first = plain.columns.shape[1]
+        assert b.names[first:] == tuple(f"step_time[{j}][{k}]" for j in (1, 2, 3) for k in (0, 1))
+        for j, i in enumerate(steps[1:], start=1):
+            mid, dh = 0.5 * (t[i] + t[i + 1]), h[i + 1] - h[i]
+            for k, tau in enumerate(taus):
+                want = np.zeros(t.size)
+                want[i + 1:] = -dh / tau * lti.decay(t[i + 1:] - mid, tau)
+                col = b.columns[:, first + 2 * (j - 1) + k]
+                np.testing.assert_array_equal(col, want)
+                assert b.step_bounds[2 * (j - 1) + k][:2] == (first + 2 * (j - 1) + k, k)
+                assert b.step_mids[2 * (j - 1) + k] == mid
+
+
+def test_a_step_of_rounding_size_is_an_empty_column():
+    from creepcomp.fit.data import load_steps
+    from creepcomp.fit.structure import Structure, basis, with_step_times
+
+    t = np.arange(0.0, 200.0, 0.5)
+    load = np.zeros(t.size)
+    load[20:], load[200:] = 1.0, 0.5
+    data = prepare(Record(time=t, load=load, signal=load.copy(), source="steps"), initial="relaxed")
+    i = load_steps(data)[1]
+    plain = basis(data, Structure(1), {"tau[0]": 10.0})
+    h = np.where(np.arange(t.size) > i, 1.0 + 1e-14, 1.0)    # the delayed input: no second step
+    h[:20] = 0.0
+    b = with_step_times(data, _with_input(plain, h), np.array([10.0]))
+    assert b.names[-1] == "step_time[1][0]" and not b.columns[:, -1].any()

@@ -93,3 +93,75 @@ def test_refined_ftol_is_the_likelihood_tolerance():
     problem = Problem(data, Structure(1))
     assert refined_ftol(problem) == pytest.approx(0.01 / data.n)
     assert refined_ftol(problem, 1.0) == 1.0
+
+
+def test_a_quick_fit_refines_its_best_start_only(monkeypatch):
+    """A quick fit of a candidate's own parameters, from its grid of starts, refines one
+    start; a creep term started afresh refines several, quick or full (a delay's optimum is
+    flat across a sample interval, and where the refinement stops there decides the held-out
+    evidence)."""
+    from creepcomp.diagnose import effects
+
+    data = _data()
+    base = fit_structure(data, Structure(1), one_term_starts(data))
+    calls = []
+    fit = solver.fit_structure
+
+    def spy(*args, **kwargs):
+        refined = []
+        refine = Problem.refine
+        with monkeypatch.context() as m:
+            m.setattr(Problem, "refine", lambda self, *a, **k: refined.append(1) or refine(self, *a, **k))
+            out = fit(*args, **kwargs)
+        calls.append((len(args[2]), len(refined)))
+        return out
+
+    monkeypatch.setattr(effects, "fit_structure", spy)
+
+    def refinements(name, refine):
+        calls.clear()
+        if refine == "own":
+            with screening():
+                effects.get(name).fit_on(data, base, refine=refine)
+        else:
+            effects.get(name).fit_on(data, base, refine=refine)
+        assert calls and all(starts > 1 for starts, _ in calls)
+        return [refined for _, refined in calls]
+
+    assert set(refinements("asymmetric_recovery", "own")) == {1}
+    assert refinements("viscous_flow", "own") == [1, effects.FRESH_REFINED]
+    assert refinements("time_offset", "own") == [1, effects.FRESH_REFINED]  # plain, fresh
+    assert refinements("time_offset", "all") == [1, effects.FRESH_REFINED]
+
+
+def test_candidates_that_raise_the_likelihood_too_little_are_not_refined(monkeypatch):
+    """Of the best quick fits, only those whose own parameters raise the log-likelihood by
+    :data:`~creepcomp.diagnose.sensor.QUICK_HINT` are refined with every parameter free; the
+    others keep their quick fit, and their trial says BIC does not support them."""
+    from creepcomp import data as bundled
+
+    quick, refined = [], []
+    quick_fit, refine = sensor._quick, sensor._refined
+
+    def spy_quick(data, current, effect, step, trials):
+        c = quick_fit(data, current, effect, step, trials)
+        if c is not None:
+            quick.append((step, effect.name, c.fit.loglik - current.loglik, c.delta_bic))
+        return c
+
+    def spy_refined(data, current, candidate):
+        refined.append((candidate.effect.name, candidate.fit.loglik - current.loglik))
+        return refine(data, current, candidate)
+
+    monkeypatch.setattr(sensor, "_quick", spy_quick)
+    monkeypatch.setattr(sensor, "_refined", spy_refined)
+    result = sensor.diagnose(bundled.hidden_effect(), correction=False)
+    assert result.cause == "asymmetric_recovery"
+    assert refined and all(gain >= sensor.QUICK_HINT for _, gain in refined)
+    skipped = []
+    for step in {s for s, *_ in quick}:
+        best = sorted((q for q in quick if q[0] == step), key=lambda q: q[3])[:sensor.REFINED]
+        skipped += [q for q in best if q[2] < sensor.QUICK_HINT]
+    assert skipped                        # (the rule was put to use)
+    outcomes = {(t.step, t.effect): t.outcome for t in result.trials}
+    assert all(outcomes[(s, name)] == "not supported (BIC)" for s, name, *_ in skipped)

@@ -62,6 +62,12 @@ SCREEN_ITERATIONS = 20
 #: term starts afresh (:meth:`SensorEffect.with_fresh_term`): the best at a few time constants
 #: across the grid (a time offset has 21: 111 evaluations on a 30-minute record instead of 252).
 FRESH_OWN_STARTS = 4
+#: Starts refined when the creep term starts afresh (:meth:`SensorEffect.with_fresh_term`),
+#: quick fits too: a delay's optimum is flat across the sample interval it falls in (the
+#: samples that straddle a step are left free), and where a refinement stops there decides
+#: how the held-out straddling samples are predicted; with fewer, a delay on a single load
+#: step was refused on held-out data.
+FRESH_REFINED = 4
 
 
 class Effect(abc.ABC):
@@ -139,8 +145,10 @@ class Effect(abc.ABC):
 
         ``refine``: ``all`` (every nonlinear parameter refined together), ``own`` (the
         base's held, the effect's own refined: a quick screening) or ``none`` (the best
-        start kept, only the linear part solved). ``start``: start values of every
-        nonlinear parameter (default: the base's values and the effect's own start grid).
+        start kept, only the linear part solved); either refines its best start only (a quick
+        fit ranks candidates, and one that matters is refined with every parameter free).
+        ``start``: start values of every nonlinear parameter (default: the base's values and
+        the effect's own start grid).
         ``settings``: other than :meth:`settings` (e.g. :meth:`SensorEffect.plain_settings`).
         """
         applied, structure = self._on(data, base, settings)
@@ -150,8 +158,7 @@ class Effect(abc.ABC):
             s = dict(known)
             s.update({self._key(applied, k): v for k, v in own.items()})
             starts.append(s)
-        return fit_structure(data, structure, starts,
-                             n_refine=2 if refine == "own" else 1, refine=refine != "none",
+        return fit_structure(data, structure, starts, n_refine=1, refine=refine != "none",
                              frozen=known if refine == "own" else None, with_cov=refine == "all")
 
     def _on(self, data: Data, base: Fit, settings: tuple | None) -> tuple:
@@ -331,9 +338,9 @@ class SensorEffect(Effect, Simulated):
                 cost = [min(problem.cost(dict(t, **own)) for t in probe) for own in owns]
                 owns = [owns[i] for i in np.argsort(cost, kind="stable")[:FRESH_OWN_STARTS]]
             fresh = [dict(t, **own) for t in grid for own in owns]
-            alt = fit_structure(data, structure, fresh, n_refine=4, with_cov=refine == "all",
-                                max_nfev=SCREEN_ITERATIONS if screening or (screening is None and refine == "own")
-                                else None)
+            quick = screening or (screening is None and refine == "own")
+            alt = fit_structure(data, structure, fresh, n_refine=FRESH_REFINED, with_cov=refine == "all",
+                                max_nfev=SCREEN_ITERATIONS if quick else None)
         except (InputError, np.linalg.LinAlgError, ValueError):
             return fit
         return alt if alt.bic < fit.bic else fit
