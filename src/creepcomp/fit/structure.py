@@ -365,16 +365,21 @@ def with_step_times(data: Data, b: Basis, taus: np.ndarray, cache: dict | None =
         bounds = [(first + i, k, half) for i, (_, k, half) in enumerate(bounds)]
         return replace(b, columns=_stack([b.columns, cols]), names=b.names + names,
                        step_bounds=tuple(bounds), step_mids=mids)
+    names, bounds, mids = [], [], []
     first = b.columns.shape[1]
-    names, bounds, mids = _step_time_names(t, steps, len(taus), first, cache)
-    later = steps[1:]
-    dh = h[later + 1] - h[later]
-    # the creep input does not step where its change is rounding (a delayed load): empty columns
-    dh[np.abs(dh) <= _ROUNDING * float(np.max(np.abs(h)))] = 0.0
-    cols = np.empty((len(t), len(later) * len(taus)), order="F")
-    for k, tau in enumerate(taus):
-        np.multiply(_step_decays(t, steps, float(tau), cache), -dh / tau, out=cols[:, k::len(taus)])
-    cache["step_times"] = (key, h, (cols, names, bounds, mids))
+    reference = 0.5 * float(t[steps[0] + 1] - t[steps[0]])
+    cols = np.zeros((len(t), (len(steps) - 1) * len(taus)), order="F")
+    unseen = _ROUNDING * float(np.max(np.abs(h)))
+    for j, i in enumerate(steps[1:], start=1):
+        mid, dh = 0.5 * (t[i] + t[i + 1]), h[i + 1] - h[i]
+        if abs(dh) <= unseen:   # the creep input does not step here (a delayed load): an empty column
+            dh = 0.0
+        for k, tau in enumerate(taus):
+            cols[i + 1:, len(names)] = -dh / tau * _step_decays(t, steps, float(tau), cache)[j - 1]
+            names.append(f"step_time[{j}][{k}]")
+            bounds.append((first + len(bounds), k, 0.5 * float(t[i + 1] - t[i]) + reference))
+            mids.append(mid)
+    cache["step_times"] = (key, h, (cols, tuple(names), tuple(bounds), tuple(mids)))
     return replace(b, columns=_stack([b.columns, cols]), names=b.names + tuple(names),
                    step_bounds=tuple(bounds), step_mids=tuple(mids))
 
@@ -383,34 +388,14 @@ def with_step_times(data: Data, b: Basis, taus: np.ndarray, cache: dict | None =
 _STEP_DECAYS_KEPT = 4
 
 
-def _step_time_names(t: np.ndarray, steps: np.ndarray, n_terms: int, first: int, cache: dict) -> tuple:
-    """Names, bounds (column, term, half interval) and step midpoints of the step-time columns
-    (:func:`with_step_times`) that start at column ``first``, step by step and term by term;
-    kept in ``cache``."""
-    key = ("step_time_names", n_terms, first)
-    out = cache.get(key)
-    if out is None:
-        reference = 0.5 * float(t[steps[0] + 1] - t[steps[0]])
-        names, bounds, mids = [], [], []
-        for j, i in enumerate(steps[1:], start=1):
-            for k in range(n_terms):
-                names.append(f"step_time[{j}][{k}]")
-                bounds.append((first + len(bounds), k, 0.5 * float(t[i + 1] - t[i]) + reference))
-                mids.append(0.5 * (t[i] + t[i + 1]))
-        out = cache[key] = (tuple(names), tuple(bounds), tuple(mids))
-    return out
-
-
-def _step_decays(t: np.ndarray, steps: np.ndarray, tau: float, cache: dict) -> np.ndarray:
-    """``exp(-(t - t_mid) / tau)`` after each load step but the first, zero before it: a column
-    per step (:func:`with_step_times`), kept in ``cache`` for the last few time constants: they
-    do not depend on the creep input, which the effects' own parameters move."""
+def _step_decays(t: np.ndarray, steps: np.ndarray, tau: float, cache: dict) -> list[np.ndarray]:
+    """``exp(-(t - t_mid) / tau)`` after each load step but the first (:func:`with_step_times`),
+    kept in ``cache`` for the last few time constants: they do not depend on the creep input,
+    which the effects' own parameters move."""
     kept = cache.setdefault("step_decays", {})
     out = kept.get(tau)
     if out is None:
-        out = np.zeros((len(t), len(steps) - 1), order="F")
-        for j, i in enumerate(steps[1:]):
-            out[i + 1:, j] = decay(t[i + 1:] - 0.5 * (t[i] + t[i + 1]), tau)
+        out = [decay(t[i + 1:] - 0.5 * (t[i] + t[i + 1]), tau) for i in steps[1:]]
         while len(kept) >= _STEP_DECAYS_KEPT:
             kept.pop(next(iter(kept)))
         kept[tau] = out
