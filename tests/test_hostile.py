@@ -55,6 +55,23 @@ def test_diagnosis_report_escapes_the_units(small_diagnosis, monkeypatch):
     assert "&lt;script&gt;document.title=&#39;pwned&#39;&lt;/script&gt;" in page
 
 
+def test_a_parameter_without_an_uncertainty_is_shown_without_one(small_diagnosis, monkeypatch):
+    """A kind (``data_problem``'s) has no standard deviation: the report shows the value alone,
+    as the command line does; a number keeps its ``±``."""
+    from dataclasses import replace
+
+    from creepcomp.diagnose.sensor import Finding
+    from creepcomp.fit.evidence import Evidence
+    from creepcomp.report import diagnosis as report
+
+    monkeypatch.setattr(report, "diagnosis_figures", lambda d, units: [])
+    finding = Finding("data_problem", {"kind": "jump", "size": [-23.8]}, {"kind": None, "size": [0.36]},
+                      Evidence(-50.0, 2.0, 9.0), 1.0)
+    page = report.render_html(replace(small_diagnosis, findings=(finding,)), {"signal": "counts"})
+    assert "kind = jump," in page and "kind = jump ±" not in page
+    assert "size = -23.8 ± 0.36" in page
+
+
 def test_page_and_table_escape_every_cell():
     from creepcomp.report.common import html_page, html_table
 

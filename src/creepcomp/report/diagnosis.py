@@ -192,7 +192,8 @@ def render_html(diagnosis, units: dict, title: str = "creepcomp diagnose",
     result = d.to_dict()
     findings = [{"effect": f.effect, "note": f.note or "",
                  "parameters": ", ".join(f"{k} = {named_text(k, v)}"
-                                         + (f" ± {named_text(k, f.uncertainty[k])}" if k in f.uncertainty else "")
+                                         + (f" ± {named_text(k, f.uncertainty[k])}"
+                                            if f.uncertainty.get(k) is not None else "")    # (a kind has none)
                                          for k, v in f.parameters.items()),
                  "delta_bic": f.evidence.delta_bic, "heldout_rms_ratio": f.evidence.heldout_rms_ratio,
                  "heldout_z": f.evidence.heldout_z} for f in d.findings]
