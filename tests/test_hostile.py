@@ -68,8 +68,30 @@ def test_a_parameter_without_an_uncertainty_is_shown_without_one(small_diagnosis
     finding = Finding("data_problem", {"kind": "jump", "size": [-23.8]}, {"kind": None, "size": [0.36]},
                       Evidence(-50.0, 2.0, 9.0), 1.0)
     page = report.render_html(replace(small_diagnosis, findings=(finding,)), {"signal": "counts"})
-    assert "kind = jump," in page and "kind = jump ±" not in page
-    assert "size = -23.8 ± 0.36" in page
+    assert "kind = jump;" in page and "kind = jump ±" not in page
+    assert "size = -23.8 counts ± 0.36 counts" in page
+
+
+def test_a_findings_parameters_carry_their_units_and_state_a_missing_deviation():
+    """Parameters in signal or load units are written in the record's units (``signal units``
+    where it names none); a deviation stated but not finite is ``± n/a``, one not stated is
+    left out, on the command line and in the report alike (one text)."""
+    from creepcomp.diagnose.sensor import Finding
+    from creepcomp.fit.evidence import Evidence
+
+    ev = Evidence(-50.0, 2.0, 9.0)
+    loop = Finding("rate_independent_hysteresis", {"width": 2.5, "weight": 0.01, "loop_height": 0.025},
+                   {"width": 0.1, "weight": float("nan")}, ev, 1.0)
+    assert loop.parameters_text({"signal": "mV", "load": "N"}) == (
+        "width = 2.5 N ± 0.1 N; weight = 0.01 mV/N ± n/a; loop_height = 0.025 mV")
+    assert loop.parameters_text({}) == ("width = 2.5 load units ± 0.1 load units; weight = 0.01 signal "
+                                        "units/load units ± n/a; loop_height = 0.025 signal units")
+    # a time offset's window is in seconds, as its delay
+    window = Finding("time_offset", {"delay": 0.43, "width": 0.2}, {"delay": 0.01, "width": 0.05}, ev, 1.0)
+    assert window.parameters_text({"load": "N"}) == "delay = 430 ms ± 10 ms; width = 0.2 s ± 0.05 s"
+    rest = Finding("unexplained", {"misfit_ratio": 41.6, "excess_rms": 0.0144}, {}, ev, 1.0)
+    assert rest.parameters_text({"signal": "counts"}) == "misfit_ratio = 41.6; excess_rms = 0.0144 counts"
+    assert Finding("data_problem", {}, {}, ev, 1.0).parameters_text() == "-"
 
 
 def test_page_and_table_escape_every_cell():

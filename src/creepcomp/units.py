@@ -170,12 +170,15 @@ def format_percent(x: float | None, digits: int = 3) -> str:
 _PART = re.compile(r"([RC])\d+(?:\.\d+)?")
 
 
-def format_parameter(name: str, value: float | None) -> str:
+def format_parameter(name: str, value: float | None, unit: str | None = None) -> str:
     """A parameter with its unit, by its name: parts (``R1.2``, ``C1``) and resistances
     (``source_resistance``) in Ω and F, times (``tau*``, ``*_tau``, ``delay``) in seconds
     (instants, ``where``, to 7 digits), ``beta`` and ``absorption`` in percent, ``rate`` per
-    second, others as plain numbers; a kind as it is, and a list item by item (an interval
-    ``[a, b]`` as ``a to b``). A dotted name (``C1.1.absorption``) is read by its last part."""
+    second, others as plain numbers (``unit``: a number with this unit instead); a kind as it
+    is, and a list item by item (an interval ``[a, b]`` as ``a to b``). A dotted name
+    (``C1.1.absorption``) is read by its last part."""
+    if unit is not None and not isinstance(value, (str, list, tuple)):
+        return "n/a" if value is None or not math.isfinite(value) else f"{value:.4g} {unit}"
     part = _PART.fullmatch(name)
     if part and isinstance(value, (int, float)) and math.isfinite(value):
         return format_quantity(value, "Ω" if part.group(1) == "R" else "F")
@@ -183,8 +186,8 @@ def format_parameter(name: str, value: float | None) -> str:
     if isinstance(value, str):
         return value
     if isinstance(value, (list, tuple)):
-        items = [" to ".join(format_parameter(name, v) for v in x) if isinstance(x, (list, tuple))
-                 else format_parameter(name, x) for x in value]
+        items = [" to ".join(format_parameter(name, v, unit) for v in x) if isinstance(x, (list, tuple))
+                 else format_parameter(name, x, unit) for x in value]
         return ", ".join(items) if items else "-"
     if value is None or not math.isfinite(value):
         return "n/a"

@@ -11,7 +11,7 @@ from rich.table import Table
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_design
 from creepcomp.io.outputs import check_outputs
-from creepcomp.units import format_parameter, format_percent, format_quantity
+from creepcomp.units import format_percent, format_quantity
 from creepcomp.cli.common import app, console, print_json, progress_bar
 from creepcomp.cli.fit import (COLUMNS_HELP, INITIAL_TEXT, describe_record,
     load_reduced, record_options, SHEET_OPTION, TAXEL_OPTION)
@@ -148,11 +148,7 @@ def render_diagnosis(record, d: Diagnosis) -> None:
         for col in ("effect", "parameters (± 1 sigma)", "ΔBIC", "held-out RMS ratio", "held-out z"):
             t.add_column(col, justify="right" if col.startswith(("Δ", "held")) else "left")
         for f in d.findings:
-            params = "; ".join(f"{k} = {format_parameter(k, v)}" + (
-                "" if k in f.uncertainty and f.uncertainty[k] is None  # a kind or a screened problem
-                else f" ± {format_parameter(k, f.uncertainty.get(k, float('nan')))}")
-                for k, v in f.parameters.items()) or "-"
-            t.add_row(f.effect, params, f"{f.evidence.delta_bic:.1f}", f"{f.evidence.heldout_rms_ratio:.3g}",
+            t.add_row(f.effect, f.parameters_text({c: record.unit(c) for c in ("signal", "load")}), f"{f.evidence.delta_bic:.1f}", f"{f.evidence.heldout_rms_ratio:.3g}",
                       f"{f.evidence.heldout_z:.1f}")
         console.print(t)
         for f in d.findings:

@@ -56,6 +56,7 @@ from creepcomp.fit.prony import model_file_dict
 from creepcomp.fit.reduce import reduce_record
 from creepcomp.lti import lag_states
 from creepcomp.io.records import Record
+from creepcomp.units import format_parameter
 
 __all__ = ["MAX_EFFECTS", "REFINED", "QUICK_HINT", "CORRECTION_WORSE", "REMAINING_LIMIT", "Finding", "Trial", "Candidate",
            "Search", "Generic", "Diagnosis", "CatchAll",
@@ -123,6 +124,24 @@ class Finding:
     def worsens_correction(self) -> bool:
         """It makes the creep-corrected signal worse (ratio below :data:`CORRECTION_WORSE`)."""
         return self.correction_error_ratio is not None and self.correction_error_ratio < CORRECTION_WORSE
+
+    def parameters_text(self, record_units: dict | None = None) -> str:
+        """The parameters as a line of text, each with its unit (``record_units``: the
+        record's units by column, ``signal`` and ``load``) and its standard deviation: ``±
+        n/a`` where one is stated but not finite, none where none is stated (a kind, a place);
+        ``-`` when there are none."""
+        effect = CATCH_ALL if self.effect == CATCH_ALL.name else effects_pkg.REGISTRY.get(self.effect)
+        declared = effect.parameter_units if effect is not None else {}
+        parts = []
+        for name, value in self.parameters.items():
+            unit = declared.get(name)
+            unit = None if unit is None else effects_pkg.in_record_units(unit, record_units or {})
+            text = f"{name} = {format_parameter(name, value, unit)}"
+            sigma = self.uncertainty.get(name)
+            if sigma is not None:
+                text += f" ± {format_parameter(name, sigma, unit)}"
+            parts.append(text)
+        return "; ".join(parts) or "-"
 
     def to_dict(self) -> dict:
         """JSON form (contract keys first)."""
@@ -245,6 +264,7 @@ class CatchAll(Effect):
     rate, and temperature terms (level, square, lagged, and times the load and creep)."""
 
     name = "unexplained"
+    parameter_units = {"excess_rms": "signal"}
 
     def settings(self, data: Data, base: Fit) -> tuple:
         return (("taus", tuple(float(t) for t in base.taus)),)

@@ -13,7 +13,7 @@ from creepcomp.io.jsonfiles import to_json, write_design, write_json
 from creepcomp.fit.data import Data
 from creepcomp.fit.noise import autocorrelation, none_statement
 from creepcomp.fit.solver import Fit
-from creepcomp.report.common import (format_cell, named_text, plot_text, png_base64, render_template,
+from creepcomp.report.common import (format_cell, plot_text, png_base64, render_template,
                                      save_figure, thin)
 
 __all__ = ["plot_fit", "diagnosis_figures", "render_html", "write_report"]
@@ -191,10 +191,7 @@ def render_html(diagnosis, units: dict, title: str = "creepcomp diagnose",
     d = diagnosis
     result = d.to_dict()
     findings = [{"effect": f.effect, "note": f.note or "",
-                 "parameters": ", ".join(f"{k} = {named_text(k, v)}"
-                                         + (f" ± {named_text(k, f.uncertainty[k])}"
-                                            if f.uncertainty.get(k) is not None else "")    # (a kind has none)
-                                         for k, v in f.parameters.items()),
+                 "parameters": f.parameters_text(units),
                  "delta_bic": f.evidence.delta_bic, "heldout_rms_ratio": f.evidence.heldout_rms_ratio,
                  "heldout_z": f.evidence.heldout_z} for f in d.findings]
     trials = [{"step": t.step, "effect": t.effect, "delta_bic": t.delta_bic, "outcome": t.outcome,

@@ -36,6 +36,7 @@ import abc
 import importlib
 import math
 import pkgutil
+import re
 
 import numpy as np
 
@@ -50,7 +51,7 @@ from creepcomp.diagnose.effects._sensor import Scales, SignalPath, Simulated
 __all__ = ["Effect", "SensorEffect", "Scales", "SignalPath", "Simulated", "REGISTRY", "register",
            "unregister", "effects_on", "sensor_effects", "flow_effect", "get", "arrays_data", "model_structure",
            "simulate_extended", "compensate_extended", "extension_inverses", "BASELINE_ADVICE",
-           "firmware_output"]
+           "firmware_output", "in_record_units"]
 
 
 #: Most evaluations of each refinement of a quick fit (``refine="own"``) whose creep term starts
@@ -112,6 +113,10 @@ class Effect(abc.ABC):
     describes_record = False
     vocabulary_index: float = math.inf
     columns_from_lags = True
+    #: Units of reported parameters that their names do not tell
+    #: (:func:`creepcomp.units.format_parameter`), by name; ``signal`` and ``load`` stand for
+    #: the record's units of those columns (:func:`in_record_units`).
+    parameter_units: dict = {}
 
     # -- applicability and fitting -------------------------------------------------------
     def applicable(self, data: Data, structure: Structure) -> str | None:
@@ -420,6 +425,12 @@ def flow_effect() -> SensorEffect:
     if not found:
         raise InputError("no registered effect provides viscous flow")
     return found[0]
+
+
+def in_record_units(unit: str, record_units: dict) -> str:
+    """A unit of :attr:`Effect.parameter_units` with ``signal`` and ``load`` written in the
+    record's units of those columns (``signal units``, ``load units`` where it names none)."""
+    return re.sub(r"\b(signal|load)\b", lambda m: record_units.get(m.group(1)) or f"{m.group(1)} units", unit)
 
 
 def get(name: str) -> Effect:

@@ -251,6 +251,7 @@ class DataProblem(SensorEffect):
     unloads = True
     record_problem = True
     parameters = ("kind", "where")
+    parameter_units = {"size": "signal", "step": "signal"}
     summary = "the record itself is at fault (signal jumps no load explains, clipping, channels out of step, coarse quantisation)"
     describes_record = True
 

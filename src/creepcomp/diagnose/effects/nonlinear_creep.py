@@ -42,6 +42,7 @@ class NonlinearCreep(SensorEffect):
     forms = ("linear", "power", "time")
     programs = ("staircase", "mixture", "random", "sweep")
     parameters = ("growth", "acceleration")
+    parameter_units = {"load_scale": "load"}
     changes_lags = True
     summary = "creep whose amplitude or speed depends on the load level"
 

@@ -110,6 +110,7 @@ class RateIndependentHysteresis(SensorEffect):
     forms = ("play", "distributed")
     programs = ("sweep", "staircase", "mixture", "cycles")
     parameters = ("width", "weight")
+    parameter_units = {"width": "load", "width_range": "load", "weight": "signal/load", "loop_height": "signal"}
     summary = "output that depends on the direction of the load history, not on time (play operator)"
 
     def applicable(self, data, structure):

@@ -30,6 +30,7 @@ class StaticNonlinearity(SensorEffect):
     forms = ("poly", "tanh")
     programs = ("staircase", "sweep", "mixture", "random")
     parameters = ("a2", "a3")
+    parameter_units = {"load_scale": "load"}
     summary = "an instantaneous response that is not linear in load"
 
     def settings(self, data: Data, base: Fit) -> tuple:

@@ -32,6 +32,7 @@ class ThermalDrift(SensorEffect):
     # offset ~ T; ~ T through the sensor's thermal lag
     forms = ("linear", "lagged")
     parameters = ("coefficient", "lag")
+    parameter_units = {"coefficient": "signal/K", "lag": "s", "reference_temperature": "°C"}
     needs = ("temperature",)
     summary = "an offset that follows temperature (possibly through a thermal lag)"
 

@@ -45,6 +45,7 @@ class ThermalRetardation(SensorEffect):
     # the generator's factor on the retardation times comes before a load-dependent one's
     stage_order = 2.5
     parameters = ("kappa",)
+    parameter_units = {"kappa": "1/K", "reference_temperature": "°C"}
     needs = ("temperature",)
     changes_lags = True
     summary = "retardation times that change with temperature"

@@ -74,6 +74,7 @@ class TimeOffset(SensorEffect):
     forms = ("delay", "average")
     programs = ("staircase", "step", "mixture", "random", "sweep")
     parameters = ("delay", "width")
+    parameter_units = {"width": "s"}
     summary = "signal and load sampled at different instants (or the signal averaged over a window)"
 
     def settings(self, data, base):

@@ -62,6 +62,7 @@ class TransitionOvershoot(SensorEffect):
     programs = ("staircase", "step", "random", "cycles")
     unloads = True
     parameters = ("amplitude", "tau")
+    parameter_units = {"amplitude": "signal/load"}
     summary = "a decaying transient of one sign after every load change, up or down"
 
     def applicable(self, data, structure):
