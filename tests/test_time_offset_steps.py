@@ -148,3 +148,32 @@ def test_the_fresh_term_search_over_the_best_offsets_finds_what_the_whole_cross_
     assert ranked > 0 and unranked == 0                 # the offsets were ranked first
     assert few.bic == pytest.approx(whole.bic, abs=0.5)
     assert few.values["time_offset.delay"] == pytest.approx(whole.values["time_offset.delay"], abs=0.01)
+
+
+def test_held_out_refits_keep_a_delay_whose_interval_the_samples_do_not_resolve(monkeypatch):
+    """Where the samples a delay reads across a step are left free, the fitted samples do not
+    tell where in its sample interval the delay lies: every held-out refit keeps the fit's
+    delay (a refit on part of the record would follow rounding out of the interval); a delay
+    that leaves no sample free is refitted as any parameter."""
+    from creepcomp.fit import evidence
+
+    data = prepare(_offset_record("step", 2))
+    structure = Structure(1, (Applied(to.EFFECT, (("window", True),)),))
+    frozen = []
+    real = evidence.fit_structure
+
+    def spy(*args, **kwargs):
+        if kwargs.get("mask") is not None:
+            frozen.append(kwargs.get("frozen") or {})
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(evidence, "fit_structure", spy)
+    fit = fit_structure(data, structure, [{"tau[0]": 45.0, "c0[0]": 0.0, "time_offset.delay": 0.43,
+                                           "time_offset.width": 0.0}], refine=False)
+    evidence.heldout(data, fit)
+    assert len(frozen) == evidence.FOLDS
+    assert all(f.get("time_offset.delay") == fit.values["time_offset.delay"] for f in frozen)
+    applied = Applied(to.EFFECT, (("window", True),))
+    assert to.EFFECT.held_in_refits(data, {"delay": 0.43, "width": 0.0}, applied) == ("delay",)
+    assert to.EFFECT.held_in_refits(data, {"delay": 0.005, "width": 0.0}, applied) == ()
+    assert to.EFFECT.held_in_refits(data, {"delay": 0.43, "width": 0.3}, applied) == ()

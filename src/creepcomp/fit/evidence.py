@@ -146,15 +146,16 @@ def _variances(gram: np.ndarray, count: int) -> np.ndarray:
 
 
 def _undetermined(jac: np.ndarray, keep: np.ndarray, names: list, values: dict,
-                  kept_gram: np.ndarray | None = None, full: np.ndarray | None = None) -> dict | None:
+                  kept_gram: np.ndarray | None = None, full: np.ndarray | None = None,
+                  held: dict | None = None) -> dict | None:
     """The nonlinear parameters (first columns of ``jac``) that the kept samples leave
     undetermined, with their values (``kept_gram``: ``jac[keep].T @ jac[keep]``, and ``full``:
-    the variances on all samples, when known)."""
+    the variances on all samples, when known), and those ``held`` in any case."""
     full = _variances(jac.T @ jac, len(names)) if full is None else full
     part = _variances(jac[keep].T @ jac[keep] if kept_gram is None else kept_gram, len(names))
     out = {n: values[n] for n, vf, vp in zip(names, full, part)
            if not vp <= UNDETERMINED_VARIANCE_RATIO * vf}
-    return out or None
+    return {**out, **(held or {})} or None
 
 
 def _gauss_newton_step(gram: np.ndarray, rhs: np.ndarray, free: np.ndarray) -> np.ndarray:
@@ -244,10 +245,14 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
     the record would multiply by more than :data:`UNDETERMINED_VARIANCE_RATIO` (the initial
     creep state once the start is held out, a recovery time when the rest has no unloading).
     A held-out error then measures what the model predicts, not an extrapolation of what
-    nothing constrained.
+    nothing constrained. So do parameters that an effect holds in every refit
+    (:meth:`~creepcomp.diagnose.effects.Effect.held_in_refits`: a time offset where the
+    samples it reads across a step are left free).
     """
     blocks = block_index(data) if blocks is None else blocks
     start = {p.name: fit.values[p.name] for p in fit.params}
+    held = {f"{a.name}.{n}": fit.values[f"{a.name}.{n}"] for a in fit.structure.effects
+            for n in a.effect.held_in_refits(data, a.own(fit.values), a)}
     anchor = {n: v for n, v in fit.values.items() if n not in start}
     jac = data.weighted(jacobian(data, fit)) if refine and start else None
     names = list(start)
@@ -274,7 +279,7 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
             gram = jk.T @ jk
         rhs = rhs_all - jo.T @ ro
         rr = rr_all - float(ro @ ro)
-        frozen = _undetermined(jac, keep, names, start, gram, full)
+        frozen = _undetermined(jac, keep, names, start, gram, full, held)
         linear = np.arange(jac.shape[1]) >= len(names)
         free = linear | np.array([i < len(names) and names[i] not in (frozen or {})
                                   for i in range(jac.shape[1])])
@@ -300,7 +305,7 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
                 if float(r @ r) > at_start:
                     x = best_of_starts(problem.residual, [x, problem.start_vector(start)], 2, None)
                 return problem.full_residual(x)[1]
-            frozen = _undetermined(jac, keep, names, start, full=full) if jac is not None else None
+            frozen = _undetermined(jac, keep, names, start, full=full, held=held) if jac is not None else held or None
             return fit_structure(data, fit.structure, [start], noise=fit.noise, mask=keep,
                                  max_nfev=3, with_cov=False, anchor=anchor, refine=refine,
                                  frozen=frozen).residual

@@ -63,12 +63,6 @@ SCREEN_ITERATIONS = 20
 #: term starts afresh (:meth:`SensorEffect.with_fresh_term`): the best at a few time constants
 #: across the grid (a time offset has 21: 111 evaluations on a 30-minute record instead of 252).
 FRESH_OWN_STARTS = 4
-#: Starts refined when the creep term starts afresh (:meth:`SensorEffect.with_fresh_term`),
-#: quick fits too: a delay's optimum is flat across the sample interval it falls in (the
-#: samples that straddle a step are left free), and where a refinement stops there decides
-#: how the held-out straddling samples are predicted; with fewer, a delay on a single load
-#: step was refused on held-out data.
-FRESH_REFINED = 4
 
 
 class Effect(abc.ABC):
@@ -208,6 +202,13 @@ class Effect(abc.ABC):
         samples (a time offset)."""
         return np.zeros(0, int)
 
+    def held_in_refits(self, data: Data, p: dict, applied: Applied) -> tuple[str, ...]:
+        """Own parameters (names without prefix) that every held-out refit keeps at the fit's
+        values (:func:`~creepcomp.fit.evidence.heldout`): the fitted samples do not tell them
+        apart over a stretch where their cost is flat, from which a refit on part of the
+        record would follow rounding. None by default."""
+        return ()
+
     # -- results -------------------------------------------------------------------------------
     def unphysical(self, fit: Fit, applied: Applied) -> str | None:
         """Why the fitted parameters cannot be this effect (then it is not named), or None."""
@@ -344,7 +345,7 @@ class SensorEffect(Effect, Simulated):
                 owns = [owns[i] for i in np.argsort(cost, kind="stable")[:FRESH_OWN_STARTS]]
             fresh = [dict(t, **own) for t in grid for own in owns]
             quick = screening or (screening is None and refine == "own")
-            alt = fit_structure(data, structure, fresh, n_refine=FRESH_REFINED, with_cov=refine == "all",
+            alt = fit_structure(data, structure, fresh, n_refine=1, with_cov=refine == "all",
                                 max_nfev=SCREEN_ITERATIONS if quick else None)
         except (InputError, np.linalg.LinAlgError, ValueError):
             return fit
