@@ -70,6 +70,10 @@ def test_a_parameter_without_an_uncertainty_is_shown_without_one(small_diagnosis
     page = report.render_html(replace(small_diagnosis, findings=(finding,)), {"signal": "counts"})
     assert "kind = jump;" in page and "kind = jump ±" not in page
     assert "size = -23.8 counts ± 0.36 counts" in page
+    two = Finding("data_problem", {"kind": "jump", "where": [10.0, 20.0], "size": [-23.8, 22.5]},
+                  {"kind": None, "where": None, "size": [0.36, 0.23]}, Evidence(-50.0, 2.0, 9.0), 1.0)
+    assert two.parameters_text({"signal": "counts"}) == (
+        "kind = jump; where = 10 s, 20 s; size = -23.8 counts ± 0.36 counts, 22.5 counts ± 0.23 counts")
 
 
 def test_a_findings_parameters_carry_their_units_and_state_a_missing_deviation():

@@ -129,18 +129,19 @@ class Finding:
         """The parameters as a line of text, each with its unit (``record_units``: the
         record's units by column, ``signal`` and ``load``) and its standard deviation: ``±
         n/a`` where one is stated but not finite, none where none is stated (a kind, a place);
-        ``-`` when there are none."""
+        each item of a list with its own; ``-`` when there are none."""
         effect = CATCH_ALL if self.effect == CATCH_ALL.name else effects_pkg.REGISTRY.get(self.effect)
         declared = effect.parameter_units if effect is not None else {}
         parts = []
         for name, value in self.parameters.items():
             unit = declared.get(name)
             unit = None if unit is None else effects_pkg.in_record_units(unit, record_units or {})
-            text = f"{name} = {format_parameter(name, value, unit)}"
             sigma = self.uncertainty.get(name)
-            if sigma is not None:
-                text += f" ± {format_parameter(name, sigma, unit)}"
-            parts.append(text)
+            listed = isinstance(value, (list, tuple)) and isinstance(sigma, (list, tuple))
+            pairs = zip(value, sigma) if listed and len(value) == len(sigma) else [(value, sigma)]
+            parts.append(f"{name} = " + ", ".join(
+                format_parameter(name, v, unit) + ("" if s is None else f" ± {format_parameter(name, s, unit)}")
+                for v, s in pairs))
         return "; ".join(parts) or "-"
 
     def to_dict(self) -> dict:
