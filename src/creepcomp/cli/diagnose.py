@@ -147,9 +147,10 @@ def render_diagnosis(record, d: Diagnosis) -> None:
         t = Table(title="Findings (most important first)", title_justify="left")
         for col in ("effect", "parameters (± 1 sigma)", "ΔBIC", "held-out RMS ratio", "held-out z"):
             t.add_column(col, justify="right" if col.startswith(("Δ", "held")) else "left")
+        units = {c: record.unit(c) for c in ("signal", "load")}
         for f in d.findings:
-            t.add_row(f.effect, f.parameters_text({c: record.unit(c) for c in ("signal", "load")}), f"{f.evidence.delta_bic:.1f}", f"{f.evidence.heldout_rms_ratio:.3g}",
-                      f"{f.evidence.heldout_z:.1f}")
+            t.add_row(f.effect, f.parameters_text(units), f"{f.evidence.delta_bic:.1f}",
+                      f"{f.evidence.heldout_rms_ratio:.3g}", f"{f.evidence.heldout_z:.1f}")
         console.print(t)
         for f in d.findings:
             if f.note:

@@ -206,7 +206,7 @@ class Effect(abc.ABC):
         """Own parameters (names without prefix) that every held-out refit keeps at the fit's
         values (:func:`~creepcomp.fit.evidence.heldout`): the fitted samples do not tell them
         apart over a stretch where their cost is flat, from which a refit on part of the
-        record would follow rounding. None by default."""
+        record would follow rounding. By default none."""
         return ()
 
     # -- results -------------------------------------------------------------------------------
