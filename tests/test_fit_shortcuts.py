@@ -2,6 +2,8 @@
 refined only loosely, the free start's trial left out when it cannot win, and a text record
 parsed while the fit's modules are imported."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -62,6 +64,27 @@ def test_a_loosely_rejected_term_leaves_the_choice_and_the_model(monkeypatch, in
     assert rejected.fit.heldout is not None and not rejected.evidence.supported
     monkeypatch.setattr(prony, "_coarse_unpromising", lambda *a: False)
     _same_result(quick, fit_prony(data))
+
+
+def test_a_loosely_rejected_term_is_held_out_when_read_as_it_would_have_been(monkeypatch):
+    """The choice does not hold out the loosely rejected term; reading its step does, with the
+    held-out prediction and evidence the fit would have had."""
+    data = prepare(_record(2), initial="relaxed")
+    held = []
+    real = prony.heldout
+    monkeypatch.setattr(prony, "heldout", lambda *a, **k: held.append(1) or real(*a, **k))
+    result = fit_prony(data)
+    during = len(held)
+    rejected, previous = result.steps[-1], result.steps[-2]
+    assert not rejected.evidence.supported                  # (read: held out now)
+    assert len(held) == during + 1 and during == len(result.steps) - 1
+    bare = replace(rejected.fit, heldout=None)
+    again = real(data, bare, linearised=True)
+    np.testing.assert_array_equal(rejected.fit.heldout.residual, again.heldout.residual)
+    assert rejected.evidence == prony.compare(previous.fit, again)
+    assert np.isfinite(rejected.evidence.heldout_z)
+    rejected.fit
+    assert len(held) == during + 1                          # (once)
 
 
 def test_the_free_start_trial_is_left_out_only_where_it_cannot_win(monkeypatch):

@@ -25,13 +25,50 @@ __all__ = ["OrderStep", "PronyResult", "fit_terms", "spectrum_of", "fit_prony", 
            "model_file_dict"]
 
 
-@dataclass(frozen=True)
 class OrderStep:
-    """One candidate number of terms."""
+    """One candidate number of terms: its fit and the evidence against the previous number
+    of terms (None for the first).
 
-    n_terms: int
-    fit: Fit
-    evidence: Evidence | None      # against the previous number of terms
+    A number of terms rejected on BIC alone (:func:`_rejected_loosely`) is given its held-out
+    prediction, and its evidence the held-out figures, when first read (model file, ``fit``'s
+    table): the choice does not need them.
+    """
+
+    def __init__(self, n_terms: int, fit: Fit, evidence: Evidence | None = None,
+                 held_out_later: tuple | None = None):
+        self.n_terms = n_terms
+        self._fit, self._evidence = fit, evidence
+        self._later = held_out_later        # (data, previous fit, folds)
+
+    @classmethod
+    def rejected(cls, n_terms: int, fit: Fit, data: Data, previous: Fit, folds: int) -> "OrderStep":
+        """A number of terms rejected on BIC alone: held out when first read."""
+        return cls(n_terms, fit, None, (data, previous, folds))
+
+    def _held_out(self) -> None:
+        if self._later is not None:
+            data, previous, folds = self._later
+            self._later = None
+            try:
+                self._fit = heldout(data, self._fit, folds, linearised=True)
+            except (InputError, linalg.LinAlgError):
+                pass        # (its evidence then has no held-out figures)
+            self._evidence = compare(previous, self._fit)
+
+    @property
+    def fit(self) -> Fit:
+        """The fit of this number of terms."""
+        self._held_out()
+        return self._fit
+
+    @property
+    def evidence(self) -> Evidence | None:
+        """Against the previous number of terms."""
+        self._held_out()
+        return self._evidence
+
+    def __repr__(self) -> str:
+        return f"OrderStep(n_terms={self.n_terms}, bic={self._fit.bic:.6g})"
 
 
 @dataclass(frozen=True)
@@ -244,7 +281,10 @@ def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
                                 spectrum=spectrum, coarse_ftol=ORDER_COARSE_FTOL)
             elif (previous is not None and n_terms is None and not is_sparse(data)
                   and _coarse_unpromising(coarse_cost, searched)):
-                fit = _rejected_loosely(data, previous, searched, folds)
+                rejected = _rejected_loosely(data, previous, searched)
+                if rejected is not None:
+                    steps.append(OrderStep.rejected(k, rejected, data, previous, folds))
+                    break
             if fit is None:
                 problem, x = searched.problem, searched.x
                 fit = heldout(data, _finish(problem, problem.refine(x, None, refined_ftol(problem)),
@@ -271,7 +311,7 @@ def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
         raise InputError(f"{data.source}: no creep model could be fitted")
     fit = steps[chosen].fit
     fit = with_noise(fit, fit_noise(fit.residual, fit.extras["rows"], ar_order(data)))
-    steps[chosen] = replace(steps[chosen], fit=with_covariance(data, fit))
+    steps[chosen] = OrderStep(steps[chosen].n_terms, with_covariance(data, fit), steps[chosen].evidence)
     return PronyResult(data, tuple(steps), chosen)
 
 
@@ -335,17 +375,16 @@ def _coarse_unpromising(previous_cost: float | None, searched: _Searched) -> boo
     return n * math.log(previous_cost / searched.cost) < _TERM_PARAMS * math.log(n) + BIC_STRONG
 
 
-def _rejected_loosely(data: Data, previous: Fit, searched: _Searched, folds: int) -> Fit | None:
+def _rejected_loosely(data: Data, previous: Fit, searched: _Searched) -> Fit | None:
     """The fit of one more term than ``previous``, refined on all samples only for
     :data:`LOOSE_EVALUATIONS` evaluations (or until the cost moves BIC by under a tenth of
-    :data:`BIC_STRONG`), with its held-out prediction, when the term is rejected however far
-    the refinement went on: the fit's BIC, less what a refinement can reach from it
-    (:func:`_reachable_bic`), still fails the strong margin over ``previous`` by
-    :data:`LOOSE_MARGIN`; the number of terms is then the full search's (its held-out test is
-    not needed: both must pass). None
-    otherwise: the full refinement, from the same point, decides. The loose fit is the full
-    one's first steps, so a rejected order's figures in the model file are those of its
-    first steps."""
+    :data:`BIC_STRONG`), when the term is rejected however far the refinement went on: the
+    fit's BIC, less what a refinement can reach from it (:func:`_reachable_bic`), still fails
+    the strong margin over ``previous`` by :data:`LOOSE_MARGIN`; the number of terms is then
+    the full search's (its held-out test is not needed: both must pass, and
+    :meth:`OrderStep.rejected` holds it out when read). None otherwise: the full refinement,
+    from the same point, decides. The loose fit is the full one's first steps, so a rejected
+    order's figures in the model file are those of its first steps."""
     problem = searched.problem
     if _finish(problem, searched.x, _WHITE, False).bic <= previous.bic - BIC_STRONG:
         return None     # (BIC supports the term already from the start: the refinement decides)
@@ -354,7 +393,7 @@ def _rejected_loosely(data: Data, previous: Fit, searched: _Searched, folds: int
     fit = _finish(problem, x, _WHITE, False)
     if not fit.bic - _reachable_bic(problem, x, fit.n_rows) > previous.bic - BIC_STRONG + LOOSE_MARGIN:
         return None
-    return heldout(data, fit, folds, linearised=True)
+    return fit
 
 
 def _reachable_bic(problem: Problem, x: np.ndarray, n_rows: int) -> float:
