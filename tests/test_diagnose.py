@@ -144,3 +144,48 @@ def test_record_starting_loaded_without_effect_is_none():
                                     noise=synth.NoiseSpec(white=5e-4)))
     assert syn.record.load[0] != 0
     assert diagnose(syn.record).cause == "none"
+
+
+def test_a_correction_that_finds_no_load_is_not_measured_and_says_so(monkeypatch):
+    """Where the extended model's correction does not settle, the diagnosis measures no
+    correction error for it (one stopped half-way is not the model's): no ratio, the reason in
+    the gain and in the finding's note, and the finding keeps its place."""
+    from creepcomp.diagnose import effects, sensor
+
+    syn = synth.generate(synth.Spec(hidden={"viscous_flow": {"rate": 4e-5}}, duration=1200, rate=4,
+                                    program="staircase", seed=2))
+    real = effects.compensate_extended
+
+    def unsettled(*args, **kwargs):
+        model = args[2]
+        # (one step of the defect correction leaves an extended model's inverse unsettled)
+        return real(*args, **(dict(kwargs, max_iterations=1) if model.extensions else kwargs))
+
+    monkeypatch.setattr(sensor, "compensate_extended", unsettled)
+    d = diagnose(syn.record)
+    assert d.cause == "viscous_flow"
+    assert d.gain["correction_error_ratio"] is None and d.gain["correction_error_extended"] is None
+    assert "of its largest after 1 iterations" in d.gain["correction_unsettled"]
+    f = d.findings[0]
+    assert f.correction_error_ratio is None and not f.worsens_correction
+    assert "finds no load that gives the signal" in f.note and "not measured" in f.note
+    out = d.to_dict()
+    assert out["gain"]["correction_error_ratio"] is None and out["findings"][0]["note"] == f.note
+
+
+def test_compensate_extended_refuses_an_unsettled_inverse_only_when_asked():
+    from creepcomp.diagnose.effects import UnsettledInverse, compensate_extended
+    from creepcomp.model import CreepModel
+
+    t = np.arange(0.0, 600.0, 0.5)
+    load = np.where(t >= 100.0, 1.0, 0.0)
+    model = CreepModel([0.03], [40.0], 1.0, 0.0, {"viscous_flow": {"rate": 4e-5}})
+    from creepcomp.diagnose.effects import simulate_extended
+    signal = simulate_extended(model, t, load, None, "relaxed", "linear")
+    loose = compensate_extended(t, signal, model, max_iterations=1)       # (what one step gives)
+    assert np.all(np.isfinite(loose))
+    with pytest.raises(UnsettledInverse) as caught:
+        compensate_extended(t, signal, model, max_iterations=1, converge=True)
+    assert "after 1 iterations" in caught.value.why and "viscous_flow" in str(caught.value)
+    found = compensate_extended(t, signal, model, converge=True)
+    np.testing.assert_allclose(found, load, atol=1e-6)

@@ -178,7 +178,14 @@ def render_diagnosis(record, d: Diagnosis) -> None:
         t.add_row(f"corrected signal vs load, RMS error ({su or 'signal units'})",
                   f"{g['correction_error_baseline']:.4g}",
                   f"{g['correction_error_extended']:.4g}", _ratio(g["correction_error_ratio"]))
+    elif g.get("correction_unsettled"):
+        t.add_row(f"corrected signal vs load, RMS error ({su or 'signal units'})",
+                  f"{g['correction_error_baseline']:.4g}",
+                  "not measured", "-")
     console.print(t)
+    if g.get("correction_unsettled"):
+        console.print(f"The extended model's creep correction finds no load that gives the signal "
+                      f"({g['correction_unsettled']}): its error is not measured.")
 
 
 def render_circuit(cd: CircuitDiagnosis, su: str) -> None:

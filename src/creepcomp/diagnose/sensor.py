@@ -41,7 +41,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from creepcomp.diagnose import effects as effects_pkg
-from creepcomp.diagnose.effects import Effect, compensate_extended
+from creepcomp.diagnose.effects import Effect, UnsettledInverse, compensate_extended
 from creepcomp.errors import InputError
 from creepcomp.fit.blas import one_blas_thread
 from creepcomp.fit.data import Data, prepare
@@ -746,7 +746,9 @@ def _verdict(data: Data, search: Search, correction: bool, reduced, t_start: flo
         gain["correction_error_ratio"] = corr["ratio"]
         gain["correction_error_baseline"] = corr["baseline_rms"]
         gain["correction_error_extended"] = corr["extended_rms"]
-        if corr["ratio"] is not None and corr["ratio"] < CORRECTION_WORSE:
+        if "unsettled" in corr:
+            gain["correction_unsettled"] = corr["unsettled"]
+        if "unsettled" in corr or (corr["ratio"] is not None and corr["ratio"] < CORRECTION_WORSE):
             findings = _correction_notes(data, base, findings)
     findings = _ordered(_screened(data, current, base, findings), unexplained)
     return Diagnosis(data, base, current, tuple(findings), tuple(search.trials), catch, gain,
@@ -790,16 +792,23 @@ def _misfit_note(fit: Fit, floor: NoiseFloor) -> str:
 
 def _correction_notes(data: Data, base: Fit, findings: list[Finding]) -> list[Finding]:
     """Each named finding with the correction-error ratio of adding it (the model before it /
-    with it); a finding that makes the creep-corrected signal worse says so."""
+    with it); a finding that makes the creep-corrected signal worse says so, and so does one
+    with which the correction finds no load that gives the signal."""
     out, before = [], base
     by_step = [f for f in findings if f.effect != "unexplained"]
     for f in by_step:
         corr = correction_errors(data, before, f.fit, _extensions(f.fit))
         ratio = corr.get("ratio") if corr else None
         f = replace(f, correction_error_ratio=ratio)
+        extra = None
         if f.worsens_correction:
-            worse = _worse_note(data, before, f, corr)
-            f = replace(f, note=f"{f.note}; {worse}" if f.note else worse)
+            extra = _worse_note(data, before, f, corr)
+        elif corr and "unsettled" in corr:
+            extra = (f"the creep correction with it finds no load that gives the signal "
+                     f"({corr['unsettled']}): its correction error is not measured; "
+                     f"{effects_pkg.BASELINE_ADVICE}")
+        if extra:
+            f = replace(f, note=f"{f.note}; {extra}" if f.note else extra)
         out.append(f)
         before = f.fit
     return out + [f for f in findings if f.effect == "unexplained"]
@@ -814,7 +823,7 @@ def _worse_note(data: Data, before: Fit, finding: Finding, corr: dict) -> str:
     if fault is not None:
         fixed = correction_errors(data.with_signal(data.signal - fault), before, finding.fit,
                                   _extensions(finding.fit))
-        if fixed and fixed["extended_rms"] > 0:
+        if fixed and fixed.get("extended_rms"):
             without = corr["baseline_rms"] / fixed["extended_rms"]
     return effect.worse_correction_note(corr["ratio"], without)
 
@@ -867,7 +876,10 @@ def correction_errors(data: Data, base: Fit, extended: Fit, extensions: dict) ->
     each one's error against the load scaled to it (least-squares gain and offset).
 
     The correction assumes a relaxed start when the load starts at zero, a settled one
-    otherwise."""
+    otherwise. Where the extended model's correction finds no load that gives the signal
+    (:class:`~creepcomp.diagnose.effects.UnsettledInverse`), its error
+    is not measured: the ratio is None and ``unsettled`` says how the correction's steps ended
+    (a correction stopped half-way would be judged, not the model)."""
     from creepcomp.digital.correctors import fitted_reference_error
 
     initial = "relaxed" if data.load[0] == 0 else "settled"
@@ -880,7 +892,12 @@ def correction_errors(data: Data, base: Fit, extended: Fit, extensions: dict) ->
     for label, model in (("baseline", model_b), ("extended", model_e)):
         try:
             comp = compensate_extended(data.time, data.signal, model, data.temperature,
-                                       initial=initial, hold=data.hold)
+                                       initial=initial, hold=data.hold, converge=True)
+        except UnsettledInverse as exc:
+            if label == "baseline":
+                return {}
+            out.update(extended_rms=None, ratio=None, unsettled=exc.why)
+            return out
         except (InputError, ImportError):
             return {}
         err = fitted_reference_error(comp, data.load)

@@ -145,8 +145,9 @@ def diagnosis_figures(diagnosis, units: dict) -> list[tuple[str, str]]:
         fig, ax = plt.subplots(figsize=(11, 4))
         ax.plot(t, corr["baseline_error"][idx], lw=0.8, color="C3",
                 label=f"baseline model, RMS {corr['baseline_rms']:.3g}")
-        ax.plot(t, corr["extended_error"][idx], lw=0.8, color="C0",
-                label=f"extended model, RMS {corr['extended_rms']:.3g}")
+        if "extended_error" in corr:    # (none when the extended model's correction is not found)
+            ax.plot(t, corr["extended_error"][idx], lw=0.8, color="C0",
+                    label=f"extended model, RMS {corr['extended_rms']:.3g}")
         ax.axhline(0, color="0.3", lw=0.8)
         ax.set_xlabel(xlabel)
         ax.set_ylabel(f"error ({su})" if su else "error")

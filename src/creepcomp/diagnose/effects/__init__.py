@@ -50,7 +50,7 @@ from creepcomp.diagnose.effects._sensor import Scales, SignalPath, Simulated
 
 __all__ = ["Effect", "SensorEffect", "Scales", "SignalPath", "Simulated", "REGISTRY", "register",
            "unregister", "effects_on", "sensor_effects", "flow_effect", "get", "arrays_data", "model_structure",
-           "simulate_extended", "compensate_extended", "extension_inverses", "BASELINE_ADVICE",
+           "simulate_extended", "compensate_extended", "UnsettledInverse", "extension_inverses", "BASELINE_ADVICE",
            "firmware_output", "in_record_units"]
 
 
@@ -519,8 +519,11 @@ BASELINE_ADVICE = ("correct with the baseline model instead: --model baseline-mo
 #: delayed signal, which answer the load before the record, the steps still settle).
 INVERSE_TOLERANCE = 1e-6
 
-#: Most steps of the defect correction when the inverse must be found (``strict``).
+#: Most steps of the defect correction when the inverse must be found (``strict``,
+#: ``converge``): a delay's or a flow's correction may take a hundred and more.
 STRICT_ITERATIONS = 400
+#: Most steps of the defect correction otherwise.
+ITERATIONS = 60
 
 
 def law_from_extension(model: CreepModel) -> bool:
@@ -551,7 +554,7 @@ def extension_inverses(model: CreepModel) -> dict[str, str]:
 
 def compensate_extended(time, signal, model: CreepModel, temperature=None, initial: str = "relaxed",
                hold: str = "linear", tolerance: float = 1e-10, max_iterations: int | None = None,
-               strict: bool = False) -> np.ndarray:
+               strict: bool = False, converge: bool | None = None) -> np.ndarray:
     """Creep-corrected signal of an extended model: the instantaneous signal
     ``offset + gain * load`` whose simulation through the model equals the measured signal.
 
@@ -564,11 +567,12 @@ def compensate_extended(time, signal, model: CreepModel, temperature=None, initi
     sample by sample.
 
     ``strict``: refuse (:class:`InputError`, naming the extensions) a model with an extension
-    that :meth:`Effect.inverse` cannot undo, and a signal whose inverse is not found (the
-    steps do not settle below :data:`INVERSE_TOLERANCE` of the load).
-    ``max_iterations``: default 60, or :data:`STRICT_ITERATIONS` when ``strict`` (the steps
-    stop once they are below ``tolerance``; a few suffice for most models, a delay's
-    preconditioner converges slowly at load steps).
+    that :meth:`Effect.inverse` cannot undo, and a signal whose inverse is not found.
+    ``converge``: refuse only a signal whose inverse is not found (:class:`UnsettledInverse`:
+    the steps do not settle below :data:`INVERSE_TOLERANCE` of the load); default ``strict``.
+    ``max_iterations``: default :data:`ITERATIONS`, or :data:`STRICT_ITERATIONS` when the
+    inverse must be found (the steps stop once they are below ``tolerance``; a few suffice for most models, a
+    delay's preconditioner converges slowly at load steps).
 
     Returns
     -------
@@ -586,15 +590,16 @@ def compensate_extended(time, signal, model: CreepModel, temperature=None, initi
         for b, tau in a.effect.linear_terms(values, a, data):
             betas.append(b)
             taus.append(tau)
+    converge = strict if converge is None else converge
     if max_iterations is None:
-        max_iterations = STRICT_ITERATIONS if strict else 60
+        max_iterations = STRICT_ITERATIONS if converge else ITERATIONS
     load = np.zeros_like(t)
     scale = max(float(np.max(np.abs(y - model.offset))), 1e-300) / abs(model.gain)
     step = 0.0
     for _ in range(max_iterations):
-        with np.errstate(**({"all": "ignore"} if strict else {})):
+        with np.errstate(**({"all": "ignore"} if converge else {})):
             sim = simulate_extended(model, t, load, temperature, initial, hold)
-        if strict and not np.all(np.isfinite(sim)):
+        if converge and not np.all(np.isfinite(sim)):
             step = math.inf
             break
         delta = _linear_inverse(t, y - sim, model.gain, betas, taus, initial, hold)
@@ -604,13 +609,24 @@ def compensate_extended(time, signal, model: CreepModel, temperature=None, initi
         step = float(np.max(np.abs(delta)))
         if step <= tolerance * scale:
             break
-    if strict and structure.effects and not step <= INVERSE_TOLERANCE * scale:
+    if converge and structure.effects and not step <= INVERSE_TOLERANCE * scale:
         names = ", ".join(a.name for a in structure.effects)
         why = ("its steps diverge" if not math.isfinite(step) else
-               f"its steps still move the load by {step / scale:.2g} of its largest after {max_iterations}")
-        raise InputError(f"the creep correction finds no load whose simulation through the model's "
-                         f"extensions ({names}) gives the signal ({why}); {BASELINE_ADVICE}")
+               f"its steps still move the load by {step / scale:.2g} of its largest after "
+               f"{max_iterations} iterations")
+        raise UnsettledInverse(f"the creep correction finds no load whose simulation through the "
+                               f"model's extensions ({names}) gives the signal ({why}); "
+                               f"{BASELINE_ADVICE}", why)
     return model.offset + model.gain * load
+
+
+class UnsettledInverse(InputError):
+    """The creep correction of a model with extensions finds no load that gives the signal
+    (:func:`compensate_extended`); ``why`` says how its steps ended."""
+
+    def __init__(self, message: str, why: str):
+        super().__init__(message)
+        self.why = why
 
 
 def firmware_output(model: CreepModel) -> dict | None:
