@@ -524,6 +524,9 @@ INVERSE_TOLERANCE = 1e-6
 STRICT_ITERATIONS = 400
 #: Most steps of the defect correction otherwise.
 ITERATIONS = 60
+#: A step of the defect correction larger than this many times the load's largest: its steps
+#: diverge (when the inverse must be found, they stop there).
+DIVERGED = 1e6
 
 
 def law_from_extension(model: CreepModel) -> bool:
@@ -571,8 +574,10 @@ def compensate_extended(time, signal, model: CreepModel, temperature=None, initi
     ``converge``: refuse only a signal whose inverse is not found (:class:`UnsettledInverse`:
     the steps do not settle below :data:`INVERSE_TOLERANCE` of the load); default ``strict``.
     ``max_iterations``: default :data:`ITERATIONS`, or :data:`STRICT_ITERATIONS` when the
-    inverse must be found (the steps stop once they are below ``tolerance``; a few suffice for most models, a
-    delay's preconditioner converges slowly at load steps).
+    inverse must be found. The steps stop once they are below ``tolerance`` (a few suffice
+    for most models; a delay's or a flow's correction converges slowly); with ``converge``
+    alone, also once they are settled after :data:`ITERATIONS` (the result is then the one
+    the default gives, or the first settled one after it).
 
     Returns
     -------
@@ -596,7 +601,8 @@ def compensate_extended(time, signal, model: CreepModel, temperature=None, initi
     load = np.zeros_like(t)
     scale = max(float(np.max(np.abs(y - model.offset))), 1e-300) / abs(model.gain)
     step = 0.0
-    for _ in range(max_iterations):
+    settled_after = ITERATIONS if converge and not strict else max_iterations
+    for done in range(1, max_iterations + 1):
         with np.errstate(**({"all": "ignore"} if converge else {})):
             sim = simulate_extended(model, t, load, temperature, initial, hold)
         if converge and not np.all(np.isfinite(sim)):
@@ -607,7 +613,10 @@ def compensate_extended(time, signal, model: CreepModel, temperature=None, initi
             delta = a.effect.precondition(data, delta, load, values, a)
         load = load + delta
         step = float(np.max(np.abs(delta)))
-        if step <= tolerance * scale:
+        if step <= tolerance * scale or (done >= settled_after and step <= INVERSE_TOLERANCE * scale):
+            break
+        if converge and not step <= DIVERGED * scale:
+            step = math.inf
             break
     if converge and structure.effects and not step <= INVERSE_TOLERANCE * scale:
         names = ", ".join(a.name for a in structure.effects)
