@@ -171,6 +171,9 @@ def test_a_correction_that_finds_no_load_is_not_measured_and_says_so(monkeypatch
     assert "finds no load that gives the signal" in f.note and "not measured" in f.note
     out = d.to_dict()
     assert out["gain"]["correction_error_ratio"] is None and out["findings"][0]["note"] == f.note
+    from creepcomp.report.diagnosis import render_html
+    html = render_html(d, {"signal": "V", "load": "N"})
+    assert "creep correction finds no load that gives the signal" in html and "after 1 iterations" in html
 
 
 def test_compensate_extended_refuses_an_unsettled_inverse_only_when_asked():
