@@ -194,3 +194,19 @@ def test_compensate_extended_refuses_an_unsettled_inverse_only_when_asked():
     np.testing.assert_allclose(found, load, atol=1e-6)
     # settled within the default steps: the default's result, bit for bit
     np.testing.assert_array_equal(found, compensate_extended(t, signal, model))
+
+
+def test_a_correction_is_given_up_only_where_its_rate_cannot_settle_it():
+    """The diagnosis's correction check stops early only where the steps' rate over the last
+    RATE_WINDOW would need more than twice the strict budget: a stuck level and a slow
+    decline stop, a flow's geometric settling goes on."""
+    from creepcomp.diagnose.effects import RATE_WINDOW, _too_slow
+
+    n = 60
+    stuck = [6e-5] * n
+    flow = list(1e-5 * 0.979 ** np.arange(n))              # settles below 1e-6 in about 110
+    slow = list(1.7e-3 * 0.99 ** np.arange(n))             # would need about 680 more
+    assert _too_slow(stuck, 1e-6, 740)
+    assert not _too_slow(flow, 1e-6, 740)
+    assert _too_slow(slow, 1e-6, 600) and not _too_slow(slow, 1e-6, 700)
+    assert not _too_slow(stuck[:RATE_WINDOW], 1e-6, 740)     # (too few steps to read a rate)

@@ -527,6 +527,11 @@ ITERATIONS = 60
 #: A step of the defect correction larger than this many times the load's largest: its steps
 #: diverge (when the inverse must be found, they stop there).
 DIVERGED = 1e6
+#: Steps over which ``converge`` alone reads the rate at which the defect correction's steps
+#: shrink, from :data:`ITERATIONS` on: it stops where that rate would need more than twice
+#: :data:`STRICT_ITERATIONS` to settle (a correction stuck at a level, or slowing down, as an
+#: averaging window's at the frequencies it removes).
+RATE_WINDOW = 30
 
 
 def law_from_extension(model: CreepModel) -> bool:
@@ -572,7 +577,8 @@ def compensate_extended(time, signal, model: CreepModel, temperature=None, initi
     ``strict``: refuse (:class:`InputError`, naming the extensions) a model with an extension
     that :meth:`Effect.inverse` cannot undo, and a signal whose inverse is not found.
     ``converge``: refuse only a signal whose inverse is not found (:class:`UnsettledInverse`:
-    the steps do not settle below :data:`INVERSE_TOLERANCE` of the load); default ``strict``.
+    the steps do not settle below :data:`INVERSE_TOLERANCE` of the load, or at the rate they
+    shrink would need more than twice the steps, :data:`RATE_WINDOW`); default ``strict``.
     ``max_iterations``: default :data:`ITERATIONS`, or :data:`STRICT_ITERATIONS` when the
     inverse must be found. The steps stop once they are below ``tolerance`` (a few suffice
     for most models; a delay's or a flow's correction converges slowly); with ``converge``
@@ -602,6 +608,7 @@ def compensate_extended(time, signal, model: CreepModel, temperature=None, initi
     scale = max(float(np.max(np.abs(y - model.offset))), 1e-300) / abs(model.gain)
     step = 0.0
     settled_after = ITERATIONS if converge and not strict else max_iterations
+    steps, too_slow, done = [], False, 0
     for done in range(1, max_iterations + 1):
         with np.errstate(**({"all": "ignore"} if converge else {})):
             sim = simulate_extended(model, t, load, temperature, initial, hold)
@@ -618,15 +625,34 @@ def compensate_extended(time, signal, model: CreepModel, temperature=None, initi
         if converge and not step <= DIVERGED * scale:
             step = math.inf
             break
+        steps.append(step)
+        if converge and not strict and done >= ITERATIONS and _too_slow(steps, INVERSE_TOLERANCE * scale,
+                                                                         2 * max_iterations - done):
+            too_slow = True
+            break
     if converge and structure.effects and not step <= INVERSE_TOLERANCE * scale:
         names = ", ".join(a.name for a in structure.effects)
         why = ("its steps diverge" if not math.isfinite(step) else
                f"its steps still move the load by {step / scale:.2g} of its largest after "
-               f"{max_iterations} iterations")
+               f"{done} iterations" + (", not shrinking" if too_slow and steps[-1] >= steps[-1 - RATE_WINDOW]
+                                       else f", shrinking too slowly to settle within {max_iterations}"
+                                       if too_slow else ""))
         raise UnsettledInverse(f"the creep correction finds no load whose simulation through the "
                                f"model's extensions ({names}) gives the signal ({why}); "
                                f"{BASELINE_ADVICE}", why)
     return model.offset + model.gain * load
+
+
+def _too_slow(steps: list, settled: float, left: int) -> bool:
+    """Whether steps shrinking at their rate over the last :data:`RATE_WINDOW` would need
+    more than ``left`` more to fall to ``settled``."""
+    if len(steps) <= RATE_WINDOW:
+        return False
+    now, before = steps[-1], steps[-1 - RATE_WINDOW]
+    if not now < before:
+        return True
+    rate = math.log(now / before) / RATE_WINDOW          # (negative: per step)
+    return math.log(settled / now) / rate > left
 
 
 class UnsettledInverse(InputError):
