@@ -632,15 +632,24 @@ def compensate_extended(time, signal, model: CreepModel, temperature=None, initi
             break
     if converge and structure.effects and not step <= INVERSE_TOLERANCE * scale:
         names = ", ".join(a.name for a in structure.effects)
-        why = ("its steps diverge" if not math.isfinite(step) else
-               f"its steps still move the load by {step / scale:.2g} of its largest after "
-               f"{done} iterations" + (", not shrinking" if too_slow and steps[-1] >= steps[-1 - RATE_WINDOW]
-                                       else f", shrinking too slowly to settle within {max_iterations}"
-                                       if too_slow else ""))
+        why = _how_steps_ended(steps, step / scale, done, max_iterations, too_slow)
         raise UnsettledInverse(f"the creep correction finds no load whose simulation through the "
                                f"model's extensions ({names}) gives the signal ({why}); "
                                f"{BASELINE_ADVICE}", why)
     return model.offset + model.gain * load
+
+
+def _how_steps_ended(steps: list, last: float, done: int, budget: int, too_slow: bool) -> str:
+    """Why the defect correction's steps did not settle (``last``: the last step relative to
+    the load's largest)."""
+    if not math.isfinite(last):
+        return "its steps diverge"
+    out = f"its steps still move the load by {last:.2g} of its largest after {done} iterations"
+    if not too_slow:
+        return out
+    if steps[-1] >= steps[-1 - RATE_WINDOW]:
+        return out + ", not shrinking"
+    return out + f", shrinking too slowly to settle within {budget}"
 
 
 def _too_slow(steps: list, settled: float, left: int) -> bool:
