@@ -69,14 +69,21 @@ def test_inserting_points_on_the_held_input_changes_nothing(seed, hold):
     np.testing.assert_allclose(dense[np.searchsorted(both_t, t)], sparse, atol=1e-11)
 
 
-def test_irregular_scan_is_exact_against_per_step_recursion():
+@pytest.mark.parametrize("compiled", [False, True])
+def test_irregular_scan_is_exact_against_per_step_recursion(compiled):
+    """Numpy's blocks of cumulative sums and the compiled recursion (:mod:`creepcomp.recursions`)."""
+    from contextlib import nullcontext
+
+    from creepcomp.lti import compiled_loops
+
     rng = np.random.default_rng(7)
     dt = rng.uniform(0.001, 2.0, 5000)
     dt[100] = 1e4                       # a long gap
     t = np.concatenate([[0], np.cumsum(dt)])
     u = rng.normal(size=t.size)
     taus = np.array([0.05, 3.0, 400.0])
-    got = lag_states(t, u, taus, hold="linear", initial="settled")
+    with compiled_loops() if compiled else nullcontext():
+        got = lag_states(t, u, taus, hold="linear", initial="settled")
     c = np.full(3, u[0])
     for n in range(len(dt)):
         x = dt[n] / taus

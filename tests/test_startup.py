@@ -8,7 +8,7 @@ import json
 import subprocess
 import sys
 
-HEAVY = ("control", "scipy.signal", "scipy.optimize", "scipy.interpolate", "matplotlib", "PySpice")
+HEAVY = ("control", "scipy.signal", "scipy.optimize", "scipy.interpolate", "matplotlib", "PySpice", "numba")
 
 
 def modules_after(code: str) -> set[str]:
@@ -47,7 +47,8 @@ def test_import_creepcomp_imports_nothing_heavy():
 
 def test_fit_imports_only_what_a_fit_uses(tmp_path):
     """A fit needs scipy.optimize and nothing heavier: not scipy.signal (which loads
-    scipy.stats), interpolation, the diagnosis or any other command's module."""
+    scipy.stats), interpolation, numba (0.3 s to start: a single fit runs its lags in
+    numpy), the diagnosis or any other command's module."""
     import numpy as np
 
     t = np.arange(0.0, 300.0, 0.5)
@@ -62,7 +63,7 @@ def test_fit_imports_only_what_a_fit_uses(tmp_path):
                            f"    assert main(['fit', {str(path)!r}, '--json']) == 0")
     assert "creepcomp.fit.prony" in loaded and "scipy.optimize" in loaded
     assert [m for m in ("control", "scipy.signal", "scipy.stats", "scipy.interpolate", "matplotlib",
-                        "PySpice", "dask", "creepcomp.diagnose", "creepcomp.cli.mc")
+                        "PySpice", "dask", "numba", "creepcomp.diagnose", "creepcomp.cli.mc")
             if m in loaded] == []
     # off a terminal no progress bar is drawn, and a JSON answer prints no table
     assert "rich.progress" not in loaded and "rich.table" not in loaded

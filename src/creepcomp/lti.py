@@ -9,8 +9,10 @@ linearly between samples (``hold="linear"``), on uniform or irregular time point
 
 from __future__ import annotations
 
+import contextvars
 import math
 import threading
+from contextlib import contextmanager
 from typing import TYPE_CHECKING
 
 from dataclasses import dataclass
@@ -25,7 +27,7 @@ if TYPE_CHECKING:
 __all__ = ["LagExpansion", "UNIFORM_RTOL", "lag_coefficients", "is_uniform", "lag_states",
            "cascade_matrices", "cascade_step", "cascade_step_arrays", "triangle_lag_gap",
            "cascade_lags", "varying_lag_states", "lag_tau_derivatives", "first_order_filter",
-           "decay", "DECAY_FLOOR", "varying_lag_derivatives"]
+           "decay", "DECAY_FLOOR", "varying_lag_derivatives", "compiled_loops", "compiled_active"]
 
 #: Relative spread of time steps below which sampling counts as uniform (then a recursion
 #: with constant coefficients runs, :func:`first_order_filter`; the coefficient error this
@@ -35,6 +37,29 @@ UNIFORM_RTOL = 1e-9
 #: Decay (in units of the fastest time constant) spanned by one block of the irregular scan;
 #: exp(500) stays far from float64 overflow.
 _BLOCK_DECAY = 500.0
+
+
+_COMPILED = contextvars.ContextVar("compiled_loops", default=False)
+
+
+@contextmanager
+def compiled_loops():
+    """Within it, the lag recursions of this module run compiled (:mod:`creepcomp.recursions`,
+    numba) instead of in numpy: for work that evaluates lags thousands of times (a diagnosis),
+    where the compiler's start (about 0.3 s, once per process) pays. The results agree with
+    numpy's to rounding (the same recursion, not summed in blocks)."""
+    from creepcomp import recursions  # noqa: F401  (numba's start, here rather than in a loop)
+
+    token = _COMPILED.set(True)
+    try:
+        yield
+    finally:
+        _COMPILED.reset(token)
+
+
+def compiled_active() -> bool:
+    """True inside :func:`compiled_loops`."""
+    return _COMPILED.get()
 
 
 @dataclass(frozen=True)
@@ -164,9 +189,8 @@ def lag_coefficients(dt, taus, hold: str = "linear"):
     """
     x = np.asarray(dt, dtype=float) / np.asarray(taus, dtype=float)
     e = np.exp(-x)
-    one_minus_e = -np.expm1(-x)
     if hold == "zero":
-        return e, one_minus_e, np.zeros_like(e)
+        return e, -np.expm1(-x), np.zeros_like(e)
     if hold == "linear":
         from scipy import special
 
@@ -224,6 +248,11 @@ def lag_states(time, u, taus, hold: str = "linear", initial="relaxed", u_before=
     dt = np.diff(t)
     if not np.all(dt > 0):
         raise InputError("time must be strictly increasing")
+    if _COMPILED.get():
+        from creepcomp import recursions
+
+        recursions.lag_recursion(*_compiled_plan(t, dt, taus, hold), u, ub, c0, out)
+        return out
     changes = _input_changes(u, hold) if u_before is None else None
     if changes is not None:
         _held_runs(t, u, taus, changes, c0, out)
@@ -284,6 +313,61 @@ def _lag_plan(t: np.ndarray, dt: np.ndarray, taus: np.ndarray, hold: str) -> _La
                 _PLANS.pop(next(iter(_PLANS)))
             _PLANS[key] = (t, t.copy(), plan)
     return plan
+
+
+def _compiled_plan(t: np.ndarray, dt: np.ndarray, taus: np.ndarray, hold: str) -> tuple:
+    """The coefficients ``(e, b0, b1)`` of :func:`creepcomp.recursions.lag_recursion` for these
+    sample times and time constants, one row per kind of step (:func:`_step_kinds`), and the
+    kinds (kept as :func:`_lag_plan` keeps its plans)."""
+    key = (id(t), taus.tobytes(), hold, "compiled")
+    with _PLANS_LOCK:
+        hit = _PLANS.get(key)
+    if hit is not None and hit[0] is t and np.array_equal(hit[1], t):
+        return hit[2]
+    lengths, kind = _step_kinds(t, dt)
+    plan = lag_coefficients(lengths[:, None], taus[None, :], hold) + (kind,)
+    if len(t) * len(taus) <= _PLAN_KEPT_VALUES:
+        for c in plan:
+            c.flags.writeable = False
+        with _PLANS_LOCK:
+            while len(_PLANS) >= _PLANS_KEPT:
+                _PLANS.pop(next(iter(_PLANS)))
+            _PLANS[key] = (t, t.copy(), plan)
+    return plan
+
+
+#: Kinds of step of the last few arrays of sample times (:func:`_step_kinds`).
+_KINDS: dict = {}
+_KINDS_KEPT = 4
+#: Steps of a few lengths (a reduced record's blocks) are solved by kind when there are at
+#: most this share as many kinds as steps.
+_KINDS_SHARE = 0.25
+
+
+def _step_kinds(t: np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The lengths of the distinct kinds of step of ``t`` and the kind of each step: one
+    kind (the mean step) when sampling is uniform (:func:`is_uniform`), the distinct lengths
+    when there are few (a reduced record's blocks take a few lengths), else every step its
+    own. Kept for the last few arrays (by identity): the coefficients of a new time constant
+    are then computed once per kind."""
+    with _PLANS_LOCK:
+        hit = _KINDS.get(id(t))
+    if hit is not None and hit[0] is t and np.array_equal(hit[1], t):
+        return hit[2]
+    if is_uniform(t):
+        kinds = (np.array([float(np.mean(dt))]), np.zeros(len(dt), np.intp))
+    else:
+        lengths, kind = np.unique(dt, return_inverse=True)
+        if len(lengths) > _KINDS_SHARE * len(dt):
+            lengths, kind = dt.copy(), np.arange(len(dt))
+        kinds = (lengths, kind.astype(np.intp))
+    for a in kinds:
+        a.flags.writeable = False
+    with _PLANS_LOCK:
+        while len(_KINDS) >= _KINDS_KEPT:
+            _KINDS.pop(next(iter(_KINDS)))
+        _KINDS[id(t)] = (t, t.copy(), kinds)
+    return kinds
 
 
 #: Most load changes, as a share of the samples, for which lags are solved run by run
@@ -661,6 +745,11 @@ def varying_lag_states(time, u, taus, hold: str = "linear", initial="relaxed") -
     if not np.all(taus > 0):
         raise InputError("time constants must be positive")
     e, b0, b1 = lag_coefficients(dt[:, None], taus, hold)
+    if _COMPILED.get():
+        from creepcomp import recursions
+
+        recursions.lag_recursion(e, b0, b1, np.arange(n - 1), u, u, c0, out)
+        return out
     drive = b0 * u[:-1, None] + b1 * u[1:, None]
     _varying_solve(dt, taus, e, drive, c0, out)
     return out
@@ -728,6 +817,12 @@ def varying_lag_derivatives(time, u, taus, states, tau_slopes, hold: str = "line
         return out
     dt = np.diff(t)
     e, de, db0, db1 = _coefficient_slopes(dt[:, None] / taus, taus, hold)
+    if _COMPILED.get():
+        from creepcomp import recursions
+
+        recursions.derivative_recursion(e, de, db0, db1, np.arange(n - 1), np.broadcast_to(tau_slopes, e.shape),
+                                        states, u, out[0].copy(), out)
+        return out
     drive = (de * states[:-1] + db0 * u[:-1, None] + db1 * u[1:, None]) * tau_slopes
     _varying_solve(dt, taus, e, drive, out[0].copy(), out)
     return out
@@ -787,6 +882,13 @@ def lag_tau_derivatives(time, u, taus, states, hold: str = "linear", initial_slo
     out = np.empty((n, k), order="F")
     out[0] = 0.0 if initial_slope is None else np.asarray(initial_slope, float)
     if n < 2 or k == 0:
+        return out
+    if _COMPILED.get():
+        from creepcomp import recursions
+
+        lengths, kind = _step_kinds(t, np.diff(t))
+        slopes = _coefficient_slopes(lengths[:, None] / taus[None, :], taus[None, :], hold)
+        recursions.derivative_recursion(*slopes, kind, np.ones((1, k)), states, u, out[0].copy(), out)
         return out
     changes = _input_changes(u, hold)
     if changes is not None:

@@ -54,7 +54,7 @@ from creepcomp.fit.evidence import (BIC_STRONG, HELDOUT_Z, Evidence, compare, co
 from creepcomp.fit.starts import one_term_starts, tau_grid
 from creepcomp.fit.prony import model_file_dict
 from creepcomp.fit.reduce import reduce_record
-from creepcomp.lti import lag_states
+from creepcomp.lti import compiled_loops, lag_states
 from creepcomp.io.records import Record
 from creepcomp.units import format_parameter
 
@@ -692,7 +692,9 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
     # (a diagnosis needs the noise floor's windows: fit's sparse minimum is not its own)
     data = prepare(record, initial=initial, load_step_at=load_step_at, min_samples=SPARSE_SAMPLES)
     pool = effects_pkg.sensor_effects() if candidates is None else [effects_pkg.get(c) for c in candidates]
-    with one_blas_thread():     # (small matrices: see creepcomp.fit.blas)
+    # (small matrices: see creepcomp.fit.blas; lags evaluated thousands of times: see
+    # creepcomp.lti.compiled_loops)
+    with one_blas_thread(), compiled_loops():
         search = _search(data, pool, max_effects)
         return _verdict(data, search, correction, reduced, t_start)
 

@@ -204,8 +204,8 @@ ANCHOR_WEIGHT = 1e-6
 def unit_scaled(gram: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The column norms behind a Gram matrix (1 for an empty column) and the Gram matrix of the
     columns scaled to unit norm."""
-    norms = np.sqrt(np.diag(gram))
-    norms = np.where(norms == 0, 1.0, norms)
+    norms = np.sqrt(gram.diagonal())
+    norms[norms == 0] = 1.0
     return norms, gram / np.outer(norms, norms)
 
 
@@ -220,7 +220,7 @@ def _solve(aw: np.ndarray, yw: np.ndarray, prior: np.ndarray | None = None,
     all)."""
     gram = aw.T @ aw if gram is None else gram
     rhs = aw.T @ yw if rhs is None else rhs
-    live = np.diag(gram) != 0.0             # (a column of NaN stays, to fail as before)
+    live = gram.diagonal() != 0.0             # (a column of NaN stays, to fail as before)
     if prior is None and not live.all():
         # an empty column (a step the creep input does not take) keeps 0, as the minimum-norm
         # solution would: solved without it, the normal equations stay well-posed
@@ -245,12 +245,27 @@ def _solve(aw: np.ndarray, yw: np.ndarray, prior: np.ndarray | None = None,
     return coef / norms
 
 
-def _step_limits(b: Basis, a: np.ndarray, y: np.ndarray, coef: np.ndarray, free: np.ndarray,
-                 prior: np.ndarray | None, gram: np.ndarray, aty: np.ndarray) -> np.ndarray:
+@dataclass(frozen=True)
+class _Layout:
+    """What a :class:`Problem` reads off the names of a basis's columns, once per basis
+    layout: the coefficients held at given values and those values, the anchor's prior, and
+    each step-time column (:attr:`Basis.step_bounds`) with the column of the creep amplitude
+    that bounds it and its half interval."""
+
+    held: np.ndarray
+    given: np.ndarray
+    prior: np.ndarray | None
+    steps: np.ndarray
+    amplitudes: np.ndarray
+    halves: np.ndarray
+
+
+def _step_limits(layout: _Layout, a: np.ndarray, y: np.ndarray, coef: np.ndarray, free: np.ndarray,
+                 gram: np.ndarray, aty: np.ndarray) -> np.ndarray:
     """Bounds of the step-time coefficients (:attr:`Basis.step_bounds`): ``|a_k|`` times half
     the step's interval, ``a_k`` from the model solved without them (``gram``, ``aty``:
     ``a.T @ a`` and ``a.T @ y``)."""
-    steps = np.array([col for col, _, _ in b.step_bounds])
+    steps, prior = layout.steps, layout.prior
     plain = free.copy()
     plain[steps] = False
     trial = coef.copy()
@@ -262,18 +277,21 @@ def _step_limits(b: Basis, a: np.ndarray, y: np.ndarray, coef: np.ndarray, free:
             trial[plain] = _solve(a[:, plain], y - a[:, ~plain] @ trial[~plain], sub)
         else:
             trial[plain] = _solve(a, y, sub, gram[np.ix_(cols, cols)], aty[cols], cols=cols)
-    return np.array([abs(trial[b.names.index(f"a[{k}]")]) * half for _, k, half in b.step_bounds])
+    return np.abs(trial[layout.amplitudes]) * layout.halves
 
 
-def _within_step_bounds(b: Basis, coef: np.ndarray, free: np.ndarray, limits: np.ndarray) -> np.ndarray:
+def _within_step_bounds(layout: _Layout, coef: np.ndarray, free: np.ndarray, limits: np.ndarray) -> np.ndarray:
     """Step-time coefficients beyond their ``limits`` set to them and taken out of the free
     ones; the free mask returned unchanged when all are within."""
+    steps = layout.steps
+    over = free[steps] & (np.abs(coef[steps]) > limits)
+    if not over.any():
+        return free
+    at = steps[over]
+    coef[at] = np.copysign(limits[over], coef[at])
     out = free.copy()
-    for (col, _, _), limit in zip(b.step_bounds, limits):
-        if free[col] and abs(coef[col]) > limit:
-            coef[col] = math.copysign(limit, coef[col])
-            out[col] = False
-    return out if (out != free).any() else free
+    out[at] = False
+    return out
 
 
 def _scaled_inverse(a: np.ndarray, gram: np.ndarray | None = None):
@@ -355,9 +373,7 @@ class Problem:
     def basis(self, x: np.ndarray) -> Basis:
         """The model's linear basis at ``x``, with the record's unknown step times
         (:func:`~creepcomp.fit.structure.with_step_times`)."""
-        values = self.values(x)
-        b = basis(self.data, self.structure, values, self.cache)
-        return with_step_times(self.data, b, taus_of(values, self.structure.n_terms), self.cache)
+        return basis(self.data, self.structure, self.values(x), self.cache, step_times=True)
 
     def straddled(self, b: Basis) -> np.ndarray:
         """Positions among the fitted rows of the samples the basis leaves free
@@ -402,14 +418,12 @@ class Problem:
         a = self.on_fitted(b.columns, straddled)
         y = self.fitted_signal(straddled)
         gram = a.T @ a
-        held = np.array([n in self.fixed for n in b.names])
-        coef = np.array([self.fixed.get(n, 0.0) for n in b.names])
-        prior = None
-        if self.anchor:
-            prior = np.array([float(self.anchor.get(n, 0.0)) for n in b.names])
-        free = ~held
+        layout = self._layout(b)
+        coef = layout.given.copy()
+        prior = layout.prior
+        free = ~layout.held
         aty = a.T @ y
-        limits = _step_limits(b, a, y, coef, free, prior, gram, aty) if b.step_bounds else None
+        limits = _step_limits(layout, a, y, coef, free, gram, aty) if b.step_bounds else None
         for _ in range(4):   # the step times found beyond their bounds are set to them
             if not free.any():
                 break
@@ -421,7 +435,7 @@ class Problem:
                                     gram[np.ix_(free, free)])
             if limits is None:
                 break
-            narrowed = _within_step_bounds(b, coef, free, limits)
+            narrowed = _within_step_bounds(layout, coef, free, limits)
             if narrowed is free:
                 break
             free = narrowed
@@ -430,6 +444,23 @@ class Problem:
             kept.pop(next(iter(kept)))
         kept[key] = (out, gram)
         return out
+
+    def _layout(self, b: Basis) -> _Layout:
+        """The :class:`_Layout` of ``b``'s columns (kept by their names)."""
+        layouts = self.cache.setdefault("layouts", {})
+        layout = layouts.get(b.names)
+        if layout is None:
+            names = b.names
+            steps = np.array([col for col, _, _ in b.step_bounds], dtype=np.intp)
+            layout = _Layout(held=np.array([n in self.fixed for n in names], dtype=bool),
+                             given=np.array([self.fixed.get(n, 0.0) for n in names], dtype=float),
+                             prior=(np.array([float(self.anchor.get(n, 0.0)) for n in names])
+                                    if self.anchor else None),
+                             steps=steps,
+                             amplitudes=np.array([names.index(f"a[{k}]") for _, k, _ in b.step_bounds], dtype=np.intp),
+                             halves=np.array([half for _, _, half in b.step_bounds], dtype=float))
+            layouts[b.names] = layout
+        return layout
 
     def _gram(self, x: np.ndarray) -> np.ndarray:
         """``A^T A`` of the (weighted) basis on the fitted rows at ``x``."""
@@ -507,23 +538,22 @@ class Problem:
         bound, ``|a_k|`` times a half interval with ``a_k`` solved without the step times)
         by the nonlinear parameters (columns)."""
         out = np.zeros((len(b.names), len(moves)))
-        bound = [(col, k, half) for col, k, half in b.step_bounds
-                 if not free[col] and b.names[col] not in self.fixed]
-        if not bound:
+        layout = self._layout(b)
+        bound = np.flatnonzero(~free[layout.steps] & ~layout.held[layout.steps])   # (of the step columns)
+        if not len(bound):
             return out
         steps = np.zeros(len(b.names), bool)
-        steps[[col for col, _, _ in b.step_bounds]] = True
-        plain = np.array([n not in self.fixed for n in b.names]) & ~steps
+        steps[layout.steps] = True
+        plain = ~layout.held & ~steps
         if not plain.any():
             return out                  # the amplitudes setting the bounds are held too
-        trial = np.array([self.fixed.get(n, 0.0) for n in b.names])
+        trial = layout.given.copy()
         target = self.fitted_signal(straddled) - a[:, ~plain] @ trial[~plain]
         ap = a[:, plain]
         norms, inverse = _anchored_inverse(ap.T @ ap) if self.anchor else _scaled_inverse(ap)
         rhs = (ap.T @ target) / norms
         if self.anchor:          # as _step_limits solves it: pulled towards the anchor
-            prior = np.array([float(self.anchor.get(n, 0.0)) for n in b.names])
-            rhs += ANCHOR_WEIGHT * prior[plain] * norms
+            rhs += ANCHOR_WEIGHT * layout.prior[plain] * norms
         trial[plain] = (inverse @ rhs) / norms
         rp = target - ap @ trial[plain]
         moved = np.zeros((len(rp), len(moves)))
@@ -536,8 +566,8 @@ class Problem:
                     dot_r[col, j] = dj @ rp
         dtrial = (inverse @ ((dot_r[plain] - ap.T @ moved) / norms[:, None])) / norms[:, None]
         where = {c: i for i, c in enumerate(np.flatnonzero(plain))}
-        for col, k, half in bound:
-            amplitude = b.names.index(f"a[{k}]")
+        for i in bound:
+            col, amplitude, half = layout.steps[i], layout.amplitudes[i], layout.halves[i]
             if amplitude in where:
                 out[col] = (np.sign(coef[col]) * half * np.sign(trial[amplitude])
                             * dtrial[where[amplitude]])

@@ -16,6 +16,7 @@ so only the time constants, the initial states and an effect's own nonlinear par
 
 from __future__ import annotations
 
+import functools
 import math
 import threading
 from dataclasses import dataclass, field, replace
@@ -279,8 +280,10 @@ def _stack(parts) -> np.ndarray:
     return out
 
 
-def basis(data: Data, structure: Structure, values: dict, cache: dict | None = None) -> Basis:
-    """Evaluate the model's linear basis for given nonlinear parameter values."""
+def basis(data: Data, structure: Structure, values: dict, cache: dict | None = None,
+          step_times: bool = False) -> Basis:
+    """Evaluate the model's linear basis for given nonlinear parameter values (``step_times``:
+    with the record's unknown step times, as :func:`with_step_times` adds them)."""
     t = data.time
     effects = structure.effects
     own = [a.own(values) for a in effects]
@@ -326,7 +329,15 @@ def basis(data: Data, structure: Structure, values: dict, cache: dict | None = N
             names.append(f"{a.name}.{name}")
     straddling = [a.effect.straddling(data, p, a) for a, p in zip(effects, own)]
     straddling = np.unique(np.concatenate(straddling)) if any(len(i) for i in straddling) else _NO_SAMPLES
-    return Basis(_stack(cols), tuple(names), x, s, h, lags, straddling=straddling)
+    block = _step_time_block(data, h, taus, cache) if step_times else None
+    if block is None:
+        return Basis(_stack(cols), tuple(names), x, s, h, lags, straddling=straddling)
+    # (stacked once with the step-time columns: the basis is the fit's largest array)
+    step_cols, step_names, bounds, mids = block
+    first = len(cols)
+    return Basis(_stack(cols + [step_cols]), tuple(names) + step_names, x, s, h, lags,
+                 step_bounds=tuple((first + i, k, half) for i, k, half in bounds), step_mids=mids,
+                 straddling=straddling)
 
 
 #: A change of the creep input across a load step's interval within this share of its largest
@@ -346,9 +357,22 @@ def with_step_times(data: Data, b: Basis, taus: np.ndarray, cache: dict | None =
     the half intervals of that step and the first (:attr:`Basis.step_bounds`). Only with the
     load linear between samples. With a ``cache`` (one per fitting problem), the steps and
     the last columns (for the same time constants and creep input) are kept."""
-    if b.lags.shape[1] == 0:
+    block = _step_time_block(data, b.creep_input, taus, cache)
+    if block is None:
         return b
-    t, h = data.time, b.creep_input
+    cols, names, bounds, mids = block
+    first = b.columns.shape[1]
+    return replace(b, columns=_stack([b.columns, cols]), names=b.names + names,
+                   step_bounds=tuple((first + i, k, half) for i, k, half in bounds), step_mids=mids)
+
+
+def _step_time_block(data: Data, h: np.ndarray, taus: np.ndarray, cache: dict | None) -> tuple | None:
+    """The step-time columns of :func:`with_step_times` for the creep input ``h``: ``(columns,
+    names, bounds, middles)``, each bound ``(i, k, half width)`` with ``i`` the column's place
+    in the block; None when there are none (no lags, or fewer than two load steps)."""
+    if len(taus) == 0:
+        return None
+    t = data.time
     if cache is None:
         cache = {}
     steps = cache.get("load_steps")
@@ -356,17 +380,12 @@ def with_step_times(data: Data, b: Basis, taus: np.ndarray, cache: dict | None =
         steps = load_steps(data) if data.hold == "linear" else np.zeros(0, int)
         cache["load_steps"] = steps
     if len(steps) < 2:
-        return b
+        return None
     key = np.asarray(taus, float).tobytes()
     last = cache.get("step_times")
     if last is not None and last[0] == key and (last[1] is h or np.array_equal(last[1], h)):
-        cols, names, bounds, mids = last[2]
-        first = b.columns.shape[1]
-        bounds = [(first + i, k, half) for i, (_, k, half) in enumerate(bounds)]
-        return replace(b, columns=_stack([b.columns, cols]), names=b.names + names,
-                       step_bounds=tuple(bounds), step_mids=mids)
+        return last[2]
     names, bounds, mids = [], [], []
-    first = b.columns.shape[1]
     reference = 0.5 * float(t[steps[0] + 1] - t[steps[0]])
     cols = np.zeros((len(t), (len(steps) - 1) * len(taus)), order="F")
     unseen = _ROUNDING * float(np.max(np.abs(h)))
@@ -377,11 +396,11 @@ def with_step_times(data: Data, b: Basis, taus: np.ndarray, cache: dict | None =
         for k, tau in enumerate(taus):
             cols[i + 1:, len(names)] = -dh / tau * _step_decays(t, steps, float(tau), cache)[j - 1]
             names.append(f"step_time[{j}][{k}]")
-            bounds.append((first + len(bounds), k, 0.5 * float(t[i + 1] - t[i]) + reference))
+            bounds.append((len(bounds), k, 0.5 * float(t[i + 1] - t[i]) + reference))
             mids.append(mid)
-    cache["step_times"] = (key, h, (cols, tuple(names), tuple(bounds), tuple(mids)))
-    return replace(b, columns=_stack([b.columns, cols]), names=b.names + tuple(names),
-                   step_bounds=tuple(bounds), step_mids=tuple(mids))
+    block = (cols, tuple(names), tuple(bounds), tuple(mids))
+    cache["step_times"] = (key, h, block)
+    return block
 
 
 #: Time constants whose step-time decays a fitting problem keeps (:func:`_step_decays`).
@@ -502,15 +521,31 @@ def _step_taus(data: Data, h, lags, taus, effects, values) -> np.ndarray:
     return out * taus[None, :]
 
 
+#: The stages of the signal path through which an effect's parameters enter the basis.
+_STAGES = ("load_transform", "instant", "creep_input", "tau_factor", "columns", "straddling")
+
+
+def _enters_only(effect, stage: str) -> bool:
+    """The effect's parameters enter the basis through ``stage`` alone (it keeps the
+    default, "no change", of every other stage of :data:`_STAGES`)."""
+    return _class_enters_only(type(effect), stage)
+
+
+@functools.lru_cache(maxsize=None)
+def _class_enters_only(kind: type, stage: str) -> bool:
+    for other in _STAGES:
+        if other == stage:
+            continue
+        first = [c for c in kind.__mro__ if other in vars(c)][-1]     # where the default is
+        if getattr(kind, other) is not vars(first)[other]:
+            return False
+    return True
+
+
 def _lags_only(effect) -> bool:
     """The effect changes nothing but the lags' time constants (its parameters enter the
     basis through :meth:`tau_factor` alone)."""
-    kind = type(effect)
-    for stage in ("load_transform", "instant", "creep_input", "columns"):
-        first = [c for c in kind.__mro__ if stage in vars(c)][-1]     # where the default is
-        if getattr(kind, stage) is not vars(first)[stage]:
-            return False
-    return True
+    return _enters_only(effect, "tau_factor")
 
 
 def _state_dependent_derivatives(data: Data, structure: Structure, values: dict, b: Basis, params,
@@ -583,6 +618,18 @@ def _column_differences(data: Data, structure: Structure, values: dict, b: Basis
         step = -step
     moved = dict(values)
     moved[p.name] = p.from_search(x + step)
+    owners = [a for a in structure.effects if p.name.startswith(a.name + ".")]
+    if len(owners) == 1 and _enters_only(owners[0].effect, "columns"):
+        # only the owner's columns move: the rest of the basis is the same (bit for bit)
+        a = owners[0]
+        out = []
+        for name, col in a.effect.columns(data, b.instant, b.creep_input, b.lags, a.own(moved), a).items():
+            at = b.names.index(f"{a.name}.{name}")
+            d = col - b.columns[:, at]
+            d /= step
+            if np.any(d != 0.0):
+                out.append((at, d))
+        return out
     bp = basis(data, structure, moved, cache)
     own = bp.columns.shape[1]                  # the columns before the step times'
     diff = bp.columns - b.columns[:, :own]

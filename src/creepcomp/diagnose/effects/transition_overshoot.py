@@ -15,6 +15,9 @@ it), computed as a sum of exponentials whose weights fit the stretched decay
 
 from __future__ import annotations
 
+import functools
+import threading
+
 import numpy as np
 
 from scipy.optimize import nnls
@@ -44,14 +47,40 @@ def total_variation(x, dead_band: float = 0.0) -> np.ndarray:
 STRETCH_GRID = np.geomspace(1e-3, 1e2, 21)
 
 
+@functools.lru_cache(maxsize=16)
 def stretched_weights(exponent: float) -> np.ndarray:
     """Non-negative weights ``w`` of :data:`STRETCH_GRID` with ``sum_i w_i exp(-x / g_i)`` close
     to ``exp(-x^exponent)`` for ``x`` (time over ``tau``) from 1e-3 to 30 (least squares on a log
-    grid of ``x``; the weights sum to about 1, the decay's start)."""
+    grid of ``x``; the weights sum to about 1, the decay's start). Read-only: the last few are
+    kept (a fit evaluates the same exponent for every other parameter's step)."""
     x = np.concatenate([[0.0], np.geomspace(1e-3, 30.0, 120)])
     a = np.exp(-x[:, None] / STRETCH_GRID[None, :])
     w, _ = nnls(a, np.exp(-x ** exponent))
+    w.flags.writeable = False
     return w
+
+
+#: The total variations of the last few load histories (:func:`_total_variation_of`).
+_VARIATIONS: dict = {}
+_VARIATIONS_KEPT = 4
+_VARIATIONS_LOCK = threading.Lock()         # (a fleet's worker runs units on threads)
+
+
+def _total_variation_of(s: np.ndarray, dead_band: float) -> np.ndarray:
+    """:func:`total_variation` of ``s``, kept for the last few arrays (by identity): the load
+    seen is the same array at every evaluation of a fit unless another effect changes it."""
+    key = (id(s), dead_band)
+    with _VARIATIONS_LOCK:
+        hit = _VARIATIONS.get(key)
+    if hit is not None and hit[0] is s:
+        return hit[1]
+    v = total_variation(s, dead_band)
+    v.flags.writeable = False
+    with _VARIATIONS_LOCK:
+        while len(_VARIATIONS) >= _VARIATIONS_KEPT:
+            _VARIATIONS.pop(next(iter(_VARIATIONS)))
+        _VARIATIONS[key] = (s, v)
+    return v
 
 
 class TransitionOvershoot(SensorEffect):
@@ -98,7 +127,7 @@ class TransitionOvershoot(SensorEffect):
     columns_from_lags = False
 
     def columns(self, data, s, h, lags, p, applied):
-        v = total_variation(s, DEAD_BAND * applied.setting("load_scale"))
+        v = _total_variation_of(s, DEAD_BAND * applied.setting("load_scale"))
         b = p.get("exponent", 1.0)
         if b >= 1.0:
             decay = v - lag_states(data.time, v, [p["tau"]], hold=data.hold, initial="settled")[:, 0]

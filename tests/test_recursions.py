@@ -1,0 +1,118 @@
+"""The compiled recursions (numba, :mod:`creepcomp.recursions`) against numpy's blocks of
+cumulative sums: the same lag states and derivatives to rounding, the same play bit for bit;
+and the diagnosis runs them."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from creepcomp import lti
+from creepcomp.diagnose.effects.rate_independent_hysteresis import play
+
+
+def _record(seed: int, n: int, uniform: bool, changes: str):
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * 0.1 if uniform else np.cumsum(rng.uniform(0.01, 0.5, n))
+    if changes == "few":             # a staircase: numpy solves it run by run
+        u = np.repeat(rng.normal(size=4), -(-n // 4))[:n]
+    else:
+        u = np.cumsum(rng.normal(size=n)) * 0.1
+    return t, u
+
+
+def _both(function, *args, **kwargs):
+    numpy_result = function(*args, **kwargs)
+    with lti.compiled_loops():
+        compiled_result = function(*args, **kwargs)
+    return numpy_result, compiled_result
+
+
+def _close(a, b, scale):
+    assert a.shape == b.shape
+    assert np.max(np.abs(a - b)) <= 1e-12 * scale
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31), st.integers(2, 3000), st.booleans(), st.sampled_from(["few", "many"]),
+       st.sampled_from(["linear", "zero"]), st.sampled_from(["relaxed", "settled", "given"]))
+def test_lag_states_agree(seed, n, uniform, changes, hold, initial):
+    t, u = _record(seed, n, uniform, changes)
+    taus = np.array([0.03, 2.0, 700.0])
+    start = np.array([0.5, -1.0, 2.0]) if initial == "given" else initial
+    a, b = _both(lti.lag_states, t, u, taus, hold=hold, initial=start)
+    _close(a, b, max(np.max(np.abs(u)), 2.0))
+
+
+def test_lag_states_with_the_input_before_each_sample_agree():
+    t, u = _record(4, 2000, False, "many")
+    before = u + np.where(np.arange(len(u)) % 50 == 0, 0.3, 0.0)
+    a, b = _both(lti.lag_states, t, u, [1.0, 30.0], u_before=before)
+    _close(a, b, np.max(np.abs(before)))
+
+
+@pytest.mark.parametrize("uniform", [True, False])
+@pytest.mark.parametrize("changes", ["few", "many"])
+@pytest.mark.parametrize("hold", ["linear", "zero"])
+def test_time_constant_derivatives_agree(uniform, changes, hold):
+    t, u = _record(8, 2500, uniform, changes)
+    taus = np.array([0.5, 40.0])
+    states = lti.lag_states(t, u, taus, hold=hold)
+    a, b = _both(lti.lag_tau_derivatives, t, u, taus, states, hold, initial_slope=[0.1, -0.2])
+    _close(a, b, np.max(np.abs(a)))
+
+
+@pytest.mark.parametrize("hold", ["linear", "zero"])
+def test_varying_lags_and_their_derivatives_agree(hold):
+    t, u = _record(9, 3000, False, "many")
+    steps = np.arange(len(t) - 1)
+    taus = np.column_stack([np.where(steps % 700 < 350, 2.0, 9.0), np.full(len(steps), 60.0)])
+    slopes = np.column_stack([taus[:, 0] * (steps % 700 < 350), taus[:, 1]])
+    a, b = _both(lti.varying_lag_states, t, u, taus, hold=hold, initial=[0.3, -0.2])
+    _close(a, b, np.max(np.abs(u)))
+    da, db = _both(lti.varying_lag_derivatives, t, u, taus, a, slopes, hold, initial_slope=[0.5, 0.0])
+    _close(da, db, np.max(np.abs(da)))
+
+
+def test_a_vanishing_time_constant_settles_the_compiled_lag_at_its_input():
+    t = np.arange(12.0)
+    u = np.linspace(0.0, 1.0, 12)
+    taus = np.full((11, 1), 2.0)
+    taus[4] = 1e-320
+    a, b = _both(lti.varying_lag_states, t, u, taus, hold="zero")
+    assert np.all(np.isfinite(b)) and b[5, 0] == pytest.approx(u[4])
+    _close(a, b, 1.0)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31), st.integers(1, 2000), st.floats(0.0, 3.0), st.floats(-2.0, 2.0))
+def test_the_compiled_play_is_numpys_bit_for_bit(seed, n, width, initial):
+    x = np.cumsum(np.random.default_rng(seed).normal(size=n))
+    a, b = _both(play, x, width, initial)
+    np.testing.assert_array_equal(a, b)
+
+
+def test_compiled_loops_is_a_context():
+    assert not lti.compiled_active()
+    with pytest.raises(RuntimeError):
+        with lti.compiled_loops():
+            assert lti.compiled_active()
+            raise RuntimeError("leaves")
+    assert not lti.compiled_active()
+
+
+def test_the_diagnosis_runs_its_lags_compiled(monkeypatch):
+    """Every lag evaluation of a diagnosis's search runs inside :func:`~creepcomp.lti.compiled_loops`."""
+    from creepcomp import data
+    from creepcomp.diagnose.sensor import diagnose
+    from creepcomp.fit import structure
+
+    seen = []
+    original = structure.lag_states
+
+    def spy(*args, **kwargs):
+        seen.append(lti.compiled_active())
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(structure, "lag_states", spy)
+    diagnose(data.hidden_effect(), correction=False, max_effects=1)
+    assert seen and all(seen)
