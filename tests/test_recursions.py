@@ -116,3 +116,20 @@ def test_the_diagnosis_runs_its_lags_compiled(monkeypatch):
     monkeypatch.setattr(structure, "lag_states", spy)
     diagnose(data.hidden_effect(), correction=False, max_effects=1)
     assert seen and all(seen)
+
+
+def test_decay_columns_agree_and_keep_their_zeros():
+    """Each column zero before its first sample, where its scale is zero and beyond the decay
+    floor; in between the decay, summed step by step when compiled."""
+    rng = np.random.default_rng(3)
+    t = np.cumsum(rng.uniform(0.05, 0.2, 3000))
+    first = np.array([10, 500, 2999, 2000])
+    mids = t[first - 1] + 0.01
+    taus = np.array([0.5, 30.0, 900.0])
+    scales = rng.normal(size=(4, 3))
+    scales[1, 2] = 0.0
+    a, b = _both(lti.decay_columns, t, first, mids, taus, scales)
+    _close(a, b, np.max(np.abs(scales)))
+    np.testing.assert_array_equal(a == 0.0, b == 0.0)
+    assert not b[:10].any() and not b[:, 5].any()
+    assert b[-1, 0] == 0.0 and b[-1, 2] != 0.0        # tau 0.5 s has decayed past the floor, 900 s not

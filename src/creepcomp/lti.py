@@ -27,7 +27,7 @@ if TYPE_CHECKING:
 __all__ = ["LagExpansion", "UNIFORM_RTOL", "lag_coefficients", "is_uniform", "lag_states",
            "cascade_matrices", "cascade_step", "cascade_step_arrays", "triangle_lag_gap",
            "cascade_lags", "varying_lag_states", "lag_tau_derivatives", "first_order_filter",
-           "decay", "DECAY_FLOOR", "varying_lag_derivatives", "compiled_loops", "compiled_active"]
+           "decay", "DECAY_FLOOR", "decay_columns", "varying_lag_derivatives", "compiled_loops", "compiled_active"]
 
 #: Relative spread of time steps below which sampling counts as uniform (then a recursion
 #: with constant coefficients runs, :func:`first_order_filter`; the coefficient error this
@@ -499,6 +499,34 @@ def decay(since: np.ndarray, tau: float) -> np.ndarray:
     out = np.zeros(since.shape)
     live, head = _decay_head(since, tau)
     out[:live] = head
+    return out
+
+
+def decay_columns(time, first, mids, taus, scales) -> np.ndarray:
+    """Columns ``scales[j, k] * exp(-(t - mids[j]) / taus[k])`` from sample ``first[j]`` on
+    (zero before it, and beyond :data:`DECAY_FLOOR` e-foldings: :func:`decay`), one per ``j``
+    and ``k`` in that order (``j`` major), column-major.
+
+    Inside :func:`compiled_loops` each column is the recursion of the lags' decays
+    (:func:`creepcomp.recursions.decay_columns`, with the coefficients :func:`lag_states`
+    keeps for these times and time constants), else one :func:`decay` per column."""
+    t = np.asarray(time, dtype=float)
+    first = np.asarray(first, dtype=np.intp)
+    mids = np.asarray(mids, dtype=float)
+    taus = np.atleast_1d(np.asarray(taus, dtype=float))
+    scales = np.asarray(scales, dtype=float).reshape(len(first), len(taus))
+    out = np.zeros((len(t), len(first) * len(taus)), order="F")
+    if _COMPILED.get() and len(t) > 1:
+        from creepcomp import recursions
+
+        e, _, _, kind = _compiled_plan(t, np.diff(t), taus, "linear")
+        ends = np.searchsorted(t, mids[:, None] + DECAY_FLOOR * taus[None, :], side="left")
+        recursions.decay_columns(t, first, ends.astype(np.intp), mids, taus, scales, e, kind, out)
+        return out
+    for j, (i, mid) in enumerate(zip(first.tolist(), mids.tolist())):
+        for k, tau in enumerate(taus.tolist()):
+            if scales[j, k] != 0.0:
+                out[i:, j * len(taus) + k] = scales[j, k] * decay(t[i:] - mid, tau)
     return out
 
 

@@ -12,9 +12,11 @@ cached beside the module.
 
 from __future__ import annotations
 
+import math
+
 import numba
 
-__all__ = ["lag_recursion", "derivative_recursion", "play"]
+__all__ = ["lag_recursion", "derivative_recursion", "decay_columns", "play"]
 
 _jit = numba.njit(cache=True, nogil=True)
 
@@ -51,6 +53,26 @@ def derivative_recursion(e, de, db0, db1, kind, scale, states, u, d0, out):
             s = scale[0 if same else i, j]
             d = e[r, j] * d + (de[r, j] * states[i, j] + db0[r, j] * u[i] + db1[r, j] * u[i + 1]) * s
             out[i + 1, j] = d
+
+
+@_jit
+def decay_columns(t, first, ends, mids, taus, scales, e, kind, out):
+    """``out[n, j K + k] = scales[j, k] exp(-(t[n] - mids[j]) / taus[k])`` for ``first[j] <= n <
+    ends[j, k]``, each sample's value from the last by its step's decay ``e[kind[n - 1], k]``;
+    ``out`` zero elsewhere (as it is given)."""
+    k_count = taus.shape[0]
+    for j in range(first.shape[0]):
+        for k in range(k_count):
+            scale = scales[j, k]
+            if scale == 0.0:
+                continue
+            c = j * k_count + k
+            i = first[j]
+            v = scale * math.exp(-(t[i] - mids[j]) / taus[k])
+            for n in range(i, ends[j, k]):
+                if n > i:
+                    v *= e[kind[n - 1], k]
+                out[n, c] = v
 
 
 @_jit

@@ -25,8 +25,8 @@ from typing import Any
 import numpy as np
 
 from creepcomp.fit.data import Data, load_steps
-from creepcomp.lti import (decay, lag_states, lag_tau_derivatives, varying_lag_derivatives,
-                           varying_lag_states)
+from creepcomp.lti import (compiled_active, decay, decay_columns, lag_states, lag_tau_derivatives,
+                           varying_lag_derivatives, varying_lag_states)
 
 __all__ = ["Param", "Applied", "Structure", "taus_of", "Basis", "basis", "with_step_times",
            "basis_derivatives", "DIFF_STEP"]
@@ -387,17 +387,22 @@ def _step_time_block(data: Data, h: np.ndarray, taus: np.ndarray, cache: dict | 
         return last[2]
     names, bounds, mids = [], [], []
     reference = 0.5 * float(t[steps[0] + 1] - t[steps[0]])
-    cols = np.zeros((len(t), (len(steps) - 1) * len(taus)), order="F")
-    unseen = _ROUNDING * float(np.max(np.abs(h)))
-    for j, i in enumerate(steps[1:], start=1):
-        mid, dh = 0.5 * (t[i] + t[i + 1]), h[i + 1] - h[i]
-        if abs(dh) <= unseen:   # the creep input does not step here (a delayed load): an empty column
-            dh = 0.0
+    later = steps[1:]
+    middles = 0.5 * (t[later] + t[later + 1])
+    dh = h[later + 1] - h[later]
+    dh[np.abs(dh) <= _ROUNDING * float(np.max(np.abs(h)))] = 0.0   # no step of the creep input here (a delayed load): an empty column
+    compiled = compiled_active()
+    if compiled:
+        cols = decay_columns(t, later + 1, middles, taus, -dh[:, None] / np.asarray(taus, float)[None, :])
+    else:
+        cols = np.zeros((len(t), len(later) * len(taus)), order="F")
+    for j, i in enumerate(later, start=1):
         for k, tau in enumerate(taus):
-            cols[i + 1:, len(names)] = -dh / tau * _step_decays(t, steps, float(tau), cache)[j - 1]
+            if not compiled:
+                cols[i + 1:, len(names)] = -dh[j - 1] / tau * _step_decays(t, steps, float(tau), cache)[j - 1]
             names.append(f"step_time[{j}][{k}]")
             bounds.append((len(bounds), k, 0.5 * float(t[i + 1] - t[i]) + reference))
-            mids.append(mid)
+            mids.append(float(middles[j - 1]))
     block = (cols, tuple(names), tuple(bounds), tuple(mids))
     cache["step_times"] = (key, h, block)
     return block
