@@ -644,7 +644,7 @@ def _column_differences(data: Data, structure: Structure, values: dict, b: Basis
     if b.step_bounds and not (np.array_equal(taus, taus_of(values, structure.n_terms))
                               and np.array_equal(bp.creep_input, b.creep_input)):
         # the step-time columns follow the time constants and the creep input only
-        steps = with_step_times(data, bp, taus, cache).columns[:, own:] - b.columns[:, own:]
+        steps = _step_time_block(data, bp.creep_input, taus, cache)[0] - b.columns[:, own:]
         steps /= step
         out += [(own + j, steps[:, j]) for j in np.flatnonzero(np.any(steps != 0.0, axis=0))]
     return out
