@@ -361,12 +361,13 @@ def _step_kinds(t: np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if len(lengths) > _KINDS_SHARE * len(dt):
             lengths, kind = dt.copy(), np.arange(len(dt))
         kinds = (lengths, kind.astype(np.intp))
-    for a in kinds:
-        a.flags.writeable = False
-    with _PLANS_LOCK:
-        while len(_KINDS) >= _KINDS_KEPT:
-            _KINDS.pop(next(iter(_KINDS)))
-        _KINDS[id(t)] = (t, t.copy(), kinds)
+    if len(t) <= _RUNS_KEPT_SAMPLES:           # (a long record's arrays are not held after use)
+        for a in kinds:
+            a.flags.writeable = False
+        with _PLANS_LOCK:
+            while len(_KINDS) >= _KINDS_KEPT:
+                _KINDS.pop(next(iter(_KINDS)))
+            _KINDS[id(t)] = (t, t.copy(), kinds)
     return kinds
 
 
