@@ -47,7 +47,7 @@ def test_import_creepcomp_imports_nothing_heavy():
 
 def test_fit_imports_only_what_a_fit_uses(tmp_path):
     """A fit needs scipy.optimize and nothing heavier: not scipy.signal (which loads
-    scipy.stats), interpolation, numba (0.3 s to start: a single fit runs its lags in
+    scipy.stats), interpolation, numba (0.5 s to start: a single fit runs its lags in
     numpy), the diagnosis or any other command's module."""
     import numpy as np
 

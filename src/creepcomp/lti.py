@@ -46,7 +46,7 @@ _COMPILED = contextvars.ContextVar("compiled_loops", default=False)
 def compiled_loops():
     """Within it, the lag recursions of this module run compiled (:mod:`creepcomp.recursions`,
     numba) instead of in numpy: for work that evaluates lags thousands of times (a diagnosis),
-    where the compiler's start (about 0.3 s, once per process) pays. The results agree with
+    where numba's start (about 0.5 s, once per process) pays. The results agree with
     numpy's to rounding (the same recursion, not summed in blocks)."""
     from creepcomp import recursions  # noqa: F401  (numba's start, here rather than in a loop)
 

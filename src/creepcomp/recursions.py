@@ -3,7 +3,7 @@ first-order lags and their derivatives, and the play operator.
 
 :mod:`creepcomp.lti` sums the same lag recursions in numpy (blocks of scaled cumulative sums)
 and calls these instead inside :func:`creepcomp.lti.compiled_loops`, where a process runs
-enough of them to pay for numba's start (about 0.3 s once: a diagnosis evaluates its lags
+enough of them to pay for numba's start (about 0.5 s once: a diagnosis evaluates its lags
 thousands of times, a single fit a few hundred). The coefficients come from numpy
 (:func:`creepcomp.lti.lag_coefficients`, vectorised); only the recursion runs here. Importing
 this module imports numba; each function is compiled on first use and its machine code is
