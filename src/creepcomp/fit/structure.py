@@ -393,7 +393,16 @@ def _step_time_block(data: Data, h: np.ndarray, taus: np.ndarray, cache: dict | 
     dh[np.abs(dh) <= _ROUNDING * float(np.max(np.abs(h)))] = 0.0   # no step of the creep input here (a delayed load): an empty column
     compiled = compiled_active()
     if compiled:
-        cols = decay_columns(t, later + 1, middles, taus, -dh[:, None] / np.asarray(taus, float)[None, :])
+        # the decays of these time constants (kept: an effect's own parameters move the creep
+        # input's steps, not the time constants), each column scaled by its step
+        kept = cache.setdefault("step_decay_columns", {})
+        unit = kept.get(key)
+        if unit is None:
+            unit = decay_columns(t, later + 1, middles, taus, np.ones((len(later), len(taus))))
+            while len(kept) >= _STEP_DECAYS_KEPT:
+                kept.pop(next(iter(kept)))
+            kept[key] = unit
+        cols = unit * (-dh[:, None] / np.asarray(taus, float)[None, :]).reshape(-1)
     else:
         cols = np.zeros((len(t), len(later) * len(taus)), order="F")
     for j, i in enumerate(later, start=1):
