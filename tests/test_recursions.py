@@ -10,9 +10,16 @@ from creepcomp import lti
 from creepcomp.diagnose.effects.rate_independent_hysteresis import play
 
 
-def _record(seed: int, n: int, uniform: bool, changes: str):
+def _record(seed: int, n: int, uniform: bool, changes: str, kinds: bool = False):
+    """Sample times uniform, of a few step lengths (``kinds``: a reduced record's blocks) or
+    irregular, and an input that changes at a few samples or at every one."""
     rng = np.random.default_rng(seed)
-    t = np.arange(n) * 0.1 if uniform else np.cumsum(rng.uniform(0.01, 0.5, n))
+    if uniform:
+        t = np.arange(n) * 0.1
+    elif kinds:
+        t = np.cumsum(rng.choice([0.1, 0.25, 0.4], n))
+    else:
+        t = np.cumsum(rng.uniform(0.01, 0.5, n))
     if changes == "few":             # a staircase: numpy solves it run by run
         u = np.repeat(rng.normal(size=4), -(-n // 4))[:n]
     else:
@@ -33,10 +40,11 @@ def _close(a, b, scale):
 
 
 @settings(max_examples=40, deadline=None)
-@given(st.integers(0, 2**31), st.integers(2, 3000), st.booleans(), st.sampled_from(["few", "many"]),
-       st.sampled_from(["linear", "zero"]), st.sampled_from(["relaxed", "settled", "given"]))
-def test_lag_states_agree(seed, n, uniform, changes, hold, initial):
-    t, u = _record(seed, n, uniform, changes)
+@given(st.integers(0, 2**31), st.integers(2, 3000), st.sampled_from(["uniform", "kinds", "irregular"]),
+       st.sampled_from(["few", "many"]), st.sampled_from(["linear", "zero"]),
+       st.sampled_from(["relaxed", "settled", "given"]))
+def test_lag_states_agree(seed, n, times, changes, hold, initial):
+    t, u = _record(seed, n, times == "uniform", changes, kinds=times == "kinds")
     taus = np.array([0.03, 2.0, 700.0])
     start = np.array([0.5, -1.0, 2.0]) if initial == "given" else initial
     a, b = _both(lti.lag_states, t, u, taus, hold=hold, initial=start)
@@ -50,11 +58,11 @@ def test_lag_states_with_the_input_before_each_sample_agree():
     _close(a, b, np.max(np.abs(before)))
 
 
-@pytest.mark.parametrize("uniform", [True, False])
+@pytest.mark.parametrize("times", ["uniform", "kinds", "irregular"])
 @pytest.mark.parametrize("changes", ["few", "many"])
 @pytest.mark.parametrize("hold", ["linear", "zero"])
-def test_time_constant_derivatives_agree(uniform, changes, hold):
-    t, u = _record(8, 2500, uniform, changes)
+def test_time_constant_derivatives_agree(times, changes, hold):
+    t, u = _record(8, 2500, times == "uniform", changes, kinds=times == "kinds")
     taus = np.array([0.5, 40.0])
     states = lti.lag_states(t, u, taus, hold=hold)
     a, b = _both(lti.lag_tau_derivatives, t, u, taus, states, hold, initial_slope=[0.1, -0.2])
@@ -116,6 +124,14 @@ def test_the_diagnosis_runs_its_lags_compiled(monkeypatch):
     monkeypatch.setattr(structure, "lag_states", spy)
     diagnose(data.hidden_effect(), correction=False, max_effects=1)
     assert seen and all(seen)
+
+
+def test_a_reduced_records_few_step_lengths_are_solved_by_kind():
+    t, _ = _record(5, 3000, False, "many", kinds=True)
+    lengths, kind = lti._step_kinds(t, np.diff(t))
+    # three lengths, and the few that summing the times rounds them to: each step's own exactly
+    assert 3 <= len(lengths) < 50
+    np.testing.assert_array_equal(lengths[kind], np.diff(t))
 
 
 def test_decay_columns_agree_and_keep_their_zeros():
