@@ -289,14 +289,30 @@ _PLANS: dict = {}
 _PLANS_LOCK = threading.Lock()
 
 
+def _kept(store: dict, key, t: np.ndarray):
+    """What ``store`` keeps under ``key`` for the sample times ``t`` (:func:`_keep`), or None:
+    nothing kept, or kept for times whose values have changed since."""
+    with _PLANS_LOCK:
+        hit = store.get(key)
+    return hit[2] if hit is not None and hit[0] is t and np.array_equal(hit[1], t) else None
+
+
+def _keep(store: dict, key, t: np.ndarray, value, most: int) -> None:
+    """Keep ``value``, made for the sample times ``t``, under ``key`` (by the times' identity,
+    with a copy of their values), dropping the oldest beyond ``most``."""
+    with _PLANS_LOCK:
+        while len(store) >= most:
+            store.pop(next(iter(store)))
+        store[key] = (t, t.copy(), value)
+
+
 def _lag_plan(t: np.ndarray, dt: np.ndarray, taus: np.ndarray, hold: str) -> _LagPlan:
     """The :class:`_LagPlan` of these sample times and time constants (kept by the times'
     identity, and used again only while their values are those it was made for)."""
     key = (id(t), taus.tobytes(), hold)
-    with _PLANS_LOCK:
-        hit = _PLANS.get(key)
-    if hit is not None and hit[0] is t and np.array_equal(hit[1], t):
-        return hit[2]
+    hit = _kept(_PLANS, key, t)
+    if hit is not None:
+        return hit
     kept = len(t) * len(taus) <= _PLAN_KEPT_VALUES
     if is_uniform(t):
         step = float(np.mean(dt))
@@ -308,10 +324,7 @@ def _lag_plan(t: np.ndarray, dt: np.ndarray, taus: np.ndarray, hold: str) -> _La
         # (a plan not kept grows its blocks one at a time, as the scan reaches them)
         plan = _LagPlan(False, coefficients, tuple(_scan_blocks(t, taus)) if kept else None)
     if kept:
-        with _PLANS_LOCK:
-            while len(_PLANS) >= _PLANS_KEPT:
-                _PLANS.pop(next(iter(_PLANS)))
-            _PLANS[key] = (t, t.copy(), plan)
+        _keep(_PLANS, key, t, plan, _PLANS_KEPT)
     return plan
 
 
@@ -320,19 +333,15 @@ def _compiled_plan(t: np.ndarray, dt: np.ndarray, taus: np.ndarray, hold: str) -
     sample times and time constants, one row per kind of step (:func:`_step_kinds`), and the
     kinds (kept as :func:`_lag_plan` keeps its plans)."""
     key = (id(t), taus.tobytes(), hold, "compiled")
-    with _PLANS_LOCK:
-        hit = _PLANS.get(key)
-    if hit is not None and hit[0] is t and np.array_equal(hit[1], t):
-        return hit[2]
+    hit = _kept(_PLANS, key, t)
+    if hit is not None:
+        return hit
     lengths, kind = _step_kinds(t, dt)
     plan = lag_coefficients(lengths[:, None], taus[None, :], hold) + (kind,)
     if len(t) * len(taus) <= _PLAN_KEPT_VALUES:
         for c in plan:
             c.flags.writeable = False
-        with _PLANS_LOCK:
-            while len(_PLANS) >= _PLANS_KEPT:
-                _PLANS.pop(next(iter(_PLANS)))
-            _PLANS[key] = (t, t.copy(), plan)
+        _keep(_PLANS, key, t, plan, _PLANS_KEPT)
     return plan
 
 
@@ -350,10 +359,9 @@ def _step_kinds(t: np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     when there are few (a reduced record's blocks take a few lengths), else every step its
     own. Kept for the last few arrays (by identity): the coefficients of a new time constant
     are then computed once per kind."""
-    with _PLANS_LOCK:
-        hit = _KINDS.get(id(t))
-    if hit is not None and hit[0] is t and np.array_equal(hit[1], t):
-        return hit[2]
+    hit = _kept(_KINDS, id(t), t)
+    if hit is not None:
+        return hit
     if is_uniform(t):
         kinds = (np.array([float(np.mean(dt))]), np.zeros(len(dt), np.intp))
     else:
@@ -364,10 +372,7 @@ def _step_kinds(t: np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if len(t) <= _RUNS_KEPT_SAMPLES:           # (a long record's arrays are not held after use)
         for a in kinds:
             a.flags.writeable = False
-        with _PLANS_LOCK:
-            while len(_KINDS) >= _KINDS_KEPT:
-                _KINDS.pop(next(iter(_KINDS)))
-            _KINDS[id(t)] = (t, t.copy(), kinds)
+        _keep(_KINDS, id(t), t, kinds, _KINDS_KEPT)
     return kinds
 
 

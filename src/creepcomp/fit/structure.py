@@ -246,7 +246,7 @@ def _fingerprint(x: np.ndarray) -> tuple:
 def _lag_key(data: Data, h, taus, init) -> tuple:
     init_key = init if isinstance(init, str) else np.asarray(init, float).tobytes()
     return (_fingerprint(data.time), _fingerprint(h), np.asarray(taus, float).tobytes(),
-            init_key, data.hold)
+            init_key, data.hold, compiled_active())     # (numpy's and the compiled lags differ by rounding)
 
 
 def _shared_lags(data: Data, h, taus, init):
@@ -381,7 +381,7 @@ def _step_time_block(data: Data, h: np.ndarray, taus: np.ndarray, cache: dict | 
         cache["load_steps"] = steps
     if len(steps) < 2:
         return None
-    key = np.asarray(taus, float).tobytes()
+    key = (np.asarray(taus, float).tobytes(), compiled_active())    # (the decays of either way)
     last = cache.get("step_times")
     if last is not None and last[0] == key and (last[1] is h or np.array_equal(last[1], h)):
         return last[2]
@@ -391,24 +391,18 @@ def _step_time_block(data: Data, h: np.ndarray, taus: np.ndarray, cache: dict | 
     middles = 0.5 * (t[later] + t[later + 1])
     dh = h[later + 1] - h[later]
     dh[np.abs(dh) <= _ROUNDING * float(np.max(np.abs(h)))] = 0.0   # no step of the creep input here (a delayed load): an empty column
-    compiled = compiled_active()
-    if compiled:
-        # the decays of these time constants (kept: an effect's own parameters move the creep
-        # input's steps, not the time constants), each column scaled by its step
-        kept = cache.setdefault("step_decay_columns", {})
-        unit = kept.get(key)
-        if unit is None:
-            unit = decay_columns(t, later + 1, middles, taus, np.ones((len(later), len(taus))))
-            while len(kept) >= _STEP_DECAYS_KEPT:
-                kept.pop(next(iter(kept)))
-            kept[key] = unit
-        cols = unit * (-dh[:, None] / np.asarray(taus, float)[None, :]).reshape(-1)
-    else:
-        cols = np.zeros((len(t), len(later) * len(taus)), order="F")
+    # the decays of these time constants (kept: an effect's own parameters move the creep
+    # input's steps, not the time constants), each column scaled by its step
+    kept = cache.setdefault("step_decay_columns", {})
+    unit = kept.get(key)
+    if unit is None:
+        unit = decay_columns(t, later + 1, middles, taus, np.ones((len(later), len(taus))))
+        while len(kept) >= _STEP_DECAYS_KEPT:
+            kept.pop(next(iter(kept)))
+        kept[key] = unit
+    cols = unit * (-dh[:, None] / np.asarray(taus, float)[None, :]).reshape(-1)
     for j, i in enumerate(later, start=1):
-        for k, tau in enumerate(taus):
-            if not compiled:
-                cols[i + 1:, len(names)] = -dh[j - 1] / tau * _step_decays(t, steps, float(tau), cache)[j - 1]
+        for k in range(len(taus)):
             names.append(f"step_time[{j}][{k}]")
             bounds.append((len(bounds), k, 0.5 * float(t[i + 1] - t[i]) + reference))
             mids.append(float(middles[j - 1]))
@@ -417,22 +411,8 @@ def _step_time_block(data: Data, h: np.ndarray, taus: np.ndarray, cache: dict | 
     return block
 
 
-#: Time constants whose step-time decays a fitting problem keeps (:func:`_step_decays`).
+#: Sets of time constants whose step-time decays a fitting problem keeps (:func:`_step_time_block`).
 _STEP_DECAYS_KEPT = 4
-
-
-def _step_decays(t: np.ndarray, steps: np.ndarray, tau: float, cache: dict) -> list[np.ndarray]:
-    """``exp(-(t - t_mid) / tau)`` after each load step but the first (:func:`with_step_times`),
-    kept in ``cache`` for the last few time constants: they do not depend on the creep input,
-    which the effects' own parameters move."""
-    kept = cache.setdefault("step_decays", {})
-    out = kept.get(tau)
-    if out is None:
-        out = [decay(t[i + 1:] - 0.5 * (t[i] + t[i + 1]), tau) for i in steps[1:]]
-        while len(kept) >= _STEP_DECAYS_KEPT:
-            kept.pop(next(iter(kept)))
-        kept[tau] = out
-    return out
 
 
 def basis_derivatives(data: Data, structure: Structure, values: dict, b: Basis, params,
