@@ -164,3 +164,26 @@ def test_varying_lag_states_with_a_vanishing_time_constant_follow_the_input():
     assert np.all(np.isfinite(out)) and out[5, 0] == pytest.approx(u[4])
     reference = varying_lag_states(t[5:], u[5:], taus[5:], hold="zero", initial=[out[5, 0]])
     assert np.allclose(out[5:], reference, rtol=1e-12, atol=1e-15)
+
+
+@pytest.mark.parametrize("compiled", [False, True])
+def test_times_changed_in_place_are_checked_again(compiled):
+    """The steps of a record's times are kept between calls (by the array's identity): times
+    that stop increasing in the same array must still be refused, and times moved in it used."""
+    import contextlib
+
+    from creepcomp.errors import InputError
+    from creepcomp.lti import compiled_loops, varying_lag_states
+
+    t = np.linspace(0.0, 10.0, 101)
+    u = np.ones_like(t)
+    with compiled_loops() if compiled else contextlib.nullcontext():
+        before = lag_states(t, u, [2.0])[:, 0]
+        t *= 2.0                                   # the same array, every step twice as long
+        assert np.allclose(lag_states(t, u, [2.0])[:, 0], lag_states(t.copy(), u, [2.0])[:, 0], rtol=0, atol=1e-14)
+        assert not np.allclose(lag_states(t, u, [2.0])[:, 0], before)
+        t[5] = t[4]
+        with pytest.raises(InputError, match="strictly increasing"):
+            lag_states(t, u, [2.0])
+        with pytest.raises(InputError, match="strictly increasing"):
+            varying_lag_states(t, u, np.full((len(t) - 1, 1), 2.0))

@@ -237,3 +237,15 @@ def test_held_out_halves_each_hold_a_load_change(name, seed, effect, form):
     spec = synth.random_spec(effect, seed, max_samples=5000, **kw)
     d = diagnose(synth.generate(spec).record, correction=False)
     assert d.cause == effect, [t.to_dict() for t in d.trials]
+
+
+def test_the_kept_total_variation_follows_a_load_changed_in_place():
+    """The total variation of the load seen is kept by the array's identity: a load changed
+    in place is a new load."""
+    from creepcomp.diagnose.effects.transition_overshoot import _total_variation_of, total_variation
+
+    s = np.concatenate([np.zeros(10), np.ones(10), np.zeros(10)])
+    assert _total_variation_of(s, 0.0)[-1] == 2.0
+    s[15:] = 3.0
+    assert np.array_equal(_total_variation_of(s, 0.0), total_variation(s, 0.0))
+    assert _total_variation_of(s, 0.0)[-1] == 3.0

@@ -245,9 +245,7 @@ def lag_states(time, u, taus, hold: str = "linear", initial="relaxed", u_before=
     out[0] = c0
     if n == 1 or k == 0:
         return out
-    dt = np.diff(t)
-    if not np.all(dt > 0):
-        raise InputError("time must be strictly increasing")
+    dt = _steps(t)
     if _COMPILED.get():
         from creepcomp import recursions
 
@@ -304,6 +302,27 @@ def _keep(store: dict, key, t: np.ndarray, value, most: int) -> None:
         while len(store) >= most:
             store.pop(next(iter(store)))
         store[key] = (t, t.copy(), value)
+
+
+#: Steps of the last few arrays of sample times (:func:`_steps`).
+_STEPS: dict = {}
+_STEPS_KEPT = 4
+
+
+def _steps(t: np.ndarray) -> np.ndarray:
+    """``np.diff(t)`` of strictly increasing times (else :class:`InputError`), kept for the
+    last few arrays by identity (read-only): a fit evaluates the lags of one record's times
+    thousands of times."""
+    hit = _kept(_STEPS, id(t), t)
+    if hit is not None:
+        return hit
+    dt = np.diff(t)
+    if not np.all(dt > 0):
+        raise InputError("time must be strictly increasing")
+    if len(t) <= _RUNS_KEPT_SAMPLES:           # (a long record's arrays are not held after use)
+        dt.flags.writeable = False
+        _keep(_STEPS, id(t), t, dt, _STEPS_KEPT)
+    return dt
 
 
 def _lag_plan(t: np.ndarray, dt: np.ndarray, taus: np.ndarray, hold: str) -> _LagPlan:
@@ -483,13 +502,13 @@ def _runs(t: np.ndarray, u: np.ndarray, changes: np.ndarray) -> _Runs:
     with _RUNS_LOCK:
         hit = _RUNS.get(key)
     if (hit is not None and hit[0] is t and hit[1] is u and np.array_equal(hit[2].last[:-1], changes)
-            and np.array_equal(hit[2].levels, u[hit[2].first])):
+            and np.array_equal(hit[2].levels, u[hit[2].first]) and np.array_equal(hit[3], t)):
         return hit[2]
     runs = _Runs(t, u, changes)
     with _RUNS_LOCK:
         while len(_RUNS) >= _RUNS_KEPT:
             _RUNS.pop(next(iter(_RUNS)))
-        _RUNS[key] = (t, u, runs)
+        _RUNS[key] = (t, u, runs, t.copy())         # (times changed in place are not the same times)
     return runs
 
 
@@ -525,7 +544,7 @@ def decay_columns(time, first, mids, taus, scales) -> np.ndarray:
     if _COMPILED.get() and len(t) > 1:
         from creepcomp import recursions
 
-        e, _, _, kind = _compiled_plan(t, np.diff(t), taus, "linear")
+        e, _, _, kind = _compiled_plan(t, _steps(t), taus, "linear")
         ends = np.searchsorted(t, mids[:, None] + DECAY_FLOOR * taus[None, :], side="left")
         recursions.decay_columns(t, first, ends.astype(np.intp), mids, taus, scales, e, kind, out)
         return out
@@ -773,9 +792,7 @@ def varying_lag_states(time, u, taus, hold: str = "linear", initial="relaxed") -
     out[0] = c0
     if n == 1 or k == 0:
         return out
-    dt = np.diff(t)
-    if not np.all(dt > 0):
-        raise InputError("time must be strictly increasing")
+    dt = _steps(t)
     if not np.all(taus > 0):
         raise InputError("time constants must be positive")
     e, b0, b1 = lag_coefficients(dt[:, None], taus, hold)
@@ -920,7 +937,7 @@ def lag_tau_derivatives(time, u, taus, states, hold: str = "linear", initial_slo
     if _COMPILED.get():
         from creepcomp import recursions
 
-        lengths, kind = _step_kinds(t, np.diff(t))
+        lengths, kind = _step_kinds(t, _steps(t))
         slopes = _coefficient_slopes(lengths[:, None] / taus[None, :], taus[None, :], hold)
         recursions.derivative_recursion(*slopes, kind, np.ones((1, k)), states, u, out[0].copy(), out)
         return out

@@ -385,8 +385,6 @@ def _step_time_block(data: Data, h: np.ndarray, taus: np.ndarray, cache: dict | 
     last = cache.get("step_times")
     if last is not None and last[0] == key and (last[1] is h or np.array_equal(last[1], h)):
         return last[2]
-    names, bounds, mids = [], [], []
-    reference = 0.5 * float(t[steps[0] + 1] - t[steps[0]])
     later = steps[1:]
     middles = 0.5 * (t[later] + t[later + 1])
     dh = h[later + 1] - h[later]
@@ -401,14 +399,26 @@ def _step_time_block(data: Data, h: np.ndarray, taus: np.ndarray, cache: dict | 
             kept.pop(next(iter(kept)))
         kept[key] = unit
     cols = unit * (-dh[:, None] / np.asarray(taus, float)[None, :]).reshape(-1)
-    for j, i in enumerate(later, start=1):
-        for k in range(len(taus)):
+    labels = cache.get(("step_time_labels", len(taus)))
+    if labels is None:
+        labels = _step_time_labels(t, steps, middles, len(taus))
+        cache[("step_time_labels", len(taus))] = labels
+    block = (cols,) + labels
+    cache["step_times"] = (key, h, block)
+    return block
+
+
+def _step_time_labels(t: np.ndarray, steps: np.ndarray, middles: np.ndarray, n_terms: int) -> tuple:
+    """Names, bounds and middles of the step-time columns of :func:`_step_time_block` (they
+    depend on the sample times and the load steps alone)."""
+    names, bounds, mids = [], [], []
+    reference = 0.5 * float(t[steps[0] + 1] - t[steps[0]])
+    for j, i in enumerate(steps[1:], start=1):
+        for k in range(n_terms):
             names.append(f"step_time[{j}][{k}]")
             bounds.append((len(bounds), k, 0.5 * float(t[i + 1] - t[i]) + reference))
             mids.append(float(middles[j - 1]))
-    block = (cols, tuple(names), tuple(bounds), tuple(mids))
-    cache["step_times"] = (key, h, block)
-    return block
+    return tuple(names), tuple(bounds), tuple(mids)
 
 
 #: Sets of time constants whose step-time decays a fitting problem keeps (:func:`_step_time_block`).

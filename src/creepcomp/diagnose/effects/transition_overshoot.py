@@ -67,19 +67,20 @@ _VARIATIONS_LOCK = threading.Lock()         # (a fleet's worker runs units on th
 
 
 def _total_variation_of(s: np.ndarray, dead_band: float) -> np.ndarray:
-    """:func:`total_variation` of ``s``, kept for the last few arrays (by identity): the load
-    seen is the same array at every evaluation of a fit unless another effect changes it."""
+    """:func:`total_variation` of ``s``, kept for the last few arrays (by identity, used again
+    while their values are the same): the load seen is the same array at every evaluation of
+    a fit unless another effect changes it."""
     key = (id(s), dead_band)
     with _VARIATIONS_LOCK:
         hit = _VARIATIONS.get(key)
-    if hit is not None and hit[0] is s:
+    if hit is not None and hit[0] is s and np.array_equal(hit[2], s):
         return hit[1]
     v = total_variation(s, dead_band)
     v.flags.writeable = False
     with _VARIATIONS_LOCK:
         while len(_VARIATIONS) >= _VARIATIONS_KEPT:
             _VARIATIONS.pop(next(iter(_VARIATIONS)))
-        _VARIATIONS[key] = (s, v)
+        _VARIATIONS[key] = (s, v, s.copy())
     return v
 
 
