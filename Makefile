@@ -1,14 +1,16 @@
 # The two commands a user needs: `make demo` and `make test` (`make test-all` adds the tests
-# marked slow; CI runs it). Each sets up whatever is missing first: Debian's
-# ngspice, a virtual environment, the package.
+# marked slow, and Debian's chromium that one of them opens the report in; CI runs it). Each
+# sets up whatever is missing first: Debian's ngspice, a virtual environment, the package.
 VENV    ?= .venv
 PY      := $(VENV)/bin/python
 STAMP   := $(VENV)/.installed
 DEBS    := ngspice libngspice0 libngspice0-dev gcc
+# (what only the whole suite needs: the HTML report opened in a real browser)
+TEST_DEBS := chromium
 SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 DEMO_OUT ?= demo-output
 
-.PHONY: demo test test-all docs setup system-deps netlists bench clean
+.PHONY: demo test test-all docs setup system-deps test-system-deps netlists bench clean
 
 demo: setup
 	$(VENV)/bin/creepcomp demo --out $(DEMO_OUT)
@@ -20,7 +22,7 @@ PYTEST  := $(PY) -m pytest -q -n auto --dist loadfile
 test: setup
 	$(PYTEST) -m "not slow"
 
-test-all: setup
+test-all: setup test-system-deps
 	$(PYTEST)
 
 setup: system-deps $(STAMP)
@@ -30,6 +32,12 @@ system-deps:
 	  echo "installing $(DEBS) from Debian"; \
 	  $(SUDO) apt-get update -q && \
 	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -q $(DEBS); }
+
+test-system-deps:
+	@dpkg -s $(TEST_DEBS) >/dev/null 2>&1 || { \
+	  echo "installing $(TEST_DEBS) from Debian"; \
+	  $(SUDO) apt-get update -q && \
+	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -q --no-install-recommends $(TEST_DEBS); }
 
 $(STAMP): pyproject.toml
 	python3 -m venv $(VENV)
