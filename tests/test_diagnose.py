@@ -6,6 +6,8 @@ records are kept small (at most 5000 samples) so that the suite stays fast. The 
 confusion matrix is ``benchmarks/diagnose_confusion.py``.
 """
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -185,15 +187,18 @@ def test_compensate_extended_refuses_an_unsettled_inverse_only_when_asked():
     model = CreepModel([0.03], [40.0], 1.0, 0.0, {"viscous_flow": {"rate": 4e-5}})
     from creepcomp.diagnose.effects import simulate_extended
     signal = simulate_extended(model, t, load, None, "relaxed", "linear")
-    loose = compensate_extended(t, signal, model, max_iterations=1)       # (what one step gives)
+    with pytest.warns(RuntimeWarning, match="after 1 iterations.*the last step's"):
+        loose = compensate_extended(t, signal, model, max_iterations=1)   # (what one step gives)
     assert np.all(np.isfinite(loose))
     with pytest.raises(UnsettledInverse) as caught:
         compensate_extended(t, signal, model, max_iterations=1, converge=True)
     assert "after 1 iterations" in caught.value.why and "viscous_flow" in str(caught.value)
     found = compensate_extended(t, signal, model, converge=True)
     np.testing.assert_allclose(found, load, atol=1e-6)
-    # settled within the default steps: the default's result, bit for bit
-    np.testing.assert_array_equal(found, compensate_extended(t, signal, model))
+    # settled within the default steps: the default's result, bit for bit, and no warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        np.testing.assert_array_equal(found, compensate_extended(t, signal, model))
 
 
 def test_a_correction_is_given_up_only_where_its_rate_cannot_settle_it():

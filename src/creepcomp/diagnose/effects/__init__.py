@@ -37,6 +37,7 @@ import importlib
 import math
 import pkgutil
 import re
+import warnings
 
 import numpy as np
 
@@ -583,7 +584,8 @@ def compensate_extended(time, signal, model: CreepModel, temperature=None, initi
     inverse must be found. The steps stop once they are below ``tolerance`` (a few suffice
     for most models; a delay's or a flow's correction converges slowly); with ``converge``
     alone, also once they are settled after :data:`ITERATIONS` (the result is then the one
-    the default gives, or the first settled one after it).
+    the default gives, or the first settled one after it). Without either, a signal whose
+    inverse is not found gives the last step's load with a :class:`RuntimeWarning` saying so.
 
     Returns
     -------
@@ -630,12 +632,14 @@ def compensate_extended(time, signal, model: CreepModel, temperature=None, initi
                                                                          2 * max_iterations - done):
             too_slow = True
             break
-    if converge and structure.effects and not step <= INVERSE_TOLERANCE * scale:
+    if structure.effects and not step <= INVERSE_TOLERANCE * scale:
         names = ", ".join(a.name for a in structure.effects)
         why = _how_steps_ended(steps, step / scale, done, max_iterations, too_slow)
-        raise UnsettledInverse(f"the creep correction finds no load whose simulation through the "
-                               f"model's extensions ({names}) gives the signal ({why}); "
-                               f"{BASELINE_ADVICE}", why)
+        message = (f"the creep correction finds no load whose simulation through the model's "
+                   f"extensions ({names}) gives the signal ({why})")
+        if converge:
+            raise UnsettledInverse(f"{message}; {BASELINE_ADVICE}", why)
+        warnings.warn(f"{message}: the corrected signal is the last step's", RuntimeWarning, stacklevel=2)
     return model.offset + model.gain * load
 
 
