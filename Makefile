@@ -37,7 +37,7 @@ test-system-deps:
 	@dpkg -s $(TEST_DEBS) >/dev/null 2>&1 || { \
 	  echo "installing $(TEST_DEBS) from Debian"; \
 	  $(SUDO) apt-get update -q && \
-	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -q --no-install-recommends $(TEST_DEBS); }
+	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -q $(TEST_DEBS); }
 
 $(STAMP): pyproject.toml
 	python3 -m venv $(VENV)
