@@ -187,7 +187,8 @@ def lag_coefficients(dt, taus, hold: str = "linear"):
     -------
     e, b0, b1 : numpy.ndarray
     """
-    x = np.asarray(dt, dtype=float) / np.asarray(taus, dtype=float)
+    with np.errstate(over="ignore"):     # (a vanishing time constant: x = inf, the lag follows its input)
+        x = np.asarray(dt, dtype=float) / np.asarray(taus, dtype=float)
     e = np.exp(-x)
     if hold == "zero":
         return e, -np.expm1(-x), np.zeros_like(e)
@@ -812,7 +813,8 @@ def _varying_solve(dt, taus, e, drive, c0, out) -> None:
     n, k = out.shape
     # a step of more decay than a block holds ends its block (its own e is exact there), so
     # capping it keeps the cumulative decay finite when a time constant is tiny
-    rates = np.minimum(dt[:, None] / taus, _BLOCK_DECAY)
+    with np.errstate(over="ignore"):
+        rates = np.minimum(dt[:, None] / taus, _BLOCK_DECAY)
     decay = np.zeros((n, k))
     np.cumsum(rates, axis=0, out=decay[1:])
     # blocks of bounded decay for every lag at once: the decay of the fastest lag at each step
