@@ -8,7 +8,7 @@ import json
 import subprocess
 import sys
 
-#: (pydantic: typer from 0.29 imports it to parse any command line, 0.1 s; pyproject.toml keeps
+#: (pydantic: typer from 0.29 imports it to parse any command line, about 0.06 s; pyproject.toml keeps
 #: typer below that)
 HEAVY = ("control", "scipy.signal", "scipy.optimize", "scipy.interpolate", "matplotlib", "PySpice", "numba",
          "pydantic")

@@ -492,24 +492,20 @@ class _Runs:
 _RUNS_KEPT = 4
 _RUNS_KEPT_SAMPLES = 200_000
 _RUNS: dict = {}
-_RUNS_LOCK = threading.Lock()           # (a fleet's worker runs units on threads)
 
 
 def _runs(t: np.ndarray, u: np.ndarray, changes: np.ndarray) -> _Runs:
-    """The :class:`_Runs` of ``u`` on ``t``, kept for the last few arrays (by identity)."""
+    """The :class:`_Runs` of ``u`` on ``t``, kept for the last few arrays (by identity, as
+    :func:`_keep` keeps: used again only while the times and the input's runs are the same)."""
     if len(t) > _RUNS_KEPT_SAMPLES:
         return _Runs(t, u, changes)
     key = (id(t), id(u))
-    with _RUNS_LOCK:
-        hit = _RUNS.get(key)
-    if (hit is not None and hit[0] is t and hit[1] is u and np.array_equal(hit[2].last[:-1], changes)
-            and np.array_equal(hit[2].levels, u[hit[2].first]) and np.array_equal(hit[3], t)):
-        return hit[2]
+    hit = _kept(_RUNS, key, t)
+    if (hit is not None and hit[0] is u and np.array_equal(hit[1].last[:-1], changes)
+            and np.array_equal(hit[1].levels, u[hit[1].first])):
+        return hit[1]
     runs = _Runs(t, u, changes)
-    with _RUNS_LOCK:
-        while len(_RUNS) >= _RUNS_KEPT:
-            _RUNS.pop(next(iter(_RUNS)))
-        _RUNS[key] = (t, u, runs, t.copy())         # (times changed in place are not the same times)
+    _keep(_RUNS, key, t, (u, runs), _RUNS_KEPT)
     return runs
 
 
@@ -868,7 +864,7 @@ def varying_lag_derivatives(time, u, taus, states, tau_slopes, hold: str = "line
     out[0] = 0.0 if initial_slope is None else np.asarray(initial_slope, float)
     if n < 2 or k == 0:
         return out
-    dt = np.diff(t)
+    dt = _steps(t)
     e, de, db0, db1 = _coefficient_slopes(dt[:, None] / taus, taus, hold)
     if _COMPILED.get():
         from creepcomp import recursions
