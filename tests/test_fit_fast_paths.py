@@ -271,3 +271,43 @@ def test_a_step_of_rounding_size_is_an_empty_column():
     h[:20] = 0.0
     b = with_step_times(data, _with_input(plain, h), np.array([10.0]))
     assert b.names[-1] == "step_time[1][0]" and not b.columns[:, -1].any()
+
+
+def test_a_parameter_the_record_does_not_see_is_held_in_every_fold():
+    # a column of rounding size (a window's width at zero, on which the model does not depend)
+    # is held in every fold whatever its rounding; the pseudo-inverse gave it a variance of zero
+    # plus rounding, and a fold froze it or not as the rounding fell
+    from creepcomp.fit.evidence import _undetermined
+
+    rng = np.random.default_rng(7)
+    jac = rng.normal(size=(400, 4))
+    jac[:, 3] *= 1e6                  # (a linear column in other units does not set the scale)
+    for size in (0.0, 1e-17, 1e-12):
+        jac[:, 1] = size * rng.normal(size=400)
+        for fold in range(5):
+            keep = np.arange(400) % 5 != fold
+            frozen = _undetermined(jac, keep, ["a", "b", "c"], {"a": 1.0, "b": 2.0, "c": 3.0})
+            assert frozen == {"b": 2.0}
+
+
+def test_a_time_offsets_width_at_zero_is_held_out_alike_with_either_lags():
+    # the held-out prediction of a fit with a plain delay does not follow the rounding of the
+    # lag loops: the width, on which the model does not depend, is held in every refit
+    from creepcomp import synth
+    from creepcomp.diagnose.effects import time_offset as to
+    from creepcomp.fit.evidence import heldout
+    from creepcomp.fit.solver import fit_structure
+    from creepcomp.fit.structure import Applied, Structure
+
+    spec = synth.Spec(hidden={"time_offset": {"delay": 0.43}}, beta=(0.03,), tau=(45.0,), gain=1.0,
+                      rate=10.0, duration=300.0, program="random", noise=synth.NoiseSpec(white=5e-4),
+                      seed=3)
+    data = prepare(synth.generate(spec).record)
+    structure = Structure(1, (Applied(to.EFFECT, (("window", True),)),))
+    fit = fit_structure(data, structure, [{"tau[0]": 45.0, "c0[0]": 0.0, "time_offset.delay": 0.43,
+                                           "time_offset.width": 0.0}])
+    assert fit.values["time_offset.width"] <= to.NARROW * data.dt_median
+    plain = heldout(data, fit)
+    with lti.compiled_loops():
+        compiled = heldout(data, fit)
+    np.testing.assert_allclose(compiled.heldout.residual, plain.heldout.residual, rtol=0, atol=1e-9)

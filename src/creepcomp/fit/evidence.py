@@ -145,16 +145,28 @@ def _variances(gram: np.ndarray, count: int) -> np.ndarray:
         return np.diag(inv)[:count] / norms[:count] ** 2
 
 
+def _unseen(jac: np.ndarray, count: int) -> np.ndarray:
+    """Which of the first ``count`` columns of ``jac`` (the nonlinear parameters', in shared
+    units: the model's change per step of the search) are of rounding size against the
+    largest: the model does not change with that parameter."""
+    norms = np.sqrt(np.sum(jac[:, :count] ** 2, axis=0))
+    return norms <= np.sqrt(np.finfo(float).eps) * np.max(norms, initial=0.0)
+
+
 def _undetermined(jac: np.ndarray, keep: np.ndarray, names: list, values: dict,
                   kept_gram: np.ndarray | None = None, full: np.ndarray | None = None,
                   held: dict | None = None) -> dict | None:
     """The nonlinear parameters (first columns of ``jac``) that the kept samples leave
     undetermined, with their values (``kept_gram``: ``jac[keep].T @ jac[keep]``, and ``full``:
-    the variances on all samples, when known), and those ``held`` in any case."""
+    the variances on all samples, when known), and those ``held`` in any case. One the whole
+    record does not determine (:func:`_unseen`: e.g. an averaging window's width at zero) is
+    held in every fold: the pseudo-inverse gives it a variance of zero plus rounding, so a
+    fold would hold it or refit it as rounding falls."""
     full = _variances(jac.T @ jac, len(names)) if full is None else full
     part = _variances(jac[keep].T @ jac[keep] if kept_gram is None else kept_gram, len(names))
-    out = {n: values[n] for n, vf, vp in zip(names, full, part)
-           if not vp <= UNDETERMINED_VARIANCE_RATIO * vf}
+    unseen = _unseen(jac, len(names))
+    out = {n: values[n] for n, vf, vp, u in zip(names, full, part, unseen)
+           if u or not vp <= UNDETERMINED_VARIANCE_RATIO * vf}
     return {**out, **(held or {})} or None
 
 
