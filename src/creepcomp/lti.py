@@ -27,7 +27,8 @@ if TYPE_CHECKING:
 __all__ = ["LagExpansion", "UNIFORM_RTOL", "lag_coefficients", "is_uniform", "lag_states",
            "cascade_matrices", "cascade_step", "cascade_step_arrays", "triangle_lag_gap",
            "cascade_lags", "varying_lag_states", "lag_tau_derivatives", "first_order_filter",
-           "decay", "DECAY_FLOOR", "decay_columns", "varying_lag_derivatives", "compiled_loops", "compiled_active"]
+           "decay", "DECAY_FLOOR", "decay_columns", "varying_lag_derivatives", "compiled_loops", "compiled_active",
+           "kept_for", "keep_for"]
 
 #: Relative spread of time steps below which sampling counts as uniform (then a recursion
 #: with constant coefficients runs, :func:`first_order_filter`; the coefficient error this
@@ -288,17 +289,38 @@ _PLANS: dict = {}
 _PLANS_LOCK = threading.Lock()
 
 
-def _kept(store: dict, key, t: np.ndarray):
-    """What ``store`` keeps under ``key`` for the sample times ``t`` (:func:`_keep`), or None:
-    nothing kept, or kept for times whose values have changed since."""
+def kept_for(store: dict, key, t: np.ndarray):
+    """What ``store`` keeps under ``key`` for the array ``t`` (:func:`keep_for`), or None:
+    nothing kept, or kept for an array whose values have changed since.
+
+    Parameters
+    ----------
+    store : dict
+        The module's store of kept results.
+    key : hashable
+        Usually ``id(t)``, with whatever else the result depends on.
+    t : numpy.ndarray
+        The array the result was made for.
+    """
     with _PLANS_LOCK:
         hit = store.get(key)
     return hit[2] if hit is not None and hit[0] is t and np.array_equal(hit[1], t) else None
 
 
-def _keep(store: dict, key, t: np.ndarray, value, most: int) -> None:
-    """Keep ``value``, made for the sample times ``t``, under ``key`` (by the times' identity,
-    with a copy of their values), dropping the oldest beyond ``most``."""
+def keep_for(store: dict, key, t: np.ndarray, value, most: int) -> None:
+    """Keep ``value``, made for the array ``t`` (sample times, a load), under ``key`` (by the
+    array's identity, with a copy of its values), dropping the oldest beyond ``most``.
+
+    Parameters
+    ----------
+    store : dict
+    key : hashable
+    t : numpy.ndarray
+    value : object
+        Read-only where it is an array: every caller gets the same one.
+    most : int
+        Most results kept in ``store``.
+    """
     with _PLANS_LOCK:
         while len(store) >= most:
             store.pop(next(iter(store)))
@@ -314,7 +336,7 @@ def _steps(t: np.ndarray) -> np.ndarray:
     """``np.diff(t)`` of strictly increasing times (else :class:`InputError`), kept for the
     last few arrays by identity (read-only): a fit evaluates the lags of one record's times
     thousands of times."""
-    hit = _kept(_STEPS, id(t), t)
+    hit = kept_for(_STEPS, id(t), t)
     if hit is not None:
         return hit
     dt = np.diff(t)
@@ -322,7 +344,7 @@ def _steps(t: np.ndarray) -> np.ndarray:
         raise InputError("time must be strictly increasing")
     if len(t) <= _RUNS_KEPT_SAMPLES:           # (a long record's arrays are not held after use)
         dt.flags.writeable = False
-        _keep(_STEPS, id(t), t, dt, _STEPS_KEPT)
+        keep_for(_STEPS, id(t), t, dt, _STEPS_KEPT)
     return dt
 
 
@@ -330,7 +352,7 @@ def _lag_plan(t: np.ndarray, dt: np.ndarray, taus: np.ndarray, hold: str) -> _La
     """The :class:`_LagPlan` of these sample times and time constants (kept by the times'
     identity, and used again only while their values are those it was made for)."""
     key = (id(t), taus.tobytes(), hold)
-    hit = _kept(_PLANS, key, t)
+    hit = kept_for(_PLANS, key, t)
     if hit is not None:
         return hit
     kept = len(t) * len(taus) <= _PLAN_KEPT_VALUES
@@ -344,7 +366,7 @@ def _lag_plan(t: np.ndarray, dt: np.ndarray, taus: np.ndarray, hold: str) -> _La
         # (a plan not kept grows its blocks one at a time, as the scan reaches them)
         plan = _LagPlan(False, coefficients, tuple(_scan_blocks(t, taus)) if kept else None)
     if kept:
-        _keep(_PLANS, key, t, plan, _PLANS_KEPT)
+        keep_for(_PLANS, key, t, plan, _PLANS_KEPT)
     return plan
 
 
@@ -353,7 +375,7 @@ def _compiled_plan(t: np.ndarray, dt: np.ndarray, taus: np.ndarray, hold: str) -
     sample times and time constants, one row per kind of step (:func:`_step_kinds`), and the
     kinds (kept as :func:`_lag_plan` keeps its plans)."""
     key = (id(t), taus.tobytes(), hold, "compiled")
-    hit = _kept(_PLANS, key, t)
+    hit = kept_for(_PLANS, key, t)
     if hit is not None:
         return hit
     lengths, kind = _step_kinds(t, dt)
@@ -361,7 +383,7 @@ def _compiled_plan(t: np.ndarray, dt: np.ndarray, taus: np.ndarray, hold: str) -
     if len(t) * len(taus) <= _PLAN_KEPT_VALUES:
         for c in plan:
             c.flags.writeable = False
-        _keep(_PLANS, key, t, plan, _PLANS_KEPT)
+        keep_for(_PLANS, key, t, plan, _PLANS_KEPT)
     return plan
 
 
@@ -379,7 +401,7 @@ def _step_kinds(t: np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     when there are few (a reduced record's blocks take a few lengths), else every step its
     own. Kept for the last few arrays (by identity): the coefficients of a new time constant
     are then computed once per kind."""
-    hit = _kept(_KINDS, id(t), t)
+    hit = kept_for(_KINDS, id(t), t)
     if hit is not None:
         return hit
     if is_uniform(t):
@@ -392,7 +414,7 @@ def _step_kinds(t: np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if len(t) <= _RUNS_KEPT_SAMPLES:           # (a long record's arrays are not held after use)
         for a in kinds:
             a.flags.writeable = False
-        _keep(_KINDS, id(t), t, kinds, _KINDS_KEPT)
+        keep_for(_KINDS, id(t), t, kinds, _KINDS_KEPT)
     return kinds
 
 
@@ -496,16 +518,16 @@ _RUNS: dict = {}
 
 def _runs(t: np.ndarray, u: np.ndarray, changes: np.ndarray) -> _Runs:
     """The :class:`_Runs` of ``u`` on ``t``, kept for the last few arrays (by identity, as
-    :func:`_keep` keeps: used again only while the times and the input's runs are the same)."""
+    :func:`keep_for` keeps: used again only while the times and the input's runs are the same)."""
     if len(t) > _RUNS_KEPT_SAMPLES:
         return _Runs(t, u, changes)
     key = (id(t), id(u))
-    hit = _kept(_RUNS, key, t)
+    hit = kept_for(_RUNS, key, t)
     if (hit is not None and hit[0] is u and np.array_equal(hit[1].last[:-1], changes)
             and np.array_equal(hit[1].levels, u[hit[1].first])):
         return hit[1]
     runs = _Runs(t, u, changes)
-    _keep(_RUNS, key, t, (u, runs), _RUNS_KEPT)
+    keep_for(_RUNS, key, t, (u, runs), _RUNS_KEPT)
     return runs
 
 

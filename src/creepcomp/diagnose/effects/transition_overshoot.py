@@ -16,7 +16,6 @@ it), computed as a sum of exponentials whose weights fit the stretched decay
 from __future__ import annotations
 
 import functools
-import threading
 
 import numpy as np
 
@@ -26,7 +25,7 @@ from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
-from creepcomp.lti import lag_states
+from creepcomp.lti import keep_for, kept_for, lag_states
 from creepcomp.diagnose.effects import SensorEffect
 from creepcomp.diagnose.effects.rate_independent_hysteresis import one_way_reason, play
 
@@ -63,24 +62,19 @@ def stretched_weights(exponent: float) -> np.ndarray:
 #: The total variations of the last few load histories (:func:`_total_variation_of`).
 _VARIATIONS: dict = {}
 _VARIATIONS_KEPT = 4
-_VARIATIONS_LOCK = threading.Lock()         # (a fleet's worker runs units on threads)
 
 
 def _total_variation_of(s: np.ndarray, dead_band: float) -> np.ndarray:
     """:func:`total_variation` of ``s``, kept for the last few arrays (by identity, used again
-    while their values are the same): the load seen is the same array at every evaluation of
-    a fit unless another effect changes it."""
+    while their values are the same: :func:`~creepcomp.lti.kept_for`): the load seen is the
+    same array at every evaluation of a fit unless another effect changes it."""
     key = (id(s), dead_band)
-    with _VARIATIONS_LOCK:
-        hit = _VARIATIONS.get(key)
-    if hit is not None and hit[0] is s and np.array_equal(hit[2], s):
-        return hit[1]
+    hit = kept_for(_VARIATIONS, key, s)
+    if hit is not None:
+        return hit
     v = total_variation(s, dead_band)
     v.flags.writeable = False
-    with _VARIATIONS_LOCK:
-        while len(_VARIATIONS) >= _VARIATIONS_KEPT:
-            _VARIATIONS.pop(next(iter(_VARIATIONS)))
-        _VARIATIONS[key] = (s, v, s.copy())
+    keep_for(_VARIATIONS, key, s, v, _VARIATIONS_KEPT)
     return v
 
 
