@@ -311,3 +311,46 @@ def test_a_time_offsets_width_at_zero_is_held_out_alike_with_either_lags():
     with lti.compiled_loops():
         compiled = heldout(data, fit)
     np.testing.assert_allclose(compiled.heldout.residual, plain.heldout.residual, rtol=0, atol=1e-9)
+
+
+def test_prepared_times_are_a_frozen_copy_whose_kept_results_are_used_without_comparing(monkeypatch):
+    """A prepared record's times are its own read-only copy (the record's array stays as it
+    was): what is kept for them is used again without comparing the values; for times that can
+    change, the values are compared every time."""
+    t = np.arange(0.0, 200.0, 0.5)
+    load = np.where(t > 20.0, 1.0, 0.0)
+    record = Record(t, load, load + 0.01 * np.exp(-t / 30.0))
+    data = prepare(record)
+    assert data.time is not record.time and record.time.flags.writeable
+    assert not data.time.flags.writeable
+    compared = []
+    real = np.array_equal
+    monkeypatch.setattr(lti.np, "array_equal", lambda a, b, **k: compared.append(b) or real(a, b, **k))
+    t2 = t.copy()
+    for times in (data.time, t2):
+        lti.lag_states(times, load, [3.0])
+        compared.clear()
+        lti.lag_states(times, load, [3.0])
+        assert any(b is times for b in compared) == (times is t2)   # compared when writeable
+
+
+def test_a_delay_kept_for_a_fitting_problem_gives_the_basis_bit_for_bit():
+    """The delayed load (and the samples it leaves free) kept by a fitting problem for the last
+    few delays gives the same basis as one made afresh, and nobody can change what is kept."""
+    from creepcomp import synth
+    from creepcomp.diagnose.effects import get
+    from creepcomp.fit.structure import Applied, Structure, basis
+
+    spec = synth.Spec(hidden={"time_offset": {"delay": 0.35}}, beta=(0.03,), tau=(20.0,), gain=1.0,
+                      rate=10.0, duration=300.0, program="staircase", noise=synth.NoiseSpec(white=5e-4), seed=3)
+    data = prepare(synth.generate(spec).record)
+    structure = Structure(1).with_effect(Applied(get("time_offset"), ()))
+    cache = {}
+    for delay in (0.35, 0.2, 0.35, 0.35):
+        for tau in (5.0, 20.0):
+            values = {"tau[0]": tau, "c0[0]": 0.0, "time_offset.delay": delay}
+            kept, fresh = basis(data, structure, values, cache), basis(data, structure, values)
+            np.testing.assert_array_equal(kept.columns, fresh.columns)
+            np.testing.assert_array_equal(kept.straddling, fresh.straddling)
+    assert not kept.load_seen.flags.writeable
+    assert len(cache["staged"]) == 4             # two delays, each its load and its free samples

@@ -81,6 +81,22 @@ def test_varying_lags_and_their_derivatives_agree(hold):
     _close(da, db, np.max(np.abs(da)))
 
 
+@pytest.mark.parametrize("hold", ["linear", "zero"])
+def test_steps_of_the_same_decay_but_other_time_constants_keep_their_own_slopes(hold):
+    # dt / tau is the same on every step, dt and tau are not: the compiled loops compute a
+    # step's coefficients again only when its decay changes, its slopes when dt or tau do
+    t = np.cumsum(np.tile([0.1, 0.3], 500))
+    u = np.sin(t)
+    dt = np.diff(t)
+    taus = np.column_stack([dt * 10.0, np.full(len(dt), 5.0)])
+    slopes = np.column_stack([np.ones(len(dt)), np.zeros(len(dt))])
+    a, b = _both(lti.varying_lag_states, t, u, taus, hold=hold)
+    _close(a, b, 1.0)
+    da, db = _both(lti.varying_lag_derivatives, t, u, taus, a, slopes, hold)
+    _close(da, db, np.max(np.abs(da)))
+    assert np.max(np.abs(da[:, 0])) > 0.0
+
+
 def test_a_vanishing_time_constant_settles_the_compiled_lag_at_its_input():
     t = np.arange(12.0)
     u = np.linspace(0.0, 1.0, 12)

@@ -304,7 +304,15 @@ def kept_for(store: dict, key, t: np.ndarray):
     """
     with _PLANS_LOCK:
         hit = store.get(key)
-    return hit[2] if hit is not None and hit[0] is t and np.array_equal(hit[1], t) else None
+    if hit is None or hit[0] is not t:
+        return None
+    # an array that owns its values and is read-only has not changed (a record's prepared times)
+    return hit[2] if _frozen(t) or np.array_equal(hit[1], t) else None
+
+
+def _frozen(t: np.ndarray) -> bool:
+    """``t`` is read-only and owns its values: nothing changes them."""
+    return not t.flags.writeable and t.base is None
 
 
 def keep_for(store: dict, key, t: np.ndarray, value, most: int) -> None:
@@ -378,8 +386,12 @@ def _compiled_plan(t: np.ndarray, dt: np.ndarray, taus: np.ndarray, hold: str) -
     hit = kept_for(_PLANS, key, t)
     if hit is not None:
         return hit
+    from creepcomp import recursions
+
     lengths, kind = _step_kinds(t, dt)
-    plan = lag_coefficients(lengths[:, None], taus[None, :], hold) + (kind,)
+    plan = tuple(np.empty((len(lengths), len(taus))) for _ in range(3))
+    recursions.step_coefficients(lengths, taus, _linear_hold(hold), *plan)
+    plan += (kind,)
     if len(t) * len(taus) <= _PLAN_KEPT_VALUES:
         for c in plan:
             c.flags.writeable = False
@@ -814,12 +826,12 @@ def varying_lag_states(time, u, taus, hold: str = "linear", initial="relaxed") -
     dt = _steps(t)
     if not np.all(taus > 0):
         raise InputError("time constants must be positive")
-    e, b0, b1 = lag_coefficients(dt[:, None], taus, hold)
     if _COMPILED.get():
         from creepcomp import recursions
 
-        recursions.lag_recursion(e, b0, b1, np.arange(n - 1), u, u, c0, out)
+        recursions.varying_lag_recursion(dt, taus, _linear_hold(hold), u, c0, out)
         return out
+    e, b0, b1 = lag_coefficients(dt[:, None], taus, hold)
     drive = b0 * u[:-1, None] + b1 * u[1:, None]
     _varying_solve(dt, taus, e, drive, c0, out)
     return out
@@ -887,13 +899,14 @@ def varying_lag_derivatives(time, u, taus, states, tau_slopes, hold: str = "line
     if n < 2 or k == 0:
         return out
     dt = _steps(t)
-    e, de, db0, db1 = _coefficient_slopes(dt[:, None] / taus, taus, hold)
     if _COMPILED.get():
         from creepcomp import recursions
 
-        recursions.derivative_recursion(e, de, db0, db1, np.arange(n - 1), np.broadcast_to(tau_slopes, e.shape),
-                                        states, u, out[0].copy(), out)
+        recursions.varying_derivative_recursion(dt, taus, _linear_hold(hold),
+                                                np.broadcast_to(tau_slopes, taus.shape), states, u,
+                                                out[0].copy(), out)
         return out
+    e, de, db0, db1 = _coefficient_slopes(dt[:, None] / taus, taus, hold)
     drive = (de * states[:-1] + db0 * u[:-1, None] + db1 * u[1:, None]) * tau_slopes
     _varying_solve(dt, taus, e, drive, out[0].copy(), out)
     return out
@@ -911,6 +924,13 @@ def _coefficient_slopes(x: np.ndarray, taus: np.ndarray, hold: str):
         dg = _exprel_slope(x) * dx
         return e, de, dg - de, -dg
     raise InputError(f"hold '{hold}': use 'linear' or 'zero'")
+
+
+def _linear_hold(hold: str) -> bool:
+    """True for linear hold, False for zero hold (else :class:`InputError`)."""
+    if hold not in ("linear", "zero"):
+        raise InputError(f"hold '{hold}': use 'linear' or 'zero'")
+    return hold == "linear"
 
 
 def _exprel_slope(x: np.ndarray) -> np.ndarray:
@@ -958,7 +978,8 @@ def lag_tau_derivatives(time, u, taus, states, hold: str = "linear", initial_slo
         from creepcomp import recursions
 
         lengths, kind = _step_kinds(t, _steps(t))
-        slopes = _coefficient_slopes(lengths[:, None] / taus[None, :], taus[None, :], hold)
+        slopes = tuple(np.empty((len(lengths), k)) for _ in range(4))
+        recursions.step_coefficient_slopes(lengths, taus, _linear_hold(hold), *slopes)
         recursions.derivative_recursion(*slopes, kind, np.ones((1, k)), states, u, out[0].copy(), out)
         return out
     changes = _input_changes(u, hold)

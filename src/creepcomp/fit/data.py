@@ -303,7 +303,11 @@ def prepare(record: Record, initial: str = "free", load_step_at: float | None = 
         weights = 1.0 / np.asarray(variance, float)
     else:
         samples = None
-    return Data(time=record.time, load=load, signal=record.signal, temperature=record.temperature,
+    # a copy nobody can change: results kept for these times are used again without comparing
+    # them (:func:`creepcomp.lti.kept_for`)
+    time = np.array(record.time, dtype=float)
+    time.flags.writeable = False
+    return Data(time=time, load=load, signal=record.signal, temperature=record.temperature,
                 source=record.source, initial=initial, load_step_at=load_step_at, hold=hold,
                 segment=np.cumsum(gaps(record.time, samples)), fixed_offset=constant,
                 weights=weights, samples=samples)

@@ -280,6 +280,35 @@ def _stack(parts) -> np.ndarray:
     return out
 
 
+#: Results of an effect's stage (:func:`_staged`) a fitting problem keeps.
+_STAGED_KEPT = 8
+
+
+def _staged(cache: dict | None, stage: str, applied, own: dict, given: np.ndarray, make):
+    """What ``make()`` gives: the effect's ``stage`` (a method of :data:`_STAGES`) of the array
+    ``given`` at its own parameter values ``own``, kept in a fitting problem's ``cache`` for
+    the last few of them: a time constant's start grid, or the difference of another
+    parameter, evaluates the same delayed load again and again. The result is read-only."""
+    if cache is None or not _overrides(type(applied.effect), stage):
+        return make()                       # (no cache, or the stage's default: nothing done)
+    try:
+        key = (stage, applied.name, tuple(sorted(own.items())))
+        hash(key)
+    except TypeError:                       # an array-valued parameter: not kept
+        return make()
+    kept = cache.setdefault("staged", {})
+    hit = kept.get(key)
+    if hit is not None and hit[0] is given:
+        return hit[1]
+    out = make()
+    if isinstance(out, np.ndarray) and out is not given:
+        out.flags.writeable = False
+    while len(kept) >= _STAGED_KEPT:
+        kept.pop(next(iter(kept)))
+    kept[key] = (given, out)
+    return out
+
+
 def basis(data: Data, structure: Structure, values: dict, cache: dict | None = None,
           step_times: bool = False) -> Basis:
     """Evaluate the model's linear basis for given nonlinear parameter values (``step_times``:
@@ -289,10 +318,10 @@ def basis(data: Data, structure: Structure, values: dict, cache: dict | None = N
     own = [a.own(values) for a in effects]
     x = data.load
     for a, p in zip(effects, own):
-        x = a.effect.load_transform(data, x, p, a)
+        x = _staged(cache, "load_transform", a, p, x, lambda: a.effect.load_transform(data, x, p, a))
     s = x
     for a, p in zip(effects, own):
-        s = a.effect.instant(data, s, p, a)
+        s = _staged(cache, "instant", a, p, s, lambda: a.effect.instant(data, s, p, a))
     h = s
     for a, p in zip(effects, own):
         h = a.effect.creep_input(data, h, p, a)
@@ -327,7 +356,8 @@ def basis(data: Data, structure: Structure, values: dict, cache: dict | None = N
         for name, col in a.effect.columns(data, s, h, lags, p, a).items():
             cols.append(col)
             names.append(f"{a.name}.{name}")
-    straddling = [a.effect.straddling(data, p, a) for a, p in zip(effects, own)]
+    straddling = [_staged(cache, "straddling", a, p, data.time, lambda: a.effect.straddling(data, p, a))
+                  for a, p in zip(effects, own)]
     straddling = np.unique(np.concatenate(straddling)) if any(len(i) for i in straddling) else _NO_SAMPLES
     block = _step_time_block(data, h, taus, cache) if step_times else None
     if block is None:
@@ -536,12 +566,18 @@ def _enters_only(effect, stage: str) -> bool:
 
 
 @functools.lru_cache(maxsize=None)
+def _overrides(kind: type, stage: str) -> bool:
+    """The effect class replaces the default of ``stage`` (where the base-most class has it)."""
+    first = [c for c in kind.__mro__ if stage in vars(c)][-1]
+    return getattr(kind, stage) is not vars(first)[stage]
+
+
+@functools.lru_cache(maxsize=None)
 def _class_enters_only(kind: type, stage: str) -> bool:
     for other in _STAGES:
         if other == stage:
             continue
-        first = [c for c in kind.__mro__ if other in vars(c)][-1]     # where the default is
-        if getattr(kind, other) is not vars(first)[other]:
+        if _overrides(kind, other):
             return False
     return True
 
