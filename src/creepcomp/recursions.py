@@ -4,10 +4,10 @@ first-order lags and their derivatives, and the play operator.
 :mod:`creepcomp.lti` sums the same lag recursions in numpy (blocks of scaled cumulative sums)
 and calls these instead inside :func:`creepcomp.lti.compiled_loops`, where a process runs
 enough of them to pay for numba's start (about 0.5 s once: a diagnosis evaluates its lags
-thousands of times, a single fit a few hundred). The coefficients of fixed time constants
-come from numpy (:func:`creepcomp.lti.lag_coefficients`, vectorised, once per kind of step);
-those of time constants that change from step to step are computed here, each step's from the
-last when its ``dt / tau`` is the same (a mode holds for many steps). Importing
+thousands of times, a single fit a few hundred). The recursions' coefficients are computed
+here too, as :func:`creepcomp.lti.lag_coefficients` gives them (to rounding): for fixed time
+constants once per kind of step; for time constants that change from step to step, each
+step's from the last when its ``dt / tau`` is the same (a mode holds for many steps). Importing
 this module imports numba; each function is compiled on first use and its machine code is
 cached beside the module.
 """
