@@ -292,7 +292,7 @@ def _staged(cache: dict | None, stage: str, applied, own: dict, given: np.ndarra
     if cache is None or not _overrides(type(applied.effect), stage):
         return make()                       # (no cache, or the stage's default: nothing done)
     try:
-        key = (stage, applied.name, tuple(sorted(own.items())))
+        key = (stage, applied, tuple(sorted(own.items())))
         hash(key)
     except TypeError:                       # an array-valued parameter: not kept
         return make()
