@@ -46,6 +46,7 @@ class Data:
     Attributes
     ----------
     time, load, signal : numpy.ndarray
+        (``time``: read-only, a copy of the record's when made by :func:`prepare`)
     temperature : numpy.ndarray or None
     source : str
     initial : str
