@@ -188,17 +188,16 @@ def lag_coefficients(dt, taus, hold: str = "linear"):
     -------
     e, b0, b1 : numpy.ndarray
     """
+    linear = _linear_hold(hold)
     with np.errstate(over="ignore"):     # (a vanishing time constant: x = inf, the lag follows its input)
         x = np.asarray(dt, dtype=float) / np.asarray(taus, dtype=float)
     e = np.exp(-x)
-    if hold == "zero":
+    if not linear:
         return e, -np.expm1(-x), np.zeros_like(e)
-    if hold == "linear":
-        from scipy import special
+    from scipy import special
 
-        g = special.exprel(-x)          # (1 - e) / x, accurate for small x
-        return e, g - e, 1.0 - g
-    raise InputError(f"hold '{hold}': use 'linear' or 'zero'")
+    g = special.exprel(-x)          # (1 - e) / x, accurate for small x
+    return e, g - e, 1.0 - g
 
 
 def is_uniform(time) -> bool:
@@ -915,19 +914,19 @@ def varying_lag_derivatives(time, u, taus, states, tau_slopes, hold: str = "line
 def _coefficient_slopes(x: np.ndarray, taus: np.ndarray, hold: str):
     """The decay ``e = exp(-x)`` of a step ``x = dt / tau`` and the derivatives by tau of the
     recursion's coefficients ``e``, ``b0``, ``b1`` (:func:`lag_coefficients`)."""
+    linear = _linear_hold(hold)
     e = np.exp(-x)
     dx = -x / taus                            # dx / d tau
     de = -e * dx
-    if hold == "zero":
+    if not linear:
         return e, de, -de, np.zeros_like(de)
-    if hold == "linear":
-        dg = _exprel_slope(x) * dx
-        return e, de, dg - de, -dg
-    raise InputError(f"hold '{hold}': use 'linear' or 'zero'")
+    dg = _exprel_slope(x) * dx
+    return e, de, dg - de, -dg
 
 
 def _linear_hold(hold: str) -> bool:
-    """True for linear hold, False for zero hold (else :class:`InputError`)."""
+    """True for linear hold, False for zero hold (else :class:`InputError`): the check of
+    every function here that takes a ``hold``."""
     if hold not in ("linear", "zero"):
         raise InputError(f"hold '{hold}': use 'linear' or 'zero'")
     return hold == "linear"
