@@ -6,16 +6,17 @@ hiding asymmetric recovery (its creep term's time constant depends on its own st
 with ``--seeds N``, N random records (:func:`creepcomp.synth.sensor.random_spec` at that rate
 and duration) of every kind the diagnosis must tell apart: clean, each hidden effect, each
 ``data_problem`` and each effect no template describes. Each record is diagnosed ``--repeat``
-times; the best and the median wall time are printed, with the process's CPU time (all its
-threads: what the diagnosis costs, whatever else the machine runs) and the machine's load
-average (wall times are noisy on a shared machine). Records longer than
+times with ``--jobs`` processes (default: one per core available, as ``creepcomp diagnose``);
+the best and the median wall time are printed, with the CPU time of the process and of its
+worker processes (all their threads: what the diagnosis costs, whatever else the machine
+runs) and the machine's load average (wall times are noisy on a shared machine). Records longer than
 :data:`~creepcomp.diagnose.sensor.DIAGNOSE_MAX_SAMPLES` are reduced by block means first (part
 of the timed diagnosis). The summary gives, per size, the median and the largest time over all
 records, against the goal.
 
 Usage::
 
-    python benchmarks/diagnose_timing.py [--repeat 3] [--seeds 2] [--sizes 0,1] [--kinds clean,time_offset]
+    python benchmarks/diagnose_timing.py [--repeat 3] [--seeds 2] [--sizes 0,1] [--kinds clean,time_offset] [--jobs 1]
 
 ``--sizes``: which of :data:`SIZES` to run (by index, 0: the 30-minute record at 10 Hz);
 ``--kinds``: only records whose label starts with one of these (the fixed ones and the random
@@ -26,11 +27,13 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import statistics
 import time
 
 from creepcomp import synth
 from creepcomp.diagnose.sensor import diagnose
+from creepcomp.diagnose.workers import available_cores
 from creepcomp.synth.sensor import DATA_PROBLEMS, EFFECTS, NO_TEMPLATE, random_spec
 
 CASES = {
@@ -68,16 +71,24 @@ def _all_records(rate: float, duration: float, seeds: int):
             yield f"{label} (seed {9000 + seed}, {spec.program})", synth.generate(spec).record
 
 
+def _cpu_seconds() -> float:
+    """CPU time of this process and of its worker processes ended so far."""
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + children.ru_utime + children.ru_stime
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--seeds", type=int, default=0, help="random records per kind (0: the fixed three only)")
     ap.add_argument("--sizes", default=None, help="indices of the sizes to run, comma-separated (default: all)")
     ap.add_argument("--kinds", default=None, help="record labels to run (prefixes, comma-separated)")
+    ap.add_argument("--jobs", type=int, default=available_cores(),
+                    help="processes per diagnosis (default: one per core available)")
     args = ap.parse_args(argv)
     sizes_run = SIZES if args.sizes is None else [SIZES[int(i)] for i in args.sizes.split(",")]
     kinds = None if args.kinds is None else args.kinds.split(",")
-    print(f"load average before: {os.getloadavg()[0]:.2f}")
+    print(f"load average before: {os.getloadavg()[0]:.2f}; {args.jobs} process(es) per diagnosis")
     summary = []
     for rate, duration, goal in sizes_run:
         walls, cpus, sizes = [], [], set()
@@ -86,10 +97,10 @@ def main(argv=None):
             sizes.add(n)
             times, cpu, cause = [], [], None
             for _ in range(args.repeat):
-                t0, c0 = time.perf_counter(), time.process_time()
-                cause = diagnose(record).cause
+                t0, c0 = time.perf_counter(), _cpu_seconds()
+                cause = diagnose(record, jobs=args.jobs).cause
                 times.append(time.perf_counter() - t0)
-                cpu.append(time.process_time() - c0)
+                cpu.append(_cpu_seconds() - c0)
             times.sort()
             cpu.sort()
             walls.append(times[len(times) // 2])

@@ -12,7 +12,7 @@ from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_design
 from creepcomp.io.outputs import check_outputs
 from creepcomp.units import format_percent, format_quantity
-from creepcomp.cli.common import app, console, print_json, progress_bar
+from creepcomp.cli.common import app, console, count_option, print_json, progress_bar
 from creepcomp.cli.fit import (COLUMNS_HELP, INITIAL_TEXT, describe_record,
     load_reduced, record_options, SHEET_OPTION, TAXEL_OPTION)
 
@@ -48,9 +48,14 @@ def diagnose_command(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object (docs/diagnosis.md)."),
     taxel: Optional[int] = TAXEL_OPTION,
     sheet: Optional[str] = SHEET_OPTION,
+    jobs: Optional[int] = typer.Option(None, "--jobs", metavar="N", parser=count_option("--jobs"),
+                                       help="Processes that fit the candidate effects side by side "
+                                            "(default: one per core available; 1: this one alone). "
+                                            "The result is the same."),
 ) -> None:
     """Fit the paper's model, find what it misses by evidence, extend it, measure the gain."""
     from creepcomp.diagnose import combine, diagnose, diagnose_circuit
+    from creepcomp.diagnose.workers import available_cores
 
     check_outputs(dirs={"-o": output}, inputs=[record_path, design])
     init, step = record_options(initial, load_step_at)
@@ -75,7 +80,8 @@ def diagnose_command(
         full_reduction = None
     del full
     with progress_bar("diagnosing the sensor side", disable=as_json):
-        result = diagnose(record, initial=init, load_step_at=step, candidates=sensor_candidates)
+        result = diagnose(record, initial=init, load_step_at=step, candidates=sensor_candidates,
+                          jobs=available_cores() if jobs is None else jobs)
     units = {c: record.unit(c) for c in ("signal", "load")}
     paths, not_written = {}, None
     if output is not None:

@@ -42,6 +42,7 @@ import numpy as np
 
 from creepcomp.diagnose import effects as effects_pkg
 from creepcomp.diagnose.effects import Effect, UnsettledInverse, compensate_extended
+from creepcomp.diagnose.workers import Workers
 from creepcomp.errors import InputError
 from creepcomp.fit.blas import one_blas_thread
 from creepcomp.fit.data import Data, prepare
@@ -483,23 +484,39 @@ def _refined(data: Data, current: Fit, candidate: Candidate) -> Candidate:
     return Candidate(candidate.effect, full, full.bic - current.bic)
 
 
-def _screen(data: Data, current: Fit, pool, step: int, trials: list) -> list[Candidate]:
+def _screen(data: Data, current: Fit, pool, step: int, trials: list, workers: Workers) -> list[Candidate]:
     """Every applicable candidate fitted on top of ``current``: a quick fit of its own
     parameters first (the current model's held); then all parameters together for the
     :data:`REFINED` best and for any other that already lowers BIC, when they raise the
     likelihood at all (:data:`QUICK_HINT`): the best by BIC is accepted, and a quick fit
     understates what a candidate explains (a static nonlinearity's quick fit lowered BIC by
-    3,661, refined by 13,050, more than the hysteresis accepted without it). Best first."""
-    quick = [c for c in (_quick(data, current, effect, step, trials) for effect in pool) if c is not None]
+    3,661, refined by 13,050, more than the hysteresis accepted without it). Best first.
+    The candidates' fits run side by side in ``workers``."""
+    quick = []
+    for candidate, tried in workers.map(_quick_task, (current, step), pool, [e.name for e in pool]):
+        trials.extend(tried)
+        if candidate is not None:
+            quick.append(candidate)
     quick.sort(key=lambda c: c.delta_bic)
-    fitted = []
-    for rank, candidate in enumerate(quick):
-        if (rank < REFINED or candidate.delta_bic < 0) and candidate.fit.loglik - current.loglik >= QUICK_HINT:
-            candidate = _refined(data, current, candidate)
-        if _unphysical(candidate, step, trials):
-            continue
-        fitted.append(candidate)
+    chosen = [rank for rank, c in enumerate(quick)
+              if (rank < REFINED or c.delta_bic < 0) and c.fit.loglik - current.loglik >= QUICK_HINT]
+    refined = workers.map(_refined_task, current, [quick[r] for r in chosen], [quick[r].effect.name for r in chosen])
+    for rank, candidate in zip(chosen, refined):
+        quick[rank] = candidate
+    fitted = [c for c in quick if not _unphysical(c, step, trials)]
     return sorted(fitted, key=lambda c: c.delta_bic)
+
+
+def _quick_task(data: Data, common: tuple, effect: Effect) -> tuple:
+    """:func:`_quick` as a task of :class:`Workers`: the candidate and the trials it adds."""
+    current, step = common
+    tried = []
+    return _quick(data, current, effect, step, tried), tried
+
+
+def _refined_task(data: Data, current: Fit, candidate: Candidate) -> Candidate:
+    """:func:`_refined` as a task of :class:`Workers`."""
+    return _refined(data, current, candidate)
 
 
 def _unphysical(candidate: Candidate, step: int, trials: list) -> bool:
@@ -570,18 +587,26 @@ def _generic_better(data: Data, current: Fit, fit: Fit) -> bool:
             and _evidence(data, fit, wide.fit, refine=False, always_halves=True).supported_heldout)
 
 
-def _choose(data: Data, current: Fit, fitted: list[Candidate], step: int, trials: list) -> Candidate | None:
+def _choose(data: Data, current: Fit, fitted: list[Candidate], step: int, trials: list,
+            workers: Workers) -> Candidate | None:
     """The candidate accepted at this step (best first; a simpler one that explains at least
     half as much and predicts held-out data as well replaces it), or None; every candidate
-    tried gets its trial."""
+    tried gets its trial. Candidates are tested on held-out data as many at a time as
+    ``workers`` has processes (the next ones that may need it)."""
     accepted = None
-    for candidate in fitted:
+    tested: dict[int, Candidate] = {}
+    for at, candidate in enumerate(fitted):
         name = candidate.effect.name
         why_not = _not_tested(candidate, accepted, current)
         if why_not:
             trials.append(Trial(step, name, candidate.delta_bic, None, why_not))
             continue
-        candidate = _tested(data, current, candidate)
+        if at not in tested:
+            batch = [k for k in range(at, len(fitted)) if not _not_tested(fitted[k], accepted, current)]
+            batch = batch[:workers.width]
+            tested.update(zip(batch, workers.map(_tested_task, current, [fitted[k] for k in batch],
+                                                 [fitted[k].effect.name for k in batch])))
+        candidate = tested[at]
         ev = candidate.evidence
         if not ev.supported:
             trials.append(Trial(step, name, candidate.delta_bic, ev, "not supported (held-out)"))
@@ -604,6 +629,11 @@ def _choose(data: Data, current: Fit, fitted: list[Candidate], step: int, trials
     return accepted
 
 
+def _tested_task(data: Data, current: Fit, candidate: Candidate) -> Candidate:
+    """:func:`_tested` as a task of :class:`Workers`."""
+    return _tested(data, current, candidate)
+
+
 def _record(search: Search, accepted: Candidate) -> None:
     """The accepted candidate becomes a finding, its fit the current model."""
     effect, f = accepted.effect, accepted.fit
@@ -611,15 +641,15 @@ def _record(search: Search, accepted: Candidate) -> None:
     search.current = f
 
 
-def _search(data: Data, pool, max_effects: int) -> Search:
+def _search(data: Data, pool, max_effects: int, workers: Workers) -> Search:
     """Effects added one at a time while a candidate is supported (steps 1 and 2 of the
-    module's description)."""
+    module's description); the candidates of a step fitted side by side in ``workers``."""
     search = Search(heldout(data, fit_structure(data, Structure(1), one_term_starts(data))))
     for step in range(1, max_effects + 1):
-        fitted = _polished(data, search, _screen(data, search.current, pool, step, search.trials))
+        fitted = _polished(data, search, _screen(data, search.current, pool, step, search.trials, workers))
         if search.base is None:
             search.base = search.current
-        accepted = _choose(data, search.current, fitted, step, search.trials)
+        accepted = _choose(data, search.current, fitted, step, search.trials, workers)
         if accepted is None:
             break
         _record(search, accepted)
@@ -630,7 +660,8 @@ def _search(data: Data, pool, max_effects: int) -> Search:
 
 def diagnose(record: Record, initial: str = "free", load_step_at: float | None = None,
              candidates: list[str] | None = None, max_effects: int = MAX_EFFECTS,
-             correction: bool = True, max_samples: int | None = DIAGNOSE_MAX_SAMPLES) -> Diagnosis:
+             correction: bool = True, max_samples: int | None = DIAGNOSE_MAX_SAMPLES,
+             jobs: int = 1) -> Diagnosis:
     """Diagnose a record: baseline, candidate effects by evidence, catch-all, gain.
 
     Parameters
@@ -648,6 +679,9 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
     max_samples : int or None
         Longer records are reduced to about this many samples first (None: never); one
         already reduced (``metadata["reduced"]``, :func:`~creepcomp.fit.reduce.read_reduced`) is not.
+    jobs : int
+        Processes that fit the candidates of a step side by side (1: this one alone); the
+        result is the same.
 
     Returns
     -------
@@ -674,8 +708,8 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
     pool = effects_pkg.sensor_effects() if candidates is None else [effects_pkg.get(c) for c in candidates]
     # (small matrices: see creepcomp.fit.blas; lags evaluated thousands of times: see
     # creepcomp.lti.compiled_loops)
-    with one_blas_thread(), compiled_loops():
-        search = _search(data, pool, max_effects)
+    with one_blas_thread(), compiled_loops(), Workers(jobs, data) as workers:
+        search = _search(data, pool, max_effects, workers)
         return _verdict(data, search, correction, reduced, t_start)
 
 

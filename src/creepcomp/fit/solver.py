@@ -796,6 +796,17 @@ class DeferredCovariance:
     def __getstate__(self):
         return {"_inputs": None, "_value": self()}
 
+    def deferred_reduction(self) -> tuple:
+        """A reduction (:meth:`pickle.Pickler.reducer_override`) whose copy defers the
+        computation still: the problem and point travel instead of the value."""
+        return _deferred_covariance, (self._inputs, self._value)
+
+
+def _deferred_covariance(inputs, value) -> DeferredCovariance:
+    out = DeferredCovariance.__new__(DeferredCovariance)
+    out._inputs, out._value = inputs, value
+    return out
+
 
 def _fit_covariance(problem: Problem, x: np.ndarray, coef: np.ndarray, fit: Fit) -> np.ndarray | None:
     """The covariance of ``fit`` at its search point ``x`` and coefficients ``coef``: sandwich

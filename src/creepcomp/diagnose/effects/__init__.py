@@ -113,6 +113,13 @@ class Effect(abc.ABC):
     #: the record's units of those columns (:func:`in_record_units`).
     parameter_units: dict = {}
 
+    def __reduce_ex__(self, protocol):
+        # the registered object is unpickled as the registry's own: the search tells effects
+        # apart by identity (a fit's Applied against the candidate)
+        if REGISTRY.get(self.name) is self:
+            return get, (self.name,)
+        return super().__reduce_ex__(protocol)
+
     # -- applicability and fitting -------------------------------------------------------
     def applicable(self, data: Data, structure: Structure) -> str | None:
         """Why the effect cannot be tried on this record and model, or None."""

@@ -1,0 +1,91 @@
+"""Candidates fitted side by side in worker processes: the same results as in one process."""
+
+import json
+import multiprocessing
+import os
+import pickle
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from creepcomp import data
+from creepcomp.diagnose import effects
+from creepcomp.diagnose.sensor import diagnose
+from creepcomp.diagnose.workers import Workers, _dumps
+from creepcomp.fit.data import prepare
+from creepcomp.fit.prony import fit_terms
+
+linux = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="worker processes fork on Linux only")
+
+
+def _where(shared, common, item):
+    time.sleep(0.02)
+    return item * common + shared, os.getpid()
+
+
+def _fails_at(shared, common, item):
+    if item == common:
+        raise ValueError(f"item {item} fails")
+    return item
+
+
+@linux
+def test_items_run_in_two_processes_and_come_back_in_order():
+    with Workers(2, 1000) as workers:
+        first = workers.map(_where, 2, range(5))    # (the worker starts: it may take none)
+        out = workers.map(_where, 3, range(8), keys=[f"k{i % 3}" for i in range(8)])
+    assert [v for v, _ in first] == [1000 + 2 * i for i in range(5)]
+    assert [v for v, _ in out] == [1000 + 3 * i for i in range(8)]
+    assert len({pid for _, pid in out}) == 2
+
+
+def test_one_job_runs_every_item_here():
+    with Workers(1, 0) as workers:
+        out = workers.map(_where, 1, range(3))
+    assert {pid for _, pid in out} == {os.getpid()}
+
+
+def test_a_process_that_may_not_have_children_runs_every_item_itself(monkeypatch):
+    class Daemon:
+        daemon = True
+
+    monkeypatch.setattr(multiprocessing, "current_process", lambda: Daemon())
+    workers = Workers(2, 0)
+    assert not workers.parallel and workers.width == 1
+    assert {pid for _, pid in workers.map(_where, 1, range(3))} == {os.getpid()}
+
+
+@linux
+def test_a_failure_in_either_process_is_raised_and_the_next_call_gets_its_own_answers():
+    with Workers(2, 0) as workers:
+        for failing in (0, 9):       # (the first item: this process's; the last: a worker's)
+            with pytest.raises((ValueError, RuntimeError), match=f"item {failing} fails"):
+                workers.map(_fails_at, failing, range(10))
+            assert workers.map(_fails_at, -1, range(6)) == list(range(6))
+
+
+def test_a_registered_effect_is_unpickled_as_the_registrys_own():
+    for effect in effects.REGISTRY.values():
+        assert pickle.loads(pickle.dumps(effect)) is effect
+
+
+def test_a_fit_travels_with_its_covariance_deferred_and_the_same_once_read():
+    record = data.hidden_effect()
+    fit = fit_terms(prepare(record), 1)
+    copy = pickle.loads(_dumps(fit))
+    assert copy.covariance._value is None and copy.covariance._inputs is not None
+    np.testing.assert_array_equal(copy.cov, fit.cov)
+
+
+def _plain(result) -> str:
+    out = result.to_dict()
+    out.pop("seconds")
+    return json.dumps(out, sort_keys=True, default=float)
+
+
+@linux
+def test_a_diagnosis_in_two_processes_is_the_one_in_one_bit_for_bit():
+    record = data.hidden_effect()
+    assert _plain(diagnose(record, jobs=2)) == _plain(diagnose(record, jobs=1))
