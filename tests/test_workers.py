@@ -66,6 +66,22 @@ def test_a_failure_in_either_process_is_raised_and_the_next_call_gets_its_own_an
             assert workers.map(_fails_at, -1, range(6)) == list(range(6))
 
 
+def _ends_if_not_in(shared, common, item):
+    if os.getpid() != common:
+        os._exit(1)
+    time.sleep(0.02)
+    return item
+
+
+@linux
+def test_a_worker_process_that_ends_without_answering_is_an_error_not_a_wait():
+    workers = Workers(2, 0)
+    workers.map(_where, 0, range(4))
+    with pytest.raises(RuntimeError, match="ended without answering"):
+        workers.map(_ends_if_not_in, os.getpid(), range(6))
+    workers.close()
+
+
 def test_a_registered_effect_is_unpickled_as_the_registrys_own():
     for effect in effects.REGISTRY.values():
         assert pickle.loads(pickle.dumps(effect)) is effect

@@ -15,6 +15,7 @@ import io
 import multiprocessing
 import os
 import pickle
+import signal
 import sys
 import time
 import traceback
@@ -74,6 +75,8 @@ def _serve(connection, counter, shared) -> None:
     sends back what it computed (an exception as its text: it need not pickle)."""
     from creepcomp.lti import compiled_loops
 
+    # (an interrupt is the diagnosis's to handle: it ends the workers when it ends)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     while True:
         try:
             message = connection.recv_bytes()
@@ -156,9 +159,17 @@ class Workers:
             while (at := _claim(self._counter, len(order))) is not None:
                 i = order[at]
                 out[i], seconds[i] = _timed(fn, self.shared, common, items[i])
+        except BaseException:
+            with self._counter.get_lock():      # (the workers stop after the item they run)
+                self._counter.value = len(order)
+            raise
         finally:        # (the workers' answers read in any case: the next call must not get them)
             for connection in self._connections:
-                for i, value, took, error in pickle.loads(connection.recv_bytes()):
+                try:
+                    answers = pickle.loads(connection.recv_bytes())
+                except EOFError:
+                    answers, failed = [], "a worker process ended without answering"
+                for i, value, took, error in answers:
                     out[i], seconds[i] = value, took
                     failed = failed or error
         if failed:
@@ -171,7 +182,10 @@ class Workers:
     def close(self) -> None:
         """Ends the worker processes."""
         for connection in self._connections:
-            connection.send_bytes(b"")
+            try:
+                connection.send_bytes(b"")
+            except OSError:      # (a worker that ended already)
+                pass
             connection.close()
         for process in self._processes:
             process.join()
