@@ -700,6 +700,8 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
     150.0
     """
     t_start = _time.perf_counter()
+    if int(jobs) != jobs or jobs < 1:
+        raise InputError(f"jobs = {jobs}: use a whole number of processes, 1 or more")
     reduced = record.metadata.get("reduced")    # reduced once already, while read (fit.reduce)
     if max_samples is not None and reduced is None:
         record, reduced = reduce_record(record, max_samples)
@@ -708,7 +710,8 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
     pool = effects_pkg.sensor_effects() if candidates is None else [effects_pkg.get(c) for c in candidates]
     # (small matrices: see creepcomp.fit.blas; lags evaluated thousands of times: see
     # creepcomp.lti.compiled_loops)
-    with one_blas_thread(), compiled_loops(), Workers(jobs, data) as workers:
+    # (more processes than candidates would wait)
+    with one_blas_thread(), compiled_loops(), Workers(min(jobs, max(len(pool), 1)), data) as workers:
         search = _search(data, pool, max_effects, workers)
         return _verdict(data, search, correction, reduced, t_start)
 
