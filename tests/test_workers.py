@@ -113,3 +113,21 @@ def test_a_count_of_processes_below_one_or_not_whole_is_refused(jobs):
 
     with pytest.raises(InputError, match="jobs"):
         diagnose(data.hidden_effect(), jobs=jobs)
+
+
+@linux
+def test_the_command_gives_the_same_diagnosis_with_one_process_and_with_two(run_cli, tmp_path):
+    from creepcomp.io.records import write_record
+
+    path = tmp_path / "r.csv"
+    write_record(path, data.hidden_effect())
+    runs = []
+    for jobs in ("1", "2"):
+        status, out, err = run_cli("diagnose", path, "--jobs", jobs, "--json")
+        assert status == 0, err
+        result = json.loads(out)
+        result.pop("seconds")
+        runs.append(result)
+    assert runs[0] == runs[1]
+    status, out, err = run_cli("diagnose", path, "--jobs", "0")
+    assert status == 2 and "--jobs" in err and "Traceback" not in err
