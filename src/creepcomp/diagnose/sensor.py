@@ -491,27 +491,43 @@ def _screen(data: Data, current: Fit, pool, step: int, trials: list, workers: Wo
     likelihood at all (:data:`QUICK_HINT`): the best by BIC is accepted, and a quick fit
     understates what a candidate explains (a static nonlinearity's quick fit lowered BIC by
     3,661, refined by 13,050, more than the hysteresis accepted without it). Best first.
-    The candidates' fits run side by side in ``workers``."""
-    quick = []
-    for candidate, tried in workers.map(_quick_task, (current, step), pool, [e.name for e in pool]):
+    The candidates' fits run side by side in ``workers``: one that lowers BIC is refined
+    right after its quick fit (whatever its rank, it is refined)."""
+    quick, refined = [], {}
+    for candidate, full, tried in workers.map(_quick_task, (current, step), pool, [e.name for e in pool]):
         trials.extend(tried)
         if candidate is not None:
             quick.append(candidate)
+            refined[id(candidate)] = full
     quick.sort(key=lambda c: c.delta_bic)
-    chosen = [rank for rank, c in enumerate(quick)
-              if (rank < REFINED or c.delta_bic < 0) and c.fit.loglik - current.loglik >= QUICK_HINT]
-    refined = workers.map(_refined_task, current, [quick[r] for r in chosen], [quick[r].effect.name for r in chosen])
-    for rank, candidate in zip(chosen, refined):
-        quick[rank] = candidate
+    chosen = [rank for rank, c in enumerate(quick) if _worth_refining(current, c, rank)]
+    later = [rank for rank in chosen if refined[id(quick[rank])] is None]
+    for rank, candidate in zip(later, workers.map(_refined_task, current, [quick[r] for r in later],
+                                                  [quick[r].effect.name for r in later])):
+        refined[id(quick[rank])] = candidate
+    quick = [refined[id(c)] if rank in chosen else c for rank, c in enumerate(quick)]
     fitted = [c for c in quick if not _unphysical(c, step, trials)]
     return sorted(fitted, key=lambda c: c.delta_bic)
 
 
+def _worth_refining(current: Fit, candidate: Candidate, rank: int | None) -> bool:
+    """The quick fit is refined with every parameter free: it is among the :data:`REFINED`
+    best (``rank``; None: not known yet) or lowers BIC already, and it raises the likelihood
+    by :data:`QUICK_HINT` at least."""
+    among_best = rank is not None and rank < REFINED
+    return (among_best or candidate.delta_bic < 0) and candidate.fit.loglik - current.loglik >= QUICK_HINT
+
+
 def _quick_task(data: Data, common: tuple, effect: Effect) -> tuple:
-    """:func:`_quick` as a task of :class:`Workers`: the candidate and the trials it adds."""
+    """:func:`_quick` as a task of :class:`Workers`: the candidate, its refinement when it is
+    refined whatever its rank (else None), and the trials it adds."""
     current, step = common
     tried = []
-    return _quick(data, current, effect, step, tried), tried
+    candidate = _quick(data, current, effect, step, tried)
+    full = None
+    if candidate is not None and _worth_refining(current, candidate, None):
+        full = _refined(data, current, candidate)
+    return candidate, full, tried
 
 
 def _refined_task(data: Data, current: Fit, candidate: Candidate) -> Candidate:
