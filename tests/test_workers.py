@@ -107,7 +107,7 @@ def test_a_diagnosis_in_two_processes_is_the_one_in_one_bit_for_bit():
     assert _plain(diagnose(record, jobs=2)) == _plain(diagnose(record, jobs=1))
 
 
-@pytest.mark.parametrize("jobs", [0, -2, 1.5])
+@pytest.mark.parametrize("jobs", [0, -2, 1.5, None, "2"])
 def test_a_count_of_processes_below_one_or_not_whole_is_refused(jobs):
     from creepcomp.errors import InputError
 

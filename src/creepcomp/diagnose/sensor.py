@@ -35,6 +35,7 @@ the gain.
 
 from __future__ import annotations
 
+import numbers
 import time as _time
 from dataclasses import dataclass, field, replace
 
@@ -696,8 +697,9 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
         Longer records are reduced to about this many samples first (None: never); one
         already reduced (``metadata["reduced"]``, :func:`~creepcomp.fit.reduce.read_reduced`) is not.
     jobs : int
-        Processes that fit the candidates of a step side by side (1: this one alone); the
-        result is the same.
+        Processes that fit the candidates of a step side by side, this one included, forked
+        on Linux (1: this one alone, as anywhere else; see :class:`~creepcomp.diagnose.workers.Workers`);
+        the result is the same bit for bit.
 
     Returns
     -------
@@ -716,7 +718,7 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
     150.0
     """
     t_start = _time.perf_counter()
-    if int(jobs) != jobs or jobs < 1:
+    if isinstance(jobs, bool) or not isinstance(jobs, numbers.Integral) or jobs < 1:
         raise InputError(f"jobs = {jobs}: use a whole number of processes, 1 or more")
     reduced = record.metadata.get("reduced")    # reduced once already, while read (fit.reduce)
     if max_samples is not None and reduced is None:
