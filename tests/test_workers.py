@@ -21,7 +21,7 @@ linux = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="worker 
 
 
 def _where(shared, common, item):
-    time.sleep(0.02)
+    time.sleep(0.05)
     return item * common + shared, os.getpid()
 
 
@@ -69,7 +69,7 @@ def test_a_failure_in_either_process_is_raised_and_the_next_call_gets_its_own_an
 def _ends_if_not_in(shared, common, item):
     if os.getpid() != common:
         os._exit(1)
-    time.sleep(0.02)
+    time.sleep(0.05)
     return item
 
 
