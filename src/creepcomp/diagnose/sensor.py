@@ -494,20 +494,19 @@ def _screen(data: Data, current: Fit, pool, step: int, trials: list, workers: Wo
     3,661, refined by 13,050, more than the hysteresis accepted without it). Best first.
     The candidates' fits run side by side in ``workers``: one that lowers BIC is refined
     right after its quick fit (whatever its rank, it is refined)."""
-    quick, refined = [], {}
+    screened = []        # [quick fit, its refinement or None]
     for candidate, full, tried in workers.map(_quick_task, (current, step), pool, [e.name for e in pool]):
         trials.extend(tried)
         if candidate is not None:
-            quick.append(candidate)
-            refined[id(candidate)] = full
-    quick.sort(key=lambda c: c.delta_bic)
-    chosen = [rank for rank, c in enumerate(quick) if _worth_refining(current, c, rank)]
-    later = [rank for rank in chosen if refined[id(quick[rank])] is None]
-    for rank, candidate in zip(later, workers.map(_refined_task, current, [quick[r] for r in later],
-                                                  [quick[r].effect.name for r in later])):
-        refined[id(quick[rank])] = candidate
-    quick = [refined[id(c)] if rank in chosen else c for rank, c in enumerate(quick)]
-    fitted = [c for c in quick if not _unphysical(c, step, trials)]
+            screened.append([candidate, full])
+    screened.sort(key=lambda pair: pair[0].delta_bic)
+    later = [pair for rank, pair in enumerate(screened)
+             if pair[1] is None and _worth_refining(current, pair[0], rank)]
+    for pair, full in zip(later, workers.map(_refined, current, [pair[0] for pair in later],
+                                             [pair[0].effect.name for pair in later])):
+        pair[1] = full
+    fitted = [c for c in (quick if full is None else full for quick, full in screened)
+              if not _unphysical(c, step, trials)]
     return sorted(fitted, key=lambda c: c.delta_bic)
 
 
@@ -529,11 +528,6 @@ def _quick_task(data: Data, common: tuple, effect: Effect) -> tuple:
     if candidate is not None and _worth_refining(current, candidate, None):
         full = _refined(data, current, candidate)
     return candidate, full, tried
-
-
-def _refined_task(data: Data, current: Fit, candidate: Candidate) -> Candidate:
-    """:func:`_refined` as a task of :class:`Workers`."""
-    return _refined(data, current, candidate)
 
 
 def _unphysical(candidate: Candidate, step: int, trials: list) -> bool:
@@ -621,7 +615,7 @@ def _choose(data: Data, current: Fit, fitted: list[Candidate], step: int, trials
         if at not in tested:
             batch = [k for k in range(at, len(fitted)) if not _not_tested(fitted[k], accepted, current)]
             batch = batch[:workers.width]
-            tested.update(zip(batch, workers.map(_tested_task, current, [fitted[k] for k in batch],
+            tested.update(zip(batch, workers.map(_tested, current, [fitted[k] for k in batch],
                                                  [fitted[k].effect.name for k in batch])))
         candidate = tested[at]
         ev = candidate.evidence
@@ -644,11 +638,6 @@ def _choose(data: Data, current: Fit, fitted: list[Candidate], step: int, trials
         accepted = replace(candidate, trial=len(trials))
         trials.append(Trial(step, name, candidate.delta_bic, ev, "accepted"))
     return accepted
-
-
-def _tested_task(data: Data, current: Fit, candidate: Candidate) -> Candidate:
-    """:func:`_tested` as a task of :class:`Workers`."""
-    return _tested(data, current, candidate)
 
 
 def _record(search: Search, accepted: Candidate) -> None:
