@@ -209,7 +209,12 @@ def unit_scaled(gram: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return norms, gram / np.outer(norms, norms)
 
 
-def _solve(aw: np.ndarray, yw: np.ndarray, prior: np.ndarray | None = None,
+#: Reciprocal condition number of the unit-scaled normal equations above which :func:`_solve`
+#: solves them (below: a rank-revealing solver on the rows).
+WELL_POSED = 1e-8
+
+
+def _solve(aw: np.ndarray, yw: "np.ndarray | Callable[[], np.ndarray]", prior: np.ndarray | None = None,
            gram: np.ndarray | None = None, rhs: np.ndarray | None = None,
            rows: np.ndarray | None = None, cols: np.ndarray | None = None) -> np.ndarray:
     """Least squares by scaled normal equations (fast for tall, narrow bases); falls back to
@@ -217,9 +222,9 @@ def _solve(aw: np.ndarray, yw: np.ndarray, prior: np.ndarray | None = None,
     pulls the solution towards it in directions the data do not determine. ``gram`` and
     ``rhs``: ``aw.T @ aw`` and ``aw.T @ yw`` when known; ``rows``: the rows of ``aw`` and
     ``yw`` they are of (default all); ``cols``: the columns of ``aw`` they are of (default
-    all)."""
+    all). ``yw`` may be a function that gives it, called only when the rows are needed."""
     gram = aw.T @ aw if gram is None else gram
-    rhs = aw.T @ yw if rhs is None else rhs
+    rhs = aw.T @ (yw() if callable(yw) else yw) if rhs is None else rhs
     live = gram.diagonal() != 0.0             # (a column of NaN stays, to fail as before)
     if prior is None and not live.all():
         # an empty column (a step the creep input does not take) keeps 0, as the minimum-norm
@@ -234,9 +239,12 @@ def _solve(aw: np.ndarray, yw: np.ndarray, prior: np.ndarray | None = None,
     if prior is not None:
         gram = gram + ANCHOR_WEIGHT * np.eye(len(norms))
         rhs = rhs + ANCHOR_WEIGHT * prior * norms
-    eig = np.linalg.eigvalsh(gram)
-    if eig[0] > 1e-8 * eig[-1]:          # normal equations lose cond^2: keep them well-posed
-        return np.linalg.solve(gram, rhs) / norms
+    # normal equations lose cond^2: solved by Cholesky while their reciprocal condition
+    # number (LAPACK's estimate, 1-norm) is above WELL_POSED
+    factor, info = lapack.dpotrf(gram)
+    if info == 0 and lapack.dpocon(factor, np.abs(gram).sum(axis=0).max())[0] > WELL_POSED:
+        return lapack.dpotrs(factor, rhs)[0] / norms
+    yw = yw() if callable(yw) else yw
     if cols is not None:
         aw = aw[:, cols]
     if rows is not None:
@@ -273,10 +281,11 @@ def _step_limits(layout: _Layout, a: np.ndarray, y: np.ndarray, coef: np.ndarray
     if plain.any():
         cols = np.flatnonzero(plain)
         sub = None if prior is None else prior[plain]
-        if trial[~plain].any():
-            trial[plain] = _solve(a[:, plain], y - a[:, ~plain] @ trial[~plain], sub)
-        else:
-            trial[plain] = _solve(a, y, sub, gram[np.ix_(cols, cols)], aty[cols], cols=cols)
+        rhs, other = aty[cols], np.flatnonzero(~plain)
+        if trial[other].any():
+            rhs = rhs - gram[np.ix_(cols, other)] @ trial[other]
+        trial[plain] = _solve(a, lambda: y - a[:, other] @ trial[other], sub, gram[np.ix_(cols, cols)], rhs,
+                              cols=cols)
     return np.abs(trial[layout.amplitudes]) * layout.halves
 
 
@@ -430,9 +439,13 @@ class Problem:
             if free.all():
                 coef = _solve(a, y, prior, gram, aty)
             else:
-                target = y - a[:, ~free] @ coef[~free] if (~free).any() else y
-                coef[free] = _solve(a[:, free], target, None if prior is None else prior[free],
-                                    gram[np.ix_(free, free)])
+                # (the normal equations of the free columns read off the whole basis's: no
+                # column is copied, no row visited unless they are too ill-conditioned)
+                cols, held = np.flatnonzero(free), np.flatnonzero(~free)
+                rhs = aty[cols] - gram[np.ix_(cols, held)] @ coef[held]
+                coef[free] = _solve(a, lambda: y - a[:, held] @ coef[held],
+                                    None if prior is None else prior[free],
+                                    gram[np.ix_(cols, cols)], rhs, cols=cols)
             if limits is None:
                 break
             narrowed = _within_step_bounds(layout, coef, free, limits)
@@ -519,7 +532,7 @@ class Problem:
                 dot_r[col, j] = dj @ r
         # (worked on transposed: one row per parameter, each contiguous)
         if any(not free[col] for col, _, _ in b.step_bounds):
-            moved += self._bound_response(b, a, coef, free, moves, straddled).T @ a.T    # + A dc (held)
+            moved += self._bound_response(b, a, coef, free, moves, straddled, self._gram(x)).T @ a.T    # + A dc (held)
         free = np.flatnonzero(free)
         if not len(free):
             return -moved.T / self.scale
@@ -533,10 +546,10 @@ class Problem:
         return jac.T / self.scale
 
     def _bound_response(self, b: Basis, a: np.ndarray, coef: np.ndarray, free: np.ndarray,
-                        moves, straddled: np.ndarray) -> np.ndarray:
+                        moves, straddled: np.ndarray, gram: np.ndarray) -> np.ndarray:
         """Derivatives of the coefficients (rows; zero but for step times held at their
         bound, ``|a_k|`` times a half interval with ``a_k`` solved without the step times)
-        by the nonlinear parameters (columns)."""
+        by the nonlinear parameters (columns); ``gram``: ``a.T @ a``."""
         out = np.zeros((len(b.names), len(moves)))
         layout = self._layout(b)
         bound = np.flatnonzero(~free[layout.steps] & ~layout.held[layout.steps])   # (of the step columns)
@@ -550,7 +563,8 @@ class Problem:
         trial = layout.given.copy()
         target = self.fitted_signal(straddled) - a[:, ~plain] @ trial[~plain]
         ap = a[:, plain]
-        norms, inverse = _anchored_inverse(ap.T @ ap) if self.anchor else _scaled_inverse(ap)
+        sub = gram[np.ix_(plain, plain)]
+        norms, inverse = _anchored_inverse(sub) if self.anchor else _scaled_inverse(ap, sub)
         rhs = (ap.T @ target) / norms
         if self.anchor:          # as _step_limits solves it: pulled towards the anchor
             rhs += ANCHOR_WEIGHT * layout.prior[plain] * norms
