@@ -11,6 +11,7 @@ import numpy as np
 from scipy import linalg
 
 from creepcomp.fit.data import Data, gaps
+from creepcomp.fit.normal import normal_solution
 from creepcomp.lti import lag_states
 
 __all__ = ["MAX_AR_ORDER", "SPARSE_SAMPLES", "ar_order_for", "ar_order", "is_sparse",
@@ -126,8 +127,15 @@ def fit_noise(residual: np.ndarray, rows: np.ndarray, max_order: int | None = No
     n = len(rows)
     best, best_bic = ARNoise((), float(np.sqrt(np.mean(y ** 2)))), n * np.log(np.mean(y ** 2) + 1e-300)
     lagged = np.column_stack([residual[rows - i] for i in range(1, max_order + 1)]) if max_order else None
+    if max_order:
+        gram, rhs = lagged.T @ lagged, lagged.T @ y
     for p in range(1, max_order + 1):
-        phi, *_ = linalg.lstsq(lagged[:, :p], y, lapack_driver="gelsy")
+        # (each order's normal equations are the leading block of the highest's; the lagged
+        # columns are the same series, of nearly equal norms: unscaled, they are well-posed
+        # as the unit-scaled ones)
+        phi = normal_solution(gram[:p, :p], rhs[:p])
+        if phi is None:
+            phi, *_ = linalg.lstsq(lagged[:, :p], y, lapack_driver="gelsy")
         rss = float(np.sum((y - lagged[:, :p] @ phi) ** 2))
         bic = n * np.log(rss / n + 1e-300) + p * np.log(n)
         if bic < best_bic - 1e-9:

@@ -22,6 +22,7 @@ from scipy.linalg import lapack
 
 from creepcomp.errors import InputError
 from creepcomp.fit.data import Data, load_steps
+from creepcomp.fit.normal import normal_solution
 from creepcomp.fit.noise import ARNoise, ar_order, fit_noise, gaussian_bic, is_sparse, rows_for, whiten
 from creepcomp.fit.structure import (DIFF_STEP, Basis, Param, Structure, basis, basis_derivatives,
                                      taus_of, with_step_times)
@@ -209,11 +210,6 @@ def unit_scaled(gram: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return norms, gram / np.outer(norms, norms)
 
 
-#: Reciprocal condition number of the unit-scaled normal equations above which :func:`_solve`
-#: solves them (below: a rank-revealing solver on the rows).
-WELL_POSED = 1e-8
-
-
 def _solve(aw: np.ndarray, yw: "np.ndarray | Callable[[], np.ndarray]", prior: np.ndarray | None = None,
            gram: np.ndarray | None = None, rhs: np.ndarray | None = None,
            rows: np.ndarray | None = None, cols: np.ndarray | None = None) -> np.ndarray:
@@ -239,11 +235,9 @@ def _solve(aw: np.ndarray, yw: "np.ndarray | Callable[[], np.ndarray]", prior: n
     if prior is not None:
         gram = gram + ANCHOR_WEIGHT * np.eye(len(norms))
         rhs = rhs + ANCHOR_WEIGHT * prior * norms
-    # normal equations lose cond^2: solved by Cholesky while their reciprocal condition
-    # number (LAPACK's estimate, 1-norm) is above WELL_POSED
-    factor, info = lapack.dpotrf(gram)
-    if info == 0 and lapack.dpocon(factor, np.abs(gram).sum(axis=0).max())[0] > WELL_POSED:
-        return lapack.dpotrs(factor, rhs)[0] / norms
+    coef = normal_solution(gram, rhs)
+    if coef is not None:
+        return coef / norms
     yw = yw() if callable(yw) else yw
     if cols is not None:
         aw = aw[:, cols]
@@ -303,11 +297,11 @@ def _within_step_bounds(layout: _Layout, coef: np.ndarray, free: np.ndarray, lim
     return out
 
 
-def _scaled_inverse(a: np.ndarray, gram: np.ndarray | None = None):
+def _scaled_inverse(a: np.ndarray | None, gram: np.ndarray | None = None):
     """The norms of the columns and the pseudo-inverse of the Gram matrix of the columns
     scaled to unit norm (directions below a relative 1e-8 of its largest eigenvalue dropped
     when ill-posed): ``(a / norms)^+ = inverse @ (a / norms).T``. ``gram``: ``a.T @ a`` when
-    known."""
+    known (then ``a`` is not read)."""
     norms, scaled = unit_scaled(a.T @ a if gram is None else gram)
     eig, vec = np.linalg.eigh(scaled)
     keep = eig > (1e-8 if eig[0] > 1e-8 * eig[-1] else 1e-26) * eig[-1]
@@ -560,16 +554,17 @@ class Problem:
         plain = ~layout.held & ~steps
         if not plain.any():
             return out                  # the amplitudes setting the bounds are held too
+        # (the plain columns are not copied out of the basis: products with all columns, the
+        # others' coefficients zero or left out)
         trial = layout.given.copy()
-        target = self.fitted_signal(straddled) - a[:, ~plain] @ trial[~plain]
-        ap = a[:, plain]
+        target = self.fitted_signal(straddled) - a @ np.where(plain, 0.0, trial)
         sub = gram[np.ix_(plain, plain)]
-        norms, inverse = _anchored_inverse(sub) if self.anchor else _scaled_inverse(ap, sub)
-        rhs = (ap.T @ target) / norms
+        norms, inverse = _anchored_inverse(sub) if self.anchor else _scaled_inverse(None, sub)
+        rhs = (a.T @ target)[plain] / norms
         if self.anchor:          # as _step_limits solves it: pulled towards the anchor
             rhs += ANCHOR_WEIGHT * layout.prior[plain] * norms
         trial[plain] = (inverse @ rhs) / norms
-        rp = target - ap @ trial[plain]
+        rp = target - a @ np.where(plain, trial, 0.0)
         moved = np.zeros((len(rp), len(moves)))
         dot_r = np.zeros((len(b.names), len(moves)))
         for j, m in enumerate(moves):
@@ -578,7 +573,7 @@ class Problem:
                     dj = self.on_fitted(d, straddled)
                     moved[:, j] += trial[col] * dj
                     dot_r[col, j] = dj @ rp
-        dtrial = (inverse @ ((dot_r[plain] - ap.T @ moved) / norms[:, None])) / norms[:, None]
+        dtrial = (inverse @ ((dot_r[plain] - (a.T @ moved)[plain]) / norms[:, None])) / norms[:, None]
         where = {c: i for i, c in enumerate(np.flatnonzero(plain))}
         for i in bound:
             col, amplitude, half = layout.steps[i], layout.amplitudes[i], layout.halves[i]
