@@ -473,14 +473,11 @@ def _quick(data: Data, current: Fit, effect: Effect, step: int, trials: list) ->
 
 
 def _refined(data: Data, current: Fit, candidate: Candidate) -> Candidate:
-    """The candidate with every parameter fitted together, when that fits better; refined as
-    far as ranking needs (:func:`~creepcomp.fit.solver.screening`): one that is tested on
-    held-out data is refined further first (:func:`_tested`)."""
+    """The candidate with every parameter fitted together, when that fits better."""
     f = candidate.fit
     try:
-        with screening():
-            full = candidate.effect.fit_on(data, current, refine="all",
-                                           start={p.name: f.values[p.name] for p in f.params})
+        full = candidate.effect.fit_on(data, current, refine="all",
+                                       start={p.name: f.values[p.name] for p in f.params})
     except (InputError, np.linalg.LinAlgError, ValueError):
         return candidate
     if full.bic >= f.bic:
@@ -574,20 +571,10 @@ def _plain_form(data: Data, current: Fit, candidate: Candidate) -> Candidate:
     return Candidate(effect, g, g.bic - current.bic, ev_plain) if ev_plain.supported else candidate
 
 
-def _converged(data: Data, fit: Fit) -> Fit:
-    """A candidate's fit, refined where ranking stopped it (:func:`~creepcomp.fit.solver.screening`)
-    to the tolerance of a fit whose held-out prediction is measured (kept when that fits no better)."""
-    try:
-        alt = fit_structure(data, fit.structure, [{p.name: fit.values[p.name] for p in fit.params}], n_refine=1)
-    except (InputError, np.linalg.LinAlgError, ValueError):
-        return fit
-    return alt if alt.bic < fit.bic else fit
-
-
 def _tested(data: Data, current: Fit, candidate: Candidate) -> Candidate:
     """The candidate refitted from a grid of retardation times, with its held-out evidence
     (its plain form in its place when only that is supported)."""
-    f = heldout(data, _restart_taus(data, _converged(data, candidate.fit)))
+    f = heldout(data, _restart_taus(data, candidate.fit))
     candidate = replace(candidate, fit=f, evidence=_evidence(data, current, f))
     return candidate if candidate.evidence.supported else _plain_form(data, current, candidate)
 
