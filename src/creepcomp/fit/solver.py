@@ -273,14 +273,22 @@ def _step_limits(layout: _Layout, a: np.ndarray, y: np.ndarray, coef: np.ndarray
     trial = coef.copy()
     trial[steps] = 0.0
     if plain.any():
-        cols = np.flatnonzero(plain)
-        sub = None if prior is None else prior[plain]
-        rhs, other = aty[cols], np.flatnonzero(~plain)
-        if trial[other].any():
-            rhs = rhs - gram[np.ix_(cols, other)] @ trial[other]
-        trial[plain] = _solve(a, lambda: y - a[:, other] @ trial[other], sub, gram[np.ix_(cols, cols)], rhs,
-                              cols=cols)
+        trial[plain] = _solve_free(a, y, gram, aty, trial, plain, prior)
     return np.abs(trial[layout.amplitudes]) * layout.halves
+
+
+def _solve_free(a: np.ndarray, y: np.ndarray, gram: np.ndarray, aty: np.ndarray, coef: np.ndarray,
+                free: np.ndarray, prior: np.ndarray | None) -> np.ndarray:
+    """The coefficients ``free`` by :func:`_solve`, the others held at their values in
+    ``coef``: their normal equations read off the whole basis's (``gram``, ``aty``: ``a.T @ a``
+    and ``a.T @ y``), no column copied and no row visited unless they are too
+    ill-conditioned."""
+    cols, held = np.flatnonzero(free), np.flatnonzero(~free)
+    rhs = aty[cols]
+    if coef[held].any():
+        rhs = rhs - gram[np.ix_(cols, held)] @ coef[held]
+    return _solve(a, lambda: y - a[:, held] @ coef[held], None if prior is None else prior[free],
+                  gram[np.ix_(cols, cols)], rhs, cols=cols)
 
 
 def _within_step_bounds(layout: _Layout, coef: np.ndarray, free: np.ndarray, limits: np.ndarray) -> np.ndarray:
@@ -433,13 +441,7 @@ class Problem:
             if free.all():
                 coef = _solve(a, y, prior, gram, aty)
             else:
-                # (the normal equations of the free columns read off the whole basis's: no
-                # column is copied, no row visited unless they are too ill-conditioned)
-                cols, held = np.flatnonzero(free), np.flatnonzero(~free)
-                rhs = aty[cols] - gram[np.ix_(cols, held)] @ coef[held]
-                coef[free] = _solve(a, lambda: y - a[:, held] @ coef[held],
-                                    None if prior is None else prior[free],
-                                    gram[np.ix_(cols, cols)], rhs, cols=cols)
+                coef[free] = _solve_free(a, y, gram, aty, coef, free, prior)
             if limits is None:
                 break
             narrowed = _within_step_bounds(layout, coef, free, limits)
@@ -513,6 +515,7 @@ class Problem:
         of the basis alone (:func:`creepcomp.fit.structure.basis_derivatives`). A step
         time held at its bound moves with the creep amplitude that sets the bound."""
         b, coef, r, free = self._projection(x)
+        gram = self._gram(x)
         moves = basis_derivatives(self.data, self.structure, self.values(x), b, self.params,
                                   with_effects=True, cache=self.cache)
         straddled = self.straddled(b)
@@ -526,13 +529,13 @@ class Problem:
                 dot_r[col, j] = dj @ r
         # (worked on transposed: one row per parameter, each contiguous)
         if any(not free[col] for col, _, _ in b.step_bounds):
-            moved += self._bound_response(b, a, coef, free, moves, straddled, self._gram(x)).T @ a.T    # + A dc (held)
+            moved += self._bound_response(b, a, coef, free, moves, straddled, gram).T @ a.T    # + A dc (held)
         free = np.flatnonzero(free)
         if not len(free):
             return -moved.T / self.scale
         af = a if len(free) == a.shape[1] else a[:, free]
-        gram = self._gram(x)[np.ix_(free, free)]
-        norms, inverse = _anchored_inverse(gram) if self.anchor else _scaled_inverse(af, gram)
+        sub = gram[np.ix_(free, free)]
+        norms, inverse = _anchored_inverse(sub) if self.anchor else _scaled_inverse(af, sub)
         # -(dA c + A dc) with dc = G^-1 (dA^T r - A^T dA c) on the free columns
         shift = inverse @ (((moved @ af).T - dot_r[free]) / norms[:, None])
         jac = (shift / norms[:, None]).T @ af.T
