@@ -252,7 +252,9 @@ class Effect(abc.ABC):
         return delta
 
     def linear_terms(self, values: dict, applied: Applied, data: Data) -> list[tuple[float, float]]:
-        """Prony terms (beta, tau) that approximate the effect for the linear inverse."""
+        """Prony terms (beta, tau) that approximate the effect for the linear inverse, relaxed at
+        the first sample whatever the model's own terms start from (a flow has no settled
+        state: its integral starts there)."""
         return []
 
     def inverse(self, entry: dict, model: CreepModel) -> str | None:
@@ -508,14 +510,20 @@ def simulate_extended(model: CreepModel, time, load, temperature=None, initial: 
     return b.columns @ np.array([values[n] for n in b.names])
 
 
-def _linear_inverse(time, residual, gain: float, betas, taus, initial: str, hold: str) -> np.ndarray:
+def _linear_inverse(time, residual, gain: float, betas, taus, initial: str, hold: str,
+                    own: int) -> np.ndarray:
     """Load-unit increment that the linear creep model maps to ``residual``: the digital
-    subtractive correction (:func:`creepcomp.digital.correctors.compensate`)."""
+    subtractive correction (:func:`creepcomp.digital.correctors.compensate`). The terms after
+    the first ``own`` (extensions' equivalents, :meth:`Effect.linear_terms`) start relaxed."""
     from creepcomp.digital.correctors import compensate as digital_compensate
 
     lin = CreepModel(tuple(betas), tuple(taus), gain, 0.0)
+    start = initial
+    if initial == "settled" and own < len(betas):
+        level = float(residual[0]) / (1.0 + float(np.sum(betas[:own])))
+        start = np.concatenate([np.full(own, level), np.zeros(len(betas) - own)])
     return np.asarray(digital_compensate(time, residual, lin, method="subtractive",
-                                         initial=initial, hold=hold), float) / gain
+                                         initial=start, hold=hold), float) / gain
 
 
 #: What a user whose extended model cannot be used in a correction can do instead.
@@ -624,7 +632,7 @@ def compensate_extended(time, signal, model: CreepModel, temperature=None, initi
         if converge and not np.all(np.isfinite(sim)):
             step = math.inf
             break
-        delta = _linear_inverse(t, y - sim, model.gain, betas, taus, initial, hold)
+        delta = _linear_inverse(t, y - sim, model.gain, betas, taus, initial, hold, len(model.beta))
         for a in reversed(structure.effects):
             delta = a.effect.precondition(data, delta, load, values, a)
         load = load + delta
