@@ -131,3 +131,21 @@ def test_the_command_gives_the_same_diagnosis_with_one_process_and_with_two(run_
     assert runs[0] == runs[1]
     status, out, err = run_cli("diagnose", path, "--jobs", "0")
     assert status == 2 and "--jobs" in err and "Traceback" not in err
+
+
+def test_a_diagnosis_fits_the_catch_all_once_on_each_model(monkeypatch):
+    # the catch-all runs beside a step's first held-out tests (in either process): the step,
+    # or the verdict after it, reads it from there rather than fitting it again
+    from creepcomp.diagnose import sensor
+
+    fitted_on = []
+    real = sensor._generic
+
+    def counted(data, current):
+        fitted_on.append((current.bic, tuple(sorted(current.values.items()))))
+        return real(data, current)
+
+    monkeypatch.setattr(sensor, "_generic", counted)
+    result = diagnose(data.hidden_effect(), jobs=1)      # (counted here: one process)
+    steps = {t.step for t in result.trials}
+    assert len(fitted_on) == len(set(fitted_on)) and len(fitted_on) >= len(steps)

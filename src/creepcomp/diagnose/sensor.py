@@ -435,12 +435,28 @@ class Search:
         The effects accepted, in order.
     trials : list of Trial
         Every candidate tried.
+    catch_alls : list of tuple
+        ``(model, Generic or None)``: the catch-all on top of each model it was fitted on.
     """
 
     current: Fit
     base: Fit | None = None
     findings: list = field(default_factory=list)
     trials: list = field(default_factory=list)
+    catch_alls: list = field(default_factory=list)
+
+    def catch_all(self, data: Data) -> "Generic | None":
+        """The catch-all on top of the current model (:func:`_generic`), fitted once."""
+        for model, generic in self.catch_alls:
+            if model is self.current:
+                return generic
+        generic = _generic(data, self.current)
+        self.catch_alls.append((self.current, generic))
+        return generic
+
+    def has_catch_all(self) -> bool:
+        """Whether the catch-all on top of the current model is fitted already."""
+        return any(model is self.current for model, _ in self.catch_alls)
 
 
 @dataclass(frozen=True)
@@ -485,7 +501,8 @@ def _refined(data: Data, current: Fit, candidate: Candidate) -> Candidate:
     return Candidate(candidate.effect, full, full.bic - current.bic)
 
 
-def _screen(data: Data, current: Fit, pool, step: int, trials: list, workers: Workers) -> list[Candidate]:
+def _screen(data: Data, current: Fit, pool, step: int, trials: list,
+            workers: Workers) -> tuple[Fit, list[Candidate]]:
     """Every applicable candidate fitted on top of ``current``: a quick fit of its own
     parameters first (the current model's held); then all parameters together for the
     :data:`REFINED` best and for any other that already lowers BIC, when they raise the
@@ -493,9 +510,21 @@ def _screen(data: Data, current: Fit, pool, step: int, trials: list, workers: Wo
     understates what a candidate explains (a static nonlinearity's quick fit lowered BIC by
     3,661, refined by 13,050, more than the hysteresis accepted without it). Best first.
     The candidates' fits run side by side in ``workers``: one that lowers BIC is refined
-    right after its quick fit (whatever its rank, it is refined)."""
+    right after its quick fit (whatever its rank, it is refined); so does the current
+    model's held-out prediction when it has none yet (the candidates do not need it).
+
+    Returns
+    -------
+    current : Fit
+        ``current`` with its held-out prediction.
+    candidates : list of Candidate
+    """
+    tasks = ([None] if current.heldout is None else []) + list(pool)
+    done = workers.map(_quick_task, (current, step), tasks, [e.name if e else "held-out" for e in tasks])
+    if current.heldout is None:
+        current = done.pop(0)
     screened = []        # [quick fit, its refinement or None]
-    for candidate, full, tried in workers.map(_quick_task, (current, step), pool, [e.name for e in pool]):
+    for candidate, full, tried in done:
         trials.extend(tried)
         if candidate is not None:
             screened.append([candidate, full])
@@ -507,7 +536,7 @@ def _screen(data: Data, current: Fit, pool, step: int, trials: list, workers: Wo
         pair[1] = full
     fitted = [c for c in (quick if full is None else full for quick, full in screened)
               if not _unphysical(c, step, trials)]
-    return sorted(fitted, key=lambda c: c.delta_bic)
+    return current, sorted(fitted, key=lambda c: c.delta_bic)
 
 
 def _worth_refining(current: Fit, candidate: Candidate, rank: int | None) -> bool:
@@ -518,10 +547,13 @@ def _worth_refining(current: Fit, candidate: Candidate, rank: int | None) -> boo
     return (among_best or candidate.delta_bic < 0) and candidate.fit.loglik - current.loglik >= QUICK_HINT
 
 
-def _quick_task(data: Data, common: tuple, effect: Effect) -> tuple:
+def _quick_task(data: Data, common: tuple, effect: Effect | None) -> tuple | Fit:
     """:func:`_quick` as a task of :class:`Workers`: the candidate, its refinement when it is
-    refined whatever its rank (else None), and the trials it adds."""
+    refined whatever its rank (else None), and the trials it adds; for ``effect`` None, the
+    current model with its held-out prediction."""
     current, step = common
+    if effect is None:
+        return heldout(data, current)
     tried = []
     candidate = _quick(data, current, effect, step, tried)
     full = None
@@ -571,9 +603,12 @@ def _plain_form(data: Data, current: Fit, candidate: Candidate) -> Candidate:
     return Candidate(effect, g, g.bic - current.bic, ev_plain) if ev_plain.supported else candidate
 
 
-def _tested(data: Data, current: Fit, candidate: Candidate) -> Candidate:
+def _tested(data: Data, current: Fit, candidate: Candidate | None) -> "Candidate | Generic | None":
     """The candidate refitted from a grid of retardation times, with its held-out evidence
-    (its plain form in its place when only that is supported)."""
+    (its plain form in its place when only that is supported); for ``candidate`` None, the
+    catch-all on top of ``current`` (:func:`_generic`)."""
+    if candidate is None:
+        return _generic(data, current)
     f = heldout(data, _restart_taus(data, candidate.fit))
     candidate = replace(candidate, fit=f, evidence=_evidence(data, current, f))
     return candidate if candidate.evidence.supported else _plain_form(data, current, candidate)
@@ -590,20 +625,23 @@ def _not_tested(candidate: Candidate, accepted: Candidate | None, current: Fit) 
     return None
 
 
-def _generic_better(data: Data, current: Fit, fit: Fit) -> bool:
-    """The catch-all on top of ``current`` predicts held-out data clearly better than ``fit``
-    (then the structure is not what the candidate says)."""
-    wide = _generic(data, current)
+def _generic_better(data: Data, search: Search, fit: Fit) -> bool:
+    """The catch-all on top of the current model predicts held-out data clearly better than
+    ``fit`` (then the structure is not what the candidate says)."""
+    wide = search.catch_all(data)
     return (wide is not None and wide.evidence.supported and wide.fit.bic < fit.bic
             and _evidence(data, fit, wide.fit, refine=False, always_halves=True).supported_heldout)
 
 
-def _choose(data: Data, current: Fit, fitted: list[Candidate], step: int, trials: list,
+def _choose(data: Data, search: Search, fitted: list[Candidate], step: int,
             workers: Workers) -> Candidate | None:
     """The candidate accepted at this step (best first; a simpler one that explains at least
     half as much and predicts held-out data as well replaces it), or None; every candidate
     tried gets its trial. Candidates are tested on held-out data as many at a time as
-    ``workers`` has processes (the next ones that may need it)."""
+    ``workers`` has processes (the next ones that may need it); the first ones with the
+    catch-all on top of the current model, which the step needs whatever it finds (to judge
+    the candidate accepted, or the model found when none is)."""
+    current, trials = search.current, search.trials
     accepted = None
     tested: dict[int, Candidate] = {}
     for at, candidate in enumerate(fitted):
@@ -615,15 +653,19 @@ def _choose(data: Data, current: Fit, fitted: list[Candidate], step: int, trials
         if at not in tested:
             batch = [k for k in range(at, len(fitted)) if not _not_tested(fitted[k], accepted, current)]
             batch = batch[:workers.width]
-            tested.update(zip(batch, workers.map(_tested, current, [fitted[k] for k in batch],
-                                                 [fitted[k].effect.name for k in batch])))
+            more = [] if search.has_catch_all() else [None]
+            done = workers.map(_tested, current, [fitted[k] for k in batch] + more,
+                               [fitted[k].effect.name for k in batch] + ["catch-all"] * len(more))
+            if more:
+                search.catch_alls.append((current, done.pop()))
+            tested.update(zip(batch, done))
         candidate = tested[at]
         ev = candidate.evidence
         if not ev.supported:
             trials.append(Trial(step, name, candidate.delta_bic, ev, "not supported (held-out)"))
             continue
         if accepted is None:
-            if _generic_better(data, current, candidate.fit):
+            if _generic_better(data, search, candidate.fit):
                 trials.append(Trial(step, name, candidate.delta_bic, ev,
                                     "the generic extension predicts clearly better"))
                 break
@@ -650,15 +692,18 @@ def _record(search: Search, accepted: Candidate) -> None:
 def _search(data: Data, pool, max_effects: int, workers: Workers) -> Search:
     """Effects added one at a time while a candidate is supported (steps 1 and 2 of the
     module's description); the candidates of a step fitted side by side in ``workers``."""
-    search = Search(heldout(data, fit_structure(data, Structure(1), one_term_starts(data))))
+    search = Search(fit_structure(data, Structure(1), one_term_starts(data)))
     for step in range(1, max_effects + 1):
-        fitted = _polished(data, search, _screen(data, search.current, pool, step, search.trials, workers))
+        search.current, screened = _screen(data, search.current, pool, step, search.trials, workers)
+        fitted = _polished(data, search, screened)
         if search.base is None:
             search.base = search.current
-        accepted = _choose(data, search.current, fitted, step, search.trials, workers)
+        accepted = _choose(data, search, fitted, step, workers)
         if accepted is None:
             break
         _record(search, accepted)
+    if search.current.heldout is None:        # (no step searched)
+        search.current = heldout(data, search.current)
     if search.base is None:
         search.base = search.current
     return search
@@ -723,10 +768,11 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
         return _verdict(data, search, correction, reduced, t_start)
 
 
-def _unexplained(data: Data, current: Fit, findings: list, floor: NoiseFloor) -> tuple:
+def _unexplained(data: Data, search: Search, floor: NoiseFloor) -> tuple:
     """The catch-all's evidence on top of the model found (None: it could not be fitted) and
     the ``unexplained`` finding (None: none), step 3 of the module's description."""
-    generic = _generic(data, current)
+    current, findings = search.current, search.findings
+    generic = search.catch_all(data)
     catch = generic.evidence if generic is not None else None
     unexplained = None
     if generic is not None and catch.supported:
@@ -761,7 +807,7 @@ def _verdict(data: Data, search: Search, correction: bool, reduced, t_start: flo
     current, base, findings = search.current, search.base, list(search.findings)
     floor = noise_floor(data.signal, data.load, data.time, follows_lag=True, weights=data.weights,
                         samples=data.samples)
-    catch, unexplained = _unexplained(data, current, findings, floor)
+    catch, unexplained = _unexplained(data, search, floor)
     extensions = _extensions(current)
     extended_model = _with_temperature_law(model_file_dict(data, current, extensions=extensions), current)
     baseline_model = model_file_dict(data, base)
