@@ -651,9 +651,9 @@ def _choose(data: Data, search: Search, fitted: list[Candidate], step: int,
             trials.append(Trial(step, name, candidate.delta_bic, None, why_not))
             continue
         if at not in tested:
-            batch = [k for k in range(at, len(fitted)) if not _not_tested(fitted[k], accepted, current)]
-            batch = batch[:workers.width]
             more = [] if search.has_catch_all() else [None]
+            batch = [k for k in range(at, len(fitted)) if not _not_tested(fitted[k], accepted, current)]
+            batch = batch[:max(1, workers.width - len(more))]
             done = workers.map(_tested, current, [fitted[k] for k in batch] + more,
                                [fitted[k].effect.name for k in batch] + ["catch-all"] * len(more))
             if more:
