@@ -90,8 +90,13 @@ def test_a_registered_effect_is_unpickled_as_the_registrys_own():
 def test_a_fit_travels_with_its_covariance_deferred_and_the_same_once_read():
     record = data.hidden_effect()
     fit = fit_terms(prepare(record), 1)
-    copy = pickle.loads(_dumps(fit))
+    kept = fit.covariance._inputs[0].cache
+    message = _dumps(fit)
+    copy = pickle.loads(message)
     assert copy.covariance._value is None and copy.covariance._inputs is not None
+    # the kept projection (the basis columns) stays here: it is computed again if read there
+    assert kept and fit.covariance._inputs[0].cache is kept and not copy.covariance._inputs[0].cache
+    assert len(message) < len(pickle.dumps(kept))
     np.testing.assert_array_equal(copy.cov, fit.cov)
 
 

@@ -11,6 +11,7 @@ covariance; p = 0 ... 5 chosen by BIC, its memory broken at gaps).
 from __future__ import annotations
 
 import contextvars
+import copy
 import math
 from contextlib import contextmanager
 from dataclasses import dataclass, field, fields, replace
@@ -810,8 +811,15 @@ class DeferredCovariance:
 
     def deferred_reduction(self) -> tuple:
         """A reduction (:meth:`pickle.Pickler.reducer_override`) whose copy defers the
-        computation still: the problem and point travel instead of the value."""
-        return _deferred_covariance, (self._inputs, self._value)
+        computation still: the problem and point travel instead of the value, without the
+        kept projection (the basis columns: most of the bytes; computed again, the same, if
+        the copy is read)."""
+        inputs = self._inputs
+        if inputs is not None:
+            problem = copy.copy(inputs[0])
+            problem.cache = {}
+            inputs = (problem, *inputs[1:])
+        return _deferred_covariance, (inputs, self._value)
 
 
 def _deferred_covariance(inputs, value) -> DeferredCovariance:
