@@ -520,7 +520,10 @@ def _screen(data: Data, current: Fit, pool, step: int, trials: list,
     candidates : list of Candidate
     """
     tasks = ([None] if current.heldout is None else []) + list(pool)
-    done = workers.map(_quick_task, (current, step), tasks, [e.name if e else "held-out" for e in tasks])
+    # (a candidate's quick fit takes longer at the first step, from the one-term baseline: its
+    # time there is known apart, for the longest to run first)
+    done = workers.map(_quick_task, (current, step), tasks,
+                       [(e.name if e else "held-out", step == 1) for e in tasks])
     if current.heldout is None:
         current = done.pop(0)
     screened = []        # [quick fit, its refinement or None]

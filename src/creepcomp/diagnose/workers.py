@@ -141,7 +141,8 @@ class Workers:
 
     def map(self, fn: Callable, common: Any, items: Sequence, keys: Sequence | None = None) -> list:
         """``[fn(shared, common, item) for item in items]`` (``fn`` a module-level function);
-        ``keys``: a name for each item's kind of work, by which the longest are run first."""
+        ``keys``: a name (any hashable) for each item's kind of work, by which the longest are run
+        first."""
         items = list(items)
         if len(items) < 2 or not self.parallel:
             return [fn(self.shared, common, item) for item in items]
