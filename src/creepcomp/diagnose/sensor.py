@@ -768,6 +768,7 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
     # (more processes than candidates would wait)
     with one_blas_thread(), compiled_loops(), Workers(min(jobs, max(len(pool), 1)), data) as workers:
         search = _search(data, pool, max_effects, workers)
+        workers.release()
         return _verdict(data, search, correction, reduced, t_start)
 
 

@@ -115,6 +115,7 @@ class Workers:
         self.jobs = max(1, int(jobs))
         self.shared = shared
         self._processes: list = []
+        self._ending: list = []         # (released, not yet waited for)
         self._connections: list = []
         self._counter = None
 
@@ -180,17 +181,24 @@ class Workers:
                 _TASK_SECONDS[kind] = took
         return out
 
-    def close(self) -> None:
-        """Ends the worker processes."""
+    def release(self) -> None:
+        """Lets the worker processes end (a later call forks new ones); :meth:`close` waits for
+        them: what this process does in between overlaps their exit."""
         for connection in self._connections:
             try:
                 connection.send_bytes(b"")
             except OSError:      # (a worker that ended already)
                 pass
             connection.close()
-        for process in self._processes:
+        self._connections, self._counter = [], None
+        self._ending, self._processes = self._ending + self._processes, []
+
+    def close(self) -> None:
+        """Ends the worker processes."""
+        self.release()
+        for process in self._ending:
             process.join()
-        self._processes, self._connections, self._counter = [], [], None
+        self._ending = []
 
     def __enter__(self) -> "Workers":
         return self
