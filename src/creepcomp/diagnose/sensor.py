@@ -641,9 +641,10 @@ def _choose(data: Data, search: Search, fitted: list[Candidate], step: int,
     """The candidate accepted at this step (best first; a simpler one that explains at least
     half as much and predicts held-out data as well replaces it), or None; every candidate
     tried gets its trial. Candidates are tested on held-out data as many at a time as
-    ``workers`` has processes (the next ones that may need it); the first ones with the
-    catch-all on top of the current model, which the step needs whatever it finds (to judge
-    the candidate accepted, or the model found when none is)."""
+    ``workers`` has processes (the next ones that may need it); the first with the catch-all
+    on top of the current model, which the step needs whatever it finds (to judge the
+    candidate accepted, or the model found when none is), and with the simpler alternatives
+    its acceptance would test."""
     current, trials = search.current, search.trials
     accepted = None
     tested: dict[int, Candidate] = {}
@@ -655,8 +656,13 @@ def _choose(data: Data, search: Search, fitted: list[Candidate], step: int,
             continue
         if at not in tested:
             more = [] if search.has_catch_all() else [None]
-            batch = [k for k in range(at, len(fitted)) if not _not_tested(fitted[k], accepted, current)]
-            batch = batch[:max(1, workers.width - len(more))]
+            batch = [k for k in range(at, len(fitted))
+                     if k not in tested and not _not_tested(fitted[k], accepted, current)]
+            if more:    # (the step's first: the first candidate and what its acceptance would test)
+                batch = batch[:1] + [k for k in batch[1:]
+                                     if not _not_tested(fitted[k], fitted[batch[0]], current)][:workers.width - 1]
+            else:
+                batch = batch[:workers.width]
             done = workers.map(_tested, current, [fitted[k] for k in batch] + more,
                                [fitted[k].effect.name for k in batch] + ["catch-all"] * len(more))
             if more:
