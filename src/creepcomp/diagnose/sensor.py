@@ -659,8 +659,8 @@ def _choose(data: Data, search: Search, fitted: list[Candidate], step: int,
             batch = [k for k in range(at, len(fitted))
                      if k not in tested and not _not_tested(fitted[k], accepted, current)]
             if more:    # (the step's first: the first candidate and what its acceptance would test)
-                batch = batch[:1] + [k for k in batch[1:]
-                                     if not _not_tested(fitted[k], fitted[batch[0]], current)][:workers.width - 1]
+                ahead = [k for k in batch[1:] if not _not_tested(fitted[k], fitted[at], current)]
+                batch = [at] + ahead[:workers.width - 1]
             else:
                 batch = batch[:workers.width]
             done = workers.map(_tested, current, [fitted[k] for k in batch] + more,
