@@ -53,7 +53,6 @@ def test_every_extension_is_undone_exactly_and_causally(key, hold):
     assert np.max(np.abs(part - comp[:700])[settled]) < 1e-9 * np.ptp(y)
 
 
-
 @pytest.mark.parametrize("key", sorted(EXTENSIONS))
 def test_every_extension_is_undone_exactly_from_a_settled_start(key):
     model = _model(key)
@@ -72,6 +71,7 @@ def test_a_flow_from_a_settled_start_is_undone_in_a_few_steps():
     y = simulate_extended(model, T, loaded, None, "settled", "linear")
     comp = compensate_extended(T, y, model, None, "settled", "linear", strict=True, max_iterations=5)
     assert np.max(np.abs((comp - model.offset) / model.gain - loaded)) < 1e-12
+
 
 def test_every_extension_the_diagnosis_writes_says_how_it_is_undone():
     for key in EXTENSIONS:

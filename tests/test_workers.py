@@ -41,7 +41,6 @@ def test_items_run_in_two_processes_and_come_back_in_order():
     assert len({pid for _, pid in out}) == 2
 
 
-
 @linux
 def test_released_workers_end_while_this_process_goes_on_and_a_later_call_forks_anew():
     with Workers(2, 0) as workers:
@@ -53,6 +52,7 @@ def test_released_workers_end_while_this_process_goes_on_and_a_later_call_forks_
     for p in ended:
         assert not p.is_alive()
     assert [v for v, _ in again] == [v for v, _ in first] == list(range(6))
+
 
 def test_one_job_runs_every_item_here():
     with Workers(1, 0) as workers:
