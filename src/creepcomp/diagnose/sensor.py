@@ -435,28 +435,26 @@ class Search:
         The effects accepted, in order.
     trials : list of Trial
         Every candidate tried.
-    catch_alls : list of tuple
-        ``(model, Generic or None)``: the catch-all on top of each model it was fitted on.
+    catch_all_on : tuple
+        ``(model, Generic or None)``: the catch-all on top of the last model it was fitted on
+        (the current model only moves on: an earlier one is not needed again).
     """
 
     current: Fit
     base: Fit | None = None
     findings: list = field(default_factory=list)
     trials: list = field(default_factory=list)
-    catch_alls: list = field(default_factory=list)
+    catch_all_on: tuple = (None, None)
 
     def catch_all(self, data: Data) -> "Generic | None":
         """The catch-all on top of the current model (:func:`_generic`), fitted once."""
-        for model, generic in self.catch_alls:
-            if model is self.current:
-                return generic
-        generic = _generic(data, self.current)
-        self.catch_alls.append((self.current, generic))
-        return generic
+        if not self.has_catch_all():
+            self.catch_all_on = (self.current, _generic(data, self.current))
+        return self.catch_all_on[1]
 
     def has_catch_all(self) -> bool:
         """Whether the catch-all on top of the current model is fitted already."""
-        return any(model is self.current for model, _ in self.catch_alls)
+        return self.catch_all_on[0] is self.current
 
 
 @dataclass(frozen=True)
@@ -666,7 +664,7 @@ def _choose(data: Data, search: Search, fitted: list[Candidate], step: int,
             done = workers.map(_tested, current, [fitted[k] for k in batch] + more,
                                [fitted[k].effect.name for k in batch] + ["catch-all"] * len(more))
             if more:
-                search.catch_alls.append((current, done.pop()))
+                search.catch_all_on = (current, done.pop())
             tested.update(zip(batch, done))
         candidate = tested[at]
         ev = candidate.evidence
