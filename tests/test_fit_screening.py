@@ -163,3 +163,62 @@ def test_candidates_that_raise_the_likelihood_too_little_are_not_refined(monkeyp
     assert skipped                        # (the rule was put to use)
     outcomes = {(t.step, t.effect): t.outcome for t in result.trials}
     assert all(outcomes[(s, name)] == "not supported (BIC)" for s, name, *_ in skipped)
+
+
+def _cost_sequence(stall, costs):
+    """Feeds ``stall`` a refinement's evaluations: ``costs`` of accepted steps as floats, a
+    rejected trial as ``("rejected", cost)``; returns whether it stalled and where."""
+    for k, c in enumerate(costs):
+        rejected = isinstance(c, tuple)
+        stall.seen(np.array([float(k)]), np.array([np.sqrt(c[1] if rejected else c)]))
+        if not rejected:
+            try:
+                stall.check()
+            except solver._Stalled:
+                return True, k
+    return False, None
+
+
+def test_a_refinement_stalls_where_rejected_steps_alternate_with_steps_that_gain_nothing():
+    n = 2000                      # (a gain of 0.005 in log-likelihood: a cost lower by 5e-6)
+    tiny = 1.0 - 1e-7
+    stalled, at = _cost_sequence(solver._Stall(n), [1.0, 0.5, ("rejected", 0.6), 0.5 * tiny,
+                                                    ("rejected", 0.7), 0.5 * tiny ** 2, 0.4])
+    assert stalled and at == 5
+    stall = solver._Stall(n)
+    _cost_sequence(stall, [1.0, 0.5, ("rejected", 0.6), 0.5 * tiny, ("rejected", 0.7), 0.5 * tiny ** 2])
+    assert stall.best_x[0] == 5.0 and stall.best_cost == pytest.approx(0.5 * tiny ** 2)
+    # accepted one after the other (a trust region growing again), tiny gains are no stall
+    assert not _cost_sequence(solver._Stall(n), [1.0, 0.5, 0.5 * tiny, 0.5 * tiny ** 2, 0.5 * tiny ** 3])[0]
+    # nor are rejections while the steps gain
+    assert not _cost_sequence(solver._Stall(n), [1.0, ("rejected", 2.0), 0.9, ("rejected", 2.0), 0.8, 0.7])[0]
+
+
+def test_a_stalled_refinement_ends_at_its_best_point_near_where_the_optimiser_would(monkeypatch):
+    """A hysteresis on the record with a hidden effect: its refinement stalls (the modes of
+    the play switch), and stops within a hundredth of log-likelihood of the optimiser's own
+    end."""
+    from creepcomp import data as bundled
+    from creepcomp.diagnose import effects
+
+    data = prepare(bundled.hidden_effect())
+    base = fit_structure(data, Structure(1), one_term_starts(data))
+    effect = effects.get("rate_independent_hysteresis")
+    stalls = []
+    check = solver._Stall.check
+
+    def spy(self):
+        try:
+            check(self)
+        except solver._Stalled:
+            stalls.append(len(self.accepted))
+            raise
+
+    monkeypatch.setattr(solver._Stall, "check", spy)
+    stopped = effect.fit_on(data, base, refine="all")
+    assert stalls
+    monkeypatch.setattr(solver, "STALL_LOGLIK", 0.0)
+    stalls.clear()
+    full = effect.fit_on(data, base, refine="all")
+    assert not stalls
+    assert abs(stopped.loglik - full.loglik) < 0.01
