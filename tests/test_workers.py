@@ -167,3 +167,80 @@ def test_a_diagnosis_fits_the_catch_all_once_on_each_model(monkeypatch):
     result = diagnose(data.hidden_effect(), jobs=1)      # (counted here: one process)
     steps = {t.step for t in result.trials}
     assert len(fitted_on) == len(set(fitted_on)) and len(fitted_on) >= len(steps)
+
+
+def test_refining_ahead_of_the_ranks_changes_no_candidate(monkeypatch):
+    # a quick fit that raises BIC a little is refined in its own task, before the ranks are
+    # known; kept only where the ranks ask for it, it leaves the diagnosis as refining after them
+    from creepcomp import synth
+    from creepcomp.diagnose import sensor
+
+    spec = synth.Spec(beta=(0.03,), tau=(45.0,), gain=1.0, rate=5.0, duration=600.0, program="staircase",
+                      noise=synth.NoiseSpec(white=5e-4), seed=31)
+    record = synth.generate(spec).record
+    ahead = _plain(diagnose(record, jobs=1, correction=False))
+    ahead_of_rank = []
+    refined_ahead = sensor._refined_ahead
+
+    def counted(current, candidate):
+        out = refined_ahead(current, candidate)
+        ahead_of_rank.append(out and candidate.delta_bic >= 0)
+        return out
+
+    monkeypatch.setattr(sensor, "_refined_ahead", counted)
+    assert _plain(diagnose(record, jobs=1, correction=False)) == ahead
+    assert any(ahead_of_rank)                 # (the rule was put to use)
+    monkeypatch.setattr(sensor, "_refined_ahead",
+                        lambda current, candidate: candidate.delta_bic < 0
+                        and candidate.fit.loglik - current.loglik >= sensor.QUICK_HINT)
+    assert _plain(diagnose(record, jobs=1, correction=False)) == ahead
+
+
+def test_a_fit_whose_starts_are_refined_side_by_side_is_the_one_refined_here():
+    from creepcomp.fit.solver import Problem, fit_structure
+    from creepcomp.fit.starts import one_term_starts
+    from creepcomp.fit.structure import Structure
+
+    fitted = prepare(data.hidden_effect())
+    calls = []
+
+    def refine_all(structure, starts, max_nfev, ftol):
+        calls.append(len(starts))
+        return [Problem(fitted, structure).refine(x0, max_nfev, ftol) for x0 in starts[::-1]][::-1]
+
+    here = fit_structure(fitted, Structure(1), one_term_starts(fitted))
+    side = fit_structure(fitted, Structure(1), one_term_starts(fitted), refine_all=refine_all)
+    assert calls == [2] and side.values == here.values and side.bic == here.bic
+    with pytest.raises(ValueError, match="refine_all"):
+        fit_structure(fitted, Structure(1), one_term_starts(fitted), refine_all=refine_all,
+                      mask=np.arange(fitted.n) < fitted.n // 2)
+
+
+def test_held_out_refits_side_by_side_are_those_made_one_after_the_other():
+    from creepcomp.fit.evidence import fold_refit, heldout
+
+    fitted = prepare(data.hidden_effect())
+    fit = fit_terms(fitted, 1)
+    calls = []
+
+    def refit_all(keeps):
+        calls.append(len(keeps))
+        return [fold_refit(fitted, fit, keep) for keep in keeps[::-1]][::-1]
+
+    side = heldout(fitted, fit, refit_all=refit_all)
+    assert calls == [5]
+    np.testing.assert_array_equal(side.heldout.residual, heldout(fitted, fit).heldout.residual)
+
+
+@linux
+def test_a_test_split_in_parts_is_the_test_in_one_task(monkeypatch):
+    # a lone candidate's test beside the catch-all runs in parts (refit, held-out refits side
+    # by side, evidence) when it is the longer: the same diagnosis, bit for bit
+    from creepcomp.diagnose import sensor
+
+    record = data.hidden_effect()
+    whole = _plain(diagnose(record, jobs=1))
+    split = []
+    monkeypatch.setattr(sensor, "_test_is_longer", lambda name: split.append(name) or True)
+    assert _plain(diagnose(record, jobs=2)) == whole
+    assert split

@@ -43,7 +43,7 @@ import numpy as np
 
 from creepcomp.diagnose import effects as effects_pkg
 from creepcomp.diagnose.effects import Effect, UnsettledInverse, compensate_extended
-from creepcomp.diagnose.workers import Workers
+from creepcomp.diagnose.workers import Workers, last_seconds
 from creepcomp.errors import InputError
 from creepcomp.fit.blas import one_blas_thread
 from creepcomp.fit.data import Data, prepare
@@ -52,7 +52,7 @@ from creepcomp.fit.noise import (MISFIT_LIMIT, SPARSE_SAMPLES, NoiseFloor, autoc
     ljung_box, misfit_ratio as ratio_to_floor, noise_floor, rows_for, whiten)
 from creepcomp.fit.solver import Fit, Problem, fit_structure, screening
 from creepcomp.fit.evidence import (BIC_STRONG, HELDOUT_Z, Evidence, compare, compare_with_halves,
-    halves, heldout)
+    fold_refit, halves, heldout)
 from creepcomp.fit.starts import one_term_starts, tau_grid
 from creepcomp.fit.prony import model_file_dict
 from creepcomp.fit.reduce import reduce_record
@@ -345,13 +345,14 @@ def _catch_all(data: Data, current: Fit) -> Fit | None:
         return None
 
 
-def _polish(data: Data, current: Fit, candidate: Fit) -> Fit:
+def _polish(data: Data, current: Fit, candidate: Fit, workers: Workers) -> Fit:
     """``current`` refitted from the candidate's values of the parameters they share, kept
     when that fits better: an improvement must come from the candidate's own parameters,
     not from a better optimum of the shared ones. Not kept when it predicts held-out data
     worse by the evidence rule's margin (:data:`~creepcomp.fit.evidence.HELDOUT_Z`): the
     optimum then sits where the record leaves a parameter free (a time offset's width),
-    and against that reference any candidate would seem to predict better."""
+    and against that reference any candidate would seem to predict better. Its held-out
+    refits run side by side in ``workers``."""
     shared = {p.name: candidate.values[p.name] for p in current.params if p.name in candidate.values}
     try:
         alt = fit_structure(data, current.structure, [shared], n_refine=1)
@@ -359,8 +360,19 @@ def _polish(data: Data, current: Fit, candidate: Fit) -> Fit:
         return current
     if alt.bic >= current.bic - 1e-6:
         return current
-    alt = heldout(data, alt)
+    alt = _heldout_side_by_side(data, alt, workers)
     return current if compare(current, alt).heldout_z <= -HELDOUT_Z else alt
+
+
+def _heldout_side_by_side(data: Data, fit: Fit, workers: Workers) -> Fit:
+    """:func:`~creepcomp.fit.evidence.heldout` with the folds' refits side by side in
+    ``workers``: the same prediction."""
+    return heldout(data, fit, refit_all=lambda keeps: workers.map(_fold_refitted, fit, keeps))
+
+
+def _fold_refitted(data: Data, fit: Fit, keep: np.ndarray) -> np.ndarray:
+    """A held-out refit (:func:`~creepcomp.fit.evidence.fold_refit`) as a task of :class:`Workers`."""
+    return fold_refit(data, fit, keep)
 
 
 #: Candidates refined fully at each step (the best by the quick fit, plus any that already
@@ -507,8 +519,10 @@ def _screen(data: Data, current: Fit, pool, step: int, trials: list,
     likelihood at all (:data:`QUICK_HINT`): the best by BIC is accepted, and a quick fit
     understates what a candidate explains (a static nonlinearity's quick fit lowered BIC by
     3,661, refined by 13,050, more than the hysteresis accepted without it). Best first.
-    The candidates' fits run side by side in ``workers``: one that lowers BIC is refined
-    right after its quick fit (whatever its rank, it is refined); so does the current
+    The candidates' fits run side by side in ``workers``: one that lowers BIC, or raises it
+    by less than :data:`~creepcomp.fit.evidence.BIC_STRONG`, is refined right after its
+    quick fit (:func:`_refined_ahead`: a refinement left until the ranks are known would run
+    in a short map of its own, one process waiting for the other); so does the current
     model's held-out prediction when it has none yet (the candidates do not need it).
 
     Returns
@@ -530,6 +544,9 @@ def _screen(data: Data, current: Fit, pool, step: int, trials: list,
         if candidate is not None:
             screened.append([candidate, full])
     screened.sort(key=lambda pair: pair[0].delta_bic)
+    for rank, pair in enumerate(screened):
+        if pair[1] is not None and not _worth_refining(current, pair[0], rank):
+            pair[1] = None        # (refined ahead, but not among the REFINED best)
     later = [pair for rank, pair in enumerate(screened)
              if pair[1] is None and _worth_refining(current, pair[0], rank)]
     for pair, full in zip(later, workers.map(_refined, current, [pair[0] for pair in later],
@@ -540,27 +557,35 @@ def _screen(data: Data, current: Fit, pool, step: int, trials: list,
     return current, sorted(fitted, key=lambda c: c.delta_bic)
 
 
-def _worth_refining(current: Fit, candidate: Candidate, rank: int | None) -> bool:
+def _worth_refining(current: Fit, candidate: Candidate, rank: int) -> bool:
     """The quick fit is refined with every parameter free: it is among the :data:`REFINED`
-    best (``rank``; None: not known yet) or lowers BIC already, and it raises the likelihood
-    by :data:`QUICK_HINT` at least."""
-    among_best = rank is not None and rank < REFINED
-    return (among_best or candidate.delta_bic < 0) and candidate.fit.loglik - current.loglik >= QUICK_HINT
+    best (``rank``) or lowers BIC already, and it raises the likelihood by
+    :data:`QUICK_HINT` at least."""
+    return (rank < REFINED or candidate.delta_bic < 0) and candidate.fit.loglik - current.loglik >= QUICK_HINT
 
 
 def _quick_task(data: Data, common: tuple, effect: Effect | None) -> tuple | Fit:
     """:func:`_quick` as a task of :class:`Workers`: the candidate, its refinement when it is
-    refined whatever its rank (else None), and the trials it adds; for ``effect`` None, the
-    current model with its held-out prediction."""
+    refined ahead of its rank (:func:`_refined_ahead`; else None), and the trials it adds;
+    for ``effect`` None, the current model with its held-out prediction."""
     current, step = common
     if effect is None:
         return heldout(data, current)
     tried = []
     candidate = _quick(data, current, effect, step, tried)
     full = None
-    if candidate is not None and _worth_refining(current, candidate, None):
+    if candidate is not None and _refined_ahead(current, candidate):
         full = _refined(data, current, candidate)
     return candidate, full, tried
+
+
+def _refined_ahead(current: Fit, candidate: Candidate) -> bool:
+    """The quick fit is refined in its own task (:func:`_quick_task`): it raises the likelihood
+    by :data:`QUICK_HINT` at least, and it lowers BIC (then it is refined whatever its rank)
+    or raises it by less than :data:`~creepcomp.fit.evidence.BIC_STRONG` (then it is likely
+    among the :data:`REFINED` best, refined after the screen otherwise: the refinement is
+    dropped when it is not)."""
+    return candidate.delta_bic < BIC_STRONG and candidate.fit.loglik - current.loglik >= QUICK_HINT
 
 
 def _unphysical(candidate: Candidate, step: int, trials: list) -> bool:
@@ -572,12 +597,12 @@ def _unphysical(candidate: Candidate, step: int, trials: list) -> bool:
     return bool(reason)
 
 
-def _polished(data: Data, search: Search, fitted: list[Candidate]) -> list[Candidate]:
+def _polished(data: Data, search: Search, fitted: list[Candidate], workers: Workers) -> list[Candidate]:
     """When the best candidate lowers BIC strongly, the current model refitted from its values
     (:func:`_polish`), and the candidates' BIC against that."""
     if not (fitted and fitted[0].delta_bic <= -BIC_STRONG):
         return fitted
-    polished = _polish(data, search.current, fitted[0].fit)
+    polished = _polish(data, search.current, fitted[0].fit, workers)
     if polished is search.current:
         return fitted
     search.current = polished
@@ -604,15 +629,65 @@ def _plain_form(data: Data, current: Fit, candidate: Candidate) -> Candidate:
     return Candidate(effect, g, g.bic - current.bic, ev_plain) if ev_plain.supported else candidate
 
 
-def _tested(data: Data, current: Fit, candidate: Candidate | None) -> "Candidate | Generic | None":
-    """The candidate refitted from a grid of retardation times, with its held-out evidence
-    (its plain form in its place when only that is supported); for ``candidate`` None, the
-    catch-all on top of ``current`` (:func:`_generic`)."""
+def _tested(data: Data, current: Fit, candidate: "Candidate | _Restarted | None") -> "Candidate | Generic | Fit | None":
+    """The candidate refitted from a grid of retardation times (:func:`_restart_taus`), with
+    its held-out evidence (:func:`_judged`); for ``candidate`` None, the catch-all on top of
+    ``current`` (:func:`_generic`); for a :class:`_Restarted`, its candidate's refitted fit
+    alone."""
     if candidate is None:
         return _generic(data, current)
-    f = heldout(data, _restart_taus(data, candidate.fit))
-    candidate = replace(candidate, fit=f, evidence=_evidence(data, current, f))
-    return candidate if candidate.evidence.supported else _plain_form(data, current, candidate)
+    if isinstance(candidate, _Restarted):
+        return _restart_taus(data, candidate.candidate.fit)
+    return _judged(data, current, candidate, heldout(data, _restart_taus(data, candidate.fit)))
+
+
+@dataclass(frozen=True)
+class _Restarted:
+    """A candidate to be refitted from a grid of retardation times only (a task of
+    :func:`_tested`)."""
+
+    candidate: Candidate
+
+
+def _judged(data: Data, current: Fit, candidate: Candidate, fit: Fit) -> Candidate:
+    """The candidate with ``fit`` (refitted, with its held-out prediction) and its evidence
+    against ``current`` (its plain form in its place when only that is supported) and, when
+    supported, its covariance computed (a finding reports it)."""
+    candidate = replace(candidate, fit=fit, evidence=_evidence(data, current, fit))
+    if not candidate.evidence.supported:
+        candidate = _plain_form(data, current, candidate)
+    if candidate.evidence.supported:
+        candidate.fit.cov
+    return candidate
+
+
+#: A candidate's held-out test is split (:func:`_test_batch`) when it is known to take at
+#: least this many times as long as the catch-all beside it.
+SPLIT_TEST = 2.0
+
+
+def _test_is_longer(name: str) -> bool:
+    """The test of the effect ``name`` took :data:`SPLIT_TEST` times as long as the catch-all's
+    when last run side by side."""
+    test, generic = last_seconds(_tested, name), last_seconds(_tested, "catch-all")
+    return test is not None and generic is not None and test >= SPLIT_TEST * generic
+
+
+def _test_batch(data: Data, current: Fit, candidates: list[Candidate], catch_all: bool,
+                workers: Workers) -> list:
+    """:func:`_tested` of each candidate, and of the catch-all when ``catch_all``, side by side
+    in ``workers``. A lone candidate whose test is known to take :data:`SPLIT_TEST` times as
+    long as the catch-all is tested in parts, the same test: its refit beside the catch-all,
+    then its held-out refits side by side, then its evidence here (else one process would
+    wait for the other)."""
+    items = candidates + [None] * catch_all
+    keys = [c.effect.name for c in candidates] + ["catch-all"] * catch_all
+    if workers.width > 1 and catch_all and len(candidates) == 1 and _test_is_longer(keys[0]):
+        refitted, generic = workers.map(_tested, current, [_Restarted(candidates[0]), None],
+                                        [keys[0] + " (refit)", "catch-all"])
+        fit = _heldout_side_by_side(data, refitted, workers)
+        return [_judged(data, current, candidates[0], fit), generic]
+    return workers.map(_tested, current, items, keys)
 
 
 def _not_tested(candidate: Candidate, accepted: Candidate | None, current: Fit) -> str | None:
@@ -661,8 +736,7 @@ def _choose(data: Data, search: Search, fitted: list[Candidate], step: int,
                 batch = [at] + ahead[:workers.width - 1]
             else:
                 batch = batch[:workers.width]
-            done = workers.map(_tested, current, [fitted[k] for k in batch] + more,
-                               [fitted[k].effect.name for k in batch] + ["catch-all"] * len(more))
+            done = _test_batch(data, current, [fitted[k] for k in batch], bool(more), workers)
             if more:
                 search.catch_all_on = (current, done.pop())
             tested.update(zip(batch, done))
@@ -696,13 +770,24 @@ def _record(search: Search, accepted: Candidate) -> None:
     search.current = f
 
 
+def _refined_start(data: Data, common: tuple, x0: np.ndarray) -> np.ndarray:
+    """A start's refinement (:meth:`~creepcomp.fit.solver.Problem.refine`) as a task of
+    :class:`Workers`; ``common``: the structure, the cap on evaluations and the tolerance."""
+    structure, max_nfev, ftol = common
+    return Problem(data, structure).refine(x0, max_nfev, ftol)
+
+
 def _search(data: Data, pool, max_effects: int, workers: Workers) -> Search:
     """Effects added one at a time while a candidate is supported (steps 1 and 2 of the
-    module's description); the candidates of a step fitted side by side in ``workers``."""
-    search = Search(fit_structure(data, Structure(1), one_term_starts(data)))
+    module's description); the baseline's best starts refined, and the candidates of a step
+    fitted, side by side in ``workers``."""
+    def refine_all(structure, starts, max_nfev, ftol):
+        return workers.map(_refined_start, (structure, max_nfev, ftol), starts)
+
+    search = Search(fit_structure(data, Structure(1), one_term_starts(data), refine_all=refine_all))
     for step in range(1, max_effects + 1):
         search.current, screened = _screen(data, search.current, pool, step, search.trials, workers)
-        fitted = _polished(data, search, screened)
+        fitted = _polished(data, search, screened, workers)
         if search.base is None:
             search.base = search.current
         accepted = _choose(data, search, fitted, step, workers)
@@ -772,8 +857,7 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
     # (more processes than candidates would wait)
     with one_blas_thread(), compiled_loops(), Workers(min(jobs, max(len(pool), 1)), data) as workers:
         search = _search(data, pool, max_effects, workers)
-        workers.release()
-        return _verdict(data, search, correction, reduced, t_start)
+        return _verdict(data, search, correction, reduced, t_start, workers)
 
 
 def _unexplained(data: Data, search: Search, floor: NoiseFloor) -> tuple:
@@ -796,32 +880,53 @@ def _unexplained(data: Data, search: Search, floor: NoiseFloor) -> tuple:
     return catch, unexplained
 
 
-def _screened(data: Data, current: Fit, base: Fit, findings: list[Finding]) -> list[Finding]:
-    """The findings with the faults of the record that no model column undoes (clipping,
-    channels out of step, coarse quantisation), screened by the sensor effects."""
-    for effect in effects_pkg.sensor_effects():
-        for problem in effect.screen(data, current, base):
-            named = any(f.effect != "unexplained" for f in findings)
-            importance, note = effect.screened_importance(problem, current, base, named)
-            if note is not None:
-                findings = [replace(f, note=note) if f.effect != "unexplained" else f for f in findings]
-            findings.append(Finding(effect.name, problem, dict.fromkeys(problem), _no_evidence(), importance))
+def _faults(data: Data, current: Fit, base: Fit) -> list[tuple[str, dict]]:
+    """The faults of the record that no model column undoes (clipping, channels out of step,
+    coarse quantisation), each with the name of the sensor effect that screened it."""
+    return [(effect.name, problem) for effect in effects_pkg.sensor_effects()
+            for problem in effect.screen(data, current, base)]
+
+
+def _screened(faults: list[tuple[str, dict]], current: Fit, base: Fit,
+              findings: list[Finding]) -> list[Finding]:
+    """The findings with the faults of the record (:func:`_faults`)."""
+    for name, problem in faults:
+        effect = effects_pkg.get(name)
+        named = any(f.effect != "unexplained" for f in findings)
+        importance, note = effect.screened_importance(problem, current, base, named)
+        if note is not None:
+            findings = [replace(f, note=note) if f.effect != "unexplained" else f for f in findings]
+        findings.append(Finding(effect.name, problem, dict.fromkeys(problem), _no_evidence(), importance))
     return findings
 
 
-def _verdict(data: Data, search: Search, correction: bool, reduced, t_start: float) -> Diagnosis:
-    """The verdict on the search's model (step 3 and 4 of the module's description): the
-    catch-all, the gain, the faults of the record, the findings in order."""
-    current, base, findings = search.current, search.base, list(search.findings)
+def _verdict_part(data: Data, common: tuple, part: str):
+    """One of the verdict's two independent parts, as a task of :class:`Workers`: the errors
+    of the creep-corrected signal (``correction``: :func:`correction_errors`, empty when not
+    measured), or the rest that needs no model search (``record``: the noise floor, the
+    faults of the record and the two model files)."""
+    current, base, correction = common
+    extensions = _extensions(current)
+    if part == "correction":
+        return correction_errors(data, base, current, extensions) if correction else {}
     floor = noise_floor(data.signal, data.load, data.time, follows_lag=True, weights=data.weights,
                         samples=data.samples)
-    catch, unexplained = _unexplained(data, search, floor)
-    extensions = _extensions(current)
     extended_model = _with_temperature_law(model_file_dict(data, current, extensions=extensions), current)
-    baseline_model = model_file_dict(data, base)
+    return floor, _faults(data, current, base), extended_model, model_file_dict(data, base)
+
+
+def _verdict(data: Data, search: Search, correction: bool, reduced, t_start: float,
+             workers: Workers) -> Diagnosis:
+    """The verdict on the search's model (step 3 and 4 of the module's description): the
+    catch-all, the gain, the faults of the record, the findings in order. Its two parts
+    (:func:`_verdict_part`) run side by side in ``workers``, which are released then."""
+    current, base, findings = search.current, search.base, list(search.findings)
+    corr, (floor, faults, extended_model, baseline_model) = workers.map(
+        _verdict_part, (current, base, correction), ["correction", "record"], ["correction", "record"])
+    workers.release()
+    catch, unexplained = _unexplained(data, search, floor)
     gain = {"heldout_rms_ratio": base.heldout.rms / current.heldout.rms if current.heldout.rms > 0 else None,
             "correction_error_ratio": None}
-    corr = correction_errors(data, base, current, extensions) if correction else {}
     if corr:
         gain["correction_error_ratio"] = corr["ratio"]
         gain["correction_error_baseline"] = corr["baseline_rms"]
@@ -830,7 +935,7 @@ def _verdict(data: Data, search: Search, correction: bool, reduced, t_start: flo
             gain["correction_unsettled"] = corr["unsettled"]
         if "unsettled" in corr or (corr["ratio"] is not None and corr["ratio"] < CORRECTION_WORSE):
             findings = _correction_notes(data, base, findings)
-    findings = _ordered(_screened(data, current, base, findings), unexplained)
+    findings = _ordered(_screened(faults, current, base, findings), unexplained)
     return Diagnosis(data, base, current, tuple(findings), tuple(search.trials), catch, gain,
                      _time.perf_counter() - t_start, extended_model, baseline_model, corr, floor,
                      reduced)

@@ -23,11 +23,17 @@ from typing import Any, Callable, Sequence
 
 from creepcomp.fit.solver import DeferredCovariance
 
-__all__ = ["Workers", "available_cores"]
+__all__ = ["Workers", "available_cores", "last_seconds"]
 
 #: Seconds the last task of each kind took (by function and key), in this process: the
 #: longest known are handed out first, so that no process is left with a long one at the end.
 _TASK_SECONDS: dict = {}
+
+
+def last_seconds(fn: Callable, key) -> float | None:
+    """Seconds the last task of this kind took (``fn`` and the key given to :meth:`Workers.map`)
+    in this process, or None when none has run side by side yet."""
+    return _TASK_SECONDS.get((fn.__name__, key))
 
 
 def available_cores() -> int:

@@ -27,7 +27,7 @@ from creepcomp.fit.structure import basis, basis_derivatives
 
 __all__ = ["BIC_STRONG", "HELDOUT_Z", "FOLDS", "BLOCKS", "MIN_BLOCK_SAMPLES",
            "UNDETERMINED_VARIANCE_RATIO", "SLOW_NOISE_RATIO", "HeldOut", "block_index",
-           "half_blocks", "load_halves", "predict_held_out", "jacobian", "halves", "heldout", "Evidence",
+           "half_blocks", "load_halves", "predict_held_out", "jacobian", "halves", "heldout", "fold_refit", "Evidence",
            "compare", "slow_noise_ratio", "BLOCK_MEMORY", "block_memory", "compare_with_halves"]
 
 #: BIC difference that counts as strong evidence (Kass & Raftery 1995: 2 ln B > 10 is
@@ -90,17 +90,20 @@ def half_blocks(n: int) -> np.ndarray:
 
 
 def predict_held_out(blocks: np.ndarray, folds: int,
-                     refit: Callable[[np.ndarray], np.ndarray]) -> HeldOut:
+                     refit: Callable[[np.ndarray], np.ndarray] | None,
+                     refit_all: Callable[[list], list] | None = None) -> HeldOut:
     """Held-out prediction: block ``b`` is in fold ``b % folds``; for each fold,
     ``refit(keep)`` fits the model on the samples ``keep`` (the other folds) and returns its
-    residual on every sample, of which the fold's samples are kept. Both fits use it:
+    residual on every sample, of which the fold's samples are kept. ``refit_all``: the
+    refits of a list of ``keep`` side by side, in place of ``refit``. Both fits use it:
     :func:`heldout` and :func:`creepcomp.fit.circuit.with_heldout`."""
     fold = blocks % folds
+    inside = [fold == b for b in range(folds) if np.any(fold == b)]
+    keeps = [~i for i in inside]
+    residuals = refit_all(keeps) if refit_all is not None else [refit(keep) for keep in keeps]
     resid = np.empty(len(blocks))
-    for b in range(folds):
-        inside = fold == b
-        if inside.any():
-            resid[inside] = refit(~inside)[inside]
+    for held, r in zip(inside, residuals):
+        resid[held] = r[held]
     return HeldOut(resid, blocks)
 
 
@@ -235,7 +238,8 @@ def halves(data: Data, fit: Fit, refine: bool = True) -> HeldOut:
 
 
 def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
-            blocks: np.ndarray | None = None, linearised: bool = False) -> Fit:
+            blocks: np.ndarray | None = None, linearised: bool = False,
+            refit_all: Callable[[list], list] | None = None) -> Fit:
     """The fit with its held-out prediction: the record is cut into :data:`BLOCKS` blocks;
     for each of ``folds`` folds its (interleaved) blocks are left out, the model is refitted on the rest
     (from the fit's own values, same noise model) and simulated from the load over them.
@@ -260,8 +264,36 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
     nothing constrained. So do parameters that an effect holds in every refit
     (:meth:`~creepcomp.diagnose.effects.Effect.held_in_refits`: a time offset where the
     samples it reads across a step are left free).
+
+    ``refit_all``: refits a list of ``keep`` masks side by side, each as
+    :func:`fold_refit` gives it (default: one after the other here).
     """
     blocks = block_index(data) if blocks is None else blocks
+    refit = None if refit_all is not None else _refitter(data, fit, refine, linearised)
+    return replace(fit, heldout=predict_held_out(blocks, folds, refit, refit_all))
+
+
+#: The refitters of the last few fits (:func:`fold_refit`), by identity, with the fit held.
+_REFITTERS: dict = {}
+_REFITTERS_KEPT = 2
+
+
+def fold_refit(data: Data, fit: Fit, keep: np.ndarray, refine: bool = True,
+               linearised: bool = False) -> np.ndarray:
+    """One refit of :func:`heldout` (the fit refitted on the samples ``keep``; its residual on
+    every sample): the same as there, wherever it runs. What the folds share (the fit's
+    Jacobian) is computed once per fit."""
+    key = (id(fit), refine, linearised)
+    hit = _REFITTERS.get(key)
+    if hit is None or hit[0] is not fit:
+        while len(_REFITTERS) >= _REFITTERS_KEPT:
+            _REFITTERS.pop(next(iter(_REFITTERS)))
+        hit = _REFITTERS[key] = (fit, _refitter(data, fit, refine, linearised))
+    return hit[1](keep)
+
+
+def _refitter(data: Data, fit: Fit, refine: bool, linearised: bool) -> Callable[[np.ndarray], np.ndarray]:
+    """``refit(keep)`` of :func:`heldout`: what the folds share computed here once."""
     start = {p.name: fit.values[p.name] for p in fit.params}
     held = {f"{a.name}.{n}": fit.values[f"{a.name}.{n}"] for a in fit.structure.effects
             for n in a.effect.held_in_refits(data, a.own(fit.values), a)}
@@ -331,7 +363,7 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
         except InputError:
             return fit.residual
 
-    return replace(fit, heldout=predict_held_out(blocks, folds, refit))
+    return refit
 
 
 @dataclass(frozen=True)
