@@ -244,3 +244,26 @@ def test_a_test_split_in_parts_is_the_test_in_one_task(monkeypatch):
     monkeypatch.setattr(sensor, "_test_is_longer", lambda name: split.append(name) or True)
     assert _plain(diagnose(record, jobs=2)) == whole
     assert split
+
+
+def test_the_verdict_run_beside_a_last_refinement_is_the_one_run_after_it(monkeypatch):
+    # a step whose only refinements left cannot make a candidate testable likely ends: the
+    # verdict's parts run beside them, and are used when it does (else computed again)
+    from creepcomp.diagnose import sensor
+
+    record = data.hidden_effect()
+    used = []
+    verdict = sensor._verdict
+
+    def spy(data_, search, *args):
+        (model, baseline), _ = search.verdict_on
+        used.append(model is search.current and baseline is search.base)
+        return verdict(data_, search, *args)
+
+    monkeypatch.setattr(sensor, "_verdict", spy)
+    ahead = _plain(diagnose(record, jobs=1))
+    assert used == [True]
+    screen = sensor._screen
+    monkeypatch.setattr(sensor, "_screen", lambda *args: screen(*args[:6]))
+    assert _plain(diagnose(record, jobs=1)) == ahead
+    assert used == [True, False]

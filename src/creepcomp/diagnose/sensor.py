@@ -450,6 +450,9 @@ class Search:
     catch_all_on : tuple
         ``(model, Generic or None)``: the catch-all on top of the last model it was fitted on
         (the current model only moves on: an earlier one is not needed again).
+    verdict_on : tuple
+        ``((model, baseline), parts)``: the verdict's parts (:func:`_verdict_part`) computed
+        ahead for a model and baseline (none yet: both None).
     """
 
     current: Fit
@@ -457,6 +460,7 @@ class Search:
     findings: list = field(default_factory=list)
     trials: list = field(default_factory=list)
     catch_all_on: tuple = (None, None)
+    verdict_on: tuple = ((None, None), None)
 
     def catch_all(self, data: Data) -> "Generic | None":
         """The catch-all on top of the current model (:func:`_generic`), fitted once."""
@@ -511,8 +515,8 @@ def _refined(data: Data, current: Fit, candidate: Candidate) -> Candidate:
     return Candidate(candidate.effect, full, full.bic - current.bic)
 
 
-def _screen(data: Data, current: Fit, pool, step: int, trials: list,
-            workers: Workers) -> tuple[Fit, list[Candidate]]:
+def _screen(data: Data, current: Fit, pool, step: int, trials: list, workers: Workers,
+            verdict: tuple | None = None) -> tuple[Fit, list[Candidate], tuple | None]:
     """Every applicable candidate fitted on top of ``current``: a quick fit of its own
     parameters first (the current model's held); then all parameters together for the
     :data:`REFINED` best and for any other that already lowers BIC, when they raise the
@@ -524,12 +528,18 @@ def _screen(data: Data, current: Fit, pool, step: int, trials: list,
     quick fit (:func:`_refined_ahead`: a refinement left until the ranks are known would run
     in a short map of its own, one process waiting for the other); so does the current
     model's held-out prediction when it has none yet (the candidates do not need it).
+    ``verdict``: ``(baseline, correction)`` (baseline None: ``current`` is it); when
+    refinements are left after the screen and no other candidate is strong enough to be
+    tested, the step likely ends here: the verdict's parts (:func:`_verdict_part`) for
+    ``current`` run beside those refinements.
 
     Returns
     -------
     current : Fit
         ``current`` with its held-out prediction.
     candidates : list of Candidate
+    verdict : tuple or None
+        ``((current, baseline), parts)`` when the verdict's parts ran, else None.
     """
     tasks = ([None] if current.heldout is None else []) + list(pool)
     # (a candidate's quick fit takes longer at the first step, from the one-term baseline: its
@@ -549,12 +559,32 @@ def _screen(data: Data, current: Fit, pool, step: int, trials: list,
             pair[1] = None        # (refined ahead, but not among the REFINED best)
     later = [pair for rank, pair in enumerate(screened)
              if pair[1] is None and _worth_refining(current, pair[0], rank)]
-    for pair, full in zip(later, workers.map(_refined, current, [pair[0] for pair in later],
-                                             [pair[0].effect.name for pair in later])):
-        pair[1] = full
+    ahead = None
+    if later:
+        parts = []
+        if verdict is not None and not any((quick if full is None else full).delta_bic <= -BIC_STRONG
+                                           for quick, full in screened):
+            parts = ["correction", "record"]
+            base = current if verdict[0] is None else verdict[0]
+        common = (current, base, verdict[1]) if parts else (current, None, None)
+        done = workers.map(_later_task, common, [pair[0] for pair in later] + parts,
+                           [pair[0].effect.name for pair in later] + parts)
+        for pair, full in zip(later, done):
+            pair[1] = full
+        if parts:
+            ahead = ((current, base), done[len(later):])
     fitted = [c for c in (quick if full is None else full for quick, full in screened)
               if not _unphysical(c, step, trials)]
-    return current, sorted(fitted, key=lambda c: c.delta_bic)
+    return current, sorted(fitted, key=lambda c: c.delta_bic), ahead
+
+
+def _later_task(data: Data, common: tuple, item: "Candidate | str"):
+    """A task of :class:`Workers` after the screen: a candidate's refinement (:func:`_refined`),
+    or a part of the verdict (:func:`_verdict_part`; ``common``: the current model, the
+    baseline, whether the correction is measured)."""
+    if isinstance(item, str):
+        return _verdict_part(data, common, item)
+    return _refined(data, common[0], item)
 
 
 def _worth_refining(current: Fit, candidate: Candidate, rank: int) -> bool:
@@ -777,16 +807,20 @@ def _refined_start(data: Data, common: tuple, x0: np.ndarray) -> np.ndarray:
     return Problem(data, structure).refine(x0, max_nfev, ftol)
 
 
-def _search(data: Data, pool, max_effects: int, workers: Workers) -> Search:
+def _search(data: Data, pool, max_effects: int, workers: Workers, correction: bool = True) -> Search:
     """Effects added one at a time while a candidate is supported (steps 1 and 2 of the
     module's description); the baseline's best starts refined, and the candidates of a step
-    fitted, side by side in ``workers``."""
+    fitted, side by side in ``workers`` (``correction``: the verdict measures the correction,
+    for its parts run ahead, :func:`_screen`)."""
     def refine_all(structure, starts, max_nfev, ftol):
         return workers.map(_refined_start, (structure, max_nfev, ftol), starts)
 
     search = Search(fit_structure(data, Structure(1), one_term_starts(data), refine_all=refine_all))
     for step in range(1, max_effects + 1):
-        search.current, screened = _screen(data, search.current, pool, step, search.trials, workers)
+        search.current, screened, ahead = _screen(data, search.current, pool, step, search.trials, workers,
+                                                  (search.base, correction))
+        if ahead is not None:
+            search.verdict_on = ahead
         fitted = _polished(data, search, screened, workers)
         if search.base is None:
             search.base = search.current
@@ -856,7 +890,7 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
     # creepcomp.lti.compiled_loops)
     # (more processes than candidates would wait)
     with one_blas_thread(), compiled_loops(), Workers(min(jobs, max(len(pool), 1)), data) as workers:
-        search = _search(data, pool, max_effects, workers)
+        search = _search(data, pool, max_effects, workers, correction)
         return _verdict(data, search, correction, reduced, t_start, workers)
 
 
@@ -919,11 +953,15 @@ def _verdict(data: Data, search: Search, correction: bool, reduced, t_start: flo
              workers: Workers) -> Diagnosis:
     """The verdict on the search's model (step 3 and 4 of the module's description): the
     catch-all, the gain, the faults of the record, the findings in order. Its two parts
-    (:func:`_verdict_part`) run side by side in ``workers``, which are released then."""
+    (:func:`_verdict_part`) run side by side in ``workers``, which are released then, unless
+    they ran ahead for this model (:attr:`Search.verdict_on`)."""
     current, base, findings = search.current, search.base, list(search.findings)
-    corr, (floor, faults, extended_model, baseline_model) = workers.map(
-        _verdict_part, (current, base, correction), ["correction", "record"], ["correction", "record"])
+    (model, baseline), parts = search.verdict_on
+    if model is not current or baseline is not base:
+        parts = workers.map(_verdict_part, (current, base, correction), ["correction", "record"],
+                            ["correction", "record"])
     workers.release()
+    corr, (floor, faults, extended_model, baseline_model) = parts
     catch, unexplained = _unexplained(data, search, floor)
     gain = {"heldout_rms_ratio": base.heldout.rms / current.heldout.rms if current.heldout.rms > 0 else None,
             "correction_error_ratio": None}
