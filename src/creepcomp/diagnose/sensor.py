@@ -523,11 +523,12 @@ def _screen(data: Data, current: Fit, pool, step: int, trials: list, workers: Wo
     likelihood at all (:data:`QUICK_HINT`): the best by BIC is accepted, and a quick fit
     understates what a candidate explains (a static nonlinearity's quick fit lowered BIC by
     3,661, refined by 13,050, more than the hysteresis accepted without it). Best first.
-    The candidates' fits run side by side in ``workers``: one that lowers BIC, or raises it
-    by less than :data:`~creepcomp.fit.evidence.BIC_STRONG`, is refined right after its
-    quick fit (:func:`_refined_ahead`: a refinement left until the ranks are known would run
-    in a short map of its own, one process waiting for the other); so does the current
-    model's held-out prediction when it has none yet (the candidates do not need it).
+    The candidates' fits run side by side in ``workers``: one that lowers BIC, or with two
+    processes or more raises it by less than :data:`~creepcomp.fit.evidence.BIC_STRONG`, is
+    refined right after its quick fit (:func:`_refined_ahead`: a refinement left until the
+    ranks are known would run in a short map of its own, one process waiting for the other);
+    so does the current model's held-out prediction when it has none yet (the candidates do
+    not need it).
     ``verdict``: ``(baseline, correction)`` (baseline None: ``current`` is it); when
     refinements are left after the screen and no other candidate is strong enough to be
     tested, the step likely ends here: the verdict's parts (:func:`_verdict_part`) for
@@ -544,7 +545,7 @@ def _screen(data: Data, current: Fit, pool, step: int, trials: list, workers: Wo
     tasks = ([None] if current.heldout is None else []) + list(pool)
     # (a candidate's quick fit takes longer at the first step, from the one-term baseline: its
     # time there is known apart, for the longest to run first)
-    done = workers.map(_quick_task, (current, step), tasks,
+    done = workers.map(_quick_task, (current, step, workers.width > 1), tasks,
                        [(e.name if e else "held-out", step == 1) for e in tasks])
     if current.heldout is None:
         current = done.pop(0)
@@ -598,24 +599,26 @@ def _quick_task(data: Data, common: tuple, effect: Effect | None) -> tuple | Fit
     """:func:`_quick` as a task of :class:`Workers`: the candidate, its refinement when it is
     refined ahead of its rank (:func:`_refined_ahead`; else None), and the trials it adds;
     for ``effect`` None, the current model with its held-out prediction."""
-    current, step = common
+    current, step, ahead = common
     if effect is None:
         return heldout(data, current)
     tried = []
     candidate = _quick(data, current, effect, step, tried)
     full = None
-    if candidate is not None and _refined_ahead(current, candidate):
+    if candidate is not None and _refined_ahead(current, candidate, ahead):
         full = _refined(data, current, candidate)
     return candidate, full, tried
 
 
-def _refined_ahead(current: Fit, candidate: Candidate) -> bool:
+def _refined_ahead(current: Fit, candidate: Candidate, ahead: bool) -> bool:
     """The quick fit is refined in its own task (:func:`_quick_task`): it raises the likelihood
     by :data:`QUICK_HINT` at least, and it lowers BIC (then it is refined whatever its rank)
-    or raises it by less than :data:`~creepcomp.fit.evidence.BIC_STRONG` (then it is likely
-    among the :data:`REFINED` best, refined after the screen otherwise: the refinement is
-    dropped when it is not)."""
-    return candidate.delta_bic < BIC_STRONG and candidate.fit.loglik - current.loglik >= QUICK_HINT
+    or, with ``ahead`` (processes side by side), raises it by less than
+    :data:`~creepcomp.fit.evidence.BIC_STRONG` (then it is likely among the :data:`REFINED`
+    best, refined after the screen otherwise: the refinement is dropped when it is not; in one
+    process that is time lost)."""
+    limit = BIC_STRONG if ahead else 0.0
+    return candidate.delta_bic < limit and candidate.fit.loglik - current.loglik >= QUICK_HINT
 
 
 def _unphysical(candidate: Candidate, step: int, trials: list) -> bool:
