@@ -366,7 +366,9 @@ def _polish(data: Data, current: Fit, candidate: Fit, workers: Workers) -> Fit:
 
 def _heldout_side_by_side(data: Data, fit: Fit, workers: Workers) -> Fit:
     """:func:`~creepcomp.fit.evidence.heldout` with the folds' refits side by side in
-    ``workers``: the same prediction."""
+    ``workers`` (when it has processes side by side): the same prediction."""
+    if workers.width == 1:
+        return heldout(data, fit)
     return heldout(data, fit, refit_all=lambda keeps: workers.map(_fold_refitted, fit, keeps))
 
 
@@ -662,7 +664,8 @@ def _plain_form(data: Data, current: Fit, candidate: Candidate) -> Candidate:
     return Candidate(effect, g, g.bic - current.bic, ev_plain) if ev_plain.supported else candidate
 
 
-def _tested(data: Data, current: Fit, candidate: "Candidate | _Restarted | None") -> "Candidate | Generic | Fit | None":
+def _tested(data: Data, current: Fit,
+            candidate: "Candidate | _Restarted | None") -> "Candidate | Generic | Fit | None":
     """The candidate refitted from a grid of retardation times (:func:`_restart_taus`), with
     its held-out evidence (:func:`_judged`); for ``candidate`` None, the catch-all on top of
     ``current`` (:func:`_generic`); for a :class:`_Restarted`, its candidate's refitted fit
@@ -690,7 +693,7 @@ def _judged(data: Data, current: Fit, candidate: Candidate, fit: Fit) -> Candida
     if not candidate.evidence.supported:
         candidate = _plain_form(data, current, candidate)
     if candidate.evidence.supported:
-        candidate.fit.cov
+        candidate.fit.cov       # (computed where the test runs, beside the others)
     return candidate
 
 

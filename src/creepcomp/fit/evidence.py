@@ -12,6 +12,7 @@ the diagnosis decide by these rules.
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass, replace
 from typing import Callable
 
@@ -276,6 +277,7 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
 #: The refitters of the last few fits (:func:`fold_refit`), by identity, with the fit held.
 _REFITTERS: dict = {}
 _REFITTERS_KEPT = 2
+_REFITTERS_LOCK = threading.Lock()          # (a fleet's worker runs units on several threads)
 
 
 def fold_refit(data: Data, fit: Fit, keep: np.ndarray, refine: bool = True,
@@ -284,11 +286,14 @@ def fold_refit(data: Data, fit: Fit, keep: np.ndarray, refine: bool = True,
     every sample): the same as there, wherever it runs. What the folds share (the fit's
     Jacobian) is computed once per fit."""
     key = (id(fit), refine, linearised)
-    hit = _REFITTERS.get(key)
+    with _REFITTERS_LOCK:
+        hit = _REFITTERS.get(key)
     if hit is None or hit[0] is not fit:
-        while len(_REFITTERS) >= _REFITTERS_KEPT:
-            _REFITTERS.pop(next(iter(_REFITTERS)))
-        hit = _REFITTERS[key] = (fit, _refitter(data, fit, refine, linearised))
+        hit = (fit, _refitter(data, fit, refine, linearised))
+        with _REFITTERS_LOCK:
+            while len(_REFITTERS) >= _REFITTERS_KEPT:
+                _REFITTERS.pop(next(iter(_REFITTERS)))
+            _REFITTERS[key] = hit
     return hit[1](keep)
 
 
