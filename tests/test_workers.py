@@ -266,3 +266,48 @@ def test_the_verdict_run_beside_a_last_refinement_is_the_one_run_after_it(monkey
     monkeypatch.setattr(sensor, "_screen", lambda *args: screen(*args[:6]))
     assert _plain(diagnose(record, jobs=1)) == ahead
     assert used == [True, False]
+
+
+@linux
+def test_fits_with_a_fresh_creep_term_run_beside_the_baseline_are_those_the_screen_makes(monkeypatch):
+    # a time offset's and a flow's fits with the creep term started afresh read the record
+    # only: with two processes they run beside the baseline's fit, the first screen takes them
+    from creepcomp.diagnose import effects as effects_pkg, sensor
+
+    record = data.hidden_effect()
+    whole = _plain(diagnose(record, jobs=1))
+    ahead = []
+    fresh_fits_ahead = effects_pkg.fresh_fits_ahead
+
+    def counted(data_, effect):
+        out = fresh_fits_ahead(data_, effect)
+        ahead.append((effect.name, sorted(key[0] for key in out)))
+        return out
+
+    fitted = []
+    fresh_term_fit = effects_pkg.SensorEffect.fresh_term_fit
+
+    def fitting(self, data_, base, refine, settings, quick):
+        fitted.append((self.name, base is None, settings))
+        return fresh_term_fit(self, data_, base, refine, settings, quick)
+
+    monkeypatch.setattr(effects_pkg, "fresh_fits_ahead", counted)
+    monkeypatch.setattr(effects_pkg.SensorEffect, "fresh_term_fit", fitting)
+    monkeypatch.setattr(sensor, "Workers", lambda jobs, shared: _InProcess(jobs, shared))
+    assert _plain(diagnose(record, jobs=2)) == whole
+    assert sorted(ahead) == [("time_offset", ["time_offset"]), ("viscous_flow", ["viscous_flow"])]
+    # the screen took them: no fit with the default settings made again on the baseline
+    assert sorted(f for f in fitted if f[2] is None) == [("time_offset", True, None), ("viscous_flow", True, None)]
+
+
+class _InProcess(Workers):
+    """Workers that say they run side by side but run every item here (what a test counts
+    stays in this process)."""
+
+    @property
+    def width(self) -> int:
+        return self.jobs
+
+    @property
+    def parallel(self) -> bool:
+        return False

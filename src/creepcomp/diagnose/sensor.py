@@ -455,6 +455,8 @@ class Search:
     verdict_on : tuple
         ``((model, baseline), parts)``: the verdict's parts (:func:`_verdict_part`) computed
         ahead for a model and baseline (none yet: both None).
+    floor : NoiseFloor or None
+        The record's noise floor, computed beside the baseline's fit (None: not yet).
     """
 
     current: Fit
@@ -463,6 +465,7 @@ class Search:
     trials: list = field(default_factory=list)
     catch_all_on: tuple = (None, None)
     verdict_on: tuple = ((None, None), None)
+    floor: NoiseFloor | None = None
 
     def catch_all(self, data: Data) -> "Generic | None":
         """The catch-all on top of the current model (:func:`_generic`), fitted once."""
@@ -518,7 +521,7 @@ def _refined(data: Data, current: Fit, candidate: Candidate) -> Candidate:
 
 
 def _screen(data: Data, current: Fit, pool, step: int, trials: list, workers: Workers,
-            verdict: tuple | None = None) -> tuple[Fit, list[Candidate], tuple | None]:
+            verdict: tuple | None = None, fresh: dict | None = None) -> tuple[Fit, list[Candidate], tuple | None]:
     """Every applicable candidate fitted on top of ``current``: a quick fit of its own
     parameters first (the current model's held); then all parameters together for the
     :data:`REFINED` best and for any other that already lowers BIC, when they raise the
@@ -534,7 +537,8 @@ def _screen(data: Data, current: Fit, pool, step: int, trials: list, workers: Wo
     ``verdict``: ``(baseline, correction)`` (baseline None: ``current`` is it); when
     refinements are left after the screen and no other candidate is strong enough to be
     tested, the step likely ends here: the verdict's parts (:func:`_verdict_part`) for
-    ``current`` run beside those refinements.
+    ``current`` run beside those refinements. ``fresh``: fits with the creep term started
+    afresh, run ahead (:func:`~creepcomp.diagnose.effects.fresh_fits`).
 
     Returns
     -------
@@ -547,7 +551,7 @@ def _screen(data: Data, current: Fit, pool, step: int, trials: list, workers: Wo
     tasks = ([None] if current.heldout is None else []) + list(pool)
     # (a candidate's quick fit takes longer at the first step, from the one-term baseline: its
     # time there is known apart, for the longest to run first)
-    done = workers.map(_quick_task, (current, step, workers.width > 1), tasks,
+    done = workers.map(_quick_task, (current, step, workers.width > 1, fresh or {}), tasks,
                        [(e.name if e else "held-out", step == 1) for e in tasks])
     if current.heldout is None:
         current = done.pop(0)
@@ -600,12 +604,15 @@ def _worth_refining(current: Fit, candidate: Candidate, rank: int) -> bool:
 def _quick_task(data: Data, common: tuple, effect: Effect | None) -> tuple | Fit:
     """:func:`_quick` as a task of :class:`Workers`: the candidate, its refinement when it is
     refined ahead of its rank (:func:`_refined_ahead`; else None), and the trials it adds;
-    for ``effect`` None, the current model with its held-out prediction."""
-    current, step, ahead = common
+    for ``effect`` None, the current model with its held-out prediction. ``common``: the
+    current model, the step, whether to refine ahead, the fits with a creep term started
+    afresh that ran ahead (:func:`~creepcomp.diagnose.effects.fresh_fits`)."""
+    current, step, ahead, fresh = common
     if effect is None:
         return heldout(data, current)
     tried = []
-    candidate = _quick(data, current, effect, step, tried)
+    with effects_pkg.fresh_fits(fresh):
+        candidate = _quick(data, current, effect, step, tried)
     full = None
     if candidate is not None and _refined_ahead(current, candidate, ahead):
         full = _refined(data, current, candidate)
@@ -809,11 +816,18 @@ def _record(search: Search, accepted: Candidate) -> None:
     search.current = f
 
 
-def _refined_start(data: Data, common: tuple, x0: np.ndarray) -> np.ndarray:
-    """A start's refinement (:meth:`~creepcomp.fit.solver.Problem.refine`) as a task of
-    :class:`Workers`; ``common``: the structure, the cap on evaluations and the tolerance."""
+def _baseline_task(data: Data, common: tuple, item: "np.ndarray | Effect | str"):
+    """A task of :class:`Workers` beside the baseline's fit: a start's refinement
+    (:meth:`~creepcomp.fit.solver.Problem.refine`; ``common``: the structure, the cap on
+    evaluations and the tolerance), or what reads the record only: an effect's fit with the
+    creep term started afresh (:func:`~creepcomp.diagnose.effects.fresh_fits_ahead`), the
+    noise floor (``"floor"``)."""
+    if isinstance(item, Effect):
+        return effects_pkg.fresh_fits_ahead(data, item)
+    if isinstance(item, str):
+        return _noise_floor(data)
     structure, max_nfev, ftol = common
-    return Problem(data, structure).refine(x0, max_nfev, ftol)
+    return Problem(data, structure).refine(item, max_nfev, ftol)
 
 
 def _search(data: Data, pool, max_effects: int, workers: Workers, correction: bool = True) -> Search:
@@ -821,13 +835,25 @@ def _search(data: Data, pool, max_effects: int, workers: Workers, correction: bo
     module's description); the baseline's best starts refined, and the candidates of a step
     fitted, side by side in ``workers`` (``correction``: the verdict measures the correction,
     for its parts run ahead, :func:`_screen`)."""
+    # (with processes side by side, the first screen's fits with a creep term started afresh
+    # run beside the baseline's refinements: they read the record only)
+    beside = [e for e in pool if getattr(e, "fresh_ahead", None) and not e.applicable(data, Structure(1))] \
+        if workers.width > 1 else []
+    fresh, floor = {}, []
+
     def refine_all(structure, starts, max_nfev, ftol):
-        return workers.map(_refined_start, (structure, max_nfev, ftol), starts)
+        done = workers.map(_baseline_task, (structure, max_nfev, ftol), list(starts) + beside + ["floor"],
+                           [None] * len(starts) + [e.name for e in beside] + ["floor"])
+        for ahead in done[len(starts):-1]:
+            fresh.update(ahead)
+        floor.append(done[-1])
+        return done[:len(starts)]
 
     search = Search(fit_structure(data, Structure(1), one_term_starts(data), refine_all=refine_all))
+    search.floor = floor[0] if floor else None
     for step in range(1, max_effects + 1):
         search.current, screened, ahead = _screen(data, search.current, pool, step, search.trials, workers,
-                                                  (search.base, correction))
+                                                  (search.base, correction), fresh if step == 1 else {})
         if ahead is not None:
             search.verdict_on = ahead
         fitted = _polished(data, search, screened, workers)
@@ -946,16 +972,21 @@ def _screened(faults: list[tuple[str, dict]], current: Fit, base: Fit,
 def _verdict_part(data: Data, common: tuple, part: str):
     """One of the verdict's two independent parts, as a task of :class:`Workers`: the errors
     of the creep-corrected signal (``correction``: :func:`correction_errors`, empty when not
-    measured), or the rest that needs no model search (``record``: the noise floor, the
-    faults of the record and the two model files)."""
+    measured), or the rest that needs no model search (``record``: the faults of the record
+    and the two model files)."""
     current, base, correction = common
     extensions = _extensions(current)
     if part == "correction":
         return correction_errors(data, base, current, extensions) if correction else {}
-    floor = noise_floor(data.signal, data.load, data.time, follows_lag=True, weights=data.weights,
-                        samples=data.samples)
     extended_model = _with_temperature_law(model_file_dict(data, current, extensions=extensions), current)
-    return floor, _faults(data, current, base), extended_model, model_file_dict(data, base)
+    return _faults(data, current, base), extended_model, model_file_dict(data, base)
+
+
+def _noise_floor(data: Data) -> NoiseFloor:
+    """The record's noise floor (:func:`~creepcomp.fit.noise.noise_floor`) against which the
+    verdict judges the misfit."""
+    return noise_floor(data.signal, data.load, data.time, follows_lag=True, weights=data.weights,
+                       samples=data.samples)
 
 
 def _verdict(data: Data, search: Search, correction: bool, reduced, t_start: float,
@@ -970,7 +1001,8 @@ def _verdict(data: Data, search: Search, correction: bool, reduced, t_start: flo
         parts = workers.map(_verdict_part, (current, base, correction), ["correction", "record"],
                             ["correction", "record"])
     workers.release()
-    corr, (floor, faults, extended_model, baseline_model) = parts
+    corr, (faults, extended_model, baseline_model) = parts
+    floor = search.floor if search.floor is not None else _noise_floor(data)
     catch, unexplained = _unexplained(data, search, floor)
     gain = {"heldout_rms_ratio": base.heldout.rms / current.heldout.rms if current.heldout.rms > 0 else None,
             "correction_error_ratio": None}

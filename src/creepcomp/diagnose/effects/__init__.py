@@ -33,11 +33,13 @@ An effect defined elsewhere (a plug-in, a test) joins at run time through :func:
 from __future__ import annotations
 
 import abc
+import contextvars
 import importlib
 import math
 import pkgutil
 import re
 import warnings
+from contextlib import contextmanager
 
 import numpy as np
 
@@ -52,7 +54,7 @@ from creepcomp.diagnose.effects._sensor import Scales, SignalPath, Simulated
 __all__ = ["Effect", "SensorEffect", "Scales", "SignalPath", "Simulated", "REGISTRY", "register",
            "unregister", "effects_on", "sensor_effects", "flow_effect", "get", "arrays_data", "model_structure",
            "simulate_extended", "compensate_extended", "UnsettledInverse", "extension_inverses", "BASELINE_ADVICE",
-           "firmware_output", "in_record_units"]
+           "firmware_output", "in_record_units", "fresh_fits", "fresh_fits_ahead"]
 
 
 #: Most evaluations of each refinement of a quick fit (``refine="own"``) whose creep term starts
@@ -330,20 +332,42 @@ class SensorEffect(Effect, Simulated):
                             n_refine=1)
         return alt if alt.bic < fit.bic else fit
 
+    #: The refinement (``own`` or ``all``) of the quick fit's fit with the creep term started
+    #: afresh (:meth:`with_fresh_term`) when that fit reads the record only (the effect's
+    #: settings and start values do not read the baseline): a diagnosis runs it beside the
+    #: baseline's own fit (:func:`fresh_fits_ahead`). None: not run ahead.
+    fresh_ahead: str | None = None
+
     def with_fresh_term(self, data: Data, base: Fit, fit: Fit, refine: str, start: dict | None,
                         settings: tuple | None, screening: bool | None = None) -> Fit:
-        """``fit`` (this effect on a one-term ``base``), or the effect fitted with the creep
-        term started afresh from a grid of time constants (crossed with the effect's own start
-        values, or the :data:`FRESH_OWN_STARTS` best of them) when that fits better: for effects
-        that the base's one term may have mimicked (a delay by a fast term of large beta, flow
-        by a term longer than the record), whose fit from the base's values then stays there.
+        """``fit`` (this effect on a one-term ``base``), or the effect fitted with the creep term
+        started afresh (:meth:`fresh_term_fit`) when that fits better: for effects that the
+        base's one term may have mimicked (a delay by a fast term of large beta, flow by a term
+        longer than the record), whose fit from the base's values then stays there.
         ``screening``: a quick fit, whose refinements stop after :data:`SCREEN_ITERATIONS`
         (default: when ``refine`` is ``own``)."""
         if refine == "none" or start is not None or base.structure.n_terms != 1 or base.structure.effects:
             return fit
+        quick = screening or (screening is None and refine == "own")
+        key = (self.name, refine, settings, bool(quick))
+        ahead = _FRESH_AHEAD.get()
+        alt = ahead[key] if key in ahead else self.fresh_term_fit(data, base, refine, settings, quick)
+        return alt if alt is not None and alt.bic < fit.bic else fit
+
+    def fresh_term_fit(self, data: Data, base: Fit | None, refine: str, settings: tuple | None,
+                       quick: bool) -> Fit | None:
+        """The effect on a one-term ``base`` (None: the one-term structure, for an effect whose
+        fit reads the record only, :attr:`fresh_ahead`) with the creep term started afresh from
+        a grid of time constants, crossed with the effect's own start values (or the
+        :data:`FRESH_OWN_STARTS` best of them); None when it cannot be fitted. ``quick``: its
+        refinement stops after :data:`SCREEN_ITERATIONS`."""
         from creepcomp.fit.starts import one_term_starts
 
-        applied, structure = self._on(data, base, settings)
+        if base is None:
+            applied = Applied(self, self.settings(data, None) if settings is None else settings)
+            structure = self.extend(Structure(1), applied)
+        else:
+            applied, structure = self._on(data, base, settings)
         grid = one_term_starts(data)
         owns = [{self._key(applied, k): v for k, v in own.items()} for own in self.starts(data, base, applied)]
         try:
@@ -354,12 +378,10 @@ class SensorEffect(Effect, Simulated):
                 cost = [min(problem.cost(dict(t, **own)) for t in probe) for own in owns]
                 owns = [owns[i] for i in np.argsort(cost, kind="stable")[:FRESH_OWN_STARTS]]
             fresh = [dict(t, **own) for t in grid for own in owns]
-            quick = screening or (screening is None and refine == "own")
-            alt = fit_structure(data, structure, fresh, n_refine=1, with_cov=refine == "all",
-                                max_nfev=SCREEN_ITERATIONS if quick else None)
+            return fit_structure(data, structure, fresh, n_refine=1, with_cov=refine == "all",
+                                 max_nfev=SCREEN_ITERATIONS if quick else None)
         except (InputError, np.linalg.LinAlgError, ValueError):
-            return fit
-        return alt if alt.bic < fit.bic else fit
+            return None
 
     def record_fault(self, fit: Fit, applied: Applied, data: Data) -> np.ndarray | None:
         """What a fault of the record adds to the signal (signal units), where it can be taken
@@ -384,6 +406,33 @@ class SensorEffect(Effect, Simulated):
         """The importance of a finding of :meth:`screen` and a note for the named findings
         (None: none): ``named`` tells whether there are any."""
         return math.inf, None
+
+
+_FRESH_AHEAD: contextvars.ContextVar = contextvars.ContextVar("fresh_ahead", default={})
+
+
+@contextmanager
+def fresh_fits(ahead: dict):
+    """Within it, :meth:`SensorEffect.with_fresh_term` takes the fits with the creep term
+    started afresh from ``ahead`` (:func:`fresh_fits_ahead`) instead of fitting them."""
+    token = _FRESH_AHEAD.set(ahead)
+    try:
+        yield
+    finally:
+        _FRESH_AHEAD.reset(token)
+
+
+def fresh_fits_ahead(data: Data, effect: "SensorEffect") -> dict:
+    """The quick fit's fit of ``effect`` with the creep term started afresh on the one-term
+    baseline (:attr:`SensorEffect.fresh_ahead`), before the baseline is fitted, for
+    :func:`fresh_fits` (empty when the effect has none)."""
+    from creepcomp.fit.solver import screening
+
+    refine = getattr(effect, "fresh_ahead", None)
+    if refine is None:
+        return {}
+    with screening():
+        return {(effect.name, refine, None, True): effect.fresh_term_fit(data, None, refine, None, True)}
 
 
 def _discover() -> dict[str, Effect]:

@@ -76,6 +76,7 @@ class TimeOffset(SensorEffect):
     parameters = ("delay", "width")
     parameter_units = {"width": "s"}
     summary = "signal and load sampled at different instants (or the signal averaged over a window)"
+    fresh_ahead = "own"
 
     def settings(self, data, base):
         return (("window", True),)

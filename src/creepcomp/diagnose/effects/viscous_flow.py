@@ -45,6 +45,7 @@ class ViscousFlow(SensorEffect):
     one_sided = True
     parameters = ("rate",)
     summary = "creep that never saturates (a dashpot in series: Burgers model)"
+    fresh_ahead = "all"       # (its quick fit frees the base's time constants, see fit_on)
 
     def settings(self, data: Data, base: Fit) -> tuple:
         return (("span", data.span), ("load_scale", data.load_scale))
