@@ -41,6 +41,38 @@ def test_items_run_in_two_processes_and_come_back_in_order():
     assert len({pid for _, pid in out}) == 2
 
 
+def _sleeps(shared, common, item):
+    time.sleep(item)
+    return os.getpid()
+
+
+@linux
+def test_a_kind_of_task_is_known_by_the_longest_of_its_last_runs(monkeypatch):
+    # a task once long is handed out first (started last, it would leave one process waiting
+    # for all of it); the split of a test reads the last run
+    from creepcomp.diagnose import workers as module
+    from creepcomp.diagnose.workers import last_seconds
+
+    monkeypatch.setattr(module, "_TASK_SECONDS", {})
+    with Workers(2, 0) as workers:
+        workers.map(_sleeps, None, [0.2, 0.01, 0.01], ["slow", "a", "b"])
+        for _ in range(module._TASKS_KEPT - 1):
+            workers.map(_sleeps, None, [0.01, 0.06, 0.06], ["slow", "a", "b"])
+        assert last_seconds(_sleeps, "slow") < 0.05
+        kept = module._TASK_SECONDS[("_sleeps", "slow")]
+        assert len(kept) == module._TASKS_KEPT and max(kept) >= 0.2
+        # handed out first: the kind known as longest, though short in its last runs
+        orders = []
+        dumps = module._dumps
+        monkeypatch.setattr(module, "_dumps", lambda value: orders.append(value[3]) or dumps(value))
+        workers.map(_sleeps, None, [0.06, 0.01, 0.06], ["a", "slow", "b"])
+        assert orders[-1][0] == 1
+        workers.map(_sleeps, None, [0.06, 0.01, 0.06], ["a", "slow", "b"])
+        assert max(module._TASK_SECONDS[("_sleeps", "slow")]) < 0.05     # (the long run aged out)
+        workers.map(_sleeps, None, [0.06, 0.01, 0.06], ["a", "slow", "b"])
+        assert orders[-1][0] != 1
+
+
 @linux
 def test_released_workers_end_while_this_process_goes_on_and_a_later_call_forks_anew():
     with Workers(2, 0) as workers:

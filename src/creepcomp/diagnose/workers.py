@@ -25,15 +25,20 @@ from creepcomp.fit.solver import DeferredCovariance
 
 __all__ = ["Workers", "available_cores", "last_seconds"]
 
-#: Seconds the last task of each kind took (by function and key), in this process: the
-#: longest known are handed out first, so that no process is left with a long one at the end.
+#: Seconds the last few tasks of each kind took (by function and key), in this process, the
+#: last one last: the longest known are handed out first, so that no process is left with a
+#: long one at the end. A kind is known by the longest of its last :data:`_TASKS_KEPT` (a
+#: task's time changes from record to record: one taken for short and started last costs
+#: the wait for all of it, one taken for long and started early nothing).
 _TASK_SECONDS: dict = {}
+_TASKS_KEPT = 5
 
 
 def last_seconds(fn: Callable, key) -> float | None:
     """Seconds the last task of this kind took (``fn`` and the key given to :meth:`Workers.map`)
     in this process, or None when none has run side by side yet."""
-    return _TASK_SECONDS.get((fn.__name__, key))
+    seen = _TASK_SECONDS.get((fn.__name__, key))
+    return seen[-1] if seen else None
 
 
 def available_cores() -> int:
@@ -156,7 +161,7 @@ class Workers:
         if not self._processes:
             self._start()
         kinds = [(fn.__name__, key) for key in keys] if keys is not None else [None] * len(items)
-        order = sorted(range(len(items)), key=lambda i: -_TASK_SECONDS.get(kinds[i], float("inf")))
+        order = sorted(range(len(items)), key=lambda i: -max(_TASK_SECONDS.get(kinds[i], [float("inf")])))
         with self._counter.get_lock():
             self._counter.value = 0
         message = _dumps((fn, common, items, order))
@@ -184,7 +189,7 @@ class Workers:
             raise RuntimeError(f"a worker process failed:\n{failed}")
         for kind, took in zip(kinds, seconds):
             if kind is not None:
-                _TASK_SECONDS[kind] = took
+                _TASK_SECONDS[kind] = (_TASK_SECONDS.get(kind, []) + [took])[-_TASKS_KEPT:]
         return out
 
     def release(self) -> None:
