@@ -425,14 +425,18 @@ def fresh_fits(ahead: dict):
 def fresh_fits_ahead(data: Data, effect: "SensorEffect") -> dict:
     """The quick fit's fit of ``effect`` with the creep term started afresh on the one-term
     baseline (:attr:`SensorEffect.fresh_ahead`), before the baseline is fitted, for
-    :func:`fresh_fits` (empty when the effect has none)."""
+    :func:`fresh_fits` (empty when the effect has none, or when its settings or starts fail:
+    the quick fit then meets the failure itself, and its trial says why)."""
     from creepcomp.fit.solver import screening
 
     refine = getattr(effect, "fresh_ahead", None)
     if refine is None:
         return {}
-    with screening():
-        return {(effect.name, refine, None, True): effect.fresh_term_fit(data, None, refine, None, True)}
+    try:
+        with screening():
+            return {(effect.name, refine, None, True): effect.fresh_term_fit(data, None, refine, None, True)}
+    except (InputError, np.linalg.LinAlgError, ValueError):
+        return {}
 
 
 def _discover() -> dict[str, Effect]:
