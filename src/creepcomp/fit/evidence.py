@@ -99,7 +99,7 @@ def predict_held_out(blocks: np.ndarray, folds: int,
     refits of a list of ``keep`` side by side, in place of ``refit``. Both fits use it:
     :func:`heldout` and :func:`creepcomp.fit.circuit.with_heldout`."""
     fold = blocks % folds
-    inside = [fold == b for b in range(folds) if np.any(fold == b)]
+    inside = [held for held in (fold == b for b in range(folds)) if held.any()]
     keeps = [~i for i in inside]
     residuals = refit_all(keeps) if refit_all is not None else [refit(keep) for keep in keeps]
     resid = np.empty(len(blocks))
