@@ -258,6 +258,75 @@ def test_sigterm_stops_a_command_as_ctrl_c_does_and_leaves_nothing(tmp_path, mon
     assert signal.getsignal(signal.SIGTERM) == before
 
 
+def test_a_signal_held_while_a_step_runs_is_taken_at_its_end():
+    from creepcomp.interrupts import interrupts_held
+
+    class Stopped(Exception):
+        pass
+
+    def stop(signum, frame):
+        raise Stopped
+
+    previous = signal.signal(signal.SIGTERM, stop)
+    steps = []
+    try:
+        with pytest.raises(Stopped):
+            with interrupts_held():
+                os.kill(os.getpid(), signal.SIGTERM)
+                steps.append("after the signal")
+            steps.append("after the block")
+        assert steps == ["after the signal"] and signal.getsignal(signal.SIGTERM) is stop
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+class _HalfMade:
+    """An object whose ``__del__`` fails, as a library's does when an interrupt cuts its
+    constructor short."""
+
+    def __del__(self):
+        raise AttributeError("'_HalfMade' object has no attribute '_owned'")
+
+
+@pytest.mark.parametrize("signum, status, line", [(signal.SIGTERM, 143, "terminated"),
+                                                  (signal.SIGINT, 130, "interrupted")])
+def test_a_stop_reports_one_line_even_when_an_object_cut_short_fails_in_its_del(
+        signum, status, line, tmp_path, monkeypatch, run_cli):
+    import creepcomp.io.jsonfiles as jsonfiles
+
+    real = jsonfiles.to_json
+    reported = []
+    monkeypatch.setattr(sys, "unraisablehook", reported.append)
+
+    def stopped_while_building(obj):
+        half_made = _HalfMade()  # noqa: F841 (freed as the interrupt unwinds this frame)
+        os.kill(os.getpid(), signum)
+        return real(obj)
+
+    monkeypatch.setattr(jsonfiles, "to_json", stopped_while_building)
+    code, _, err = run_cli("size", "--model", MODEL, "-o", tmp_path / "d.json")
+    assert code == status and err.strip() == f"creepcomp: error: {line}", err
+    assert reported == []
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_an_object_failing_in_its_del_is_reported_when_nothing_stops(tmp_path, monkeypatch,
+                                                                     run_cli):
+    import creepcomp.io.jsonfiles as jsonfiles
+
+    real = jsonfiles.to_json
+    reported = []
+    monkeypatch.setattr(sys, "unraisablehook", reported.append)
+
+    def with_a_failing_del(obj):
+        _HalfMade()
+        return real(obj)
+
+    monkeypatch.setattr(jsonfiles, "to_json", with_a_failing_del)
+    code, _, _ = run_cli("size", "--model", MODEL, "-o", tmp_path / "d.json")
+    assert code == 0 and [type(u.exc_value) for u in reported] == [AttributeError]
+
+
 def _group(pgid: int) -> list[int]:
     """Processes of the process group ``pgid`` (zombies excluded)."""
     found = []
@@ -272,33 +341,91 @@ def _group(pgid: int) -> list[int]:
     return found
 
 
-@pytest.mark.skipif(not Path("/proc").is_dir(), reason="lists processes through /proc")
-def test_sigterm_to_mc_stops_its_workers(tmp_path):
-    """SIGTERM to a running ``mc`` with worker processes: exit 143, one line, no report, and no
-    process of its group left running."""
+def _terminated_with_workers(args: list[str], whole_group: bool) -> tuple[int, str]:
+    """Run ``creepcomp args`` in a process group of its own, send SIGTERM once a worker process
+    has started (to the command, or to its whole group); returns the exit status and stderr,
+    after checking that no process of the group is left."""
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1",
                PYTHONPATH=str(Path(__file__).resolve().parents[1] / "src"))
-    report = tmp_path / "mc.html"
-    proc = subprocess.Popen([sys.executable, "-c", "from creepcomp.cli import run; run()", "mc",
-                             str(DESIGN), "--n", "5000000", "--report", str(report)],
+    proc = subprocess.Popen([sys.executable, "-c", "from creepcomp.cli import run; run()", *args],
                             env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                             start_new_session=True)
     try:
         deadline = time.monotonic() + 60
         while len(_group(proc.pid)) < 2 and time.monotonic() < deadline and proc.poll() is None:
-            time.sleep(0.05)
+            time.sleep(0.02)
         assert len(_group(proc.pid)) >= 2, "no worker process started"
-        proc.send_signal(signal.SIGTERM)
+        if whole_group:
+            os.killpg(proc.pid, signal.SIGTERM)
+        else:
+            proc.send_signal(signal.SIGTERM)
         _, err = proc.communicate(timeout=60)
-        assert proc.returncode == 143 and err.strip().endswith("creepcomp: error: terminated"), err
         deadline = time.monotonic() + 10
         while _group(proc.pid) and time.monotonic() < deadline:
             time.sleep(0.05)
         assert _group(proc.pid) == []
-        assert list(tmp_path.iterdir()) == []
+        return proc.returncode, err
     finally:
         for pid in _group(proc.pid):
             os.kill(pid, signal.SIGKILL)
+
+
+@pytest.mark.skipif(not Path("/proc").is_dir(), reason="lists processes through /proc")
+def test_sigterm_to_mc_stops_its_workers(tmp_path):
+    """SIGTERM to a running ``mc`` with worker processes: exit 143, one line, no report, and no
+    process of its group left running."""
+    status, err = _terminated_with_workers(["mc", str(DESIGN), "--n", "5000000", "--report",
+                                            str(tmp_path / "mc.html")], whole_group=False)
+    assert status == 143 and err.strip().endswith("creepcomp: error: terminated"), err
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.skipif(not Path("/proc").is_dir(), reason="lists processes through /proc")
+def test_sigterm_to_the_process_group_of_diagnose_is_one_line(tmp_path):
+    """SIGTERM to the whole group of ``diagnose --jobs 2`` (as a service manager sends it): the
+    worker processes leave it to the main one: exit 143, one line, no output, no process left."""
+    out = tmp_path / "out"
+    status, err = _terminated_with_workers(["diagnose", str(RECORD), "--jobs", "2", "-o", str(out)],
+                                           whole_group=True)
+    assert status == 143 and err.strip() == "creepcomp: error: terminated", err
+    assert not out.exists()
+
+
+@pytest.mark.skipif((os.cpu_count() or 1) < 2, reason="mc starts worker processes on 2 cores or more")
+@pytest.mark.parametrize("when", ["a process started", "the pool's thread starting"])
+def test_sigterm_while_mc_starts_its_workers_stops_them(when, tmp_path, monkeypatch, run_cli):
+    """SIGTERM at either point where the pool starts (some processes forked and no thread yet to
+    stop them; the thread started and not yet running): exit 143, the processes ended."""
+    from concurrent.futures import process
+
+    started = []
+    spawn, start = process.ProcessPoolExecutor._spawn_process, process._ExecutorManagerThread.start
+
+    def spawned(pool):
+        spawn(pool)
+        started.extend(pool._processes.values())
+        if when == "a process started" and len(started) == 1:
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    def starting(thread):
+        if when == "the pool's thread starting":
+            os.kill(os.getpid(), signal.SIGTERM)
+        start(thread)
+
+    monkeypatch.setattr(process.ProcessPoolExecutor, "_spawn_process", spawned)
+    monkeypatch.setattr(process._ExecutorManagerThread, "start", starting)
+    try:
+        status, _, err = run_cli("mc", DESIGN, "--n", "200000", "--report", tmp_path / "mc.html")
+        assert status == 143 and err.strip().endswith("creepcomp: error: terminated"), err
+        assert started
+        for worker in started:
+            worker.join(10)
+        assert not any(worker.is_alive() for worker in started)
+        assert list(tmp_path.iterdir()) == []
+    finally:
+        for worker in started:
+            if worker.is_alive():
+                worker.kill()
 
 
 def test_an_interrupted_firmware_verify_leaves_no_c_files(tmp_path, monkeypatch, run_cli):

@@ -12,7 +12,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "src" / "creepcomp"
 #: The stages in the order of their dependencies: a module may import its own stage and the
 #: ones before it (``docs/layout.md`` says what each holds).
 STAGES = (
-    ("edges", ("errors", "units")),
+    ("edges", ("errors", "units", "interrupts")),
     ("kernel", ("recursions", "lti", "temperature", "model", "network", "active_stage", "programs")),
     ("io", ("io",)),
     ("data", ("data",)),

@@ -127,6 +127,39 @@ def test_a_worker_process_that_ends_without_answering_is_an_error_not_a_wait():
     workers.close()
 
 
+@linux
+def test_workers_leave_sigterm_to_this_process_and_an_interrupted_close_kills_them():
+    # a service manager's SIGTERM reaches the whole group: the workers ignore it (a worker gone
+    # at once would fail the call before this process takes its own); the interpreter's exit
+    # ends what is left with SIGTERM, so an interrupted close kills them instead
+    import signal
+
+    workers = Workers(2, 0)
+    workers.map(_where, 0, range(4))
+    process = workers._processes[0]
+    os.kill(process.pid, signal.SIGTERM)
+    assert [v for v, _ in workers.map(_where, 1, range(6))] == list(range(6))
+    assert process.is_alive()
+    with workers._counter.get_lock():      # the worker busy for 30 s
+        workers._counter.value = 0
+    workers._connections[0].send_bytes(_dumps((_sleeps, None, [30.0], [0])))
+    joins = []
+    join = process.join
+
+    def interrupted_once(timeout=None):
+        joins.append(timeout)
+        if len(joins) == 1:
+            raise KeyboardInterrupt
+        return join(timeout)
+
+    process.join = interrupted_once
+    start = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        workers.close()
+    assert process.exitcode == -signal.SIGKILL and time.monotonic() - start < 10
+    assert workers._ending == []
+
+
 def test_a_registered_effect_is_unpickled_as_the_registrys_own():
     for effect in effects.REGISTRY.values():
         assert pickle.loads(pickle.dumps(effect)) is effect

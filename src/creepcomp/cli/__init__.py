@@ -92,6 +92,8 @@ class Terminated(KeyboardInterrupt):
 
 
 _terminated = threading.Event()
+#: A Ctrl-C or SIGTERM came: the command is stopping.
+_stopping = threading.Event()
 
 #: Seconds after which a SIGTERM is delivered again while the command still runs.
 REDELIVER_AFTER = 0.5
@@ -103,11 +105,27 @@ def _raise_terminated(signum, frame) -> None:
     # lost and the command would run on: deliver the signal again until it is taken
     global _redelivery
     _terminated.set()
+    _stopping.set()
     _cancel_redelivery()
     _redelivery = threading.Timer(REDELIVER_AFTER, os.kill, (os.getpid(), signal.SIGTERM))
     _redelivery.daemon = True
     _redelivery.start()
     raise Terminated()
+
+
+def _raise_interrupted(signum, frame) -> None:
+    _stopping.set()
+    raise KeyboardInterrupt
+
+
+def _quiet_when_stopping(hook):
+    """``sys.unraisablehook`` that reports nothing once the command is stopping: an object of a
+    library cut short in its constructor by the interrupt (llvmlite's, while numba compiles)
+    fails in its ``__del__``, a consequence of the stop and not a fault of its own."""
+    def report(unraisable) -> None:
+        if not _stopping.is_set():
+            hook(unraisable)
+    return report
 
 
 def _cancel_redelivery() -> None:
@@ -126,7 +144,13 @@ def main(argv: list[str] | None = None) -> int:
     if threading.current_thread() is not threading.main_thread():
         return _main(argv)
     _terminated.clear()
+    _stopping.clear()
     previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    previous_int = signal.getsignal(signal.SIGINT)
+    if previous_int is signal.default_int_handler:  # (not when Ctrl-C is ignored)
+        signal.signal(signal.SIGINT, _raise_interrupted)
+    previous_hook = sys.unraisablehook
+    sys.unraisablehook = _quiet_when_stopping(previous_hook)
     try:
         return _main(argv)
     except Terminated:  # a SIGTERM after the command's own handling, while printing the line
@@ -134,6 +158,9 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         _cancel_redelivery()
         signal.signal(signal.SIGTERM, previous)
+        if previous_int is signal.default_int_handler:
+            signal.signal(signal.SIGINT, previous_int)
+        sys.unraisablehook = previous_hook
 
 
 def _stopped() -> int:

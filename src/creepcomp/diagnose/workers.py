@@ -22,6 +22,7 @@ import traceback
 from typing import Any, Callable, Sequence
 
 from creepcomp.fit.solver import DeferredCovariance
+from creepcomp.interrupts import interrupts_held
 
 __all__ = ["Workers", "available_cores", "last_seconds"]
 
@@ -86,8 +87,11 @@ def _serve(connection, counter, shared) -> None:
     sends back what it computed (an exception as its text: it need not pickle)."""
     from creepcomp.lti import compiled_loops
 
-    # (an interrupt is the diagnosis's to handle: it ends the workers when it ends)
+    # Ctrl-C and SIGTERM reach a whole process group (a terminal's, a service manager's): the
+    # diagnosis handles them and ends the workers when it ends (a worker gone at once would
+    # fail the call it serves before the diagnosis has taken its own signal)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
     while True:
         try:
             message = connection.recv_bytes()
@@ -104,7 +108,10 @@ def _serve(connection, counter, shared) -> None:
                     done.append((i, *_timed(fn, shared, common, items[i]), None))
                 except Exception:
                     done.append((i, None, 0.0, traceback.format_exc()))
-        connection.send_bytes(_dumps(done))
+        try:
+            connection.send_bytes(_dumps(done))
+        except OSError:         # (the diagnosis stopped before reading it)
+            return
 
 
 class Workers:
@@ -159,7 +166,8 @@ class Workers:
         if len(items) < 2 or not self.parallel:
             return [fn(self.shared, common, item) for item in items]
         if not self._processes:
-            self._start()
+            with interrupts_held():  # (a process forked is one listed, to be ended)
+                self._start()
         kinds = [(fn.__name__, key) for key in keys] if keys is not None else [None] * len(items)
         order = sorted(range(len(items)), key=lambda i: -max(_TASK_SECONDS.get(kinds[i], [float("inf")])))
         with self._counter.get_lock():
@@ -205,11 +213,20 @@ class Workers:
         self._ending, self._processes = self._ending + self._processes, []
 
     def close(self) -> None:
-        """Ends the worker processes."""
+        """Ends the worker processes: waits for them, or kills them when the wait is
+        interrupted (they ignore SIGTERM, which the interpreter's exit would send them)."""
         self.release()
-        for process in self._ending:
-            process.join()
-        self._ending = []
+        try:
+            for process in self._ending:
+                process.join()
+        except BaseException:
+            for process in self._ending:
+                process.kill()
+            for process in self._ending:
+                process.join()
+            raise
+        finally:
+            self._ending = []
 
     def __enter__(self) -> "Workers":
         return self

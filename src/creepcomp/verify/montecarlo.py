@@ -20,6 +20,7 @@ from typing import Callable
 import numpy as np
 
 from creepcomp.errors import CreepcompError, InputError
+from creepcomp.interrupts import interrupts_held
 from creepcomp.io.jsonfiles import Design
 from creepcomp.verify.drive import (DEFAULT_SIGNAL, fastest_time_constant, largest_step, rise_time,
                                     slowest_time_constant, synthetic_program, transient_times)
@@ -322,8 +323,9 @@ def run_monte_carlo(design: Design, spec: ToleranceSpec, n: int, seed: int = 0,
                     for lo in range(0, size, chunk)]
             parts = []
             if pool is not None:
-                futures = [pool.submit(evaluate, design, sub, period, spec.dielectric,
-                                       spec.temperature, s, over) for sub, s in jobs]
+                with interrupts_held():  # (the first submit starts the pool's processes)
+                    futures = [pool.submit(evaluate, design, sub, period, spec.dielectric,
+                                           spec.temperature, s, over) for sub, s in jobs]
                 results = (f.result() for f in futures)
             else:
                 results = (evaluate(design, sub, period, spec.dielectric, spec.temperature, s, over)
