@@ -304,10 +304,15 @@ def test_a_stop_reports_one_line_even_when_an_object_cut_short_fails_in_its_del(
         return real(obj)
 
     monkeypatch.setattr(jsonfiles, "to_json", stopped_while_building)
-    code, _, err = run_cli("size", "--model", MODEL, "-o", tmp_path / "d.json")
+    # Ctrl-C as on a terminal (a shell starts a background job with it ignored)
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        code, _, err = run_cli("size", "--model", MODEL, "-o", tmp_path / "d.json")
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGINT, before)
     assert code == status and err.strip() == f"creepcomp: error: {line}", err
     assert reported == []
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
 def test_an_object_failing_in_its_del_is_reported_when_nothing_stops(tmp_path, monkeypatch,
