@@ -369,12 +369,7 @@ def _heldout_side_by_side(data: Data, fit: Fit, workers: Workers) -> Fit:
     ``workers`` (when it has processes side by side): the same prediction."""
     if workers.width == 1:
         return heldout(data, fit)
-    return heldout(data, fit, refit_all=lambda keeps: workers.map(_fold_refitted, fit, keeps))
-
-
-def _fold_refitted(data: Data, fit: Fit, keep: np.ndarray) -> np.ndarray:
-    """A held-out refit (:func:`~creepcomp.fit.evidence.fold_refit`) as a task of :class:`Workers`."""
-    return fold_refit(data, fit, keep)
+    return heldout(data, fit, refit_all=lambda keeps: workers.map(fold_refit, fit, keeps))
 
 
 #: Candidates refined fully at each step (the best by the quick fit, plus any that already
