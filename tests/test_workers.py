@@ -260,26 +260,6 @@ def test_refining_ahead_of_the_ranks_changes_no_candidate(monkeypatch):
     assert any(ahead_of_rank)                 # (the rule was put to use)
 
 
-def test_a_fit_whose_starts_are_refined_side_by_side_is_the_one_refined_here():
-    from creepcomp.fit.solver import Problem, fit_structure
-    from creepcomp.fit.starts import one_term_starts
-    from creepcomp.fit.structure import Structure
-
-    fitted = prepare(data.hidden_effect())
-    calls = []
-
-    def refine_all(structure, starts, max_nfev, ftol):
-        calls.append(len(starts))
-        return [Problem(fitted, structure).refine(x0, max_nfev, ftol) for x0 in starts[::-1]][::-1]
-
-    here = fit_structure(fitted, Structure(1), one_term_starts(fitted))
-    side = fit_structure(fitted, Structure(1), one_term_starts(fitted), refine_all=refine_all)
-    assert calls == [2] and side.values == here.values and side.bic == here.bic
-    with pytest.raises(ValueError, match="refine_all"):
-        fit_structure(fitted, Structure(1), one_term_starts(fitted), refine_all=refine_all,
-                      mask=np.arange(fitted.n) < fitted.n // 2)
-
-
 def test_held_out_refits_side_by_side_are_those_made_one_after_the_other():
     from creepcomp.fit.evidence import fold_refit, heldout
 

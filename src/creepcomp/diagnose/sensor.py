@@ -451,7 +451,7 @@ class Search:
         ``((model, baseline), parts)``: the verdict's parts (:func:`_verdict_part`) computed
         ahead for a model and baseline (none yet: both None).
     floor : NoiseFloor or None
-        The record's noise floor, computed beside the baseline's fit (None: not yet).
+        The record's noise floor, computed beside the baseline's fit.
     """
 
     current: Fit
@@ -516,7 +516,7 @@ def _refined(data: Data, current: Fit, candidate: Candidate) -> Candidate:
 
 
 def _screen(data: Data, current: Fit, pool, step: int, trials: list, workers: Workers,
-            verdict: tuple | None = None, fresh: dict | None = None) -> tuple[Fit, list[Candidate], tuple | None]:
+            verdict: tuple | None = None, fresh: dict | None = None) -> tuple[list[Candidate], tuple | None]:
     """Every applicable candidate fitted on top of ``current``: a quick fit of its own
     parameters first (the current model's held); then all parameters together for the
     :data:`REFINED` best and for any other that already lowers BIC, when they raise the
@@ -526,30 +526,25 @@ def _screen(data: Data, current: Fit, pool, step: int, trials: list, workers: Wo
     The candidates' fits run side by side in ``workers``: one that lowers BIC, or with two
     processes or more raises it by less than :data:`~creepcomp.fit.evidence.BIC_STRONG`, is
     refined right after its quick fit (:func:`_refined_ahead`: a refinement left until the
-    ranks are known would run in a short map of its own, one process waiting for the other);
-    so does the current model's held-out prediction when it has none yet (the candidates do
-    not need it).
+    ranks are known would run in a short map of its own, one process waiting for the other).
     ``verdict``: ``(baseline, correction)`` (baseline None: ``current`` is it); when
     refinements are left after the screen and no other candidate is strong enough to be
     tested, the step likely ends here: the verdict's parts (:func:`_verdict_part`) for
-    ``current`` run beside those refinements. ``fresh``: fits with the creep term started
-    afresh, run ahead (:func:`~creepcomp.diagnose.effects.fresh_fits`).
+    ``current``, and the catch-all on top of it, run beside those refinements. ``fresh``:
+    fits with the creep term started afresh, run ahead
+    (:func:`~creepcomp.diagnose.effects.fresh_fits`).
 
     Returns
     -------
-    current : Fit
-        ``current`` with its held-out prediction.
     candidates : list of Candidate
     verdict : tuple or None
-        ``((current, baseline), parts)`` when the verdict's parts ran, else None.
+        ``(((current, baseline), parts), (current, catch-all))`` when the verdict's parts ran
+        (:attr:`Search.verdict_on`, :attr:`Search.catch_all_on`), else None.
     """
-    tasks = ([None] if current.heldout is None else []) + list(pool)
     # (a candidate's quick fit takes longer at the first step, from the one-term baseline: its
     # time there is known apart, for the longest to run first)
-    done = workers.map(_quick_task, (current, step, workers.width > 1, fresh or {}), tasks,
-                       [(e.name if e else "held-out", step == 1) for e in tasks])
-    if current.heldout is None:
-        current = done.pop(0)
+    done = workers.map(_quick_task, (current, step, workers.width > 1, fresh or {}), pool,
+                       [(e.name, step == 1) for e in pool])
     screened = []        # [quick fit, its refinement or None]
     for candidate, full, tried in done:
         trials.extend(tried)
@@ -566,7 +561,7 @@ def _screen(data: Data, current: Fit, pool, step: int, trials: list, workers: Wo
         parts = []
         if verdict is not None and not any((quick if full is None else full).delta_bic <= -BIC_STRONG
                                            for quick, full in screened):
-            parts = ["correction", "record"]
+            parts = ["correction", "record", "catch-all"]
             base = current if verdict[0] is None else verdict[0]
         common = (current, base, verdict[1]) if parts else (current, None, None)
         done = workers.map(_later_task, common, [pair[0] for pair in later] + parts,
@@ -574,10 +569,11 @@ def _screen(data: Data, current: Fit, pool, step: int, trials: list, workers: Wo
         for pair, full in zip(later, done):
             pair[1] = full
         if parts:
-            ahead = ((current, base), done[len(later):])
+            correction, record, generic = done[len(later):]
+            ahead = (((current, base), [correction, record]), (current, generic))
     fitted = [c for c in (quick if full is None else full for quick, full in screened)
               if not _unphysical(c, step, trials)]
-    return current, sorted(fitted, key=lambda c: c.delta_bic), ahead
+    return sorted(fitted, key=lambda c: c.delta_bic), ahead
 
 
 def _later_task(data: Data, common: tuple, item: "Candidate | str"):
@@ -596,15 +592,12 @@ def _worth_refining(current: Fit, candidate: Candidate, rank: int) -> bool:
     return (rank < REFINED or candidate.delta_bic < 0) and candidate.fit.loglik - current.loglik >= QUICK_HINT
 
 
-def _quick_task(data: Data, common: tuple, effect: Effect | None) -> tuple | Fit:
+def _quick_task(data: Data, common: tuple, effect: Effect) -> tuple:
     """:func:`_quick` as a task of :class:`Workers`: the candidate, its refinement when it is
-    refined ahead of its rank (:func:`_refined_ahead`; else None), and the trials it adds;
-    for ``effect`` None, the current model with its held-out prediction. ``common``: the
-    current model, the step, whether to refine ahead, the fits with a creep term started
-    afresh that ran ahead (:func:`~creepcomp.diagnose.effects.fresh_fits`)."""
+    refined ahead of its rank (:func:`_refined_ahead`; else None), and the trials it adds.
+    ``common``: the current model, the step, whether to refine ahead, the fits with a creep
+    term started afresh that ran ahead (:func:`~creepcomp.diagnose.effects.fresh_fits`)."""
     current, step, ahead, fresh = common
-    if effect is None:
-        return heldout(data, current)
     tried = []
     with effects_pkg.fresh_fits(fresh):
         candidate = _quick(data, current, effect, step, tried)
@@ -811,46 +804,37 @@ def _record(search: Search, accepted: Candidate) -> None:
     search.current = f
 
 
-def _baseline_task(data: Data, common: tuple, item: "np.ndarray | Effect | str"):
-    """A task of :class:`Workers` beside the baseline's fit: a start's refinement
-    (:meth:`~creepcomp.fit.solver.Problem.refine`; ``common``: the structure, the cap on
-    evaluations and the tolerance), or what reads the record only: an effect's fit with the
-    creep term started afresh (:func:`~creepcomp.diagnose.effects.fresh_fits_ahead`), the
-    noise floor (``"floor"``)."""
+def _baseline_task(data: Data, common: None, item: "Effect | str"):
+    """A task of :class:`Workers` at the start of a diagnosis: the baseline (``"baseline"``:
+    the one-term model fitted from a grid of starts, with its held-out prediction, which the
+    first screen's ranks need), or what reads the record only: an effect's fit with the creep
+    term started afresh (:func:`~creepcomp.diagnose.effects.fresh_fits_ahead`), the noise floor
+    (``"floor"``)."""
     if isinstance(item, Effect):
         return effects_pkg.fresh_fits_ahead(data, item)
-    if isinstance(item, str):
+    if item == "floor":
         return _noise_floor(data)
-    structure, max_nfev, ftol = common
-    return Problem(data, structure).refine(item, max_nfev, ftol)
+    return heldout(data, fit_structure(data, Structure(1), one_term_starts(data)))
 
 
 def _search(data: Data, pool, max_effects: int, workers: Workers, correction: bool = True) -> Search:
     """Effects added one at a time while a candidate is supported (steps 1 and 2 of the
-    module's description); the baseline's best starts refined, and the candidates of a step
-    fitted, side by side in ``workers`` (``correction``: the verdict measures the correction,
-    for its parts run ahead, :func:`_screen`)."""
+    module's description); the baseline and the candidates of a step fitted side by side in
+    ``workers`` (``correction``: the verdict measures the correction, for its parts run ahead,
+    :func:`_screen`)."""
     # (with processes side by side, the first screen's fits with a creep term started afresh
-    # run beside the baseline's refinements: they read the record only)
+    # run beside the baseline's fit: they read the record only)
     beside = [e for e in pool if getattr(e, "fresh_ahead", None) and not e.applicable(data, Structure(1))] \
         if workers.width > 1 else []
-    fresh, floor = {}, []
-
-    def refine_all(structure, starts, max_nfev, ftol):
-        done = workers.map(_baseline_task, (structure, max_nfev, ftol), list(starts) + beside + ["floor"],
-                           [None] * len(starts) + [e.name for e in beside] + ["floor"])
-        for ahead in done[len(starts):-1]:
-            fresh.update(ahead)
-        floor.append(done[-1])
-        return done[:len(starts)]
-
-    search = Search(fit_structure(data, Structure(1), one_term_starts(data), refine_all=refine_all))
-    search.floor = floor[0] if floor else None
+    names = ["baseline"] + [e.name for e in beside] + ["floor"]
+    baseline, *fresh_fits, floor = workers.map(_baseline_task, None, ["baseline"] + beside + ["floor"], names)
+    fresh = {key: fit for fits in fresh_fits for key, fit in fits.items()}
+    search = Search(baseline, floor=floor)
     for step in range(1, max_effects + 1):
-        search.current, screened, ahead = _screen(data, search.current, pool, step, search.trials, workers,
-                                                  (search.base, correction), fresh if step == 1 else {})
+        screened, ahead = _screen(data, search.current, pool, step, search.trials, workers,
+                                  (search.base, correction), fresh if step == 1 else {})
         if ahead is not None:
-            search.verdict_on = ahead
+            search.verdict_on, search.catch_all_on = ahead
         fitted = _polished(data, search, screened, workers)
         if search.base is None:
             search.base = search.current
@@ -858,8 +842,6 @@ def _search(data: Data, pool, max_effects: int, workers: Workers, correction: bo
         if accepted is None:
             break
         _record(search, accepted)
-    if search.current.heldout is None:        # (no step searched)
-        search.current = heldout(data, search.current)
     if search.base is None:
         search.base = search.current
     return search
@@ -965,11 +947,14 @@ def _screened(faults: list[tuple[str, dict]], current: Fit, base: Fit,
 
 
 def _verdict_part(data: Data, common: tuple, part: str):
-    """One of the verdict's two independent parts, as a task of :class:`Workers`: the errors
-    of the creep-corrected signal (``correction``: :func:`correction_errors`, empty when not
-    measured), or the rest that needs no model search (``record``: the faults of the record
-    and the two model files)."""
+    """One of the verdict's independent parts, as a task of :class:`Workers`: the errors of
+    the creep-corrected signal (``correction``: :func:`correction_errors`, empty when not
+    measured), the rest that needs no model search (``record``: the faults of the record and
+    the two model files), or the catch-all on top of the model (``catch-all``: :func:`_generic`,
+    when not fitted yet)."""
     current, base, correction = common
+    if part == "catch-all":
+        return _generic(data, current)
     extensions = _extensions(current)
     if part == "correction":
         return correction_errors(data, base, current, extensions) if correction else {}
@@ -987,17 +972,20 @@ def _noise_floor(data: Data) -> NoiseFloor:
 def _verdict(data: Data, search: Search, correction: bool, reduced, t_start: float,
              workers: Workers) -> Diagnosis:
     """The verdict on the search's model (step 3 and 4 of the module's description): the
-    catch-all, the gain, the faults of the record, the findings in order. Its two parts
+    catch-all, the gain, the faults of the record, the findings in order. Its parts
     (:func:`_verdict_part`) run side by side in ``workers``, which are released then, unless
-    they ran ahead for this model (:attr:`Search.verdict_on`)."""
+    they ran ahead for this model (:attr:`Search.verdict_on`); so does the catch-all on top of
+    the model when not fitted yet."""
     current, base, findings = search.current, search.base, list(search.findings)
     (model, baseline), parts = search.verdict_on
     if model is not current or baseline is not base:
-        parts = workers.map(_verdict_part, (current, base, correction), ["correction", "record"],
-                            ["correction", "record"])
+        names = ["correction", "record"] + ["catch-all"] * (not search.has_catch_all())
+        parts = workers.map(_verdict_part, (current, base, correction), names, names)
+        if len(names) > 2:
+            search.catch_all_on = (current, parts.pop())
     workers.release()
     corr, (faults, extended_model, baseline_model) = parts
-    floor = search.floor if search.floor is not None else _noise_floor(data)
+    floor = search.floor
     catch, unexplained = _unexplained(data, search, floor)
     gain = {"heldout_rms_ratio": base.heldout.rms / current.heldout.rms if current.heldout.rms > 0 else None,
             "correction_error_ratio": None}

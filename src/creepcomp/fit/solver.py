@@ -34,12 +34,10 @@ __all__ = ["Fit", "DeferredCovariance", "ANCHOR_WEIGHT", "Problem", "best_of_sta
 
 
 def best_of_starts(residual: Callable[[np.ndarray], np.ndarray], starts: Sequence[np.ndarray],
-                   n_refine: int, refine: Callable[[np.ndarray], np.ndarray] | None,
-                   refine_all: Callable[[list], list] | None = None) -> np.ndarray:
+                   n_refine: int, refine: Callable[[np.ndarray], np.ndarray] | None) -> np.ndarray:
     """The best search point from several starts: the ``n_refine`` starts of lowest cost
     (all of them when there are no more) are refined by ``refine`` (None: kept as they
     are), and the point of least squared ``residual`` is kept (the first of equals).
-    ``refine_all``: refines a list of starts at once (side by side), in place of ``refine``.
 
     Both fits use it: :func:`fit_structure` and :func:`creepcomp.fit.circuit.fit_model`.
     """
@@ -47,8 +45,6 @@ def best_of_starts(residual: Callable[[np.ndarray], np.ndarray], starts: Sequenc
     if len(starts) > n_refine:
         costs = [float(r @ r) for r in map(residual, starts)]
         starts = [starts[i] for i in np.argsort(costs)[:n_refine]]
-    if refine_all is not None:
-        starts, refine = refine_all(starts), None
     best_x, best_cost = None, np.inf
     for x0 in starts:
         x = refine(x0) if refine is not None else x0
@@ -691,8 +687,7 @@ def fit_structure(data: Data, structure: Structure, starts: Sequence[dict], nois
                   mask: np.ndarray | None = None, max_nfev: int | None = None,
                   n_refine: int = 2, with_cov: bool = True, fixed: dict | None = None,
                   anchor: dict | None = None, refine: bool = True, frozen: dict | None = None,
-                  ftol: float = 1e-8, coarse_ftol: float | None = None,
-                  refine_all: Callable | None = None) -> Fit:
+                  ftol: float = 1e-8, coarse_ftol: float | None = None) -> Fit:
     """Fit a structure by least squares (variable projection); likelihood, BIC and
     uncertainties with an AR noise model.
 
@@ -736,14 +731,7 @@ def fit_structure(data: Data, structure: Structure, starts: Sequence[dict], nois
     coarse_ftol : float, optional
         The same for the search of a long record's starts on its coarse record (default
         :data:`COARSE_FTOL`).
-    refine_all : callable, optional
-        ``refine_all(structure, starts, max_nfev, ftol)``: the starts' refinements (search
-        points) on all samples side by side, each as :meth:`Problem.refine` of
-        ``Problem(data, structure)`` gives it (only without ``mask``, ``fixed``, ``anchor``
-        and ``frozen``); default: one after the other here.
     """
-    if refine_all is not None and (mask is not None or fixed or anchor or frozen):
-        raise ValueError("refine_all refines on all samples, without fixed, anchored or frozen parameters")
     problem = Problem(data, structure, mask, fixed=fixed, anchor=anchor, frozen=frozen)
     starts = [problem.start_vector(s) for s in starts]
     if not starts:
@@ -757,8 +745,7 @@ def fit_structure(data: Data, structure: Structure, starts: Sequence[dict], nois
     if coarse is not None or _SCREENING.get():
         ftol = refined_ftol(problem, ftol)
     x = best_of_starts(problem.residual, starts, n_refine,
-                       (lambda x0: problem.refine(x0, max_nfev, ftol)) if refine else None,
-                       (lambda xs: refine_all(structure, xs, max_nfev, ftol)) if refine and refine_all else None)
+                       (lambda x0: problem.refine(x0, max_nfev, ftol)) if refine else None)
     return _finish(problem, x, noise, with_cov)
 
 
