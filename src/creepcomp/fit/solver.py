@@ -208,7 +208,13 @@ def unit_scaled(gram: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     columns scaled to unit norm."""
     norms = np.sqrt(gram.diagonal())
     norms[norms == 0] = 1.0
-    return norms, gram / np.outer(norms, norms)
+    return norms, gram / (norms[:, None] * norms)
+
+
+def _block(matrix: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """The rows and columns of a matrix (positions or masks; ``np.ix_``'s block, without its
+    overhead on the small Gram matrices of a fit's thousands of evaluations)."""
+    return matrix[rows][:, cols]
 
 
 def _solve(aw: np.ndarray, yw: "np.ndarray | Callable[[], np.ndarray]", prior: np.ndarray | None = None,
@@ -229,7 +235,7 @@ def _solve(aw: np.ndarray, yw: "np.ndarray | Callable[[], np.ndarray]", prior: n
         coef = np.zeros(len(live))
         if live.any():
             at = np.flatnonzero(live) if cols is None else np.asarray(cols)[live]
-            coef[live] = _solve(aw, yw, None, gram[np.ix_(live, live)], rhs[live], rows, at)
+            coef[live] = _solve(aw, yw, None, _block(gram, live, live), rhs[live], rows, at)
         return coef
     norms, gram = unit_scaled(gram)
     rhs = rhs / norms
@@ -287,9 +293,9 @@ def _solve_free(a: np.ndarray, y: np.ndarray, gram: np.ndarray, aty: np.ndarray,
     cols, held = np.flatnonzero(free), np.flatnonzero(~free)
     rhs = aty[cols]
     if coef[held].any():
-        rhs = rhs - gram[np.ix_(cols, held)] @ coef[held]
+        rhs = rhs - _block(gram, cols, held) @ coef[held]
     return _solve(a, lambda: y - a[:, held] @ coef[held], None if prior is None else prior[free],
-                  gram[np.ix_(cols, cols)], rhs, cols=cols)
+                  _block(gram, cols, cols), rhs, cols=cols)
 
 
 def _within_step_bounds(layout: _Layout, coef: np.ndarray, free: np.ndarray, limits: np.ndarray) -> np.ndarray:
@@ -535,7 +541,7 @@ class Problem:
         if not len(free):
             return -moved.T / self.scale
         af = a if len(free) == a.shape[1] else a[:, free]
-        sub = gram[np.ix_(free, free)]
+        sub = _block(gram, free, free)
         norms, inverse = _anchored_inverse(sub) if self.anchor else _scaled_inverse(af, sub)
         # -(dA c + A dc) with dc = G^-1 (dA^T r - A^T dA c) on the free columns
         shift = inverse @ (((moved @ af).T - dot_r[free]) / norms[:, None])
@@ -562,7 +568,7 @@ class Problem:
         # others' coefficients zero or left out)
         trial = layout.given.copy()
         target = self.fitted_signal(straddled) - a @ np.where(plain, 0.0, trial)
-        sub = gram[np.ix_(plain, plain)]
+        sub = _block(gram, plain, plain)
         norms, inverse = _anchored_inverse(sub) if self.anchor else _scaled_inverse(None, sub)
         rhs = (a.T @ target)[plain] / norms
         if self.anchor:          # as _step_limits solves it: pulled towards the anchor
@@ -597,8 +603,8 @@ class Problem:
         except (FloatingPointError, ValueError, linalg.LinAlgError):
             return np.zeros((len(self.rows), len(x)))
         r = self.residual(x)
-        unseen = (np.max(np.abs(jac), axis=0) * DIFF_STEP * np.maximum(1.0, np.abs(x))
-                  <= np.finfo(float).eps * np.max(np.abs(r)))
+        unseen = (np.abs(jac).max(axis=0) * DIFF_STEP * np.maximum(1.0, np.abs(x))
+                  <= np.finfo(float).eps * np.abs(r).max())
         if unseen.any():
             jac[:, unseen] = 0.0
         return jac

@@ -227,7 +227,7 @@ def _same_lag_inputs(last, h, key) -> bool:
         same_own = bool(own0 == own)
     except ValueError:          # an array-valued parameter: no reuse
         same_own = False
-    return same_init and same_own and np.array_equal(taus0, taus) and np.array_equal(h0, h)
+    return same_init and same_own and np.array_equal(taus0, taus) and (h0 is h or np.array_equal(h0, h))
 
 
 #: Lag states shared by every fit of the process (the candidate effects of a diagnosis all
@@ -240,7 +240,7 @@ _SHARED_LOCK = threading.Lock()          # a fleet's worker runs units on severa
 def _fingerprint(x: np.ndarray) -> tuple:
     """A few numbers that tell arrays apart cheaply (a match is confirmed in full)."""
     x = np.asarray(x)
-    return (len(x), float(x[0]), float(x[len(x) // 2]), float(x[-1]), float(np.sum(x))) if len(x) else (0,)
+    return (len(x), float(x[0]), float(x[len(x) // 2]), float(x[-1]), float(x.sum())) if len(x) else (0,)
 
 
 def _lag_key(data: Data, h, taus, init) -> tuple:
@@ -418,7 +418,7 @@ def _step_time_block(data: Data, h: np.ndarray, taus: np.ndarray, cache: dict | 
     later = steps[1:]
     middles = 0.5 * (t[later] + t[later + 1])
     dh = h[later + 1] - h[later]
-    dh[np.abs(dh) <= _ROUNDING * float(np.max(np.abs(h)))] = 0.0   # no step of the creep input here (a delayed load): an empty column
+    dh[np.abs(dh) <= _ROUNDING * float(np.abs(h).max())] = 0.0   # no step of the creep input here (a delayed load): an empty column
     # the decays of these time constants (kept: an effect's own parameters move the creep
     # input's steps, not the time constants), each column scaled by its step
     kept = cache.setdefault("step_decay_columns", {})
@@ -630,7 +630,7 @@ def _state_dependent_derivatives(data: Data, structure: Structure, values: dict,
                 initial[k] = slope[k] * taus[k]
         lags = varying_lag_derivatives(t, h, step_taus, b.lags, tau_slopes, data.hold, initial)
         moves = [(col, lags[:, k]) for k, col in enumerate(lag_columns)
-                 if np.any(lags[:, k] != 0.0)]
+                 if (lags[:, k] != 0.0).any()]
         if is_tau:
             k = int(p.name[4:-1])
             for col, mid in steps.get(k, ()):
@@ -667,21 +667,21 @@ def _column_differences(data: Data, structure: Structure, values: dict, b: Basis
             at = b.names.index(f"{a.name}.{name}")
             d = col - b.columns[:, at]
             d /= step
-            if np.any(d != 0.0):
+            if (d != 0.0).any():
                 out.append((at, d))
         return out
     bp = basis(data, structure, moved, cache)
     own = bp.columns.shape[1]                  # the columns before the step times'
     diff = bp.columns - b.columns[:, :own]
     diff /= step
-    out = [(col, diff[:, col]) for col in np.flatnonzero(np.any(diff != 0.0, axis=0))]
+    out = [(col, diff[:, col]) for col in np.flatnonzero((diff != 0.0).any(axis=0))]
     taus = taus_of(moved, structure.n_terms)
     if b.step_bounds and not (np.array_equal(taus, taus_of(values, structure.n_terms))
                               and np.array_equal(bp.creep_input, b.creep_input)):
         # the step-time columns follow the time constants and the creep input only
         steps = _step_time_block(data, bp.creep_input, taus, cache)[0] - b.columns[:, own:]
         steps /= step
-        out += [(own + j, steps[:, j]) for j in np.flatnonzero(np.any(steps != 0.0, axis=0))]
+        out += [(own + j, steps[:, j]) for j in np.flatnonzero((steps != 0.0).any(axis=0))]
     return out
 
 
@@ -693,10 +693,10 @@ def _lag_reading_moves(data: Data, structure: Structure, values: dict, b: Basis,
     readers = [a for a in structure.effects if getattr(a.effect, "columns_from_lags", True)]
     if not readers:
         return []
-    size = float(np.max(np.abs(slopes)))
+    size = float(np.abs(slopes).max())
     if size == 0.0:
         return []
-    step = DIFF_STEP * max(1.0, float(np.max(np.abs(b.lags)))) / size
+    step = DIFF_STEP * max(1.0, float(np.abs(b.lags).max())) / size
     lags = b.lags + step * slopes
     out = []
     for a in readers:
@@ -704,6 +704,6 @@ def _lag_reading_moves(data: Data, structure: Structure, values: dict, b: Basis,
         for name, col in a.effect.columns(data, b.instant, b.creep_input, lags, own, a).items():
             at = b.names.index(f"{a.name}.{name}")
             d = (col - b.columns[:, at]) / step
-            if np.any(d != 0.0):
+            if (d != 0.0).any():
                 out.append((at, d))
     return out

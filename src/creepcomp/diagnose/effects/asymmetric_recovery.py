@@ -148,7 +148,7 @@ _BAND = 1e-9
 def _band(h: np.ndarray) -> float:
     # a state at its target is in neither mode: a small dead band keeps rounding from
     # flipping modes (and the fixed-point iteration from never settling)
-    return _BAND * max(float(np.max(np.abs(h))), 1e-300)
+    return _BAND * max(float(np.abs(h).max()), 1e-300)
 
 
 def _shrinking(h: np.ndarray, c: np.ndarray) -> np.ndarray:
