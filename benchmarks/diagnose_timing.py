@@ -14,7 +14,9 @@ runs) and the machine's load average (wall times are noisy on a shared machine).
 of the timed diagnosis). The summary gives, per size, the median and the largest time over all
 records, against the goal. The process's first diagnosis (a short record, :func:`warm_up`)
 is timed apart: it imports the modules the search uses and loads the compiled loops, a cost
-of the process and not of the record that happens to come first.
+of the process and not of the record that happens to come first; the times of its tasks,
+which order the tasks of the next diagnoses, are forgotten
+(:func:`~creepcomp.diagnose.workers.forget_task_times`: they are several times the later ones).
 
 Usage::
 
@@ -35,7 +37,7 @@ import time
 
 from creepcomp import synth
 from creepcomp.diagnose.sensor import diagnose
-from creepcomp.diagnose.workers import available_cores
+from creepcomp.diagnose.workers import available_cores, forget_task_times
 from creepcomp.synth.sensor import DATA_PROBLEMS, EFFECTS, NO_TEMPLATE, random_spec
 
 CASES = {
@@ -74,13 +76,16 @@ def _all_records(rate: float, duration: float, seeds: int):
 
 
 def warm_up(jobs: int) -> float:
-    """Diagnose a 5-minute record once (the process's first diagnosis); its wall time in s."""
+    """Diagnose a 5-minute record once (the process's first diagnosis) and forget its tasks'
+    times; its wall time in s."""
     spec = synth.Spec(beta=(0.03,), tau=(45.0,), gain=1.0, rate=10.0, duration=300.0, program="staircase",
                       noise=synth.NoiseSpec(white=5e-4), seed=31)
     record = synth.generate(spec).record
     t0 = time.perf_counter()
     diagnose(record, jobs=jobs)
-    return time.perf_counter() - t0
+    seconds = time.perf_counter() - t0
+    forget_task_times()
+    return seconds
 
 
 def _cpu_seconds() -> float:

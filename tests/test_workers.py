@@ -74,6 +74,28 @@ def test_a_kind_of_task_is_known_by_the_longest_of_its_last_runs(monkeypatch):
 
 
 @linux
+def test_forgotten_task_times_leave_the_items_in_the_order_given(monkeypatch):
+    # a process's first diagnosis (modules and compiled loops loaded) times its tasks long:
+    # forgotten, they order nothing, and unknown kinds run in the order given
+    from creepcomp.diagnose import workers as module
+    from creepcomp.diagnose.workers import forget_task_times, last_seconds
+
+    monkeypatch.setattr(module, "_TASK_SECONDS", {})
+    orders = []
+    dumps = module._dumps
+    with Workers(2, 0) as workers:
+        workers.map(_sleeps, None, [0.01, 0.1], ["a", "b"])
+        # (the order a call sends; the workers, forked already, answer as before)
+        monkeypatch.setattr(module, "_dumps", lambda value: orders.append(value[3]) or dumps(value))
+        workers.map(_sleeps, None, [0.01, 0.01], ["a", "b"])
+        assert orders[-1] == [1, 0] and last_seconds(_sleeps, "b") < 0.05
+        forget_task_times()
+        assert last_seconds(_sleeps, "b") is None
+        workers.map(_sleeps, None, [0.01, 0.01], ["a", "b"])
+        assert orders[-1] == [0, 1]
+
+
+@linux
 def test_released_workers_end_while_this_process_goes_on_and_a_later_call_forks_anew():
     with Workers(2, 0) as workers:
         first = workers.map(_where, 1, range(6))

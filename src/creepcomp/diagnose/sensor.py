@@ -823,11 +823,12 @@ def _search(data: Data, pool, max_effects: int, workers: Workers, correction: bo
     ``workers`` (``correction``: the verdict measures the correction, for its parts run ahead,
     :func:`_screen`)."""
     # (with processes side by side, the first screen's fits with a creep term started afresh
-    # run beside the baseline's fit: they read the record only)
+    # run beside the baseline's fit: they read the record only; listed first, for a process
+    # that has timed none yet: the time offset's is the longest task)
     beside = [e for e in pool if getattr(e, "fresh_ahead", None) and not e.applicable(data, Structure(1))] \
         if workers.width > 1 else []
-    names = ["baseline"] + [e.name for e in beside] + ["floor"]
-    baseline, *fresh_fits, floor = workers.map(_baseline_task, None, ["baseline"] + beside + ["floor"], names)
+    names = [e.name for e in beside] + ["baseline", "floor"]
+    *fresh_fits, baseline, floor = workers.map(_baseline_task, None, beside + ["baseline", "floor"], names)
     fresh = {key: fit for fits in fresh_fits for key, fit in fits.items()}
     search = Search(baseline, floor=floor)
     for step in range(1, max_effects + 1):

@@ -24,7 +24,7 @@ from typing import Any, Callable, Sequence
 from creepcomp.fit.solver import DeferredCovariance
 from creepcomp.interrupts import interrupts_held
 
-__all__ = ["Workers", "available_cores", "last_seconds"]
+__all__ = ["Workers", "available_cores", "forget_task_times", "last_seconds"]
 
 #: Seconds the last few tasks of each kind took (by function and key), in this process, the
 #: last one last: the longest known are handed out first, so that no process is left with a
@@ -40,6 +40,13 @@ def last_seconds(fn: Callable, key) -> float | None:
     in this process, or None when none has run side by side yet."""
     seen = _TASK_SECONDS.get((fn.__name__, key))
     return seen[-1] if seen else None
+
+
+def forget_task_times() -> None:
+    """Forgets the task times this process has seen (:func:`last_seconds`). A process's first
+    diagnosis loads modules and compiled loops: its tasks take several times as long as
+    later, and would order the tasks of the next few diagnoses by that."""
+    _TASK_SECONDS.clear()
 
 
 def available_cores() -> int:
