@@ -450,8 +450,8 @@ class Search:
     verdict_on : tuple
         ``((model, baseline), parts)``: the verdict's parts (:func:`_verdict_part`) computed
         ahead for a model and baseline (none yet: both None).
-    floor : NoiseFloor or None
-        The record's noise floor, computed beside the baseline's fit.
+    floor : NoiseFloor
+        The record's noise floor, computed beside the baseline's fit (given with it).
     """
 
     current: Fit

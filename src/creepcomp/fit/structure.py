@@ -217,6 +217,12 @@ def _lags(data: Data, h, taus, init, dynamic, values, cache) -> np.ndarray:
     return varying_lag_states(t, h, taus[None, :] * factor, hold=data.hold, initial=init)
 
 
+def _same_array(kept: np.ndarray, given: np.ndarray) -> bool:
+    """``given`` is the array ``kept`` or holds the same values (the identity checked first:
+    a fit passes the same creep input again and again)."""
+    return kept is given or np.array_equal(kept, given)
+
+
 def _same_lag_inputs(last, h, key) -> bool:
     (h0, (taus0, init0, own0)), (taus, init, own) = last, key
     if isinstance(init0, str) or isinstance(init, str):
@@ -227,7 +233,7 @@ def _same_lag_inputs(last, h, key) -> bool:
         same_own = bool(own0 == own)
     except ValueError:          # an array-valued parameter: no reuse
         same_own = False
-    return same_init and same_own and np.array_equal(taus0, taus) and (h0 is h or np.array_equal(h0, h))
+    return same_init and same_own and np.array_equal(taus0, taus) and _same_array(h0, h)
 
 
 #: Lag states shared by every fit of the process (the candidate effects of a diagnosis all
@@ -253,8 +259,7 @@ def _shared_lags(data: Data, h, taus, init):
     """Lag states of plain lags computed before for the same inputs (None: not held)."""
     with _SHARED_LOCK:
         hit = _SHARED.get(_lag_key(data, h, taus, init))
-    if hit is not None and (hit[0] is data.time or np.array_equal(hit[0], data.time)) and (
-            hit[1] is h or np.array_equal(hit[1], h)):
+    if hit is not None and _same_array(hit[0], data.time) and _same_array(hit[1], h):
         return hit[2]
     return None
 
@@ -413,7 +418,7 @@ def _step_time_block(data: Data, h: np.ndarray, taus: np.ndarray, cache: dict | 
         return None
     key = (np.asarray(taus, float).tobytes(), compiled_active())    # (the decays of either way)
     last = cache.get("step_times")
-    if last is not None and last[0] == key and (last[1] is h or np.array_equal(last[1], h)):
+    if last is not None and last[0] == key and _same_array(last[1], h):
         return last[2]
     later = steps[1:]
     middles = 0.5 * (t[later] + t[later + 1])
