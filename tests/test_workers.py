@@ -335,6 +335,41 @@ def test_the_verdict_run_beside_a_last_refinement_is_the_one_run_after_it(monkey
     assert used == [True, False]
 
 
+def test_a_polish_beside_the_first_tests_leaves_the_diagnosis_and_refits_no_candidate_twice(monkeypatch):
+    # with processes side by side, the current model's refit from the best candidate (the
+    # polish) runs beside the step's first held-out tests; the record's polish is kept, so
+    # the candidates are chosen again against it, on the refits made already
+    from creepcomp.diagnose import sensor
+
+    record = data.hidden_effect()
+    whole = _plain(diagnose(record, jobs=1))
+    kept, restarted, beside = [], [], []
+    polish_kept, restart_taus = sensor._polish_kept, sensor._restart_taus
+
+    def deciding(data_, current, alt, workers):
+        out = polish_kept(data_, current, alt, workers)
+        kept.append(out is not current)
+        return out
+
+    def restarting(data_, fit):
+        restarted.append(fit)
+        return restart_taus(data_, fit)
+
+    class Spied(_InProcess):
+        def map(self, fn, common, items, keys=None):
+            items = list(items)
+            if fn is sensor._tested:
+                beside.append({type(item).__name__ for item in items})
+            return super().map(fn, common, items, keys)
+
+    monkeypatch.setattr(sensor, "_polish_kept", deciding)
+    monkeypatch.setattr(sensor, "_restart_taus", restarting)
+    monkeypatch.setattr(sensor, "Workers", lambda jobs, shared: Spied(jobs, shared))
+    assert _plain(diagnose(record, jobs=2)) == whole
+    assert True in kept and {"_Test", "_PolishRefit"} <= beside[0]
+    assert len({id(fit) for fit in restarted}) == len(restarted)
+
+
 @linux
 def test_fits_with_a_fresh_creep_term_run_beside_the_baseline_are_those_the_screen_makes(monkeypatch):
     # a time offset's and a flow's fits with the creep term started afresh read the record

@@ -348,17 +348,29 @@ def _catch_all(data: Data, current: Fit) -> Fit | None:
 def _polish(data: Data, current: Fit, candidate: Fit, workers: Workers) -> Fit:
     """``current`` refitted from the candidate's values of the parameters they share, kept
     when that fits better: an improvement must come from the candidate's own parameters,
-    not from a better optimum of the shared ones. Not kept when it predicts held-out data
-    worse by the evidence rule's margin (:data:`~creepcomp.fit.evidence.HELDOUT_Z`): the
-    optimum then sits where the record leaves a parameter free (a time offset's width),
-    and against that reference any candidate would seem to predict better. Its held-out
-    refits run side by side in ``workers``."""
+    not from a better optimum of the shared ones (:func:`_polish_refit`, :func:`_polish_kept`)."""
+    return _polish_kept(data, current, _polish_refit(data, current, candidate), workers)
+
+
+def _polish_refit(data: Data, current: Fit, candidate: Fit) -> Fit | None:
+    """``current`` refitted from the candidate's values of the parameters they share, when
+    that fits better (else None)."""
     shared = {p.name: candidate.values[p.name] for p in current.params if p.name in candidate.values}
     try:
         alt = fit_structure(data, current.structure, [shared], n_refine=1)
     except (InputError, np.linalg.LinAlgError, ValueError):
-        return current
-    if alt.bic >= current.bic - 1e-6:
+        return None
+    return alt if alt.bic < current.bic - 1e-6 else None
+
+
+def _polish_kept(data: Data, current: Fit, alt: Fit | None, workers: Workers) -> Fit:
+    """The refit ``alt`` of :func:`_polish_refit` in place of ``current``, unless it predicts
+    held-out data worse by the evidence rule's margin
+    (:data:`~creepcomp.fit.evidence.HELDOUT_Z`): the optimum then sits where the record
+    leaves a parameter free (a time offset's width), and against that reference any
+    candidate would seem to predict better. Its held-out refits run side by side in
+    ``workers``."""
+    if alt is None:
         return current
     alt = _heldout_side_by_side(data, alt, workers)
     return current if compare(current, alt).heldout_z <= -HELDOUT_Z else alt
@@ -627,16 +639,15 @@ def _unphysical(candidate: Candidate, step: int, trials: list) -> bool:
     return bool(reason)
 
 
-def _polished(data: Data, search: Search, fitted: list[Candidate], workers: Workers) -> list[Candidate]:
-    """When the best candidate lowers BIC strongly, the current model refitted from its values
-    (:func:`_polish`), and the candidates' BIC against that."""
-    if not (fitted and fitted[0].delta_bic <= -BIC_STRONG):
-        return fitted
-    polished = _polish(data, search.current, fitted[0].fit, workers)
-    if polished is search.current:
-        return fitted
-    search.current = polished
-    return sorted((replace(c, delta_bic=c.fit.bic - polished.bic) for c in fitted), key=lambda c: c.delta_bic)
+def _polish_from(fitted: list[Candidate]) -> Fit | None:
+    """The fit of the best candidate when it lowers BIC strongly: the current model is then
+    refitted from its values (:func:`_polish`) before the candidates are judged."""
+    return fitted[0].fit if fitted and fitted[0].delta_bic <= -BIC_STRONG else None
+
+
+def _against(fitted: list[Candidate], current: Fit) -> list[Candidate]:
+    """The candidates with their BIC against ``current``, best first."""
+    return sorted((replace(c, delta_bic=c.fit.bic - current.bic) for c in fitted), key=lambda c: c.delta_bic)
 
 
 def _plain_form(data: Data, current: Fit, candidate: Candidate) -> Candidate:
@@ -659,25 +670,41 @@ def _plain_form(data: Data, current: Fit, candidate: Candidate) -> Candidate:
     return Candidate(effect, g, g.bic - current.bic, ev_plain) if ev_plain.supported else candidate
 
 
-def _tested(data: Data, current: Fit,
-            candidate: "Candidate | _Restarted | None") -> "Candidate | Generic | Fit | None":
-    """The candidate refitted from a grid of retardation times (:func:`_restart_taus`), with
-    its held-out evidence (:func:`_judged`); for ``candidate`` None, the catch-all on top of
-    ``current`` (:func:`_generic`); for a :class:`_Restarted`, its candidate's refitted fit
-    alone."""
-    if candidate is None:
+def _tested(data: Data, current: Fit, item: "_Test | _PolishRefit | None"):
+    """A task of the held-out tests (:func:`_test_batch`). For a :class:`_Test`: the
+    candidate's fit refitted from a grid of retardation times (:func:`_restart_taus`), with
+    its held-out prediction, and the candidate judged on it (:func:`_judged`), as ``(refit,
+    judged)`` (the refit alone when it is not ``whole``). For None: the catch-all on top of
+    ``current`` (:func:`_generic`). For a :class:`_PolishRefit`: :func:`_polish_refit`."""
+    if item is None:
         return _generic(data, current)
-    if isinstance(candidate, _Restarted):
-        return _restart_taus(data, candidate.candidate.fit)
-    return _judged(data, current, candidate, heldout(data, _restart_taus(data, candidate.fit)))
+    if isinstance(item, _PolishRefit):
+        return _polish_refit(data, current, item.candidate)
+    fit, held_out = item.refit or (_restart_taus(data, item.candidate.fit), False)
+    if not item.whole:
+        return fit
+    if not held_out:
+        fit = heldout(data, fit)
+    return fit, _judged(data, current, item.candidate, fit)
 
 
 @dataclass(frozen=True)
-class _Restarted:
-    """A candidate to be refitted from a grid of retardation times only (a task of
-    :func:`_tested`)."""
+class _Test:
+    """A candidate's held-out test (a task of :func:`_tested`): from its refit when made
+    already (``refit``: the fit, and whether its held-out prediction is made); to its refit
+    alone unless ``whole``."""
 
     candidate: Candidate
+    refit: tuple | None = None
+    whole: bool = True
+
+
+@dataclass(frozen=True)
+class _PolishRefit:
+    """The current model to be refitted from a candidate's values (a task of
+    :func:`_tested`)."""
+
+    candidate: Fit
 
 
 def _judged(data: Data, current: Fit, candidate: Candidate, fit: Fit) -> Candidate:
@@ -708,20 +735,46 @@ def _test_is_longer(name: str) -> bool:
 
 
 def _test_batch(data: Data, current: Fit, candidates: list[Candidate], catch_all: bool,
-                workers: Workers) -> list:
-    """:func:`_tested` of each candidate, and of the catch-all when ``catch_all``, side by side
-    in ``workers``. A lone candidate whose test is known to take :data:`SPLIT_TEST` times as
-    long as the catch-all is tested in parts, the same test: its refit beside the catch-all,
-    then its held-out refits side by side, then its evidence here (else one process would
-    wait for the other)."""
-    items = candidates + [None] * catch_all
-    keys = [c.effect.name for c in candidates] + ["catch-all"] * catch_all
-    if workers.width > 1 and catch_all and len(candidates) == 1 and _test_is_longer(keys[0]):
-        refitted, generic = workers.map(_tested, current, [_Restarted(candidates[0]), None],
-                                        [keys[0] + " (refit)", "catch-all"])
-        fit = _heldout_side_by_side(data, refitted, workers)
-        return [_judged(data, current, candidates[0], fit), generic]
-    return workers.map(_tested, current, items, keys)
+                workers: Workers, refits: dict, polish: Fit | None = None) -> tuple:
+    """:func:`_tested` of each candidate, of the catch-all when ``catch_all`` and of the
+    current model's refit from ``polish`` (:func:`_polish_refit`) when given, side by side in
+    ``workers``. ``refits``: each candidate's refit, by effect name (:attr:`_Test.refit`),
+    made already (used) and made here (added). A lone candidate whose test is known to take
+    :data:`SPLIT_TEST` times as long as the catch-all is tested in parts, the same test: its
+    refit beside the catch-all, then its held-out refits side by side, then its evidence
+    here (else one process would wait for the other).
+
+    Returns
+    -------
+    judged : list of Candidate or None
+        None when the refit from ``polish`` is kept.
+    catch_all : Generic or None
+    current : Fit
+        The current model: polished (:func:`_polish_kept`), or ``current``.
+    """
+    names = [c.effect.name for c in candidates]
+    tests = [_Test(c, refits.get(name)) for c, name in zip(candidates, names)]
+    keys = [name + " (judged)" if name in refits else name for name in names]
+    more, more_keys = [None] * catch_all, ["catch-all"] * catch_all
+    if polish is not None:
+        more, more_keys = more + [_PolishRefit(polish)], more_keys + ["polish"]
+    split = (workers.width > 1 and catch_all and len(candidates) == 1 and names[0] not in refits
+             and _test_is_longer(names[0]))
+    if split:
+        tests, keys = [replace(tests[0], whole=False)], [names[0] + " (refit)"]
+    done = workers.map(_tested, current, tests + more, keys + more_keys)
+    polished = current if polish is None else _polish_kept(data, current, done.pop(), workers)
+    generic = done.pop() if catch_all else None
+    if split:
+        refits[names[0]] = (done[0], False)
+    else:
+        refits.update((name, (fit, True)) for name, (fit, _) in zip(names, done))
+    if polished is not current:
+        return None, None, polished
+    if split:
+        refits[names[0]] = (_heldout_side_by_side(data, done[0], workers), True)
+        return [_judged(data, current, candidates[0], refits[names[0]][0])], generic, current
+    return [judged for _, judged in done], generic, current
 
 
 def _not_tested(candidate: Candidate, accepted: Candidate | None, current: Fit) -> str | None:
@@ -744,15 +797,22 @@ def _generic_better(data: Data, search: Search, fit: Fit) -> bool:
 
 
 def _choose(data: Data, search: Search, fitted: list[Candidate], step: int,
-            workers: Workers) -> Candidate | None:
+            workers: Workers, polish: Fit | None = None, refits: dict | None = None) -> Candidate | None:
     """The candidate accepted at this step (best first; a simpler one that explains at least
     half as much and predicts held-out data as well replaces it), or None; every candidate
     tried gets its trial. Candidates are tested on held-out data as many at a time as
     ``workers`` has processes (the next ones that may need it); the first with the catch-all
     on top of the current model, which the step needs whatever it finds (to judge the
     candidate accepted, or the model found when none is), and with the simpler alternatives
-    its acceptance would test."""
+    its acceptance would test.
+
+    ``polish``: the fit from which the current model is refitted first (:func:`_polish`); the
+    refit runs beside the first tests, which stand when it is not kept (nearly always). When
+    it is, it is the current model, and the candidates are chosen again against it, on the
+    refits made (``refits``, by effect name: a candidate's refit does not depend on the
+    current model)."""
     current, trials = search.current, search.trials
+    refits = {} if refits is None else refits
     accepted = None
     tested: dict[int, Candidate] = {}
     for at, candidate in enumerate(fitted):
@@ -770,9 +830,14 @@ def _choose(data: Data, search: Search, fitted: list[Candidate], step: int,
                 batch = [at] + ahead[:workers.width - 1]
             else:
                 batch = batch[:workers.width]
-            done = _test_batch(data, current, [fitted[k] for k in batch], bool(more), workers)
+            done, generic, polished = _test_batch(data, current, [fitted[k] for k in batch], bool(more),
+                                                  workers, refits, polish)
+            if polished is not current:
+                search.current = polished
+                return _choose(data, search, _against(fitted, polished), step, workers, None, refits)
+            polish = None
             if more:
-                search.catch_all_on = (current, done.pop())
+                search.catch_all_on = (current, generic)
             tested.update(zip(batch, done))
         candidate = tested[at]
         ev = candidate.evidence
@@ -836,10 +901,16 @@ def _search(data: Data, pool, max_effects: int, workers: Workers, correction: bo
                                   (search.base, correction), fresh if step == 1 else {})
         if ahead is not None:
             search.verdict_on, search.catch_all_on = ahead
-        fitted = _polished(data, search, screened, workers)
+        polish = _polish_from(screened)
+        if polish is not None and workers.width == 1:
+            # (nothing runs beside the refit: it runs first, and no test is made twice)
+            polished = _polish(data, search.current, polish, workers)
+            if polished is not search.current:
+                search.current, screened = polished, _against(screened, polished)
+            polish = None
+        accepted = _choose(data, search, screened, step, workers, polish)
         if search.base is None:
             search.base = search.current
-        accepted = _choose(data, search, fitted, step, workers)
         if accepted is None:
             break
         _record(search, accepted)
