@@ -255,18 +255,18 @@ def _lag_key(data: Data, h, taus, init) -> tuple:
             init_key, data.hold, compiled_active())     # (numpy's and the compiled lags differ by rounding)
 
 
-def _shared_lags(data: Data, h, taus, init):
-    """Lag states of plain lags computed before for the same inputs (None: not held)."""
+def _shared_lags(data: Data, h, key: tuple):
+    """Lag states of plain lags computed before for the same inputs (None: not held), by
+    their :func:`_lag_key`."""
     with _SHARED_LOCK:
-        hit = _SHARED.get(_lag_key(data, h, taus, init))
+        hit = _SHARED.get(key)
     if hit is not None and _same_array(hit[0], data.time) and _same_array(hit[1], h):
         return hit[2]
     return None
 
 
-def _share_lags(data: Data, h, taus, init, lags) -> None:
+def _share_lags(data: Data, h, key: tuple, lags) -> None:
     lags.flags.writeable = False          # shared: nobody may change them
-    key = _lag_key(data, h, taus, init)
     with _SHARED_LOCK:
         while len(_SHARED) >= _SHARED_SIZE:
             _SHARED.pop(next(iter(_SHARED)))
@@ -314,6 +314,18 @@ def _staged(cache: dict | None, stage: str, applied, own: dict, given: np.ndarra
     return out
 
 
+def _ones(t: np.ndarray, cache: dict | None) -> np.ndarray:
+    """The offset's column for the sample times ``t`` (read-only; kept in a fitting problem's
+    ``cache``)."""
+    ones = None if cache is None else cache.get("ones")
+    if ones is None or len(ones) != len(t):
+        ones = np.ones_like(t)
+        ones.flags.writeable = False
+        if cache is not None:
+            cache["ones"] = ones
+    return ones
+
+
 def basis(data: Data, structure: Structure, values: dict, cache: dict | None = None,
           step_times: bool = False) -> Basis:
     """Evaluate the model's linear basis for given nonlinear parameter values (``step_times``:
@@ -341,16 +353,17 @@ def basis(data: Data, structure: Structure, values: dict, cache: dict | None = N
     if last is not None and _same_lag_inputs(last[0], h, key):
         lags = last[1]
     else:
-        lags = _shared_lags(data, h, taus, init) if not dynamic else None
+        shared = None if dynamic else _lag_key(data, h, taus, init)
+        lags = None if dynamic else _shared_lags(data, h, shared)
         if lags is None:
             lags = _lags(data, h, taus, init, dynamic, values, cache)
             if not dynamic:
-                _share_lags(data, h, taus, init, lags)
+                _share_lags(data, h, shared, lags)
         if cache is not None:
             cache["lags"] = ((h, key), lags)
     cols, names = [], []
     if not data.fixed_offset:
-        cols.append(np.ones_like(t))
+        cols.append(_ones(t, cache))
         names.append("offset")
     cols.append(s)
     names.append("gain")
