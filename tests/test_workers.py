@@ -13,7 +13,7 @@ import pytest
 from creepcomp import data
 from creepcomp.diagnose import effects
 from creepcomp.diagnose.sensor import diagnose
-from creepcomp.diagnose.workers import Workers, _dumps
+from creepcomp.diagnose.workers import Workers, _dumps, _loads
 from creepcomp.fit.data import prepare
 from creepcomp.fit.prony import fit_terms
 
@@ -64,7 +64,7 @@ def test_a_kind_of_task_is_known_by_the_longest_of_its_last_runs(monkeypatch):
         # handed out first: the kind known as longest, though short in its last runs
         orders = []
         dumps = module._dumps
-        monkeypatch.setattr(module, "_dumps", lambda value: orders.append(value[3]) or dumps(value))
+        monkeypatch.setattr(module, "_dumps", lambda value, shared=None: orders.append(value[3]) or dumps(value, shared))
         workers.map(_sleeps, None, [0.06, 0.01, 0.06], ["a", "slow", "b"])
         assert orders[-1][0] == 1
         workers.map(_sleeps, None, [0.06, 0.01, 0.06], ["a", "slow", "b"])
@@ -86,7 +86,7 @@ def test_forgotten_task_times_leave_the_items_in_the_order_given(monkeypatch):
     with Workers(2, 0) as workers:
         workers.map(_sleeps, None, [0.01, 0.1], ["a", "b"])
         # (the order a call sends; the workers, forked already, answer as before)
-        monkeypatch.setattr(module, "_dumps", lambda value: orders.append(value[3]) or dumps(value))
+        monkeypatch.setattr(module, "_dumps", lambda value, shared=None: orders.append(value[3]) or dumps(value, shared))
         workers.map(_sleeps, None, [0.01, 0.01], ["a", "b"])
         assert orders[-1] == [1, 0] and last_seconds(_sleeps, "b") < 0.05
         forget_task_times()
@@ -200,6 +200,21 @@ def test_a_fit_travels_with_its_covariance_deferred_and_the_same_once_read():
     np.testing.assert_array_equal(copy.cov, fit.cov)
 
 
+def test_the_record_travels_as_a_reference_to_each_processs_own():
+    import copy
+
+    fitted = prepare(data.hidden_effect())
+    fit = fit_terms(fitted, 1)
+    message = _dumps(fit, fitted)
+    assert len(message) < len(_dumps(fit)) - len(_dumps(fitted)) // 2
+    theirs = copy.deepcopy(fitted)           # (what a forked process holds)
+    back = _loads(message, theirs)
+    assert back.covariance._inputs[0].data is theirs
+    np.testing.assert_array_equal(back.cov, fit.cov)
+    with pytest.raises(pickle.UnpicklingError):
+        _loads(message, None)
+
+
 def _plain(result) -> str:
     out = result.to_dict()
     out.pop("seconds")
@@ -307,7 +322,7 @@ def test_a_test_split_in_parts_is_the_test_in_one_task(monkeypatch):
     record = data.hidden_effect()
     whole = _plain(diagnose(record, jobs=1))
     split = []
-    monkeypatch.setattr(sensor, "_test_is_longer", lambda name: split.append(name) or True)
+    monkeypatch.setattr(sensor, "_test_is_longer", lambda name, beside: split.append(name) or True)
     assert _plain(diagnose(record, jobs=2)) == whole
     assert split
 

@@ -720,18 +720,18 @@ def _judged(data: Data, current: Fit, candidate: Candidate, fit: Fit) -> Candida
 
 
 #: A candidate's held-out test is split (:func:`_test_batch`) when it is known to take at
-#: least this many times as long as the catch-all beside it. (Its refit takes about a quarter
-#: of it, its five held-out refits two thirds, which two processes share at best as three to
-#: two, each computing the fit's Jacobian: by those shares the split gains from about 2.2
-#: times on.)
+#: least this many times as long as the tasks beside it together (the catch-all, and the
+#: polish's refit when it runs). (Its refit takes about a quarter of it, its five held-out
+#: refits two thirds, which two processes share at best as three to two, each computing the
+#: fit's Jacobian: by those shares the split gains from about 2.2 times on.)
 SPLIT_TEST = 2.5
 
 
-def _test_is_longer(name: str) -> bool:
-    """The test of the effect ``name`` took :data:`SPLIT_TEST` times as long as the catch-all's
-    when last run side by side."""
-    test, generic = last_seconds(_tested, name), last_seconds(_tested, "catch-all")
-    return test is not None and generic is not None and test >= SPLIT_TEST * generic
+def _test_is_longer(name: str, beside: list) -> bool:
+    """The test of the effect ``name`` took :data:`SPLIT_TEST` times as long as the tasks
+    ``beside`` it (their keys) together, each when last run side by side."""
+    test, others = last_seconds(_tested, name), [last_seconds(_tested, key) for key in beside]
+    return test is not None and None not in others and test >= SPLIT_TEST * sum(others)
 
 
 def _test_batch(data: Data, current: Fit, candidates: list[Candidate], catch_all: bool,
@@ -739,10 +739,10 @@ def _test_batch(data: Data, current: Fit, candidates: list[Candidate], catch_all
     """:func:`_tested` of each candidate, of the catch-all when ``catch_all`` and of the
     current model's refit from ``polish`` (:func:`_polish_refit`) when given, side by side in
     ``workers``. ``refits``: each candidate's refit, by effect name (:attr:`_Test.refit`),
-    made already (used) and made here (added). A lone candidate whose test is known to take
-    :data:`SPLIT_TEST` times as long as the catch-all is tested in parts, the same test: its
-    refit beside the catch-all, then its held-out refits side by side, then its evidence
-    here (else one process would wait for the other).
+    made already (used) and made here (added). A lone candidate beside the catch-all whose test
+    is known to take :data:`SPLIT_TEST` times as long as the tasks beside it is tested in
+    parts, the same test: its refit beside them, then its held-out refits side by side, then
+    its evidence here (else one process would wait for the other).
 
     Returns
     -------
@@ -755,11 +755,13 @@ def _test_batch(data: Data, current: Fit, candidates: list[Candidate], catch_all
     names = [c.effect.name for c in candidates]
     tests = [_Test(c, refits.get(name)) for c, name in zip(candidates, names)]
     keys = [name + " (judged)" if name in refits else name for name in names]
-    more, more_keys = [None] * catch_all, ["catch-all"] * catch_all
+    # (the catch-all's time is known apart on the baseline and on each larger model: whether
+    # it needs held-out refits, and so its time, changes with the model)
+    more, more_keys = [None] * catch_all, [("catch-all", len(current.structure.effects))] * catch_all
     if polish is not None:
         more, more_keys = more + [_PolishRefit(polish)], more_keys + ["polish"]
     split = (workers.width > 1 and catch_all and len(candidates) == 1 and names[0] not in refits
-             and _test_is_longer(names[0]))
+             and _test_is_longer(names[0], more_keys))
     if split:
         tests, keys = [replace(tests[0], whole=False)], [names[0] + " (refit)"]
     done = workers.map(_tested, current, tests + more, keys + more_keys)

@@ -59,18 +59,44 @@ def available_cores() -> int:
 
 class _Pickler(pickle.Pickler):
     """Pickles a fit's deferred covariance as the computation it defers (by default it is
-    computed: a pickle that leaves the diagnosis must hold its value)."""
+    computed: a pickle that leaves the diagnosis must hold its value), and what every process
+    holds already (``shared``: the record, which every fitting problem refers to) as a
+    reference to each process's own."""
+
+    def __init__(self, file, shared=None):
+        super().__init__(file, protocol=pickle.HIGHEST_PROTOCOL)
+        self.shared = shared
 
     def reducer_override(self, obj):
         if type(obj) is DeferredCovariance:
             return obj.deferred_reduction()
         return NotImplemented
 
+    def persistent_id(self, obj):
+        return "shared" if self.shared is not None and obj is self.shared else None
 
-def _dumps(value) -> bytes:
+
+class _Unpickler(pickle.Unpickler):
+    """Reads what :class:`_Pickler` wrote, the reference to ``shared`` as this process's own."""
+
+    def __init__(self, file, shared):
+        super().__init__(file)
+        self.shared = shared
+
+    def persistent_load(self, pid):
+        if pid != "shared" or self.shared is None:
+            raise pickle.UnpicklingError(f"unknown reference {pid!r}")
+        return self.shared
+
+
+def _dumps(value, shared=None) -> bytes:
     buffer = io.BytesIO()
-    _Pickler(buffer, protocol=pickle.HIGHEST_PROTOCOL).dump(value)
+    _Pickler(buffer, shared).dump(value)
     return buffer.getvalue()
+
+
+def _loads(message: bytes, shared):
+    return _Unpickler(io.BytesIO(message), shared).load()
 
 
 def _claim(counter, n: int) -> int | None:
@@ -106,7 +132,7 @@ def _serve(connection, counter, shared) -> None:
             return
         if not message:         # (the end: a forked process holds the other ends too)
             return
-        fn, common, items, order = pickle.loads(message)
+        fn, common, items, order = _loads(message, shared)
         done = []
         with compiled_loops():
             while (at := _claim(counter, len(order))) is not None:
@@ -116,7 +142,7 @@ def _serve(connection, counter, shared) -> None:
                 except Exception:
                     done.append((i, None, 0.0, traceback.format_exc()))
         try:
-            connection.send_bytes(_dumps(done))
+            connection.send_bytes(_dumps(done, shared))
         except OSError:         # (the diagnosis stopped before reading it)
             return
 
@@ -179,7 +205,7 @@ class Workers:
         order = sorted(range(len(items)), key=lambda i: -max(_TASK_SECONDS.get(kinds[i], [float("inf")])))
         with self._counter.get_lock():
             self._counter.value = 0
-        message = _dumps((fn, common, items, order))
+        message = _dumps((fn, common, items, order), self.shared)
         for connection in self._connections:
             connection.send_bytes(message)
         out, seconds, failed = [None] * len(items), [0.0] * len(items), None
@@ -194,7 +220,7 @@ class Workers:
         finally:        # (the workers' answers read in any case: the next call must not get them)
             for connection in self._connections:
                 try:
-                    answers = pickle.loads(connection.recv_bytes())
+                    answers = _loads(connection.recv_bytes(), self.shared)
                 except EOFError:
                     answers, failed = [], "a worker process ended without answering"
                 for i, value, took, error in answers:
