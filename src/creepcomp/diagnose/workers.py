@@ -6,7 +6,8 @@ the same model. :class:`Workers` runs them in this process and in processes fork
 (which hold the record already), and returns the results in the order given: the same
 values a run in one process computes, bit for bit. Fits travel with their covariance still
 deferred (:class:`~creepcomp.fit.solver.DeferredCovariance`): a diagnosis reads the
-uncertainties of the few candidates it accepts.
+uncertainties of the few candidates it accepts. The record they refer to travels as a
+reference: each process holds its own.
 """
 
 from __future__ import annotations
