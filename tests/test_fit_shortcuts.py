@@ -128,3 +128,27 @@ def test_a_text_record_read_while_importing_equals_the_plain_reading(tmp_path):
     bad.write_text("time,load,signal\n0,1,2\n1,1,x\n")
     with pytest.raises(InputError, match="bad.csv"):
         load_reduced(bad, (1000,), None, None, "error", quiet=True)
+
+
+def test_a_record_read_in_pieces_is_read_and_reduced_while_importing(tmp_path, monkeypatch):
+    import threading
+
+    from creepcomp.cli.fit import load_reduced
+    from creepcomp.fit import reduce as reduction
+    from creepcomp.io import records
+
+    record = _record(2, samples=3000)
+    path = tmp_path / "r.csv"
+    np.savetxt(path, np.column_stack([record.time, record.load, record.signal]), delimiter=",",
+               header="time,load,signal", comments="")
+    [(want, want_note)] = reduction.reduce_all(records.read_record(path), (1000,))
+    monkeypatch.setattr(records, "WHOLE_PIECES", 0)             # (any file: in pieces)
+    readers = []
+    stream = reduction.open_record_stream
+    monkeypatch.setattr(reduction, "open_record_stream",
+                        lambda *a, **kw: readers.append(threading.current_thread()) or stream(*a, **kw))
+    [(got, note)] = load_reduced(path, (1000,), None, None, "error", quiet=True)
+    assert readers and threading.main_thread() not in readers
+    assert note == want_note and got.metadata == want.metadata
+    for name in ("time", "load", "signal"):
+        np.testing.assert_allclose(getattr(got, name), getattr(want, name), rtol=1e-13, atol=1e-13)

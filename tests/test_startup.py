@@ -87,3 +87,10 @@ def test_the_console_script_skips_the_last_garbage_collections(monkeypatch):
     with pytest.raises(SystemExit) as stop:
         cli.run()
     assert stop.value.code == 3 and frozen == [True]
+
+
+def test_the_record_reducer_imports_no_scipy():
+    """A long record is read and reduced in a thread while the fit's scipy is imported in the
+    other: the reducer itself must not need scipy."""
+    loaded = modules_after("import creepcomp.fit.reduce")
+    assert "numpy" in loaded and not any(m == "scipy" or m.startswith("scipy.") for m in loaded)

@@ -4,7 +4,7 @@ model and its temperature law to records at different temperatures."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, List, Optional
+from typing import TYPE_CHECKING, Callable, List, Optional
 
 import typer
 
@@ -47,47 +47,49 @@ def load_reduced(path: Path, max_samples: tuple[int, ...], columns: str | None,
     CSV is never held whole), with a progress bar."""
     delim, mode = _reader_options(delimiter, duplicate_times)
     mapping = parse_columns(columns)
+    from creepcomp.fit.reduce import read_reduced
+
     with progress_bar(f"reading {path.name}", disable=quiet) as update:
-        if taxel is None and sheet is None and reads_whole(path, mode):
-            # a text record read whole is parsed while the fit's modules are imported
-            record = _read_while_importing(path, mapping, delim, mode)
-            from creepcomp.fit.reduce import reduce_all
+        def read() -> list[tuple[Record, str | None]]:
+            return read_reduced(path, max_samples, mapping, delimiter=delim, duplicate_times=mode,
+                                taxel=taxel, sheet=sheet, progress=update,
+                                grown_samples=grown_samples)
 
-            return reduce_all(record, max_samples, grown_samples)
-        from creepcomp.fit.reduce import read_reduced
+        if taxel is None and sheet is None:
+            # a text record is parsed and reduced while the fit's modules are imported
+            return _read_while_importing(read)
+        return read()
 
-        return read_reduced(path, max_samples, mapping, delimiter=delim, duplicate_times=mode,
-                            taxel=taxel, sheet=sheet, progress=update, grown_samples=grown_samples)
 
-
-def _read_while_importing(path: Path, mapping, delimiter: str | None, duplicate_times: str) -> Record:
-    """:func:`~creepcomp.io.formats.read_any` of a text record, in a thread while this one
-    imports :mod:`creepcomp.fit` (scipy's import holds the interpreter; pyarrow's CSV parser
-    and numpy's work on the columns do not). The reader's own imports come first, here: the
-    thread then imports nothing that the fit's imports might be holding."""
+def _read_while_importing(read: Callable[[], list[tuple[Record, str | None]]]
+                          ) -> list[tuple[Record, str | None]]:
+    """``read()`` of a text record, in a thread while this one imports the fit's modules
+    (scipy's import holds the interpreter; pyarrow's CSV parser and numpy's work on the columns
+    do not). The reader's own imports come first, here: the thread then imports nothing that
+    the fit's imports might be holding."""
     import threading
+    from array import array  # noqa: F401
 
     import pyarrow.csv  # noqa: F401
 
+    import creepcomp.io.formats  # noqa: F401
     import creepcomp.lti  # noqa: F401
-    from creepcomp.io.formats import read_any
 
     outcome: dict = {}
 
-    def read() -> None:
+    def run() -> None:
         try:
-            outcome["record"] = read_any(path, mapping, delimiter=delimiter,
-                                         duplicate_times=duplicate_times)
+            outcome["read"] = read()
         except BaseException as exc:         # (raised again in the command's thread)
             outcome["error"] = exc
 
-    reader = threading.Thread(target=read, name="creepcomp-read", daemon=True)
+    reader = threading.Thread(target=run, name="creepcomp-read", daemon=True)
     reader.start()
-    import creepcomp.fit  # noqa: F401
+    import creepcomp.fit.prony  # noqa: F401
     reader.join()
     if "error" in outcome:
         raise outcome["error"]
-    return outcome["record"]
+    return outcome["read"]
 
 
 def record_options(initial: str, load_step_at: str | None) -> tuple[str, float | None]:
