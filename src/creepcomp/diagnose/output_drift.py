@@ -14,7 +14,7 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.stats import f as f_distribution
+from scipy.special import fdtrc
 
 from creepcomp.fit.circuit import CircuitData, CircuitFit
 from creepcomp.fit.noise import (FEW_WINDOWS, FLOOR_WINDOW, MISFIT_LIMIT, NoiseFloor, misfit_ratio, noise_floor,
@@ -164,7 +164,8 @@ def signal_follows(data: CircuitData, residual: np.ndarray, window: int,
     dof = len(y) - rank
     if rank == 0 or dof <= 0 or rss <= 0:
         return 0.0, 1.0
-    p = float(f_distribution.sf((float(np.sum(fitted ** 2)) / rank) / (rss / dof), rank, dof))
+    # (the F distribution's survival function, as scipy.stats has it: 0.3 s less to import)
+    p = float(fdtrc(rank, dof, (float(np.sum(fitted ** 2)) / rank) / (rss / dof)))
     driven = (levels / scale) @ coef
     excess = float(np.mean(np.asarray(residual, float) ** 2)) - floor.rms ** 2
     share = float(np.var(driven) / excess) if excess > 0 else None

@@ -145,7 +145,7 @@ def fit_noise(residual: np.ndarray, rows: np.ndarray, max_order: int | None = No
 
 def ljung_box(white_residual: np.ndarray, lags: int = 20) -> tuple[float, float]:
     """Ljung-Box statistic and p-value of a (prewhitened) residual: is it white?"""
-    from scipy import stats
+    from scipy.special import chdtrc   # (chi-squared survival: scipy.stats is 0.3 s to import)
 
     w = white_residual - np.mean(white_residual)
     n = len(w)
@@ -154,7 +154,7 @@ def ljung_box(white_residual: np.ndarray, lags: int = 20) -> tuple[float, float]
         return float("nan"), float("nan")
     acf = autocorrelation(w, lags)[1:]
     q = float(n * (n + 2) * np.sum(acf ** 2 / (n - np.arange(1, lags + 1))))
-    return q, float(stats.chi2.sf(q, lags))
+    return q, float(chdtrc(lags, q))
 
 
 def autocorrelation(x: np.ndarray, lags: int) -> np.ndarray:

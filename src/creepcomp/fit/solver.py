@@ -926,12 +926,12 @@ def small_sample_inflation(n_rows: int, n_params: int) -> float:
     freedom, whose one-sigma quantile is ``t_(n-k)(0.841)`` instead of 1 (1.84 with one degree
     of freedom, 1.32 with two, 1.14 with four). Linearised: the profile would be exact but
     costs a refit per parameter and point, and on so few samples its shape is itself uncertain."""
-    from scipy import stats
+    from scipy.special import stdtrit   # (Student's t quantile, as scipy.stats has it)
 
     dof = n_rows - n_params
     if dof < 1:
         return float("inf")
-    return (n_rows / dof) * float(stats.t.ppf(_ONE_SIGMA, dof)) ** 2
+    return (n_rows / dof) * float(stdtrit(dof, _ONE_SIGMA)) ** 2
 
 
 def with_noise(fit: Fit, noise: ARNoise) -> Fit:
