@@ -121,3 +121,23 @@ def test_a_diagnosis_needs_no_scipy_stats(tmp_path):
                                     "--effects", "viscous_flow"])
     assert "creepcomp.diagnose.sensor" in loaded and "creepcomp.diagnose.output_drift" in loaded
     assert "scipy.stats" not in loaded
+
+
+def _blas_threads(env: dict) -> list[int]:
+    """OpenBLAS's thread counts in a fresh interpreter that starts the command line."""
+    import os
+
+    probe = ("from creepcomp.cli import main\nimport json, numpy, scipy.linalg, threadpoolctl\n"
+             "print(json.dumps([i['num_threads'] for i in threadpoolctl.threadpool_info()"
+             " if i['internal_api'] == 'openblas']))")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True,
+                         env={**{k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"},
+                              **env})
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def test_the_command_line_runs_blas_on_one_thread_unless_told_otherwise():
+    """OpenBLAS's idle threads spin beside a diagnosis's worker processes: the command line
+    sets one thread before numpy loads it, and keeps a count the user set."""
+    assert set(_blas_threads({})) == {1}
+    assert set(_blas_threads({"OPENBLAS_NUM_THREADS": "2"})) == {2}

@@ -15,12 +15,18 @@ import signal
 import sys
 import threading
 
-import typer
-from typer._click.exceptions import NoArgsIsHelpError
-from typer.exceptions import Abort, Exit, TyperException
+# BLAS on one thread, set before numpy loads OpenBLAS (a value the user set is kept): the
+# commands' matrices are tall and narrow or small, and OpenBLAS's idle threads spin on the
+# cores after each call, beside a diagnosis's worker processes (0.3-0.4 s of CPU a command;
+# a diagnosis from the command line 10 % longer)
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-from creepcomp.errors import CreepcompError
-from creepcomp.cli.common import app, environment_fault, fail, tolerant_streams
+import typer  # noqa: E402
+from typer._click.exceptions import NoArgsIsHelpError  # noqa: E402
+from typer.exceptions import Abort, Exit, TyperException  # noqa: E402
+
+from creepcomp.errors import CreepcompError  # noqa: E402
+from creepcomp.cli.common import app, environment_fault, fail, tolerant_streams  # noqa: E402
 
 #: The module of each command; a module registers its command on :data:`app` when imported.
 COMMAND_MODULES = {"size": "size", "netlist": "netlist", "simulate": "simulate", "mc": "mc",
