@@ -1,6 +1,7 @@
 """The same records through creepcomp and a peer, side by side in one run: lmfit (a plain
 multi-exponential step fit, the number of terms chosen by BIC, as a user would write it in
-15 lines).
+15 lines). rheojax, the other peer considered, is not here: pip finds no distribution of it on
+the package index this project installs from.
 
 Records: a load step at 30 s on a sensor with three creep terms (beta 2, 3, 4 % at 8, 90,
 900 s), 10 Hz for 3600 s, white noise of 0.01 % of the step; and the same with AR(1) noise
