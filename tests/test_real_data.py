@@ -258,6 +258,20 @@ def test_a_fit_on_each_insole_record_has_a_negative_gain(name):
     assert gain[0] < 0 and gain[0] * (1 + term["beta"]) < 0   # counts fall under pressure
 
 
+def test_the_right_insole_staircase_is_fitted_whole_without_load_steps():
+    """Its pressure is read by a converter and wanders by a count between samples it mostly
+    holds: none of that is a load step (each would be a nuisance column per creep term: the
+    fit of the whole record then never ended), and the fit chooses its terms by evidence."""
+    from creepcomp.fit.data import load_steps
+
+    prepared = prepare(data.insole_right_staircase())
+    assert len(load_steps(prepared)) == 0 and len(prepared.abrupt) == 0
+    result = fit_prony(prepared)
+    terms = term_table(result.fit)
+    assert len(terms) >= 1 and not any(name.startswith("step_time") for name in result.fit.values)
+    assert all(np.isfinite([t["beta"], t["tau"]]).all() for t in terms)
+
+
 @pytest.mark.parametrize("level", [0.3, 0.5])
 def test_a_fit_on_each_wood_record_creeps(level):
     r = data.wood_creep(level)

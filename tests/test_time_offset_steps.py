@@ -188,3 +188,19 @@ def test_held_out_refits_keep_a_delay_whose_interval_the_samples_do_not_resolve(
     assert to.EFFECT.held_in_refits(data, {"delay": 0.43, "width": 0.0}, applied) == ("delay",)
     assert to.EFFECT.held_in_refits(data, {"delay": 0.005, "width": 0.0}, applied) == ()
     assert to.EFFECT.held_in_refits(data, {"delay": 0.43, "width": 0.3}, applied) == ()
+
+
+def test_a_load_that_wanders_by_converter_counts_has_only_its_real_steps():
+    """A measured load read by a converter holds a count between most samples and moves by one
+    or two now and then: such a move is ten times its held neighbours, but it is the
+    converter's noise, not a step (each step is a nuisance column per creep term of a fit)."""
+    rng = np.random.default_rng(4)
+    level = np.repeat([0.0, 1.0, 2.0, 0.5], 500)
+    load = np.round((level + rng.normal(0.0, 0.006, level.size)) / 0.01) * 0.01
+    moves = np.abs(np.diff(load))
+    lone = (moves[1:-1] > 0) & (moves[:-2] == 0) & (moves[2:] == 0)
+    assert np.count_nonzero(lone) >= 50                  # one-count moves between held samples
+    data = _record(load)
+    assert list(load_steps(data)) == [499, 999, 1499]
+    # (a step with a same-way count beside it may be a step split over two intervals)
+    assert set(abrupt_intervals(data)) <= {499, 500, 999, 1000, 1499, 1500}

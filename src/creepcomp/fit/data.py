@@ -182,14 +182,29 @@ ABRUPT_FACTOR = 10.0
 def load_steps(data: Data) -> np.ndarray:
     """Sample intervals ``i`` (from sample ``i`` to ``i + 1``) within which the load steps:
     its change there is :data:`ABRUPT_FACTOR` times those of the neighbouring intervals and at
-    least a thousandth of the record's load range; intervals across a gap are left out."""
+    least :func:`step_floor`; intervals across a gap are left out."""
     d = np.abs(np.diff(data.load))
     if len(d) == 0:
         return np.zeros(0, int)
     neighbours = np.maximum(np.concatenate([[0.0], d[:-1]]), np.concatenate([d[1:], [0.0]]))
     same_segment = data.segment[1:] == data.segment[:-1]
-    big = d >= 1e-3 * float(np.ptp(data.load))
+    big = d >= step_floor(data.load)
     return np.flatnonzero((d > ABRUPT_FACTOR * neighbours) & big & same_segment & (d > 0))
+
+
+def step_floor(load: np.ndarray) -> float:
+    """The least change between two samples that can be a load step: a thousandth of the
+    load's range, and :data:`ABRUPT_FACTOR` times the median change between samples. A
+    measured load that wanders by a few counts of its converter from sample to sample (a
+    pressure read by a sensor) holds it between most of them; a wander by one count between
+    two held samples is then ten times its neighbours, but it is the converter's noise, not a
+    step (a pressure insole's record: 576 such "steps", each a nuisance column per creep term
+    of every fit). A load held between its steps, or ramped, has a median change of zero or
+    of its ramps'."""
+    d = np.abs(np.diff(load))
+    if len(d) == 0:
+        return 0.0
+    return max(1e-3 * float(np.ptp(load)), ABRUPT_FACTOR * float(np.median(d)))
 
 
 def abrupt_intervals(data: Data) -> np.ndarray:
@@ -206,7 +221,7 @@ def abrupt_intervals(data: Data) -> np.ndarray:
     outside = np.maximum(np.concatenate([[0.0], a[:-2]]), np.concatenate([a[2:], [0.0]]))
     same = (np.sign(d[:-1]) == np.sign(d[1:])) & (d[:-1] != 0)
     same &= (data.segment[2:] == data.segment[:-2])
-    pairs = np.flatnonzero(same & (total > ABRUPT_FACTOR * outside) & (total >= 1e-3 * float(np.ptp(data.load))))
+    pairs = np.flatnonzero(same & (total > ABRUPT_FACTOR * outside) & (total >= step_floor(data.load)))
     return np.unique(np.concatenate([steps, pairs, pairs + 1]))
 
 
