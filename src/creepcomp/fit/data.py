@@ -103,6 +103,12 @@ class Data:
         return float(self.time[-1] - start)
 
     @cached_property
+    def step_floor(self) -> float:
+        """The least load change between two samples that can be a step (:func:`step_floor`,
+        found once)."""
+        return step_floor(self.load)
+
+    @cached_property
     def abrupt(self) -> np.ndarray:
         """The sample intervals across which the load changes abruptly
         (:func:`abrupt_intervals`, found once)."""
@@ -188,7 +194,7 @@ def load_steps(data: Data) -> np.ndarray:
         return np.zeros(0, int)
     neighbours = np.maximum(np.concatenate([[0.0], d[:-1]]), np.concatenate([d[1:], [0.0]]))
     same_segment = data.segment[1:] == data.segment[:-1]
-    big = d >= step_floor(data.load)
+    big = d >= data.step_floor
     return np.flatnonzero((d > ABRUPT_FACTOR * neighbours) & big & same_segment & (d > 0))
 
 
@@ -221,7 +227,7 @@ def abrupt_intervals(data: Data) -> np.ndarray:
     outside = np.maximum(np.concatenate([[0.0], a[:-2]]), np.concatenate([a[2:], [0.0]]))
     same = (np.sign(d[:-1]) == np.sign(d[1:])) & (d[:-1] != 0)
     same &= (data.segment[2:] == data.segment[:-2])
-    pairs = np.flatnonzero(same & (total > ABRUPT_FACTOR * outside) & (total >= step_floor(data.load)))
+    pairs = np.flatnonzero(same & (total > ABRUPT_FACTOR * outside) & (total >= data.step_floor))
     return np.unique(np.concatenate([steps, pairs, pairs + 1]))
 
 
