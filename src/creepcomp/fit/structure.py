@@ -695,7 +695,7 @@ def _column_differences(data: Data, structure: Structure, values: dict, b: Basis
     out = [(col, diff[:, col]) for col in np.flatnonzero((diff != 0.0).any(axis=0))]
     taus = taus_of(moved, structure.n_terms)
     if b.step_bounds and not (np.array_equal(taus, taus_of(values, structure.n_terms))
-                              and np.array_equal(bp.creep_input, b.creep_input)):
+                              and _same_array(bp.creep_input, b.creep_input)):
         # the step-time columns follow the time constants and the creep input only
         steps = _step_time_block(data, bp.creep_input, taus, cache)[0] - b.columns[:, own:]
         steps /= step
