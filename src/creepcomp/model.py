@@ -14,6 +14,7 @@ import numpy as np
 from creepcomp.errors import InputError
 from creepcomp.lti import LagExpansion, varying_lag_states
 from creepcomp.temperature import TemperatureLaw, step_temperatures
+from creepcomp.transfer import Transfer
 
 if TYPE_CHECKING:
     import control
@@ -61,6 +62,13 @@ class CreepModel:
     temperature : TemperatureLaw, optional
         How ``beta`` and ``tau`` follow temperature; they hold at its reference. Without it
         the model has one temperature.
+    transfer : Transfer, optional
+        Static monotone maps on either side of the creep (:mod:`creepcomp.transfer`): the
+        raw signal is then ``h^-1(offset + gain * G(s)[f(load)])``. Without it (or with no
+        map) the signal is linear in load.
+
+    A model with no creep terms (``beta = tau = ()``) is a static calibration: the
+    zero-creep member of the family, which a soft sensor's creep model must beat.
     """
 
     beta: tuple[float, ...]
@@ -69,14 +77,13 @@ class CreepModel:
     offset: float = 0.0
     extensions: Mapping[str, Any] = field(default_factory=dict, compare=False)
     temperature: TemperatureLaw | None = None
+    transfer: Transfer | None = None
 
     def __post_init__(self):
         beta = self.beta if isinstance(self.beta, (list, tuple, np.ndarray)) else [self.beta]
         tau = self.tau if isinstance(self.tau, (list, tuple, np.ndarray)) else [self.tau]
         single = len(beta) == 1
         names = (lambda k: ("beta0", "tau")) if single else (lambda k: (f"beta[{k}]", f"tau[{k}]"))
-        if len(beta) == 0:
-            raise InputError("a creep model needs at least one term (beta and tau)")
         if len(beta) != len(tau):
             raise InputError(f"beta has {len(beta)} entries and tau has {len(tau)}: one of each per term")
         if len(beta) > MAX_TERMS:
@@ -103,6 +110,12 @@ class CreepModel:
         if law is not None and law.beta_per_kelvin and len(law.beta_per_kelvin) != len(b):
             raise InputError(f"temperature: beta_per_kelvin has {len(law.beta_per_kelvin)} entries "
                              f"for {len(b)} creep terms")
+        if law is not None and not b:
+            raise InputError("a temperature law needs creep terms to act on")
+        if self.transfer is not None and not isinstance(self.transfer, Transfer):
+            raise InputError("transfer must be a creepcomp.transfer.Transfer")
+        if self.transfer is not None and self.transfer.is_identity:
+            object.__setattr__(self, "transfer", None)
 
     @classmethod
     def voigt(cls, beta0: float, tau: float) -> "CreepModel":
@@ -118,6 +131,17 @@ class CreepModel:
     def n_terms(self) -> int:
         """Number of Prony terms."""
         return len(self.beta)
+
+    @property
+    def is_static(self) -> bool:
+        """A static calibration: no creep terms."""
+        return not self.beta
+
+    def require_creep(self, what: str) -> None:
+        """Refuse a static calibration where ``what`` needs creep terms to act on."""
+        if self.is_static:
+            raise InputError(f"the model is a static calibration (no creep terms): {what} has no creep "
+                             "to correct; `creepcomp correct --model` applies its calibration")
 
     @property
     def sign(self) -> int:
@@ -157,7 +181,7 @@ class CreepModel:
         a_t = float(law.shift(temperature))
         factor = law.beta_factor(float(temperature), self.n_terms)
         return CreepModel(tuple(np.array(self.beta) * factor), tuple(np.array(self.tau) * a_t),
-                          self.gain, self.offset, dict(self.extensions))
+                          self.gain, self.offset, dict(self.extensions), None, self.transfer)
 
     def step_lags(self, temperature) -> tuple[np.ndarray, np.ndarray]:
         """Retardation times over each sample step and amplitudes at each sample.
@@ -175,7 +199,8 @@ class CreepModel:
 
     def response(self, time, load, hold: str = "linear", initial="relaxed",
                  temperature=None) -> np.ndarray:
-        """Raw sensor signal for a load history, ``offset + gain * G(s)[load]``.
+        """Raw sensor signal for a load history, ``offset + gain * G(s)[load]`` (through the
+        static maps of :attr:`transfer`, when the model has them).
 
         Parameters
         ----------
@@ -197,25 +222,34 @@ class CreepModel:
         -------
         numpy.ndarray
         """
+        path = self.transfer
+        if path is not None:
+            load = path.load_in(load)
         if temperature is None or self.temperature is None:
             if temperature is not None:
                 raise InputError("a temperature was given but the model has no temperature law")
-            creep = self.lag_expansion().simulate(time, load, hold=hold, initial=initial)
-            return self.offset + self.gain * creep
-        u = np.asarray(load, dtype=float)
-        temp = np.asarray(temperature, dtype=float)
-        if temp.shape != u.shape:
-            raise InputError(f"temperature has {temp.size} samples and load {u.size}")
-        taus, betas = self.step_lags(temp)
-        states = varying_lag_states(time, u, taus, hold=hold, initial=initial)
-        return self.offset + self.gain * (u + np.sum(states * betas, axis=1))
+            if self.is_static:
+                linear = self.offset + self.gain * np.asarray(load, dtype=float)
+            else:
+                creep = self.lag_expansion().simulate(time, load, hold=hold, initial=initial)
+                linear = self.offset + self.gain * creep
+        else:
+            u = np.asarray(load, dtype=float)
+            temp = np.asarray(temperature, dtype=float)
+            if temp.shape != u.shape:
+                raise InputError(f"temperature has {temp.size} samples and load {u.size}")
+            taus, betas = self.step_lags(temp)
+            states = varying_lag_states(time, u, taus, hold=hold, initial=initial)
+            linear = self.offset + self.gain * (u + np.sum(states * betas, axis=1))
+        return linear if path is None else path.delinearise(linear)
 
     def with_terms(self, beta, tau) -> "CreepModel":
         """A copy with other Prony terms and the same gain, offset and extensions."""
         law = self.temperature
         if law is not None and law.beta_per_kelvin and len(law.beta_per_kelvin) != len(beta):
             law = _without_beta_law(law)
-        return CreepModel(tuple(beta), tuple(tau), self.gain, self.offset, dict(self.extensions), law)
+        return CreepModel(tuple(beta), tuple(tau), self.gain, self.offset, dict(self.extensions), law,
+                          self.transfer)
 
     def creep_block(self) -> dict:
         """A design file's ``creep`` block: ``beta``, ``tau`` and the temperature law if any."""
@@ -231,6 +265,8 @@ class CreepModel:
             out["temperature"] = self.temperature.to_dict()
         if self.extensions:
             out["extensions"] = dict(self.extensions)
+        if self.transfer is not None:
+            out["transfer"] = self.transfer.to_dict()
         return out
 
     @classmethod
@@ -254,8 +290,11 @@ class CreepModel:
         law = None
         if data.get("temperature") is not None:
             law = TemperatureLaw.from_dict(data["temperature"], where=f"{where}: 'temperature'")
+        transfer = None
+        if data.get("transfer") is not None:
+            transfer = Transfer.from_dict(data["transfer"], where=f"{where}: 'transfer'")
         try:
             return cls(tuple(beta), tuple(tau), data.get("gain", 1.0), data.get("offset", 0.0),
-                       dict(data.get("extensions", {}) or {}), law)
+                       dict(data.get("extensions", {}) or {}), law, transfer)
         except InputError as exc:
             raise InputError(f"{where}: {exc}") from None

@@ -65,7 +65,8 @@ __all__ = ["ERROR_CHUNK", "METHODS", "HOLDS", "INITIAL_STATES", "BLOCK", "PASS_S
            "saturation_factor", "Corrector", "check_invertible", "check_temperature", "compensate",
            "uniform_interval", "uniform_interval_of", "reference", "CreepError", "CreepErrorSum",
            "creep_error", "fitted_reference_error",
-           "FittedReferenceSum"]
+           "FittedReferenceSum", "estimate_load", "load_from_compensated", "in_map_domain",
+           "samples_outside_map"]
 
 METHODS = ("subtractive", "supplemental")
 HOLDS = ("zero", "linear")
@@ -502,6 +503,15 @@ def compensate(time, signal, model: CreepModel, method: str = "subtractive", ini
         if temps.ndim and temps.shape != x.shape:
             raise InputError(f"temperature has {temps.size} samples and the signal {x.size}")
         temps = np.broadcast_to(temps, x.shape)
+    path = model.transfer
+    if path is not None:
+        x = path.linearise(in_map_domain(x, path.signal_map))
+    if model.is_static:
+        _check_method(method)
+        out = x.copy()
+        if progress:
+            progress(len(x), len(x))
+        return out if path is None else path.delinearise(out)
     corrector = Corrector(model, method, dt=dt, initial=initial, hold=hold)
     out = np.empty_like(x)
     for lo in range(0, len(x), max(int(chunk), 1)):
@@ -511,7 +521,95 @@ def compensate(time, signal, model: CreepModel, method: str = "subtractive", ini
                       else corrector.process(x[lo:hi], t[lo:hi], temperature=part))
         if progress:
             progress(hi, len(x))
-    return out
+    return out if path is None else path.delinearise(out)
+
+
+def in_map_domain(signal, signal_map) -> np.ndarray:
+    """The signal with samples outside a static map's domain moved just inside its edge.
+
+    A reciprocal or logarithmic map is defined on one side of its origin only; a sample on
+    the other side (noise at the converter's rail) would make the creep states NaN for the
+    rest of the record. :func:`samples_outside_map` counts them, for the caller to say so.
+    """
+    x = np.asarray(signal, dtype=float)
+    if signal_map is None:
+        return x
+    lo, hi = signal_map.domain()
+    if math.isfinite(lo) or math.isfinite(hi):
+        span = float(np.ptp(x[np.isfinite(x)])) if x.size else 0.0
+        edge = 1e-9 * max(span, abs(lo) if math.isfinite(lo) else 0.0, abs(hi) if math.isfinite(hi) else 0.0, 1e-300)
+        x = np.clip(x, lo + edge if math.isfinite(lo) else -np.inf, hi - edge if math.isfinite(hi) else np.inf)
+    return x
+
+
+def samples_outside_map(signal, model: CreepModel) -> int:
+    """How many samples lie outside the model's signal map's domain (see :func:`in_map_domain`)."""
+    if model.transfer is None or model.transfer.signal_map is None:
+        return 0
+    lo, hi = model.transfer.signal_map.domain()
+    x = np.asarray(signal, dtype=float)
+    return int(np.count_nonzero(~((x > lo) & (x < hi))))
+
+
+def load_from_compensated(compensated, model: CreepModel, method: str = "subtractive") -> np.ndarray:
+    """The load that a compensated signal stands for: the rest of the model's inverse.
+
+    ``f^-1( (h(compensated) - offset) / (gain * scale) )``, with ``scale`` 1 (subtractive) or
+    ``1 + beta0`` (supplemental), ``h`` and ``f`` the model's static maps (identity without).
+    """
+    path = model.transfer
+    z = np.asarray(compensated, dtype=float)
+    if path is not None:
+        z = path.linearise(in_map_domain(z, path.signal_map))
+    load = (z - model.offset) / (model.gain * saturation_factor(model, method))
+    return load if path is None else path.load_out(load)
+
+
+def estimate_load(time, signal, model: CreepModel, method: str = "subtractive", initial=None,
+                  hold: str = "zero", temperature=None) -> np.ndarray:
+    """The load of every sample: the whole model's inverse, static maps included.
+
+    The signal is linearised by the model's signal map, its creep removed by the exact
+    correction (:func:`compensate`), and the result mapped back through gain, offset and the
+    load map: in load units, what a static calibration gives for a sensor without creep.
+
+    Parameters
+    ----------
+    time, signal : array_like
+        Strictly increasing sample times (s) and the raw signal.
+    model : CreepModel
+        A model without fitted ``extensions`` (those are inverted by the diagnosis's
+        :func:`creepcomp.diagnose.effects.compensate_extended`, then
+        :func:`load_from_compensated`).
+    method, initial, hold, temperature
+        As for :func:`compensate`; the load does not depend on the method.
+
+    Returns
+    -------
+    numpy.ndarray
+        The load estimate in load units.
+
+    Examples
+    --------
+    A resistive pad read as a resistance: conductance linear in load, 20 % of creep at 5 s:
+
+    >>> import numpy as np
+    >>> from creepcomp.model import CreepModel
+    >>> from creepcomp.transfer import StaticMap, Transfer
+    >>> from creepcomp.digital.correctors import estimate_load
+    >>> model = CreepModel((0.2,), (5.0,), gain=1e-4, offset=1e-4,
+    ...                    transfer=Transfer(signal_map=StaticMap("reciprocal", {"origin": 0.0})))
+    >>> t = np.arange(0.0, 60.0, 0.05)
+    >>> load = np.where(t >= 10.0, 3.0, 0.0)
+    >>> resistance = model.response(t, load, hold="zero")
+    >>> print(f"{resistance[0]:.0f} ohm unloaded, {resistance[-1]:.0f} ohm after 50 s at 3 N")
+    10000 ohm unloaded, 2174 ohm after 50 s at 3 N
+    >>> bool(np.max(np.abs(estimate_load(t, resistance, model) - load)) < 1e-9)
+    True
+    """
+    compensated = compensate(time, signal, model, method=method, initial=initial, hold=hold,
+                             temperature=temperature)
+    return load_from_compensated(compensated, model, method)
 
 
 def uniform_interval(time, steps=None) -> float | None:
@@ -552,7 +650,10 @@ def uniform_interval_of(first: float, last: float, samples: int, step_min: float
 def reference(load, model: CreepModel, method: str = "subtractive") -> np.ndarray:
     """What an exact correction returns for a load: ``offset + gain * load`` (subtractive) or
     ``offset + (1 + beta0) * gain * load`` (supplemental)."""
-    return model.offset + model.gain * saturation_factor(model, method) * np.asarray(load, dtype=float)
+    path = model.transfer
+    u = np.asarray(load, dtype=float) if path is None else path.load_in(load)
+    linear = model.offset + model.gain * saturation_factor(model, method) * u
+    return linear if path is None else path.delinearise(linear)
 
 
 @dataclass(frozen=True)

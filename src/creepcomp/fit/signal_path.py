@@ -1,0 +1,466 @@
+"""The signal path of a soft sensor, chosen by how well it gives the load back.
+
+A force-sensing resistor, a Velostat pad, a carbon-black stretch sensor or a capacitive foam
+taxel is strongly nonlinear and creeps by tens of percent. :func:`fit_signal_path` fits the
+family ``signal = h^-1(offset + gain * G(s)[f(load)])`` (:mod:`creepcomp.transfer`) from its
+zero-creep members (a static line; a static monotone calibration curve) to static maps on
+either side of linear creep, and keeps the member that recovers the load best on the last
+part of the record, held out of its fit:
+
+1. the record is split in time: the first ``1 - validation`` is fitted, the rest predicted;
+2. the static members are fitted (the floor every creep model must beat);
+3. every pair of static maps is screened statically (no creep), and the best few, and the
+   identity, are fitted with one creep term (the linear creep of
+   :func:`creepcomp.fit.prony.fit_prony` between ``f(load)`` and ``h(signal)``); a monotone
+   spline signal map is fitted by alternating the spline and the creep;
+4. the best of them is given its number of creep terms by the Prony fit's own evidence;
+5. the member whose held-out load error is lowest is chosen; a member with more parts must
+   beat a simpler one by :data:`MARGIN` to be kept. It is refitted on the whole record.
+
+Every creep model kept has a stable inverse (:func:`creepcomp.digital.correctors.check_invertible`),
+so that what is written is what ``correct`` and ``firmware`` accept.
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from creepcomp.digital.correctors import check_invertible, estimate_load
+from creepcomp.errors import InputError
+from creepcomp.io.records import Record
+from creepcomp.model import CreepModel
+from creepcomp.transfer import StaticMap, Transfer
+
+__all__ = ["Candidate", "SignalPathFit", "fit_signal_path", "static_line", "monotone_calibration",
+           "settled_points",
+           "VALIDATION", "MARGIN", "SPLINE_KNOTS"]
+
+#: Share of the record's time held out at its end to choose the signal path.
+VALIDATION = 0.25
+#: A member with more parts is kept only when its held-out load error is at most this share of
+#: the simpler member's (5 % better): a spline or a map that wins by less is noise.
+MARGIN = 0.95
+#: Knots of a monotone spline calibration (fewer on short records: 20 samples a knot at least).
+SPLINE_KNOTS = 12
+#: Exponents of the power maps screened on either side (the reciprocal is the -1 of the signal side).
+SIGNAL_EXPONENTS = (-2.0, -1.5, -1.0, -0.7, -0.5, -0.3, 0.3, 0.5, 0.7, 1.5, 2.0)
+LOAD_EXPONENTS = (0.3, 0.5, 0.7, 1.5, 2.0)
+#: Map pairs fitted with creep after the static screen (the identity pair is always fitted).
+SCREENED = 3
+#: Alternations of a spline signal map with its creep.
+SPLINE_ROUNDS = 3
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One member of the family, fitted on the first part of the record.
+
+    Attributes
+    ----------
+    name : str
+        What it is (``static line``, ``static monotone``, ``linear creep``, or the maps and
+        the number of creep terms).
+    model : CreepModel or None
+        The fitted model (None when its fit failed).
+    heldout_load_rms : float
+        RMS load error on the held-out part, as a fraction of the record's load range
+        (``inf`` when it failed).
+    parts : int
+        How many parts it has (static maps, creep terms): the rule prefers fewer.
+    reason : str
+        Why it failed, or empty.
+    """
+
+    name: str
+    model: CreepModel | None
+    heldout_load_rms: float
+    parts: int
+    reason: str = ""
+
+    def to_dict(self) -> dict:
+        """JSON form: name, held-out error (fraction of the load range), parts, reason."""
+        err = self.heldout_load_rms
+        return {"name": self.name, "heldout_load_rms": err if math.isfinite(err) else None,
+                "parts": self.parts, "reason": self.reason or None}
+
+
+@dataclass(frozen=True)
+class SignalPathFit:
+    """The chosen signal path and the members it was chosen from.
+
+    Attributes
+    ----------
+    model : CreepModel
+        The chosen member refitted on the whole record: static maps (``transfer``), creep
+        terms (none for a static calibration), gain and offset.
+    chosen : str
+        Its name among ``candidates``.
+    candidates : tuple of Candidate
+        Every member tried, fitted on the first part and judged on the held-out part.
+    load_range : float
+        The record's load range (load units), the scale of the errors.
+    split_time : float
+        Where the held-out part starts (s).
+    seconds : float
+        Time the fit took.
+    """
+
+    model: CreepModel
+    chosen: str
+    candidates: tuple[Candidate, ...]
+    load_range: float
+    split_time: float
+    seconds: float
+
+    def candidate(self, name: str) -> Candidate:
+        """The member of that name."""
+        for c in self.candidates:
+            if c.name == name:
+                return c
+        raise KeyError(name)
+
+    @property
+    def best_static(self) -> Candidate:
+        """The better of the two static calibrations on the held-out part."""
+        statics = [c for c in self.candidates if c.model is not None and c.model.is_static]
+        return min(statics, key=lambda c: c.heldout_load_rms)
+
+    def to_dict(self) -> dict:
+        """JSON form: the chosen member, its model, every member's held-out load error."""
+        return {"chosen": self.chosen, "model": self.model.to_dict(), "load_range": self.load_range,
+                "split_time": self.split_time, "candidates": [c.to_dict() for c in self.candidates],
+                "seconds": self.seconds}
+
+
+def _split(record: Record, validation: float) -> tuple[np.ndarray, float]:
+    t = record.time
+    cut = t[0] + (1.0 - validation) * (t[-1] - t[0])
+    return t < cut, float(cut)
+
+
+def _part(record: Record, mask: np.ndarray, load=None, signal=None) -> Record:
+    return Record(record.time[mask], record.load[mask] if load is None else load[mask],
+                  record.signal[mask] if signal is None else signal[mask], metadata=dict(record.metadata),
+                  source=record.source)
+
+
+def static_line(load, signal) -> CreepModel:
+    """The least-squares line of load against signal, as a model with no creep.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from creepcomp.fit.signal_path import static_line
+    >>> m = static_line([0.0, 1.0, 2.0], [1.0, 3.0, 5.0])
+    >>> print(f"gain {m.gain:.3g}, offset {m.offset:.3g}, terms {m.n_terms}")
+    gain 2, offset 1, terms 0
+    """
+    x = np.asarray(signal, float)
+    y = np.asarray(load, float)
+    slope, intercept = np.polyfit(x, y, 1)
+    if not slope or not math.isfinite(slope):
+        raise InputError("the signal does not follow the load: no static line")
+    return CreepModel((), (), gain=1.0 / slope, offset=-intercept / slope)
+
+
+def monotone_calibration(signal, target, knots: int = SPLINE_KNOTS) -> StaticMap:
+    """A monotone piecewise-linear map ``h`` with ``h(signal) ~ target`` (least squares).
+
+    Knots at quantiles of the signal; the map increases or decreases as the signal's
+    correlation with the target says, each segment by at least a millionth of the target's
+    range (a strictly monotone map has an inverse).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from creepcomp.fit.signal_path import monotone_calibration
+    >>> s = np.linspace(1.0, 10.0, 200)
+    >>> h = monotone_calibration(s, np.sqrt(s), knots=8)
+    >>> bool(np.max(np.abs(h.forward(s) - np.sqrt(s))) < 0.03)
+    True
+    """
+    from scipy.optimize import lsq_linear
+
+    x = np.asarray(signal, float)
+    y = np.asarray(target, float)
+    k = int(max(2, min(knots, x.size // 20)))
+    xs = np.unique(np.quantile(x, np.linspace(0.0, 1.0, k)))
+    if xs.size < 2:
+        raise InputError("the signal does not change: no calibration curve")
+    # hat functions of linear interpolation between the knots
+    idx = np.clip(np.searchsorted(xs, x, side="right") - 1, 0, xs.size - 2)
+    w = np.clip((x - xs[idx]) / (xs[idx + 1] - xs[idx]), 0.0, 1.0)
+    basis = np.zeros((x.size, xs.size))
+    basis[np.arange(x.size), idx] = 1.0 - w
+    basis[np.arange(x.size), idx + 1] = w
+    # knot values as the first one plus increments of one sign
+    sign = 1.0 if np.corrcoef(x, y)[0, 1] >= 0 else -1.0
+    cumulative = np.tril(np.ones((xs.size, xs.size)))
+    design = basis @ cumulative
+    design[:, 1:] *= sign
+    floor = 1e-6 * max(float(np.ptp(y)), 1e-300)
+    lower = np.r_[-np.inf, np.full(xs.size - 1, floor)]
+    sol = lsq_linear(design, y, bounds=(lower, np.full(xs.size, np.inf)))
+    values = cumulative @ (sol.x * np.r_[1.0, np.full(xs.size - 1, sign)])
+    return StaticMap("spline", {"x": xs.tolist(), "y": values.tolist()})
+
+
+def _load_rms(model: CreepModel, record: Record, heldout: np.ndarray, load_range: float) -> float:
+    est = estimate_load(record.time, record.signal, model)
+    err = est[heldout] - record.load[heldout]
+    rms = float(np.sqrt(np.mean(err * err))) / load_range
+    return rms if math.isfinite(rms) else math.inf
+
+
+def _signal_maps(signal: np.ndarray) -> list[StaticMap]:
+    """Power (reciprocal) and log maps the signal's sign allows, about zero."""
+    lo, hi = float(np.min(signal)), float(np.max(signal))
+    maps = [StaticMap("power", {"exponent": e, "origin": 0.0}) for e in SIGNAL_EXPONENTS if e > 0]
+    if lo > 0:
+        maps += [StaticMap("log", {"origin": 0.0})]
+        maps += [StaticMap("reciprocal", {"origin": 0.0}) if e == -1.0 else
+                 StaticMap("power", {"exponent": e, "origin": 0.0}) for e in SIGNAL_EXPONENTS if e < 0]
+    return [m for m in maps if not (m.form == "power" and m.parameters["exponent"] == 1.0)]
+
+
+def _load_maps() -> list[StaticMap]:
+    return [StaticMap("power", {"exponent": e, "origin": 0.0}) for e in LOAD_EXPONENTS]
+
+
+def settled_points(record: Record, min_samples: int = 5) -> tuple[np.ndarray, np.ndarray] | None:
+    """Load and signal at the end of each hold (the last fifth of each run of constant load):
+    where creep has come furthest, the static shape of the sensor shows best. None when the
+    record has fewer than four holds at three load levels."""
+    y, x = record.load, record.signal
+    span = float(np.ptp(y)) or 1.0
+    moving = np.abs(np.diff(y)) > 1e-3 * span
+    edges = np.r_[0, np.flatnonzero(moving) + 1, y.size]
+    loads, signals = [], []
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        if hi - lo >= min_samples:
+            tail = slice(hi - max((hi - lo) // 5, 1), hi)
+            loads.append(float(np.mean(y[tail])))
+            signals.append(float(np.mean(x[tail])))
+    if len(loads) < 4 or np.unique(np.round(np.array(loads) / span, 2)).size < 3:
+        return None
+    return np.array(loads), np.array(signals)
+
+
+def _static_screen(fit_rec: Record, pairs: list[Transfer]) -> list[tuple[float, Transfer]]:
+    """Each pair of maps judged without creep: the load error of the line through
+    ``f(load)`` against ``h(signal)`` at the ends of the holds (a map that linearises the
+    sensor leaves the least), or at every sample of a record without holds."""
+    points = settled_points(fit_rec)
+    y, x = points if points is not None else (fit_rec.load, fit_rec.signal)
+    span = float(np.ptp(y)) or 1.0
+    scored = []
+    for path in pairs:
+        with np.errstate(all="ignore"):
+            z = path.linearise(x)
+            u = path.load_in(y)
+        if not (np.all(np.isfinite(z)) and np.all(np.isfinite(u))) or np.ptp(z) == 0:
+            continue
+        slope, intercept = np.polyfit(u, z, 1)
+        if not slope:
+            continue
+        with np.errstate(all="ignore"):
+            back = path.load_out((z - intercept) / slope)
+        rms = float(np.sqrt(np.nanmean((back - y) ** 2))) / span
+        if math.isfinite(rms):
+            scored.append((rms, path))
+    scored.sort(key=lambda s: s[0])
+    return scored
+
+
+def _screened(fit_rec: Record) -> list[Transfer]:
+    """The pairs of maps worth a creep fit: the best few of the static screen, and the best
+    with a map on one side only."""
+    signal_maps = _signal_maps(fit_rec.signal)
+    pairs = [Transfer(signal_map=h) for h in signal_maps]
+    pairs += [Transfer(load_map=f) for f in _load_maps()]
+    pairs += [Transfer(load_map=f, signal_map=h) for f in _load_maps() for h in signal_maps]
+    ranked = [p for _, p in _static_screen(fit_rec, pairs)]
+    chosen = ranked[:SCREENED]
+    for one_side in (lambda p: p.load_map is None, lambda p: p.signal_map is None):
+        best = next((p for p in ranked if one_side(p)), None)
+        if best is not None and best not in chosen:
+            chosen.append(best)
+    return chosen
+
+
+def _creep_fit(fit_rec: Record, path: Transfer | None, n_terms: int | None, max_terms: int,
+               initial: str) -> CreepModel:
+    """Linear creep between ``f(load)`` and ``h(signal)``, with the maps attached."""
+    from creepcomp.fit.data import prepare
+    from creepcomp.fit.prony import fit_prony
+
+    load, signal = fit_rec.load, fit_rec.signal
+    if path is not None:
+        load, signal = path.load_in(load), path.linearise(signal)
+    inner = Record(fit_rec.time, load, signal, metadata={}, source=fit_rec.source)
+    data = prepare(inner, initial=initial)
+    result = fit_prony(data, max_terms=max_terms, n_terms=n_terms)
+    model = result.model()
+    model = CreepModel(model.beta, model.tau, model.gain, model.offset, transfer=path)
+    check_invertible(model)
+    return model
+
+
+def _spline_creep(fit_rec: Record, n_terms: int | None, max_terms: int, initial: str) -> CreepModel:
+    """A monotone spline signal map and linear creep in load units, fitted in turns: the
+    spline maps the signal to the load through creep, the creep is fitted to the mapped signal."""
+    h = monotone_calibration(fit_rec.signal, fit_rec.load)
+    model = None
+    for _ in range(SPLINE_ROUNDS):
+        model = _creep_fit(fit_rec, Transfer(signal_map=h), n_terms, max_terms, initial)
+        # what the creep says the mapped signal should be, in load units: G[load]
+        target = CreepModel(model.beta, model.tau).response(fit_rec.time, fit_rec.load)
+        h = monotone_calibration(fit_rec.signal, target)
+    return _creep_fit(fit_rec, Transfer(signal_map=h), n_terms, max_terms, initial)
+
+
+def _try(name: str, parts: int, make, record: Record, heldout, load_range) -> Candidate:
+    try:
+        model = make()
+        return Candidate(name, model, _load_rms(model, record, heldout, load_range), parts)
+    except (InputError, ValueError, np.linalg.LinAlgError, FloatingPointError) as exc:
+        return Candidate(name, None, math.inf, parts, str(exc).splitlines()[0][:200])
+
+
+def fit_signal_path(record: Record, max_terms: int = 3, validation: float = VALIDATION,
+                    initial: str = "relaxed", maps: bool = True) -> SignalPathFit:
+    """Fit the signal path that gives the load back best: static, linear creep, or static
+    maps around linear creep.
+
+    Parameters
+    ----------
+    record : Record
+        A measured record with ``time``, ``load`` and ``signal``.
+    max_terms : int
+        Most creep terms of the chosen path.
+    validation : float
+        Share of the record's time held out at its end to choose (0.1 to 0.5).
+    initial : {"relaxed", "settled", "free"}
+        Creep state at the first sample (the correction starts the same way).
+    maps : bool
+        Try static maps (False: the static calibrations and linear creep only).
+
+    Returns
+    -------
+    SignalPathFit
+
+    Examples
+    --------
+    A pad whose conductance is linear in load and creeps by 25 % at 4 s, read as a
+    resistance: the reciprocal map with creep gives the load back, a static line does not:
+
+    >>> import numpy as np
+    >>> from creepcomp.io.records import Record
+    >>> from creepcomp.model import CreepModel
+    >>> from creepcomp.transfer import StaticMap, Transfer
+    >>> from creepcomp.fit.signal_path import fit_signal_path
+    >>> truth = CreepModel((0.25,), (4.0,), gain=2e-4, offset=1e-4,
+    ...                    transfer=Transfer(signal_map=StaticMap("reciprocal", {"origin": 0.0})))
+    >>> t = np.arange(0.0, 240.0, 0.1)
+    >>> load = np.where((t % 40.0) >= 20.0, 1.0 + (t // 40.0) % 3, 0.0)
+    >>> noise = np.random.default_rng(1).normal(0.0, 2.0, t.size)
+    >>> record = Record(t, load, truth.response(t, load, hold="zero") + noise)
+    >>> result = fit_signal_path(record)
+    >>> print(result.chosen)
+    reciprocal about 0 (signal map), 1 creep term
+    >>> bool(result.candidate(result.chosen).heldout_load_rms < result.best_static.heldout_load_rms / 3)
+    True
+    """
+    start = _time.perf_counter()
+    if not 0.1 <= validation <= 0.5:
+        raise InputError(f"validation = {validation:g}: hold out 0.1 to 0.5 of the record")
+    load_range = float(np.ptp(record.load))
+    if not load_range > 0:
+        raise InputError(f"{record.source}: the load never changes: nothing to calibrate against")
+    fit_mask, cut = _split(record, validation)
+    heldout = ~fit_mask
+    if fit_mask.sum() < 20 or heldout.sum() < 5:
+        raise InputError(f"{record.source}: {len(record)} samples are too few to fit and hold out a part")
+    fit_rec = _part(record, fit_mask)
+
+    def judge(name, parts, make):
+        return _try(name, parts, make, record, heldout, load_range)
+
+    found = [judge("static line", 0, lambda: static_line(fit_rec.load, fit_rec.signal)),
+             judge("static monotone", 1, lambda: CreepModel((), (), transfer=Transfer(
+                 signal_map=monotone_calibration(fit_rec.signal, fit_rec.load)))),
+             judge("linear creep, 1 creep term", 1,
+                   lambda: _creep_fit(fit_rec, None, 1, max_terms, initial))]
+    creep = [found[-1]]
+    if maps:
+        for path in _screened(fit_rec):
+            parts = 1 + (path.load_map is not None) + (path.signal_map is not None)
+            creep.append(judge(_describe_named(path, 1), parts,
+                               lambda path=path: _creep_fit(fit_rec, path, 1, max_terms, initial)))
+        creep.append(judge("monotone spline (signal map), 1 creep term", 2,
+                           lambda: _spline_creep(fit_rec, 1, max_terms, initial)))
+        found += creep[1:]
+    best = min(creep, key=lambda c: c.heldout_load_rms)
+    if best.model is not None and max_terms > 1:
+        grown = judge(best.name, best.parts, lambda: _grown(fit_rec, best.model, max_terms, initial))
+        if grown.model is not None and grown.model.n_terms > 1:
+            grown = replace(grown, name=_describe_named(grown.model.transfer, grown.model.n_terms),
+                            parts=best.parts + grown.model.n_terms - 1)
+            found.append(grown)
+    chosen = _choose(found)
+    model = _refit(record, chosen, max_terms, initial)
+    return SignalPathFit(model, chosen.name, tuple(found), load_range, cut,
+                         _time.perf_counter() - start)
+
+
+def _describe_named(path: Transfer | None, n_terms: int) -> str:
+    if path is None:
+        return f"linear creep, {n_terms} creep term{'s' if n_terms != 1 else ''}"
+    names = []
+    if path.signal_map is not None:
+        names.append(("monotone spline" if path.signal_map.form == "spline" else path.signal_map.describe())
+                     + " (signal map)")
+    if path.load_map is not None:
+        names.append(path.load_map.describe() + " (load map)")
+    return f"{' + '.join(names)}, {n_terms} creep term{'s' if n_terms != 1 else ''}"
+
+
+def _grown(fit_rec: Record, model: CreepModel, max_terms: int, initial: str) -> CreepModel:
+    """The same maps with the number of creep terms chosen by the Prony fit's evidence."""
+    path = model.transfer
+    if path is not None and path.signal_map is not None and path.signal_map.form == "spline":
+        return _spline_creep(fit_rec, None, max_terms, initial)
+    return _creep_fit(fit_rec, path, None, max_terms, initial)
+
+
+def _choose(found: list[Candidate]) -> Candidate:
+    """The lowest held-out load error; more parts must win by :data:`MARGIN`."""
+    usable = sorted((c for c in found if c.model is not None), key=lambda c: (c.parts, c.heldout_load_rms))
+    if not usable:
+        reasons = "; ".join(f"{c.name}: {c.reason}" for c in found)
+        raise InputError(f"no member of the signal-path family could be fitted ({reasons})")
+    chosen = usable[0]
+    for c in usable[1:]:
+        if c.heldout_load_rms < MARGIN * chosen.heldout_load_rms:
+            chosen = c
+    return chosen
+
+
+def _refit(record: Record, chosen: Candidate, max_terms: int, initial: str) -> CreepModel:
+    """The chosen member's structure fitted on the whole record (its own if that fails)."""
+    m = chosen.model
+    try:
+        if chosen.name == "static line":
+            return static_line(record.load, record.signal)
+        if chosen.name == "static monotone":
+            return CreepModel((), (), transfer=Transfer(signal_map=monotone_calibration(record.signal, record.load)))
+        path = m.transfer
+        if path is not None and path.signal_map is not None and path.signal_map.form == "spline":
+            return _spline_creep(record, m.n_terms, max_terms, initial)
+        return _creep_fit(record, path, m.n_terms, max_terms, initial)
+    except (InputError, ValueError, np.linalg.LinAlgError):
+        return m
