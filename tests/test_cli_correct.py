@@ -30,13 +30,14 @@ def test_correct_writes_the_record_plus_compensated_and_reports_the_error(run_cl
     assert "Creep error against the load reference" in stdout and "% " in stdout and "mV" in stdout
     assert f"corrected record written to {out}" in stdout
     header = [line for line in out.read_text().splitlines() if not line.startswith("#")][0]
-    assert header == "time,load,signal,temperature,compensated"
+    assert header == "time,load,signal,temperature,compensated,load_estimate"
     back = read_record(out)
     assert back.metadata["compensated.method"] == "subtractive"
     assert back.metadata["units.signal"] == "V"
     np.testing.assert_array_equal(back.signal, read_record(record).signal)
     compensated = _column(out, "compensated")
     np.testing.assert_allclose(compensated, MODEL.offset + MODEL.gain * load, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(_column(out, "load_estimate"), load, rtol=0, atol=1e-12)
 
 
 def _column(path, name):
@@ -58,6 +59,8 @@ def test_json_report(run_cli, files, method, factor):
     assert after["full_scale"] == pytest.approx(MODEL.gain * factor * 3.0)
     assert before["peak_fraction"] > 5e-3 and after["peak_fraction"] < 1e-12
     assert data["reduction"] > 1e9
+    # the load comes back in load units whatever the method's scale
+    assert data["load_estimate"]["rms"] < 1e-12 and data["load_estimate"]["unit"] == "g"
     assert data["starts_loaded"] is False and data["notes"] == []
 
 

@@ -13,7 +13,7 @@ from creepcomp.io.jsonfiles import read_json, read_model
 from creepcomp.io.outputs import check_outputs
 from creepcomp.io.records import parse_columns, read_record, write_record
 from creepcomp.units import format_percent, format_quantity
-from creepcomp.cli.common import app, console, print_json, progress_bar, warn_creep
+from creepcomp.cli.common import app, console, print_json, progress_bar
 from creepcomp.cli.size import describe_model
 
 #: A record "starts loaded" when its first load is above this fraction of its largest load.
@@ -61,7 +61,8 @@ def correct_command(
     columns: Optional[str] = typer.Option(None, "--columns", metavar="MAP",
                                           help="Column mapping, e.g. time=tR,load=P,signal=Ri."),
     output: Optional[Path] = typer.Option(None, "-o", "--output", metavar="out.csv",
-                                          help="Write the record's columns plus 'compensated'."),
+                                          help="Write the record's columns plus 'compensated' and "
+                                               "'load_estimate' (the load, in load units)."),
     plot: Optional[Path] = typer.Option(None, "--plot", metavar="FILE.png",
                                         help="Plot raw, compensated and reference, and the errors."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
@@ -81,7 +82,6 @@ def correct_command(
                          "load: fit the record first (creepcomp fit RECORD -o model.json) and give "
                          "that model")
     model = read_model(model_file)
-    warn_creep(model, str(model_file))
     start = default_initial(method) if initial is None else initial.strip().lower()
     constant = celsius(temperature, "--temperature")
     out_meta = {"compensated.method": method, "compensated.initial": start, "compensated.hold": hold,
@@ -90,7 +90,7 @@ def correct_command(
         out_meta["compensated.temperature"] = f"{constant:g} °C"
     inverses = _extension_inverses(model)
     done = None
-    if plot is None and not inverses:
+    if plot is None and not inverses and model.transfer is None and not model.is_static:
         done = _correct_in_pieces(record_path, model, method, start, hold, output, out_meta,
                                   parse_columns(columns), as_json, constant)
     if done is None:
@@ -119,6 +119,7 @@ def correct_command(
         "output": None if output is None else str(output), "plot": None if plot is None else str(plot),
         "temperature": temperature_used, "extensions": inverses,
         "fitted_reference_rms": {"before": done.fitted_before, "after": done.fitted_after},
+        "load_estimate": _load_figures(done.load_rms, scan),
     }
     if as_json:
         print_json(result)
@@ -145,7 +146,9 @@ def _correct_in_pieces(record_path, model, method, start, hold, output, out_meta
 def _correct_whole(record_path, model, method, start, hold, output, out_meta, mapping, plot, quiet,
                    constant):
     """The correction of a record held whole (other files, and for the plot)."""
-    from creepcomp.digital.correctors import compensate, creep_error, uniform_interval
+    import numpy as np
+
+    from creepcomp.digital.correctors import compensate, creep_error, load_from_compensated, uniform_interval
     from creepcomp.digital.record_file import FileCorrection, temperature_source
     from creepcomp.io.records import RecordScan
 
@@ -156,15 +159,25 @@ def _correct_whole(record_path, model, method, start, hold, output, out_meta, ma
     if model.extensions:
         compensated = _compensate_extended(record, model, method, start, hold, temps)
     else:
+        from creepcomp.digital.correctors import samples_outside_map
+
+        outside = samples_outside_map(record.signal, model)
+        if outside:
+            from creepcomp.cli.common import err_console
+
+            err_console.print(f"creepcomp: note: {outside} signal samples lie outside the model's signal "
+                              f"map ({model.transfer.signal_map.describe()}): taken at its edge",
+                              markup=False, highlight=False, soft_wrap=True)
         with progress_bar("correcting", total=len(record), disable=quiet) as update:
             compensated = compensate(record.time, record.signal, model, method, initial=start,
                                      hold=hold, progress=update, temperature=temps)
     before = creep_error(record.time, record.signal, record.load, model, method)
     after = creep_error(record.time, compensated, record.load, model, method)
+    load_estimate = load_from_compensated(compensated, model, method)
     if output is not None:
         with progress_bar(f"writing {output.name}", total=len(record), disable=quiet) as update:
-            write_record(output, record, extra={"compensated": compensated}, metadata=out_meta,
-                         progress=update)
+            write_record(output, record, extra={"compensated": compensated, "load_estimate": load_estimate},
+                         metadata=out_meta, progress=update)
     if plot is not None:
         from creepcomp.digital.correctors import reference
         from creepcomp.report.digital import plot_correction
@@ -175,7 +188,8 @@ def _correct_whole(record_path, model, method, start, hold, output, out_meta, ma
                         signal_unit=record.unit("signal"), full_scale=after.full_scale or None)
     return FileCorrection(RecordScan.of(record), uniform_interval(record.time), before, after,
                           source, _fitted_rms(record.signal, record.load),
-                          _fitted_rms(compensated, record.load))
+                          _fitted_rms(compensated, record.load),
+                          float(np.sqrt(np.mean((load_estimate - record.load) ** 2))))
 
 
 def _extension_inverses(model) -> dict:
@@ -203,6 +217,17 @@ def _compensate_extended(record, model, method, start, hold, temps):
     out = compensate_extended(record.time, record.signal, model, temps, initial=start, hold=hold,
                               strict=True)
     return model.offset + saturation_factor(model, method) * (out - model.offset)
+
+
+def _load_figures(rms: float | None, scan) -> dict:
+    """The load estimate's RMS error in load units and as a fraction of full scale (the
+    largest ``|load|``)."""
+    import math
+
+    finite = rms is not None and math.isfinite(rms)
+    full = scan.largest_load
+    return {"column": "load_estimate", "rms": rms if finite else None, "unit": scan.unit("load"),
+            "rms_fraction": (rms / full) if finite and full > 0 else None}
 
 
 def _fitted_rms(values, load) -> float | None:
@@ -281,5 +306,10 @@ def _render(path, scan, model, result, before, after, dt, unit, notes) -> None:
     console.print(table)
     if result["reduction"] is not None:
         console.print(f"peak creep error reduced {result['reduction']:.3g}-fold")
+    load = result["load_estimate"]
+    if load["rms"] is not None:
+        share = f" ({format_percent(load['rms_fraction'])} of full scale)" if load["rms_fraction"] else ""
+        console.print(f"load estimate (the model's inverse, in load units): RMS error "
+                      f"{_value(load['rms'], load['unit'])}{share}", soft_wrap=True)
     for note in notes:
         console.print(f"[yellow]note:[/yellow] {note}")

@@ -83,14 +83,19 @@ def diagnose_command(
         result = diagnose(record, initial=init, load_step_at=step, candidates=sensor_candidates,
                           jobs=available_cores() if jobs is None else jobs)
     units = {c: record.unit(c) for c in ("signal", "load")}
+    from creepcomp.diagnose.recommend import recommend
+
+    with progress_bar("choosing the model to recommend", disable=as_json):
+        recommendation = recommend(record, result)
     paths, not_written = {}, None
     if output is not None:
         from creepcomp.report.diagnosis import unreadable_baseline, write_report
 
-        paths = write_report(result, output, units, circuit=circuit)
+        paths = write_report(result, output, units, circuit=circuit, recommendation=recommendation)
         not_written = unreadable_baseline(result)
     if as_json:
         out = result.to_dict() if circuit is None else combine(result.to_dict(), circuit)
+        out["recommended"] = recommendation.to_dict()
         if reduction:
             out["record_reduction"] = reduction
         if full_reduction and full_reduction != reduction:
@@ -109,11 +114,34 @@ def diagnose_command(
             console.print(f"[yellow]note:[/yellow] {note}", soft_wrap=True)
     if full_reduction and full_reduction != reduction:
         console.print(f"[yellow]note:[/yellow] circuit side: {full_reduction}", soft_wrap=True)
+    _render_recommendation(recommendation, record.unit("load"))
     for label, path in paths.items():
         console.print(f"{label.replace('_', ' ')} written to {path}")
     if paths and not_written:
         console.print(f"[yellow]note:[/yellow] baseline-model.json not written: {not_written}",
                       soft_wrap=True)
+
+
+def _render_recommendation(rec, load_unit: str) -> None:
+    """The held-out load error of each member, and the model recommended."""
+    import math
+
+    from rich.table import Table
+
+    if rec.candidates:
+        unit = f" {load_unit}" if load_unit else ""
+        table = Table(title=f"Load given back on the held-out part (from {rec.split_time:.4g} s, each "
+                            f"member fitted before it): RMS error, of the load range "
+                            f"({rec.load_range:.4g}{unit})", title_justify="left")
+        for col, justify in (("member", "left"), ("RMS error", "right"), ("", "left")):
+            table.add_column(col, justify=justify)
+        for c in rec.candidates:
+            err = f"{100 * c.heldout_load_rms:.3g} %" if math.isfinite(c.heldout_load_rms) else "-"
+            table.add_row(c.name, err, "chosen" if c.name == rec.chosen else (c.reason or ""))
+        console.print(table)
+    console.print(f"recommended (model.json): the {rec.which} model: {rec.reason}", soft_wrap=True)
+    for name, why in rec.refused.items():
+        console.print(f"[yellow]note:[/yellow] not recommended: {name}: {why}", soft_wrap=True)
 
 
 def split_candidates(text: str | None) -> tuple[list | None, list | None]:

@@ -175,6 +175,10 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
     Firmware
     """
     check_no_extensions(model)
+    model.require_creep("the C corrector")
+    if model.transfer is not None:
+        raise InputError(f"the model has static maps ({model.transfer.describe()}): the C corrector "
+                         "applies no static map; correct its records with creepcomp correct")
     if extension is not None:
         check_extension(extension, method, precision, max_interval,
                         model.temperature is not None or temperature_range is not None)

@@ -16,7 +16,8 @@ from pathlib import Path
 from typing import Callable, Mapping
 
 from creepcomp.digital.correctors import (CreepError, CreepErrorSum, Corrector, check_temperature,
-                                          default_initial, uniform_interval_of, FittedReferenceSum)
+                                          default_initial, load_from_compensated, uniform_interval_of,
+                                          FittedReferenceSum)
 from creepcomp.errors import InputError
 from creepcomp.io.records import STREAM_BYTES, RecordScan, open_record_stream, record_writer
 from creepcomp.model import CreepModel
@@ -43,6 +44,9 @@ class FileCorrection:
         RMS error of the raw and the compensated signal against the load scaled to each by
         least squares (:class:`~creepcomp.digital.correctors.FittedReferenceSum`); None when
         the load does not vary.
+    load_rms : float or None
+        RMS error of the load estimate (the whole model's inverse) against the record's load,
+        in load units.
     """
 
     scan: RecordScan
@@ -52,6 +56,7 @@ class FileCorrection:
     temperature: str | None = None
     fitted_before: float | None = None
     fitted_after: float | None = None
+    load_rms: float | None = None
 
 
 def temperature_source(model: CreepModel, has_column: bool, constant: float | None,
@@ -124,10 +129,11 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
     fitted_before, fitted_after = FittedReferenceSum(), FittedReferenceSum()
     if progress:
         progress(0, scan.samples, "correcting")
-    writing = (record_writer(output, [*scan.names, "compensated"],
+    writing = (record_writer(output, [*scan.names, "compensated", "load_estimate"],
                              {**scan.metadata, **(output_metadata or {})})
                if output is not None else contextlib.nullcontext())
     done = 0
+    load_square = 0.0
     with writing as write:
         for piece in stream:
             temps = (None if source is None else
@@ -138,8 +144,10 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
             after.add(piece.time, compensated, piece.load)
             fitted_before.add(piece.signal, piece.load)
             fitted_after.add(compensated, piece.load)
+            load_estimate = load_from_compensated(compensated, model, method)
+            load_square += float(((load_estimate - piece.load) ** 2).sum())
             if write is not None:
-                write({**piece.columns(), "compensated": compensated})
+                write({**piece.columns(), "compensated": compensated, "load_estimate": load_estimate})
             done += len(piece)
             if progress:
                 progress(done, scan.samples)
@@ -148,4 +156,4 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
                 write.discard()
             return None                             # the file changed between the passes
     return FileCorrection(scan, dt, before.result(), after.result(), source, fitted_before.result(),
-                          fitted_after.result())
+                          fitted_after.result(), (load_square / scan.samples) ** 0.5)

@@ -36,7 +36,7 @@ from creepcomp.model import CreepModel
 from creepcomp.transfer import StaticMap, Transfer
 
 __all__ = ["Candidate", "SignalPathFit", "fit_signal_path", "static_line", "monotone_calibration",
-           "settled_points",
+           "settled_points", "choose", "held_out_load_rms",
            "VALIDATION", "MARGIN", "SPLINE_KNOTS"]
 
 #: Share of the record's time held out at its end to choose the signal path.
@@ -209,11 +209,16 @@ def monotone_calibration(signal, target, knots: int = SPLINE_KNOTS) -> StaticMap
     return StaticMap("spline", {"x": xs.tolist(), "y": values.tolist()})
 
 
-def _load_rms(model: CreepModel, record: Record, heldout: np.ndarray, load_range: float) -> float:
-    est = estimate_load(record.time, record.signal, model)
-    err = est[heldout] - record.load[heldout]
+def held_out_load_rms(estimate, record: Record, heldout: np.ndarray, load_range: float) -> float:
+    """RMS of ``estimate - load`` over the held-out samples, as a fraction of the load range
+    (``inf`` where it is not finite)."""
+    err = np.asarray(estimate, float)[heldout] - record.load[heldout]
     rms = float(np.sqrt(np.mean(err * err))) / load_range
     return rms if math.isfinite(rms) else math.inf
+
+
+def _load_rms(model: CreepModel, record: Record, heldout: np.ndarray, load_range: float) -> float:
+    return held_out_load_rms(estimate_load(record.time, record.signal, model), record, heldout, load_range)
 
 
 def _signal_maps(signal: np.ndarray) -> list[StaticMap]:
@@ -411,7 +416,7 @@ def fit_signal_path(record: Record, max_terms: int = 3, validation: float = VALI
             grown = replace(grown, name=_describe_named(grown.model.transfer, grown.model.n_terms),
                             parts=best.parts + grown.model.n_terms - 1)
             found.append(grown)
-    chosen = _choose(found)
+    chosen = choose(found)
     model = _refit(record, chosen, max_terms, initial)
     return SignalPathFit(model, chosen.name, tuple(found), load_range, cut,
                          _time.perf_counter() - start)
@@ -437,7 +442,7 @@ def _grown(fit_rec: Record, model: CreepModel, max_terms: int, initial: str) -> 
     return _creep_fit(fit_rec, path, None, max_terms, initial)
 
 
-def _choose(found: list[Candidate]) -> Candidate:
+def choose(found) -> Candidate:
     """The lowest held-out load error; more parts must win by :data:`MARGIN`."""
     usable = sorted((c for c in found if c.model is not None), key=lambda c: (c.parts, c.heldout_load_rms))
     if not usable:

@@ -256,14 +256,18 @@ def _sentence(text: str) -> str:
     return text[:1].upper() + text[1:] + "."
 
 
-def write_report(diagnosis, out_dir, units: dict | None = None, circuit=None) -> dict[str, Path]:
-    """Write ``report.html``, ``diagnosis.json``, ``model.json`` (extended) and
-    ``baseline-model.json`` into ``out_dir``; with the circuit side also
-    ``as-built-design.json`` (the as-built network as a design file)."""
+def write_report(diagnosis, out_dir, units: dict | None = None, circuit=None,
+                 recommendation=None) -> dict[str, Path]:
+    """Write ``report.html``, ``diagnosis.json``, ``model.json`` (the recommended model:
+    :func:`creepcomp.diagnose.recommend.recommend`; the extended one without a
+    recommendation), ``extended-model.json`` and ``baseline-model.json`` into ``out_dir``;
+    with the circuit side also ``as-built-design.json`` (the as-built network as a design
+    file)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = {"report": out / "report.html", "diagnosis": out / "diagnosis.json",
-             "model": out / "model.json", "baseline_model": out / "baseline-model.json"}
+             "model": out / "model.json", "extended_model": out / "extended-model.json",
+             "baseline_model": out / "baseline-model.json"}
     write_text_atomic(paths["report"], render_html(diagnosis, units or {}, circuit=circuit))
     if circuit is not None:
         from creepcomp.diagnose.circuit import combine
@@ -272,7 +276,11 @@ def write_report(diagnosis, out_dir, units: dict | None = None, circuit=None) ->
         write_json(paths["diagnosis"], combine(diagnosis.to_dict(), circuit))
     else:
         write_json(paths["diagnosis"], diagnosis.to_dict())
-    write_json(paths["model"], diagnosis.extended_model)
+    if recommendation is not None:
+        write_json(paths["diagnosis"], {**json.loads(paths["diagnosis"].read_text(encoding="utf-8")),
+                                        "recommended": recommendation.to_dict()})
+    write_json(paths["model"], diagnosis.extended_model if recommendation is None else recommendation.model)
+    write_json(paths["extended_model"], diagnosis.extended_model)
     if unreadable_baseline(diagnosis) is None:
         write_json(paths["baseline_model"], diagnosis.baseline_model)
     else:

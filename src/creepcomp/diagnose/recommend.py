@@ -1,0 +1,219 @@
+"""The model a diagnosis recommends: the one that gives the load back, and that `correct` takes.
+
+A diagnosis extends the paper's model (linear creep, a signal linear in load) by effects
+judged on the signal. What a user needs back is the load. A soft sensor's signal is far from
+linear in load, and there the family of :mod:`creepcomp.fit.signal_path` (static maps around
+linear creep, down to a static calibration) may give the load back better than any extension
+of a linear model. So the recommendation puts every member on one footing: each is fitted on
+the first part of the record (the extended model's structure refitted there too) and judged
+by its RMS load error on the held-out rest; the rule of :func:`creepcomp.fit.signal_path.choose`
+picks one (a member with more parts must win by its margin). The model written is that
+member fitted on the whole record: the diagnosis's own extended or baseline model for those
+members, the signal-path fit otherwise.
+
+Every model recommended is one the creep correction accepts (:func:`usable`): where the
+chosen one is not, the next in the order is taken and the refusal said.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from creepcomp.errors import InputError
+
+__all__ = ["Recommendation", "recommend", "usable", "EXTENDED"]
+
+#: Name of the diagnosis's extended model among the members.
+EXTENDED = "extended (diagnosis)"
+
+
+@dataclass(frozen=True)
+class Recommendation:
+    """The recommended model and why.
+
+    Attributes
+    ----------
+    which : str
+        ``signal path`` (a static calibration, or static maps around creep), ``extended`` or
+        ``baseline``.
+    model : dict
+        Its model file.
+    reason : str
+        One sentence with the figures behind the choice.
+    chosen : str
+        The member chosen by held-out load error.
+    candidates : tuple of Candidate
+        Every member, with its held-out load error (empty where the family could not be
+        fitted).
+    load_range : float
+        The record's load range, the scale of the errors.
+    split_time : float or None
+        Where the held-out part starts (s).
+    refused : dict
+        Why a model higher in the order was not taken, by name.
+    """
+
+    which: str
+    model: dict
+    reason: str
+    chosen: str
+    candidates: tuple
+    load_range: float
+    split_time: float | None
+    refused: dict
+
+    def to_dict(self) -> dict:
+        """JSON form (``recommended`` in a diagnosis's JSON)."""
+        return {"which": self.which, "reason": self.reason, "chosen": self.chosen,
+                "load_range": self.load_range, "split_time": self.split_time,
+                "candidates": [c.to_dict() for c in self.candidates], "refused": dict(self.refused)}
+
+
+def usable(model_file: dict) -> str | None:
+    """Why the creep correction would refuse this model file, or None when it takes it."""
+    from creepcomp.digital.correctors import check_invertible
+    from creepcomp.model import CreepModel
+
+    try:
+        model = CreepModel.from_dict(model_file)
+        check_invertible(model)
+        if model.extensions:
+            from creepcomp.diagnose.effects import extension_inverses
+
+            extension_inverses(model)
+    except InputError as exc:
+        return str(exc)
+    return None
+
+
+def _percent(x: float) -> str:
+    return f"{100 * x:.3g} %" if math.isfinite(x) else "-"
+
+
+def _extended_member(record, diagnosis, path):
+    """The diagnosis's extended model refitted on the part the signal path was fitted on, and
+    its held-out load error (:class:`~creepcomp.fit.signal_path.Candidate`); None without
+    extensions (then it is the baseline's structure, a member already)."""
+    from creepcomp.diagnose.effects import compensate_extended, model_structure
+    from creepcomp.fit.data import prepare
+    from creepcomp.fit.prony import model_file_dict
+    from creepcomp.fit.signal_path import Candidate, held_out_load_rms
+    from creepcomp.fit.solver import fit_structure
+    from creepcomp.io.records import Record
+    from creepcomp.model import CreepModel
+
+    extensions = diagnosis.extended_model.get("extensions") or {}
+    if not extensions:
+        return None
+    parts = len(diagnosis.extended_model.get("beta", ())) + len(extensions)
+    fit_mask = record.time < path.split_time
+    try:
+        whole = CreepModel.from_dict(diagnosis.extended_model)
+        part = Record(record.time[fit_mask], record.load[fit_mask], record.signal[fit_mask],
+                      temperature=None if record.temperature is None else record.temperature[fit_mask],
+                      source=record.source)
+        data = prepare(part)
+        structure, values = model_structure(whole, data)
+        model = CreepModel.from_dict(model_file_dict(data, fit_structure(data, structure, [values])))
+        compensated = compensate_extended(record.time, record.signal, model, record.temperature,
+                                          converge=True)
+        estimate = (compensated - model.offset) / model.gain
+        rms = held_out_load_rms(estimate, record, ~fit_mask, path.load_range)
+        return Candidate(EXTENDED, model, rms, parts)
+    except (InputError, ValueError, np.linalg.LinAlgError) as exc:
+        return Candidate(EXTENDED, None, math.inf, parts, str(exc).splitlines()[0][:200])
+
+
+def recommend(record, diagnosis, signal_path: bool = True) -> Recommendation:
+    """Choose the model to write as ``model.json`` for a diagnosed record.
+
+    Parameters
+    ----------
+    record : Record
+        The record the diagnosis was made on.
+    diagnosis : Diagnosis
+        Its result (:func:`creepcomp.diagnose.sensor.diagnose`).
+    signal_path : bool
+        Judge the members by held-out load error (False: the extended model, or the
+        baseline where the correction cannot invert it).
+
+    Returns
+    -------
+    Recommendation
+
+    Examples
+    --------
+    The bundled force sensor recovers more slowly than it creeps: the extended model gives
+    its load back best.
+
+    >>> from creepcomp.data import hidden_effect
+    >>> from creepcomp.diagnose.sensor import diagnose
+    >>> from creepcomp.diagnose.recommend import recommend
+    >>> record = hidden_effect()
+    >>> rec = recommend(record, diagnose(record))
+    >>> rec.which, rec.chosen
+    ('extended', 'extended (diagnosis)')
+    """
+    from creepcomp.fit.signal_path import choose, fit_signal_path
+
+    refused, path = {}, None
+    if signal_path:
+        try:
+            path = fit_signal_path(record)
+        except InputError as exc:
+            refused["signal path"] = str(exc)
+    members = list(path.candidates) if path is not None else []
+    if path is not None:
+        extended = _extended_member(record, diagnosis, path)
+        if extended is not None:
+            members.append(extended)
+    order = []
+    if members:
+        chosen = choose(members)
+        order.append(chosen)
+        order += sorted((c for c in members if c is not chosen and c.model is not None),
+                        key=lambda c: c.heldout_load_rms)
+    load_range = path.load_range if path is not None else float(np.ptp(record.load))
+    split = path.split_time if path is not None else None
+    versus = _versus(members)
+    for member in order or [None]:
+        which, model = _model_of(member, diagnosis, path)
+        why = usable(model)
+        if why is None:
+            name = member.name if member is not None else which
+            reason = (f"{name} gives the load back with {_percent(member.heldout_load_rms)} RMS error "
+                      f"of the load range on the held-out last part of the record{versus}"
+                      if member is not None else f"the {which} model (the load error was not measured)")
+            return Recommendation(which, model, reason, name, tuple(members), load_range, split, refused)
+        refused[member.name if member is not None else which] = why
+    for which, model in (("extended", diagnosis.extended_model), ("baseline", diagnosis.baseline_model)):
+        if usable(model) is None:
+            return Recommendation(which, model, f"the {which} model: no better member can be inverted",
+                                  which, tuple(members), load_range, split, refused)
+    raise InputError("no model of this record can be inverted by the creep correction: "
+                     + "; ".join(f"{k}: {v}" for k, v in refused.items()))
+
+
+def _model_of(member, diagnosis, path) -> tuple[str, dict]:
+    """The model file written for a member: fitted on the whole record."""
+    if member is None or (member.name == EXTENDED):
+        return "extended", diagnosis.extended_model
+    if member.name.startswith("linear creep") and not diagnosis.extended_model.get("extensions"):
+        return "extended", diagnosis.extended_model
+    if member.name.startswith("linear creep"):
+        return "baseline", diagnosis.baseline_model
+    if member.name == path.chosen:
+        return "signal path", path.model.to_dict()
+    return "signal path", member.model.to_dict()
+
+
+def _versus(members) -> str:
+    """The figures of the plain references beside the chosen member's."""
+    out = []
+    for c in members:
+        if c.name in ("static line", "static monotone", EXTENDED) or c.name.startswith("linear creep"):
+            out.append(f"{c.name} {_percent(c.heldout_load_rms)}")
+    return ("; " + ", ".join(out)) if out else ""
