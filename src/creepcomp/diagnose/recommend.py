@@ -118,8 +118,9 @@ def _extended_member(record, diagnosis, path):
         data = prepare(part)
         structure, values = model_structure(whole, data)
         model = CreepModel.from_dict(model_file_dict(data, fit_structure(data, structure, [values])))
-        compensated = compensate_extended(record.time, record.signal, model, record.temperature,
-                                          converge=True)
+        with np.errstate(all="ignore"):
+            compensated = compensate_extended(record.time, record.signal, model, record.temperature,
+                                              converge=True)
         estimate = (compensated - model.offset) / model.gain
         rms = held_out_load_rms(estimate, record, ~fit_mask, path.load_range)
         return Candidate(EXTENDED, model, rms, parts)

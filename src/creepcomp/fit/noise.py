@@ -18,7 +18,7 @@ __all__ = ["MAX_AR_ORDER", "SPARSE_SAMPLES", "ar_order_for", "ar_order", "is_spa
            "ARNoise", "rows_for", "whiten", "fit_noise", "ljung_box",
            "autocorrelation", "spectral_variance", "gaussian_bic", "FLOOR_WINDOW", "FEW_WINDOWS", "MISFIT_LIMIT",
            "NoiseFloor", "noise_floor", "quantisation_step", "misfit_ratio", "explained_share",
-           "slow_drift", "none_statement"]
+           "slow_drift", "none_statement", "with_reference_noise", "REFERENCE_SHARE"]
 
 #: Largest order of the autoregressive noise model.
 MAX_AR_ORDER = 5
@@ -265,7 +265,8 @@ def quantisation_step(y: np.ndarray) -> float:
 
 
 def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW,
-                follows_lag: bool = False, weights=None, samples=None) -> NoiseFloor:
+                follows_lag: bool = False, weights=None, samples=None,
+                grid_floor: bool = True) -> NoiseFloor:
     """The measurement noise's RMS from the record alone (no creep model).
 
     The record is cut into windows of ``window`` samples (not across gaps in the sampling);
@@ -292,6 +293,9 @@ def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW,
         variance relative to one sample of the full record, and the samples it holds. Each
         window is then fitted by weighted least squares, so the floor is the full record's
         noise, as the weighted residual of a fit; blocks of different lengths are no gap.
+    grid_floor : bool
+        Raise the floor to ``q**2 / 12`` of a value grid (False for a load program, whose
+        levels lie on a grid without any noise).
 
     Returns
     -------
@@ -326,7 +330,7 @@ def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW,
             dof = w - a_.shape[1]
             variances.append(float(r @ r) / dof)
             dofs.append(dof)
-    q = quantisation_step(y)
+    q = quantisation_step(y) if grid_floor else 0.0
     if variances:
         k = float(np.median(dofs))
         # median of chi2(k)/k (Wilson-Hilferty)
@@ -343,6 +347,49 @@ def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW,
         var = q * q / 12.0
         method += f"; raised to the quantisation floor step^2/12 (step {q:.4g})"
     return NoiseFloor(float(np.sqrt(var)), method, q, len(variances))
+
+
+#: The reference load's noise joins the floor when it adds at least this share to the
+#: signal's own (below, the floor is the signal's as before, to the digit).
+REFERENCE_SHARE = 0.05
+
+
+def with_reference_noise(floor: NoiseFloor, signal, load, reference: float) -> NoiseFloor:
+    """The floor of a model's residual when the load is itself measured (a reference load cell,
+    a test machine): the signal's noise and the reference's noise through the sensor's gain.
+
+    A model driven by a noisy reference predicts the reference's noise too: its residual
+    holds ``gain * load_noise`` beside the signal's own noise, and a misfit judged against
+    the signal's floor alone reads that as structure. ``reference`` is the load's noise RMS,
+    measured as the signal's (:func:`noise_floor` on the load alone, without a grid floor: a
+    load program's levels lie on a grid without noise; :attr:`creepcomp.fit.data.Data.reference_noise`);
+    the gain is the least-squares slope of signal against load. ``floor**2 + (gain *
+    reference)**2`` is the floor when it adds at least :data:`REFERENCE_SHARE` to it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from creepcomp.fit.noise import noise_floor, with_reference_noise
+    >>> rng = np.random.default_rng(0)
+    >>> t = np.arange(0.0, 600.0, 0.1)
+    >>> load = np.where((t // 60) % 2 == 1, 10.0, 0.0)
+    >>> signal = 2.0 * load + rng.normal(0, 1e-3, t.size)
+    >>> measured = load + rng.normal(0, 0.01, t.size)
+    >>> floor = noise_floor(signal, measured, t)
+    >>> reference = noise_floor(measured, None, t, grid_floor=False).rms
+    >>> print(f"{floor.rms:.2g} -> {with_reference_noise(floor, signal, measured, reference).rms:.2g}")
+    0.001 -> 0.02
+    """
+    x = np.asarray(load, float)
+    if not reference > 0 or np.ptp(x) == 0:
+        return floor
+    gain = float(np.polyfit(x, np.asarray(signal, float), 1)[0])
+    total = float(np.hypot(floor.rms, gain * reference))
+    if not total > (1.0 + REFERENCE_SHARE) * floor.rms:
+        return floor
+    return NoiseFloor(total, f"{floor.method}; with the reference load's own noise ({reference:.3g} "
+                             f"load units, measured the same way, times the gain {gain:.4g})",
+                      floor.quantisation_step, floor.windows)
 
 
 def slow_drift(residual: np.ndarray, time: np.ndarray, spacing: float) -> np.ndarray:

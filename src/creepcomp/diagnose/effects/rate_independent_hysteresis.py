@@ -81,6 +81,10 @@ def one_way_reason(data: Data) -> str | None:
 WIDTH_CHI2 = 4.0
 #: A fitted width is reported when the widths that fit as well stay within this factor of it.
 WIDTH_DETERMINED = 1.2
+#: A play no wider than this many RMS of the reference load's own noise is that noise's dead
+#: band (white noise stays within about 3 RMS either way), not the sensor's hysteresis: a
+#: model driven by a noisy reference is helped by any operator that smooths it.
+REFERENCE_WIDTH = 6.0
 
 
 class PlayShapes:
@@ -125,7 +129,8 @@ class RateIndependentHysteresis(SensorEffect):
 
     def settings(self, data: Data, base: Fit) -> tuple:
         return (("load_scale", data.load_scale),
-                ("shapes", PlayShapes(data.load, data.load_scale)))
+                ("shapes", PlayShapes(data.load, data.load_scale)),
+                ("reference_noise", data.reference_noise))
 
     def nonlinear_params(self, data, applied):
         scale = applied.setting("load_scale")
@@ -148,6 +153,14 @@ class RateIndependentHysteresis(SensorEffect):
 
     def columns(self, data, s, h, lags, p, applied):
         return {"weight": play(s, p["width"]) - s}
+
+    def unphysical(self, fit: Fit, applied: Applied) -> str | None:
+        noise = applied.setting("reference_noise")
+        width = fit.values["rate_independent_hysteresis.width"]
+        if noise and width <= REFERENCE_WIDTH * noise:
+            return (f"a play {width:.3g} load units wide is within the reference load's own noise "
+                    f"({noise:.3g} RMS): a dead band that smooths the reference's noise, not hysteresis")
+        return None
 
     def report(self, fit: Fit, applied: Applied) -> dict:
         height = fit.estimate(lambda v: v["rate_independent_hysteresis.width"]
