@@ -109,18 +109,6 @@ class Data:
         return step_floor(self.load)
 
     @cached_property
-    def reference_noise(self) -> float:
-        """RMS of the load's own noise, in load units (a reference load cell's, a test
-        machine's), measured as the signal's noise floor is, without a grid floor
-        (:func:`creepcomp.fit.noise.noise_floor`; found once): 0 for a load program."""
-        from creepcomp.fit.noise import noise_floor
-
-        if np.ptp(self.load) == 0:
-            return 0.0
-        return noise_floor(self.load, None, self.time, weights=self.weights, samples=self.samples,
-                           grid_floor=False).rms
-
-    @cached_property
     def abrupt(self) -> np.ndarray:
         """The sample intervals across which the load changes abruptly
         (:func:`abrupt_intervals`, found once)."""

@@ -18,7 +18,8 @@ __all__ = ["MAX_AR_ORDER", "SPARSE_SAMPLES", "ar_order_for", "ar_order", "is_spa
            "ARNoise", "rows_for", "whiten", "fit_noise", "ljung_box",
            "autocorrelation", "spectral_variance", "gaussian_bic", "FLOOR_WINDOW", "FEW_WINDOWS", "MISFIT_LIMIT",
            "NoiseFloor", "noise_floor", "quantisation_step", "misfit_ratio", "explained_share",
-           "slow_drift", "none_statement", "with_reference_noise", "REFERENCE_SHARE"]
+           "slow_drift", "none_statement", "with_reference_noise", "REFERENCE_SHARE",
+           "reference_noise"]
 
 #: Largest order of the autoregressive noise model.
 MAX_AR_ORDER = 5
@@ -354,6 +355,22 @@ def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW,
 REFERENCE_SHARE = 0.05
 
 
+def reference_noise(data) -> float:
+    """RMS of a prepared record's load's own noise, in load units (a reference load cell's, a
+    test machine's), measured as the signal's noise floor is but without a grid floor (a load
+    program's levels lie on a grid without any noise): 0 for a load program.
+
+    Parameters
+    ----------
+    data : Data
+        A prepared record (:func:`creepcomp.fit.data.prepare`).
+    """
+    if np.ptp(data.load) == 0:
+        return 0.0
+    return noise_floor(data.load, None, data.time, weights=data.weights, samples=data.samples,
+                       grid_floor=False).rms
+
+
 def with_reference_noise(floor: NoiseFloor, signal, load, reference: float) -> NoiseFloor:
     """The floor of a model's residual when the load is itself measured (a reference load cell,
     a test machine): the signal's noise and the reference's noise through the sensor's gain.
@@ -362,7 +379,7 @@ def with_reference_noise(floor: NoiseFloor, signal, load, reference: float) -> N
     holds ``gain * load_noise`` beside the signal's own noise, and a misfit judged against
     the signal's floor alone reads that as structure. ``reference`` is the load's noise RMS,
     measured as the signal's (:func:`noise_floor` on the load alone, without a grid floor: a
-    load program's levels lie on a grid without noise; :attr:`creepcomp.fit.data.Data.reference_noise`);
+    load program's levels lie on a grid without noise; :func:`reference_noise`);
     the gain is the least-squares slope of signal against load. ``floor**2 + (gain *
     reference)**2`` is the floor when it adds at least :data:`REFERENCE_SHARE` to it.
 
