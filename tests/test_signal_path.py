@@ -159,3 +159,38 @@ def test_a_linear_sensor_with_creep_keeps_linear_creep(seed):
     result = fit_signal_path(Record(t, load, truth.response(t, load, hold="zero") + noise))
     assert result.chosen.startswith("linear creep"), result.chosen
     assert result.model.transfer is None and result.model.beta[0] == pytest.approx(0.05, rel=0.05)
+
+
+def _random_holds(seed):
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, 400.0, 0.1)
+    levels = rng.uniform(0.5, 10, 40)
+    return rng, t, np.where((t % 20) >= 10, levels[(t // 20).astype(int) % 40], 0.0)
+
+
+@pytest.mark.parametrize("truth, expected", [
+    (CreepModel((-0.3,), (6.0,), gain=1.0, offset=2.0,
+                transfer=Transfer(signal_map=StaticMap("log", {"origin": 0.0}))), "log about 0 (signal map)"),
+    (CreepModel((0.4,), (10.0,), gain=1.0, offset=0.5,
+                transfer=Transfer(load_map=StaticMap("power", {"exponent": 0.5, "origin": 0.0}))),
+     "power 0.5 about 0 (load map)"),
+], ids=["relaxing, exponential response", "creep of a power of the load"])
+def test_relaxation_and_creep_in_either_domain_are_found(truth, expected):
+    rng, t, load = _random_holds(5)
+    signal = truth.response(t, load, hold="zero") * (1 + rng.normal(0, 1e-3, t.size))
+    result = fit_signal_path(Record(t, load, signal))
+    assert result.chosen.startswith(expected), result.chosen
+    assert result.model.beta[0] == pytest.approx(truth.beta[0], rel=0.05)
+    assert result.candidate(result.chosen).heldout_load_rms < 0.2 * result.best_static.heldout_load_rms
+
+
+def test_refined_exponents_approach_the_truth():
+    from creepcomp.fit.signal_path import refine_exponents
+
+    truth = CreepModel((0.3,), (5.0,), gain=1e-3, offset=1e-4,
+                       transfer=Transfer(signal_map=StaticMap("power", {"exponent": -0.8, "origin": 0.0})))
+    rng, t, load = _random_holds(6)
+    signal = truth.response(t, load, hold="zero") * (1 + rng.normal(0, 1e-3, t.size))
+    start = Transfer(signal_map=StaticMap("power", {"exponent": -0.5, "origin": 0.0}))
+    refined = refine_exponents(Record(t, load, signal), start)
+    assert refined.signal_map.parameters["exponent"] == pytest.approx(-0.8, abs=0.05)

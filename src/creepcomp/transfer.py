@@ -171,6 +171,27 @@ class StaticMap:
                 y = _piecewise(x, np.array(p["x"]), np.array(p["y"]))
             return np.where((x > lo) & (x < hi), y, np.nan) if (lo, hi) != (-math.inf, math.inf) else y
 
+    def derivative(self, x) -> np.ndarray:
+        """``dy/dx`` at ``x`` (the slope of the map; NaN outside :meth:`domain`)."""
+        x = np.asarray(x, dtype=float)
+        p = self.parameters
+        lo, hi = self.domain()
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            if self.form == "power":
+                d = np.abs(x - p["origin"])
+                slope = p["exponent"] * d ** (p["exponent"] - 1.0)
+            elif self.form == "reciprocal":
+                slope = -1.0 / (x - p["origin"]) ** 2
+            elif self.form == "log":
+                slope = 1.0 / (x - p["origin"])
+            elif self.form == "saturating":
+                slope = 1.0 / (1.0 - x / p["limit"]) ** 2
+            else:
+                xs, ys = np.array(p["x"]), np.array(p["y"])
+                seg = np.clip(np.searchsorted(xs, x, side="right") - 1, 0, xs.size - 2)
+                slope = (ys[seg + 1] - ys[seg]) / (xs[seg + 1] - xs[seg])
+            return np.where((x > lo) & (x < hi), slope, np.nan)
+
     def inverse(self, y) -> np.ndarray:
         """``x = m^-1(y)``; ``y`` outside the map's range gives NaN."""
         y = np.asarray(y, dtype=float)

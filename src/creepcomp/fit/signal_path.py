@@ -36,7 +36,7 @@ from creepcomp.model import CreepModel
 from creepcomp.transfer import StaticMap, Transfer
 
 __all__ = ["Candidate", "SignalPathFit", "fit_signal_path", "static_line", "monotone_calibration",
-           "settled_points", "choose", "held_out_load_rms",
+           "settled_points", "choose", "held_out_load_rms", "refine_exponents",
            "VALIDATION", "MARGIN", "SPLINE_KNOTS"]
 
 #: Share of the record's time held out at its end to choose the signal path.
@@ -53,6 +53,8 @@ LOAD_EXPONENTS = (0.3, 0.5, 0.7, 1.5, 2.0)
 SCREENED = 3
 #: Alternations of a spline signal map with its creep.
 SPLINE_ROUNDS = 3
+#: Most one-term fits spent refining the exponents of the best mapped member.
+REFINE_EVALUATIONS = 24
 
 
 @dataclass(frozen=True)
@@ -299,9 +301,9 @@ def _screened(fit_rec: Record) -> list[Transfer]:
     return chosen
 
 
-def _creep_fit(fit_rec: Record, path: Transfer | None, n_terms: int | None, max_terms: int,
-               initial: str) -> CreepModel:
-    """Linear creep between ``f(load)`` and ``h(signal)``, with the maps attached."""
+def _linear_fit(fit_rec: Record, path: Transfer | None, n_terms: int | None, max_terms: int,
+                initial: str):
+    """The Prony fit of linear creep between ``f(load)`` and ``h(signal)``."""
     from creepcomp.fit.data import prepare
     from creepcomp.fit.prony import fit_prony
 
@@ -309,12 +311,80 @@ def _creep_fit(fit_rec: Record, path: Transfer | None, n_terms: int | None, max_
     if path is not None:
         load, signal = path.load_in(load), path.linearise(signal)
     inner = Record(fit_rec.time, load, signal, metadata={}, source=fit_rec.source)
-    data = prepare(inner, initial=initial)
-    result = fit_prony(data, max_terms=max_terms, n_terms=n_terms)
-    model = result.model()
+    return fit_prony(prepare(inner, initial=initial), max_terms=max_terms, n_terms=n_terms)
+
+
+def _creep_fit(fit_rec: Record, path: Transfer | None, n_terms: int | None, max_terms: int,
+               initial: str) -> CreepModel:
+    """Linear creep between ``f(load)`` and ``h(signal)``, with the maps attached."""
+    model = _linear_fit(fit_rec, path, n_terms, max_terms, initial).model()
     model = CreepModel(model.beta, model.tau, model.gain, model.offset, transfer=path)
     check_invertible(model)
     return model
+
+
+def _as_power(m: StaticMap | None) -> StaticMap | None:
+    """A reciprocal as the power -1 it is; a power as it is; other forms None."""
+    if m is None or m.form not in ("power", "reciprocal"):
+        return None
+    return StaticMap("power", {"exponent": m.parameters.get("exponent", -1.0), "origin": m.parameters["origin"]})
+
+
+def _with_exponents(path: Transfer, exponents: dict) -> Transfer:
+    maps = {}
+    for side in ("load_map", "signal_map"):
+        m = getattr(path, side)
+        if side in exponents:
+            e = exponents[side]
+            m = (StaticMap("reciprocal", {"origin": m.parameters["origin"]}) if e == -1.0 else
+                 StaticMap("power", {"exponent": e, "origin": m.parameters["origin"]}))
+        maps[side] = m
+    return Transfer(**maps)
+
+
+def refine_exponents(fit_rec: Record, path: Transfer, initial: str = "relaxed",
+                     evaluations: int = REFINE_EVALUATIONS) -> Transfer:
+    """The power maps' exponents of a signal path, refined from their screened values.
+
+    The criterion is the profile likelihood of the signal under white noise in the map's
+    linear domain: ``n log(rms_z) - sum log|h'(signal)|`` (the Box-Cox form: the Jacobian of
+    the signal map makes maps of different scales comparable), with one creep term. Nelder-
+    Mead from the screened exponents; a map of another form keeps its parameters, and the
+    path is returned as it is when no exponent moves by 0.01.
+    """
+    from scipy.optimize import minimize
+
+    sides = {side: _as_power(getattr(path, side)) for side in ("load_map", "signal_map")}
+    sides = {k: v for k, v in sides.items() if v is not None}
+    if not sides:
+        return path
+    names = list(sides)
+    start = np.array([sides[k].parameters["exponent"] for k in names])
+    bounds = {"load_map": (0.1, 4.0), "signal_map": (-4.0, 4.0)}
+
+    def cost(v):
+        e = dict(zip(names, v))
+        if any(not bounds[k][0] <= e[k] <= bounds[k][1] or abs(e[k]) < 0.05 for k in names):
+            return math.inf
+        candidate = _with_exponents(path, e)
+        try:
+            with np.errstate(all="ignore"):
+                fit = _linear_fit(fit_rec, candidate, 1, 1, initial).fit
+                jac = 0.0
+                if candidate.signal_map is not None:
+                    jac = float(np.sum(np.log(np.abs(candidate.signal_map.derivative(fit_rec.signal)))))
+        except (InputError, ValueError, np.linalg.LinAlgError):
+            return math.inf
+        value = len(fit_rec) * math.log(fit.residual_rms) - jac
+        return value if math.isfinite(value) else math.inf
+
+    simplex = [start] + [start + np.eye(len(names))[i] * 0.15 * np.sign(start[i]) for i in range(len(names))]
+    best = minimize(cost, start, method="Nelder-Mead",
+                    options={"initial_simplex": np.array(simplex), "maxfev": evaluations,
+                             "xatol": 0.01, "fatol": 0.5})
+    if not math.isfinite(best.fun) or best.fun >= cost(start) or np.max(np.abs(best.x - start)) < 0.01:
+        return path
+    return _with_exponents(path, {k: round(float(v), 4) for k, v in zip(names, best.x)})
 
 
 def _spline_creep(fit_rec: Record, n_terms: int | None, max_terms: int, initial: str) -> CreepModel:
@@ -410,6 +480,14 @@ def fit_signal_path(record: Record, max_terms: int = 3, validation: float = VALI
                                lambda path=path: _creep_fit(fit_rec, path, 1, max_terms, initial)))
         creep.append(judge("monotone spline (signal map), 1 creep term", 2,
                            lambda: _spline_creep(fit_rec, 1, max_terms, initial)))
+        mapped = [c for c in creep if c.model is not None and c.model.transfer is not None
+                  and any(_as_power(m) for m in (c.model.transfer.load_map, c.model.transfer.signal_map))]
+        if mapped:
+            top = min(mapped, key=lambda c: c.heldout_load_rms)
+            path = refine_exponents(fit_rec, top.model.transfer, initial)
+            if path != top.model.transfer:
+                creep.append(judge(_describe_named(path, 1), top.parts,
+                                   lambda: _creep_fit(fit_rec, path, 1, max_terms, initial)))
         found += creep[1:]
     best = min(creep, key=lambda c: c.heldout_load_rms)
     if best.model is not None and max_terms > 1:
