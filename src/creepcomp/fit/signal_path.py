@@ -54,7 +54,11 @@ SCREENED = 3
 #: Alternations of a spline signal map with its creep.
 SPLINE_ROUNDS = 3
 #: Most one-term fits spent refining the exponents of the best mapped member.
-REFINE_EVALUATIONS = 24
+REFINE_EVALUATIONS = 16
+#: The one-term fits that screen and refine the members run on the record reduced to about this
+#: many samples (blocks within constant-load stretches, of the mapped columns): the maps move
+#: the fit by far more than the reduction does. The chosen member is refitted in full.
+SCREEN_SAMPLES = 1500
 
 
 @dataclass(frozen=True)
@@ -302,22 +306,27 @@ def _screened(fit_rec: Record) -> list[Transfer]:
 
 
 def _linear_fit(fit_rec: Record, path: Transfer | None, n_terms: int | None, max_terms: int,
-                initial: str):
-    """The Prony fit of linear creep between ``f(load)`` and ``h(signal)``."""
+                initial: str, most: int | None = None):
+    """The Prony fit of linear creep between ``f(load)`` and ``h(signal)`` (on a record
+    reduced to about ``most`` samples when given: :func:`creepcomp.fit.reduce.reduce_record`,
+    of the mapped columns)."""
     from creepcomp.fit.data import prepare
     from creepcomp.fit.prony import fit_prony
+    from creepcomp.fit.reduce import reduce_record
 
     load, signal = fit_rec.load, fit_rec.signal
     if path is not None:
         load, signal = path.load_in(load), path.linearise(signal)
     inner = Record(fit_rec.time, load, signal, metadata={}, source=fit_rec.source)
+    if most is not None:
+        inner, _ = reduce_record(inner, most)
     return fit_prony(prepare(inner, initial=initial), max_terms=max_terms, n_terms=n_terms)
 
 
 def _creep_fit(fit_rec: Record, path: Transfer | None, n_terms: int | None, max_terms: int,
-               initial: str) -> CreepModel:
+               initial: str, most: int | None = None) -> CreepModel:
     """Linear creep between ``f(load)`` and ``h(signal)``, with the maps attached."""
-    model = _linear_fit(fit_rec, path, n_terms, max_terms, initial).model()
+    model = _linear_fit(fit_rec, path, n_terms, max_terms, initial, most).model()
     model = CreepModel(model.beta, model.tau, model.gain, model.offset, transfer=path)
     check_invertible(model)
     return model
@@ -369,7 +378,7 @@ def refine_exponents(fit_rec: Record, path: Transfer, initial: str = "relaxed",
         candidate = _with_exponents(path, e)
         try:
             with np.errstate(all="ignore"):
-                fit = _linear_fit(fit_rec, candidate, 1, 1, initial).fit
+                fit = _linear_fit(fit_rec, candidate, 1, 1, initial, most=SCREEN_SAMPLES).fit
                 jac = 0.0
                 if candidate.signal_map is not None:
                     jac = float(np.sum(np.log(np.abs(candidate.signal_map.derivative(fit_rec.signal)))))
@@ -387,17 +396,18 @@ def refine_exponents(fit_rec: Record, path: Transfer, initial: str = "relaxed",
     return _with_exponents(path, {k: round(float(v), 4) for k, v in zip(names, best.x)})
 
 
-def _spline_creep(fit_rec: Record, n_terms: int | None, max_terms: int, initial: str) -> CreepModel:
+def _spline_creep(fit_rec: Record, n_terms: int | None, max_terms: int, initial: str,
+                  most: int | None = None) -> CreepModel:
     """A monotone spline signal map and linear creep in load units, fitted in turns: the
     spline maps the signal to the load through creep, the creep is fitted to the mapped signal."""
     h = monotone_calibration(fit_rec.signal, fit_rec.load)
     model = None
     for _ in range(SPLINE_ROUNDS):
-        model = _creep_fit(fit_rec, Transfer(signal_map=h), n_terms, max_terms, initial)
+        model = _creep_fit(fit_rec, Transfer(signal_map=h), n_terms, max_terms, initial, most)
         # what the creep says the mapped signal should be, in load units: G[load]
         target = CreepModel(model.beta, model.tau).response(fit_rec.time, fit_rec.load)
         h = monotone_calibration(fit_rec.signal, target)
-    return _creep_fit(fit_rec, Transfer(signal_map=h), n_terms, max_terms, initial)
+    return _creep_fit(fit_rec, Transfer(signal_map=h), n_terms, max_terms, initial, most)
 
 
 def _try(name: str, parts: int, make, record: Record, heldout, load_range) -> Candidate:
@@ -471,15 +481,16 @@ def fit_signal_path(record: Record, max_terms: int = 3, validation: float = VALI
              judge("static monotone", 1, lambda: CreepModel((), (), transfer=Transfer(
                  signal_map=monotone_calibration(fit_rec.signal, fit_rec.load)))),
              judge("linear creep, 1 creep term", 1,
-                   lambda: _creep_fit(fit_rec, None, 1, max_terms, initial))]
+                   lambda: _creep_fit(fit_rec, None, 1, max_terms, initial, SCREEN_SAMPLES))]
     creep = [found[-1]]
     if maps:
         for path in _screened(fit_rec):
             parts = 1 + (path.load_map is not None) + (path.signal_map is not None)
             creep.append(judge(_describe_named(path, 1), parts,
-                               lambda path=path: _creep_fit(fit_rec, path, 1, max_terms, initial)))
+                               lambda path=path: _creep_fit(fit_rec, path, 1, max_terms, initial,
+                                                            SCREEN_SAMPLES)))
         creep.append(judge("monotone spline (signal map), 1 creep term", 2,
-                           lambda: _spline_creep(fit_rec, 1, max_terms, initial)))
+                           lambda: _spline_creep(fit_rec, 1, max_terms, initial, SCREEN_SAMPLES)))
         mapped = [c for c in creep if c.model is not None and c.model.transfer is not None
                   and any(_as_power(m) for m in (c.model.transfer.load_map, c.model.transfer.signal_map))]
         if mapped:
@@ -487,7 +498,8 @@ def fit_signal_path(record: Record, max_terms: int = 3, validation: float = VALI
             path = refine_exponents(fit_rec, top.model.transfer, initial)
             if path != top.model.transfer:
                 creep.append(judge(_describe_named(path, 1), top.parts,
-                                   lambda: _creep_fit(fit_rec, path, 1, max_terms, initial)))
+                                   lambda: _creep_fit(fit_rec, path, 1, max_terms, initial,
+                                                      SCREEN_SAMPLES)))
         found += creep[1:]
     best = min(creep, key=lambda c: c.heldout_load_rms)
     if best.model is not None and max_terms > 1:
