@@ -208,15 +208,17 @@ def _compensate_extended(record, model, method, start, hold, temps):
     import numpy as np
 
     from creepcomp.diagnose.effects import compensate_extended
-    from creepcomp.digital.correctors import saturation_factor
+    from creepcomp.digital.correctors import in_map_domain, saturation_factor
 
     if temps is not None and np.ndim(temps) == 0:
         temps = np.full(len(record), float(temps))
     if temps is None and record.temperature is not None:
         temps = record.temperature
-    out = compensate_extended(record.time, record.signal, model, temps, initial=start, hold=hold,
-                              strict=True)
-    return model.offset + saturation_factor(model, method) * (out - model.offset)
+    path = model.transfer
+    signal = record.signal if path is None else path.linearise(in_map_domain(record.signal, path.signal_map))
+    out = compensate_extended(record.time, signal, model, temps, initial=start, hold=hold, strict=True)
+    out = model.offset + saturation_factor(model, method) * (out - model.offset)
+    return out if path is None else path.delinearise(out)
 
 
 def _load_figures(rms: float | None, scan) -> dict:
