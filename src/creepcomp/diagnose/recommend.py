@@ -24,10 +24,12 @@ import numpy as np
 
 from creepcomp.errors import InputError
 
-__all__ = ["Recommendation", "recommend", "usable", "EXTENDED"]
+__all__ = ["Recommendation", "recommend", "usable", "model_load", "EXTENDED", "MAPPED_EXTENDED"]
 
 #: Name of the diagnosis's extended model among the members.
 EXTENDED = "extended (diagnosis)"
+#: Name of the member that diagnoses effects in the linear domain of the chosen static maps.
+MAPPED_EXTENDED = "extended on the static maps (diagnosis)"
 
 
 @dataclass(frozen=True)
@@ -89,6 +91,47 @@ def usable(model_file: dict) -> str | None:
     return None
 
 
+def model_load(model, time, signal, temperature=None) -> np.ndarray:
+    """The load a model gives back from a signal: its whole inverse, static maps and fitted
+    extensions included (a model without extensions: :func:`creepcomp.digital.correctors.estimate_load`).
+
+    Parameters
+    ----------
+    model : CreepModel
+    time, signal : array_like
+    temperature : array_like, optional
+        For a model with a temperature law or thermal extensions.
+
+    Returns
+    -------
+    numpy.ndarray
+        The load estimate in load units.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from creepcomp.model import CreepModel
+    >>> from creepcomp.diagnose.recommend import model_load
+    >>> model = CreepModel((0.05,), (10.0,), gain=2.0, offset=0.1)
+    >>> t = np.arange(0.0, 100.0, 0.5)
+    >>> load = np.where(t >= 10, 3.0, 0.0)
+    >>> bool(np.allclose(model_load(model, t, model.response(t, load, hold="zero")), load))
+    True
+    """
+    from creepcomp.digital.correctors import estimate_load, in_map_domain, load_from_compensated
+
+    if not model.extensions:
+        return estimate_load(time, signal, model, temperature=temperature)
+    from creepcomp.diagnose.effects import compensate_extended
+
+    path = model.transfer
+    x = np.asarray(signal, float)
+    if path is not None:
+        x = path.linearise(in_map_domain(x, path.signal_map))
+    compensated = compensate_extended(time, x, model, temperature, converge=True)
+    return load_from_compensated(compensated if path is None else path.delinearise(compensated), model)
+
+
 def _percent(x: float) -> str:
     return f"{100 * x:.3g} %" if math.isfinite(x) else "-"
 
@@ -97,7 +140,7 @@ def _extended_member(record, diagnosis, path):
     """The diagnosis's extended model refitted on the part the signal path was fitted on, and
     its held-out load error (:class:`~creepcomp.fit.signal_path.Candidate`); None without
     extensions (then it is the baseline's structure, a member already)."""
-    from creepcomp.diagnose.effects import compensate_extended, model_structure
+    from creepcomp.diagnose.effects import model_structure
     from creepcomp.fit.data import prepare
     from creepcomp.fit.prony import model_file_dict
     from creepcomp.fit.signal_path import Candidate, held_out_load_rms
@@ -119,13 +162,71 @@ def _extended_member(record, diagnosis, path):
         structure, values = model_structure(whole, data)
         model = CreepModel.from_dict(model_file_dict(data, fit_structure(data, structure, [values])))
         with np.errstate(all="ignore"):
-            compensated = compensate_extended(record.time, record.signal, model, record.temperature,
-                                              converge=True)
-        estimate = (compensated - model.offset) / model.gain
+            estimate = model_load(model, record.time, record.signal, record.temperature)
         rms = held_out_load_rms(estimate, record, ~fit_mask, path.load_range)
         return Candidate(EXTENDED, model, rms, parts)
     except (InputError, ValueError, np.linalg.LinAlgError) as exc:
         return Candidate(EXTENDED, None, math.inf, parts, str(exc).splitlines()[0][:200])
+
+
+def _mapped(record, transfer, mask=None):
+    """The record in the linear domain of the maps: ``f(load)``, ``h(signal)`` (a part of it)."""
+    from creepcomp.digital.correctors import in_map_domain
+    from creepcomp.io.records import Record
+
+    m = slice(None) if mask is None else mask
+    return Record(record.time[m], transfer.load_in(record.load[m]),
+                  transfer.linearise(in_map_domain(record.signal[m], transfer.signal_map)),
+                  temperature=None if record.temperature is None else record.temperature[m],
+                  source=record.source)
+
+
+def _mapped_extended_member(record, path, jobs: int = 1):
+    """Effects diagnosed in the linear domain of the signal path's chosen maps (a soft
+    sensor's memory on top of its nonlinear transfer): the diagnosis of the mapped first part,
+    its extended model with the maps attached, and the held-out load error. None when the
+    chosen member has no maps or no effect is found there."""
+    from creepcomp.diagnose.sensor import diagnose
+    from creepcomp.fit.signal_path import Candidate, held_out_load_rms
+    from creepcomp.model import CreepModel
+
+    chosen = path.candidate(path.chosen)
+    transfer = None if chosen.model is None else chosen.model.transfer
+    if transfer is None or chosen.model.is_static:
+        return None
+    fit_mask = record.time < path.split_time
+    try:
+        with np.errstate(all="ignore"):
+            found = diagnose(_mapped(record, transfer, fit_mask), correction=False, jobs=jobs)
+        extended = found.extended_model
+        if not extended.get("extensions"):
+            return None
+        model = CreepModel.from_dict({**extended, "transfer": transfer.to_dict()})
+        with np.errstate(all="ignore"):
+            estimate = model_load(model, record.time, record.signal, record.temperature)
+        rms = held_out_load_rms(estimate, record, ~fit_mask, path.load_range)
+        parts = chosen.parts + len(extended["extensions"])
+        return Candidate(MAPPED_EXTENDED, model, rms, parts)
+    except (InputError, ValueError, np.linalg.LinAlgError) as exc:
+        return Candidate(MAPPED_EXTENDED, None, math.inf, chosen.parts + 1, str(exc).splitlines()[0][:200])
+
+
+def _refit_mapped(record, member, jobs: int = 1) -> dict:
+    """The mapped-extended member on the whole record: its structure refitted in the maps'
+    linear domain, the maps attached."""
+    from creepcomp.diagnose.effects import model_structure
+    from creepcomp.fit.data import prepare
+    from creepcomp.fit.prony import model_file_dict
+    from creepcomp.fit.solver import fit_structure
+    from creepcomp.model import CreepModel
+
+    transfer = member.model.transfer
+    linear = CreepModel(member.model.beta, member.model.tau, member.model.gain, member.model.offset,
+                        dict(member.model.extensions))
+    data = prepare(_mapped(record, transfer))
+    structure, values = model_structure(linear, data)
+    refit = model_file_dict(data, fit_structure(data, structure, [values]))
+    return {**refit, "transfer": transfer.to_dict()}
 
 
 def recommend(record, diagnosis, signal_path: bool = True) -> Recommendation:
@@ -168,9 +269,9 @@ def recommend(record, diagnosis, signal_path: bool = True) -> Recommendation:
             refused["signal path"] = str(exc)
     members = list(path.candidates) if path is not None else []
     if path is not None:
-        extended = _extended_member(record, diagnosis, path)
-        if extended is not None:
-            members.append(extended)
+        for extended in (_extended_member(record, diagnosis, path), _mapped_extended_member(record, path)):
+            if extended is not None:
+                members.append(extended)
     order = []
     if members:
         chosen = choose(members)
@@ -181,7 +282,7 @@ def recommend(record, diagnosis, signal_path: bool = True) -> Recommendation:
     split = path.split_time if path is not None else None
     versus = _versus(members)
     for member in order or [None]:
-        which, model = _model_of(member, diagnosis, path)
+        which, model = _model_of(member, diagnosis, path, record)
         why = usable(model)
         if why is None:
             name = member.name if member is not None else which
@@ -198,10 +299,15 @@ def recommend(record, diagnosis, signal_path: bool = True) -> Recommendation:
                      + "; ".join(f"{k}: {v}" for k, v in refused.items()))
 
 
-def _model_of(member, diagnosis, path) -> tuple[str, dict]:
+def _model_of(member, diagnosis, path, record) -> tuple[str, dict]:
     """The model file written for a member: fitted on the whole record."""
     if member is None or (member.name == EXTENDED):
         return "extended", diagnosis.extended_model
+    if member.name == MAPPED_EXTENDED:
+        try:
+            return "signal path", _refit_mapped(record, member)
+        except (InputError, ValueError, np.linalg.LinAlgError):
+            return "signal path", member.model.to_dict()
     if member.name.startswith("linear creep") and not diagnosis.extended_model.get("extensions"):
         return "extended", diagnosis.extended_model
     if member.name.startswith("linear creep"):
@@ -215,6 +321,6 @@ def _versus(members) -> str:
     """The figures of the plain references beside the chosen member's."""
     out = []
     for c in members:
-        if c.name in ("static line", "static monotone", EXTENDED) or c.name.startswith("linear creep"):
+        if c.name in ("static line", "static monotone", EXTENDED, MAPPED_EXTENDED) or c.name.startswith("linear creep"):
             out.append(f"{c.name} {_percent(c.heldout_load_rms)}")
     return ("; " + ", ".join(out)) if out else ""
