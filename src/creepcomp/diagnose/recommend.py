@@ -24,7 +24,8 @@ import numpy as np
 
 from creepcomp.errors import InputError
 
-__all__ = ["Recommendation", "recommend", "usable", "model_load", "EXTENDED", "MAPPED_EXTENDED"]
+__all__ = ["Recommendation", "recommend", "usable", "model_load", "refit_structure", "EXTENDED",
+           "MAPPED_EXTENDED"]
 
 #: Name of the diagnosis's extended model among the members.
 EXTENDED = "extended (diagnosis)"
@@ -136,97 +137,125 @@ def _percent(x: float) -> str:
     return f"{100 * x:.3g} %" if math.isfinite(x) else "-"
 
 
-def _extended_member(record, diagnosis, path):
-    """The diagnosis's extended model refitted on the part the signal path was fitted on, and
-    its held-out load error (:class:`~creepcomp.fit.signal_path.Candidate`); None without
-    extensions (then it is the baseline's structure, a member already)."""
+def _mapped(record, transfer, mask=None):
+    """The record in the linear domain of the maps (``f(load)``, ``h(signal)``; a part of it),
+    or the record itself without maps."""
+    from creepcomp.digital.correctors import in_map_domain
+    from creepcomp.io.records import Record
+
+    m = slice(None) if mask is None else mask
+    if transfer is None:
+        load, signal = record.load[m], record.signal[m]
+    else:
+        load = transfer.load_in(record.load[m])
+        signal = transfer.linearise(in_map_domain(record.signal[m], transfer.signal_map))
+    return Record(record.time[m], load, signal,
+                  temperature=None if record.temperature is None else record.temperature[m],
+                  source=record.source)
+
+
+def refit_structure(record, model, mask=None) -> dict:
+    """A model's structure (terms, extensions, static maps) fitted again on a record, or a
+    part of it: the model file of the refit.
+
+    Parameters
+    ----------
+    record : Record
+    model : CreepModel
+        The model whose structure is refitted (its values are the start).
+    mask : numpy.ndarray of bool, optional
+        The samples to fit (default: all).
+    """
     from creepcomp.diagnose.effects import model_structure
     from creepcomp.fit.data import prepare
     from creepcomp.fit.prony import model_file_dict
-    from creepcomp.fit.signal_path import Candidate, held_out_load_rms
     from creepcomp.fit.solver import fit_structure
-    from creepcomp.io.records import Record
+    from creepcomp.model import CreepModel
+
+    transfer = model.transfer
+    linear = CreepModel(model.beta, model.tau, model.gain, model.offset, dict(model.extensions))
+    data = prepare(_mapped(record, transfer, mask))
+    structure, values = model_structure(linear, data)
+    refit = model_file_dict(data, fit_structure(data, structure, [values]))
+    return refit if transfer is None else {**refit, "transfer": transfer.to_dict()}
+
+
+def _windows(record, path) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The two (fitted, judged) windows of the signal path (:mod:`creepcomp.fit.signal_path`):
+    fitted on the first half, judged on the next quarter; fitted on the first three quarters,
+    judged on the last."""
+    from creepcomp.fit.signal_path import VALIDATION
+
+    t = record.time
+    late = t < path.split_time
+    early_cut = t[0] + (1.0 - 2.0 * VALIDATION) / (1.0 - VALIDATION) * (path.split_time - t[0])
+    early = t < early_cut
+    return [(early, late & ~early), (late, ~late)]
+
+
+def _member(name: str, model, parts: int, record, path):
+    """A member judged as the signal path's are: its structure refitted on each window's first
+    part and judged on the next; the score the worse of the two."""
+    from creepcomp.fit.signal_path import Candidate, held_out_load_rms, window_score
+    from creepcomp.model import CreepModel
+
+    try:
+        scores, refit = [], None
+        for fitted, judged in _windows(record, path):
+            refit = CreepModel.from_dict(refit_structure(record, model, fitted))
+            upto = fitted | judged
+            with np.errstate(all="ignore"):
+                estimate = model_load(refit, record.time[upto], record.signal[upto],
+                                      None if record.temperature is None else record.temperature[upto])
+            scores.append(held_out_load_rms(estimate, _mapped(record, None, upto), judged[upto],
+                                            path.load_range))
+        # the later window's refit stands for the member (as the signal path's members do)
+        return Candidate(name, refit, window_score(scores), parts, windows=tuple(scores))
+    except (InputError, ValueError, np.linalg.LinAlgError) as exc:
+        return Candidate(name, None, math.inf, parts, str(exc).splitlines()[0][:200])
+
+
+def _extended_member(record, diagnosis, path):
+    """The diagnosis's extended model as a member (None without extensions: then it is the
+    baseline's structure, a member already)."""
     from creepcomp.model import CreepModel
 
     extensions = diagnosis.extended_model.get("extensions") or {}
     if not extensions:
         return None
-    parts = len(diagnosis.extended_model.get("beta", ())) + len(extensions)
-    fit_mask = record.time < path.split_time
     try:
-        whole = CreepModel.from_dict(diagnosis.extended_model)
-        part = Record(record.time[fit_mask], record.load[fit_mask], record.signal[fit_mask],
-                      temperature=None if record.temperature is None else record.temperature[fit_mask],
-                      source=record.source)
-        data = prepare(part)
-        structure, values = model_structure(whole, data)
-        model = CreepModel.from_dict(model_file_dict(data, fit_structure(data, structure, [values])))
-        with np.errstate(all="ignore"):
-            estimate = model_load(model, record.time, record.signal, record.temperature)
-        rms = held_out_load_rms(estimate, record, ~fit_mask, path.load_range)
-        return Candidate(EXTENDED, model, rms, parts)
-    except (InputError, ValueError, np.linalg.LinAlgError) as exc:
-        return Candidate(EXTENDED, None, math.inf, parts, str(exc).splitlines()[0][:200])
+        model = CreepModel.from_dict(diagnosis.extended_model)
+    except InputError as exc:
+        from creepcomp.fit.signal_path import Candidate
 
-
-def _mapped(record, transfer, mask=None):
-    """The record in the linear domain of the maps: ``f(load)``, ``h(signal)`` (a part of it)."""
-    from creepcomp.digital.correctors import in_map_domain
-    from creepcomp.io.records import Record
-
-    m = slice(None) if mask is None else mask
-    return Record(record.time[m], transfer.load_in(record.load[m]),
-                  transfer.linearise(in_map_domain(record.signal[m], transfer.signal_map)),
-                  temperature=None if record.temperature is None else record.temperature[m],
-                  source=record.source)
+        return Candidate(EXTENDED, None, math.inf, len(extensions) + 1, str(exc))
+    return _member(EXTENDED, model, model.n_terms + len(extensions), record, path)
 
 
 def _mapped_extended_member(record, path, jobs: int = 1):
     """Effects diagnosed in the linear domain of the signal path's chosen maps (a soft
-    sensor's memory on top of its nonlinear transfer): the diagnosis of the mapped first part,
-    its extended model with the maps attached, and the held-out load error. None when the
-    chosen member has no maps or no effect is found there."""
+    sensor's memory on top of its nonlinear transfer), as a member: the diagnosis of the mapped
+    record's later fitted part gives the structure. None when the chosen member has no maps or
+    no effect is found there."""
     from creepcomp.diagnose.sensor import diagnose
-    from creepcomp.fit.signal_path import Candidate, held_out_load_rms
+    from creepcomp.fit.signal_path import Candidate
     from creepcomp.model import CreepModel
 
     chosen = path.candidate(path.chosen)
     transfer = None if chosen.model is None else chosen.model.transfer
     if transfer is None or chosen.model.is_static:
         return None
-    fit_mask = record.time < path.split_time
     try:
         with np.errstate(all="ignore"):
-            found = diagnose(_mapped(record, transfer, fit_mask), correction=False, jobs=jobs)
+            found = diagnose(_mapped(record, transfer, record.time < path.split_time),
+                             correction=False, jobs=jobs)
         extended = found.extended_model
         if not extended.get("extensions"):
             return None
         model = CreepModel.from_dict({**extended, "transfer": transfer.to_dict()})
-        with np.errstate(all="ignore"):
-            estimate = model_load(model, record.time, record.signal, record.temperature)
-        rms = held_out_load_rms(estimate, record, ~fit_mask, path.load_range)
-        parts = chosen.parts + len(extended["extensions"])
-        return Candidate(MAPPED_EXTENDED, model, rms, parts)
     except (InputError, ValueError, np.linalg.LinAlgError) as exc:
         return Candidate(MAPPED_EXTENDED, None, math.inf, chosen.parts + 1, str(exc).splitlines()[0][:200])
-
-
-def _refit_mapped(record, member, jobs: int = 1) -> dict:
-    """The mapped-extended member on the whole record: its structure refitted in the maps'
-    linear domain, the maps attached."""
-    from creepcomp.diagnose.effects import model_structure
-    from creepcomp.fit.data import prepare
-    from creepcomp.fit.prony import model_file_dict
-    from creepcomp.fit.solver import fit_structure
-    from creepcomp.model import CreepModel
-
-    transfer = member.model.transfer
-    linear = CreepModel(member.model.beta, member.model.tau, member.model.gain, member.model.offset,
-                        dict(member.model.extensions))
-    data = prepare(_mapped(record, transfer))
-    structure, values = model_structure(linear, data)
-    refit = model_file_dict(data, fit_structure(data, structure, [values]))
-    return {**refit, "transfer": transfer.to_dict()}
+    return _member(MAPPED_EXTENDED, model, chosen.parts + len(extended["extensions"]), record, path)
 
 
 def recommend(record, diagnosis, signal_path: bool = True) -> Recommendation:
@@ -305,7 +334,7 @@ def _model_of(member, diagnosis, path, record) -> tuple[str, dict]:
         return "extended", diagnosis.extended_model
     if member.name == MAPPED_EXTENDED:
         try:
-            return "signal path", _refit_mapped(record, member)
+            return "signal path", refit_structure(record, member.model)
         except (InputError, ValueError, np.linalg.LinAlgError):
             return "signal path", member.model.to_dict()
     if member.name.startswith("linear creep") and not diagnosis.extended_model.get("extensions"):

@@ -12,10 +12,16 @@ part of the record, held out of its fit:
 3. every pair of static maps is screened statically (no creep), and the best few, and the
    identity, are fitted with one creep term (the linear creep of
    :func:`creepcomp.fit.prony.fit_prony` between ``f(load)`` and ``h(signal)``); a monotone
-   spline signal map is fitted by alternating the spline and the creep;
+   spline signal map is fitted by alternating the spline and the creep; the best mapped
+   member's power exponents are refined (:func:`refine_exponents`);
 4. the best of them is given its number of creep terms by the Prony fit's own evidence;
-5. the member whose held-out load error is lowest is chosen; a member with more parts must
-   beat a simpler one by :data:`MARGIN` to be kept. It is refitted on the whole record.
+5. every member is judged on a second, earlier window too (fitted on the first
+   ``1 - 2 validation``, judged on the next ``validation``): its score is the geometric mean
+   of the two windows' errors;
+6. the member whose score is lowest is chosen; a member with more parts must beat a simpler
+   one by :data:`MARGIN` to be kept. It is refitted on the whole record, unless the refit
+   gives the load back worse on the last part (which it was fitted on) than the member held
+   out of it did: a nonlinear fit that went elsewhere.
 
 Every creep model kept has a stable inverse (:func:`creepcomp.digital.correctors.check_invertible`),
 so that what is written is what ``correct`` and ``firmware`` accept.
@@ -36,7 +42,7 @@ from creepcomp.model import CreepModel
 from creepcomp.transfer import StaticMap, Transfer
 
 __all__ = ["Candidate", "SignalPathFit", "fit_signal_path", "static_line", "monotone_calibration",
-           "settled_points", "choose", "held_out_load_rms", "refine_exponents",
+           "settled_points", "choose", "held_out_load_rms", "refine_exponents", "window_score",
            "VALIDATION", "MARGIN", "SPLINE_KNOTS"]
 
 #: Share of the record's time held out at its end to choose the signal path.
@@ -79,6 +85,10 @@ class Candidate:
         How many parts it has (static maps, creep terms): the rule prefers fewer.
     reason : str
         Why it failed, or empty.
+    windows : tuple of float
+        The held-out load error of each window it was judged on (fitted on the first half,
+        judged on the next quarter; fitted on the first three quarters, judged on the last):
+        ``heldout_load_rms`` is their geometric mean (:func:`window_score`).
     """
 
     name: str
@@ -86,12 +96,17 @@ class Candidate:
     heldout_load_rms: float
     parts: int
     reason: str = ""
+    windows: tuple = ()
 
     def to_dict(self) -> dict:
-        """JSON form: name, held-out error (fraction of the load range), parts, reason."""
-        err = self.heldout_load_rms
-        return {"name": self.name, "heldout_load_rms": err if math.isfinite(err) else None,
-                "parts": self.parts, "reason": self.reason or None}
+        """JSON form: name, held-out error (fraction of the load range; each window's too),
+        parts, reason."""
+        def finite(x):
+            return x if math.isfinite(x) else None
+
+        return {"name": self.name, "heldout_load_rms": finite(self.heldout_load_rms),
+                "windows": [finite(x) for x in self.windows], "parts": self.parts,
+                "reason": self.reason or None}
 
 
 @dataclass(frozen=True)
@@ -508,8 +523,13 @@ def fit_signal_path(record: Record, max_terms: int = 3, validation: float = VALI
             grown = replace(grown, name=_describe_named(grown.model.transfer, grown.model.n_terms),
                             parts=best.parts + grown.model.n_terms - 1)
             found.append(grown)
+    found = _earlier_window(record, found, validation, max_terms, initial, load_range)
     chosen = choose(found)
     model = _refit(record, chosen, max_terms, initial)
+    if chosen.windows and _load_rms(model, record, heldout, load_range) > chosen.windows[-1]:
+        # the refit lands worse on the last part than the member held out of it did: its
+        # nonlinear fit went elsewhere; the member as judged stands
+        model = chosen.model
     return SignalPathFit(model, chosen.name, tuple(found), load_range, cut,
                          _time.perf_counter() - start)
 
@@ -547,17 +567,61 @@ def choose(found) -> Candidate:
     return chosen
 
 
+def _structure_fit(record: Record, member: Candidate, max_terms: int, initial: str,
+                   most: int | None = None) -> CreepModel:
+    """A member's structure (its maps, its number of creep terms) fitted on another record."""
+    m = member.model
+    if member.name == "static line":
+        return static_line(record.load, record.signal)
+    if member.name == "static monotone":
+        return CreepModel((), (), transfer=Transfer(signal_map=monotone_calibration(record.signal, record.load)))
+    path = m.transfer
+    if path is not None and path.signal_map is not None and path.signal_map.form == "spline":
+        return _spline_creep(record, m.n_terms, max_terms, initial, most)
+    return _creep_fit(record, path, m.n_terms, max_terms, initial, most)
+
+
 def _refit(record: Record, chosen: Candidate, max_terms: int, initial: str) -> CreepModel:
     """The chosen member's structure fitted on the whole record (its own if that fails)."""
-    m = chosen.model
     try:
-        if chosen.name == "static line":
-            return static_line(record.load, record.signal)
-        if chosen.name == "static monotone":
-            return CreepModel((), (), transfer=Transfer(signal_map=monotone_calibration(record.signal, record.load)))
-        path = m.transfer
-        if path is not None and path.signal_map is not None and path.signal_map.form == "spline":
-            return _spline_creep(record, m.n_terms, max_terms, initial)
-        return _creep_fit(record, path, m.n_terms, max_terms, initial)
+        return _structure_fit(record, chosen, max_terms, initial)
     except (InputError, ValueError, np.linalg.LinAlgError):
-        return m
+        return chosen.model
+
+
+def _earlier_window(record: Record, found: list[Candidate], validation: float, max_terms: int,
+                    initial: str, load_range: float) -> list[Candidate]:
+    """Each member also fitted on the first ``1 - 2 validation`` of the record and judged on the
+    next ``validation``: its score is the two windows' :func:`window_score` (one window alone
+    chose members that failed on later data)."""
+    t = record.time
+    span = t[-1] - t[0]
+    early = t < t[0] + (1.0 - 2.0 * validation) * span
+    upto = t < t[0] + (1.0 - validation) * span
+    if early.sum() < 20 or (upto & ~early).sum() < 5:
+        return found
+    early_rec, upto_rec = _part(record, early), _part(record, upto)
+    judged = ~early[upto]
+    out = []
+    for c in found:
+        if c.model is None:
+            out.append(c)
+            continue
+        try:
+            model = _structure_fit(early_rec, c, max_terms, initial, SCREEN_SAMPLES)
+            rms = _load_rms(model, upto_rec, judged, load_range)
+        except (InputError, ValueError, np.linalg.LinAlgError, FloatingPointError):
+            rms = math.inf
+        out.append(replace(c, heldout_load_rms=window_score((rms, c.heldout_load_rms)),
+                           windows=(rms, c.heldout_load_rms)))
+    return out
+
+
+def window_score(errors) -> float:
+    """The score of a member judged on several windows: the geometric mean of its errors.
+    Each window weighs by how much better or worse a member is there, whatever the window's
+    own level (an early window whose loads the fitted part never reached is hard for all)."""
+    e = np.asarray(errors, float)
+    if not np.all(np.isfinite(e)):
+        return math.inf
+    return float(np.exp(np.mean(np.log(np.maximum(e, 1e-300)))))
