@@ -50,6 +50,7 @@ import os
 import sys
 import tempfile
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -165,7 +166,10 @@ def _narx_fit(x: np.ndarray, y: np.ndarray, lags: tuple[int, int], info_values: 
     model = FROLS(order_selection=True, n_info_values=info_values, ylag=max(lags[0], 1), xlag=lags[1],
                   info_criteria="aic", estimator=LeastSquares(), basis_function=Polynomial(degree=2),
                   model_type="NARMAX" if lags[0] else "NFIR")
-    model.fit(X=x[:, None], y=y[:, None])
+    with warnings.catch_warnings():
+        # (the number of AIC values is capped at the regressors there are, with a warning)
+        warnings.filterwarnings("ignore", "n_info_values is greater", UserWarning)
+        model.fit(X=x[:, None], y=y[:, None])
     return model
 
 
@@ -431,11 +435,11 @@ def plot(record: Record, outcome: Outcome, path: Path) -> None:
     k = split_index(record)
     t = record.time[k:] - record.time[0]
     fig, ax = plt.subplots(figsize=(9, 4))
-    ax.plot(t, record.load[k:], color="black", lw=1.2, label="measured load")
     for method in METHODS:
         c = outcome.cells[method]
         if c.estimate is not None:
-            ax.plot(t, c.estimate[k:], lw=0.8, label=f"{method} ({c.error:.3g} %)")
+            ax.plot(t, c.estimate[k:], lw=0.7, alpha=0.8, label=f"{method} ({c.error:.3g} %)")
+    ax.plot(t, record.load[k:], color="black", lw=1.2, label="measured load")
     lo, hi = np.min(record.load), np.max(record.load)
     pad = 0.25 * (hi - lo)
     ax.set_ylim(lo - pad, hi + pad)       # a diverging estimate leaves the frame, not the scale
@@ -461,6 +465,8 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="12 generated records, shorter NARX search")
     ap.add_argument("--soft", type=int, default=None, help="generated soft-sensor records (default 42; --quick 12)")
     ap.add_argument("--soft-seed", type=int, default=0, help="seed of the first generated record")
+    ap.add_argument("--max-samples", type=int, default=None,
+                    help="most samples of a generated record (default 6000; --quick 2000)")
     ap.add_argument("--insole", type=Path, nargs="*", default=[], metavar="FILE.mat",
                     help="insole .mat files whose taxels to add")
     ap.add_argument("--taxels", default="best:2", help="taxels of each --insole file: 3,17 or best:N")
@@ -489,7 +495,10 @@ def _run(args) -> int:
         args.plots.mkdir(parents=True, exist_ok=True)
     narx_options = {"most": 2000, "lags": QUICK_NARX_LAGS, "info_values": 8} if args.quick else {}
     cases = ([] if args.no_shipped else shipped_records()) + insole_records(args.insole, args.taxels)
-    cases += soft_cases(count, args.soft_seed, 2000 if args.quick else 6000)
+    most = args.max_samples if args.max_samples is not None else (2000 if args.quick else 6000)
+    if most < 50:
+        raise InputError(f"--max-samples {most}: give 50 or more")
+    cases += soft_cases(count, args.soft_seed, most)
     outcomes, plotted, kinds = [], [], set()
     for name, record in cases:
         t0 = time.perf_counter()
