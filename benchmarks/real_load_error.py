@@ -459,6 +459,20 @@ def _slug(name: str) -> str:
 
 # --------------------------------------------------------------------------------------------
 
+def _distinct(cases: list[tuple[str, Record]], quiet: bool) -> list[tuple[str, Record]]:
+    """The cases without repeats of an earlier one's data (a shipped taxel read again from its
+    ``.mat`` file), each repeat said on stderr."""
+    out = []
+    for name, record in cases:
+        same = next((n for n, r in out if len(r) == len(record) and np.array_equal(r.signal, record.signal)
+                     and np.array_equal(r.load, record.load)), None)
+        if same is None:
+            out.append((name, record))
+        elif not quiet:
+            print(f"{name}: the same data as {same}, left out", file=sys.stderr)
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -500,7 +514,7 @@ def _run(args) -> int:
         raise InputError(f"--max-samples {most}: give 50 or more")
     cases += soft_cases(count, args.soft_seed, most)
     outcomes, plotted, kinds = [], [], set()
-    for name, record in cases:
+    for name, record in _distinct(cases, quiet=args.json):
         t0 = time.perf_counter()
         outcome = run_record(name, record, narx_options)
         outcomes.append(outcome)

@@ -109,3 +109,11 @@ def test_the_command_prints_json_and_writes_one_plot_per_kind(tmp_path, capsys):
 def test_bad_options_exit_2_with_one_message(tmp_path, capsys):
     assert bench.main(["--no-shipped", "--soft", "0", "--insole", str(tmp_path / "none.mat")]) == 2
     assert "--insole" in capsys.readouterr().err
+
+
+def test_a_record_given_twice_is_run_once(capsys):
+    r = _pad_record()
+    other = Record(r.time, r.load, r.signal + 1.0)
+    kept = bench._distinct([("shipped", r), ("from its file", r), ("other", other)], quiet=False)
+    assert [name for name, _ in kept] == ["shipped", "other"]
+    assert "from its file: the same data as shipped, left out" in capsys.readouterr().err
