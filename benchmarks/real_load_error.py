@@ -354,9 +354,9 @@ def soft_cases(count: int, first_seed: int, max_samples: int) -> list[tuple[str,
     out = []
     for s in soft_records(count, first_seed, max_samples):
         p = s.parameters
-        clip = f", {p['clipped_fraction']:.0%} clipped" if p["clipped_fraction"] > 0 else ""
+        clip = f", {100 * p['clipped_fraction']:.2g} % clipped" if p["clipped_fraction"] > 0 else ""
         out.append((f"{p['kind']} seed {p['seed']} ({p['program']}, {p['readout']}, "
-                    f"creep {p['creep_total']:+.0%}{clip})", s.record))
+                    f"creep {100 * p['creep_total']:+.0f} %{clip})", s.record))
     return out
 
 
@@ -454,7 +454,7 @@ def plot(record: Record, outcome: Outcome, path: Path) -> None:
 
 def _slug(name: str) -> str:
     keep = "".join(ch if ch.isalnum() else "-" for ch in name.lower())
-    return "-".join(part for part in keep.split("-") if part)[:60]
+    return "-".join(part for part in keep.split("-") if part)[:50]
 
 
 # --------------------------------------------------------------------------------------------
@@ -523,7 +523,7 @@ def _run(args) -> int:
         kind = record.metadata.get("synth.kind", "real")
         if args.plots is not None and (kind == "real" or kind not in kinds):
             kinds.add(kind)
-            path = args.plots / f"load-error-{_slug(name)}.png"
+            path = args.plots / f"load-error-{len(outcomes):02d}-{_slug(name)}.png"
             plot(record, outcome, path)
             plotted.append(path)
         for c in outcome.cells.values():
