@@ -292,12 +292,14 @@ def draw_soft(kind: str, rng: np.random.Generator, max_samples: int = MAX_SOFT_S
                          "half_strain": float(rng.uniform(0.05, 0.3)), "steepness": float(rng.uniform(1.0, 2.5))}
         p["release_overshoot"] = {"amplitude": float(rng.uniform(0.2, 1.0)), "tau": float(rng.uniform(0.7, 1.7))}
         if rng.uniform() < 0.7:
-            p["climb"] = {"amplitude": float(rng.uniform(0.2, 1.2)), "tau": float(rng.uniform(30.0, 120.0))}
+            # 10-50 % over a minute or two of presses (the lag of the load: a few tenths)
+            p["climb"] = {"amplitude": float(rng.uniform(0.5, 2.5)), "tau": float(rng.uniform(30.0, 120.0))}
     elif kind == "carbon_stretch":
         p["full_scale"] = _log_uniform(rng, 2.0, 20.0)
         p["transfer"] = {"form": "gauge", "r0": _log_uniform(rng, 1e3, 1e5),
                          "gauge": float(rng.uniform(2.0, 20.0)), "quadratic": float(rng.uniform(0.0, 10.0))}
-        p["softening"], p["permanent_set"] = float(rng.uniform(0.02, 0.15)), float(rng.uniform(0.005, 0.02))
+        # the unloaded resistance up to ~10 % higher after the first cycle
+        p["softening"], p["permanent_set"] = float(rng.uniform(0.02, 0.15)), float(rng.uniform(0.01, 0.05))
     elif kind == "liquid_metal":
         p["full_scale"] = _log_uniform(rng, 1.0, 10.0)
         p["transfer"] = {"form": "geometric", "r0": _log_uniform(rng, 0.5, 5.0),
