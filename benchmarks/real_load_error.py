@@ -30,12 +30,13 @@ files creepcomp would write (the baseline's as ``fit`` writes it, the recommende
 
 Records: the shipped insole taxels (``creepcomp.data``), taxels of insole ``.mat`` files given
 with ``--insole`` (``--taxels``: numbers, or ``best:N`` for the N that follow the pressure best),
+record files given with ``--record`` (``--columns`` maps their columns, as for ``creepcomp fit``)
 and ``--soft`` generated soft-sensor records (:mod:`creepcomp.synth.soft`, every kind in turn).
 
 Usage::
 
     python benchmarks/real_load_error.py [--quick] [--soft 42] [--insole FILE.mat ...]
-        [--taxels best:2] [--json] [--plots DIR]
+        [--taxels best:2] [--record FILE ... [--columns MAP]] [--json] [--plots DIR]
 
 ``--quick`` runs 12 generated records of at most 2000 samples and shorter NARX searches
 (about a minute on one core).
@@ -348,6 +349,15 @@ def insole_records(paths: list[Path], taxels: str) -> list[tuple[str, Record]]:
     return out
 
 
+def file_records(paths: list[Path], columns: str | None) -> list[tuple[str, Record]]:
+    """Records read from files as ``creepcomp fit`` reads them (:func:`creepcomp.io.formats.read_any`)."""
+    from creepcomp.io.formats import read_any
+    from creepcomp.io.records import parse_columns
+
+    mapping = parse_columns(columns)
+    return [(Path(path).name, read_any(path, mapping)) for path in paths]
+
+
 def soft_cases(count: int, first_seed: int, max_samples: int) -> list[tuple[str, Record]]:
     from creepcomp.synth.soft import soft_records
 
@@ -484,6 +494,10 @@ def main(argv=None) -> int:
     ap.add_argument("--insole", type=Path, nargs="*", default=[], metavar="FILE.mat",
                     help="insole .mat files whose taxels to add")
     ap.add_argument("--taxels", default="best:2", help="taxels of each --insole file: 3,17 or best:N")
+    ap.add_argument("--record", type=Path, nargs="*", default=[], metavar="FILE",
+                    help="other records (CSV, as creepcomp reads them) to add")
+    ap.add_argument("--columns", default=None, metavar="MAP",
+                    help="column mapping of the --record files, e.g. time=tR,load=P,signal=Ri")
     ap.add_argument("--no-shipped", action="store_true", help="leave out the shipped insole records")
     ap.add_argument("--json", action="store_true", help="print one JSON object instead of the tables")
     ap.add_argument("--plots", type=Path, default=None, metavar="DIR",
@@ -500,15 +514,17 @@ def _run(args) -> int:
     count = args.soft if args.soft is not None else (12 if args.quick else 42)
     if count < 0:
         raise InputError(f"--soft {count}: give a count of 0 or more")
-    for path in args.insole:
-        if not path.is_file():
-            raise InputError(f"--insole {path}: no such file")
+    for option, paths in (("--insole", args.insole), ("--record", args.record)):
+        for path in paths:
+            if not path.is_file():
+                raise InputError(f"{option} {path}: no such file")
     if args.plots is not None:
         if args.plots.exists() and not args.plots.is_dir():
             raise InputError(f"--plots {args.plots}: exists and is not a folder")
         args.plots.mkdir(parents=True, exist_ok=True)
     narx_options = {"most": 2000, "lags": QUICK_NARX_LAGS, "info_values": 8} if args.quick else {}
     cases = ([] if args.no_shipped else shipped_records()) + insole_records(args.insole, args.taxels)
+    cases += file_records(args.record, args.columns)
     most = args.max_samples if args.max_samples is not None else (2000 if args.quick else 6000)
     if most < 50:
         raise InputError(f"--max-samples {most}: give 50 or more")

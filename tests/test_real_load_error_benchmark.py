@@ -106,9 +106,21 @@ def test_the_command_prints_json_and_writes_one_plot_per_kind(tmp_path, capsys):
     assert len(list((tmp_path / "plots").glob("*.png"))) == 2
 
 
+def test_a_record_file_is_read_as_creepcomp_reads_it(tmp_path, capsys):
+    from creepcomp.io.records import write_record
+
+    path = write_record(tmp_path / "pad.csv", _pad_record(1.0e5))
+    assert bench.main(["--no-shipped", "--soft", "0", "--quick", "--json", "--record", str(path)]) == 0
+    [row] = json.loads(capsys.readouterr().out)["records"]
+    assert row["record"] == "pad.csv" and row["samples"] == 1000
+    assert row["cells"]["static monotone"]["error_percent"] < row["cells"]["static line"]["error_percent"]
+
+
 def test_bad_options_exit_2_with_one_message(tmp_path, capsys):
     assert bench.main(["--no-shipped", "--soft", "0", "--insole", str(tmp_path / "none.mat")]) == 2
     assert "--insole" in capsys.readouterr().err
+    assert bench.main(["--no-shipped", "--soft", "0", "--record", str(tmp_path / "none.csv")]) == 2
+    assert "--record" in capsys.readouterr().err
 
 
 def test_a_record_given_twice_is_run_once(capsys):
