@@ -116,6 +116,15 @@ def split_index(record: Record, fraction: float = TRAIN_FRACTION) -> int:
     return k
 
 
+def check_record(record: Record) -> None:
+    """Refuse a record the protocol cannot score: a load that never changes (no range to scale
+    the error by) or too few samples to split."""
+    if not np.ptp(record.load) > 0:
+        raise InputError(f"{record.source}: the load does not change over the record, so there is "
+                         "no load range to give the error in (a creep test at one load?)")
+    split_index(record)
+
+
 def training_part(record: Record, k: int) -> Record:
     """The first ``k`` samples as a record of their own."""
     return Record(record.time[:k], record.load[:k], record.signal[:k], metadata=dict(record.metadata),
@@ -525,6 +534,8 @@ def _run(args) -> int:
     narx_options = {"most": 2000, "lags": QUICK_NARX_LAGS, "info_values": 8} if args.quick else {}
     cases = ([] if args.no_shipped else shipped_records()) + insole_records(args.insole, args.taxels)
     cases += file_records(args.record, args.columns)
+    for _, record in cases:
+        check_record(record)
     most = args.max_samples if args.max_samples is not None else (2000 if args.quick else 6000)
     if most < 50:
         raise InputError(f"--max-samples {most}: give 50 or more")

@@ -121,6 +121,12 @@ def test_bad_options_exit_2_with_one_message(tmp_path, capsys):
     assert "--insole" in capsys.readouterr().err
     assert bench.main(["--no-shipped", "--soft", "0", "--record", str(tmp_path / "none.csv")]) == 2
     assert "--record" in capsys.readouterr().err
+    from creepcomp.io.records import write_record
+
+    r = _pad_record()
+    held = write_record(tmp_path / "held.csv", Record(r.time, np.ones(len(r)), r.signal))
+    assert bench.main(["--no-shipped", "--soft", "0", "--record", str(held)]) == 2
+    assert "the load does not change" in capsys.readouterr().err
 
 
 def test_a_record_given_twice_is_run_once(capsys):
