@@ -45,7 +45,8 @@ from creepcomp.io.records import Record
 from creepcomp.lti import lag_states, varying_lag_states
 from creepcomp.programs import LoadProgram
 
-__all__ = ["SOFT_KINDS", "SOFT_PROGRAMS", "SOFT_CREEP_RANGE", "LOAD_CELL_CREEP_RANGE",
+__all__ = ["SOFT_KINDS", "SOFT_PROGRAMS", "SOFT_CREEP_RANGE", "OUTPUT_CREEP_RANGE", "LOAD_CELL_CREEP_RANGE",
+           "LOG_DOMAIN_FORMS", "MAX_SOFT_SAMPLES",
            "SoftSynthetic", "soft_program", "draw_soft", "simulate_soft", "soft_record",
            "soft_records"]
 
@@ -474,7 +475,7 @@ def simulate_soft(p: dict, seed: int = 0) -> SoftSynthetic:
 
     Examples
     --------
-    An FSR read by an ohmmeter, its reading falling over decades under load:
+    An FSR: its resistance (before the readout) spans more than a decade over the record:
 
     >>> import numpy as np
     >>> from creepcomp.synth.soft import draw_soft, simulate_soft
