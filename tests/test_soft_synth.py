@@ -9,7 +9,7 @@ from creepcomp.synth.soft import (LOAD_CELL_CREEP_RANGE, SOFT_CREEP_RANGE, SOFT_
 
 #: No creep, memory or set: the static transfer alone.
 STATIC = dict(beta=(0.0,), tau=(1.0,), unloading_tau_factor=1.0, softening=0.0, permanent_set=0.0,
-              output_creep=None, release_overshoot=None, climb=None, offset_jumps=(), clip=None)
+              output_creep=None, release_spike=None, climb=None, offset_jumps=(), clip=None)
 
 
 def _held(s, fraction=0.5):
@@ -56,7 +56,7 @@ def test_a_pad_saturates():
 
 def test_release_overshoot_spikes_above_the_unloaded_level_and_decays():
     s = soft_record("velostat", 11, program="step", readout="ohmmeter", noise=1e-4, coloured_noise=0.0,
-                    **{**STATIC, "release_overshoot": {"amplitude": 0.5, "tau": 1.0}})
+                    **{**STATIC, "release_spike": {"amplitude": 0.5, "tau": 1.0}})
     t, y = s.record.time, s.clean
     release = s.program.times[-2]          # the release ramp's end
     after = t >= release

@@ -270,7 +270,7 @@ def draw_soft(kind: str, rng: np.random.Generator, max_samples: int = MAX_SOFT_S
     p = {"kind": kind, "program": program, "duration": duration, "rate": float(rate), "start": start,
          "full_scale": 1.0, "input_power": 1.0, "beta": beta, "tau": tau,
          "unloading_tau_factor": 1.0, "softening": 0.0, "permanent_set": 0.0,
-         "output_creep": output_creep, "release_overshoot": None, "climb": None, "offset_jumps": (),
+         "output_creep": output_creep, "release_spike": None, "climb": None, "offset_jumps": (),
          "noise": 0.0, "coloured_noise": 0.0, "reference_noise": float(rng.uniform(0.001, 0.005)),
          "readout": "linear", "bits": 16, "clip": None}
     if soft:
@@ -291,7 +291,7 @@ def draw_soft(kind: str, rng: np.random.Generator, max_samples: int = MAX_SOFT_S
         p["transfer"] = {"form": "saturating", "unloaded": _log_uniform(rng, 500.0, 20000.0),
                          "loaded_ratio": _log_uniform(rng, 0.005, 0.08),
                          "half_strain": float(rng.uniform(0.05, 0.3)), "steepness": float(rng.uniform(1.0, 2.5))}
-        p["release_overshoot"] = {"amplitude": float(rng.uniform(0.2, 1.0)), "tau": float(rng.uniform(0.7, 1.7))}
+        p["release_spike"] = {"amplitude": float(rng.uniform(0.2, 1.0)), "tau": float(rng.uniform(0.7, 1.7))}
         if rng.uniform() < 0.7:
             # 10-50 % over a minute or two of presses (the lag of the load: a few tenths)
             p["climb"] = {"amplitude": float(rng.uniform(0.5, 2.5)), "tau": float(rng.uniform(30.0, 120.0))}
@@ -393,7 +393,7 @@ def _output_memory(p: dict, grid: np.ndarray, x: np.ndarray, q: np.ndarray) -> n
         c = lag_states(grid, v, [oc["tau"]], initial=np.full(1, v[0]))[:, 0]
         v = v + oc["amplitude"] * (v - c)
         y = np.exp(v) if log else v
-    ro = p["release_overshoot"]
+    ro = p["release_spike"]
     if ro:
         c = lag_states(grid, x, [ro["tau"]], initial=np.full(1, x[0]))[:, 0]
         y = y * (1.0 + ro["amplitude"] * np.maximum(c - x, 0.0))
