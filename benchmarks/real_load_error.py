@@ -101,6 +101,7 @@ class Outcome:
     samples: int
     cells: dict
     refused: dict                     # method -> reason (str) or None (accepted) for written files
+    truth: dict | None = None         # a generated record's drawn parameters
 
 
 # --------------------------------------------------------------------------------------------
@@ -367,7 +368,9 @@ def file_records(paths: list[Path], columns: str | None) -> list[tuple[str, Reco
     return [(Path(path).name, read_any(path, mapping)) for path in paths]
 
 
-def soft_cases(count: int, first_seed: int, max_samples: int) -> list[tuple[str, Record]]:
+def soft_cases(count: int, first_seed: int, max_samples: int) -> list[tuple[str, Record, dict]]:
+    """Generated records with their drawn parameters (kept apart from the record: no method
+    sees them)."""
     from creepcomp.synth.soft import soft_records
 
     out = []
@@ -375,7 +378,7 @@ def soft_cases(count: int, first_seed: int, max_samples: int) -> list[tuple[str,
         p = s.parameters
         clip = f", {100 * p['clipped_fraction']:.2g} % clipped" if p["clipped_fraction"] > 0 else ""
         out.append((f"{p['kind']} seed {p['seed']} ({p['program']}, {p['readout']}, "
-                    f"creep {100 * p['creep_total']:+.0f} %{clip})", s.record))
+                    f"creep {100 * p['creep_total']:+.0f} %{clip})", s.record, p))
     return out
 
 
@@ -443,6 +446,7 @@ def markdown(outcomes: list[Outcome], summ: dict) -> str:
 def to_json(outcomes: list[Outcome], summ: dict) -> dict:
     return {"train_fraction": TRAIN_FRACTION, "summary": summ,
             "records": [{"record": o.name, "samples": o.samples, "model_files_refused": o.refused,
+                         "truth": o.truth,
                          "cells": {m: {"error_percent": c.error, "seconds": c.seconds, "note": c.note}
                                    for m, c in o.cells.items()}} for o in outcomes]}
 
@@ -478,15 +482,16 @@ def _slug(name: str) -> str:
 
 # --------------------------------------------------------------------------------------------
 
-def _distinct(cases: list[tuple[str, Record]], quiet: bool) -> list[tuple[str, Record]]:
+def _distinct(cases: list[tuple], quiet: bool) -> list[tuple]:
     """The cases without repeats of an earlier one's data (a shipped taxel read again from its
     ``.mat`` file), each repeat said on stderr."""
     out = []
-    for name, record in cases:
-        same = next((n for n, r in out if len(r) == len(record) and np.array_equal(r.signal, record.signal)
+    for case in cases:
+        name, record = case[:2]
+        same = next((n for n, r, *_ in out if len(r) == len(record) and np.array_equal(r.signal, record.signal)
                      and np.array_equal(r.load, record.load)), None)
         if same is None:
-            out.append((name, record))
+            out.append(case)
         elif not quiet:
             print(f"{name}: the same data as {same}, left out", file=sys.stderr)
     return out
@@ -532,18 +537,20 @@ def _run(args) -> int:
             raise InputError(f"--plots {args.plots}: exists and is not a folder")
         args.plots.mkdir(parents=True, exist_ok=True)
     narx_options = {"most": 2000, "lags": QUICK_NARX_LAGS, "info_values": 8} if args.quick else {}
-    cases = ([] if args.no_shipped else shipped_records()) + insole_records(args.insole, args.taxels)
-    cases += file_records(args.record, args.columns)
-    for _, record in cases:
+    measured = ([] if args.no_shipped else shipped_records()) + insole_records(args.insole, args.taxels)
+    measured += file_records(args.record, args.columns)
+    for _, record in measured:
         check_record(record)
+    cases = [(name, record, None) for name, record in measured]
     most = args.max_samples if args.max_samples is not None else (2000 if args.quick else 6000)
     if most < 50:
         raise InputError(f"--max-samples {most}: give 50 or more")
     cases += soft_cases(count, args.soft_seed, most)
     outcomes, plotted, kinds = [], [], set()
-    for name, record in _distinct(cases, quiet=args.json):
+    for name, record, truth in _distinct(cases, quiet=args.json):
         t0 = time.perf_counter()
         outcome = run_record(name, record, narx_options)
+        outcome.truth = truth
         outcomes.append(outcome)
         if not args.json:
             print(f"{name}: {time.perf_counter() - t0:.1f} s", file=sys.stderr)

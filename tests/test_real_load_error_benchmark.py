@@ -103,6 +103,7 @@ def test_the_command_prints_json_and_writes_one_plot_per_kind(tmp_path, capsys):
     result = json.loads(capsys.readouterr().out)
     assert [r["record"].split()[0] for r in result["records"]] == ["fsr", "velostat"]
     assert result["summary"]["records"] == 2
+    assert [r["truth"]["kind"] for r in result["records"]] == ["fsr", "velostat"]
     assert len(list((tmp_path / "plots").glob("*.png"))) == 2
 
 
