@@ -386,6 +386,12 @@ def soft_cases(count: int, first_seed: int, max_samples: int) -> list[tuple[str,
 # Summary, table, plots
 # --------------------------------------------------------------------------------------------
 
+def _best_static(outcome: Outcome) -> float:
+    """The lower error of the two static calibrations (inf where neither gave one)."""
+    errors = [outcome.cells[m].error for m in ("static line", "static monotone")]
+    return min((e for e in errors if e is not None), default=math.inf)
+
+
 def summary(outcomes: list[Outcome]) -> dict:
     """Per column the median error and the records with a number; how often the recommended
     model is at most the best static calibration and at most NARX; refused model files."""
@@ -396,18 +402,13 @@ def summary(outcomes: list[Outcome]) -> dict:
                                   "records_with_an_estimate": len(errors),
                                   "failed": sum(o.cells[method].note.startswith("failed") for o in outcomes)}
     rec = [o for o in outcomes if o.cells["recommended"].error is not None]
-    statics = [min(e for e in (o.cells["static line"].error, o.cells["static monotone"].error)
-                   if e is not None) for o in rec]
-    out["recommended_at_most_best_static"] = sum(o.cells["recommended"].error <= s
-                                                 for o, s in zip(rec, statics))
+    out["recommended_at_most_best_static"] = sum(o.cells["recommended"].error <= _best_static(o) for o in rec)
     with_narx = [o for o in rec if o.cells["NARX"].error is not None]
     out["recommended_at_most_narx"] = sum(o.cells["recommended"].error <= o.cells["NARX"].error
                                           for o in with_narx)
     out["records_compared_with_narx"] = len(with_narx)
     base = [o for o in outcomes if o.cells["baseline"].error is not None]
-    out["baseline_at_most_best_static"] = sum(
-        o.cells["baseline"].error <= min(o.cells["static line"].error or math.inf,
-                                         o.cells["static monotone"].error or math.inf) for o in base)
+    out["baseline_at_most_best_static"] = sum(o.cells["baseline"].error <= _best_static(o) for o in base)
     out["model_files_written"] = {m: sum(m in o.refused for o in outcomes) for m in ("baseline", "recommended")}
     out["model_files_refused"] = {m: sum(o.refused.get(m) is not None for o in outcomes)
                                   for m in ("baseline", "recommended")}
