@@ -38,12 +38,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.signal import lfilter
-
 from creepcomp.errors import InputError
 from creepcomp.io.records import Record
 from creepcomp.lti import lag_states, varying_lag_states
 from creepcomp.programs import LoadProgram
+from creepcomp.synth.common import NoiseSpec, sample_noise
 
 __all__ = ["SOFT_KINDS", "SOFT_PROGRAMS", "SOFT_CREEP_RANGE", "OUTPUT_CREEP_RANGE", "LOAD_CELL_CREEP_RANGE",
            "LOG_DOMAIN_FORMS", "MAX_SOFT_SAMPLES",
@@ -323,6 +322,7 @@ def draw_soft(kind: str, rng: np.random.Generator, max_samples: int = MAX_SOFT_S
                   else _log_uniform(rng, 1e-4, 5e-3))
     if rng.uniform() < 0.4:
         p["coloured_noise"] = p["noise"] * float(rng.uniform(0.3, 1.0))
+    p["correlation_time"] = float(rng.uniform(2.0, 20.0)) / p["rate"]       # 2-20 samples
     if kind in ("fsr", "velostat"):
         p["readout"] = str(rng.choice(["ohmmeter", "divider"]))
         p["digits"], p["bits"] = int(rng.integers(3, 6)), int(rng.integers(10, 17))
@@ -408,17 +408,15 @@ def _output_memory(p: dict, grid: np.ndarray, x: np.ndarray, q: np.ndarray) -> n
     return y
 
 
-def _noise(p: dict, n: int, scale: float, rng: np.random.Generator) -> np.ndarray:
-    """White plus coloured (first-order autoregressive) noise of ``p``'s sizes times ``scale``."""
-    noise = rng.normal(0.0, p["noise"] * scale, n)
-    if p["coloured_noise"]:
-        a = float(np.exp(-1.0 / rng.uniform(2.0, 20.0)))     # correlated over 2-20 samples
-        drive = rng.normal(0.0, p["coloured_noise"] * scale * np.sqrt(1 - a * a), n)
-        noise = noise + lfilter([1.0], [1.0, -a], drive)
-    return noise
+def _noise(p: dict, t: np.ndarray, scale: float, rng: np.random.Generator) -> np.ndarray:
+    """White plus coloured noise of ``p``'s sizes times ``scale`` at the times ``t``."""
+    spec = NoiseSpec(white=p["noise"] * scale, coloured=p["coloured_noise"] * scale,
+                     correlation_time=p["correlation_time"])
+    return sample_noise(t, spec, rng)
 
 
-def _read(p: dict, clean: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, dict]:
+def _read(p: dict, t: np.ndarray, clean: np.ndarray,
+          rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, dict]:
     """The bench's reading of ``clean``: the signal, which samples sit at a rail, and the
     converter's settings.
 
@@ -428,10 +426,10 @@ def _read(p: dict, clean: np.ndarray, rng: np.random.Generator) -> tuple[np.ndar
     mean of the reading's extremes) read by a converter in counts. ``linear``: a converter of a
     fixed input range around the reading (0-255 counts for a foam taxel); the signal is its
     counts in the reading's units. A drawn ``clip`` puts a rail inside the reading's range."""
-    n, clip = len(clean), p["clip"]
+    clip = p["clip"]
     if p["readout"] == "ohmmeter":
         top = float(np.max(clean)) * (1 - clip["inside"] if clip and clip["side"] == "high" else 10.0)
-        noisy = clean * (1.0 + _noise(p, n, 1.0, rng))
+        noisy = clean * (1.0 + _noise(p, t, 1.0, rng))
         step = 10.0 ** (np.floor(np.log10(np.abs(noisy))) - (p["digits"] - 1))
         signal = np.minimum(np.round(noisy / step) * step, top)
         return signal, signal >= top, {"range_top": top, "digits": p["digits"]}
@@ -454,7 +452,7 @@ def _read(p: dict, clean: np.ndarray, rng: np.random.Generator) -> tuple[np.ndar
             lo = float(np.min(y)) + clip["inside"] * span
     full = 2 ** p["bits"] - 1
     lsb = (hi - lo) / full
-    counts = np.clip(np.round((y + _noise(p, n, max(float(np.ptp(y)), lsb), rng) - lo) / lsb), 0, full)
+    counts = np.clip(np.round((y + _noise(p, t, max(float(np.ptp(y)), lsb), rng) - lo) / lsb), 0, full)
     signal = counts if p["readout"] == "divider" else lo + counts * lsb
     return signal, (counts == 0) | (counts == full), {"converter_low": lo, "converter_high": hi, "lsb": lsb}
 
@@ -494,7 +492,7 @@ def simulate_soft(p: dict, seed: int = 0) -> SoftSynthetic:
     e_grid = _strain(p, grid, x_grid)
     y_grid = _output_memory(p, grid, x_grid, _transfer(p["transfer"], e_grid))
     clean = y_grid[at]
-    signal, at_rail, converter = _read(p, clean, rng)
+    signal, at_rail, converter = _read(p, t, clean, rng)
     true_load = program.sample(t)
     ref_noise = rng.normal(0.0, p["reference_noise"] * max(float(np.ptp(true_load)), 1e-12), n)
     load_units = _UNITS[p["kind"]][0]
