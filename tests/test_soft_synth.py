@@ -101,7 +101,7 @@ def test_a_divider_is_read_in_counts_and_an_ohmmeter_to_its_digits():
 
 @pytest.mark.parametrize("side", ["high", "low"])
 def test_clipping_at_the_converters_rails(side):
-    s = soft_record("carbon_stretch", 8, clip={"side": side, "inside": 0.05})
+    s = soft_record("carbon_stretch", 8, clip={"side": side, "inside": 0.05}, noise=1e-3, coloured_noise=0.0)
     p, y = s.parameters, s.record.signal
     rail = p["converter_high"] if side == "high" else p["converter_low"]
     at_rail = np.isclose(y, rail, rtol=0, atol=1e-9 * max(abs(rail), 1.0))
