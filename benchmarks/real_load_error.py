@@ -61,6 +61,7 @@ import numpy as np
 
 from creepcomp.errors import InputError
 from creepcomp.io.records import Record
+from creepcomp.synth.soft import MAX_SOFT_SAMPLES
 
 #: Share of the record's time the models are fitted on (the rest is held out).
 TRAIN_FRACTION = 0.6
@@ -71,8 +72,12 @@ NARX_SAMPLES = 6000
 #: Lags (output, input) the NARX peer chooses among on its training part; no output lag is a
 #: polynomial of the lagged signal alone (sysidentpy's NFIR), which cannot diverge.
 NARX_LAGS = ((0, 1), (0, 4), (0, 8), (1, 1), (2, 2), (1, 4), (4, 4))
-#: The lags ``--quick`` tries.
-QUICK_NARX_LAGS = ((0, 1), (0, 4), (1, 1), (2, 2))
+#: Generated records of a run, and of a ``--quick`` one.
+SOFT_COUNT, QUICK_SOFT_COUNT = 42, 12
+#: Most samples of a generated record in a ``--quick`` run (otherwise the generator's default).
+QUICK_SAMPLES = 2000
+#: What ``--quick`` changes in the NARX peer: at most QUICK_SAMPLES samples, fewer lags and AIC values.
+QUICK_NARX = {"most": QUICK_SAMPLES, "lags": ((0, 1), (0, 4), (1, 1), (2, 2)), "info_values": 8}
 #: Share of the training part the NARX lag choice is fitted on (the rest validates it).
 NARX_VALIDATION_SPLIT = 0.7
 NOT_AVAILABLE = "n/a (not available)"
@@ -501,11 +506,14 @@ def _distinct(cases: list[tuple], quiet: bool) -> list[tuple]:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--quick", action="store_true", help="12 generated records, shorter NARX search")
-    ap.add_argument("--soft", type=int, default=None, help="generated soft-sensor records (default 42; --quick 12)")
+    ap.add_argument("--quick", action="store_true",
+                    help=f"{QUICK_SOFT_COUNT} generated records, shorter NARX search")
+    ap.add_argument("--soft", type=int, default=None,
+                    help=f"generated soft-sensor records (default {SOFT_COUNT}; --quick {QUICK_SOFT_COUNT})")
     ap.add_argument("--soft-seed", type=int, default=0, help="seed of the first generated record")
     ap.add_argument("--max-samples", type=int, default=None,
-                    help="most samples of a generated record (default 6000; --quick 2000)")
+                    help=f"most samples of a generated record (default {MAX_SOFT_SAMPLES}; "
+                         f"--quick {QUICK_SAMPLES})")
     ap.add_argument("--insole", type=Path, nargs="*", default=[], metavar="FILE.mat",
                     help="insole .mat files whose taxels to add")
     ap.add_argument("--taxels", default="best:2", help="taxels of each --insole file: 3,17 or best:N")
@@ -526,7 +534,7 @@ def main(argv=None) -> int:
 
 
 def _run(args) -> int:
-    count = args.soft if args.soft is not None else (12 if args.quick else 42)
+    count = args.soft if args.soft is not None else (QUICK_SOFT_COUNT if args.quick else SOFT_COUNT)
     if count < 0:
         raise InputError(f"--soft {count}: give a count of 0 or more")
     for option, paths in (("--insole", args.insole), ("--record", args.record)):
@@ -537,13 +545,13 @@ def _run(args) -> int:
         if args.plots.exists() and not args.plots.is_dir():
             raise InputError(f"--plots {args.plots}: exists and is not a folder")
         args.plots.mkdir(parents=True, exist_ok=True)
-    narx_options = {"most": 2000, "lags": QUICK_NARX_LAGS, "info_values": 8} if args.quick else {}
+    narx_options = QUICK_NARX if args.quick else {}
     measured = ([] if args.no_shipped else shipped_records()) + insole_records(args.insole, args.taxels)
     measured += file_records(args.record, args.columns)
     for _, record in measured:
         check_record(record)
     cases = [(name, record, None) for name, record in measured]
-    most = args.max_samples if args.max_samples is not None else (2000 if args.quick else 6000)
+    most = args.max_samples if args.max_samples is not None else (QUICK_SAMPLES if args.quick else MAX_SOFT_SAMPLES)
     if most < 50:
         raise InputError(f"--max-samples {most}: give 50 or more")
     cases += soft_cases(count, args.soft_seed, most)
