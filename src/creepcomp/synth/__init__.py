@@ -1,7 +1,8 @@
 """Synthetic records with known hidden effects, for tests, the demo and benchmarks: of a sensor
 (:mod:`~creepcomp.synth.sensor`, its load programs in :mod:`~creepcomp.synth.loads`, the effects
 no diagnosis template describes in :mod:`~creepcomp.synth.untemplated`; every other hidden effect
-is the generator side of a registered sensor effect) and of a built correction network
+is the generator side of a registered sensor effect), of the soft sensors people build, far from
+linear (:mod:`~creepcomp.synth.soft`), and of a built correction network
 (:mod:`~creepcomp.synth.circuit`), with the noise and detectability rules they share
 (:mod:`~creepcomp.synth.common`)."""
 
