@@ -19,14 +19,15 @@ Side by side, per record:
   (:func:`creepcomp.fit.data.prepare`, :func:`creepcomp.fit.prony.fit_prony`, then
   :func:`creepcomp.digital.correctors.compensate` with ``correct``'s defaults); the load is
   ``(compensated - offset) / gain``;
-- **recommended**: creepcomp's signal path (:func:`recommended_estimate`: where creepcomp does
-  not have it, the column says ``n/a (not available)``).
+- **recommended**: the model ``creepcomp diagnose`` recommends from the training part
+  (:func:`recommended_estimate`: :func:`creepcomp.diagnose.recommend.recommend`), its load by
+  its whole inverse (:func:`creepcomp.diagnose.recommend.model_load`).
 
 A creepcomp call that raises gives ``failed: <reason>`` in its cell. For each record the model
-files creepcomp would write (the baseline's as ``fit`` writes it, the recommended one through
-:func:`creepcomp.io.jsonfiles.write_model`) are read back and checked as ``correct`` does
-(:func:`creepcomp.io.jsonfiles.read_model`,
-:func:`creepcomp.digital.correctors.check_invertible`): a refusal is counted.
+files creepcomp would write (the baseline's as ``fit`` writes it, the recommended one as
+``diagnose`` writes ``model.json``) are read back and checked as ``correct`` does
+(:func:`creepcomp.diagnose.recommend.usable`) and as ``firmware`` does
+(:func:`creepcomp.digital.firmware.generate_firmware`): a refusal is counted, naming the command.
 
 Records: the shipped insole taxels (``creepcomp.data``), taxels of insole ``.mat`` files given
 with ``--insole`` (``--taxels``: numbers, or ``best:N`` for the N that follow the pressure best),
@@ -262,14 +263,20 @@ def baseline(record: Record, k: int, extra: dict) -> np.ndarray:
 
 
 def recommended_estimate(train: Record, record: Record, extra: dict):
-    """creepcomp's recommended model fitted on ``train`` (put in ``extra["model"]``: it is
-    written as a model file and checked), and the load it gives over ``record``. Adjust here
-    when the API changes."""
-    from creepcomp.digital.correctors import estimate_load
-    from creepcomp.fit.signal_path import fit_signal_path
+    """The model ``creepcomp diagnose`` recommends (and writes as ``model.json``) for ``train``
+    (its file put in ``extra["file"]``: it is read back and checked), and the load it gives over
+    ``record`` (its whole inverse: static maps and extensions included)."""
+    from creepcomp.diagnose.recommend import model_load, recommend
+    from creepcomp.diagnose.sensor import diagnose
+    from creepcomp.model import CreepModel
 
-    extra["model"] = fit_signal_path(train).model
-    return estimate_load(record.time, record.signal, extra["model"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        chosen = recommend(train, diagnose(train))
+        extra["file"] = chosen.model
+        extra["chosen"] = chosen.chosen
+        with np.errstate(all="ignore"):
+            return model_load(CreepModel.from_dict(chosen.model), record.time, record.signal)
 
 
 def recommended(record: Record, k: int, extra: dict) -> np.ndarray:
@@ -277,21 +284,24 @@ def recommended(record: Record, k: int, extra: dict) -> np.ndarray:
 
 
 def model_file_refusal(method: str, extra: dict | None, folder: Path) -> str | None:
-    """Write the method's model file, read it back and check it as ``correct`` does: the
-    reason it is refused, or None."""
-    from creepcomp.digital.correctors import check_invertible
-    from creepcomp.io.jsonfiles import read_model, write_json, write_model
+    """Write the method's model file, read it back and check it as ``correct`` does and as
+    ``firmware`` does: the reasons it is refused (naming the command), or None."""
+    from creepcomp.diagnose.recommend import usable
+    from creepcomp.digital.firmware import generate_firmware
+    from creepcomp.io.jsonfiles import read_json, read_model, write_json
 
     path = folder / f"{method}.json"
+    reasons = []
     try:
-        if "file" in extra:
-            write_json(path, extra["file"])
+        write_json(path, extra["file"])
+        why = usable(read_json(path, "model file"))
+        if why is not None:
+            reasons.append(f"correct: {why}")
         else:
-            write_model(path, extra["model"])
-        check_invertible(read_model(path))
+            generate_firmware(read_model(path), rate=100.0, full_scale=1.0)
     except Exception as exc:            # any refusal, worded by creepcomp
-        return _reason(exc).replace(str(path), path.name)
-    return None
+        reasons.append(("firmware: " if not reasons else "") + _reason(exc).replace(str(path), path.name))
+    return "; ".join(reasons) or None
 
 
 def _reason(exc: BaseException) -> str:
