@@ -55,7 +55,7 @@ from creepcomp.model import CreepModel
 
 __all__ = ["PRECISIONS", "FULL_SCALE_WORD", "REFERENCE_ALLOWANCE", "MIN_INTERVAL", "TICK",
            "DEFAULT_TEMPERATURE_RANGE", "TEMPERATURE_STEP_Q", "ErrorBound", "Firmware", "firmware_bound", "generate_firmware", "naive_float32",
-           "check_no_extensions"]
+           "check_no_extensions", "render_target_program"]
 
 
 @dataclass(frozen=True)
@@ -253,6 +253,13 @@ def _extension_firmware(model: CreepModel, rate: float, full_scale: float, name:
                     full_scale=float(full_scale), name=name, header=header, source=source,
                     harness=harness, bound=bound, coefficients=_coefficient_table(c, st, precision),
                     extension=check)
+
+
+def render_target_program(firmware: Firmware, template: str) -> str:
+    """The program that runs a corrector's step on a simulated chip
+    (:mod:`creepcomp.digital.firmware_target`), from its template."""
+    return _render(template, name=firmware.name, precision=firmware.precision,
+                   irregular=firmware.irregular, temperature=firmware.temperature_range is not None)
 
 
 def check_no_extensions(model: CreepModel) -> None:
