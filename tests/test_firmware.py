@@ -349,6 +349,8 @@ def test_every_template_file_is_used(monkeypatch):
                       extension={"play": {"ratio": 0.05, "half_width": 0.01}})
     generate_firmware(MODEL, "subtractive", "q31", RATE, 1.0,
                       extension={"recovery": {"term": 0, "tau_recovery": 20.0, "dead_band": 1e-9}})
+    for program in ("avr_program.c.j2", "arm_program.c.j2"):
+        firmware.render_target_program(generate_firmware(MODEL, rate=RATE), program)
     used = set().union(*(firmware._template_tree(t) for t in rendered))
     files = {f.name for f in resources.files("creepcomp.digital").joinpath("templates").iterdir()
              if f.is_file()}
