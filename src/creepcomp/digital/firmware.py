@@ -43,6 +43,7 @@ from jinja2 import meta
 
 from creepcomp.digital.firmware_bound import (DEFAULT_TEMPERATURE_RANGE, FULL_SCALE_WORD,
                                               MIN_INTERVAL, PRECISIONS, REFERENCE_ALLOWANCE,
+                                              ExactCoefficients, StoredCoefficients,
                                               ROOT_STEPS, TEMPERATURE_STEP_Q, TICK, ErrorBound,
                                               check_arguments, check_interval, dt_scheme,
                                               exact_coefficients, firmware_bound, float32_value,
@@ -82,6 +83,9 @@ class Firmware:
     extension : dict or None
         For the step of an extension map (:mod:`creepcomp.digital.firmware_extension`): its
         kind and what its verification needs; None otherwise.
+    uses_double : bool
+        The step computes in ``double`` (a static polynomial's root, a float32 extension map):
+        its bound takes ``double`` as IEEE binary64.
     """
 
     model: CreepModel
@@ -98,6 +102,7 @@ class Firmware:
     max_interval: float | None = None
     temperature_range: tuple[float, float] | None = None
     extension: dict | None = None
+    uses_double: bool = False
 
     @property
     def irregular(self) -> bool:
@@ -224,7 +229,8 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
                     rate=None if irregular else float(rate),
                     full_scale=float(full_scale), name=name, header=header, source=source,
                     harness=harness, bound=bound, coefficients=_coefficient_table(c, st, precision),
-                    max_interval=float(scheme["dt_max"]) if irregular else None)
+                    max_interval=float(scheme["dt_max"]) if irregular else None,
+                    uses_double=polynomial is not None)
 
 
 def _extension_firmware(model: CreepModel, rate: float, full_scale: float, name: str,
@@ -252,7 +258,7 @@ def _extension_firmware(model: CreepModel, rate: float, full_scale: float, name:
     return Firmware(model=model, method=method, precision=precision, rate=float(rate),
                     full_scale=float(full_scale), name=name, header=header, source=source,
                     harness=harness, bound=bound, coefficients=_coefficient_table(c, st, precision),
-                    extension=check)
+                    extension=check, uses_double=precision == "float32")
 
 
 def render_target_program(firmware: Firmware, template: str) -> str:
@@ -289,7 +295,7 @@ def naive_float32(model: CreepModel, method: str = "subtractive", rate: float = 
                      bound=["NAIVE reference recursion (c = e c + (1 - e) S in float32): no error "
                             "bound; for comparison only, do not deploy."], bound_fs="-1.0")
     source = _render("naive.c.j2", name=name, NAME=name.upper(), method=method,
-                     e=[_c_float(x) for x in c["e"]], **_coefficient_values("float32", st, None))
+                     e=[_c_float(x) for x in c.decay], **_coefficient_values("float32", st, None))
     harness = _render("harness.c.j2", name=name, NAME=name.upper(), precision="float32",
                       irregular=False, temperature=False)
     return Firmware(model=model, method=method, precision="float32", rate=float(rate),
@@ -349,10 +355,10 @@ def _temperature_firmware(model, method, precision, rate, full_scale, name, max_
                     temperature_range=(scheme["low"], scheme["high"]))
 
 
-def _coefficient_table(c: dict, st: dict, precision: str) -> dict:
-    return {"T": c["T"], "beta": [float(x) for x in c["beta"]], "tau": [float(x) for x in c["tau"]],
-            "a": [float(x) for x in c["a"]], "a_stored": [float(x) for x in st["a"]],
-            "beta_stored": [float(x) for x in st["beta"]], "precision": precision}
+def _coefficient_table(c: ExactCoefficients, st: StoredCoefficients, precision: str) -> dict:
+    return {"T": c.interval, "beta": [float(x) for x in c.beta], "tau": [float(x) for x in c.tau],
+            "a": [float(x) for x in c.a], "a_stored": [float(x) for x in st.a],
+            "beta_stored": [float(x) for x in st.beta], "precision": precision}
 
 
 # ------------------------------------------------------------------ the values of the templates
@@ -378,7 +384,7 @@ def _header_values(model, method, precision, rate, full_scale, name, c, scheme,
                    max_interval) -> dict:
     """The header's values but its comments (derivation, bound): the description and macros."""
     timing = f"--rate {rate:.9g}" if scheme is None else f"--max-interval {max_interval:.9g}"
-    identity = (c["beta"].tolist(), c["tau"].tolist(), c["offset"], rate, full_scale, precision,
+    identity = (c.beta.tolist(), c.tau.tolist(), c.offset, rate, full_scale, precision,
                 method) + (() if max_interval is None else (max_interval,))
     values = {"name": name, "NAME": name.upper(), "version": _version(), "method": method,
               "precision": precision, "irregular": scheme is not None, "temperature": False,
@@ -397,24 +403,24 @@ def _header_values(model, method, precision, rate, full_scale, name, c, scheme,
     return values
 
 
-def _coefficient_values(precision: str, st: dict, scheme: dict | None) -> dict:
+def _coefficient_values(precision: str, st: StoredCoefficients, scheme: dict | None) -> dict:
     """The stored coefficients as C literals: of the fixed-rate step, or of the dt step."""
     if precision == "float32":
-        values = {"beta": [_c_float(x) for x in st["beta"]], "offset": _c_float(st["offset"]),
-                  "inv_saturation": _c_float(st["w"]), "saturation": _c_float(st["sigma"])}
+        values = {"beta": [_c_float(x) for x in st.beta], "offset": _c_float(st.offset),
+                  "inv_saturation": _c_float(st.inv_saturation), "saturation": _c_float(st.saturation)}
         if scheme is None:
-            values["a"] = [_c_float(x) for x in st["a"]]
+            values["a"] = [_c_float(x) for x in st.a]
         else:
             values.update(inv_tau=[_c_float(x) for x in scheme["inv_tau"]],
                           inv_next=[_c_float(x) for x in scheme["inv_next"]],
                           series_terms=str(scheme["n"]))
         return values
-    values = {"beta_mantissas": [str(m) for m, _ in st["beta_q"]],
-              "beta_shifts": [str(1 + s) for _, s in st["beta_q"]],
-              "saturation": str(st["sigma_q"]), "inv_saturation": str(st["w_q"])}
+    values = {"beta_mantissas": [str(m) for m, _ in st.beta_q],
+              "beta_shifts": [str(1 + s) for _, s in st.beta_q],
+              "saturation": str(st.saturation_q), "inv_saturation": str(st.inv_saturation_q)}
     if scheme is None:
-        values.update(a_mantissas=[str(m) for m, _ in st["a_q"]],
-                      a_shifts=[str(1 + s) for _, s in st["a_q"]])
+        values.update(a_mantissas=[str(m) for m, _ in st.a_q],
+                      a_shifts=[str(1 + s) for _, s in st.a_q])
     else:
         values.update(tick_mantissas=[str(m) for m, _ in scheme["m"]],
                       tick_exponents=[str(int(e)) for e in scheme["exps"]],
@@ -429,20 +435,20 @@ def _derivation(model, method, precision, rate, full_scale, c, st) -> list[str]:
     unit = "signal units"
     lines = [f"Model: {model.n_terms} creep term(s), beta0 = {model.beta0:.6g}, offset = "
              f"{model.offset:.9g} {unit}; method {method}; precision {precision}.",
-             f"Sample interval T = 1 / {_qty(rate, 'Hz')} = {_qty(c['T'], 's')}; load held between samples.",
+             f"Sample interval T = 1 / {_qty(rate, 'Hz')} = {_qty(c.interval, 's')}; load held between samples.",
              f"Full scale FS = {full_scale:.9g} {unit}: the inputs satisfy |raw - offset| <= FS."]
     for k in range(model.n_terms):
-        tau, a = c["tau"][k], c["a"][k]
-        lines.append(f"term {k}: beta = {c['beta'][k]:.9g}, tau = {_qty(tau, 's')}, tau/T = {tau / c['T']:.6g}")
-        lines.append(f"  a = 1 - exp(-T/tau) = -expm1(-{c['T'] / tau:.9g}) = {a:.12g}")
+        tau, a = c.tau[k], c.a[k]
+        lines.append(f"term {k}: beta = {c.beta[k]:.9g}, tau = {_qty(tau, 's')}, tau/T = {tau / c.interval:.6g}")
+        lines.append(f"  a = 1 - exp(-T/tau) = -expm1(-{c.interval / tau:.9g}) = {a:.12g}")
         if precision == "float32":
-            lines.append(f"  stored a = {st['a'][k]:.9e} (relative error {abs(st['a'][k] / a - 1):.2e}), "
-                         f"beta = {st['beta'][k]:.9e} (relative error {abs(st['beta'][k] / c['beta'][k] - 1):.2e})")
+            lines.append(f"  stored a = {st.a[k]:.9e} (relative error {abs(st.a[k] / a - 1):.2e}), "
+                         f"beta = {st.beta[k]:.9e} (relative error {abs(st.beta[k] / c.beta[k] - 1):.2e})")
         else:
-            (am, ash), (bm, bsh) = st["a_q"][k], st["beta_q"][k]
-            lines.append(f"  stored a = {am} * 2^-{31 + ash} (relative error {abs(st['a'][k] / a - 1):.2e}), "
-                         f"beta = {bm} * 2^-{31 + bsh} (relative error {abs(st['beta'][k] / c['beta'][k] - 1):.2e})")
-    lines.append(f"1 + beta0 = {c['sigma']:.12g} (supplemental scale); 1/(1 + beta0) = {c['w']:.12g} "
+            (am, ash), (bm, bsh) = st.a_q[k], st.beta_q[k]
+            lines.append(f"  stored a = {am} * 2^-{31 + ash} (relative error {abs(st.a[k] / a - 1):.2e}), "
+                         f"beta = {bm} * 2^-{31 + bsh} (relative error {abs(st.beta[k] / c.beta[k] - 1):.2e})")
+    lines.append(f"1 + beta0 = {c.saturation:.12g} (supplemental scale); 1/(1 + beta0) = {c.inv_saturation:.12g} "
                  "(settled start: c_k = x / (1 + beta0))")
     return lines
 
@@ -462,23 +468,23 @@ def _dt_derivation(model, method, precision, full_scale, c, st, scheme) -> list[
              + (", doubling a <- a(2 - a));" if precision == "float32" else ");"),
              "its worst relative error over the dt range is in the bound:"]
     for k in range(model.n_terms):
-        tau = c["tau"][k]
-        lines.append(f"term {k}: beta = {c['beta'][k]:.9g}, tau = {_qty(tau, 's')}, "
+        tau = c.tau[k]
+        lines.append(f"term {k}: beta = {c.beta[k]:.9g}, tau = {_qty(tau, 's')}, "
                      f"a(dt max) = {-math.expm1(-hi / tau):.9g}, relative error of computed a <= "
                      f"{scheme['rel_a'][k]:.2e}")
         if precision == "float32":
             lines.append(f"  stored 1/tau = {scheme['inv_tau'][k]:.9e} 1/s, halvings <= {int(scheme['halvings'][k])}; "
-                         f"beta = {st['beta'][k]:.9e}")
+                         f"beta = {st.beta[k]:.9e}")
         else:
             m, sh = scheme["m"][k]
             lines.append(f"  tick/tau = {m} * 2^-{31 + sh} (tick {TICK:g} s); beta = "
-                         f"{st['beta_q'][k][0]} * 2^-{31 + st['beta_q'][k][1]}")
-    lines.append(f"1 + beta0 = {c['sigma']:.12g} (supplemental scale); 1/(1 + beta0) = {c['w']:.12g} "
+                         f"{st.beta_q[k][0]} * 2^-{31 + st.beta_q[k][1]}")
+    lines.append(f"1 + beta0 = {c.saturation:.12g} (supplemental scale); 1/(1 + beta0) = {c.inv_saturation:.12g} "
                  "(settled start: c_k = x / (1 + beta0))")
     return lines
 
 
-def _temperature_values(precision: str, st: dict, scheme: dict) -> dict:
+def _temperature_values(precision: str, st: StoredCoefficients, scheme: dict) -> dict:
     """The temperature step's stored coefficients as C literals."""
     coefficients = _coefficient_values(precision, st, None)
     if precision == "float32":
@@ -508,7 +514,7 @@ def _temperature_derivation(model, method, precision, rate, full_scale, c, st, s
     y_lo, y_hi = scheme["y_range"]
     lines = [f"Model: {model.n_terms} creep term(s), beta0 = {model.beta0:.6g}, offset = "
              f"{model.offset:.9g} {unit}; method {method}; precision {precision}.",
-             f"Sample interval T = 1 / {_qty(rate, 'Hz')} = {_qty(c['T'], 's')}; load held between samples.",
+             f"Sample interval T = 1 / {_qty(rate, 'Hz')} = {_qty(c.interval, 's')}; load held between samples.",
              f"Full scale FS = {full_scale:.9g} {unit}: the inputs satisfy |raw - offset| <= FS.",
              f"Temperature law ({law.law}, reference T_ref = {law.reference:g} °C): tau_k(T) = tau_k a_T, {shape}.",
              f"Temperature range {scheme['low']:g} to {scheme['high']:g} °C (clamped): "
@@ -528,16 +534,16 @@ def _temperature_derivation(model, method, precision, rate, full_scale, c, st, s
     lines.append(f"Relative error of the computed 1/a_T <= {scheme['rel_shift']:.2e} (temperature, y, f, polynomial).")
     lo_tau, hi_tau = scheme["tau_range"]
     for k in range(model.n_terms):
-        lines.append(f"term {k}: beta = {c['beta'][k]:.9g}, tau = {_qty(c['tau'][k], 's')} at T_ref, "
+        lines.append(f"term {k}: beta = {c.beta[k]:.9g}, tau = {_qty(c.tau[k], 's')} at T_ref, "
                      f"{_qty(hi_tau[k], 's')} to {_qty(lo_tau[k], 's')} over the range; a from "
                      f"{scheme['a_min'][k]:.6g} to {scheme['a_max'][k]:.6g}, relative error of computed a <= "
                      f"{scheme['rel_a'][k]:.2e}")
         if precision == "float32":
-            lines.append(f"  stored T/tau = {scheme['dt_over_tau'][k]:.9e}, beta = {st['beta'][k]:.9e}")
+            lines.append(f"  stored T/tau = {scheme['dt_over_tau'][k]:.9e}, beta = {st.beta[k]:.9e}")
         else:
             m, sh = scheme["m"][k]
-            lines.append(f"  T/tau = {m} * 2^-{31 + sh}; beta = {st['beta_q'][k][0]} * 2^-{31 + st['beta_q'][k][1]}")
-    lines.append(f"1 + beta0 = {c['sigma']:.12g} (supplemental scale); 1/(1 + beta0) = {c['w']:.12g} "
+            lines.append(f"  T/tau = {m} * 2^-{31 + sh}; beta = {st.beta_q[k][0]} * 2^-{31 + st.beta_q[k][1]}")
+    lines.append(f"1 + beta0 = {c.saturation:.12g} (supplemental scale); 1/(1 + beta0) = {c.inv_saturation:.12g} "
                  "(settled start: c_k = x / (1 + beta0))")
     return lines
 

@@ -22,7 +22,9 @@ from creepcomp.model import CreepModel
 
 __all__ = ["PRECISIONS", "FULL_SCALE_WORD", "REFERENCE_ALLOWANCE", "MIN_INTERVAL", "TICK",
            "DEFAULT_TEMPERATURE_RANGE", "ErrorBound", "firmware_bound", "check_arguments",
-           "check_interval", "exact_coefficients", "stored_coefficients", "dt_scheme",
+           "check_interval", "TargetArithmetic", "TARGET_ARITHMETIC", "check_target_arithmetic",
+           "BoundedCorrector", "RecursionGains", "SampleErrors", "ExactCoefficients", "StoredCoefficients", "exact_coefficients",
+           "stored_coefficients", "dt_scheme",
            "float32_value", "temperature_scheme", "q31_temperature_scheme", "temperature_bound",
            "TEMPERATURE_STEP_Q", "ROOT_STEPS", "polynomial_bound", "EXP_RELATIVE_ERROR",
            "reloading_bound", "peak_bound", "play_bound", "recovery_bound", "overshoot_bound",
@@ -77,6 +79,60 @@ class ErrorBound:
                 "peak_fs": self.peak_fs, "gains": dict(self.gains)}
 
 
+@dataclass(frozen=True)
+class TargetArithmetic:
+    """The arithmetic of a machine the corrector runs on, as its bound takes it.
+
+    The float32 bound counts every operation of ``float`` as IEEE binary32 rounded to nearest
+    (ties to even) with gradual underflow, each rounding at most ``float_unit_roundoff`` of its
+    result; the q31 corrector uses fixed-width integers only, the same on every machine.
+
+    Attributes
+    ----------
+    target : str
+        ``host``, ``avr``, ``cortex-m0plus`` or ``cortex-m4f``.
+    float_arithmetic : str
+        Where its binary32 operations come from.
+    float_unit_roundoff : float
+        ``u`` of its ``float``: ``2**-24`` (binary32 rounded to nearest) on every target here.
+    double_bits : int
+        Significand bits of its C ``double``: 53 (binary64), or 24 on the ATmega328P, whose
+        avr-gcc ``double`` is binary32. A map computed in ``double`` (the diagnosis's extensions)
+        has its bound for 53 bits only.
+    fused_multiply_add : bool
+        It has a fused multiply-add a build may contract ``a * b + c`` into: one rounding where
+        the bound counts two of no larger terms, so the bound still holds.
+    """
+
+    target: str
+    float_arithmetic: str
+    float_unit_roundoff: float
+    double_bits: int
+    fused_multiply_add: bool
+
+
+#: The arithmetic of each target of ``creepcomp firmware --verify --target``.
+TARGET_ARITHMETIC = {
+    "host": TargetArithmetic("host", "the host's FPU (x86-64 SSE)", 2.0 ** -24, 53, False),
+    "avr": TargetArithmetic("avr", "avr-libc's soft float", 2.0 ** -24, 24, False),
+    "cortex-m0plus": TargetArithmetic("cortex-m0plus", "libgcc's soft float", 2.0 ** -24, 53, False),
+    "cortex-m4f": TargetArithmetic("cortex-m4f", "the FPv4-SP unit", 2.0 ** -24, 53, True),
+}
+
+
+def check_target_arithmetic(target: str, uses_double: bool) -> TargetArithmetic:
+    """The arithmetic of ``target``, refused (InputError) when the corrector computes in
+    ``double`` and the target's ``double`` is narrower than the binary64 its bound assumes."""
+    arithmetic = TARGET_ARITHMETIC[target]
+    if arithmetic.float_unit_roundoff != _U32:  # pragma: no cover - every target here
+        raise InputError(f"target {target}: the bound assumes binary32 floats")
+    if uses_double and arithmetic.double_bits < 53:
+        raise InputError(f"target {target}: the extension's map is computed in double, which the "
+                         f"bound takes as IEEE binary64, and {target}'s double has "
+                         f"{arithmetic.double_bits} bits; verify it with --target host")
+    return arithmetic
+
+
 # ----------------------------------------------------------------------------------- checks
 
 def check_arguments(model: CreepModel, method: str, precision: str, rate: float,
@@ -111,17 +167,78 @@ def check_interval(max_interval: float) -> None:
                          "shortest interval the dt step accepts) to 1e12 s")
 
 
-def exact_coefficients(model: CreepModel, rate: float) -> dict:
-    """The recursion's exact coefficients at ``rate`` (float64).
+@dataclass(frozen=True)
+class ExactCoefficients:
+    """The corrector's recursion at one sample interval, exact (float64).
 
-    Keys ``T``, ``beta``, ``tau``, ``a``, ``e = 1 - a``, ``sigma = 1 + beta0``,
-    ``w = 1/sigma`` and ``offset``.
+    Attributes
+    ----------
+    interval : float
+        The sample interval ``T`` (s).
+    beta, tau : numpy.ndarray
+        The creep terms' amplitudes and retardation times (s).
+    a : numpy.ndarray
+        ``a_k = 1 - exp(-T / tau_k)``, the weight of a state's update.
+    decay : numpy.ndarray
+        ``e_k = exp(-T / tau_k) = 1 - a_k``.
+    saturation : float
+        ``sigma = 1 + beta0``, the supplemental method's output scale.
+    inv_saturation : float
+        ``w = 1 / (1 + beta0)``, a settled start's state per unit input.
+    offset : float
+        The signal at no load (signal units).
     """
+
+    interval: float
+    beta: np.ndarray
+    tau: np.ndarray
+    a: np.ndarray
+    decay: np.ndarray
+    saturation: float
+    inv_saturation: float
+    offset: float
+
+
+@dataclass(frozen=True)
+class StoredCoefficients:
+    """The coefficients as the C code stores them, with their exact values (float64).
+
+    Attributes
+    ----------
+    precision : str
+        ``float32`` or ``q31``.
+    beta, a : numpy.ndarray
+        The stored ``beta_k`` and ``a_k``: binary32 values, or ``m 2^-(31 + s)`` of their q31
+        mantissas.
+    offset : float
+        The stored offset (binary32; q31 works above the offset: the exact one).
+    saturation, inv_saturation : float
+        The stored ``1 + beta0`` and ``1 / (1 + beta0)`` (q31: words of ``2^30``).
+    beta_q, a_q : list of (int, int) or None
+        q31: the mantissas ``m`` (``2^30 <= |m| < 2^31``) and right shifts ``s``.
+    saturation_q, inv_saturation_q : int or None
+        q31: ``1 + beta0`` and ``1 / (1 + beta0)`` times ``2^30``, rounded.
+    """
+
+    precision: str
+    beta: np.ndarray
+    a: np.ndarray
+    offset: float
+    saturation: float
+    inv_saturation: float
+    beta_q: list | None = None
+    a_q: list | None = None
+    saturation_q: int | None = None
+    inv_saturation_q: int | None = None
+
+
+def exact_coefficients(model: CreepModel, rate: float) -> ExactCoefficients:
+    """The recursion's exact coefficients at ``rate`` (Hz), in float64."""
     taus = np.array(model.tau)
     x = (1.0 / rate) / taus
-    return {"T": 1.0 / rate, "beta": np.array(model.beta), "tau": taus, "a": -np.expm1(-x),
-            "e": np.exp(-x), "sigma": 1.0 + model.beta0, "w": 1.0 / (1.0 + model.beta0),
-            "offset": model.offset}
+    return ExactCoefficients(interval=1.0 / rate, beta=np.array(model.beta), tau=taus,
+                             a=-np.expm1(-x), decay=np.exp(-x), saturation=1.0 + model.beta0,
+                             inv_saturation=1.0 / (1.0 + model.beta0), offset=model.offset)
 
 
 # ------------------------------------------------------------------------------ the gains
@@ -142,14 +259,31 @@ def _decay(mu: np.ndarray) -> np.ndarray:
     return (2 * mu.real - np.abs(mu) ** 2) / (1 + np.abs(1 - mu))
 
 
-def _gains(a: np.ndarray, beta: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-    """l1 gains of the corrector's recursion ``d[n+1] = M d[n] + g u[n]``, output ``beta . d``.
+@dataclass(frozen=True)
+class RecursionGains:
+    """l1 gains of the corrector's error recursion ``d[n+1] = M d[n] + g u[n]``, output
+    ``beta . d``, at a fixed rate (each bounded by its modal expansion, so a little above).
 
-    Returns ``L_sample`` (``1 + sum_m |beta^T M^m a|``: from a local error of ``S``, and from
-    the input to ``S``), ``L_state[k]`` (``sum_m |beta^T M^m e_k|``) and ``G_state[k]``
-    (``sup_m |beta^T M^m e_k|``, for an error of the start state). Each is bounded by its modal
-    expansion, ``sum_i |l_i r_i| / (1 - |lambda_i|)`` (``sum_i |l_i r_i|`` for the supremum).
+    Attributes
+    ----------
+    sample : float
+        ``L_sample = 1 + sum_m |beta^T M^m a|``: from a local error of ``S`` to the output,
+        and from the input to ``S`` (so also the largest ``|S|`` per unit input).
+    state : numpy.ndarray
+        ``L_state[k] = sum_m |beta^T M^m e_k|``: from a local error of state ``k`` per sample.
+    state_peak : numpy.ndarray
+        ``G_state[k] = sup_m |beta^T M^m e_k|``: from an error of state ``k`` at the start.
     """
+
+    sample: float
+    state: np.ndarray
+    state_peak: np.ndarray
+
+
+def _gains(a: np.ndarray, beta: np.ndarray) -> RecursionGains:
+    """The :class:`RecursionGains` of the recursion with weights ``a`` and amplitudes ``beta``,
+    by the modal expansion ``sum_i |l_i r_i| / (1 - |lambda_i|)`` (``sum_i |l_i r_i|`` for the
+    supremum)."""
     mu, v, vinv = _modes(a, beta)
     decay = _decay(mu)
     if np.any(decay <= 0):
@@ -160,7 +294,8 @@ def _gains(a: np.ndarray, beta: np.ndarray) -> tuple[float, np.ndarray, np.ndarr
     l_state = (weights / decay[:, None]).sum(axis=0)
     g_state = weights.sum(axis=0)
     l_sample = 1.0 + float(np.sum(np.abs(left * (vinv @ a)) / decay))
-    return l_sample * _MARGIN, l_state * _MARGIN, g_state * _MARGIN
+    return RecursionGains(sample=l_sample * _MARGIN, state=l_state * _MARGIN,
+                          state_peak=g_state * _MARGIN)
 
 
 # ---------------------------------------------------------------------- stored coefficients
@@ -182,23 +317,26 @@ def _mantissa(value: float, what: str) -> tuple[int, int]:
     return (m if value > 0 else -m), s
 
 
-def stored_coefficients(c: dict, precision: str) -> dict:
+def stored_coefficients(c: ExactCoefficients, precision: str) -> StoredCoefficients:
     """The coefficients as the C code stores them, and their values (float64, exact)."""
-    beta, a = c["beta"], c["a"]
+    beta, a = c.beta, c.a
     if precision == "float32":
-        return {"beta": np.array([float32_value(b) for b in beta]),
-                "a": np.array([float32_value(x) for x in a]), "offset": float32_value(c["offset"]),
-                "sigma": float32_value(c["sigma"]), "w": float32_value(c["w"])}
+        return StoredCoefficients(precision, beta=np.array([float32_value(b) for b in beta]),
+                                  a=np.array([float32_value(x) for x in a]),
+                                  offset=float32_value(c.offset),
+                                  saturation=float32_value(c.saturation),
+                                  inv_saturation=float32_value(c.inv_saturation))
     bm = [_mantissa(b, f"beta[{k}]") for k, b in enumerate(beta)]
     am = [_mantissa(x, f"a[{k}] = 1 - exp(-T/tau[{k}])") for k, x in enumerate(a)]
-    sigma_q, w_q = round(c["sigma"] * FULL_SCALE_WORD), round(c["w"] * FULL_SCALE_WORD)
+    sigma_q, w_q = round(c.saturation * FULL_SCALE_WORD), round(c.inv_saturation * FULL_SCALE_WORD)
     if not (0 < sigma_q < 2 ** 31 and 0 < w_q < 2 ** 31):
-        raise InputError(f"beta0 = {c['sigma'] - 1:g}: q31 needs -0.5 < beta0 < 1 "
+        raise InputError(f"beta0 = {c.saturation - 1:g}: q31 needs -0.5 < beta0 < 1 "
                          "(1 + beta0 and 1/(1 + beta0) are stored with 30 fraction bits)")
-    return {"beta": np.array([m * 2.0 ** -(31 + s) for m, s in bm]),
-            "a": np.array([m * 2.0 ** -(31 + s) for m, s in am]),
-            "beta_q": bm, "a_q": am, "sigma_q": sigma_q, "w_q": w_q,
-            "offset": c["offset"], "sigma": sigma_q / FULL_SCALE_WORD, "w": w_q / FULL_SCALE_WORD}
+    return StoredCoefficients(precision, beta=np.array([m * 2.0 ** -(31 + s) for m, s in bm]),
+                              a=np.array([m * 2.0 ** -(31 + s) for m, s in am]), offset=c.offset,
+                              saturation=sigma_q / FULL_SCALE_WORD,
+                              inv_saturation=w_q / FULL_SCALE_WORD, beta_q=bm, a_q=am,
+                              saturation_q=sigma_q, inv_saturation_q=w_q)
 
 
 # ------------------------------------------------------------------------------- the bound
@@ -235,19 +373,15 @@ def firmware_bound(model: CreepModel, method: str = "subtractive", precision: st
         return _irregular_bound(model, method, precision, max_interval, full_scale)
     check_arguments(model, method, precision, rate, full_scale, "x")
     c = exact_coefficients(model, rate)
-    st = stored_coefficients(c, precision)
-    beta, a = c["beta"], c["a"]
-    l_sample, l_state, g_state = _gains(a, beta)
-    peak = l_sample                                   # max |S| / FS of the exact corrector
-    sigma = c["sigma"] if method == "supplemental" else 1.0
-    sum_beta = float(np.sum(np.abs(beta)))
-    k = len(beta)
+    corrector = BoundedCorrector(method, c, stored_coefficients(c, precision), full_scale)
+    gains = _gains(c.a, c.beta)
+    peak = gains.sample                               # max |S| / FS of the exact corrector
+    sigma = corrector.output_scale
     # Everything below is in units of full scale. C bounds |computed state| and |computed S|;
     # it is checked (and raised if needed) after the error is known.
     cmax = peak * (1.0 + 1e-3)
     for _ in range(8):
-        terms, b_s, eta_over_a = _local_terms(precision, st, c, k, cmax, full_scale, l_sample,
-                                              l_state, g_state, sum_beta, sigma, method)
+        terms, b_s, eta_over_a = _local_terms(corrector, gains, cmax)
         if cmax >= peak + b_s + eta_over_a:
             break
         cmax = 2 * (peak + b_s + eta_over_a)
@@ -260,21 +394,85 @@ def firmware_bound(model: CreepModel, method: str = "subtractive", precision: st
     total = sum(terms.values()) * _MARGIN
     return ErrorBound(total_fs=float(total), terms={n: float(v) for n, v in terms.items()},
                       full_scale=float(full_scale), peak_fs=float(peak),
-                      gains={"sample": float(l_sample), "state": [float(g) for g in l_state]})
+                      gains={"sample": float(gains.sample), "state": [float(g) for g in gains.state]})
 
 
-def _sample_errors(precision, st, c, k, cmax, fs, sum_beta, method):
-    """Local errors of ``S`` per sample, of a settled start and of the output (fractions of FS).
+@dataclass(frozen=True)
+class BoundedCorrector:
+    """One generated corrector as its bound sees it.
 
-    Returns ``(eps, start, out_offset, out_scale)``; see the table in docs/firmware.md.
+    Attributes
+    ----------
+    method : str
+        ``subtractive`` or ``supplemental``.
+    exact : ExactCoefficients
+        The recursion it implements.
+    stored : StoredCoefficients
+        What its C code stores (and so its precision).
+    full_scale : float
+        The input range the bound assumes, ``|raw - offset| <= full_scale`` (signal units).
     """
-    beta = c["beta"]
-    beta_err = float(np.sum(np.abs(st["beta"] - beta)))
-    sum_beta_hat = float(np.sum(np.abs(st["beta"])))
+
+    method: str
+    exact: ExactCoefficients
+    stored: StoredCoefficients
+    full_scale: float
+
+    @property
+    def precision(self) -> str:
+        """``float32`` or ``q31``."""
+        return self.stored.precision
+
+    @property
+    def terms(self) -> int:
+        """The number of creep terms."""
+        return len(self.exact.beta)
+
+    @property
+    def sum_beta(self) -> float:
+        """``sum_k |beta_k|``: the creep states' weight in ``S``."""
+        return float(np.sum(np.abs(self.exact.beta)))
+
+    @property
+    def output_scale(self) -> float:
+        """What multiplies ``S`` in the output: ``1 + beta0`` (supplemental) or 1."""
+        return self.exact.saturation if self.method == "supplemental" else 1.0
+
+
+@dataclass(frozen=True)
+class SampleErrors:
+    """The local errors of one sample, as fractions of full scale (docs/firmware.md's table).
+
+    Attributes
+    ----------
+    per_sample : dict
+        The errors made in ``S`` each sample, by cause (input, coefficients beta, the sum).
+    start : float
+        The error of a settled start's states.
+    output_offset : float
+        The output's rounding with the offset added (float32).
+    output_scale : float
+        The supplemental output's scale: its stored value and rounding.
+    """
+
+    per_sample: dict
+    start: float
+    output_offset: float
+    output_scale: float
+
+
+def _sample_errors(corrector: BoundedCorrector, cmax: float) -> SampleErrors:
+    """The local errors of ``S`` per sample, of a settled start and of the output, given that
+    ``|computed state|`` and ``|computed S|`` stay within ``cmax`` (fraction of full scale)."""
+    c, st, fs, method = corrector.exact, corrector.stored, corrector.full_scale, corrector.method
+    k, sum_beta, precision = corrector.terms, corrector.sum_beta, corrector.precision
+    beta = c.beta
+    beta_err = float(np.sum(np.abs(st.beta - beta)))
+    sum_beta_hat = float(np.sum(np.abs(st.beta)))
     if precision == "float32":
         u = _U32
-        offset = abs(c["offset"]) / fs
-        offset_err = abs(st["offset"] - c["offset"]) / fs
+        offset = abs(c.offset) / fs
+        offset_err = abs(st.offset - c.offset) / fs
         raw_max = offset + 1.0
         x_err = u * raw_max + offset_err + u * (1.0 + u * raw_max + offset_err)
         gamma = k * u / (1 - k * u)
@@ -282,9 +480,9 @@ def _sample_errors(precision, st, c, k, cmax, fs, sum_beta, method):
         eps = {"input": x_err,
                "coefficients beta": beta_err * c_hi + sum_beta * u * c_hi,
                "sum beta.c": gamma * sum_beta_hat * c_hi + u * (1.0 + x_err + sum_beta_hat * c_hi * (1 + gamma))}
-        start = x_err * abs(st["w"]) + abs(st["w"] - c["w"]) + u * (1.0 + x_err) * abs(st["w"])
-        out_offset = offset_err + u * (offset + offset_err + abs(st["sigma"] if method == "supplemental" else 1.0) * cmax * (1 + u))
-        out_scale = (abs(st["sigma"] - c["sigma"]) * cmax + u * abs(st["sigma"]) * cmax
+        start = x_err * abs(st.inv_saturation) + abs(st.inv_saturation - c.inv_saturation) + u * (1.0 + x_err) * abs(st.inv_saturation)
+        out_offset = offset_err + u * (offset + offset_err + abs(st.saturation if method == "supplemental" else 1.0) * cmax * (1 + u))
+        out_scale = (abs(st.saturation - c.saturation) * cmax + u * abs(st.saturation) * cmax
                      if method == "supplemental" else 0.0)
     else:
         x_err = _Q_IN
@@ -292,26 +490,29 @@ def _sample_errors(precision, st, c, k, cmax, fs, sum_beta, method):
         eps = {"input": x_err,
                "coefficients beta": beta_err * c_q,
                "sum beta.c": sum_beta_hat * _Q_IN + k * _Q_STATE + _Q_IN}
-        start = x_err * st["w"] + abs(st["w"] - c["w"])
+        start = x_err * st.inv_saturation + abs(st.inv_saturation - c.inv_saturation)
         out_offset = 0.0
-        out_scale = (abs(st["sigma"] - c["sigma"]) * cmax + _Q_IN) if method == "supplemental" else 0.0
-    return eps, start, out_offset, out_scale
+        out_scale = (abs(st.saturation - c.saturation) * cmax + _Q_IN) if method == "supplemental" else 0.0
+    return SampleErrors(per_sample=eps, start=start, output_offset=out_offset, output_scale=out_scale)
 
 
-def _local_terms(precision, st, c, k, cmax, fs, l_sample, l_state, g_state, sum_beta, sigma,
-                 method):
-    """Local errors times their gains (fractions of full scale); see docs/firmware.md."""
-    a = c["a"]
-    a_err = np.abs(st["a"] - a)
+def _local_terms(corrector: BoundedCorrector, gains: RecursionGains, cmax: float):
+    """The local errors times their gains (fractions of full scale; see docs/firmware.md), given
+    ``|computed state|, |computed S| <= cmax``. Returns the bound's parts, the bound of the
+    error of ``S`` and the largest state error per unit ``a``."""
+    a, st, sigma = corrector.exact.a, corrector.stored, corrector.output_scale
+    l_sample, l_state, g_state = gains.sample, gains.state, gains.state_peak
+    a_err = np.abs(st.a - a)
     d = 2 * cmax                                            # |S - c_k|
-    eps, start, out_offset, out_scale = _sample_errors(precision, st, c, k, cmax, fs, sum_beta, method)
-    if precision == "float32":
+    local = _sample_errors(corrector, cmax)
+    eps, start = local.per_sample, local.start
+    if corrector.precision == "float32":
         u = _U32
         c_hi = cmax * (1 + u)
         eta = a_err * d * (1 + u) ** 3 + a * d * ((1 + u) ** 3 - 1) + a * u * c_hi + u * u * c_hi
         eta_coef = a_err * d * (1 + u) ** 3
     else:
-        eta = a_err * d + st["a"] * _Q_IN + _Q_STATE
+        eta = a_err * d + st.a * _Q_IN + _Q_STATE
         eta_coef = a_err * d
     eps_total = sum(eps.values())
     state_terms = l_state * eta
@@ -321,7 +522,7 @@ def _local_terms(precision, st, c, k, cmax, fs, l_sample, l_state, g_state, sum_
     terms["coefficients a_k (state updates)"] = sigma * float(np.sum(coef_part))
     terms["state updates rounding"] = sigma * float(np.sum(state_terms - coef_part))
     terms["settled start"] = sigma * float(np.sum(g_state)) * start
-    terms["output"] = out_offset + out_scale
+    terms["output"] = local.output_offset + local.output_scale
     return terms, b_s, float(np.max(eta / a))
 
 
@@ -677,14 +878,14 @@ def _irregular_bound(model: CreepModel, method: str, precision: str, max_interva
     c = exact_coefficients(model, 1.0 / max_interval)
     st = stored_coefficients(c, precision)
     sch = dt_scheme(model, precision, max_interval)
-    taus = c["tau"]
+    taus = c.tau
     a_max = -np.expm1(-sch["dt_max"] / taus)
     a_min = -np.expm1(-sch["dt_min"] / taus)
     return _invariant_bound(c, st, sch, a_max, a_min, method, precision, full_scale,
                             "coefficients a_k(dt) (series, stored 1/tau)")
 
 
-def _invariant_bound(c: dict, st: dict, sch: dict, a_max: np.ndarray, a_min: np.ndarray,
+def _invariant_bound(c: ExactCoefficients, st: StoredCoefficients, sch: dict, a_max: np.ndarray, a_min: np.ndarray,
                      method: str, precision: str, full_scale: float, coef_label: str,
                      state_error: list | None = None) -> ErrorBound:
     """The bound of a step whose ``a_k`` changes from sample to sample within
@@ -694,23 +895,23 @@ def _invariant_bound(c: dict, st: dict, sch: dict, a_max: np.ndarray, a_min: np.
     ``nu`` (and ``extra``, q31) of the state update. ``state_error``: a list to which the
     bound of the states' errors (fraction of full scale) is appended.
     """
-    beta = c["beta"]
+    beta = c.beta
     zmat, _ = _invariant_gains(beta, a_max)
     b = np.abs(beta)
     sum_beta = float(b.sum())
     gain_state = b @ zmat                          # output error per unit of w_k (per unit a)
     gain_sample = 1.0 + float(gain_state.sum())   # from a local error of S
     z_peak = zmat @ np.ones(len(b))               # |c_k| of the exact corrector, |x| <= 1
-    z_peak = z_peak + max(0.0, abs(c["w"]) - float(np.min(z_peak)))     # settled start
+    z_peak = z_peak + max(0.0, abs(c.inv_saturation) - float(np.min(z_peak)))     # settled start
     peak = 1.0 + float(b @ z_peak)                # |S| of the exact corrector
-    sigma = c["sigma"] if method == "supplemental" else 1.0
+    sigma = c.saturation if method == "supplemental" else 1.0
     k = len(beta)
     u = _U32
     cmax = max(peak, float(np.max(z_peak))) * (1.0 + 1e-3)
     for _ in range(8):
         d = 2 * cmax
-        eps, start, out_offset, out_scale = _sample_errors(precision, st, c, k, cmax, full_scale,
-                                                           sum_beta, method)
+        local = _sample_errors(BoundedCorrector(method, c, st, full_scale), cmax)
+        eps, start = local.per_sample, local.start
         eps_total = sum(eps.values())
         if precision == "float32":
             coef = sch["rel_a"] * d * (1 + u) ** 3
@@ -732,7 +933,7 @@ def _invariant_bound(c: dict, st: dict, sch: dict, a_max: np.ndarray, a_min: np.
     terms[coef_label] = sigma * float(gain_state @ coef)
     terms["state updates rounding"] = sigma * float(gain_state @ rounding)
     terms["settled start"] = sigma * sum_beta * start
-    terms["output"] = out_offset + out_scale
+    terms["output"] = local.output_offset + local.output_scale
     terms["float64 reference (allowance)"] = REFERENCE_ALLOWANCE
     total = sum(terms.values()) * _MARGIN
     if state_error is not None:
@@ -1030,7 +1231,7 @@ def _loop_bound(model: CreepModel, rate: float, full_scale: float, lip: float, x
     fs = full_scale
     c = exact_coefficients(model, rate)
     st = stored_coefficients(c, precision)
-    beta, a = c["beta"], c["a"]
+    beta, a = c.beta, c.a
     sum_beta = float(np.sum(np.abs(beta)))
     loop = lip * sum_beta
     if loop >= 1.0:
@@ -1040,16 +1241,16 @@ def _loop_bound(model: CreepModel, rate: float, full_scale: float, lip: float, x
     gain = 1.0 / (1.0 - loop)
     cmax = x_exact / fs * (1.0 + 1e-3)
     for _ in range(8):
-        eps, _, _, _ = _sample_errors(precision, st, c, len(beta), cmax, fs, sum_beta, "subtractive")
+        eps = _sample_errors(BoundedCorrector("subtractive", c, st, fs), cmax).per_sample
         eps_total = sum(eps.values())
         d = 2 * cmax
         c_hi = cmax * (1 + u)
         if precision == "float32":
-            eta = (np.abs(st["a"] - a) * d * (1 + u) ** 3 + a * d * ((1 + u) ** 3 - 1) + a * u * c_hi
+            eta = (np.abs(st.a - a) * d * (1 + u) ** 3 + a * d * ((1 + u) ** 3 - 1) + a * u * c_hi
                    + u * u * c_hi)
             rounding = float(np.max(eta / a)) + u * cmax       # and the target (float)X
         else:                                                  # the target X is a word already
-            eta = np.abs(st["a"] - a) * d + st["a"] * _Q_IN + _Q_STATE
+            eta = np.abs(st.a - a) * d + st.a * _Q_IN + _Q_STATE
             rounding = float(np.max(eta / a))
         state = gain * (lip * eps_total + ext / fs + rounding)
         if cmax >= x_exact / fs + state:
@@ -1061,7 +1262,7 @@ def _loop_bound(model: CreepModel, rate: float, full_scale: float, lip: float, x
     terms[f"{label} in double (x{gain:.4g})"] = gain * ext / fs
     terms[f"state updates, coefficients a_k (x{loop * gain:.4g})"] = loop * gain * rounding
     if precision == "float32":
-        terms["output rounding (float32)"] = _output_rounding(c["offset"], st["offset"], x_exact + state * fs) / fs
+        terms["output rounding (float32)"] = _output_rounding(c.offset, st.offset, x_exact + state * fs) / fs
     else:
         _check_q31_range(x_exact / fs, cmax, 1.0, "subtractive")
     terms["float64 reference (allowance)"] = REFERENCE_ALLOWANCE
@@ -1095,14 +1296,14 @@ def recovery_bound(model: CreepModel, rate: float, full_scale: float, term: int,
     """
     c = exact_coefficients(model, rate)
     st = stored_coefficients(c, precision)
-    a_rec = -math.expm1(-c["T"] / tau_recovery)
+    a_rec = -math.expm1(-c.interval / tau_recovery)
     a_rec_q = _mantissa(a_rec, "a_recovery = 1 - exp(-T/tau_recovery)")
     a_rec_st = float32_value(a_rec) if precision == "float32" else a_rec_q[0] * 2.0 ** -(31 + a_rec_q[1])
-    a_lo, a_hi = c["a"].copy(), c["a"].copy()
-    a_lo[term], a_hi[term] = min(c["a"][term], a_rec), max(c["a"][term], a_rec)
-    rel = np.abs(st["a"] / c["a"] - 1)
+    a_lo, a_hi = c.a.copy(), c.a.copy()
+    a_lo[term], a_hi[term] = min(c.a[term], a_rec), max(c.a[term], a_rec)
+    rel = np.abs(st.a / c.a - 1)
     rel[term] = max(rel[term], abs(a_rec_st / a_rec - 1))
-    k = len(c["a"])
+    k = len(c.a)
     # q31: per unit a, the input's rounding to 30 bits; the update's last shift (2^-60 FS)
     sch = ({"rel_a": rel, "nu": 0.0} if precision == "float32" else
            {"rel_a": rel, "extra": np.full(k, _Q_IN), "nu": np.full(k, _Q_STATE)})
@@ -1113,6 +1314,6 @@ def recovery_bound(model: CreepModel, rate: float, full_scale: float, term: int,
     state_error = errors[0] * fs
     x_max = (bound.peak_fs + bound.total_fs) * fs
     margin = (bound.total_fs * fs + state_error + 2e-9 * x_max + 8 * _U64 * x_max) * (1 + 1e-6)
-    switch_gain = bound.gains["state"][term] * abs(a_rec - c["a"][term]) / a_lo[term] / fs
+    switch_gain = bound.gains["state"][term] * abs(a_rec - c.a[term]) / a_lo[term] / fs
     return bound, {"margin": margin, "state_error": state_error, "switch_gain": switch_gain,
                    "a_recovery": a_rec, "a_recovery_q": a_rec_q}

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from creepcomp.digital.firmware_bound import check_target_arithmetic
 from creepcomp.errors import CreepcompError, InputError
 
 __all__ = ["STRICT_FLAGS", "TARGETS", "Toolchain", "TOOLCHAINS", "TargetRun", "find_toolchain", "run_on_target",
@@ -205,13 +206,6 @@ def _aux_words(firmware, aux) -> np.ndarray | None:
     return values.astype("<u4" if firmware.irregular else "<i4")
 
 
-def _check_runnable(firmware, target: str) -> None:
-    if firmware.extension is not None or "_root(" in firmware.source:
-        raise InputError(f"target {target}: the extension's map is computed in double, which the "
-                         "bound takes as IEEE binary64 (the ATmega328P's double is 32 bits); verify "
-                         "it with --target host")
-
-
 def run_on_target(firmware, signal, start: str, target: str, aux=None) -> TargetRun:
     """Cross-compile the corrector for a chip, run it over the samples in a simulator.
 
@@ -243,7 +237,7 @@ def run_on_target(firmware, signal, start: str, target: str, aux=None) -> Target
     if start not in ("relaxed", "settled"):
         raise InputError(f"start '{start}': use 'relaxed' or 'settled'")
     chain = find_toolchain(target)
-    _check_runnable(firmware, target)
+    check_target_arithmetic(target, firmware.uses_double)
     words = target_words(firmware, signal)
     extra = _aux_words(firmware, aux)
     with tempfile.TemporaryDirectory(prefix=f"creepcomp-{target}-") as tmp:
