@@ -351,6 +351,10 @@ def test_every_template_file_is_used(monkeypatch):
                       extension={"recovery": {"term": 0, "tau_recovery": 20.0, "dead_band": 1e-9}})
     for program in ("avr_program.c.j2", "arm_program.c.j2"):
         firmware.render_target_program(generate_firmware(MODEL, rate=RATE), program)
+    from creepcomp.digital.firmware_library import library_files
+
+    for precision in ("float32", "q31"):
+        library_files(generate_firmware(MODEL, "subtractive", precision, RATE, 1.0))
     used = set().union(*(firmware._template_tree(t) for t in rendered))
     files = {f.name for f in resources.files("creepcomp.digital").joinpath("templates").iterdir()
              if f.is_file()}

@@ -42,6 +42,10 @@ def firmware_command(
                                                          "its bound holds over. Default -40:85. "
                                                          "The step then takes the temperature with "
                                                          "every sample (float32: °C; q31: °C x 256)."),
+    library: Optional[Path] = typer.Option(None, "--library", metavar="DIR",
+                                           help="Write the corrector as an Arduino library (library."
+                                                "properties, src/, examples for the HX711 and "
+                                                "NAU7802) with a PlatformIO library.json."),
     name: str = typer.Option("creep", "--name", metavar="NAME",
                              help="Prefix of the C identifiers and the file names."),
     verify_record: Optional[Path] = typer.Option(None, "--verify", metavar="RECORD",
@@ -60,13 +64,15 @@ def firmware_command(
     """Write the creep corrector of a model as C99 with its proven error bound; verify it."""
     from creepcomp.digital.correctors import uniform_interval
     from creepcomp.digital.firmware import PRECISIONS, generate_firmware
+    from creepcomp.digital.firmware_library import library_contents
     from creepcomp.digital.firmware_target import TARGETS
     from creepcomp.io.jsonfiles import read_model
     from creepcomp.io.outputs import check_outputs
     from creepcomp.io.records import parse_columns, read_record
 
-    check_outputs(dirs={"-o": output}, inputs=[model_file, verify_record],
-                  contents={"-o": (f"{name}.h", f"{name}.c")})
+    check_outputs(dirs={"-o": output, "--library": library}, inputs=[model_file, verify_record],
+                  contents={"-o": (f"{name}.h", f"{name}.c"),
+                            "--library": library_contents(name)})
     method = method.strip().lower()
     precision = precision.strip().lower()
     if precision not in PRECISIONS:
@@ -131,6 +137,10 @@ def firmware_command(
     # written after the verification: an interrupted --verify leaves no C files
     if output is not None:
         result["files"] = [str(p) for p in firmware.write(output)]
+    if library is not None:
+        from creepcomp.digital.firmware_library import write_library
+
+        result["files"] += [str(p) for p in write_library(firmware, library)]
     if as_json:
         print_json(result)
     else:
@@ -226,4 +236,4 @@ def _render(result: dict, firmware, check) -> None:
     if result["files"]:
         console.print("written: " + ", ".join(result["files"]), soft_wrap=True)
     else:
-        console.print("no files written (give -o DIR)")
+        console.print("no files written (give -o DIR or --library DIR)")
