@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 import shutil
-import subprocess
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -14,7 +13,8 @@ import numpy as np
 
 from creepcomp.errors import CreepcompError, InputError
 from creepcomp.digital.firmware import TEMPERATURE_STEP_Q, Firmware
-from creepcomp.digital.firmware_target import STRICT_FLAGS, TARGETS, TargetRun, run_on_target
+from creepcomp.digital.firmware_target import (STRICT_FLAGS, TARGETS, TargetRun, run_on_target,
+                                              run_tool)
 
 __all__ = ["STRICT_FLAGS", "Verification", "find_compiler", "compile_object", "run_firmware",
            "step_intervals", "verify_firmware"]
@@ -92,14 +92,6 @@ def find_compiler(compiler: str | None = None) -> str:
     return path
 
 
-def _run(args: list, what: str) -> str:
-    proc = subprocess.run([str(a) for a in args], capture_output=True, text=True)
-    if proc.returncode != 0:
-        detail = (proc.stderr or proc.stdout).strip().splitlines()
-        raise CreepcompError(f"{what} failed: {detail[0] if detail else f'status {proc.returncode}'}")
-    return proc.stdout
-
-
 def compile_object(firmware: Firmware, folder, flags=(OPTIMISATION,), compiler: str | None = None) -> Path:
     """Write the firmware into ``folder`` and compile its source with :data:`STRICT_FLAGS`.
 
@@ -111,7 +103,7 @@ def compile_object(firmware: Firmware, folder, flags=(OPTIMISATION,), compiler: 
     folder = Path(folder)
     firmware.write(folder)
     obj = folder / f"{firmware.name}.o"
-    _run([find_compiler(compiler), *STRICT_FLAGS, *flags, "-c", folder / firmware.filenames[1],
+    run_tool([find_compiler(compiler), *STRICT_FLAGS, *flags, "-c", folder / firmware.filenames[1],
           "-o", obj], f"compiling {firmware.filenames[1]}")
     return obj
 
@@ -120,7 +112,7 @@ def _object_bytes(obj: Path) -> int:
     tool = shutil.which("size")
     if tool is None:
         return -1
-    fields = _run([tool, "-B", obj], "size").splitlines()[1].split()
+    fields = run_tool([tool, "-B", obj], "size").splitlines()[1].split()
     return int(fields[0]) + int(fields[1])
 
 
@@ -167,14 +159,14 @@ def run_firmware(firmware: Firmware, signal, start: str, repeats: int = 5,
         obj = compile_object(firmware, folder, compiler=cc)
         (folder / "harness.c").write_text(firmware.harness, encoding="utf-8")
         exe = folder / "harness"
-        _run([cc, "-std=c99", OPTIMISATION, "-I", folder, folder / "harness.c", obj, "-o", exe, "-lm"],
+        run_tool([cc, "-std=c99", OPTIMISATION, "-I", folder, folder / "harness.c", obj, "-o", exe, "-lm"],
              "compiling the harness")
         x.tofile(folder / "in.bin")
         files = [folder / "in.bin"]
         if intervals is not None:
             np.ascontiguousarray(intervals, dtype="<f8").tofile(folder / "dt.bin")
             files.append(folder / "dt.bin")
-        out = _run([exe, *files, folder / "out.bin", start, max(1, int(repeats))],
+        out = run_tool([exe, *files, folder / "out.bin", start, max(1, int(repeats))],
                    "running the harness")
         y = np.fromfile(folder / "out.bin", dtype="<f8")
         return y, float(out.strip()), _object_bytes(obj)

@@ -28,7 +28,8 @@ import numpy as np
 from creepcomp.digital.firmware_bound import check_target_arithmetic
 from creepcomp.errors import CreepcompError, InputError
 
-__all__ = ["STRICT_FLAGS", "TARGETS", "Toolchain", "TOOLCHAINS", "TargetRun", "find_toolchain", "run_on_target",
+__all__ = ["STRICT_FLAGS", "TARGETS", "Toolchain", "TOOLCHAINS", "TargetRun", "find_toolchain",
+           "run_on_target", "run_tool", "build_program",
            "target_words", "from_target_words"]
 
 #: The flags the generated code must compile under without a warning.
@@ -171,11 +172,13 @@ def find_toolchain(target: str) -> Toolchain:
     return chain
 
 
-def _run(args, what: str, cwd=None) -> str:
-    proc = subprocess.run([str(a) for a in args], capture_output=True, text=True, cwd=cwd)
+def run_tool(args, what: str) -> str:
+    """Run a program (compiler, size, simulator); its standard output, or a CreepcompError
+    naming ``what`` failed with the first line it printed."""
+    proc = subprocess.run([str(a) for a in args], capture_output=True, text=True)
     if proc.returncode != 0:
         detail = (proc.stderr or proc.stdout).strip().splitlines()
-        raise CreepcompError(f"{what} failed: {detail[-1] if detail else f'status {proc.returncode}'}")
+        raise CreepcompError(f"{what} failed: {detail[0] if detail else f'status {proc.returncode}'}")
     return proc.stdout
 
 
@@ -251,12 +254,12 @@ def run_on_target(firmware, signal, start: str, target: str, aux=None) -> Target
 
 def _sizes(size_tool: str, elf: Path) -> tuple[int, int]:
     """(flash, static RAM) of a linked program: text + data, data + bss."""
-    text, data, bss = (int(v) for v in _run([size_tool, elf], "size").splitlines()[1].split()[:3])
+    text, data, bss = (int(v) for v in run_tool([size_tool, elf], "size").splitlines()[1].split()[:3])
     return text + data, data + bss
 
 
 def _symbol_size(nm_tool: str, elf: Path, symbol: str) -> int:
-    for line in _run([nm_tool, "-S", elf], "nm").splitlines():
+    for line in run_tool([nm_tool, "-S", elf], "nm").splitlines():
         parts = line.split()
         if len(parts) == 4 and parts[3] == symbol:
             return int(parts[1], 16)
@@ -272,13 +275,13 @@ def build_program(firmware, chain: Toolchain, folder: Path, program: str, extra_
     (folder / "program.c").write_text(program, encoding="utf-8")
     flags = list(chain.flags)
     obj = folder / f"{firmware.name}.o"
-    _run([chain.compiler, *STRICT_FLAGS, *flags, "-c", source, "-o", obj],
+    run_tool([chain.compiler, *STRICT_FLAGS, *flags, "-c", source, "-o", obj],
          f"compiling {firmware.filenames[1]} with {chain.compiler}")
     linked = []
     for label, define in (("program", []), ("baseline", ["-DTARGET_BASELINE"])):
         elf = folder / f"{label}.elf"
         objects = [obj] if not define else []
-        _run([chain.compiler, "-std=gnu99", *flags, *define, "-I", folder, folder / "program.c",
+        run_tool([chain.compiler, "-std=gnu99", *flags, *define, "-I", folder, folder / "program.c",
               *extra_sources, *objects, "-Wl,--gc-sections", *link_flags, "-lm", "-o", elf],
              f"linking the {label} for {chain.target}")
         linked.append(elf)
@@ -289,7 +292,7 @@ def _runner(folder: Path) -> Path:
     """The simavr host runner, compiled against libsimavr."""
     source = resources.files("creepcomp.digital").joinpath("targets", "simavr_run.c")
     exe = folder / "simavr_run"
-    _run(["gcc", "-O2", "-o", exe, str(source), "-lsimavr"], "compiling the simavr runner")
+    run_tool(["gcc", "-O2", "-o", exe, str(source), "-lsimavr"], "compiling the simavr runner")
     return exe
 
 
@@ -303,7 +306,7 @@ def _run_avr(firmware, chain, folder, words, aux, start) -> TargetRun:
     if aux is not None:
         aux.tofile(folder / "aux.bin")
         aux_path = folder / "aux.bin"
-    line = _run([_runner(folder), elf, folder / "in.bin", folder / "out.bin", aux_path, start],
+    line = run_tool([_runner(folder), elf, folder / "in.bin", folder / "out.bin", aux_path, start],
                 "running the corrector on simavr").strip().splitlines()[-1]
     n, largest, mean, stack, refused = line.split()
     flash, ram = _sizes("avr-size", elf)
