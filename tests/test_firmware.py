@@ -498,3 +498,30 @@ int main(void)
     for i in range(n):
         assert Fraction(float(out[i, 0])) + Fraction(float(out[i, 1])) == \
             Fraction(float(hi[i])) + Fraction(float(m[i]))
+
+
+@needs_gcc
+def test_temperature_step_reuses_its_a_k_only_for_the_same_mid_temperature():
+    """The float32 temperature step keeps the a_k of the last mid temperature: its outputs are
+    those of the step that computes them every sample, bit for bit, with the temperature held
+    for a second at a time, changing every sample, and after a restore."""
+    import dataclasses
+
+    from creepcomp.digital.firmware_check import run_firmware
+    from creepcomp.temperature import TemperatureLaw
+
+    law = CreepModel(MODEL.beta, MODEL.tau, MODEL.gain, MODEL.offset,
+                     temperature=TemperatureLaw.arrhenius(43000.0))
+    fw = generate_firmware(law, "subtractive", "float32", 80.0, 1.0)
+    kept = "if (!s->a_known || temperature_c != s->temperature_c || temperature_c != s->a_mid_c) {"
+    assert fw.source.count(kept) == 1
+    every = dataclasses.replace(fw, source=fw.source.replace(kept, "if (1) {").replace(
+        "if (!s->a_known || mid != s->a_mid_c) {", "if (1) {"))
+    n = 4000
+    signal = MODEL.offset + np.where((np.arange(n) // 300) % 2 == 0, 0.8, -0.3)
+    held = np.repeat(np.round(25 + 20 * np.sin(np.arange(n // 80 + 1) / 3.0), 1), 80)[:n]
+    moving = 25 + 20 * np.sin(np.arange(n) / 70.0)
+    for temperatures in (held, moving):
+        a, _, _ = run_firmware(fw, signal, "relaxed", 1, temperatures=temperatures)
+        b, _, _ = run_firmware(every, signal, "relaxed", 1, temperatures=temperatures)
+        assert np.array_equal(a, b)
