@@ -229,7 +229,8 @@ def _render(result: dict, firmware, check) -> None:
         cost = (f"{check.ns_per_sample:.1f} ns per sample on this machine; object "
                 f"{check.object_bytes} bytes (gcc -O2, text + data)" if run is None else
                 f"on {TOOLCHAINS[run.target].chip}: {run.per_sample:.0f} {run.counts} per sample "
-                f"(mean; largest {run.largest}), flash {run.flash_bytes} bytes, RAM {run.ram_bytes} "
+                + ("(mean)" if run.largest is None else f"(mean; largest {run.largest})")
+                + f", flash {run.flash_bytes} bytes, RAM {run.ram_bytes} "
                 f"bytes (state {run.state_bytes} bytes, stack {run.stack_bytes} bytes)")
         console.print(f"verified on {result['record']}: {check.samples} samples, largest error "
                       f"{check.max_error_fs:.3e} of full scale ({verdict}); {cost}", soft_wrap=True)

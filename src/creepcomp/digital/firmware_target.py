@@ -276,14 +276,14 @@ def build_program(firmware, chain: Toolchain, folder: Path, program: str, extra_
     flags = list(chain.flags)
     obj = folder / f"{firmware.name}.o"
     run_tool([chain.compiler, *STRICT_FLAGS, *flags, "-c", source, "-o", obj],
-         f"compiling {firmware.filenames[1]} with {chain.compiler}")
+             f"compiling {firmware.filenames[1]} with {chain.compiler}")
     linked = []
     for label, define in (("program", []), ("baseline", ["-DTARGET_BASELINE"])):
         elf = folder / f"{label}.elf"
         objects = [obj] if not define else []
         run_tool([chain.compiler, "-std=gnu99", *flags, *define, "-I", folder, folder / "program.c",
-              *extra_sources, *objects, "-Wl,--gc-sections", *link_flags, "-lm", "-o", elf],
-             f"linking the {label} for {chain.target}")
+                  *extra_sources, *objects, "-Wl,--gc-sections", *link_flags, "-lm", "-o", elf],
+                 f"linking the {label} for {chain.target}")
         linked.append(elf)
     return linked[0], linked[1]
 
@@ -307,7 +307,7 @@ def _run_avr(firmware, chain, folder, words, aux, start) -> TargetRun:
         aux.tofile(folder / "aux.bin")
         aux_path = folder / "aux.bin"
     line = run_tool([_runner(folder), elf, folder / "in.bin", folder / "out.bin", aux_path, start],
-                "running the corrector on simavr").strip().splitlines()[-1]
+                    "running the corrector on simavr").strip().splitlines()[-1]
     n, largest, mean, stack, refused = line.split()
     flash, ram = _sizes("avr-size", elf)
     flash0, ram0 = _sizes("avr-size", baseline)
