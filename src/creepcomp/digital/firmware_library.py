@@ -50,10 +50,11 @@ def library_files(firmware) -> dict[str, str]:
     """
     from creepcomp.digital.firmware import _render, _version
 
-    if firmware.uses_double or firmware.irregular:
+    if firmware.uses_double or firmware.irregular or firmware.extension is not None:
         raise InputError("--library: the library is of the fixed-rate corrector without an "
                          "extension map (its examples read a converter at a fixed rate, and a map "
-                         "computed in double has no bound on an ATmega's 32-bit double)")
+                         "computed in double has no bound on an ATmega's 32-bit double); write "
+                         "this corrector with -o DIR")
     version = _version()
     library = f"creepcomp_{firmware.name}"
     timing = f"{firmware.rate:.9g} samples/s"
