@@ -173,6 +173,16 @@ def test_unknown_or_missing_toolchain_is_named(monkeypatch):
         verify_firmware(fw, *step_record(MODEL, 20)[::2], target="z80")
 
 
+def test_target_arithmetic_refuses_double_where_it_is_binary32():
+    from creepcomp.digital.firmware_bound import TARGET_ARITHMETIC, check_target_arithmetic
+
+    with pytest.raises(InputError, match="avr's double has 24 bits"):
+        check_target_arithmetic("avr", uses_double=True)
+    assert check_target_arithmetic("avr", uses_double=False).float_unit_roundoff == 2.0 ** -24
+    assert check_target_arithmetic("cortex-m0plus", uses_double=True).double_bits == 53
+    assert set(TARGET_ARITHMETIC) == {"host", "avr", "cortex-m0plus", "cortex-m4f"}
+
+
 @needs_avr
 def test_avr_refuses_a_map_computed_in_double():
     fw = generate_firmware(MODEL, rate=RATE, full_scale=1.0, output_polynomial=(0.05, 0.0))
