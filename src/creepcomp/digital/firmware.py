@@ -230,7 +230,7 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
                     rate=None if irregular else float(rate),
                     full_scale=float(full_scale), name=name, header=header, source=source,
                     harness=harness, bound=bound, coefficients=_coefficient_table(c, st, precision),
-                    max_interval=float(scheme["dt_max"]) if irregular else None,
+                    max_interval=float(scheme.dt_max) if irregular else None,
                     uses_double=polynomial is not None)
 
 
@@ -326,19 +326,19 @@ def _temperature_firmware(model, method, precision, rate, full_scale, name, max_
     st = stored_coefficients(c, precision)
     values = _header_values(model, method, precision, rate, full_scale, name, c, None, None)
     values["command"] += f" --temperature-range {low:g}:{high:g}"
-    identity = (values["model_id"], law.to_dict(), scheme["low"], scheme["high"])
+    identity = (values["model_id"], law.to_dict(), scheme.low, scheme.high)
     values.update(irregular=True, temperature=True, model_id=f"0x{_fnv1a(repr(identity)):08x}u")
     if precision == "float32":
-        values.update(temperature_low=_c_float(scheme["low"]), temperature_high=_c_float(scheme["high"]),
-                      temperature_reference=_c_float(scheme["reference"]))
+        values.update(temperature_low=_c_float(scheme.low), temperature_high=_c_float(scheme.high),
+                      temperature_reference=_c_float(scheme.reference))
     else:
-        values.update(temperature_low=str(scheme["low_q"]), temperature_high=str(scheme["high_q"]),
-                      temperature_reference=str(scheme["reference_q"]))
+        values.update(temperature_low=str(scheme.low_q), temperature_high=str(scheme.high_q),
+                      temperature_reference=str(scheme.reference_q))
     header = _render(f"{precision}_temperature.h.j2", **values,
                      derivation=_temperature_derivation(model, method, precision, rate, full_scale,
                                                         c, st, scheme),
                      bound=_bound_lines(bound, full_scale)
-                     + [f"The bound holds for temperatures in {scheme['low']:g} to {scheme['high']:g} °C; "
+                     + [f"The bound holds for temperatures in {scheme.low:g} to {scheme.high:g} °C; "
                         "outside, the step clamps the temperature to that range."],
                      bound_fs=f"{bound.total_fs:.3e}")
     source = _render(f"{precision}_temperature.c.j2", name=name, NAME=name.upper(),
@@ -347,13 +347,13 @@ def _temperature_firmware(model, method, precision, rate, full_scale, name, max_
     harness = _render("harness.c.j2", name=name, NAME=name.upper(), precision=precision,
                       irregular=False, temperature=True)
     table = _coefficient_table(c, st, precision)
-    table.update(temperature_range=[scheme["low"], scheme["high"]],
-                 a_range=[[float(x) for x in scheme["a_min"]], [float(x) for x in scheme["a_max"]]],
-                 shift_relative_error=scheme["rel_shift"])
+    table.update(temperature_range=[scheme.low, scheme.high],
+                 a_range=[[float(x) for x in scheme.a_min], [float(x) for x in scheme.a_max]],
+                 shift_relative_error=scheme.rel_shift)
     return Firmware(model=model, method=method, precision=precision, rate=float(rate),
                     full_scale=float(full_scale), name=name, header=header, source=source,
                     harness=harness, bound=bound, coefficients=table,
-                    temperature_range=(scheme["low"], scheme["high"]))
+                    temperature_range=(scheme.low, scheme.high))
 
 
 def _coefficient_table(c: ExactCoefficients, st: StoredCoefficients, precision: str) -> dict:
@@ -396,15 +396,15 @@ def _header_values(model, method, precision, rate, full_scale, name, c, scheme,
     if scheme is None:
         values["rate"] = repr(float(rate))
     elif precision == "float32":
-        values.update(min_interval=_c_float(scheme["min_f"]),
-                      max_interval=_c_float(scheme["limit_f"]))
+        values.update(min_interval=_c_float(scheme.min_f),
+                      max_interval=_c_float(scheme.limit_f))
     else:
-        values.update(tick=repr(TICK), max_ticks=str(scheme["max_ticks"]),
-                      max_interval=repr(scheme["dt_max"]))
+        values.update(tick=repr(TICK), max_ticks=str(scheme.max_ticks),
+                      max_interval=repr(scheme.dt_max))
     return values
 
 
-def _coefficient_values(precision: str, st: StoredCoefficients, scheme: dict | None) -> dict:
+def _coefficient_values(precision: str, st: StoredCoefficients, scheme=None) -> dict:
     """The stored coefficients as C literals: of the fixed-rate step, or of the dt step."""
     if precision == "float32":
         values = {"beta": [_c_float(x) for x in st.beta], "offset": _c_float(st.offset),
@@ -412,9 +412,9 @@ def _coefficient_values(precision: str, st: StoredCoefficients, scheme: dict | N
         if scheme is None:
             values["a"] = [_c_float(x) for x in st.a]
         else:
-            values.update(inv_tau=[_c_float(x) for x in scheme["inv_tau"]],
-                          inv_next=[_c_float(x) for x in scheme["inv_next"]],
-                          series_terms=str(scheme["n"]))
+            values.update(inv_tau=[_c_float(x) for x in scheme.inv_tau],
+                          inv_next=[_c_float(x) for x in scheme.inv_next],
+                          series_terms=str(scheme.n))
         return values
     values = {"beta_mantissas": [str(m) for m, _ in st.beta_q],
               "beta_shifts": [str(1 + s) for _, s in st.beta_q],
@@ -423,11 +423,11 @@ def _coefficient_values(precision: str, st: StoredCoefficients, scheme: dict | N
         values.update(a_mantissas=[str(m) for m, _ in st.a_q],
                       a_shifts=[str(1 + s) for _, s in st.a_q])
     else:
-        values.update(tick_mantissas=[str(m) for m, _ in scheme["m"]],
-                      tick_exponents=[str(int(e)) for e in scheme["exps"]],
-                      second_shifts=[str(int(r)) for r in scheme["r2"]],
-                      first_shift=str(scheme["r1"]), inv_next=[str(v) for v in scheme["inv_next"]],
-                      series_terms=str(scheme["n"]))
+        values.update(tick_mantissas=[str(m) for m, _ in scheme.m],
+                      tick_exponents=[str(int(e)) for e in scheme.exps],
+                      second_shifts=[str(int(r)) for r in scheme.r2],
+                      first_shift=str(scheme.r1), inv_next=[str(v) for v in scheme.inv_next],
+                      series_terms=str(scheme.n))
     return values
 
 
@@ -457,7 +457,7 @@ def _derivation(model, method, precision, rate, full_scale, c, st) -> list[str]:
 def _dt_derivation(model, method, precision, full_scale, c, st, scheme) -> list[str]:
     """The dt step's coefficients and the error of its ``a_k(dt)``, as comment lines."""
     unit = "signal units"
-    lo, hi = scheme["dt_min"], scheme["dt_max"]
+    lo, hi = scheme.dt_min, scheme.dt_max
     lines = [f"Model: {model.n_terms} creep term(s), beta0 = {model.beta0:.6g}, offset = "
              f"{model.offset:.9g} {unit}; method {method}; precision {precision}.",
              f"Irregular sampling: dt = time since the previous sample, {_qty(lo, 's')} <= dt <= "
@@ -465,19 +465,19 @@ def _dt_derivation(model, method, precision, full_scale, c, st, scheme) -> list[
              f"Full scale FS = {full_scale:.9g} {unit}: the inputs satisfy |raw - offset| <= FS.",
              "a_k(dt) = 1 - exp(-dt/tau_k) is computed per sample without libm "
              + ("(halving to x <= 1/8, " if precision == "float32" else "(x <= 1/2, ")
-             + f"{scheme['n']} Taylor terms of (1 - exp(-x))/x"
+             + f"{scheme.n} Taylor terms of (1 - exp(-x))/x"
              + (", doubling a <- a(2 - a));" if precision == "float32" else ");"),
              "its worst relative error over the dt range is in the bound:"]
     for k in range(model.n_terms):
         tau = c.tau[k]
         lines.append(f"term {k}: beta = {c.beta[k]:.9g}, tau = {_qty(tau, 's')}, "
                      f"a(dt max) = {-math.expm1(-hi / tau):.9g}, relative error of computed a <= "
-                     f"{scheme['rel_a'][k]:.2e}")
+                     f"{scheme.rel_a[k]:.2e}")
         if precision == "float32":
-            lines.append(f"  stored 1/tau = {scheme['inv_tau'][k]:.9e} 1/s, halvings <= {int(scheme['halvings'][k])}; "
+            lines.append(f"  stored 1/tau = {scheme.inv_tau[k]:.9e} 1/s, halvings <= {int(scheme.halvings[k])}; "
                          f"beta = {st.beta[k]:.9e}")
         else:
-            m, sh = scheme["m"][k]
+            m, sh = scheme.m[k]
             lines.append(f"  tick/tau = {m} * 2^-{31 + sh} (tick {TICK:g} s); beta = "
                          f"{st.beta_q[k][0]} * 2^-{31 + st.beta_q[k][1]}")
     lines.append(f"1 + beta0 = {c.saturation:.12g} (supplemental scale); 1/(1 + beta0) = {c.inv_saturation:.12g} "
@@ -485,25 +485,25 @@ def _dt_derivation(model, method, precision, full_scale, c, st, scheme) -> list[
     return lines
 
 
-def _temperature_values(precision: str, st: StoredCoefficients, scheme: dict) -> dict:
+def _temperature_values(precision: str, st: StoredCoefficients, scheme) -> dict:
     """The temperature step's stored coefficients as C literals."""
     coefficients = _coefficient_values(precision, st, None)
     if precision == "float32":
         del coefficients["a"]
-        return {**coefficients, "dt_over_tau": [_c_float(x) for x in scheme["dt_over_tau"]],
-                "inv_next": [_c_float(x) for x in scheme["inv_next"]], "series_terms": str(scheme["n"]),
-                "exp_next": [_c_float(x) for x in scheme["exp_next"]],
-                "exp_terms": str(scheme["exp_terms"]), "curve_c": _c_float(scheme["curve_c"]),
-                "curve_d": _c_float(scheme["curve_d"]), "log2e": _c_float(scheme["log2e"]),
-                "ln2_head": _c_float(scheme["ln2_head"]), "ln2_tail": _c_float(scheme["ln2_tail"])}
+        return {**coefficients, "dt_over_tau": [_c_float(x) for x in scheme.dt_over_tau],
+                "inv_next": [_c_float(x) for x in scheme.inv_next], "series_terms": str(scheme.n),
+                "exp_next": [_c_float(x) for x in scheme.exp_next],
+                "exp_terms": str(scheme.exp_terms), "curve_c": _c_float(scheme.curve_c),
+                "curve_d": _c_float(scheme.curve_d), "log2e": _c_float(scheme.log2e),
+                "ln2_head": _c_float(scheme.ln2_head), "ln2_tail": _c_float(scheme.ln2_tail)}
     del coefficients["a_mantissas"], coefficients["a_shifts"]
-    return {**coefficients, "dt_mantissas": [str(m) for m, _ in scheme["m"]],
-            "dt_exponents": [str(int(e)) for e in scheme["exps"]],
-            "inv_next": [str(v) for v in scheme["inv_next"]], "series_terms": str(scheme["n"]),
-            "exp_next": [str(v) for v in scheme["exp_next"]], "exp_terms": str(scheme["exp_terms"]),
-            "curve_c": str(scheme["curve_c_q"]), "curve_d": str(scheme["curve_d_q"]),
-            "reference": str(scheme["reference_d"]),
-            "log2e": str(scheme["log2e_q"]), "ln2": str(scheme["ln2_q"])}
+    return {**coefficients, "dt_mantissas": [str(m) for m, _ in scheme.m],
+            "dt_exponents": [str(int(e)) for e in scheme.exps],
+            "inv_next": [str(v) for v in scheme.inv_next], "series_terms": str(scheme.n),
+            "exp_next": [str(v) for v in scheme.exp_next], "exp_terms": str(scheme.exp_terms),
+            "curve_c": str(scheme.curve_c_q), "curve_d": str(scheme.curve_d_q),
+            "reference": str(scheme.reference_d),
+            "log2e": str(scheme.log2e_q), "ln2": str(scheme.ln2_q)}
 
 
 def _temperature_derivation(model, method, precision, rate, full_scale, c, st, scheme) -> list[str]:
@@ -512,37 +512,37 @@ def _temperature_derivation(model, method, precision, rate, full_scale, c, st, s
     unit = "signal units"
     shape = (f"a_T = exp(E_a/R (1/T - 1/T_ref)), E_a = {law.activation_energy:.6g} J/mol"
              if law.law == "arrhenius" else f"log10 a_T = -c1 d / (c2 + d), c1 = {law.c1:.6g}, c2 = {law.c2:.6g} K")
-    y_lo, y_hi = scheme["y_range"]
+    y_lo, y_hi = scheme.y_range
     lines = [f"Model: {model.n_terms} creep term(s), beta0 = {model.beta0:.6g}, offset = "
              f"{model.offset:.9g} {unit}; method {method}; precision {precision}.",
              f"Sample interval T = 1 / {_qty(rate, 'Hz')} = {_qty(c.interval, 's')}; load held between samples.",
              f"Full scale FS = {full_scale:.9g} {unit}: the inputs satisfy |raw - offset| <= FS.",
              f"Temperature law ({law.law}, reference T_ref = {law.reference:g} °C): tau_k(T) = tau_k a_T, {shape}.",
-             f"Temperature range {scheme['low']:g} to {scheme['high']:g} °C (clamped): "
+             f"Temperature range {scheme.low:g} to {scheme.high:g} °C (clamped): "
              f"ln(1/a_T) from {y_lo:.6g} to {y_hi:.6g}.",
              "Per sample, tau_k over the step follows the temperature at its middle, "
              "Tm = (T_prev + T)/2; without libm:"]
     if precision == "float32":
-        lines += [f"  y = ln(1/a_T) = C d / (D0 + d), d = Tm - T_ref, C = {scheme['curve_c']:.9g}, D0 = {scheme['curve_d']:.9g};",
-                  f"  1/a_T = 2^j exp(f), j = round(y / ln 2), |f| <= ln2/2, exp(f) by {scheme['exp_terms']} Taylor terms;",
-                  f"  a_k = 1 - exp(-x_k), x_k = (T/tau_k) / a_T, as the dt step ({scheme['n']} terms of (1 - exp(-x))/x)."]
+        lines += [f"  y = ln(1/a_T) = C d / (D0 + d), d = Tm - T_ref, C = {scheme.curve_c:.9g}, D0 = {scheme.curve_d:.9g};",
+                  f"  1/a_T = 2^j exp(f), j = round(y / ln 2), |f| <= ln2/2, exp(f) by {scheme.exp_terms} Taylor terms;",
+                  f"  a_k = 1 - exp(-x_k), x_k = (T/tau_k) / a_T, as the dt step ({scheme.n} terms of (1 - exp(-x))/x)."]
     else:
         lines += ["  temperatures in 1/256 °C (int32_t), so Tm is exact;",
-                  f"  y = ln(1/a_T) = C d / (D0 + d) in Q28, d = Tm - T_ref in 2^-19 K, C = {scheme['curve_c_q']} * 2^-28, "
-                  f"D0 = {scheme['curve_d_q']} * 2^-19 K (one 64-bit division);",
-                  f"  1/a_T = p 2^j, j = round(y / ln 2), p = exp(f) in Q31 by {scheme['exp_terms']} Taylor terms;",
-                  f"  a_k = x t(x), x = (T/tau_k) p 2^j, t = (1 - exp(-x))/x in Q31 ({scheme['n']} terms), as the q31 dt step."]
-    lines.append(f"Relative error of the computed 1/a_T <= {scheme['rel_shift']:.2e} (temperature, y, f, polynomial).")
-    lo_tau, hi_tau = scheme["tau_range"]
+                  f"  y = ln(1/a_T) = C d / (D0 + d) in Q28, d = Tm - T_ref in 2^-19 K, C = {scheme.curve_c_q} * 2^-28, "
+                  f"D0 = {scheme.curve_d_q} * 2^-19 K (one 64-bit division);",
+                  f"  1/a_T = p 2^j, j = round(y / ln 2), p = exp(f) in Q31 by {scheme.exp_terms} Taylor terms;",
+                  f"  a_k = x t(x), x = (T/tau_k) p 2^j, t = (1 - exp(-x))/x in Q31 ({scheme.n} terms), as the q31 dt step."]
+    lines.append(f"Relative error of the computed 1/a_T <= {scheme.rel_shift:.2e} (temperature, y, f, polynomial).")
+    lo_tau, hi_tau = scheme.tau_range
     for k in range(model.n_terms):
         lines.append(f"term {k}: beta = {c.beta[k]:.9g}, tau = {_qty(c.tau[k], 's')} at T_ref, "
                      f"{_qty(hi_tau[k], 's')} to {_qty(lo_tau[k], 's')} over the range; a from "
-                     f"{scheme['a_min'][k]:.6g} to {scheme['a_max'][k]:.6g}, relative error of computed a <= "
-                     f"{scheme['rel_a'][k]:.2e}")
+                     f"{scheme.a_min[k]:.6g} to {scheme.a_max[k]:.6g}, relative error of computed a <= "
+                     f"{scheme.rel_a[k]:.2e}")
         if precision == "float32":
-            lines.append(f"  stored T/tau = {scheme['dt_over_tau'][k]:.9e}, beta = {st.beta[k]:.9e}")
+            lines.append(f"  stored T/tau = {scheme.dt_over_tau[k]:.9e}, beta = {st.beta[k]:.9e}")
         else:
-            m, sh = scheme["m"][k]
+            m, sh = scheme.m[k]
             lines.append(f"  T/tau = {m} * 2^-{31 + sh}; beta = {st.beta_q[k][0]} * 2^-{31 + st.beta_q[k][1]}")
     lines.append(f"1 + beta0 = {c.saturation:.12g} (supplemental scale); 1/(1 + beta0) = {c.inv_saturation:.12g} "
                  "(settled start: c_k = x / (1 + beta0))")

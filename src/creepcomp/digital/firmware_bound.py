@@ -24,6 +24,8 @@ __all__ = ["PRECISIONS", "FULL_SCALE_WORD", "REFERENCE_ALLOWANCE", "MIN_INTERVAL
            "DEFAULT_TEMPERATURE_RANGE", "ErrorBound", "firmware_bound", "check_arguments",
            "check_interval", "TargetArithmetic", "TARGET_ARITHMETIC", "check_target_arithmetic",
            "BoundedCorrector", "RecursionGains", "SampleErrors", "ExactCoefficients",
+           "VaryingAErrors", "Float32DtScheme", "Q31DtScheme", "Float32TemperatureScheme",
+           "Q31TemperatureScheme",
            "StoredCoefficients", "exact_coefficients", "stored_coefficients", "dt_scheme",
            "float32_value", "temperature_scheme", "q31_temperature_scheme", "temperature_bound",
            "TEMPERATURE_STEP_Q", "ROOT_STEPS", "polynomial_bound", "EXP_RELATIVE_ERROR",
@@ -526,6 +528,216 @@ def _local_terms(corrector: BoundedCorrector, gains: RecursionGains, cmax: float
 
 # ------------------------------------------------------------- irregular sampling (dt step)
 
+@dataclass(frozen=True)
+class VaryingAErrors:
+    """The errors of a step whose ``a_k`` change from sample to sample (the dt step, the
+    temperature step, a recovery's switched term), as :func:`_invariant_bound` takes them.
+
+    Attributes
+    ----------
+    rel_a : numpy.ndarray
+        The worst relative error of each computed ``a_k``.
+    extra : numpy.ndarray
+        q31: the words' roundings in a state's update per unit ``a`` (fraction of full
+        scale); float32: zeros.
+    nu : numpy.ndarray
+        The update's own rounding per sample: float32 relative to the state (``u^2``, the
+        sum with ``lo``), q31 in fractions of full scale (the last shift, ``2^-60``).
+    """
+
+    rel_a: np.ndarray
+    extra: np.ndarray
+    nu: np.ndarray
+
+
+@dataclass(frozen=True)
+class Float32DtScheme(VaryingAErrors):
+    """How the float32 dt step computes ``a_k(dt)`` (:func:`dt_scheme`).
+
+    Attributes
+    ----------
+    dt_min, dt_max : float
+        The interval range the bound covers (s; the float32 limits included).
+    inv_tau : numpy.ndarray
+        The stored ``1/tau_k`` (binary32 values, 1/s).
+    halvings : numpy.ndarray
+        Per term, the most halvings that bring ``x = dt/tau_k`` to ``x <= 1/8``.
+    n : int
+        Taylor terms of ``(1 - exp(-x))/x``.
+    inv_next : list of float
+        The stored ``1/(j + 1)``, ``j < n``.
+    limit_f, min_f : float
+        The longest and shortest interval the step accepts, as binary32 (s).
+    """
+
+    dt_min: float
+    dt_max: float
+    inv_tau: np.ndarray
+    halvings: np.ndarray
+    n: int
+    inv_next: list
+    limit_f: float
+    min_f: float
+
+
+@dataclass(frozen=True)
+class Q31DtScheme(VaryingAErrors):
+    """How the q31 dt step computes ``a_k(dt)`` from whole ticks (:func:`dt_scheme`).
+
+    Attributes
+    ----------
+    dt_min, dt_max : float
+        The interval range (s): one tick to ``max_ticks`` ticks.
+    max_ticks : int
+        The longest interval the step accepts, in ticks of :data:`TICK`.
+    m : list of (int, int)
+        Per term, ``tick/tau_k`` as a mantissa and a shift.
+    exps : numpy.ndarray
+        Per term, ``31 + shift``: ``tick/tau_k = m 2^-exps``.
+    n : int
+        Taylor terms of ``t(x) = (1 - exp(-x))/x`` in Q31.
+    inv_next : list of int
+        ``2^31/(j + 1)``, ``j < n``.
+    r1 : int
+        The first right shift of the increment (after the product with ``m_k``).
+    r2 : numpy.ndarray
+        Per term, the second right shift (after the product with the interval).
+    """
+
+    dt_min: float
+    dt_max: float
+    max_ticks: int
+    m: list
+    exps: np.ndarray
+    n: int
+    inv_next: list
+    r1: int
+    r2: np.ndarray
+
+
+@dataclass(frozen=True)
+class Float32TemperatureScheme(VaryingAErrors):
+    """How the float32 temperature step computes ``a_k = 1 - exp(-(T/tau_k) / a_T)``
+    (:func:`temperature_scheme`).
+
+    Attributes
+    ----------
+    low, high : float
+        The temperature range (°C, binary32 values) the step clamps to.
+    reference : float
+        The law's reference temperature (°C, binary32).
+    curve_c, curve_d : float
+        ``C`` and ``D0`` of ``ln(1/a_T) = C d / (D0 + d)`` (binary32).
+    log2e, ln2_head, ln2_tail : float
+        ``1/ln 2`` and ``ln 2`` in two parts, for the range reduction of ``exp``.
+    j_max : int
+        The largest ``|j|`` of ``1/a_T = 2^j exp(f)``.
+    exp_terms : int
+        Taylor terms of ``exp(f)``; ``exp_next`` their stored ``1/(i + 1)``.
+    exp_next : list of float
+    y_range : (float, float)
+        ``ln(1/a_T)`` at the range's ends.
+    rel_shift : float
+        The worst relative error of the computed ``1/a_T``.
+    dt : float
+        The sample interval (s).
+    dt_over_tau : numpy.ndarray
+        The stored ``T/tau_k`` (binary32).
+    a_max, a_min : numpy.ndarray
+        ``a_k`` at the range's ends.
+    tau_range : (numpy.ndarray, numpy.ndarray)
+        ``tau_k`` at the range's ends.
+    halvings, n, inv_next
+        As :class:`Float32DtScheme`.
+    """
+
+    low: float
+    high: float
+    reference: float
+    curve_c: float
+    curve_d: float
+    log2e: float
+    ln2_head: float
+    ln2_tail: float
+    j_max: int
+    exp_terms: int
+    exp_next: list
+    y_range: tuple
+    rel_shift: float
+    dt: float
+    dt_over_tau: np.ndarray
+    a_max: np.ndarray
+    a_min: np.ndarray
+    tau_range: tuple
+    halvings: np.ndarray
+    n: int
+    inv_next: list
+
+
+@dataclass(frozen=True)
+class Q31TemperatureScheme(VaryingAErrors):
+    """How the q31 temperature step computes ``a_k`` with integers only
+    (:func:`q31_temperature_scheme`).
+
+    Attributes
+    ----------
+    low, high : float
+        The temperature range (°C), whole steps of :data:`TEMPERATURE_STEP_Q`; ``low_q``,
+        ``high_q`` in those steps.
+    low_q, high_q : int
+    reference_q : int
+        The reference temperature in steps of :data:`TEMPERATURE_STEP_Q`.
+    reference_d : int
+        The reference temperature in units of ``d`` (2^-19 K).
+    curve_c_q, curve_d_q : int
+        ``C`` in Q28 and ``D0`` in units of ``d``.
+    log2e_q, ln2_q : int
+        ``2^24 / ln 2`` and ``ln 2`` in Q31.
+    exp_terms : int
+        Taylor terms of ``exp(f)`` in Q31; ``exp_next`` their ``2^31/(i + 1)``.
+    exp_next : list of int
+    y_range : (float, float)
+        ``ln(1/a_T)`` at the range's ends.
+    rel_shift : float
+        The worst relative error of the computed ``1/a_T``.
+    m : list of (int, int)
+        Per term, ``T/tau_k`` as a mantissa and a shift; ``exps`` is ``31 + shift``.
+    exps : numpy.ndarray
+    n, inv_next
+        As :class:`Q31DtScheme`.
+    a_max, a_min : numpy.ndarray
+        ``a_k`` at the range's ends.
+    tau_range : (numpy.ndarray, numpy.ndarray)
+        ``tau_k`` at the range's ends.
+    dt : float
+        The sample interval (s).
+    """
+
+    low: float
+    high: float
+    low_q: int
+    high_q: int
+    reference_q: int
+    reference_d: int
+    curve_c_q: int
+    curve_d_q: int
+    log2e_q: int
+    ln2_q: int
+    exp_terms: int
+    exp_next: list
+    y_range: tuple
+    rel_shift: float
+    m: list
+    exps: np.ndarray
+    n: int
+    inv_next: list
+    a_max: np.ndarray
+    a_min: np.ndarray
+    tau_range: tuple
+    dt: float
+
+
+
 def _series_terms(x_max: float, target: float) -> int:
     """Fewest Taylor terms N of ``a = x t(x)`` with truncation ``x^N/(N+1)! <= target``."""
     n = 2
@@ -547,7 +759,7 @@ def _float32_a_error(x_hi: np.ndarray, rel_x: np.ndarray, u: float) -> tuple[np.
     return halvings, n, (1 + rel_x) * (1 + rel_series) * (1 + u) ** (2 * halvings) - 1
 
 
-def dt_scheme(model: CreepModel, precision: str, max_interval: float) -> dict:
+def dt_scheme(model: CreepModel, precision: str, max_interval: float) -> Float32DtScheme | Q31DtScheme:
     """How the dt step computes ``a_k(dt) = 1 - exp(-dt/tau_k)``, and its worst relative error.
 
     float32: ``x = dt * (1/tau_k)``, halved ``m`` times until ``x <= 1/8``, ``a = x t(x)`` with
@@ -565,10 +777,10 @@ def dt_scheme(model: CreepModel, precision: str, max_interval: float) -> dict:
         delta_x = np.abs(inv_tau * taus - 1.0) + u * (1 + 1e-6)        # stored 1/tau, product
         x_hi = dt_max * inv_tau * (1 + u)
         halvings, n, rel_a = _float32_a_error(x_hi, delta_x, u)
-        return {"dt_min": dt_min, "dt_max": dt_max, "inv_tau": inv_tau, "halvings": halvings,
-                "n": n, "inv_next": [float32_value(1.0 / (j + 1)) for j in range(n)],
-                "rel_a": rel_a, "extra": np.zeros(len(taus)), "nu": np.full(len(taus), u * u),
-                "limit_f": float32_value(max_interval), "min_f": float32_value(MIN_INTERVAL)}
+        return Float32DtScheme(dt_min=dt_min, dt_max=dt_max, inv_tau=inv_tau, halvings=halvings,
+                n=n, inv_next=[float32_value(1.0 / (j + 1)) for j in range(n)],
+                rel_a=rel_a, extra=np.zeros(len(taus)), nu=np.full(len(taus), u * u),
+                limit_f=float32_value(max_interval), min_f=float32_value(MIN_INTERVAL))
     max_ticks = math.floor(max_interval / TICK + 1e-6)
     if not 1 <= max_ticks < 2 ** 31:
         raise InputError(f"max interval {max_interval:g} s: q31 counts the interval in uint32 ticks "
@@ -592,10 +804,10 @@ def dt_scheme(model: CreepModel, precision: str, max_interval: float) -> dict:
     if np.any(r2 < 0):  # pragma: no cover - excluded by x_max <= 1/2
         raise InputError("the q31 dt step cannot scale this model's coefficients")
     extra = (2.0 ** -31 + 2.0 ** -31 / t_min + 2.0 ** (r1 - 61) / t_min) * np.ones(len(taus))
-    return {"dt_min": TICK, "dt_max": max_ticks * TICK, "max_ticks": max_ticks, "m": ms,
-            "exps": exps, "n": n, "inv_next": [round(2 ** 31 / (j + 1)) for j in range(n)],
-            "r1": r1, "r2": r2, "rel_a": (1 + rel_m) * (1 + rel_t) - 1, "extra": extra,
-            "nu": np.where(r2 >= 1, _Q_STATE, 0.0)}
+    return Q31DtScheme(dt_min=TICK, dt_max=max_ticks * TICK, max_ticks=max_ticks, m=ms,
+            exps=exps, n=n, inv_next=[round(2 ** 31 / (j + 1)) for j in range(n)],
+            r1=r1, r2=r2, rel_a=(1 + rel_m) * (1 + rel_t) - 1, extra=extra,
+            nu=np.where(r2 >= 1, _Q_STATE, 0.0))
 
 
 # ------------------------------------------------------------- over temperature (float32)
@@ -633,7 +845,7 @@ def _exp_horner_error(f_max: float, n: int) -> float:
     return err / math.exp(-f_max)
 
 
-def temperature_scheme(model: CreepModel, rate: float, low: float, high: float) -> dict:
+def temperature_scheme(model: CreepModel, rate: float, low: float, high: float) -> Float32TemperatureScheme:
     """How the temperature step computes ``a_k = 1 - exp(-(T/tau_k) / a_T)`` per sample in
     float32 without libm, and the worst relative error of the computed ``a_k``.
 
@@ -696,14 +908,14 @@ def temperature_scheme(model: CreepModel, rate: float, low: float, high: float) 
     r_min, r_max = 1.0 / float(shifts[0]), 1.0 / float(shifts[1])
     x_hi = dt_over_tau * r_max * (1 + rel_x)
     halvings, n, rel_a = _float32_a_error(x_hi, rel_x, u)
-    return {"low": lo_f, "high": hi_f, "reference": ref_f, "curve_c": c_f, "curve_d": d_f,
-            "log2e": log2e_f, "ln2_head": _LN2_HEAD, "ln2_tail": ln2_tail, "j_max": j_max,
-            "exp_terms": n_exp, "exp_next": [float32_value(1.0 / (i + 1)) for i in range(n_exp)],
-            "y_range": (y_lo, y_hi), "rel_shift": rel_r, "dt": dt, "dt_over_tau": dt_over_tau,
-            "a_max": -np.expm1(-dt / taus * r_max), "a_min": -np.expm1(-dt / taus * r_min),
-            "tau_range": (taus / r_min, taus / r_max), "halvings": halvings, "n": n,
-            "inv_next": [float32_value(1.0 / (j + 1)) for j in range(n)], "rel_a": rel_a,
-            "extra": np.zeros(len(taus)), "nu": np.full(len(taus), u * u)}
+    return Float32TemperatureScheme(low=lo_f, high=hi_f, reference=ref_f, curve_c=c_f, curve_d=d_f,
+            log2e=log2e_f, ln2_head=_LN2_HEAD, ln2_tail=ln2_tail, j_max=j_max,
+            exp_terms=n_exp, exp_next=[float32_value(1.0 / (i + 1)) for i in range(n_exp)],
+            y_range=(y_lo, y_hi), rel_shift=rel_r, dt=dt, dt_over_tau=dt_over_tau,
+            a_max=-np.expm1(-dt / taus * r_max), a_min=-np.expm1(-dt / taus * r_min),
+            tau_range=(taus / r_min, taus / r_max), halvings=halvings, n=n,
+            inv_next=[float32_value(1.0 / (j + 1)) for j in range(n)], rel_a=rel_a,
+            extra=np.zeros(len(taus)), nu=np.full(len(taus), u * u))
 
 
 #: q31 temperature step: the temperature argument's unit (°C).
@@ -732,7 +944,7 @@ def _check_shift_law(model: CreepModel, low: float, high: float):
     return law, shifts
 
 
-def q31_temperature_scheme(model: CreepModel, rate: float, low: float, high: float) -> dict:
+def q31_temperature_scheme(model: CreepModel, rate: float, low: float, high: float) -> Q31TemperatureScheme:
     """How the q31 temperature step computes ``a_k`` per sample with integers only, and its errors.
 
     The temperature comes in units of :data:`TEMPERATURE_STEP_Q` °C (°C x 256, int32), so the
@@ -812,19 +1024,20 @@ def q31_temperature_scheme(model: CreepModel, rate: float, low: float, high: flo
     # per unit a: the word rounding of c_k >> 30 and of (S - c_k) t; the last shift (or a shift
     # beyond 62 bits, which gives 0) is below one state unit, 2^-60 of full scale, per sample
     extra = (2.0 ** -31 + 2.0 ** -31 / t_min) * np.ones(len(taus))
-    return {"low": lo_t, "high": hi_t, "low_q": low_q, "high_q": high_q, "reference_q": ref_q,
-            "reference_d": ref_d,
-            "curve_c_q": c_q, "curve_d_q": d_q, "log2e_q": log2e_q, "ln2_q": ln2_q,
-            "exp_terms": n_exp, "exp_next": [round(2 ** 31 / (i + 1)) for i in range(n_exp)],
-            "y_range": (-math.log(shifts[0]), -math.log(shifts[1])), "rel_shift": rel_r,
-            "m": ms, "exps": exps, "n": n, "inv_next": [round(2 ** 31 / (j + 1)) for j in range(n)],
-            "a_max": -np.expm1(-dt / taus * r_max), "a_min": -np.expm1(-dt / taus * r_min),
-            "tau_range": (taus / r_min, taus / r_max), "rel_a": rel_a, "extra": extra,
-            "nu": np.full(len(taus), 2.0 ** -60), "dt": dt}
+    return Q31TemperatureScheme(low=lo_t, high=hi_t, low_q=low_q, high_q=high_q, reference_q=ref_q,
+            reference_d=ref_d,
+            curve_c_q=c_q, curve_d_q=d_q, log2e_q=log2e_q, ln2_q=ln2_q,
+            exp_terms=n_exp, exp_next=[round(2 ** 31 / (i + 1)) for i in range(n_exp)],
+            y_range=(-math.log(shifts[0]), -math.log(shifts[1])), rel_shift=rel_r,
+            m=ms, exps=exps, n=n, inv_next=[round(2 ** 31 / (j + 1)) for j in range(n)],
+            a_max=-np.expm1(-dt / taus * r_max), a_min=-np.expm1(-dt / taus * r_min),
+            tau_range=(taus / r_min, taus / r_max), rel_a=rel_a, extra=extra,
+            nu=np.full(len(taus), 2.0 ** -60), dt=dt)
 
 
 def temperature_bound(model: CreepModel, method: str, rate: float, full_scale: float,
-                      scheme: dict, precision: str = "float32") -> ErrorBound:
+                      scheme: Float32TemperatureScheme | Q31TemperatureScheme,
+                      precision: str = "float32") -> ErrorBound:
     """Proven worst-case error of the temperature step against the exact corrector
     (:func:`creepcomp.digital.correctors.compensate` with the same temperatures), for every
     temperature history within the scheme's range (:func:`temperature_scheme`,
@@ -834,11 +1047,11 @@ def temperature_bound(model: CreepModel, method: str, rate: float, full_scale: f
     c = exact_coefficients(model, rate)
     st = stored_coefficients(c, precision)
     try:
-        return _invariant_bound(c, st, scheme, scheme["a_max"], scheme["a_min"], method,
+        return _invariant_bound(c, st, scheme, scheme.a_max, scheme.a_min, method,
                                 precision, full_scale, "coefficients a_k(T) (a_T and exp without libm)")
     except InputError as exc:
-        slowest = float(np.max(scheme["tau_range"][0]))
-        raise InputError(f"{exc} over {scheme['low']:g} to {scheme['high']:g} °C (the slowest "
+        slowest = float(np.max(scheme.tau_range[0]))
+        raise InputError(f"{exc} over {scheme.low:g} to {scheme.high:g} °C (the slowest "
                          f"retardation time reaches {slowest:.3g} s, {slowest * rate:.3g} samples): "
                          "narrow --temperature-range") from None
 
@@ -877,13 +1090,13 @@ def _irregular_bound(model: CreepModel, method: str, precision: str, max_interva
     st = stored_coefficients(c, precision)
     sch = dt_scheme(model, precision, max_interval)
     taus = c.tau
-    a_max = -np.expm1(-sch["dt_max"] / taus)
-    a_min = -np.expm1(-sch["dt_min"] / taus)
+    a_max = -np.expm1(-sch.dt_max / taus)
+    a_min = -np.expm1(-sch.dt_min / taus)
     return _invariant_bound(c, st, sch, a_max, a_min, method, precision, full_scale,
                             "coefficients a_k(dt) (series, stored 1/tau)")
 
 
-def _invariant_bound(c: ExactCoefficients, st: StoredCoefficients, sch: dict, a_max: np.ndarray, a_min: np.ndarray,
+def _invariant_bound(c: ExactCoefficients, st: StoredCoefficients, sch: VaryingAErrors, a_max: np.ndarray, a_min: np.ndarray,
                      method: str, precision: str, full_scale: float, coef_label: str,
                      state_error: list | None = None) -> ErrorBound:
     """The bound of a step whose ``a_k`` changes from sample to sample within
@@ -912,11 +1125,11 @@ def _invariant_bound(c: ExactCoefficients, st: StoredCoefficients, sch: dict, a_
         eps, start = local.per_sample, local.start
         eps_total = sum(eps.values())
         if precision == "float32":
-            coef = sch["rel_a"] * d * (1 + u) ** 3
-            rounding = d * ((1 + u) ** 3 - 1) + u * cmax * (1 + u) + sch["nu"] * cmax * (1 + u) / a_min
+            coef = sch.rel_a * d * (1 + u) ** 3
+            rounding = d * ((1 + u) ** 3 - 1) + u * cmax * (1 + u) + sch.nu * cmax * (1 + u) / a_min
         else:
-            coef = sch["rel_a"] * d
-            rounding = sch["extra"] + sch["nu"] / a_min
+            coef = sch.rel_a * d
+            rounding = sch.extra + sch.nu / a_min
         w = eps_total + coef + rounding            # per unit a: |state error| grows by a w
         z_err = zmat @ w + start
         s_max = eps_total + float(b @ z_err)
@@ -1303,8 +1516,8 @@ def recovery_bound(model: CreepModel, rate: float, full_scale: float, term: int,
     rel[term] = max(rel[term], abs(a_rec_st / a_rec - 1))
     k = len(c.a)
     # q31: per unit a, the input's rounding to 30 bits; the update's last shift (2^-60 FS)
-    sch = ({"rel_a": rel, "nu": 0.0} if precision == "float32" else
-           {"rel_a": rel, "extra": np.full(k, _Q_IN), "nu": np.full(k, _Q_STATE)})
+    sch = (VaryingAErrors(rel_a=rel, extra=np.zeros(k), nu=np.zeros(k)) if precision == "float32" else
+           VaryingAErrors(rel_a=rel, extra=np.full(k, _Q_IN), nu=np.full(k, _Q_STATE)))
     errors: list = []
     bound = _invariant_bound(c, st, sch, a_hi, a_lo, "subtractive", precision,
                              full_scale, "coefficients a_k, a_recovery (state updates)", errors)
