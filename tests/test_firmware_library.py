@@ -109,7 +109,7 @@ def test_library_examples_compile_for_the_uno_and_correct_on_simavr(tmp_path, ex
     load = np.where((np.arange(1200) // 300) % 2 == 0, 0.9, -0.4)
     codes = np.round(MODEL.response(t, load * FULL_SCALE, hold="zero")).astype("<i4")
     codes.tofile(tmp_path / "in.bin")
-    subprocess.run([_runner(tmp_path), elf, tmp_path / "in.bin", tmp_path / "out.bin", "-", "relaxed"],
+    subprocess.run([_runner(), elf, tmp_path / "in.bin", tmp_path / "out.bin", "-", "relaxed"],
                    check=True, capture_output=True)
     on_uno = np.fromfile(tmp_path / "out.bin", "<f4").astype(float)
     host, _, _ = run_firmware(fw, codes.astype(float), "relaxed", repeats=1)

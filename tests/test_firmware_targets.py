@@ -133,7 +133,7 @@ int main(void)
     a[::11] *= np.float32(2.0 ** -120)
     a.astype("<f4").tofile(tmp_path / "a.bin")
     b.astype("<f4").tofile(tmp_path / "b.bin")
-    subprocess.run([_runner(tmp_path), elf, tmp_path / "a.bin", tmp_path / "o.bin",
+    subprocess.run([_runner(), elf, tmp_path / "a.bin", tmp_path / "o.bin",
                     tmp_path / "b.bin", "relaxed"], check=True, capture_output=True)
     got = np.fromfile(tmp_path / "o.bin", "<f4")
     op = np.arange(n) % 3

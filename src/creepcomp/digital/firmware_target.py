@@ -16,6 +16,8 @@ they include the library routines the corrector pulls in (avr-libc's float arith
 
 from __future__ import annotations
 
+import atexit
+import functools
 import shutil
 import subprocess
 import tempfile
@@ -288,8 +290,12 @@ def build_program(firmware, chain: Toolchain, folder: Path, program: str, extra_
     return linked[0], linked[1]
 
 
-def _runner(folder: Path) -> Path:
-    """The simavr host runner, compiled against libsimavr."""
+@functools.cache
+def _runner() -> Path:
+    """The simavr host runner, compiled against libsimavr once per process (into a folder
+    removed at exit)."""
+    folder = Path(tempfile.mkdtemp(prefix="creepcomp-simavr-"))
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
     source = resources.files("creepcomp.digital").joinpath("targets", "simavr_run.c")
     exe = folder / "simavr_run"
     run_tool(["gcc", "-O2", "-o", exe, str(source), "-lsimavr"], "compiling the simavr runner")
@@ -306,7 +312,7 @@ def _run_avr(firmware, chain, folder, words, aux, start) -> TargetRun:
     if aux is not None:
         aux.tofile(folder / "aux.bin")
         aux_path = folder / "aux.bin"
-    line = run_tool([_runner(folder), elf, folder / "in.bin", folder / "out.bin", aux_path, start],
+    line = run_tool([_runner(), elf, folder / "in.bin", folder / "out.bin", aux_path, start],
                     "running the corrector on simavr").strip().splitlines()[-1]
     n, largest, mean, stack, refused = line.split()
     flash, ram = _sizes("avr-size", elf)
