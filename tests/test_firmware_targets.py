@@ -232,3 +232,17 @@ def test_cortex_m_error_within_the_bound_and_outputs_equal_the_host(target, prec
     start = "settled"
     host, _, _ = run_firmware(fw, signal, start, repeats=1)
     assert np.array_equal(host, run_on_target(fw, signal, start, target).outputs)
+
+
+@needs_qemu
+def test_cli_target_cortex_m_json_counts_instructions(run_cli, tmp_path):
+    t, load, signal = step_record(MODEL, 600)
+    rec = write_record(tmp_path / "rec.csv", Record(t, load, signal))
+    model = write_model(tmp_path / "model.json", MODEL)
+    status, out, err = run_cli("firmware", model, "--verify", rec, "--target", "cortex-m0plus",
+                               "--json")
+    assert status == 0, err
+    result = json.loads(out)
+    assert result["target"] == "cortex-m0plus" and result["within_bound"]
+    assert result["instructions_per_sample"] > 0 and "cycles_per_sample" not in result
+    assert result["ns_per_sample"] is None and result["flash_bytes"] > 0
