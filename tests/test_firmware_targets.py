@@ -190,11 +190,17 @@ def test_avr_refuses_a_map_computed_in_double():
         run_on_target(fw, [0.0, 0.5], "relaxed", "avr")
 
 
+@pytest.fixture
+def cli_files(tmp_path):
+    """A record of 700 samples and the model's file."""
+    t, load, signal = step_record(MODEL, 700)
+    return (write_record(tmp_path / "rec.csv", Record(t, load, signal)),
+            write_model(tmp_path / "model.json", MODEL))
+
+
 @needs_avr
-def test_cli_target_avr_json(run_cli, tmp_path):
-    t, load, signal = step_record(MODEL, 800)
-    rec = write_record(tmp_path / "rec.csv", Record(t, load, signal))
-    model = write_model(tmp_path / "model.json", MODEL)
+def test_cli_target_avr_json(run_cli, cli_files):
+    rec, model = cli_files
     status, out, err = run_cli("firmware", model, "--verify", rec, "--target", "avr",
                                "--precision", "q31", "--json")
     assert status == 0, err
@@ -235,10 +241,8 @@ def test_cortex_m_error_within_the_bound_and_outputs_equal_the_host(target, prec
 
 
 @needs_qemu
-def test_cli_target_cortex_m_json_counts_instructions(run_cli, tmp_path):
-    t, load, signal = step_record(MODEL, 600)
-    rec = write_record(tmp_path / "rec.csv", Record(t, load, signal))
-    model = write_model(tmp_path / "model.json", MODEL)
+def test_cli_target_cortex_m_json_counts_instructions(run_cli, cli_files):
+    rec, model = cli_files
     status, out, err = run_cli("firmware", model, "--verify", rec, "--target", "cortex-m0plus",
                                "--json")
     assert status == 0, err
