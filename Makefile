@@ -5,12 +5,16 @@ VENV    ?= .venv
 PY      := $(VENV)/bin/python
 STAMP   := $(VENV)/.installed
 DEBS    := ngspice libngspice0 libngspice0-dev gcc
-# (what only the whole suite needs: the HTML report opened in a real browser)
-TEST_DEBS := chromium
+# The cross toolchains and simulators the corrector is verified on (firmware --target): avr-gcc
+# and simavr for the ATmega328P, arm-none-eabi-gcc and QEMU for Cortex-M; all from Debian.
+TOOLCHAIN_DEBS := gcc-avr avr-libc simavr libsimavr-dev gcc-arm-none-eabi libnewlib-arm-none-eabi \
+                  qemu-system-arm
+# (what only the whole suite needs: the HTML report opened in a real browser, the toolchains)
+TEST_DEBS := chromium $(TOOLCHAIN_DEBS)
 SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 DEMO_OUT ?= demo-output
 
-.PHONY: demo test test-all docs setup system-deps test-system-deps netlists bench clean
+.PHONY: demo test test-all docs setup system-deps test-system-deps toolchains netlists bench clean
 
 demo: setup
 	$(VENV)/bin/creepcomp demo --out $(DEMO_OUT)
@@ -38,6 +42,14 @@ test-system-deps:
 	  echo "installing $(TEST_DEBS) from Debian"; \
 	  $(SUDO) apt-get update -q && \
 	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -q $(TEST_DEBS); }
+
+# `make toolchains`: what `creepcomp firmware --verify RECORD --target avr|cortex-m0plus|cortex-m4f`
+# needs, installed from Debian when missing (never a download).
+toolchains:
+	@dpkg -s $(TOOLCHAIN_DEBS) >/dev/null 2>&1 || { \
+	  echo "installing $(TOOLCHAIN_DEBS) from Debian"; \
+	  $(SUDO) apt-get update -q && \
+	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -q $(TOOLCHAIN_DEBS); }
 
 $(STAMP): pyproject.toml
 	python3 -m venv $(VENV)

@@ -349,6 +349,12 @@ def test_every_template_file_is_used(monkeypatch):
                       extension={"play": {"ratio": 0.05, "half_width": 0.01}})
     generate_firmware(MODEL, "subtractive", "q31", RATE, 1.0,
                       extension={"recovery": {"term": 0, "tau_recovery": 20.0, "dead_band": 1e-9}})
+    for program in ("avr_program.c.j2", "arm_program.c.j2"):
+        firmware.render_target_program(generate_firmware(MODEL, rate=RATE), program)
+    from creepcomp.digital.firmware_library import library_files
+
+    for precision in ("float32", "q31"):
+        library_files(generate_firmware(MODEL, "subtractive", precision, RATE, 1.0))
     used = set().union(*(firmware._template_tree(t) for t in rendered))
     files = {f.name for f in resources.files("creepcomp.digital").joinpath("templates").iterdir()
              if f.is_file()}
@@ -438,3 +444,84 @@ def test_cli_dt_step_on_a_jittered_record(run_cli, tmp_path):
     assert "creep_step_dt" in (tmp_path / "fw" / "creep.h").read_text()
     status, _, err = run_cli("firmware", model, "--verify", rec, "--max-interval", "20ms")
     assert status == 2 and "give a larger --max-interval" in err and err.count("\n") == 1
+
+
+@needs_gcc
+def test_float32_state_update_keeps_the_exact_rounding_error(tmp_path):
+    """The state's update adds m = a (target - hi) + lo to hi and keeps the sum's rounding
+    error in lo exactly (Fast2Sum with the larger magnitude first), also when |m| > |hi|."""
+    from fractions import Fraction
+
+    from creepcomp.digital import firmware
+
+    update = firmware._environment().get_template("macros.c.j2").make_module(
+        {"name": "creep", "NAME": "CREEP", "method": "subtractive"}).float32_update("a", "target")
+    (tmp_path / "update.c").write_text(f"""
+#include <stdio.h>
+#include <stdint.h>
+#include <string.h>
+typedef struct {{ float hi[1]; float lo[1]; }} state;
+int main(void)
+{{
+    float in[4];
+    while (fread(in, sizeof in, 1, stdin) == 1) {{
+        state st, *s = &st;
+        const float a = in[2], target = in[3];
+        const int k = 0;
+        st.hi[0] = in[0];
+        st.lo[0] = in[1];
+        {{
+{update}
+        }}
+        fwrite(st.hi, sizeof(float), 1, stdout);
+        fwrite(st.lo, sizeof(float), 1, stdout);
+    }}
+    return 0;
+}}
+""")
+    exe = tmp_path / "update"
+    subprocess.run(["gcc", *STRICT_FLAGS, "-O2", tmp_path / "update.c", "-o", exe], check=True)
+    rng = np.random.default_rng(2)
+    n = 20_000
+    hi = (rng.uniform(-1, 1, n) * 10.0 ** rng.integers(-8, 2, n)).astype(np.float32)
+    hi[::5] = 0.0
+    lo = (hi * rng.uniform(-6e-8, 6e-8, n)).astype(np.float32)
+    a = (10.0 ** rng.uniform(-7, 0, n)).astype(np.float32)
+    target = (rng.uniform(-1, 1, n) * 10.0 ** rng.integers(-8, 2, n)).astype(np.float32)
+    data = np.stack([hi, lo, a, target], axis=1).astype("<f4").tobytes()
+    out = np.frombuffer(subprocess.run([exe], input=data, capture_output=True, check=True).stdout,
+                        dtype="<f4").reshape(-1, 2)
+    m = (a * (target - hi) + lo).astype(np.float32)       # numpy float32: each operation rounded
+    assert np.array_equal(out[:, 0], (hi + m).astype(np.float32))
+    larger_m = np.abs(m) > np.abs(hi)
+    assert larger_m.sum() > 1000
+    for i in range(n):
+        assert Fraction(float(out[i, 0])) + Fraction(float(out[i, 1])) == \
+            Fraction(float(hi[i])) + Fraction(float(m[i]))
+
+
+@needs_gcc
+def test_temperature_step_reuses_its_a_k_only_for_the_same_mid_temperature():
+    """The float32 temperature step keeps the a_k of the last mid temperature: its outputs are
+    those of the step that computes them every sample, bit for bit, with the temperature held
+    for a second at a time, changing every sample, and after a restore."""
+    import dataclasses
+
+    from creepcomp.digital.firmware_check import run_firmware
+    from creepcomp.temperature import TemperatureLaw
+
+    law = CreepModel(MODEL.beta, MODEL.tau, MODEL.gain, MODEL.offset,
+                     temperature=TemperatureLaw.arrhenius(43000.0))
+    fw = generate_firmware(law, "subtractive", "float32", 80.0, 1.0)
+    kept = "if (!s->a_known || temperature_c != s->temperature_c || temperature_c != s->a_mid_c) {"
+    assert fw.source.count(kept) == 1
+    every = dataclasses.replace(fw, source=fw.source.replace(kept, "if (1) {").replace(
+        "if (!s->a_known || mid != s->a_mid_c) {", "if (1) {"))
+    n = 4000
+    signal = MODEL.offset + np.where((np.arange(n) // 300) % 2 == 0, 0.8, -0.3)
+    held = np.repeat(np.round(25 + 20 * np.sin(np.arange(n // 80 + 1) / 3.0), 1), 80)[:n]
+    moving = 25 + 20 * np.sin(np.arange(n) / 70.0)
+    for temperatures in (held, moving):
+        a, _, _ = run_firmware(fw, signal, "relaxed", 1, temperatures=temperatures)
+        b, _, _ = run_firmware(every, signal, "relaxed", 1, temperatures=temperatures)
+        assert np.array_equal(a, b)

@@ -42,11 +42,21 @@ def firmware_command(
                                                          "its bound holds over. Default -40:85. "
                                                          "The step then takes the temperature with "
                                                          "every sample (float32: °C; q31: °C x 256)."),
+    library: Optional[Path] = typer.Option(None, "--library", metavar="DIR",
+                                           help="Write the corrector as an Arduino library (library."
+                                                "properties, src/, examples for the HX711 and "
+                                                "NAU7802) with a PlatformIO library.json."),
     name: str = typer.Option("creep", "--name", metavar="NAME",
                              help="Prefix of the C identifiers and the file names."),
     verify_record: Optional[Path] = typer.Option(None, "--verify", metavar="RECORD",
-                                                 help="Compile with gcc, run over the record's "
-                                                      "samples, compare with the float64 corrector."),
+                                                 help="Compile (gcc, or for --target), run over the "
+                                                      "record's samples, compare with the float64 "
+                                                      "corrector."),
+    target: str = typer.Option("host", "--target", metavar="host|avr|cortex-m0plus|cortex-m4f",
+                               help="Where --verify runs the corrector: this machine (gcc), or "
+                                    "cross-compiled on a simulated chip: the ATmega328P (simavr, "
+                                    "cycles) or a Cortex-M (QEMU, instructions). Reports flash, "
+                                    "RAM and the cost per sample."),
     columns: Optional[str] = typer.Option(None, "--columns", metavar="MAP",
                                           help="Column mapping of the record, e.g. time=t,signal=V."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
@@ -54,16 +64,24 @@ def firmware_command(
     """Write the creep corrector of a model as C99 with its proven error bound; verify it."""
     from creepcomp.digital.correctors import uniform_interval
     from creepcomp.digital.firmware import PRECISIONS, generate_firmware
+    from creepcomp.digital.firmware_library import library_contents
+    from creepcomp.digital.firmware_target import TARGETS
     from creepcomp.io.jsonfiles import read_model
     from creepcomp.io.outputs import check_outputs
     from creepcomp.io.records import parse_columns, read_record
 
-    check_outputs(dirs={"-o": output}, inputs=[model_file, verify_record],
-                  contents={"-o": (f"{name}.h", f"{name}.c")})
+    check_outputs(dirs={"-o": output, "--library": library}, inputs=[model_file, verify_record],
+                  contents={"-o": (f"{name}.h", f"{name}.c"),
+                            "--library": library_contents(name)})
     method = method.strip().lower()
     precision = precision.strip().lower()
     if precision not in PRECISIONS:
         raise InputError(f"--precision '{precision}': use float32 or q31")
+    target = target.strip().lower()
+    if target not in TARGETS:
+        raise InputError(f"--target '{target}': use {', '.join(TARGETS)}")
+    if target != "host" and verify_record is None:
+        raise InputError(f"--target {target} runs the corrector over a record: give --verify RECORD")
     model, polynomial, extension = _linear_part(read_model(model_file))
     rate_hz = quantity(rate, "hertz", "--rate", positive=True)
     longest = quantity(max_interval, "second", "--max-interval", positive=True)
@@ -112,12 +130,17 @@ def firmware_command(
         check = verify_firmware(firmware, record.time, record.signal,
                                 temperature=(None if firmware.temperature_range is None
                                              else record.temperature),
-                                reference=_extended_reference(read_model(model_file), firmware, record))
+                                reference=_extended_reference(read_model(model_file), firmware, record),
+                                target=target)
         result.update(check.to_dict())
         result["record"] = str(verify_record)
     # written after the verification: an interrupted --verify leaves no C files
     if output is not None:
         result["files"] = [str(p) for p in firmware.write(output)]
+    if library is not None:
+        from creepcomp.digital.firmware_library import write_library
+
+        result["files"] += [str(p) for p in write_library(firmware, library)]
     if as_json:
         print_json(result)
     else:
@@ -172,6 +195,7 @@ def _celsius_range(text: str | None) -> tuple[float, float] | None:
 
 
 def _render(result: dict, firmware, check) -> None:
+    from creepcomp.digital.firmware_target import TOOLCHAINS
     from creepcomp.units import format_quantity
 
     console.print(f"[bold]creepcomp firmware[/bold]: {result['model']}, {result['method']} method, "
@@ -201,11 +225,16 @@ def _render(result: dict, firmware, check) -> None:
             console.print(f"mode decisions within the switching margin on this record: "
                           f"{check.switching['steps']}, adding {check.switching['added_fs']:.3e} of full "
                           f"scale: bound on this record {check.bound_fs:.3e}", soft_wrap=True)
+        run = check.on_target
+        cost = (f"{check.ns_per_sample:.1f} ns per sample on this machine; object "
+                f"{check.object_bytes} bytes (gcc -O2, text + data)" if run is None else
+                f"on {TOOLCHAINS[run.target].chip}: {run.per_sample:.0f} {run.counts} per sample "
+                + ("(mean)" if run.largest is None else f"(mean; largest {run.largest})")
+                + f", flash {run.flash_bytes} bytes, RAM {run.ram_bytes} "
+                f"bytes (state {run.state_bytes} bytes, stack {run.stack_bytes} bytes)")
         console.print(f"verified on {result['record']}: {check.samples} samples, largest error "
-                      f"{check.max_error_fs:.3e} of full scale ({verdict}); "
-                      f"{check.ns_per_sample:.1f} ns per sample on this machine; object "
-                      f"{check.object_bytes} bytes (gcc -O2, text + data)", soft_wrap=True)
+                      f"{check.max_error_fs:.3e} of full scale ({verdict}); {cost}", soft_wrap=True)
     if result["files"]:
         console.print("written: " + ", ".join(result["files"]), soft_wrap=True)
     else:
-        console.print("no files written (give -o DIR)")
+        console.print("no files written (give -o DIR or --library DIR)")

@@ -12,7 +12,8 @@ at a high rate ``a_k`` is tiny, and the increment ``a_k (S - c_k)`` is far below
 of a single-precision state. So the state is held wider than the arithmetic:
 
 - ``float32``: each state is an unevaluated sum ``hi + lo`` of two floats; the increment is added
-  with an error-free sum (Knuth's TwoSum), its rounding error kept in ``lo`` (error feedback).
+  with an error-free sum (Dekker's Fast2Sum, the larger magnitude first), its rounding error
+  kept in ``lo`` (error feedback).
 - ``q31``: samples are 32-bit words, ``2**30`` per full scale; the states are 64-bit integers with
   ``2**60`` per full scale; coefficients are 31-bit mantissas with a shift (relative error
   ``2**-31`` however small ``a_k`` is); every product fits a 64-bit integer.
@@ -43,6 +44,7 @@ from jinja2 import meta
 
 from creepcomp.digital.firmware_bound import (DEFAULT_TEMPERATURE_RANGE, FULL_SCALE_WORD,
                                               MIN_INTERVAL, PRECISIONS, REFERENCE_ALLOWANCE,
+                                              ExactCoefficients, StoredCoefficients,
                                               ROOT_STEPS, TEMPERATURE_STEP_Q, TICK, ErrorBound,
                                               check_arguments, check_interval, dt_scheme,
                                               exact_coefficients, firmware_bound, float32_value,
@@ -55,7 +57,7 @@ from creepcomp.model import CreepModel
 
 __all__ = ["PRECISIONS", "FULL_SCALE_WORD", "REFERENCE_ALLOWANCE", "MIN_INTERVAL", "TICK",
            "DEFAULT_TEMPERATURE_RANGE", "TEMPERATURE_STEP_Q", "ErrorBound", "Firmware", "firmware_bound", "generate_firmware", "naive_float32",
-           "check_no_extensions"]
+           "check_no_extensions", "render_target_program"]
 
 
 @dataclass(frozen=True)
@@ -82,6 +84,9 @@ class Firmware:
     extension : dict or None
         For the step of an extension map (:mod:`creepcomp.digital.firmware_extension`): its
         kind and what its verification needs; None otherwise.
+    uses_double : bool
+        The step computes in ``double`` (a static polynomial's root, a float32 extension map):
+        its bound takes ``double`` as IEEE binary64.
     """
 
     model: CreepModel
@@ -98,6 +103,7 @@ class Firmware:
     max_interval: float | None = None
     temperature_range: tuple[float, float] | None = None
     extension: dict | None = None
+    uses_double: bool = False
 
     @property
     def irregular(self) -> bool:
@@ -228,7 +234,8 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
                     rate=None if irregular else float(rate),
                     full_scale=float(full_scale), name=name, header=header, source=source,
                     harness=harness, bound=bound, coefficients=_coefficient_table(c, st, precision),
-                    max_interval=float(scheme["dt_max"]) if irregular else None)
+                    max_interval=float(scheme.dt_max) if irregular else None,
+                    uses_double=polynomial is not None)
 
 
 def _extension_firmware(model: CreepModel, rate: float, full_scale: float, name: str,
@@ -256,7 +263,14 @@ def _extension_firmware(model: CreepModel, rate: float, full_scale: float, name:
     return Firmware(model=model, method=method, precision=precision, rate=float(rate),
                     full_scale=float(full_scale), name=name, header=header, source=source,
                     harness=harness, bound=bound, coefficients=_coefficient_table(c, st, precision),
-                    extension=check)
+                    extension=check, uses_double=precision == "float32")
+
+
+def render_target_program(firmware: Firmware, template: str) -> str:
+    """The program that runs a corrector's step on a simulated chip
+    (:mod:`creepcomp.digital.firmware_target`), from its template."""
+    return _render(template, name=firmware.name, precision=firmware.precision,
+                   irregular=firmware.irregular, temperature=firmware.temperature_range is not None)
 
 
 def check_no_extensions(model: CreepModel) -> None:
@@ -286,7 +300,7 @@ def naive_float32(model: CreepModel, method: str = "subtractive", rate: float = 
                      bound=["NAIVE reference recursion (c = e c + (1 - e) S in float32): no error "
                             "bound; for comparison only, do not deploy."], bound_fs="-1.0")
     source = _render("naive.c.j2", name=name, NAME=name.upper(), method=method,
-                     e=[_c_float(x) for x in c["e"]], **_coefficient_values("float32", st, None))
+                     e=[_c_float(x) for x in c.decay], **_coefficient_values("float32", st, None))
     harness = _render("harness.c.j2", name=name, NAME=name.upper(), precision="float32",
                       irregular=False, temperature=False)
     return Firmware(model=model, method=method, precision="float32", rate=float(rate),
@@ -316,19 +330,19 @@ def _temperature_firmware(model, method, precision, rate, full_scale, name, max_
     st = stored_coefficients(c, precision)
     values = _header_values(model, method, precision, rate, full_scale, name, c, None, None)
     values["command"] += f" --temperature-range {low:g}:{high:g}"
-    identity = (values["model_id"], law.to_dict(), scheme["low"], scheme["high"])
+    identity = (values["model_id"], law.to_dict(), scheme.low, scheme.high)
     values.update(irregular=True, temperature=True, model_id=f"0x{_fnv1a(repr(identity)):08x}u")
     if precision == "float32":
-        values.update(temperature_low=_c_float(scheme["low"]), temperature_high=_c_float(scheme["high"]),
-                      temperature_reference=_c_float(scheme["reference"]))
+        values.update(temperature_low=_c_float(scheme.low), temperature_high=_c_float(scheme.high),
+                      temperature_reference=_c_float(scheme.reference))
     else:
-        values.update(temperature_low=str(scheme["low_q"]), temperature_high=str(scheme["high_q"]),
-                      temperature_reference=str(scheme["reference_q"]))
+        values.update(temperature_low=str(scheme.low_q), temperature_high=str(scheme.high_q),
+                      temperature_reference=str(scheme.reference_q))
     header = _render(f"{precision}_temperature.h.j2", **values,
                      derivation=_temperature_derivation(model, method, precision, rate, full_scale,
                                                         c, st, scheme),
                      bound=_bound_lines(bound, full_scale)
-                     + [f"The bound holds for temperatures in {scheme['low']:g} to {scheme['high']:g} °C; "
+                     + [f"The bound holds for temperatures in {scheme.low:g} to {scheme.high:g} °C; "
                         "outside, the step clamps the temperature to that range."],
                      bound_fs=f"{bound.total_fs:.3e}")
     source = _render(f"{precision}_temperature.c.j2", name=name, NAME=name.upper(),
@@ -337,19 +351,19 @@ def _temperature_firmware(model, method, precision, rate, full_scale, name, max_
     harness = _render("harness.c.j2", name=name, NAME=name.upper(), precision=precision,
                       irregular=False, temperature=True)
     table = _coefficient_table(c, st, precision)
-    table.update(temperature_range=[scheme["low"], scheme["high"]],
-                 a_range=[[float(x) for x in scheme["a_min"]], [float(x) for x in scheme["a_max"]]],
-                 shift_relative_error=scheme["rel_shift"])
+    table.update(temperature_range=[scheme.low, scheme.high],
+                 a_range=[[float(x) for x in scheme.a_min], [float(x) for x in scheme.a_max]],
+                 shift_relative_error=scheme.rel_shift)
     return Firmware(model=model, method=method, precision=precision, rate=float(rate),
                     full_scale=float(full_scale), name=name, header=header, source=source,
                     harness=harness, bound=bound, coefficients=table,
-                    temperature_range=(scheme["low"], scheme["high"]))
+                    temperature_range=(scheme.low, scheme.high))
 
 
-def _coefficient_table(c: dict, st: dict, precision: str) -> dict:
-    return {"T": c["T"], "beta": [float(x) for x in c["beta"]], "tau": [float(x) for x in c["tau"]],
-            "a": [float(x) for x in c["a"]], "a_stored": [float(x) for x in st["a"]],
-            "beta_stored": [float(x) for x in st["beta"]], "precision": precision}
+def _coefficient_table(c: ExactCoefficients, st: StoredCoefficients, precision: str) -> dict:
+    return {"T": c.interval, "beta": [float(x) for x in c.beta], "tau": [float(x) for x in c.tau],
+            "a": [float(x) for x in c.a], "a_stored": [float(x) for x in st.a],
+            "beta_stored": [float(x) for x in st.beta], "precision": precision}
 
 
 # ------------------------------------------------------------------ the values of the templates
@@ -375,7 +389,7 @@ def _header_values(model, method, precision, rate, full_scale, name, c, scheme,
                    max_interval) -> dict:
     """The header's values but its comments (derivation, bound): the description and macros."""
     timing = f"--rate {rate:.9g}" if scheme is None else f"--max-interval {max_interval:.9g}"
-    identity = (c["beta"].tolist(), c["tau"].tolist(), c["offset"], rate, full_scale, precision,
+    identity = (c.beta.tolist(), c.tau.tolist(), c.offset, rate, full_scale, precision,
                 method) + (() if max_interval is None else (max_interval,))
     values = {"name": name, "NAME": name.upper(), "version": _version(), "method": method,
               "precision": precision, "irregular": scheme is not None, "temperature": False,
@@ -386,38 +400,38 @@ def _header_values(model, method, precision, rate, full_scale, name, c, scheme,
     if scheme is None:
         values["rate"] = repr(float(rate))
     elif precision == "float32":
-        values.update(min_interval=_c_float(scheme["min_f"]),
-                      max_interval=_c_float(scheme["limit_f"]))
+        values.update(min_interval=_c_float(scheme.min_f),
+                      max_interval=_c_float(scheme.limit_f))
     else:
-        values.update(tick=repr(TICK), max_ticks=str(scheme["max_ticks"]),
-                      max_interval=repr(scheme["dt_max"]))
+        values.update(tick=repr(TICK), max_ticks=str(scheme.max_ticks),
+                      max_interval=repr(scheme.dt_max))
     return values
 
 
-def _coefficient_values(precision: str, st: dict, scheme: dict | None) -> dict:
+def _coefficient_values(precision: str, st: StoredCoefficients, scheme=None) -> dict:
     """The stored coefficients as C literals: of the fixed-rate step, or of the dt step."""
     if precision == "float32":
-        values = {"beta": [_c_float(x) for x in st["beta"]], "offset": _c_float(st["offset"]),
-                  "inv_saturation": _c_float(st["w"]), "saturation": _c_float(st["sigma"])}
+        values = {"beta": [_c_float(x) for x in st.beta], "offset": _c_float(st.offset),
+                  "inv_saturation": _c_float(st.inv_saturation), "saturation": _c_float(st.saturation)}
         if scheme is None:
-            values["a"] = [_c_float(x) for x in st["a"]]
+            values["a"] = [_c_float(x) for x in st.a]
         else:
-            values.update(inv_tau=[_c_float(x) for x in scheme["inv_tau"]],
-                          inv_next=[_c_float(x) for x in scheme["inv_next"]],
-                          series_terms=str(scheme["n"]))
+            values.update(inv_tau=[_c_float(x) for x in scheme.inv_tau],
+                          inv_next=[_c_float(x) for x in scheme.inv_next],
+                          series_terms=str(scheme.n))
         return values
-    values = {"beta_mantissas": [str(m) for m, _ in st["beta_q"]],
-              "beta_shifts": [str(1 + s) for _, s in st["beta_q"]],
-              "saturation": str(st["sigma_q"]), "inv_saturation": str(st["w_q"])}
+    values = {"beta_mantissas": [str(m) for m, _ in st.beta_q],
+              "beta_shifts": [str(1 + s) for _, s in st.beta_q],
+              "saturation": str(st.saturation_q), "inv_saturation": str(st.inv_saturation_q)}
     if scheme is None:
-        values.update(a_mantissas=[str(m) for m, _ in st["a_q"]],
-                      a_shifts=[str(1 + s) for _, s in st["a_q"]])
+        values.update(a_mantissas=[str(m) for m, _ in st.a_q],
+                      a_shifts=[str(1 + s) for _, s in st.a_q])
     else:
-        values.update(tick_mantissas=[str(m) for m, _ in scheme["m"]],
-                      tick_exponents=[str(int(e)) for e in scheme["exps"]],
-                      second_shifts=[str(int(r)) for r in scheme["r2"]],
-                      first_shift=str(scheme["r1"]), inv_next=[str(v) for v in scheme["inv_next"]],
-                      series_terms=str(scheme["n"]))
+        values.update(tick_mantissas=[str(m) for m, _ in scheme.m],
+                      tick_exponents=[str(int(e)) for e in scheme.exps],
+                      second_shifts=[str(int(r)) for r in scheme.r2],
+                      first_shift=str(scheme.r1), inv_next=[str(v) for v in scheme.inv_next],
+                      series_terms=str(scheme.n))
     return values
 
 
@@ -426,20 +440,20 @@ def _derivation(model, method, precision, rate, full_scale, c, st) -> list[str]:
     unit = "signal units"
     lines = [f"Model: {model.n_terms} creep term(s), beta0 = {model.beta0:.6g}, offset = "
              f"{model.offset:.9g} {unit}; method {method}; precision {precision}.",
-             f"Sample interval T = 1 / {_qty(rate, 'Hz')} = {_qty(c['T'], 's')}; load held between samples.",
+             f"Sample interval T = 1 / {_qty(rate, 'Hz')} = {_qty(c.interval, 's')}; load held between samples.",
              f"Full scale FS = {full_scale:.9g} {unit}: the inputs satisfy |raw - offset| <= FS."]
     for k in range(model.n_terms):
-        tau, a = c["tau"][k], c["a"][k]
-        lines.append(f"term {k}: beta = {c['beta'][k]:.9g}, tau = {_qty(tau, 's')}, tau/T = {tau / c['T']:.6g}")
-        lines.append(f"  a = 1 - exp(-T/tau) = -expm1(-{c['T'] / tau:.9g}) = {a:.12g}")
+        tau, a = c.tau[k], c.a[k]
+        lines.append(f"term {k}: beta = {c.beta[k]:.9g}, tau = {_qty(tau, 's')}, tau/T = {tau / c.interval:.6g}")
+        lines.append(f"  a = 1 - exp(-T/tau) = -expm1(-{c.interval / tau:.9g}) = {a:.12g}")
         if precision == "float32":
-            lines.append(f"  stored a = {st['a'][k]:.9e} (relative error {abs(st['a'][k] / a - 1):.2e}), "
-                         f"beta = {st['beta'][k]:.9e} (relative error {abs(st['beta'][k] / c['beta'][k] - 1):.2e})")
+            lines.append(f"  stored a = {st.a[k]:.9e} (relative error {abs(st.a[k] / a - 1):.2e}), "
+                         f"beta = {st.beta[k]:.9e} (relative error {abs(st.beta[k] / c.beta[k] - 1):.2e})")
         else:
-            (am, ash), (bm, bsh) = st["a_q"][k], st["beta_q"][k]
-            lines.append(f"  stored a = {am} * 2^-{31 + ash} (relative error {abs(st['a'][k] / a - 1):.2e}), "
-                         f"beta = {bm} * 2^-{31 + bsh} (relative error {abs(st['beta'][k] / c['beta'][k] - 1):.2e})")
-    lines.append(f"1 + beta0 = {c['sigma']:.12g} (supplemental scale); 1/(1 + beta0) = {c['w']:.12g} "
+            (am, ash), (bm, bsh) = st.a_q[k], st.beta_q[k]
+            lines.append(f"  stored a = {am} * 2^-{31 + ash} (relative error {abs(st.a[k] / a - 1):.2e}), "
+                         f"beta = {bm} * 2^-{31 + bsh} (relative error {abs(st.beta[k] / c.beta[k] - 1):.2e})")
+    lines.append(f"1 + beta0 = {c.saturation:.12g} (supplemental scale); 1/(1 + beta0) = {c.inv_saturation:.12g} "
                  "(settled start: c_k = x / (1 + beta0))")
     return lines
 
@@ -447,7 +461,7 @@ def _derivation(model, method, precision, rate, full_scale, c, st) -> list[str]:
 def _dt_derivation(model, method, precision, full_scale, c, st, scheme) -> list[str]:
     """The dt step's coefficients and the error of its ``a_k(dt)``, as comment lines."""
     unit = "signal units"
-    lo, hi = scheme["dt_min"], scheme["dt_max"]
+    lo, hi = scheme.dt_min, scheme.dt_max
     lines = [f"Model: {model.n_terms} creep term(s), beta0 = {model.beta0:.6g}, offset = "
              f"{model.offset:.9g} {unit}; method {method}; precision {precision}.",
              f"Irregular sampling: dt = time since the previous sample, {_qty(lo, 's')} <= dt <= "
@@ -455,45 +469,45 @@ def _dt_derivation(model, method, precision, full_scale, c, st, scheme) -> list[
              f"Full scale FS = {full_scale:.9g} {unit}: the inputs satisfy |raw - offset| <= FS.",
              "a_k(dt) = 1 - exp(-dt/tau_k) is computed per sample without libm "
              + ("(halving to x <= 1/8, " if precision == "float32" else "(x <= 1/2, ")
-             + f"{scheme['n']} Taylor terms of (1 - exp(-x))/x"
+             + f"{scheme.n} Taylor terms of (1 - exp(-x))/x"
              + (", doubling a <- a(2 - a));" if precision == "float32" else ");"),
              "its worst relative error over the dt range is in the bound:"]
     for k in range(model.n_terms):
-        tau = c["tau"][k]
-        lines.append(f"term {k}: beta = {c['beta'][k]:.9g}, tau = {_qty(tau, 's')}, "
+        tau = c.tau[k]
+        lines.append(f"term {k}: beta = {c.beta[k]:.9g}, tau = {_qty(tau, 's')}, "
                      f"a(dt max) = {-math.expm1(-hi / tau):.9g}, relative error of computed a <= "
-                     f"{scheme['rel_a'][k]:.2e}")
+                     f"{scheme.rel_a[k]:.2e}")
         if precision == "float32":
-            lines.append(f"  stored 1/tau = {scheme['inv_tau'][k]:.9e} 1/s, halvings <= {int(scheme['halvings'][k])}; "
-                         f"beta = {st['beta'][k]:.9e}")
+            lines.append(f"  stored 1/tau = {scheme.inv_tau[k]:.9e} 1/s, halvings <= {int(scheme.halvings[k])}; "
+                         f"beta = {st.beta[k]:.9e}")
         else:
-            m, sh = scheme["m"][k]
+            m, sh = scheme.m[k]
             lines.append(f"  tick/tau = {m} * 2^-{31 + sh} (tick {TICK:g} s); beta = "
-                         f"{st['beta_q'][k][0]} * 2^-{31 + st['beta_q'][k][1]}")
-    lines.append(f"1 + beta0 = {c['sigma']:.12g} (supplemental scale); 1/(1 + beta0) = {c['w']:.12g} "
+                         f"{st.beta_q[k][0]} * 2^-{31 + st.beta_q[k][1]}")
+    lines.append(f"1 + beta0 = {c.saturation:.12g} (supplemental scale); 1/(1 + beta0) = {c.inv_saturation:.12g} "
                  "(settled start: c_k = x / (1 + beta0))")
     return lines
 
 
-def _temperature_values(precision: str, st: dict, scheme: dict) -> dict:
+def _temperature_values(precision: str, st: StoredCoefficients, scheme) -> dict:
     """The temperature step's stored coefficients as C literals."""
     coefficients = _coefficient_values(precision, st, None)
     if precision == "float32":
         del coefficients["a"]
-        return {**coefficients, "dt_over_tau": [_c_float(x) for x in scheme["dt_over_tau"]],
-                "inv_next": [_c_float(x) for x in scheme["inv_next"]], "series_terms": str(scheme["n"]),
-                "exp_next": [_c_float(x) for x in scheme["exp_next"]],
-                "exp_terms": str(scheme["exp_terms"]), "curve_c": _c_float(scheme["curve_c"]),
-                "curve_d": _c_float(scheme["curve_d"]), "log2e": _c_float(scheme["log2e"]),
-                "ln2_head": _c_float(scheme["ln2_head"]), "ln2_tail": _c_float(scheme["ln2_tail"])}
+        return {**coefficients, "dt_over_tau": [_c_float(x) for x in scheme.dt_over_tau],
+                "inv_next": [_c_float(x) for x in scheme.inv_next], "series_terms": str(scheme.n),
+                "exp_next": [_c_float(x) for x in scheme.exp_next],
+                "exp_terms": str(scheme.exp_terms), "curve_c": _c_float(scheme.curve_c),
+                "curve_d": _c_float(scheme.curve_d), "log2e": _c_float(scheme.log2e),
+                "ln2_head": _c_float(scheme.ln2_head), "ln2_tail": _c_float(scheme.ln2_tail)}
     del coefficients["a_mantissas"], coefficients["a_shifts"]
-    return {**coefficients, "dt_mantissas": [str(m) for m, _ in scheme["m"]],
-            "dt_exponents": [str(int(e)) for e in scheme["exps"]],
-            "inv_next": [str(v) for v in scheme["inv_next"]], "series_terms": str(scheme["n"]),
-            "exp_next": [str(v) for v in scheme["exp_next"]], "exp_terms": str(scheme["exp_terms"]),
-            "curve_c": str(scheme["curve_c_q"]), "curve_d": str(scheme["curve_d_q"]),
-            "reference": str(scheme["reference_d"]),
-            "log2e": str(scheme["log2e_q"]), "ln2": str(scheme["ln2_q"])}
+    return {**coefficients, "dt_mantissas": [str(m) for m, _ in scheme.m],
+            "dt_exponents": [str(int(e)) for e in scheme.exps],
+            "inv_next": [str(v) for v in scheme.inv_next], "series_terms": str(scheme.n),
+            "exp_next": [str(v) for v in scheme.exp_next], "exp_terms": str(scheme.exp_terms),
+            "curve_c": str(scheme.curve_c_q), "curve_d": str(scheme.curve_d_q),
+            "reference": str(scheme.reference_d),
+            "log2e": str(scheme.log2e_q), "ln2": str(scheme.ln2_q)}
 
 
 def _temperature_derivation(model, method, precision, rate, full_scale, c, st, scheme) -> list[str]:
@@ -502,39 +516,39 @@ def _temperature_derivation(model, method, precision, rate, full_scale, c, st, s
     unit = "signal units"
     shape = (f"a_T = exp(E_a/R (1/T - 1/T_ref)), E_a = {law.activation_energy:.6g} J/mol"
              if law.law == "arrhenius" else f"log10 a_T = -c1 d / (c2 + d), c1 = {law.c1:.6g}, c2 = {law.c2:.6g} K")
-    y_lo, y_hi = scheme["y_range"]
+    y_lo, y_hi = scheme.y_range
     lines = [f"Model: {model.n_terms} creep term(s), beta0 = {model.beta0:.6g}, offset = "
              f"{model.offset:.9g} {unit}; method {method}; precision {precision}.",
-             f"Sample interval T = 1 / {_qty(rate, 'Hz')} = {_qty(c['T'], 's')}; load held between samples.",
+             f"Sample interval T = 1 / {_qty(rate, 'Hz')} = {_qty(c.interval, 's')}; load held between samples.",
              f"Full scale FS = {full_scale:.9g} {unit}: the inputs satisfy |raw - offset| <= FS.",
              f"Temperature law ({law.law}, reference T_ref = {law.reference:g} °C): tau_k(T) = tau_k a_T, {shape}.",
-             f"Temperature range {scheme['low']:g} to {scheme['high']:g} °C (clamped): "
+             f"Temperature range {scheme.low:g} to {scheme.high:g} °C (clamped): "
              f"ln(1/a_T) from {y_lo:.6g} to {y_hi:.6g}.",
              "Per sample, tau_k over the step follows the temperature at its middle, "
              "Tm = (T_prev + T)/2; without libm:"]
     if precision == "float32":
-        lines += [f"  y = ln(1/a_T) = C d / (D0 + d), d = Tm - T_ref, C = {scheme['curve_c']:.9g}, D0 = {scheme['curve_d']:.9g};",
-                  f"  1/a_T = 2^j exp(f), j = round(y / ln 2), |f| <= ln2/2, exp(f) by {scheme['exp_terms']} Taylor terms;",
-                  f"  a_k = 1 - exp(-x_k), x_k = (T/tau_k) / a_T, as the dt step ({scheme['n']} terms of (1 - exp(-x))/x)."]
+        lines += [f"  y = ln(1/a_T) = C d / (D0 + d), d = Tm - T_ref, C = {scheme.curve_c:.9g}, D0 = {scheme.curve_d:.9g};",
+                  f"  1/a_T = 2^j exp(f), j = round(y / ln 2), |f| <= ln2/2, exp(f) by {scheme.exp_terms} Taylor terms;",
+                  f"  a_k = 1 - exp(-x_k), x_k = (T/tau_k) / a_T, as the dt step ({scheme.n} terms of (1 - exp(-x))/x)."]
     else:
         lines += ["  temperatures in 1/256 °C (int32_t), so Tm is exact;",
-                  f"  y = ln(1/a_T) = C d / (D0 + d) in Q28, d = Tm - T_ref in 2^-19 K, C = {scheme['curve_c_q']} * 2^-28, "
-                  f"D0 = {scheme['curve_d_q']} * 2^-19 K (one 64-bit division);",
-                  f"  1/a_T = p 2^j, j = round(y / ln 2), p = exp(f) in Q31 by {scheme['exp_terms']} Taylor terms;",
-                  f"  a_k = x t(x), x = (T/tau_k) p 2^j, t = (1 - exp(-x))/x in Q31 ({scheme['n']} terms), as the q31 dt step."]
-    lines.append(f"Relative error of the computed 1/a_T <= {scheme['rel_shift']:.2e} (temperature, y, f, polynomial).")
-    lo_tau, hi_tau = scheme["tau_range"]
+                  f"  y = ln(1/a_T) = C d / (D0 + d) in Q28, d = Tm - T_ref in 2^-19 K, C = {scheme.curve_c_q} * 2^-28, "
+                  f"D0 = {scheme.curve_d_q} * 2^-19 K (one 64-bit division);",
+                  f"  1/a_T = p 2^j, j = round(y / ln 2), p = exp(f) in Q31 by {scheme.exp_terms} Taylor terms;",
+                  f"  a_k = x t(x), x = (T/tau_k) p 2^j, t = (1 - exp(-x))/x in Q31 ({scheme.n} terms), as the q31 dt step."]
+    lines.append(f"Relative error of the computed 1/a_T <= {scheme.rel_shift:.2e} (temperature, y, f, polynomial).")
+    lo_tau, hi_tau = scheme.tau_range
     for k in range(model.n_terms):
-        lines.append(f"term {k}: beta = {c['beta'][k]:.9g}, tau = {_qty(c['tau'][k], 's')} at T_ref, "
+        lines.append(f"term {k}: beta = {c.beta[k]:.9g}, tau = {_qty(c.tau[k], 's')} at T_ref, "
                      f"{_qty(hi_tau[k], 's')} to {_qty(lo_tau[k], 's')} over the range; a from "
-                     f"{scheme['a_min'][k]:.6g} to {scheme['a_max'][k]:.6g}, relative error of computed a <= "
-                     f"{scheme['rel_a'][k]:.2e}")
+                     f"{scheme.a_min[k]:.6g} to {scheme.a_max[k]:.6g}, relative error of computed a <= "
+                     f"{scheme.rel_a[k]:.2e}")
         if precision == "float32":
-            lines.append(f"  stored T/tau = {scheme['dt_over_tau'][k]:.9e}, beta = {st['beta'][k]:.9e}")
+            lines.append(f"  stored T/tau = {scheme.dt_over_tau[k]:.9e}, beta = {st.beta[k]:.9e}")
         else:
-            m, sh = scheme["m"][k]
-            lines.append(f"  T/tau = {m} * 2^-{31 + sh}; beta = {st['beta_q'][k][0]} * 2^-{31 + st['beta_q'][k][1]}")
-    lines.append(f"1 + beta0 = {c['sigma']:.12g} (supplemental scale); 1/(1 + beta0) = {c['w']:.12g} "
+            m, sh = scheme.m[k]
+            lines.append(f"  T/tau = {m} * 2^-{31 + sh}; beta = {st.beta_q[k][0]} * 2^-{31 + st.beta_q[k][1]}")
+    lines.append(f"1 + beta0 = {c.saturation:.12g} (supplemental scale); 1/(1 + beta0) = {c.inv_saturation:.12g} "
                  "(settled start: c_k = x / (1 + beta0))")
     return lines
 

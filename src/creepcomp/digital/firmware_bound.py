@@ -22,7 +22,11 @@ from creepcomp.model import CreepModel
 
 __all__ = ["PRECISIONS", "FULL_SCALE_WORD", "REFERENCE_ALLOWANCE", "MIN_INTERVAL", "TICK",
            "DEFAULT_TEMPERATURE_RANGE", "ErrorBound", "firmware_bound", "check_arguments",
-           "check_interval", "exact_coefficients", "stored_coefficients", "dt_scheme",
+           "check_interval", "TargetArithmetic", "TARGET_ARITHMETIC", "check_target_arithmetic",
+           "BoundedCorrector", "RecursionGains", "SampleErrors", "ExactCoefficients",
+           "VaryingAErrors", "Float32DtScheme", "Q31DtScheme", "Float32TemperatureScheme",
+           "Q31TemperatureScheme",
+           "StoredCoefficients", "exact_coefficients", "stored_coefficients", "dt_scheme",
            "float32_value", "temperature_scheme", "q31_temperature_scheme", "temperature_bound",
            "TEMPERATURE_STEP_Q", "ROOT_STEPS", "polynomial_bound", "EXP_RELATIVE_ERROR",
            "reloading_bound", "peak_bound", "play_bound", "recovery_bound", "overshoot_bound",
@@ -77,6 +81,58 @@ class ErrorBound:
                 "peak_fs": self.peak_fs, "gains": dict(self.gains)}
 
 
+@dataclass(frozen=True)
+class TargetArithmetic:
+    """The arithmetic of a machine the corrector runs on, as its bound takes it.
+
+    The float32 bound counts every operation of ``float`` as IEEE binary32 rounded to nearest
+    (ties to even) with gradual underflow, each rounding at most ``float_unit_roundoff`` of its
+    result; the q31 corrector uses fixed-width integers only, the same on every machine.
+
+    Attributes
+    ----------
+    target : str
+        ``host``, ``avr``, ``cortex-m0plus`` or ``cortex-m4f``.
+    float_arithmetic : str
+        Where its binary32 operations come from.
+    float_unit_roundoff : float
+        ``u`` of its ``float``: ``2**-24`` (binary32 rounded to nearest) on every target here.
+    double_bits : int
+        Significand bits of its C ``double``: 53 (binary64), or 24 on the ATmega328P, whose
+        avr-gcc ``double`` is binary32. A map computed in ``double`` (the diagnosis's extensions)
+        has its bound for 53 bits only.
+    fused_multiply_add : bool
+        It has a fused multiply-add a build may contract ``a * b + c`` into: one rounding where
+        the bound counts two of no larger terms, so the bound still holds.
+    """
+
+    target: str
+    float_arithmetic: str
+    float_unit_roundoff: float
+    double_bits: int
+    fused_multiply_add: bool
+
+
+#: The arithmetic of each target of ``creepcomp firmware --verify --target``.
+TARGET_ARITHMETIC = {
+    "host": TargetArithmetic("host", "the host's FPU (x86-64 SSE)", _U32, 53, False),
+    "avr": TargetArithmetic("avr", "avr-libc's soft float", _U32, 24, False),
+    "cortex-m0plus": TargetArithmetic("cortex-m0plus", "libgcc's soft float", _U32, 53, False),
+    "cortex-m4f": TargetArithmetic("cortex-m4f", "the FPv4-SP unit", _U32, 53, True),
+}
+
+
+def check_target_arithmetic(target: str, uses_double: bool) -> TargetArithmetic:
+    """The arithmetic of ``target``, refused (InputError) when the corrector computes in
+    ``double`` and the target's ``double`` is narrower than the binary64 its bound assumes."""
+    arithmetic = TARGET_ARITHMETIC[target]
+    if uses_double and arithmetic.double_bits < 53:
+        raise InputError(f"target {target}: the extension's map is computed in double, which the "
+                         f"bound takes as IEEE binary64, and {target}'s double has "
+                         f"{arithmetic.double_bits} bits; verify it with --target host")
+    return arithmetic
+
+
 # ----------------------------------------------------------------------------------- checks
 
 def check_arguments(model: CreepModel, method: str, precision: str, rate: float,
@@ -111,17 +167,78 @@ def check_interval(max_interval: float) -> None:
                          "shortest interval the dt step accepts) to 1e12 s")
 
 
-def exact_coefficients(model: CreepModel, rate: float) -> dict:
-    """The recursion's exact coefficients at ``rate`` (float64).
+@dataclass(frozen=True)
+class ExactCoefficients:
+    """The corrector's recursion at one sample interval, exact (float64).
 
-    Keys ``T``, ``beta``, ``tau``, ``a``, ``e = 1 - a``, ``sigma = 1 + beta0``,
-    ``w = 1/sigma`` and ``offset``.
+    Attributes
+    ----------
+    interval : float
+        The sample interval ``T`` (s).
+    beta, tau : numpy.ndarray
+        The creep terms' amplitudes and retardation times (s).
+    a : numpy.ndarray
+        ``a_k = 1 - exp(-T / tau_k)``, the weight of a state's update.
+    decay : numpy.ndarray
+        ``e_k = exp(-T / tau_k) = 1 - a_k``.
+    saturation : float
+        ``sigma = 1 + beta0``, the supplemental method's output scale.
+    inv_saturation : float
+        ``w = 1 / (1 + beta0)``, a settled start's state per unit input.
+    offset : float
+        The signal at no load (signal units).
     """
+
+    interval: float
+    beta: np.ndarray
+    tau: np.ndarray
+    a: np.ndarray
+    decay: np.ndarray
+    saturation: float
+    inv_saturation: float
+    offset: float
+
+
+@dataclass(frozen=True)
+class StoredCoefficients:
+    """The coefficients as the C code stores them, with their exact values (float64).
+
+    Attributes
+    ----------
+    precision : str
+        ``float32`` or ``q31``.
+    beta, a : numpy.ndarray
+        The stored ``beta_k`` and ``a_k``: binary32 values, or ``m 2^-(31 + s)`` of their q31
+        mantissas.
+    offset : float
+        The stored offset (binary32; q31 works above the offset: the exact one).
+    saturation, inv_saturation : float
+        The stored ``1 + beta0`` and ``1 / (1 + beta0)`` (q31: words of ``2^30``).
+    beta_q, a_q : list of (int, int) or None
+        q31: the mantissas ``m`` (``2^30 <= |m| < 2^31``) and right shifts ``s``.
+    saturation_q, inv_saturation_q : int or None
+        q31: ``1 + beta0`` and ``1 / (1 + beta0)`` times ``2^30``, rounded.
+    """
+
+    precision: str
+    beta: np.ndarray
+    a: np.ndarray
+    offset: float
+    saturation: float
+    inv_saturation: float
+    beta_q: list | None = None
+    a_q: list | None = None
+    saturation_q: int | None = None
+    inv_saturation_q: int | None = None
+
+
+def exact_coefficients(model: CreepModel, rate: float) -> ExactCoefficients:
+    """The recursion's exact coefficients at ``rate`` (Hz), in float64."""
     taus = np.array(model.tau)
     x = (1.0 / rate) / taus
-    return {"T": 1.0 / rate, "beta": np.array(model.beta), "tau": taus, "a": -np.expm1(-x),
-            "e": np.exp(-x), "sigma": 1.0 + model.beta0, "w": 1.0 / (1.0 + model.beta0),
-            "offset": model.offset}
+    return ExactCoefficients(interval=1.0 / rate, beta=np.array(model.beta), tau=taus,
+                             a=-np.expm1(-x), decay=np.exp(-x), saturation=1.0 + model.beta0,
+                             inv_saturation=1.0 / (1.0 + model.beta0), offset=model.offset)
 
 
 # ------------------------------------------------------------------------------ the gains
@@ -142,14 +259,31 @@ def _decay(mu: np.ndarray) -> np.ndarray:
     return (2 * mu.real - np.abs(mu) ** 2) / (1 + np.abs(1 - mu))
 
 
-def _gains(a: np.ndarray, beta: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-    """l1 gains of the corrector's recursion ``d[n+1] = M d[n] + g u[n]``, output ``beta . d``.
+@dataclass(frozen=True)
+class RecursionGains:
+    """l1 gains of the corrector's error recursion ``d[n+1] = M d[n] + g u[n]``, output
+    ``beta . d``, at a fixed rate (each bounded by its modal expansion, so a little above).
 
-    Returns ``L_sample`` (``1 + sum_m |beta^T M^m a|``: from a local error of ``S``, and from
-    the input to ``S``), ``L_state[k]`` (``sum_m |beta^T M^m e_k|``) and ``G_state[k]``
-    (``sup_m |beta^T M^m e_k|``, for an error of the start state). Each is bounded by its modal
-    expansion, ``sum_i |l_i r_i| / (1 - |lambda_i|)`` (``sum_i |l_i r_i|`` for the supremum).
+    Attributes
+    ----------
+    sample : float
+        ``L_sample = 1 + sum_m |beta^T M^m a|``: from a local error of ``S`` to the output,
+        and from the input to ``S`` (so also the largest ``|S|`` per unit input).
+    state : numpy.ndarray
+        ``L_state[k] = sum_m |beta^T M^m e_k|``: from a local error of state ``k`` per sample.
+    state_peak : numpy.ndarray
+        ``G_state[k] = sup_m |beta^T M^m e_k|``: from an error of state ``k`` at the start.
     """
+
+    sample: float
+    state: np.ndarray
+    state_peak: np.ndarray
+
+
+def _gains(a: np.ndarray, beta: np.ndarray) -> RecursionGains:
+    """The :class:`RecursionGains` of the recursion with weights ``a`` and amplitudes ``beta``,
+    by the modal expansion ``sum_i |l_i r_i| / (1 - |lambda_i|)`` (``sum_i |l_i r_i|`` for the
+    supremum)."""
     mu, v, vinv = _modes(a, beta)
     decay = _decay(mu)
     if np.any(decay <= 0):
@@ -160,7 +294,8 @@ def _gains(a: np.ndarray, beta: np.ndarray) -> tuple[float, np.ndarray, np.ndarr
     l_state = (weights / decay[:, None]).sum(axis=0)
     g_state = weights.sum(axis=0)
     l_sample = 1.0 + float(np.sum(np.abs(left * (vinv @ a)) / decay))
-    return l_sample * _MARGIN, l_state * _MARGIN, g_state * _MARGIN
+    return RecursionGains(sample=l_sample * _MARGIN, state=l_state * _MARGIN,
+                          state_peak=g_state * _MARGIN)
 
 
 # ---------------------------------------------------------------------- stored coefficients
@@ -182,23 +317,26 @@ def _mantissa(value: float, what: str) -> tuple[int, int]:
     return (m if value > 0 else -m), s
 
 
-def stored_coefficients(c: dict, precision: str) -> dict:
+def stored_coefficients(c: ExactCoefficients, precision: str) -> StoredCoefficients:
     """The coefficients as the C code stores them, and their values (float64, exact)."""
-    beta, a = c["beta"], c["a"]
+    beta, a = c.beta, c.a
     if precision == "float32":
-        return {"beta": np.array([float32_value(b) for b in beta]),
-                "a": np.array([float32_value(x) for x in a]), "offset": float32_value(c["offset"]),
-                "sigma": float32_value(c["sigma"]), "w": float32_value(c["w"])}
+        return StoredCoefficients(precision, beta=np.array([float32_value(b) for b in beta]),
+                                  a=np.array([float32_value(x) for x in a]),
+                                  offset=float32_value(c.offset),
+                                  saturation=float32_value(c.saturation),
+                                  inv_saturation=float32_value(c.inv_saturation))
     bm = [_mantissa(b, f"beta[{k}]") for k, b in enumerate(beta)]
     am = [_mantissa(x, f"a[{k}] = 1 - exp(-T/tau[{k}])") for k, x in enumerate(a)]
-    sigma_q, w_q = round(c["sigma"] * FULL_SCALE_WORD), round(c["w"] * FULL_SCALE_WORD)
+    sigma_q, w_q = round(c.saturation * FULL_SCALE_WORD), round(c.inv_saturation * FULL_SCALE_WORD)
     if not (0 < sigma_q < 2 ** 31 and 0 < w_q < 2 ** 31):
-        raise InputError(f"beta0 = {c['sigma'] - 1:g}: q31 needs -0.5 < beta0 < 1 "
+        raise InputError(f"beta0 = {c.saturation - 1:g}: q31 needs -0.5 < beta0 < 1 "
                          "(1 + beta0 and 1/(1 + beta0) are stored with 30 fraction bits)")
-    return {"beta": np.array([m * 2.0 ** -(31 + s) for m, s in bm]),
-            "a": np.array([m * 2.0 ** -(31 + s) for m, s in am]),
-            "beta_q": bm, "a_q": am, "sigma_q": sigma_q, "w_q": w_q,
-            "offset": c["offset"], "sigma": sigma_q / FULL_SCALE_WORD, "w": w_q / FULL_SCALE_WORD}
+    return StoredCoefficients(precision, beta=np.array([m * 2.0 ** -(31 + s) for m, s in bm]),
+                              a=np.array([m * 2.0 ** -(31 + s) for m, s in am]), offset=c.offset,
+                              saturation=sigma_q / FULL_SCALE_WORD,
+                              inv_saturation=w_q / FULL_SCALE_WORD, beta_q=bm, a_q=am,
+                              saturation_q=sigma_q, inv_saturation_q=w_q)
 
 
 # ------------------------------------------------------------------------------- the bound
@@ -235,19 +373,15 @@ def firmware_bound(model: CreepModel, method: str = "subtractive", precision: st
         return _irregular_bound(model, method, precision, max_interval, full_scale)
     check_arguments(model, method, precision, rate, full_scale, "x")
     c = exact_coefficients(model, rate)
-    st = stored_coefficients(c, precision)
-    beta, a = c["beta"], c["a"]
-    l_sample, l_state, g_state = _gains(a, beta)
-    peak = l_sample                                   # max |S| / FS of the exact corrector
-    sigma = c["sigma"] if method == "supplemental" else 1.0
-    sum_beta = float(np.sum(np.abs(beta)))
-    k = len(beta)
+    corrector = BoundedCorrector(method, c, stored_coefficients(c, precision), full_scale)
+    gains = _gains(c.a, c.beta)
+    peak = gains.sample                               # max |S| / FS of the exact corrector
+    sigma = corrector.output_scale
     # Everything below is in units of full scale. C bounds |computed state| and |computed S|;
     # it is checked (and raised if needed) after the error is known.
     cmax = peak * (1.0 + 1e-3)
     for _ in range(8):
-        terms, b_s, eta_over_a = _local_terms(precision, st, c, k, cmax, full_scale, l_sample,
-                                              l_state, g_state, sum_beta, sigma, method)
+        terms, b_s, eta_over_a = _local_terms(corrector, gains, cmax)
         if cmax >= peak + b_s + eta_over_a:
             break
         cmax = 2 * (peak + b_s + eta_over_a)
@@ -260,21 +394,85 @@ def firmware_bound(model: CreepModel, method: str = "subtractive", precision: st
     total = sum(terms.values()) * _MARGIN
     return ErrorBound(total_fs=float(total), terms={n: float(v) for n, v in terms.items()},
                       full_scale=float(full_scale), peak_fs=float(peak),
-                      gains={"sample": float(l_sample), "state": [float(g) for g in l_state]})
+                      gains={"sample": float(gains.sample), "state": [float(g) for g in gains.state]})
 
 
-def _sample_errors(precision, st, c, k, cmax, fs, sum_beta, method):
-    """Local errors of ``S`` per sample, of a settled start and of the output (fractions of FS).
+@dataclass(frozen=True)
+class BoundedCorrector:
+    """One generated corrector as its bound sees it.
 
-    Returns ``(eps, start, out_offset, out_scale)``; see the table in docs/firmware.md.
+    Attributes
+    ----------
+    method : str
+        ``subtractive`` or ``supplemental``.
+    exact : ExactCoefficients
+        The recursion it implements.
+    stored : StoredCoefficients
+        What its C code stores (and so its precision).
+    full_scale : float
+        The input range the bound assumes, ``|raw - offset| <= full_scale`` (signal units).
     """
-    beta = c["beta"]
-    beta_err = float(np.sum(np.abs(st["beta"] - beta)))
-    sum_beta_hat = float(np.sum(np.abs(st["beta"])))
+
+    method: str
+    exact: ExactCoefficients
+    stored: StoredCoefficients
+    full_scale: float
+
+    @property
+    def precision(self) -> str:
+        """``float32`` or ``q31``."""
+        return self.stored.precision
+
+    @property
+    def terms(self) -> int:
+        """The number of creep terms."""
+        return len(self.exact.beta)
+
+    @property
+    def sum_beta(self) -> float:
+        """``sum_k |beta_k|``: the creep states' weight in ``S``."""
+        return float(np.sum(np.abs(self.exact.beta)))
+
+    @property
+    def output_scale(self) -> float:
+        """What multiplies ``S`` in the output: ``1 + beta0`` (supplemental) or 1."""
+        return self.exact.saturation if self.method == "supplemental" else 1.0
+
+
+@dataclass(frozen=True)
+class SampleErrors:
+    """The local errors of one sample, as fractions of full scale (docs/firmware.md's table).
+
+    Attributes
+    ----------
+    per_sample : dict
+        The errors made in ``S`` each sample, by cause (input, coefficients beta, the sum).
+    start : float
+        The error of a settled start's states.
+    output_offset : float
+        The output's rounding with the offset added (float32).
+    output_scale : float
+        The supplemental output's scale: its stored value and rounding.
+    """
+
+    per_sample: dict
+    start: float
+    output_offset: float
+    output_scale: float
+
+
+def _sample_errors(corrector: BoundedCorrector, cmax: float) -> SampleErrors:
+    """The local errors of ``S`` per sample, of a settled start and of the output, given that
+    ``|computed state|`` and ``|computed S|`` stay within ``cmax`` (fraction of full scale)."""
+    c, st, fs, method = corrector.exact, corrector.stored, corrector.full_scale, corrector.method
+    k, sum_beta, precision = corrector.terms, corrector.sum_beta, corrector.precision
+    beta = c.beta
+    beta_err = float(np.sum(np.abs(st.beta - beta)))
+    sum_beta_hat = float(np.sum(np.abs(st.beta)))
     if precision == "float32":
         u = _U32
-        offset = abs(c["offset"]) / fs
-        offset_err = abs(st["offset"] - c["offset"]) / fs
+        offset = abs(c.offset) / fs
+        offset_err = abs(st.offset - c.offset) / fs
         raw_max = offset + 1.0
         x_err = u * raw_max + offset_err + u * (1.0 + u * raw_max + offset_err)
         gamma = k * u / (1 - k * u)
@@ -282,9 +480,9 @@ def _sample_errors(precision, st, c, k, cmax, fs, sum_beta, method):
         eps = {"input": x_err,
                "coefficients beta": beta_err * c_hi + sum_beta * u * c_hi,
                "sum beta.c": gamma * sum_beta_hat * c_hi + u * (1.0 + x_err + sum_beta_hat * c_hi * (1 + gamma))}
-        start = x_err * abs(st["w"]) + abs(st["w"] - c["w"]) + u * (1.0 + x_err) * abs(st["w"])
-        out_offset = offset_err + u * (offset + offset_err + abs(st["sigma"] if method == "supplemental" else 1.0) * cmax * (1 + u))
-        out_scale = (abs(st["sigma"] - c["sigma"]) * cmax + u * abs(st["sigma"]) * cmax
+        start = x_err * abs(st.inv_saturation) + abs(st.inv_saturation - c.inv_saturation) + u * (1.0 + x_err) * abs(st.inv_saturation)
+        out_offset = offset_err + u * (offset + offset_err + abs(st.saturation if method == "supplemental" else 1.0) * cmax * (1 + u))
+        out_scale = (abs(st.saturation - c.saturation) * cmax + u * abs(st.saturation) * cmax
                      if method == "supplemental" else 0.0)
     else:
         x_err = _Q_IN
@@ -292,26 +490,29 @@ def _sample_errors(precision, st, c, k, cmax, fs, sum_beta, method):
         eps = {"input": x_err,
                "coefficients beta": beta_err * c_q,
                "sum beta.c": sum_beta_hat * _Q_IN + k * _Q_STATE + _Q_IN}
-        start = x_err * st["w"] + abs(st["w"] - c["w"])
+        start = x_err * st.inv_saturation + abs(st.inv_saturation - c.inv_saturation)
         out_offset = 0.0
-        out_scale = (abs(st["sigma"] - c["sigma"]) * cmax + _Q_IN) if method == "supplemental" else 0.0
-    return eps, start, out_offset, out_scale
+        out_scale = (abs(st.saturation - c.saturation) * cmax + _Q_IN) if method == "supplemental" else 0.0
+    return SampleErrors(per_sample=eps, start=start, output_offset=out_offset, output_scale=out_scale)
 
 
-def _local_terms(precision, st, c, k, cmax, fs, l_sample, l_state, g_state, sum_beta, sigma,
-                 method):
-    """Local errors times their gains (fractions of full scale); see docs/firmware.md."""
-    a = c["a"]
-    a_err = np.abs(st["a"] - a)
+def _local_terms(corrector: BoundedCorrector, gains: RecursionGains, cmax: float):
+    """The local errors times their gains (fractions of full scale; see docs/firmware.md), given
+    ``|computed state|, |computed S| <= cmax``. Returns the bound's parts, the bound of the
+    error of ``S`` and the largest state error per unit ``a``."""
+    a, st, sigma = corrector.exact.a, corrector.stored, corrector.output_scale
+    l_sample, l_state, g_state = gains.sample, gains.state, gains.state_peak
+    a_err = np.abs(st.a - a)
     d = 2 * cmax                                            # |S - c_k|
-    eps, start, out_offset, out_scale = _sample_errors(precision, st, c, k, cmax, fs, sum_beta, method)
-    if precision == "float32":
+    local = _sample_errors(corrector, cmax)
+    eps, start = local.per_sample, local.start
+    if corrector.precision == "float32":
         u = _U32
         c_hi = cmax * (1 + u)
         eta = a_err * d * (1 + u) ** 3 + a * d * ((1 + u) ** 3 - 1) + a * u * c_hi + u * u * c_hi
         eta_coef = a_err * d * (1 + u) ** 3
     else:
-        eta = a_err * d + st["a"] * _Q_IN + _Q_STATE
+        eta = a_err * d + st.a * _Q_IN + _Q_STATE
         eta_coef = a_err * d
     eps_total = sum(eps.values())
     state_terms = l_state * eta
@@ -321,11 +522,221 @@ def _local_terms(precision, st, c, k, cmax, fs, l_sample, l_state, g_state, sum_
     terms["coefficients a_k (state updates)"] = sigma * float(np.sum(coef_part))
     terms["state updates rounding"] = sigma * float(np.sum(state_terms - coef_part))
     terms["settled start"] = sigma * float(np.sum(g_state)) * start
-    terms["output"] = out_offset + out_scale
+    terms["output"] = local.output_offset + local.output_scale
     return terms, b_s, float(np.max(eta / a))
 
 
 # ------------------------------------------------------------- irregular sampling (dt step)
+
+@dataclass(frozen=True)
+class VaryingAErrors:
+    """The errors of a step whose ``a_k`` change from sample to sample (the dt step, the
+    temperature step, a recovery's switched term), as :func:`_invariant_bound` takes them.
+
+    Attributes
+    ----------
+    rel_a : numpy.ndarray
+        The worst relative error of each computed ``a_k``.
+    extra : numpy.ndarray
+        q31: the words' roundings in a state's update per unit ``a`` (fraction of full
+        scale); float32: zeros.
+    nu : numpy.ndarray
+        The update's own rounding per sample: float32 relative to the state (``u^2``, the
+        sum with ``lo``), q31 in fractions of full scale (the last shift, ``2^-60``).
+    """
+
+    rel_a: np.ndarray
+    extra: np.ndarray
+    nu: np.ndarray
+
+
+@dataclass(frozen=True)
+class Float32DtScheme(VaryingAErrors):
+    """How the float32 dt step computes ``a_k(dt)`` (:func:`dt_scheme`).
+
+    Attributes
+    ----------
+    dt_min, dt_max : float
+        The interval range the bound covers (s; the float32 limits included).
+    inv_tau : numpy.ndarray
+        The stored ``1/tau_k`` (binary32 values, 1/s).
+    halvings : numpy.ndarray
+        Per term, the most halvings that bring ``x = dt/tau_k`` to ``x <= 1/8``.
+    n : int
+        Taylor terms of ``(1 - exp(-x))/x``.
+    inv_next : list of float
+        The stored ``1/(j + 1)``, ``j < n``.
+    limit_f, min_f : float
+        The longest and shortest interval the step accepts, as binary32 (s).
+    """
+
+    dt_min: float
+    dt_max: float
+    inv_tau: np.ndarray
+    halvings: np.ndarray
+    n: int
+    inv_next: list
+    limit_f: float
+    min_f: float
+
+
+@dataclass(frozen=True)
+class Q31DtScheme(VaryingAErrors):
+    """How the q31 dt step computes ``a_k(dt)`` from whole ticks (:func:`dt_scheme`).
+
+    Attributes
+    ----------
+    dt_min, dt_max : float
+        The interval range (s): one tick to ``max_ticks`` ticks.
+    max_ticks : int
+        The longest interval the step accepts, in ticks of :data:`TICK`.
+    m : list of (int, int)
+        Per term, ``tick/tau_k`` as a mantissa and a shift.
+    exps : numpy.ndarray
+        Per term, ``31 + shift``: ``tick/tau_k = m 2^-exps``.
+    n : int
+        Taylor terms of ``t(x) = (1 - exp(-x))/x`` in Q31.
+    inv_next : list of int
+        ``2^31/(j + 1)``, ``j < n``.
+    r1 : int
+        The first right shift of the increment (after the product with ``m_k``).
+    r2 : numpy.ndarray
+        Per term, the second right shift (after the product with the interval).
+    """
+
+    dt_min: float
+    dt_max: float
+    max_ticks: int
+    m: list
+    exps: np.ndarray
+    n: int
+    inv_next: list
+    r1: int
+    r2: np.ndarray
+
+
+@dataclass(frozen=True)
+class Float32TemperatureScheme(VaryingAErrors):
+    """How the float32 temperature step computes ``a_k = 1 - exp(-(T/tau_k) / a_T)``
+    (:func:`temperature_scheme`).
+
+    Attributes
+    ----------
+    low, high : float
+        The temperature range (°C, binary32 values) the step clamps to.
+    reference : float
+        The law's reference temperature (°C, binary32).
+    curve_c, curve_d : float
+        ``C`` and ``D0`` of ``ln(1/a_T) = C d / (D0 + d)`` (binary32).
+    log2e, ln2_head, ln2_tail : float
+        ``1/ln 2`` and ``ln 2`` in two parts, for the range reduction of ``exp``.
+    j_max : int
+        The largest ``|j|`` of ``1/a_T = 2^j exp(f)``.
+    exp_terms : int
+        Taylor terms of ``exp(f)``; ``exp_next`` their stored ``1/(i + 1)``.
+    exp_next : list of float
+    y_range : (float, float)
+        ``ln(1/a_T)`` at the range's ends.
+    rel_shift : float
+        The worst relative error of the computed ``1/a_T``.
+    dt : float
+        The sample interval (s).
+    dt_over_tau : numpy.ndarray
+        The stored ``T/tau_k`` (binary32).
+    a_max, a_min : numpy.ndarray
+        ``a_k`` at the range's ends.
+    tau_range : (numpy.ndarray, numpy.ndarray)
+        ``tau_k`` at the range's ends.
+    halvings, n, inv_next
+        As :class:`Float32DtScheme`.
+    """
+
+    low: float
+    high: float
+    reference: float
+    curve_c: float
+    curve_d: float
+    log2e: float
+    ln2_head: float
+    ln2_tail: float
+    j_max: int
+    exp_terms: int
+    exp_next: list
+    y_range: tuple
+    rel_shift: float
+    dt: float
+    dt_over_tau: np.ndarray
+    a_max: np.ndarray
+    a_min: np.ndarray
+    tau_range: tuple
+    halvings: np.ndarray
+    n: int
+    inv_next: list
+
+
+@dataclass(frozen=True)
+class Q31TemperatureScheme(VaryingAErrors):
+    """How the q31 temperature step computes ``a_k`` with integers only
+    (:func:`q31_temperature_scheme`).
+
+    Attributes
+    ----------
+    low, high : float
+        The temperature range (°C), whole steps of :data:`TEMPERATURE_STEP_Q`; ``low_q``,
+        ``high_q`` in those steps.
+    low_q, high_q : int
+    reference_q : int
+        The reference temperature in steps of :data:`TEMPERATURE_STEP_Q`.
+    reference_d : int
+        The reference temperature in units of ``d`` (2^-19 K).
+    curve_c_q, curve_d_q : int
+        ``C`` in Q28 and ``D0`` in units of ``d``.
+    log2e_q, ln2_q : int
+        ``2^24 / ln 2`` and ``ln 2`` in Q31.
+    exp_terms : int
+        Taylor terms of ``exp(f)`` in Q31; ``exp_next`` their ``2^31/(i + 1)``.
+    exp_next : list of int
+    y_range : (float, float)
+        ``ln(1/a_T)`` at the range's ends.
+    rel_shift : float
+        The worst relative error of the computed ``1/a_T``.
+    m : list of (int, int)
+        Per term, ``T/tau_k`` as a mantissa and a shift; ``exps`` is ``31 + shift``.
+    exps : numpy.ndarray
+    n, inv_next
+        As :class:`Q31DtScheme`.
+    a_max, a_min : numpy.ndarray
+        ``a_k`` at the range's ends.
+    tau_range : (numpy.ndarray, numpy.ndarray)
+        ``tau_k`` at the range's ends.
+    dt : float
+        The sample interval (s).
+    """
+
+    low: float
+    high: float
+    low_q: int
+    high_q: int
+    reference_q: int
+    reference_d: int
+    curve_c_q: int
+    curve_d_q: int
+    log2e_q: int
+    ln2_q: int
+    exp_terms: int
+    exp_next: list
+    y_range: tuple
+    rel_shift: float
+    m: list
+    exps: np.ndarray
+    n: int
+    inv_next: list
+    a_max: np.ndarray
+    a_min: np.ndarray
+    tau_range: tuple
+    dt: float
+
+
 
 def _series_terms(x_max: float, target: float) -> int:
     """Fewest Taylor terms N of ``a = x t(x)`` with truncation ``x^N/(N+1)! <= target``."""
@@ -348,7 +759,7 @@ def _float32_a_error(x_hi: np.ndarray, rel_x: np.ndarray, u: float) -> tuple[np.
     return halvings, n, (1 + rel_x) * (1 + rel_series) * (1 + u) ** (2 * halvings) - 1
 
 
-def dt_scheme(model: CreepModel, precision: str, max_interval: float) -> dict:
+def dt_scheme(model: CreepModel, precision: str, max_interval: float) -> Float32DtScheme | Q31DtScheme:
     """How the dt step computes ``a_k(dt) = 1 - exp(-dt/tau_k)``, and its worst relative error.
 
     float32: ``x = dt * (1/tau_k)``, halved ``m`` times until ``x <= 1/8``, ``a = x t(x)`` with
@@ -366,10 +777,10 @@ def dt_scheme(model: CreepModel, precision: str, max_interval: float) -> dict:
         delta_x = np.abs(inv_tau * taus - 1.0) + u * (1 + 1e-6)        # stored 1/tau, product
         x_hi = dt_max * inv_tau * (1 + u)
         halvings, n, rel_a = _float32_a_error(x_hi, delta_x, u)
-        return {"dt_min": dt_min, "dt_max": dt_max, "inv_tau": inv_tau, "halvings": halvings,
-                "n": n, "inv_next": [float32_value(1.0 / (j + 1)) for j in range(n)],
-                "rel_a": rel_a, "extra": np.zeros(len(taus)), "nu": np.full(len(taus), u * u),
-                "limit_f": float32_value(max_interval), "min_f": float32_value(MIN_INTERVAL)}
+        return Float32DtScheme(dt_min=dt_min, dt_max=dt_max, inv_tau=inv_tau, halvings=halvings,
+                n=n, inv_next=[float32_value(1.0 / (j + 1)) for j in range(n)],
+                rel_a=rel_a, extra=np.zeros(len(taus)), nu=np.full(len(taus), u * u),
+                limit_f=float32_value(max_interval), min_f=float32_value(MIN_INTERVAL))
     max_ticks = math.floor(max_interval / TICK + 1e-6)
     if not 1 <= max_ticks < 2 ** 31:
         raise InputError(f"max interval {max_interval:g} s: q31 counts the interval in uint32 ticks "
@@ -393,10 +804,10 @@ def dt_scheme(model: CreepModel, precision: str, max_interval: float) -> dict:
     if np.any(r2 < 0):  # pragma: no cover - excluded by x_max <= 1/2
         raise InputError("the q31 dt step cannot scale this model's coefficients")
     extra = (2.0 ** -31 + 2.0 ** -31 / t_min + 2.0 ** (r1 - 61) / t_min) * np.ones(len(taus))
-    return {"dt_min": TICK, "dt_max": max_ticks * TICK, "max_ticks": max_ticks, "m": ms,
-            "exps": exps, "n": n, "inv_next": [round(2 ** 31 / (j + 1)) for j in range(n)],
-            "r1": r1, "r2": r2, "rel_a": (1 + rel_m) * (1 + rel_t) - 1, "extra": extra,
-            "nu": np.where(r2 >= 1, _Q_STATE, 0.0)}
+    return Q31DtScheme(dt_min=TICK, dt_max=max_ticks * TICK, max_ticks=max_ticks, m=ms,
+            exps=exps, n=n, inv_next=[round(2 ** 31 / (j + 1)) for j in range(n)],
+            r1=r1, r2=r2, rel_a=(1 + rel_m) * (1 + rel_t) - 1, extra=extra,
+            nu=np.where(r2 >= 1, _Q_STATE, 0.0))
 
 
 # ------------------------------------------------------------- over temperature (float32)
@@ -434,7 +845,7 @@ def _exp_horner_error(f_max: float, n: int) -> float:
     return err / math.exp(-f_max)
 
 
-def temperature_scheme(model: CreepModel, rate: float, low: float, high: float) -> dict:
+def temperature_scheme(model: CreepModel, rate: float, low: float, high: float) -> Float32TemperatureScheme:
     """How the temperature step computes ``a_k = 1 - exp(-(T/tau_k) / a_T)`` per sample in
     float32 without libm, and the worst relative error of the computed ``a_k``.
 
@@ -497,14 +908,14 @@ def temperature_scheme(model: CreepModel, rate: float, low: float, high: float) 
     r_min, r_max = 1.0 / float(shifts[0]), 1.0 / float(shifts[1])
     x_hi = dt_over_tau * r_max * (1 + rel_x)
     halvings, n, rel_a = _float32_a_error(x_hi, rel_x, u)
-    return {"low": lo_f, "high": hi_f, "reference": ref_f, "curve_c": c_f, "curve_d": d_f,
-            "log2e": log2e_f, "ln2_head": _LN2_HEAD, "ln2_tail": ln2_tail, "j_max": j_max,
-            "exp_terms": n_exp, "exp_next": [float32_value(1.0 / (i + 1)) for i in range(n_exp)],
-            "y_range": (y_lo, y_hi), "rel_shift": rel_r, "dt": dt, "dt_over_tau": dt_over_tau,
-            "a_max": -np.expm1(-dt / taus * r_max), "a_min": -np.expm1(-dt / taus * r_min),
-            "tau_range": (taus / r_min, taus / r_max), "halvings": halvings, "n": n,
-            "inv_next": [float32_value(1.0 / (j + 1)) for j in range(n)], "rel_a": rel_a,
-            "extra": np.zeros(len(taus)), "nu": np.full(len(taus), u * u)}
+    return Float32TemperatureScheme(low=lo_f, high=hi_f, reference=ref_f, curve_c=c_f, curve_d=d_f,
+            log2e=log2e_f, ln2_head=_LN2_HEAD, ln2_tail=ln2_tail, j_max=j_max,
+            exp_terms=n_exp, exp_next=[float32_value(1.0 / (i + 1)) for i in range(n_exp)],
+            y_range=(y_lo, y_hi), rel_shift=rel_r, dt=dt, dt_over_tau=dt_over_tau,
+            a_max=-np.expm1(-dt / taus * r_max), a_min=-np.expm1(-dt / taus * r_min),
+            tau_range=(taus / r_min, taus / r_max), halvings=halvings, n=n,
+            inv_next=[float32_value(1.0 / (j + 1)) for j in range(n)], rel_a=rel_a,
+            extra=np.zeros(len(taus)), nu=np.full(len(taus), u * u))
 
 
 #: q31 temperature step: the temperature argument's unit (°C).
@@ -533,7 +944,7 @@ def _check_shift_law(model: CreepModel, low: float, high: float):
     return law, shifts
 
 
-def q31_temperature_scheme(model: CreepModel, rate: float, low: float, high: float) -> dict:
+def q31_temperature_scheme(model: CreepModel, rate: float, low: float, high: float) -> Q31TemperatureScheme:
     """How the q31 temperature step computes ``a_k`` per sample with integers only, and its errors.
 
     The temperature comes in units of :data:`TEMPERATURE_STEP_Q` °C (°C x 256, int32), so the
@@ -613,19 +1024,20 @@ def q31_temperature_scheme(model: CreepModel, rate: float, low: float, high: flo
     # per unit a: the word rounding of c_k >> 30 and of (S - c_k) t; the last shift (or a shift
     # beyond 62 bits, which gives 0) is below one state unit, 2^-60 of full scale, per sample
     extra = (2.0 ** -31 + 2.0 ** -31 / t_min) * np.ones(len(taus))
-    return {"low": lo_t, "high": hi_t, "low_q": low_q, "high_q": high_q, "reference_q": ref_q,
-            "reference_d": ref_d,
-            "curve_c_q": c_q, "curve_d_q": d_q, "log2e_q": log2e_q, "ln2_q": ln2_q,
-            "exp_terms": n_exp, "exp_next": [round(2 ** 31 / (i + 1)) for i in range(n_exp)],
-            "y_range": (-math.log(shifts[0]), -math.log(shifts[1])), "rel_shift": rel_r,
-            "m": ms, "exps": exps, "n": n, "inv_next": [round(2 ** 31 / (j + 1)) for j in range(n)],
-            "a_max": -np.expm1(-dt / taus * r_max), "a_min": -np.expm1(-dt / taus * r_min),
-            "tau_range": (taus / r_min, taus / r_max), "rel_a": rel_a, "extra": extra,
-            "nu": np.full(len(taus), 2.0 ** -60), "dt": dt}
+    return Q31TemperatureScheme(low=lo_t, high=hi_t, low_q=low_q, high_q=high_q, reference_q=ref_q,
+            reference_d=ref_d,
+            curve_c_q=c_q, curve_d_q=d_q, log2e_q=log2e_q, ln2_q=ln2_q,
+            exp_terms=n_exp, exp_next=[round(2 ** 31 / (i + 1)) for i in range(n_exp)],
+            y_range=(-math.log(shifts[0]), -math.log(shifts[1])), rel_shift=rel_r,
+            m=ms, exps=exps, n=n, inv_next=[round(2 ** 31 / (j + 1)) for j in range(n)],
+            a_max=-np.expm1(-dt / taus * r_max), a_min=-np.expm1(-dt / taus * r_min),
+            tau_range=(taus / r_min, taus / r_max), rel_a=rel_a, extra=extra,
+            nu=np.full(len(taus), 2.0 ** -60), dt=dt)
 
 
 def temperature_bound(model: CreepModel, method: str, rate: float, full_scale: float,
-                      scheme: dict, precision: str = "float32") -> ErrorBound:
+                      scheme: Float32TemperatureScheme | Q31TemperatureScheme,
+                      precision: str = "float32") -> ErrorBound:
     """Proven worst-case error of the temperature step against the exact corrector
     (:func:`creepcomp.digital.correctors.compensate` with the same temperatures), for every
     temperature history within the scheme's range (:func:`temperature_scheme`,
@@ -635,11 +1047,11 @@ def temperature_bound(model: CreepModel, method: str, rate: float, full_scale: f
     c = exact_coefficients(model, rate)
     st = stored_coefficients(c, precision)
     try:
-        return _invariant_bound(c, st, scheme, scheme["a_max"], scheme["a_min"], method,
+        return _invariant_bound(c, st, scheme, scheme.a_max, scheme.a_min, method,
                                 precision, full_scale, "coefficients a_k(T) (a_T and exp without libm)")
     except InputError as exc:
-        slowest = float(np.max(scheme["tau_range"][0]))
-        raise InputError(f"{exc} over {scheme['low']:g} to {scheme['high']:g} °C (the slowest "
+        slowest = float(np.max(scheme.tau_range[0]))
+        raise InputError(f"{exc} over {scheme.low:g} to {scheme.high:g} °C (the slowest "
                          f"retardation time reaches {slowest:.3g} s, {slowest * rate:.3g} samples): "
                          "narrow --temperature-range") from None
 
@@ -677,14 +1089,14 @@ def _irregular_bound(model: CreepModel, method: str, precision: str, max_interva
     c = exact_coefficients(model, 1.0 / max_interval)
     st = stored_coefficients(c, precision)
     sch = dt_scheme(model, precision, max_interval)
-    taus = c["tau"]
-    a_max = -np.expm1(-sch["dt_max"] / taus)
-    a_min = -np.expm1(-sch["dt_min"] / taus)
+    taus = c.tau
+    a_max = -np.expm1(-sch.dt_max / taus)
+    a_min = -np.expm1(-sch.dt_min / taus)
     return _invariant_bound(c, st, sch, a_max, a_min, method, precision, full_scale,
                             "coefficients a_k(dt) (series, stored 1/tau)")
 
 
-def _invariant_bound(c: dict, st: dict, sch: dict, a_max: np.ndarray, a_min: np.ndarray,
+def _invariant_bound(c: ExactCoefficients, st: StoredCoefficients, sch: VaryingAErrors, a_max: np.ndarray, a_min: np.ndarray,
                      method: str, precision: str, full_scale: float, coef_label: str,
                      state_error: list | None = None) -> ErrorBound:
     """The bound of a step whose ``a_k`` changes from sample to sample within
@@ -694,30 +1106,30 @@ def _invariant_bound(c: dict, st: dict, sch: dict, a_max: np.ndarray, a_min: np.
     ``nu`` (and ``extra``, q31) of the state update. ``state_error``: a list to which the
     bound of the states' errors (fraction of full scale) is appended.
     """
-    beta = c["beta"]
+    beta = c.beta
     zmat, _ = _invariant_gains(beta, a_max)
     b = np.abs(beta)
     sum_beta = float(b.sum())
     gain_state = b @ zmat                          # output error per unit of w_k (per unit a)
     gain_sample = 1.0 + float(gain_state.sum())   # from a local error of S
     z_peak = zmat @ np.ones(len(b))               # |c_k| of the exact corrector, |x| <= 1
-    z_peak = z_peak + max(0.0, abs(c["w"]) - float(np.min(z_peak)))     # settled start
+    z_peak = z_peak + max(0.0, abs(c.inv_saturation) - float(np.min(z_peak)))     # settled start
     peak = 1.0 + float(b @ z_peak)                # |S| of the exact corrector
-    sigma = c["sigma"] if method == "supplemental" else 1.0
+    sigma = c.saturation if method == "supplemental" else 1.0
     k = len(beta)
     u = _U32
     cmax = max(peak, float(np.max(z_peak))) * (1.0 + 1e-3)
     for _ in range(8):
         d = 2 * cmax
-        eps, start, out_offset, out_scale = _sample_errors(precision, st, c, k, cmax, full_scale,
-                                                           sum_beta, method)
+        local = _sample_errors(BoundedCorrector(method, c, st, full_scale), cmax)
+        eps, start = local.per_sample, local.start
         eps_total = sum(eps.values())
         if precision == "float32":
-            coef = sch["rel_a"] * d * (1 + u) ** 3
-            rounding = d * ((1 + u) ** 3 - 1) + u * cmax * (1 + u) + sch["nu"] * cmax * (1 + u) / a_min
+            coef = sch.rel_a * d * (1 + u) ** 3
+            rounding = d * ((1 + u) ** 3 - 1) + u * cmax * (1 + u) + sch.nu * cmax * (1 + u) / a_min
         else:
-            coef = sch["rel_a"] * d
-            rounding = sch["extra"] + sch["nu"] / a_min
+            coef = sch.rel_a * d
+            rounding = sch.extra + sch.nu / a_min
         w = eps_total + coef + rounding            # per unit a: |state error| grows by a w
         z_err = zmat @ w + start
         s_max = eps_total + float(b @ z_err)
@@ -732,7 +1144,7 @@ def _invariant_bound(c: dict, st: dict, sch: dict, a_max: np.ndarray, a_min: np.
     terms[coef_label] = sigma * float(gain_state @ coef)
     terms["state updates rounding"] = sigma * float(gain_state @ rounding)
     terms["settled start"] = sigma * sum_beta * start
-    terms["output"] = out_offset + out_scale
+    terms["output"] = local.output_offset + local.output_scale
     terms["float64 reference (allowance)"] = REFERENCE_ALLOWANCE
     total = sum(terms.values()) * _MARGIN
     if state_error is not None:
@@ -1030,7 +1442,7 @@ def _loop_bound(model: CreepModel, rate: float, full_scale: float, lip: float, x
     fs = full_scale
     c = exact_coefficients(model, rate)
     st = stored_coefficients(c, precision)
-    beta, a = c["beta"], c["a"]
+    beta, a = c.beta, c.a
     sum_beta = float(np.sum(np.abs(beta)))
     loop = lip * sum_beta
     if loop >= 1.0:
@@ -1040,16 +1452,16 @@ def _loop_bound(model: CreepModel, rate: float, full_scale: float, lip: float, x
     gain = 1.0 / (1.0 - loop)
     cmax = x_exact / fs * (1.0 + 1e-3)
     for _ in range(8):
-        eps, _, _, _ = _sample_errors(precision, st, c, len(beta), cmax, fs, sum_beta, "subtractive")
+        eps = _sample_errors(BoundedCorrector("subtractive", c, st, fs), cmax).per_sample
         eps_total = sum(eps.values())
         d = 2 * cmax
         c_hi = cmax * (1 + u)
         if precision == "float32":
-            eta = (np.abs(st["a"] - a) * d * (1 + u) ** 3 + a * d * ((1 + u) ** 3 - 1) + a * u * c_hi
+            eta = (np.abs(st.a - a) * d * (1 + u) ** 3 + a * d * ((1 + u) ** 3 - 1) + a * u * c_hi
                    + u * u * c_hi)
             rounding = float(np.max(eta / a)) + u * cmax       # and the target (float)X
         else:                                                  # the target X is a word already
-            eta = np.abs(st["a"] - a) * d + st["a"] * _Q_IN + _Q_STATE
+            eta = np.abs(st.a - a) * d + st.a * _Q_IN + _Q_STATE
             rounding = float(np.max(eta / a))
         state = gain * (lip * eps_total + ext / fs + rounding)
         if cmax >= x_exact / fs + state:
@@ -1061,7 +1473,7 @@ def _loop_bound(model: CreepModel, rate: float, full_scale: float, lip: float, x
     terms[f"{label} in double (x{gain:.4g})"] = gain * ext / fs
     terms[f"state updates, coefficients a_k (x{loop * gain:.4g})"] = loop * gain * rounding
     if precision == "float32":
-        terms["output rounding (float32)"] = _output_rounding(c["offset"], st["offset"], x_exact + state * fs) / fs
+        terms["output rounding (float32)"] = _output_rounding(c.offset, st.offset, x_exact + state * fs) / fs
     else:
         _check_q31_range(x_exact / fs, cmax, 1.0, "subtractive")
     terms["float64 reference (allowance)"] = REFERENCE_ALLOWANCE
@@ -1095,17 +1507,17 @@ def recovery_bound(model: CreepModel, rate: float, full_scale: float, term: int,
     """
     c = exact_coefficients(model, rate)
     st = stored_coefficients(c, precision)
-    a_rec = -math.expm1(-c["T"] / tau_recovery)
+    a_rec = -math.expm1(-c.interval / tau_recovery)
     a_rec_q = _mantissa(a_rec, "a_recovery = 1 - exp(-T/tau_recovery)")
     a_rec_st = float32_value(a_rec) if precision == "float32" else a_rec_q[0] * 2.0 ** -(31 + a_rec_q[1])
-    a_lo, a_hi = c["a"].copy(), c["a"].copy()
-    a_lo[term], a_hi[term] = min(c["a"][term], a_rec), max(c["a"][term], a_rec)
-    rel = np.abs(st["a"] / c["a"] - 1)
+    a_lo, a_hi = c.a.copy(), c.a.copy()
+    a_lo[term], a_hi[term] = min(c.a[term], a_rec), max(c.a[term], a_rec)
+    rel = np.abs(st.a / c.a - 1)
     rel[term] = max(rel[term], abs(a_rec_st / a_rec - 1))
-    k = len(c["a"])
+    k = len(c.a)
     # q31: per unit a, the input's rounding to 30 bits; the update's last shift (2^-60 FS)
-    sch = ({"rel_a": rel, "nu": 0.0} if precision == "float32" else
-           {"rel_a": rel, "extra": np.full(k, _Q_IN), "nu": np.full(k, _Q_STATE)})
+    sch = (VaryingAErrors(rel_a=rel, extra=np.zeros(k), nu=np.zeros(k)) if precision == "float32" else
+           VaryingAErrors(rel_a=rel, extra=np.full(k, _Q_IN), nu=np.full(k, _Q_STATE)))
     errors: list = []
     bound = _invariant_bound(c, st, sch, a_hi, a_lo, "subtractive", precision,
                              full_scale, "coefficients a_k, a_recovery (state updates)", errors)
@@ -1113,6 +1525,6 @@ def recovery_bound(model: CreepModel, rate: float, full_scale: float, term: int,
     state_error = errors[0] * fs
     x_max = (bound.peak_fs + bound.total_fs) * fs
     margin = (bound.total_fs * fs + state_error + 2e-9 * x_max + 8 * _U64 * x_max) * (1 + 1e-6)
-    switch_gain = bound.gains["state"][term] * abs(a_rec - c["a"][term]) / a_lo[term] / fs
+    switch_gain = bound.gains["state"][term] * abs(a_rec - c.a[term]) / a_lo[term] / fs
     return bound, {"margin": margin, "state_error": state_error, "switch_gain": switch_gain,
                    "a_recovery": a_rec, "a_recovery_q": a_rec_q}

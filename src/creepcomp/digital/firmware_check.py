@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 import shutil
-import subprocess
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -14,12 +13,12 @@ import numpy as np
 
 from creepcomp.errors import CreepcompError, InputError
 from creepcomp.digital.firmware import TEMPERATURE_STEP_Q, Firmware
+from creepcomp.digital.firmware_target import (STRICT_FLAGS, TARGETS, TargetRun, run_on_target,
+                                              run_tool)
 
 __all__ = ["STRICT_FLAGS", "Verification", "find_compiler", "compile_object", "run_firmware",
            "step_intervals", "verify_firmware"]
 
-#: The flags the generated code must compile under without a warning.
-STRICT_FLAGS = ("-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic")
 #: Optimisation used for the timed run and the object size.
 OPTIMISATION = "-O2"
 
@@ -35,10 +34,12 @@ class Verification:
         Largest ``|C output - float64 output| / full_scale``.
     worst_sample : int
         Where it occurs.
-    ns_per_sample : float
-        Best of the timed runs of the step loop on this machine (host harness, ``-O2``).
-    object_bytes : int
-        Code and constant data of the compiled corrector (``size``: text + data, ``-O2``).
+    ns_per_sample : float or None
+        Best of the timed runs of the step loop on this machine (host harness, ``-O2``); None
+        for a run on a simulated chip.
+    object_bytes : int or None
+        Code and constant data of the compiled corrector (``size``: text + data, ``-O2``); None
+        for a run on a simulated chip (see ``on_target``).
     bound_fs : float or None
         The proven bound (None for the naive recursion), with what the record's mode
         decisions near their threshold add for a recovery extension.
@@ -49,6 +50,9 @@ class Verification:
         ``events`` (the record's discounted count of the load's turns), ``bound_fs``,
         ``reference_fs`` and ``added_fs`` (see
         :func:`creepcomp.digital.firmware_extension.overshoot_record_bound`).
+    on_target : TargetRun or None
+        The run on a simulated chip (flash, RAM, cycles or instructions per sample); None for
+        the host.
     """
 
     samples: int
@@ -58,6 +62,7 @@ class Verification:
     object_bytes: int
     bound_fs: float | None
     switching: dict | None = None
+    on_target: TargetRun | None = None
 
     @property
     def passed(self) -> bool:
@@ -68,7 +73,10 @@ class Verification:
         """JSON form."""
         out = {"samples": self.samples, "max_error_fs": self.max_error_fs,
                "worst_sample": self.worst_sample, "ns_per_sample": self.ns_per_sample,
-               "object_bytes": self.object_bytes, "within_bound": self.passed}
+               "object_bytes": self.object_bytes, "within_bound": self.passed,
+               "target": "host" if self.on_target is None else self.on_target.target}
+        if self.on_target is not None:
+            out.update(self.on_target.to_dict())
         if self.switching is not None:
             out.update(switching=dict(self.switching), record_bound_fs=self.bound_fs)
         return out
@@ -84,14 +92,6 @@ def find_compiler(compiler: str | None = None) -> str:
     return path
 
 
-def _run(args: list, what: str) -> str:
-    proc = subprocess.run([str(a) for a in args], capture_output=True, text=True)
-    if proc.returncode != 0:
-        detail = (proc.stderr or proc.stdout).strip().splitlines()
-        raise CreepcompError(f"{what} failed: {detail[0] if detail else f'status {proc.returncode}'}")
-    return proc.stdout
-
-
 def compile_object(firmware: Firmware, folder, flags=(OPTIMISATION,), compiler: str | None = None) -> Path:
     """Write the firmware into ``folder`` and compile its source with :data:`STRICT_FLAGS`.
 
@@ -103,7 +103,7 @@ def compile_object(firmware: Firmware, folder, flags=(OPTIMISATION,), compiler: 
     folder = Path(folder)
     firmware.write(folder)
     obj = folder / f"{firmware.name}.o"
-    _run([find_compiler(compiler), *STRICT_FLAGS, *flags, "-c", folder / firmware.filenames[1],
+    run_tool([find_compiler(compiler), *STRICT_FLAGS, *flags, "-c", folder / firmware.filenames[1],
           "-o", obj], f"compiling {firmware.filenames[1]}")
     return obj
 
@@ -112,7 +112,7 @@ def _object_bytes(obj: Path) -> int:
     tool = shutil.which("size")
     if tool is None:
         return -1
-    fields = _run([tool, "-B", obj], "size").splitlines()[1].split()
+    fields = run_tool([tool, "-B", obj], "size").splitlines()[1].split()
     return int(fields[0]) + int(fields[1])
 
 
@@ -159,21 +159,21 @@ def run_firmware(firmware: Firmware, signal, start: str, repeats: int = 5,
         obj = compile_object(firmware, folder, compiler=cc)
         (folder / "harness.c").write_text(firmware.harness, encoding="utf-8")
         exe = folder / "harness"
-        _run([cc, "-std=c99", OPTIMISATION, "-I", folder, folder / "harness.c", obj, "-o", exe, "-lm"],
+        run_tool([cc, "-std=c99", OPTIMISATION, "-I", folder, folder / "harness.c", obj, "-o", exe, "-lm"],
              "compiling the harness")
         x.tofile(folder / "in.bin")
         files = [folder / "in.bin"]
         if intervals is not None:
             np.ascontiguousarray(intervals, dtype="<f8").tofile(folder / "dt.bin")
             files.append(folder / "dt.bin")
-        out = _run([exe, *files, folder / "out.bin", start, max(1, int(repeats))],
+        out = run_tool([exe, *files, folder / "out.bin", start, max(1, int(repeats))],
                    "running the harness")
         y = np.fromfile(folder / "out.bin", dtype="<f8")
         return y, float(out.strip()), _object_bytes(obj)
 
 
 def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler: str | None = None,
-                    temperature=None, reference=None) -> Verification:
+                    temperature=None, reference=None, target: str = "host") -> Verification:
     """Run the generated corrector over a record and compare it with :func:`compensate`.
 
     The record must be sampled at the firmware's rate (fixed-rate step) or have intervals
@@ -184,7 +184,10 @@ def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler
     range); the float64 corrector gets the same temperatures, rounded as the step receives them
     (to float32, or to 1/256 °C for q31). ``reference``: the exact corrector's output to
     compare with instead (a model with an extension the firmware applies: the caller's exact
-    inverse of the whole model, started and held as the firmware is).
+    inverse of the whole model, started and held as the firmware is). ``target``: ``host``
+    (this machine's gcc), or a chip of :data:`~creepcomp.digital.firmware_target.TARGETS` the
+    corrector is cross-compiled for and run on in a simulator
+    (:func:`~creepcomp.digital.firmware_target.run_on_target`).
 
     Returns
     -------
@@ -193,12 +196,14 @@ def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler
     """
     from creepcomp.digital.correctors import compensate, default_initial, uniform_interval
 
+    if target not in TARGETS:
+        raise InputError(f"target '{target}': use one of {', '.join(TARGETS)}")
     t = np.asarray(time, dtype=float)
     x = np.asarray(signal, dtype=float)
     if t.ndim != 1 or x.shape != t.shape or len(t) < 2:
         raise InputError("verify needs a record of at least 2 samples (time and signal of equal length)")
     if firmware.irregular:
-        return _verify_irregular(firmware, t, x, repeats, compiler)
+        return _verify_irregular(firmware, t, x, repeats, compiler, target)
     dt = uniform_interval(t)
     if dt is None:
         raise InputError("the record is not uniformly sampled: the generated corrector runs at a "
@@ -213,7 +218,8 @@ def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler
         reference = compensate(t, x, firmware.model, firmware.method, initial=start, hold="zero",
                                temperature=temps)
     reference = np.asarray(reference, dtype=float)
-    y, ns, size = run_firmware(firmware, x, start, repeats, compiler, temperatures=temps)
+    y, ns, size, on_target = _execute(firmware, x, start, repeats, compiler, target,
+                                      temperatures=temps)
     switching = None
     kind = (firmware.extension or {}).get("kind")
     if kind == "recovery":
@@ -226,7 +232,24 @@ def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler
         on_record = overshoot_record_bound(firmware.extension, reference, firmware.model.offset,
                                            firmware.bound)
         switching = dict(on_record, added_fs=on_record["bound_fs"] - firmware.bound.total_fs)
-    return _compare(firmware, y, reference, ns, size, switching)
+    return _compare(firmware, y, reference, ns, size, switching, on_target)
+
+
+def _execute(firmware, x, start, repeats, compiler, target, intervals=None, temperatures=None):
+    """Run the corrector on the host (timed) or on a simulated chip: ``(outputs, ns per
+    sample, object bytes, TargetRun)``, the host's or the chip's parts None."""
+    if target == "host":
+        y, ns, size = run_firmware(firmware, x, start, repeats, compiler, intervals=intervals,
+                                   temperatures=temperatures)
+        return y, ns, size, None
+    aux = intervals
+    if temperatures is not None:
+        aux = (temperatures if firmware.precision == "float32"
+               else np.round(np.asarray(temperatures, dtype=float) / TEMPERATURE_STEP_Q))
+    run = run_on_target(firmware, x, start, target, aux=aux)
+    if run.refused:
+        raise CreepcompError(f"the dt step refused {run.refused} interval(s) on {target}")
+    return run.outputs, None, None, run
 
 
 def _temperatures(firmware: Firmware, temperature, n: int) -> np.ndarray | None:
@@ -289,7 +312,7 @@ def step_intervals(firmware: Firmware, time) -> tuple[np.ndarray, np.ndarray]:
     return np.concatenate([step[:1], step]), rebuilt
 
 
-def _verify_irregular(firmware, t, x, repeats, compiler) -> Verification:
+def _verify_irregular(firmware, t, x, repeats, compiler, target) -> Verification:
     from creepcomp.digital.correctors import compensate, default_initial
     from creepcomp.digital.firmware import TICK
     from creepcomp.model import CreepModel
@@ -302,18 +325,20 @@ def _verify_irregular(firmware, t, x, repeats, compiler) -> Verification:
         model = CreepModel(model.beta, tuple(tau / TICK for tau in model.tau), model.gain, model.offset)
     start = default_initial(firmware.method)
     reference = compensate(rebuilt, x, model, firmware.method, initial=start, hold="zero")
-    y, ns, size = run_firmware(firmware, x, start, repeats, compiler, intervals=intervals)
-    return _compare(firmware, y, reference, ns, size)
+    y, ns, size, on_target = _execute(firmware, x, start, repeats, compiler, target,
+                                      intervals=intervals)
+    return _compare(firmware, y, reference, ns, size, on_target=on_target)
 
 
-def _compare(firmware, y, reference, ns, size, switching=None) -> Verification:
+def _compare(firmware, y, reference, ns, size, switching=None, on_target=None) -> Verification:
     error = np.abs(y - reference) / firmware.full_scale
     worst = int(np.argmax(error))
     bound = None if firmware.bound is None else firmware.bound.total_fs
     if switching is not None:
         bound += switching["added_fs"]
     return Verification(samples=len(y), max_error_fs=float(error[worst]), worst_sample=worst,
-                        ns_per_sample=ns, object_bytes=size, bound_fs=bound, switching=switching)
+                        ns_per_sample=ns, object_bytes=size, bound_fs=bound, switching=switching,
+                        on_target=on_target)
 
 
 def _check_range(firmware, x) -> None:
