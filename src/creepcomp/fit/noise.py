@@ -19,7 +19,7 @@ __all__ = ["MAX_AR_ORDER", "SPARSE_SAMPLES", "ar_order_for", "ar_order", "is_spa
            "autocorrelation", "spectral_variance", "gaussian_bic", "FLOOR_WINDOW", "FEW_WINDOWS", "MISFIT_LIMIT",
            "NoiseFloor", "noise_floor", "quantisation_step", "misfit_ratio", "explained_share",
            "slow_drift", "none_statement", "with_reference_noise", "REFERENCE_SHARE",
-           "reference_noise"]
+           "reference_noise", "THIRD_DIFFERENCE", "CHI2_1_MEDIAN"]
 
 #: Largest order of the autoregressive noise model.
 MAX_AR_ORDER = 5
@@ -266,8 +266,7 @@ def quantisation_step(y: np.ndarray) -> float:
 
 
 def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW,
-                follows_lag: bool = False, weights=None, samples=None,
-                grid_floor: bool = True) -> NoiseFloor:
+                follows_lag: bool = False, weights=None, samples=None) -> NoiseFloor:
     """The measurement noise's RMS from the record alone (no creep model).
 
     The record is cut into windows of ``window`` samples (not across gaps in the sampling);
@@ -294,9 +293,6 @@ def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW,
         variance relative to one sample of the full record, and the samples it holds. Each
         window is then fitted by weighted least squares, so the floor is the full record's
         noise, as the weighted residual of a fit; blocks of different lengths are no gap.
-    grid_floor : bool
-        Raise the floor to ``q**2 / 12`` of a value grid (False for a load program, whose
-        levels lie on a grid without any noise).
 
     Returns
     -------
@@ -331,7 +327,7 @@ def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW,
             dof = w - a_.shape[1]
             variances.append(float(r @ r) / dof)
             dofs.append(dof)
-    q = quantisation_step(y) if grid_floor else 0.0
+    q = quantisation_step(y)
     if variances:
         k = float(np.median(dofs))
         # median of chi2(k)/k (Wilson-Hilferty)
@@ -355,20 +351,49 @@ def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW,
 REFERENCE_SHARE = 0.05
 
 
+#: Weights of the third difference ``x[i] - 3 x[i+1] + 3 x[i+2] - x[i+3]``: it leaves a load's
+#: steps at a few samples and its smooth parts (ramps, sweeps, sines) near zero, and white noise
+#: of variance ``s**2`` with ``sum(c**2) s**2 = 20 s**2``.
+THIRD_DIFFERENCE = np.array([1.0, -3.0, 3.0, -1.0])
+#: Median of a chi-squared variable with one degree of freedom: the median of ``z**2`` for
+#: ``z`` normal with unit variance.
+CHI2_1_MEDIAN = 0.45493642311957283
+
+
 def reference_noise(data) -> float:
     """RMS of a prepared record's load's own noise, in load units (a reference load cell's, a
-    test machine's), measured as the signal's noise floor is but without a grid floor (a load
-    program's levels lie on a grid without any noise): 0 for a load program.
+    test machine's): 0 for a load program.
+
+    From the third differences of the load, each scaled by the variance it would have from
+    white noise (a reduced record's blocks have ``1 / weight`` of one sample's variance), their
+    median squared over the chi-squared median: steps touch a few differences and do not move
+    the median, smooth loads (ramps, sweeps, sines) leave differences near zero, a load
+    program's held levels exactly zero.
 
     Parameters
     ----------
     data : Data
         A prepared record (:func:`creepcomp.fit.data.prepare`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from types import SimpleNamespace
+    >>> from creepcomp.fit.noise import reference_noise
+    >>> t = np.arange(0.0, 600.0, 0.1)
+    >>> program = np.where((t // 60) % 2 == 1, 10.0, 0.0) + np.sin(t / 30)
+    >>> noisy = program + np.random.default_rng(0).normal(0, 0.01, t.size)
+    >>> data = lambda load: SimpleNamespace(load=load, weights=None)
+    >>> print(f"{reference_noise(data(noisy)):.3f}", reference_noise(data(program)) < 1e-6)
+    0.010 True
     """
-    if np.ptp(data.load) == 0:
+    x = np.asarray(data.load, float)
+    if x.size < 8 or np.ptp(x) == 0:
         return 0.0
-    return noise_floor(data.load, None, data.time, weights=data.weights, samples=data.samples,
-                       grid_floor=False).rms
+    d = np.convolve(x, THIRD_DIFFERENCE[::-1], mode="valid")
+    inverse_weight = (np.ones_like(x) if data.weights is None else 1.0 / np.asarray(data.weights, float))
+    scale = np.convolve(inverse_weight, THIRD_DIFFERENCE[::-1] ** 2, mode="valid")
+    return float(np.sqrt(np.median(d * d / scale) / CHI2_1_MEDIAN))
 
 
 def with_reference_noise(floor: NoiseFloor, signal, load, reference: float) -> NoiseFloor:
@@ -377,9 +402,8 @@ def with_reference_noise(floor: NoiseFloor, signal, load, reference: float) -> N
 
     A model driven by a noisy reference predicts the reference's noise too: its residual
     holds ``gain * load_noise`` beside the signal's own noise, and a misfit judged against
-    the signal's floor alone reads that as structure. ``reference`` is the load's noise RMS,
-    measured as the signal's (:func:`noise_floor` on the load alone, without a grid floor: a
-    load program's levels lie on a grid without noise; :func:`reference_noise`);
+    the signal's floor alone reads that as structure. ``reference`` is the load's noise RMS
+    (:func:`reference_noise`);
     the gain is the least-squares slope of signal against load. ``floor**2 + (gain *
     reference)**2`` is the floor when it adds at least :data:`REFERENCE_SHARE` to it.
 
@@ -393,7 +417,7 @@ def with_reference_noise(floor: NoiseFloor, signal, load, reference: float) -> N
     >>> signal = 2.0 * load + rng.normal(0, 1e-3, t.size)
     >>> measured = load + rng.normal(0, 0.01, t.size)
     >>> floor = noise_floor(signal, measured, t)
-    >>> reference = noise_floor(measured, None, t, grid_floor=False).rms
+    >>> reference = 0.01
     >>> print(f"{floor.rms:.2g} -> {with_reference_noise(floor, signal, measured, reference).rms:.2g}")
     0.001 -> 0.02
     """
@@ -405,7 +429,7 @@ def with_reference_noise(floor: NoiseFloor, signal, load, reference: float) -> N
     if not total > (1.0 + REFERENCE_SHARE) * floor.rms:
         return floor
     return NoiseFloor(total, f"{floor.method}; with the reference load's own noise ({reference:.3g} "
-                             f"load units, measured the same way, times the gain {gain:.4g})",
+                             f"load units, from its third differences, times the gain {gain:.4g})",
                       floor.quantisation_step, floor.windows)
 
 
