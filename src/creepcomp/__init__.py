@@ -11,7 +11,9 @@ The names below are imported when first used, so that ``import creepcomp`` (and 
 line's start) costs nothing until a name is needed.
 """
 
+import sys
 from importlib import import_module
+from types import ModuleType
 
 __version__ = "0.1.0"
 
@@ -36,6 +38,7 @@ _API = {
     "generate_firmware": "creepcomp.digital.firmware", "firmware_bound": "creepcomp.digital.firmware",
     "verify_firmware": "creepcomp.digital.firmware_check",
     "prepare": "creepcomp.fit.data", "fit_prony": "creepcomp.fit.prony",
+    "fit": "creepcomp.diagnose.fitting",
     "diagnose": "creepcomp.diagnose.sensor", "diagnose_circuit": "creepcomp.diagnose.circuit",
     "FleetResult": "creepcomp.fleet.batch",
     "default_sensor": "creepcomp.data",
@@ -55,3 +58,27 @@ def __getattr__(name: str):
 
 def __dir__():
     return sorted(set(globals()) | set(_API))
+
+
+def _function_first(name: str) -> property:
+    """``creepcomp.<name>``: the function, although a subpackage has the same name (importing
+    the subpackage sets the package's attribute to it; this keeps the function, and the
+    subpackage stays where ``import`` finds it, in ``sys.modules``)."""
+    def get(module):
+        return getattr(import_module(_API[name]), name)
+
+    def keep_function(module, value):
+        pass
+
+    return property(get, keep_function, doc=f"The function :func:`{_API[name]}.{name}`.")
+
+
+class _Package(ModuleType):
+    """The package's module type: ``creepcomp.fit`` and ``creepcomp.diagnose`` are the
+    functions, whichever of their subpackages was imported first."""
+
+    fit = _function_first("fit")
+    diagnose = _function_first("diagnose")
+
+
+sys.modules[__name__].__class__ = _Package

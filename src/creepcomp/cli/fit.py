@@ -180,16 +180,16 @@ def fit_command(
     [(record, reduction)] = load_reduced(record_path, (MAX_FIT_SAMPLES,), columns, delimiter,
                                          duplicate_times, taxel, sheet, quiet=as_json,
                                          grown_samples=GROWN_FIT_SAMPLES)
-    from creepcomp.fit import Applied, fit_prony, prepare
+    from creepcomp.fit import Applied, fit_record
 
     with progress_bar("fitting", disable=as_json):
-        data = prepare(record, initial=init, load_step_at=step)
         extra = ()
         if flow:        # (the diagnosis's effects are imported only for it)
             from creepcomp.diagnose.effects import flow_effect
 
             extra = (Applied(flow_effect()),)
-        result = fit_prony(data, max_terms=max_terms, n_terms=fixed, effects=extra)
+        result = fit_record(record, init, step, fixed, max_terms, extra)
+    data = result.data
     model = result.to_dict()
     if reduction:
         model["record_reduction"] = reduction

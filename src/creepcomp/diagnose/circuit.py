@@ -59,6 +59,7 @@ from creepcomp.fit.noise import (MISFIT_LIMIT, NoiseFloor, autocorrelation, expl
                                  misfit_ratio, rows_for, whiten)
 from creepcomp.fit.structure import Applied
 from creepcomp.io.jsonfiles import Design
+from creepcomp.io.formats import read_any
 from creepcomp.io.records import Record
 from creepcomp.units import format_quantity
 
@@ -438,15 +439,16 @@ class CircuitConclusion:
     drift: OutputDrift | None = None
 
 
-def diagnose_circuit(record: Record, design: Design, spice_check: bool = True,
+def diagnose_circuit(record, design: Design, spice_check: bool = True,
                      resistor_series: str = "E24", capacitor_series: str = "E6",
                      candidates: list[str] | None = None) -> CircuitDiagnosis:
     """What the simulated network gets wrong against the measured output, and why.
 
     Parameters
     ----------
-    record : Record
-        With ``signal`` and ``corrected``.
+    record : Record, path, open file, data frame or mapping of arrays
+        With ``signal`` and ``corrected``; read by :func:`~creepcomp.io.formats.read_any`
+        unless a :class:`Record`.
     design : Design
         The nominal design of the network that produced ``corrected``.
     spice_check : bool
@@ -464,6 +466,7 @@ def diagnose_circuit(record: Record, design: Design, spice_check: bool = True,
     # by identifier: the order the benchmarks were run with (it orders the trials and breaks ties)
     pool = (sorted(circuit_effects(), key=lambda e: e.name) if candidates is None
             else [effects_pkg.get(c) for c in candidates])
+    record = read_any(record)
     data = prepare(record, design)
     floor = circuit_noise_floor(data)
     baseline = with_heldout(data, fit_model(data, (), [{}]))

@@ -57,6 +57,7 @@ from creepcomp.fit.starts import one_term_starts, tau_grid
 from creepcomp.fit.prony import model_file_dict
 from creepcomp.fit.reduce import reduce_record
 from creepcomp.lti import compiled_loops, lag_states
+from creepcomp.io.formats import read_any
 from creepcomp.io.records import Record
 from creepcomp.units import format_parameter
 
@@ -921,7 +922,7 @@ def _search(data: Data, pool, max_effects: int, workers: Workers, correction: bo
     return search
 
 
-def diagnose(record: Record, initial: str = "free", load_step_at: float | None = None,
+def diagnose(record, initial: str = "free", load_step_at: float | None = None,
              candidates: list[str] | None = None, max_effects: int = MAX_EFFECTS,
              correction: bool = True, max_samples: int | None = DIAGNOSE_MAX_SAMPLES,
              jobs: int = 1) -> Diagnosis:
@@ -929,7 +930,8 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
 
     Parameters
     ----------
-    record : Record
+    record : Record, path, open file, data frame or mapping of arrays
+        Read by :func:`~creepcomp.io.formats.read_any` unless a :class:`Record`.
     initial : {"free", "relaxed", "settled"}
         Creep state at the first sample (see :func:`creepcomp.fit.data.prepare`).
     load_step_at : float, optional
@@ -964,6 +966,7 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
     150.0
     """
     t_start = _time.perf_counter()
+    record = read_any(record)
     if isinstance(jobs, bool) or not isinstance(jobs, numbers.Integral) or jobs < 1:
         raise InputError(f"jobs = {jobs}: use a whole number of processes, 1 or more")
     reduced = record.metadata.get("reduced")    # reduced once already, while read (fit.reduce)

@@ -12,7 +12,7 @@ from scipy import linalg
 
 from creepcomp.errors import InputError
 from creepcomp.fit.blas import one_blas_thread
-from creepcomp.fit.data import Data
+from creepcomp.fit.data import Data, prepare
 from creepcomp.fit.evidence import BIC_STRONG, FOLDS, Evidence, compare, heldout
 from creepcomp.fit.noise import ARNoise, ar_order, fit_noise, is_sparse
 from creepcomp.fit.solver import (Fit, Problem, _coarse, _finish, best_of_starts, fit_structure,
@@ -21,7 +21,8 @@ from creepcomp.fit.starts import cluster_taus, extra_term_starts, nnls_spectrum,
 from creepcomp.fit.structure import Applied, Structure
 from creepcomp.model import CreepModel
 
-__all__ = ["OrderStep", "PronyResult", "fit_terms", "spectrum_of", "fit_prony", "term_table", "fit_summary",
+__all__ = ["OrderStep", "PronyResult", "fit_terms", "spectrum_of", "fit_prony", "FIT_MAX_TERMS",
+           "fit_record", "term_table", "fit_summary",
            "model_file_dict"]
 
 
@@ -210,6 +211,32 @@ def fit_prony(data: Data, max_terms: int = 6, n_terms: int | None = None,
     """
     with one_blas_thread():     # (small matrices: see creepcomp.fit.blas)
         return _fit_prony(data, max_terms, n_terms, folds, effects)
+
+
+#: Most creep terms tried for a record by :func:`fit_record` (``creepcomp fit --max-terms``).
+FIT_MAX_TERMS = 8
+
+
+def fit_record(record, initial: str = "free", load_step_at: float | None = None,
+               n_terms: int | None = None, max_terms: int = FIT_MAX_TERMS,
+               effects: tuple[Applied, ...] = ()) -> PronyResult:
+    """Prepare a record (:func:`~creepcomp.fit.data.prepare`) and fit it (:func:`fit_prony`):
+    what ``creepcomp fit`` does with one record once it is read (and, when long, reduced).
+
+    Parameters
+    ----------
+    record : Record (or anything :func:`~creepcomp.fit.data.prepare` takes)
+    initial, load_step_at
+        As :func:`~creepcomp.fit.data.prepare`.
+    n_terms, max_terms, effects
+        As :func:`fit_prony`.
+
+    Returns
+    -------
+    PronyResult
+    """
+    data = prepare(record, initial=initial, load_step_at=load_step_at)
+    return fit_prony(data, max_terms=max_terms, n_terms=n_terms, effects=effects)
 
 
 def _fit_prony(data: Data, max_terms: int, n_terms: int | None, folds: int,
