@@ -167,12 +167,14 @@ def _correct_whole(record_path, model, method, start, hold, output, out_meta, ma
                          progress=update)
     if plot is not None:
         from creepcomp.digital.correctors import reference
+        from creepcomp.report.common import save_axes
         from creepcomp.report.digital import plot_correction
 
-        plot_correction(record.time, record.signal, compensated,
-                        reference(record.load, model, method), plot,
-                        title=f"{record_path.name}: {method} correction",
-                        signal_unit=record.unit("signal"), full_scale=after.full_scale or None)
+        save_axes(plot_correction(record.time, record.signal, compensated,
+                                  reference(record.load, model, method),
+                                  title=f"{record_path.name}: {method} correction",
+                                  signal_unit=record.unit("signal"),
+                                  full_scale=after.full_scale or None), plot)
     return FileCorrection(RecordScan.of(record), uniform_interval(record.time), before, after,
                           source, _fitted_rms(record.signal, record.load),
                           _fitted_rms(compensated, record.load))

@@ -73,9 +73,10 @@ def creep_test_command(
     else:
         result = model_test(obj, temps, limits, program)
     if plot is not None:
+        from creepcomp.report.common import save_axes
         from creepcomp.report.creep_test import plot_creep_test
 
-        plot_creep_test(result, plot)
+        save_axes(plot_creep_test(result), plot)
     if as_json:
         out = result.to_dict()
         out["file"] = str(target)

@@ -129,7 +129,7 @@ def split_candidates(text: str | None) -> tuple[list | None, list | None]:
 
 def render_diagnosis(record, d: Diagnosis) -> None:
     """Print a diagnosis as tables."""
-    from creepcomp.fit import BIC_STRONG, HELDOUT_Z
+    from creepcomp.report.results import diagnosis_tables
 
     su = record.unit("signal")
     console.print(f"[bold]creepcomp diagnose[/bold]: {describe_record(record, d.data)}")
@@ -149,15 +149,9 @@ def render_diagnosis(record, d: Diagnosis) -> None:
                       f"{MISFIT_LIMIT:g}); explained share of the excess misfit "
                       f"{'-' if share is None else format_percent(share)}")
     console.print(f"[bold]cause: {d.cause}[/bold]")
+    tables = diagnosis_tables(d, {c: record.unit(c) for c in ("signal", "load")})
     if d.findings:
-        t = Table(title="Findings (most important first)", title_justify="left")
-        for col in ("effect", "parameters (± 1 sigma)", "ΔBIC", "held-out RMS ratio", "held-out z"):
-            t.add_column(col, justify="right" if col.startswith(("Δ", "held")) else "left")
-        units = {c: record.unit(c) for c in ("signal", "load")}
-        for f in d.findings:
-            t.add_row(f.effect, f.parameters_text(units), f"{f.evidence.delta_bic:.1f}",
-                      f"{f.evidence.heldout_rms_ratio:.3g}", f"{f.evidence.heldout_z:.1f}")
-        console.print(t)
+        console.print(tables[0].to_rich())
         for f in d.findings:
             if f.note:
                 console.print(f"{f.effect}: {f.note}")
@@ -165,30 +159,9 @@ def render_diagnosis(record, d: Diagnosis) -> None:
         from creepcomp.fit.noise import none_statement
 
         console.print(none_statement(d.floor))
-    t = Table(title=f"Candidates (accepted: ΔBIC <= -{BIC_STRONG:g} and held-out z >= {HELDOUT_Z:g})",
-              title_justify="left")
-    for col in ("step", "effect", "ΔBIC", "held-out z", "outcome"):
-        t.add_column(col, justify="right" if col in ("step", "ΔBIC", "held-out z") else "left")
-    for tr in d.trials:
-        t.add_row(str(tr.step), tr.effect, "-" if tr.delta_bic is None else f"{tr.delta_bic:.1f}",
-                  f"{tr.evidence.heldout_z:.1f}" if tr.evidence else "-", tr.outcome)
-    console.print(t)
-    e = d.residual_summary(d.extended)
+    for t in tables[1 if d.findings else 0:]:
+        console.print(t.to_rich())
     g = d.gain
-    t = Table(title="Gain", title_justify="left")
-    for col in ("", "baseline", "extended", "ratio"):
-        t.add_column(col, justify="right")
-    t.add_row(f"held-out residual RMS ({su or 'signal units'})", f"{b['heldout_residual_rms']:.4g}",
-              f"{e['heldout_residual_rms']:.4g}", _ratio(g.get("heldout_rms_ratio")))
-    if g.get("correction_error_ratio") is not None:
-        t.add_row(f"corrected signal vs load, RMS error ({su or 'signal units'})",
-                  f"{g['correction_error_baseline']:.4g}",
-                  f"{g['correction_error_extended']:.4g}", _ratio(g["correction_error_ratio"]))
-    elif g.get("correction_unsettled"):
-        t.add_row(f"corrected signal vs load, RMS error ({su or 'signal units'})",
-                  f"{g['correction_error_baseline']:.4g}",
-                  "not measured", "-")
-    console.print(t)
     if g.get("correction_unsettled"):
         console.print(f"The extended model's creep correction finds no load that gives the signal "
                       f"({g['correction_unsettled']}): its error is not measured.")

@@ -196,9 +196,10 @@ def fit_command(
     if output is not None:
         write_json(output, model)
     if plot is not None:
+        from creepcomp.report.common import save_axes
         from creepcomp.report.diagnosis import plot_fit
 
-        plot_fit(data, result.fit, plot, record)
+        save_axes(plot_fit(data, result.fit, record=record), plot, dpi=100)
     if as_json:
         print_json(model)
         return

@@ -139,9 +139,10 @@ def simulate_command(
         err_console.print(f"creepcomp: note: {comparison.unavailable}; showing the python-control "
                           "result only", markup=False, highlight=False, soft_wrap=True)
     if plot_path is not None:
+        from creepcomp.report.common import save_axes
         from creepcomp.report.spice import plot_comparison
 
-        plot_comparison(comparison, plot_path)
+        save_axes(plot_comparison(comparison), plot_path)
     if netlist is not None:
         from creepcomp.cli.netlist import drive_deck
 
@@ -184,11 +185,12 @@ def _simulate_temperatures(drive, design: Path, temps: list[float], plot_path: P
                           "only", markup=False, highlight=False, soft_wrap=True)
     plots = {}
     if plot_path is not None:
+        from creepcomp.report.common import save_axes
         from creepcomp.report.spice import plot_comparison
 
         for c in comparisons:
             plots[c.temperature] = plot_path if len(temps) == 1 else _at(plot_path, c.temperature)
-            plot_comparison(c, plots[c.temperature])
+            save_axes(plot_comparison(c), plots[c.temperature])
     if netlist is not None:
         from creepcomp.cli.netlist import drive_deck
 

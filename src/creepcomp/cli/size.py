@@ -239,17 +239,19 @@ def size_command(
 
         draw_network(report.chosen, schematic, report.plan)
     if comparison is not None and plot is not None:
+        from creepcomp.report.common import save_axes
         from creepcomp.report.design import plot_over_temperature
 
-        plot_over_temperature(comparison, over_temperature_plot_path(plot))
+        save_axes(plot_over_temperature(comparison), over_temperature_plot_path(plot))
     if plot is not None:
         designs = {"uncorrected": None, "ideal": report.ideal, "chosen parts": report.chosen}
         if report.nearest is not None:
             designs["nearest values"] = report.nearest
+        from creepcomp.report.common import save_axes
         from creepcomp.report.design import plot_design_comparison
 
-        plot_design_comparison(model, designs, plot, report.chosen_quality.sweep_period,
-                               schematic=report.chosen, plan=report.plan)
+        save_axes(plot_design_comparison(model, designs, sweep_period=report.chosen_quality.sweep_period,
+                                         schematic=report.chosen, plan=report.plan), plot)
     if as_json:
         out = report.to_dict()
         out.update(practical=verdict.practical, reasons=list(verdict.reasons), way_out=None,

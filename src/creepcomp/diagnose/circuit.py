@@ -61,6 +61,7 @@ from creepcomp.fit.structure import Applied
 from creepcomp.io.jsonfiles import Design
 from creepcomp.io.formats import read_any
 from creepcomp.io.records import Record
+from creepcomp.display import Shown
 from creepcomp.units import format_quantity
 
 __all__ = ["MAX_EFFECTS", "EQUIVALENT_BIC", "MISMATCH_RATIO", "PART_FACTOR", "fault_prior", "FAULT_PRIOR",
@@ -161,9 +162,9 @@ class CircuitTrial:
         return out
 
 
-@dataclass(frozen=True)
-class CircuitDiagnosis:
-    """Result of :func:`diagnose_circuit`."""
+@dataclass(frozen=True, eq=False)
+class CircuitDiagnosis(Shown):
+    """Result of :func:`diagnose_circuit` (equal only to itself: it holds arrays)."""
 
     data: CircuitData
     baseline: CircuitFit
@@ -271,6 +272,11 @@ class CircuitDiagnosis:
                 "structure": fit.describe(),
                 "residual_lag1_autocorrelation": float(autocorrelation(fit.residual, 1)[1]),
                 "whitened_ljung_box_p": p}
+
+    def __repr__(self) -> str:
+        return (f"<CircuitDiagnosis of {self.data.source!r}: cause {self.cause}, residual RMS "
+                f"{format_quantity(self.baseline.rms, 'V')} nominal, {format_quantity(self.extended.rms, 'V')} "
+                f"as built, {len(self.fixes)} fix{'' if len(self.fixes) == 1 else 'es'}>")
 
     def to_dict(self) -> dict:
         """The circuit side's JSON (``docs/diagnosis.md`` keys plus the as-built network and fix)."""

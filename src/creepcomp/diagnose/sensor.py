@@ -44,6 +44,7 @@ import numpy as np
 from creepcomp.diagnose import effects as effects_pkg
 from creepcomp.diagnose.effects import Effect, UnsettledInverse, compensate_extended
 from creepcomp.diagnose.workers import Workers, last_seconds
+from creepcomp.display import Shown, data_frame
 from creepcomp.errors import InputError
 from creepcomp.fit.blas import one_blas_thread
 from creepcomp.fit.data import Data, prepare
@@ -178,9 +179,9 @@ class Trial:
         return out
 
 
-@dataclass(frozen=True)
-class Diagnosis:
-    """Result of :func:`diagnose`."""
+@dataclass(frozen=True, eq=False)
+class Diagnosis(Shown):
+    """Result of :func:`diagnose` (equal only to itself: it holds arrays)."""
 
     data: Data
     baseline: Fit
@@ -227,6 +228,19 @@ class Diagnosis:
                 "noise": fit.noise.to_dict(self.data.dt_median),
                 "residual_lag1_autocorrelation": float(acf),
                 "whitened_ljung_box_p": p}
+
+    def __repr__(self) -> str:
+        ratio = self.misfit_ratio(self.extended)
+        misfit = "" if ratio is None else f", misfit ratio {ratio:.3g} (noise floor 1)"
+        return (f"<Diagnosis of {self.data.source!r}: cause {self.cause}, {len(self.findings)} "
+                f"finding{'' if len(self.findings) == 1 else 's'}{misfit}, {self.seconds:.3g} s>")
+
+    def to_pandas(self):
+        """The findings (effect, ΔBIC, held-out z, held-out RMS ratio) as a pandas DataFrame."""
+        return data_frame({"effect": [f.effect for f in self.findings],
+                           "delta_bic": [f.evidence.delta_bic for f in self.findings],
+                           "heldout_z": [f.evidence.heldout_z for f in self.findings],
+                           "heldout_rms_ratio": [f.evidence.heldout_rms_ratio for f in self.findings]})
 
     def to_dict(self) -> dict:
         """The JSON object of ``creepcomp diagnose --json`` (``docs/diagnosis.md``)."""

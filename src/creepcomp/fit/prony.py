@@ -10,6 +10,7 @@ from typing import Sequence
 import numpy as np
 from scipy import linalg
 
+from creepcomp.display import Shown, data_frame
 from creepcomp.errors import InputError
 from creepcomp.fit.blas import one_blas_thread
 from creepcomp.fit.data import Data, prepare
@@ -73,7 +74,7 @@ class OrderStep:
 
 
 @dataclass(frozen=True)
-class PronyResult:
+class PronyResult(Shown):
     """Prony fits for 1, 2, ... terms and the one the evidence chose."""
 
     data: Data
@@ -92,6 +93,21 @@ class PronyResult:
     def to_dict(self) -> dict:
         """Model-file form: the model plus uncertainties and fit statistics."""
         return model_file_dict(self.data, self.fit, self.steps, self.chosen)
+
+    def __repr__(self) -> str:
+        from creepcomp.units import format_percent
+
+        fit, tried = self.fit, [s.n_terms for s in self.steps]
+        n = fit.structure.n_terms
+        return (f"<PronyResult of {self.data.source!r}: {n} term{'s' if n > 1 else ''} chosen of "
+                f"{min(tried)}..{max(tried)} tried, beta0 {format_percent(self.model().beta0)}, "
+                f"residual RMS {format_percent(fit.residual_rms / self.data.signal_scale)} of the signal's range>")
+
+    def to_pandas(self):
+        """The chosen model's terms (``beta``, ``tau`` in s, their standard deviations) as a
+        pandas DataFrame (pandas needed)."""
+        rows = term_table(self.fit)
+        return data_frame({k: [r[k] for r in rows] for k in ("beta", "beta_sigma", "tau", "tau_sigma")})
 
 
 def fit_terms(data: Data, n_terms: int, previous: Fit | None = None, noise: ARNoise | None = None,

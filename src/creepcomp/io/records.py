@@ -33,6 +33,7 @@ from typing import Callable, Iterator, Mapping
 
 import numpy as np
 
+from creepcomp.display import Shown, data_frame
 from creepcomp.errors import InputError
 from creepcomp.io.inputs import check_input_file, gunzipped, open_input
 from creepcomp.io.record_check import (COLUMNS, OPTIONAL, REQUIRED, TIME_UNITS_TO_SECONDS,
@@ -84,8 +85,8 @@ def _file_bytes(path) -> int:
     return st.st_size if stat.S_ISREG(st.st_mode) else 0
 
 
-@dataclass(frozen=True)
-class Record:
+@dataclass(frozen=True, eq=False)
+class Record(Shown):
     """A measured record.
 
     Attributes
@@ -117,6 +118,26 @@ class Record:
 
     def __len__(self) -> int:
         return len(self.time)
+
+    def __repr__(self) -> str:
+        from creepcomp.units import format_quantity, format_time
+
+        ranges = ", ".join(f"{c} {format_quantity(float(getattr(self, c).min()), self.unit(c))} to "
+                           f"{format_quantity(float(getattr(self, c).max()), self.unit(c))}"
+                           for c in ("load", "signal"))
+        return f"<Record {self.source!r}: {len(self)} samples over {format_time(self.duration)}; {ranges}>"
+
+    def to_dict(self) -> dict:
+        """JSON form of what the record is (the columns' data: :meth:`to_pandas`): source,
+        samples, duration (s), the columns present, units and metadata."""
+        return {"source": self.source, "samples": len(self), "duration_s": self.duration,
+                "columns": [c for c in COLUMNS if getattr(self, c) is not None],
+                "units": {c: self.unit(c) for c in COLUMNS if self.unit(c)},
+                "metadata": {str(k): str(v) for k, v in self.metadata.items()}}
+
+    def to_pandas(self):
+        """The columns as a pandas DataFrame (pandas needed; imported here)."""
+        return data_frame({c: getattr(self, c) for c in COLUMNS if getattr(self, c) is not None})
 
     @property
     def duration(self) -> float:
