@@ -17,32 +17,42 @@ from types import ModuleType
 
 __version__ = "0.1.0"
 
-#: Public name -> module that defines it.
+#: Public name -> module that defines it, most used first (the order of ``docs/api/index.md``).
 _API = {
-    "CreepcompError": "creepcomp.errors", "InputError": "creepcomp.errors",
-    "NotRealisableError": "creepcomp.errors",
-    "LagExpansion": "creepcomp.lti", "CreepModel": "creepcomp.model",
-    "Branch": "creepcomp.network", "Cell": "creepcomp.network", "Network": "creepcomp.network",
+    # measured records in, a creep model out
+    "read_record": "creepcomp.io.records", "fit": "creepcomp.diagnose.fitting",
+    "diagnose": "creepcomp.diagnose.sensor", "CreepModel": "creepcomp.model",
+    "Record": "creepcomp.io.records", "read_model": "creepcomp.io.jsonfiles",
+    "write_model": "creepcomp.io.jsonfiles",
+    # the analog network
+    "size": "creepcomp.analog.sizing", "SizingReport": "creepcomp.analog.sizing",
+    "predict": "creepcomp.analog.quality", "Quality": "creepcomp.analog.quality",
+    "ideal_network": "creepcomp.analog.sizing", "Network": "creepcomp.network",
+    "Cell": "creepcomp.network", "Branch": "creepcomp.network",
+    "Design": "creepcomp.io.jsonfiles", "read_design": "creepcomp.io.jsonfiles",
+    "write_design": "creepcomp.io.jsonfiles",
+    # proof and tolerances
+    "compare_program": "creepcomp.verify.compare", "compare_record": "creepcomp.verify.compare",
+    "analyse": "creepcomp.verify.tolerance_analysis", "ToleranceSpec": "creepcomp.verify.tolerances",
+    "Tolerance": "creepcomp.verify.tolerances", "run_monte_carlo": "creepcomp.verify.montecarlo",
+    # digital correction and firmware
+    "correct_record": "creepcomp.digital.correction", "compensate": "creepcomp.digital.correctors",
+    "Corrector": "creepcomp.digital.correctors", "creep_error": "creepcomp.digital.correctors",
+    "generate_firmware": "creepcomp.digital.firmware", "verify_firmware": "creepcomp.digital.firmware_check",
+    "firmware_bound": "creepcomp.digital.firmware",
+    # built networks, fleets
+    "diagnose_circuit": "creepcomp.diagnose.circuit", "suggest_fixes": "creepcomp.analog.faults",
+    "FleetResult": "creepcomp.fleet.batch",
+    # the fit's parts, other readers, load programs, kernel
+    "prepare": "creepcomp.fit.data", "fit_prony": "creepcomp.fit.prony",
+    "read_any": "creepcomp.io.formats", "write_record": "creepcomp.io.records",
+    "default_sensor": "creepcomp.data",
     "LoadProgram": "creepcomp.programs", "step": "creepcomp.programs",
     "staircase": "creepcomp.programs", "triangle_sweep": "creepcomp.programs",
-    "Record": "creepcomp.io.records", "read_record": "creepcomp.io.records",
-    "write_record": "creepcomp.io.records", "read_any": "creepcomp.io.formats",
-    "Design": "creepcomp.io.jsonfiles", "read_design": "creepcomp.io.jsonfiles",
-    "read_model": "creepcomp.io.jsonfiles", "write_design": "creepcomp.io.jsonfiles",
-    "write_model": "creepcomp.io.jsonfiles",
-    "Quality": "creepcomp.analog.quality", "predict": "creepcomp.analog.quality",
-    "SizingReport": "creepcomp.analog.sizing", "ideal_network": "creepcomp.analog.sizing",
-    "size": "creepcomp.analog.sizing", "suggest_fixes": "creepcomp.analog.faults",
-    "Corrector": "creepcomp.digital.correctors", "compensate": "creepcomp.digital.correctors",
-    "creep_error": "creepcomp.digital.correctors",
-    "generate_firmware": "creepcomp.digital.firmware", "firmware_bound": "creepcomp.digital.firmware",
-    "verify_firmware": "creepcomp.digital.firmware_check",
-    "prepare": "creepcomp.fit.data", "fit_prony": "creepcomp.fit.prony",
-    "fit": "creepcomp.diagnose.fitting",
-    "diagnose": "creepcomp.diagnose.sensor", "diagnose_circuit": "creepcomp.diagnose.circuit",
-    "FleetResult": "creepcomp.fleet.batch",
-    "default_sensor": "creepcomp.data",
-    "compare_program": "creepcomp.verify.compare", "compare_record": "creepcomp.verify.compare",
+    "LagExpansion": "creepcomp.lti",
+    # errors
+    "InputError": "creepcomp.errors", "CreepcompError": "creepcomp.errors",
+    "NotRealisableError": "creepcomp.errors",
 }
 
 __all__ = sorted(_API)
