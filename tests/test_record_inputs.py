@@ -171,11 +171,15 @@ def test_fit_takes_a_frame_and_fits_as_the_command_does(bundled, run_cli):
         assert model[key] == command[key]
 
 
-def test_diagnose_and_prepare_take_frames(bundled):
+def test_diagnose_correct_and_prepare_take_frames(bundled):
     from creepcomp.fit import prepare
 
     prepared = prepare(Frame(bundled.columns()))
     np.testing.assert_array_equal(prepared.signal, bundled.signal)
+    model = creepcomp.CreepModel.voigt(0.03, 45.0)
+    from_frame = creepcomp.correct_record(Frame(bundled.columns()), model)
+    np.testing.assert_array_equal(from_frame.compensated,
+                                  creepcomp.correct_record(bundled, model).compensated)
     with pytest.raises(InputError, match="record: a builtins.int is not a record"):
         creepcomp.diagnose(7)
     with pytest.raises(InputError, match="record: a builtins.str is not a record|no such file"):

@@ -13,6 +13,7 @@ import numpy as np
 
 from creepcomp.digital.correctors import CreepError, compensate, creep_error
 from creepcomp.display import Shown, data_frame
+from creepcomp.io.formats import read_any
 from creepcomp.model import CreepModel
 from creepcomp.units import format_percent
 
@@ -71,9 +72,9 @@ def correct_record(record, model: CreepModel, method: str = "subtractive", initi
 
     Parameters
     ----------
-    record : Record
+    record : Record, path, open file, data frame or mapping of arrays
         Needs ``time``, ``load`` and ``signal`` (the load gives the reference the error is
-        measured against).
+        measured against); read by :func:`~creepcomp.io.formats.read_any` unless a Record.
     model : CreepModel
     method, initial, hold, temperature
         As :func:`~creepcomp.digital.correctors.compensate` takes them.
@@ -95,6 +96,7 @@ def correct_record(record, model: CreepModel, method: str = "subtractive", initi
     >>> c.after.peak < 1e-9 < c.before.peak
     True
     """
+    record = read_any(record)
     record.require(n_samples=2, what="creep correction")
     compensated = compensate(record.time, record.signal, model, method, initial=initial, hold=hold,
                              temperature=temperature)
