@@ -14,7 +14,7 @@ from creepcomp.io.outputs import check_outputs
 from creepcomp.io.records import parse_columns, read_record, write_record
 from creepcomp.units import format_percent, format_quantity
 from creepcomp.cli.common import app, console, print_json, progress_bar, warn_creep
-from creepcomp.cli.size import describe_model
+from creepcomp.report.results import describe_model
 
 #: A record "starts loaded" when its first load is above this fraction of its largest load.
 LOADED_START = 1e-3

@@ -14,10 +14,12 @@ from creepcomp.report.tables import Column, Summary, Table
 from creepcomp.units import format_percent, format_quantity, format_time
 
 __all__ = ["summary_of", "plot_of", "record_summary", "model_summary", "fit_tables", "fit_summary_of",
-           "diagnosis_summary", "circuit_summary", "correction_summary", "sizing_summary",
+           "diagnosis_summary", "diagnosis_tables", "circuit_summary", "correction_summary",
+           "correction_table", "sizing_summary", "bom_table", "over_range_summary", "verdict_lines",
+           "network_design_summary",
            "design_summary", "comparison_summary", "tolerance_summary", "monte_carlo_summary",
-           "creep_test_summary", "firmware_summary", "verification_summary", "describe_model",
-           "network_table"]
+           "creep_test_summary", "creep_test_table", "firmware_summary", "verification_summary",
+           "describe_model", "network_table", "SHOWN_ZERO"]
 
 
 def _key(obj) -> str:
@@ -316,6 +318,92 @@ def sizing_summary(report, title: str | None = None) -> Summary:
     return Summary(title or "creepcomp size", lines, (parts, predicted), footer, tuple(report.warnings))
 
 
+def bom_table(rows) -> Table:
+    """The bill of materials (``creepcomp size``)."""
+    from creepcomp.analog.bom import BOM_COLUMNS
+
+    return Table.of("Bill of materials (tc in ppm/K)",
+                    [Column(c, "right" if c in ("value", "tolerance", "tc") else "left") for c in BOM_COLUMNS],
+                    [[getattr(r, c) for c in BOM_COLUMNS] for r in rows])
+
+
+def over_range_summary(comparison) -> Summary:
+    """The designs over a temperature range: the worst cases, the residual at every
+    temperature, the written design's parts (its thermistors), and its warnings."""
+    designs = comparison.designs
+    bare = designs[0].prediction
+    k = max(range(len(bare.uncorrected)), key=bare.uncorrected.__getitem__)
+    worst = Table.of("Worst case over the range",
+                     [Column("design", "left"), "worst peak residual creep", "at", "written"],
+                     [(d.label, format_percent(d.prediction.worst), f"{d.prediction.worst_at:g} °C",
+                       "yes" if d.key == comparison.chosen else "") for d in designs]
+                     + [("uncorrected", format_percent(bare.uncorrected[k]), f"{bare.temperatures[k]:g} °C", "")])
+    per_t = Table.of("Peak residual creep of a full-scale step at each temperature",
+                     ["°C"] + [d.label.split(")")[0] + ")" for d in designs] + ["uncorrected"],
+                     [[f"{t:g}"] + [format_percent(d.prediction.peak_residual[i]) for d in designs]
+                      + [format_percent(bare.uncorrected[i])] for i, t in enumerate(bare.temperatures)])
+    written = comparison.written
+    parts = Table.of(f"Written design: {written.label}",
+                     [Column("part", "left"), "value at 25 °C", Column("made of", "left")],
+                     [(label, format_quantity(v, _part_unit(kind)), _made_of(written.plan, label, kind))
+                      for label, kind, v in written.network.parts()])
+    return Summary(f"Over {comparison.low:g} .. {comparison.high:g} °C", (designs[0].prediction.note,),
+                   (worst, per_t, parts), warnings=tuple(written.warnings))
+
+
+def _made_of(plan, label: str, kind: str) -> str:
+    use = plan.thermistors.get(label)
+    if use is None:
+        return f"{plan.resistor if kind == 'R' else plan.capacitor}"
+    made = f"NTC {use.part} (R25 = {format_quantity(use.r25, 'Ω')}, B = {use.b:g} K)"
+    if use.series:
+        made += f" + {format_quantity(use.series, 'Ω')} in series"
+    if use.parallel is not None:
+        made += f", {format_quantity(use.parallel, 'Ω')} across"
+    return made
+
+
+def verdict_lines(design) -> tuple[str, ...]:
+    """What the verdict on a written design says: practical with its figures (an active
+    stage's op amps and offset too), or each reason it is not."""
+    v, report = design.verdict, design.sizing
+    if not v.practical:
+        why = "ideal values" if design.ideal_values else "--allow-impractical"
+        return tuple(f"impractical ({why}): {reason}" for reason in v.reasons)
+    leak = format_quantity(v.to_dict()["leakage_to_ground"], "Ω")
+    figures = (f"the peak residual creep is {format_percent(v.leakage_peak)}, at the worst tolerance "
+               f"corner {format_percent(v.worst_case_peak)} (uncorrected {format_percent(v.uncorrected_peak)})")
+    if report.chosen.topology != "active":
+        return (f"practical: every part is made; with a {leak} leakage path {figures}",)
+    from creepcomp.analog.active import OP_AMP, output_offset
+
+    temps = design.span if design.span is not None else (25.0,)
+    offset = max(output_offset(report.chosen, report.plan, t) for t in temps)
+    return (f"practical: every part is made; with the capacitors' insulation and a {leak} board path "
+            f"across each {figures}",
+            f"op amps: {OP_AMP.text()}; at those limits their constant output offset is at most "
+            f"{format_quantity(offset, 'V')} over the range (tared, not creep)")
+
+
+def network_design_summary(design) -> Summary:
+    """A network design (``creepcomp size``): the sizing, the designs over the range, the
+    bill of materials and the verdict."""
+    if design.sizing is None:
+        return Summary("creepcomp size: refused", (), (), tuple(design.reasons))
+    sizing = sizing_summary(design.at_reference)
+    tables, warnings = list(sizing.tables), list(sizing.warnings)
+    lines = list(sizing.lines)
+    if design.comparison is not None:
+        over = over_range_summary(design.comparison)
+        lines.append(f"{over.heading}: {over.lines[0]}")
+        tables += over.tables
+        warnings += over.warnings
+    if design.bom:
+        tables.append(bom_table(design.bom))
+    footer = sizing.footer + (verdict_lines(design) if design.verdict is not None else ())
+    return Summary(sizing.heading, tuple(lines), tuple(tables), footer, tuple(warnings))
+
+
 def design_summary(design) -> Summary:
     """A design file: the creep it cancels and the network's parts."""
     net = design.network
@@ -450,6 +538,7 @@ SUMMARIES = {
     "creepcomp.diagnose.circuit.CircuitDiagnosis": circuit_summary,
     "creepcomp.digital.correction.Correction": correction_summary,
     "creepcomp.analog.sizing.SizingReport": sizing_summary,
+    "creepcomp.analog.network_design.NetworkDesign": network_design_summary,
     "creepcomp.io.jsonfiles.Design": design_summary,
     "creepcomp.verify.compare.Comparison": comparison_summary,
     "creepcomp.verify.montecarlo.MonteCarloResult": monte_carlo_summary,
@@ -468,6 +557,7 @@ PLOTS = {
     "creepcomp.diagnose.circuit.CircuitDiagnosis": "circuit_plot",
     "creepcomp.digital.correction.Correction": "correction_plot",
     "creepcomp.analog.sizing.SizingReport": "sizing_plot",
+    "creepcomp.analog.network_design.NetworkDesign": "network_design_plot",
     "creepcomp.io.jsonfiles.Design": "design_plot",
     "creepcomp.verify.compare.Comparison": "comparison_plot",
     "creepcomp.verify.montecarlo.MonteCarloResult": "monte_carlo_plot",
