@@ -33,6 +33,8 @@ _API = {
     "size": "creepcomp.analog.sizing", "suggest_fixes": "creepcomp.analog.faults",
     "Corrector": "creepcomp.digital.correctors", "compensate": "creepcomp.digital.correctors",
     "creep_error": "creepcomp.digital.correctors",
+    "correct_record": "creepcomp.digital.correction", "Correction": "creepcomp.digital.correction",
+    "design_network": "creepcomp.analog.network_design", "NetworkDesign": "creepcomp.analog.network_design",
     "generate_firmware": "creepcomp.digital.firmware", "firmware_bound": "creepcomp.digital.firmware",
     "verify_firmware": "creepcomp.digital.firmware_check",
     "prepare": "creepcomp.fit.data", "fit_prony": "creepcomp.fit.prony",

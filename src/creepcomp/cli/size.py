@@ -22,13 +22,11 @@ from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_model, write_design
 from creepcomp.io.outputs import check_outputs
 from creepcomp.model import CreepModel
-from creepcomp.report.results import describe_model, sizing_summary
+from creepcomp.report.results import sizing_summary
 from creepcomp.temperature import TemperatureLaw
 from creepcomp.units import format_percent, format_quantity
 from creepcomp.cli.common import (app, console, print_json, print_summary, quantity,
                                   temperature_range_option, value_range, warn_creep)
-
-__all__ = ["size_command", "describe_model", "DEFAULTS"]
 
 
 def _eng(value: float) -> str:

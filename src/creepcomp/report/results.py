@@ -16,10 +16,10 @@ from creepcomp.units import format_percent, format_quantity, format_time
 __all__ = ["summary_of", "plot_of", "record_summary", "model_summary", "fit_tables", "fit_summary_of",
            "diagnosis_summary", "diagnosis_tables", "circuit_summary", "correction_summary",
            "correction_table", "sizing_summary", "bom_table", "over_range_summary", "verdict_lines",
-           "network_design_summary",
-           "design_summary", "comparison_summary", "tolerance_summary", "monte_carlo_summary",
-           "creep_test_summary", "creep_test_table", "firmware_summary", "verification_summary",
-           "describe_model", "network_table", "SHOWN_ZERO"]
+           "network_design_summary", "design_summary", "comparison_summary", "tolerance_summary",
+           "monte_carlo_summary", "distribution_table", "sensitivity_table", "creep_test_summary",
+           "creep_test_table", "firmware_summary", "verification_summary", "describe_model",
+           "network_table", "SHOWN_ZERO"]
 
 
 def _key(obj) -> str:
@@ -246,7 +246,8 @@ def correction_table(before, after, unit: str, fitted: tuple | None = None) -> T
             ("RMS (of full scale)", format_percent(before.rms_fraction), format_percent(after.rms_fraction))]
     if fitted is not None and fitted[1] is not None:
         rows.append(("RMS, load scaled by least squares", _value(fitted[0], unit), _value(fitted[1], unit)))
-    return Table.of("Creep error against the load reference", ("", "raw signal", "compensated"), rows)
+    return Table.of("Creep error against the load reference", (Column("", "left"), "raw signal", "compensated"),
+                    rows)
 
 
 def correction_summary(c) -> Summary:
@@ -429,7 +430,9 @@ def comparison_summary(c) -> Summary:
 _METRICS = {"peak": "residual creep, peak", "final": "residual creep, final (abs)", "hysteresis": "hysteresis"}
 
 
-def _distribution(result, nominal=None) -> Table:
+def distribution_table(result, nominal=None) -> Table:
+    """Each metric's percentiles over a Monte Carlo run (``nominal``: the nominal design's
+    figures in a first column)."""
     cols = [Column("", "left")] + (["nominal"] if nominal is not None else []) + ["p50", "p95", "p99", "max"]
     rows = []
     for m in ("peak", "final", "hysteresis"):
@@ -445,7 +448,13 @@ def monte_carlo_summary(r) -> Summary:
         y, se = r.yield_against(r.limit, r.limit_metric)
         lines.append(f"yield against {_METRICS[r.limit_metric]} ≤ {format_percent(r.limit)}: "
                      f"{100 * y:.2f} % (± {100 * se:.2f} %)")
-    return Summary("Monte Carlo run", tuple(lines), (_distribution(r),))
+    return Summary("Monte Carlo run", tuple(lines), (distribution_table(r),))
+
+
+def sensitivity_table(sensitivities) -> Table:
+    """Each factor's share of the spread and the p99 when only it varies."""
+    return Table.of("Sensitivity", [Column("factor", "left"), "share of the spread", "p99 when only it varies"],
+                    [(s.factor, f"{100 * s.share:.1f} %", format_percent(s.p99_alone)) for s in sensitivities])
 
 
 def tolerance_summary(report) -> Summary:
@@ -459,12 +468,9 @@ def tolerance_summary(report) -> Summary:
     if report.worst is not None:
         w = report.worst
         lines.append(f"worst case of {_METRICS[w.metric]}: {format_percent(w.value)} ({w.method})")
-    tables = [_distribution(r, report.nominal)]
+    tables = [distribution_table(r, report.nominal)]
     if report.sensitivities:
-        tables.append(Table.of("Sensitivity", [Column("factor", "left"), "share of the spread",
-                                               "p99 when only it varies"],
-                               [(s.factor, f"{100 * s.share:.1f} %", format_percent(s.p99_alone))
-                                for s in report.sensitivities]))
+        tables.append(sensitivity_table(report.sensitivities))
     return Summary("Tolerance analysis", tuple(lines), tuple(tables))
 
 
