@@ -16,9 +16,9 @@ from creepcomp.units import format_percent, format_quantity, format_time
 __all__ = ["summary_of", "plot_of", "record_summary", "model_summary", "fit_tables", "fit_summary_of",
            "diagnosis_summary", "diagnosis_tables", "circuit_summary", "correction_summary",
            "correction_table", "sizing_summary", "bom_table", "over_range_summary", "verdict_lines",
-           "network_design_summary", "design_summary", "comparison_summary", "tolerance_summary",
+           "network_design_summary", "design_summary", "comparison_table", "comparison_summary", "tolerance_summary",
            "monte_carlo_summary", "distribution_table", "sensitivity_table", "creep_test_summary",
-           "creep_test_table", "firmware_summary", "verification_summary", "describe_model",
+           "creep_test_table", "creep_test_tables", "firmware_summary", "verification_summary", "describe_model",
            "network_table", "SHOWN_ZERO"]
 
 
@@ -414,17 +414,47 @@ def design_summary(design) -> Summary:
 
 # --- verification ------------------------------------------------------------------------------
 
+def _peak(comparison, which: str) -> str:
+    e = comparison.residual(which)
+    if e is None:
+        return "n/a"
+    k = int(abs(e).argmax())
+    if abs(e[k]) < 1e-12:
+        return format_percent(abs(float(e[k])))
+    return f"{format_percent(abs(float(e[k])))} at {comparison.reference.time[k]:.4g} s"
+
+
+def comparison_table(c) -> Table:
+    """python-control against ngspice (``creepcomp simulate``): the residual creep of a
+    program, or a record's output range and end (V)."""
+    import numpy as np
+
+    ran = c.spice is not None
+    cols = [Column("", "left"), "python-control", "ngspice"]
+    if c.reference.instantaneous is not None:
+        d = c.to_dict()
+        return Table.of("", cols, [
+            ("residual creep, peak (of full scale)", _peak(c, "reference"), _peak(c, "spice") if ran else "not run"),
+            ("residual creep, final", format_percent(d["python_control"]["residual_creep_final"]),
+             format_percent(d["ngspice"].get("residual_creep_final")) if ran else "not run")])
+
+    def volts(w, f):
+        return format_quantity(float(f(w.output)), "V") if w is not None else "not run"
+
+    return Table.of("", cols, [("output range", volts(c.reference, np.ptp), volts(c.spice, np.ptp)),
+                               ("output at the end", volts(c.reference, lambda y: y[-1]),
+                                volts(c.spice, lambda y: y[-1]))])
+
+
 def comparison_summary(c) -> Summary:
     """An ngspice comparison: residual creep and the agreement of the two simulators."""
     ran = c.spice is not None
-    rows = [("residual creep, peak (of full scale)", format_percent(c.residual_creep_peak)),
-            ("residual creep, final (of full scale)", format_percent(c.residual_creep_final)),
-            ("largest |ngspice - python-control| (of full scale)",
-             format_percent(c.agreement_max_abs) if ran else f"not run: {c.unavailable}")]
-    lines = (f"full scale {format_quantity(c.full_scale, 'V')}, H(inf) = {c.hf_gain:.6g}, "
-             f"reference {c.reference_method}",)
+    lines = [f"full scale {format_quantity(c.full_scale, 'V')}, H(inf) = {c.hf_gain:.6g}, "
+             f"reference {c.reference_method}",
+             "largest |ngspice - python-control|: " + (f"{c.agreement_max_abs:.3g} of full scale" if ran
+                                                        else f"not run ({c.unavailable})")]
     return Summary(f"Simulation of {c.drive}" + ("" if c.temperature is None else f" at {c.temperature:g} °C"),
-                   lines, (Table.of("", [Column("", "left"), "value"], rows),))
+                   tuple(lines), (comparison_table(c),))
 
 
 _METRICS = {"peak": "residual creep, peak", "final": "residual creep, final (abs)", "hysteresis": "hysteresis"}
@@ -476,7 +506,7 @@ def tolerance_summary(report) -> Summary:
 
 #: Names of the readings in the creep test's margin column.
 _SHORT = {"creep_30min": "30 min", "creep_20_30min": "20-30 min", "dr": "DR"}
-#: A reading shown as 0 below this (fraction of FS).
+#: Readings below this (fraction of FS) are round-off, shown as 0.
 SHOWN_ZERO = 1e-12
 
 
@@ -497,7 +527,20 @@ def creep_test_table(title: str, rows: list, limits) -> Table:
                     "pass" if r["pass"] else "FAIL", f"{_SHORT[worst]}: {r['margin'][worst] * limits.n_max:+.3g}"))
     out.append(("limit", *(_v(v, limits.n_max) for v in (limits.creep_30min, limits.creep_20_30min, limits.dr)),
                 "–", "", ""))
-    return Table.of(title, cols, out)
+    return Table.of(title, cols, out, marks={"pass": "green", "FAIL": "red"})
+
+
+def creep_test_tables(result) -> tuple[Table, ...]:
+    """The readings at each temperature, and those of each variant (the corrector fixed at
+    the reference temperature ...)."""
+    lim = result.limits
+    tables = [creep_test_table(f"Readings in verification intervals (1 v = {100 * lim.interval:.4g} % of FS)",
+                               result.rows, lim)]
+    for key, rows in result.variants.items():
+        title = {"corrector_at_reference": "Corrector fixed at the reference temperature "
+                                           f"({result.settings.get('reference_temperature')} °C)"}.get(key, key)
+        tables.append(creep_test_table(title, rows, lim))
+    return tuple(tables)
 
 
 def creep_test_summary(result) -> Summary:
@@ -505,9 +548,7 @@ def creep_test_summary(result) -> Summary:
     lim = result.limits
     lines = (f"target {result.target}; OIML R 60 class {lim.label} (n_max = {lim.n_max}, "
              f"v = {100 * lim.interval:.4g} % of FS); {'pass' if result.passed else 'FAIL'}",)
-    tables = [creep_test_table("Readings", result.rows, lim)]
-    tables += [creep_test_table(key.replace("_", " "), rows, lim) for key, rows in result.variants.items()]
-    return Summary("Creep test", lines, tuple(tables), tuple(result.notes))
+    return Summary("Creep test", lines, creep_test_tables(result), tuple(result.notes))
 
 
 def firmware_summary(fw) -> Summary:
