@@ -105,11 +105,17 @@ def _verification():
                         object_bytes=900, bound_fs=1e-7)
 
 
+def _network_design():
+    from creepcomp.analog.network_design import design_network
+
+    return design_network(MODEL)
+
+
 #: How to make a small result of every type a user gets from the API.
 MAKERS = {
     "Record": hostile_record, "CreepModel": lambda: MODEL, "PronyResult": _prony,
     "Diagnosis": _diagnosis, "CircuitDiagnosis": _circuit_diagnosis, "Correction": _correction,
-    "SizingReport": _sizing, "Design": _design, "Comparison": _comparison,
+    "SizingReport": _sizing, "NetworkDesign": _network_design, "Design": _design, "Comparison": _comparison,
     "MonteCarloResult": lambda: _tolerance().result, "ToleranceReport": _tolerance,
     "CreepTestResult": _creep_test, "Firmware": _firmware, "Verification": _verification,
 }
@@ -128,8 +134,7 @@ def results():
     return Results()
 
 
-TYPES = ("Record", "CreepModel", "PronyResult", "Diagnosis", "CircuitDiagnosis", "Correction", "SizingReport", "Design",
-         "Comparison", "MonteCarloResult", "ToleranceReport", "CreepTestResult", "Firmware", "Verification")
+TYPES = tuple(MAKERS)
 
 
 @pytest.mark.parametrize("name", TYPES)
@@ -197,7 +202,8 @@ def test_the_model_table_is_the_models_terms(results):
 
 
 @pytest.mark.parametrize("name", ["Record", "PronyResult", "Diagnosis", "Correction", "SizingReport",
-                                  "MonteCarloResult", "CreepTestResult"])
+                                  "Design", "Comparison", "MonteCarloResult", "ToleranceReport",
+                                  "CreepTestResult"])
 def test_to_pandas(results, name):
     pytest.importorskip("pandas")
     frame = results[name].to_pandas()

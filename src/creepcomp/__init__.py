@@ -26,6 +26,8 @@ _API = {
     "write_model": "creepcomp.io.jsonfiles",
     # the analog network
     "size": "creepcomp.analog.sizing", "SizingReport": "creepcomp.analog.sizing",
+    "design_network": "creepcomp.analog.network_design",
+    "NetworkDesign": "creepcomp.analog.network_design",
     "predict": "creepcomp.analog.quality", "Quality": "creepcomp.analog.quality",
     "ideal_network": "creepcomp.analog.sizing", "Network": "creepcomp.network",
     "Cell": "creepcomp.network", "Branch": "creepcomp.network",
@@ -36,7 +38,8 @@ _API = {
     "analyse": "creepcomp.verify.tolerance_analysis", "ToleranceSpec": "creepcomp.verify.tolerances",
     "Tolerance": "creepcomp.verify.tolerances", "run_monte_carlo": "creepcomp.verify.montecarlo",
     # digital correction and firmware
-    "correct_record": "creepcomp.digital.correction", "compensate": "creepcomp.digital.correctors",
+    "correct_record": "creepcomp.digital.correction", "Correction": "creepcomp.digital.correction",
+    "compensate": "creepcomp.digital.correctors",
     "Corrector": "creepcomp.digital.correctors", "creep_error": "creepcomp.digital.correctors",
     "generate_firmware": "creepcomp.digital.firmware", "verify_firmware": "creepcomp.digital.firmware_check",
     "firmware_bound": "creepcomp.digital.firmware",

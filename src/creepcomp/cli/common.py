@@ -183,3 +183,18 @@ def progress_bar(description: str, total: int | None = None, disable: bool = Fal
 def print_json(obj) -> None:
     """Print one JSON object on stdout."""
     sys.stdout.write(to_json(obj) + "\n")
+
+
+def print_summary(summary) -> None:
+    """Print a result's :class:`~creepcomp.report.tables.Summary`: the heading in bold with
+    its first line, the other lines, the tables, the lines after them and the warnings."""
+    first = f": {summary.lines[0]}" if summary.lines else ""
+    console.print(f"[bold]{summary.heading}[/bold]{first}")
+    for line in summary.lines[1:]:
+        console.print(line)
+    for table in summary.tables:
+        console.print(table.to_rich())
+    for line in summary.footer:
+        console.print(line)
+    for warning in summary.warnings:
+        console.print(f"[yellow]warning:[/yellow] {warning}", soft_wrap=False)

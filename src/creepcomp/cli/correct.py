@@ -6,15 +6,14 @@ from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.table import Table
 
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_json, read_model
 from creepcomp.io.outputs import check_outputs
 from creepcomp.io.records import parse_columns, read_record, write_record
-from creepcomp.units import format_percent, format_quantity
+from creepcomp.units import format_quantity
 from creepcomp.cli.common import app, console, print_json, progress_bar, warn_creep
-from creepcomp.cli.size import describe_model
+from creepcomp.report.results import correction_table, describe_model
 
 #: A record "starts loaded" when its first load is above this fraction of its largest load.
 LOADED_START = 1e-3
@@ -267,19 +266,8 @@ def _render(path, scan, model, result, before, after, dt, unit, notes) -> None:
     console.print(f"reference: {result['reference']} "
                   f"({'instantaneous' if result['method'] == 'subtractive' else 'saturated'} signal); "
                   f"full scale {_value(after.full_scale, unit)}")
-    table = Table(title="Creep error against the load reference", title_justify="left")
-    table.add_column("")
-    table.add_column("raw signal", justify="right")
-    table.add_column("compensated", justify="right")
-    table.add_row("peak", _value(before.peak, unit), _value(after.peak, unit))
-    table.add_row("peak (of full scale)", format_percent(before.peak_fraction), format_percent(after.peak_fraction))
-    table.add_row("  at", format_quantity(before.peak_time, "s"), format_quantity(after.peak_time, "s"))
-    table.add_row("RMS", _value(before.rms, unit), _value(after.rms, unit))
-    table.add_row("RMS (of full scale)", format_percent(before.rms_fraction), format_percent(after.rms_fraction))
     fitted = result["fitted_reference_rms"]
-    if fitted["after"] is not None:
-        table.add_row("RMS, load scaled by least squares", _value(fitted["before"], unit),
-                      _value(fitted["after"], unit))
+    table = correction_table(before, after, unit, (fitted["before"], fitted["after"])).to_rich()
     console.print(table)
     if result["reduction"] is not None:
         console.print(f"peak creep error reduced {result['reduction']:.3g}-fold")

@@ -19,17 +19,18 @@ from creepcomp.cli.common import app, console
 def step_sizing(out: Path, console: Console) -> None:
     """Size the default sensor by the paper's rule and exactly; snap; compare; write designs."""
     from creepcomp.analog.sizing import size
-    from creepcomp.cli.size import render_sizing
+    from creepcomp.cli.common import print_summary
     from creepcomp.data import default_sensor
     from creepcomp.io.jsonfiles import write_design
     from creepcomp.report.common import save_axes
     from creepcomp.report.design import plot_design_comparison
+    from creepcomp.report.results import sizing_summary
 
     model = default_sensor()
 
     reports = {rule: size(model, rule=rule) for rule in ("paper", "exact")}
     for rule, report in reports.items():
-        render_sizing(report, title=f"Default sensor, {rule} rule")
+        print_summary(sizing_summary(report, title=f"Default sensor, {rule} rule"))
         path = write_design(out / f"design-{rule}.json", report.design_dict())
         console.print(f"design written to {path}\n")
     plot = save_axes(plot_design_comparison(model, {

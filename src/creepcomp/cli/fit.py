@@ -350,51 +350,16 @@ def render_temperature_fit(records: list[Record], result: TemperatureFit) -> Non
 
 def render_fit(record: Record, result: PronyResult, fixed: int | None) -> None:
     """Print the order search and the chosen model."""
-    from rich.table import Table
-
-    from creepcomp.fit import BIC_STRONG, HELDOUT_Z, term_table
+    from creepcomp.fit import term_table
+    from creepcomp.report.results import fit_tables
 
     data, fit = result.data, result.fit
     su, lu = record.unit("signal"), record.unit("load")
     console.print(f"[bold]creepcomp fit[/bold]: {describe_record(record, data)}")
     console.print(INITIAL_TEXT[data.initial].format(step=data.load_step_at))
-    table = Table(title=("Number of creep terms (fixed)" if fixed else
-                         f"Number of creep terms: added while BIC drops by {BIC_STRONG:g}+ and "
-                         f"held-out blocks are predicted better by {HELDOUT_Z:g}+ sigma"),
-                  title_justify="left")
-    for col in ("terms", "residual RMS", "held-out RMS", "BIC", "ΔBIC", "held-out z", ""):
-        table.add_column(col, justify="right")
-    for i, s in enumerate(result.steps):
-        ev = s.evidence
-        table.add_row(str(s.n_terms), f"{s.fit.residual_rms:.4g} {su}".strip(),
-                      f"{s.fit.heldout.rms:.4g} {su}".strip() if s.fit.heldout else "-",
-                      f"{s.fit.bic:.1f}", f"{ev.delta_bic:+.1f}" if ev else "-",
-                      f"{ev.heldout_z:.1f}" if ev else "-", "chosen" if i == result.chosen else "")
-    console.print(table)
+    for table in fit_tables(result, su, lu, bool(fixed)):
+        console.print(table.to_rich())
     terms = term_table(fit)
-    t2 = Table(title=f"Model: {fit.structure.n_terms} creep term{'s' if fit.structure.n_terms > 1 else ''}, "
-                     f"beta0 = {format_percent(sum(t['beta'] for t in terms))}", title_justify="left")
-    for col in ("", "value", "± 1 sigma"):
-        t2.add_column(col, justify="right")
-    gain = fit.estimate(lambda v: v["gain"])
-    t2.add_row(f"gain ({su or 'signal'} per {lu or 'load unit'})", f"{gain[0]:.6g}", f"{gain[1]:.2g}")
-    if data.fixed_offset:
-        t2.add_row("offset", "0 (fixed: the load never changes)", "")
-    else:
-        off = fit.estimate(lambda v: v["offset"])
-        t2.add_row(f"offset ({su or 'signal units'})", f"{off[0]:.6g}", f"{off[1]:.2g}")
-    for k, t in enumerate(terms):
-        t2.add_row(f"beta[{k}]", format_percent(t["beta"], 4), format_percent(t["beta_sigma"], 2))
-        t2.add_row(f"tau[{k}]", format_quantity(t["tau"], "s"), format_quantity(t["tau_sigma"], "s", 2))
-    flow = None
-    if fit.structure.effects:
-        from creepcomp.diagnose.effects import flow_effect
-
-        flow = flow_effect()
-    if flow is not None and fit.structure.has(flow.name):
-        rate = flow.rate(fit)
-        t2.add_row("viscous flow rate (1/s, of the instantaneous signal)", f"{rate[0]:.4g}", f"{rate[1]:.2g}")
-    console.print(t2)
     scale = data.signal_scale
     console.print(f"residual RMS {fit.residual_rms:.4g} {su} ({format_percent(fit.residual_rms / scale)} of the signal's "
                   f"range); held-out {fit.heldout.rms:.4g} {su} ({format_percent(fit.heldout.rms / scale)})"

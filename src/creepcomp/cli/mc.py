@@ -258,12 +258,9 @@ def render(report: ToleranceReport, design_file: Path | str | None = None) -> No
         capacitors += "; sensor and parts at each temperature, figures the worst of each unit"
     console.print(f"[bold]creepcomp mc[/bold]: {where}{r.n:,} samples, seed {r.seed}, {r.seconds:.2f} s "
                   f"({1e6 * r.seconds / r.n:.2f} µs per sample); {capacitors}", markup=True, highlight=False)
-    table = Table(title="Distribution (% of FS)", title_justify="left")
-    for col in ("", "nominal", "p50", "p95", "p99", "max"):
-        table.add_column(col, justify="right" if col else "left")
-    for m in ("peak", "final", "hysteresis"):
-        table.add_row(names[m], format_percent(report.nominal.get(m)[0]), *[format_percent(v) for v in r.percentiles(m).values()])
-    console.print(table)
+    from creepcomp.report.results import distribution_table, sensitivity_table
+
+    console.print(distribution_table(r, report.nominal).to_rich())
     if r.kept < r.n:
         console.print(f"percentiles from a {r.n:,}-sample streaming histogram, within "
                       f"{format_percent(r.resolution('peak'))} (peak); max exact; sensitivity from "
@@ -279,13 +276,7 @@ def render(report: ToleranceReport, design_file: Path | str | None = None) -> No
         at = ", ".join(f"{k} = {format_parameter(k, v)}" for k, v in w.at.items())
         console.print(f"worst case of {names[w.metric]}: [bold]{format_percent(w.value)}[/bold] at {at} ({w.method})")
     if report.sensitivities:
-        sens = Table(title="Sensitivity", title_justify="left")
-        sens.add_column("factor")
-        sens.add_column("share of the spread", justify="right")
-        sens.add_column("p99 when only it varies", justify="right")
-        for s in report.sensitivities:
-            sens.add_row(s.factor, f"{100 * s.share:.1f} %", format_percent(s.p99_alone))
-        console.print(sens)
+        console.print(sensitivity_table(report.sensitivities).to_rich())
         console.print(f"dominant: {report.sensitivities[0].factor}")
     sc = report.spot_check
     if sc is not None and "error" in sc:

@@ -25,46 +25,18 @@ def _sci(x: float | None) -> str:
     return "n/a" if x is None else f"{x:.3g}"
 
 
-def _peak(comparison: Comparison, which: str) -> str:
-    e = comparison.residual(which)
-    if e is None:
-        return "n/a"
-    k = int(abs(e).argmax())
-    if abs(e[k]) < 1e-12:
-        return format_percent(abs(float(e[k])))
-    return f"{format_percent(abs(float(e[k])))} at {comparison.reference.time[k]:.4g} s"
-
-
 def render_comparison(c: Comparison, title: str | None = None) -> None:
     """Print a comparison as a table, with the ngspice run and its agreement."""
     d = c.to_dict()
     console.print(f"[bold]{title or 'creepcomp simulate'}[/bold]: {c.drive}; "
                   f"{format_quantity(d['duration'], 's')}, {d['points']} time points, "
                   f"full scale {format_quantity(c.full_scale, 'V')}, H(inf) = {c.hf_gain:.6g}")
-    table = Table(title_justify="left")
-    table.add_column("")
-    table.add_column("python-control", justify="right")
-    table.add_column("ngspice", justify="right")
-    synthetic = c.reference.instantaneous is not None
-    spice_ok = c.spice is not None
-    if synthetic:
-        ref = d["python_control"]
-        ng = d["ngspice"]
-        table.add_row("residual creep, peak (of full scale)", _peak(c, "reference"),
-                      _peak(c, "spice") if spice_ok else "not run")
-        table.add_row("residual creep, final", format_percent(ref["residual_creep_final"]),
-                      format_percent(ng.get("residual_creep_final")) if spice_ok else "not run")
-    else:
-        def volts(w, f):
-            return format_quantity(float(f(w.output)), "V") if w is not None else "not run"
+    from creepcomp.report.results import comparison_table
 
-        table.add_row("output range", volts(c.reference, np.ptp), volts(c.spice, np.ptp))
-        table.add_row("output at the end", volts(c.reference, lambda y: y[-1]),
-                      volts(c.spice, lambda y: y[-1]))
-    console.print(table)
-    if spice_ok:
+    console.print(comparison_table(c).to_rich())
+    if c.spice is not None:
         line = f"agreement, largest |ngspice - python-control|: {_sci(c.agreement_max_abs)} of full scale"
-        if synthetic:
+        if c.reference.instantaneous is not None:
             line += (f" (corrected output {_sci(c.agreement_output)}, "
                      f"sensor {_sci(c.agreement_sensor)})")
         console.print(line)

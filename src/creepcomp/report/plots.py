@@ -15,7 +15,7 @@ import numpy as np
 from creepcomp.report.common import plot_text, thin
 
 __all__ = ["new_axes", "record_plot", "model_plot", "fit_result_plot", "diagnosis_plot", "circuit_plot",
-           "correction_plot", "sizing_plot", "design_plot", "comparison_plot", "monte_carlo_plot",
+           "correction_plot", "sizing_plot", "network_design_plot", "design_plot", "comparison_plot", "monte_carlo_plot",
            "tolerance_plot", "creep_test_plot", "firmware_plot", "verification_plot"]
 
 
@@ -112,6 +112,11 @@ def sizing_plot(report, ax=None):
     if report.nearest is not None:
         designs["nearest values"] = report.nearest
     return plot_design_comparison(report.model, designs, ax=ax if ax is not None else new_axes())
+
+
+def network_design_plot(design, ax=None):
+    """A network design: residual creep after a load step of its sizing's designs."""
+    return sizing_plot(design.sizing, ax=ax)
 
 
 def design_plot(design, ax=None):

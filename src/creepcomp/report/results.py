@@ -14,10 +14,12 @@ from creepcomp.report.tables import Column, Summary, Table
 from creepcomp.units import format_percent, format_quantity, format_time
 
 __all__ = ["summary_of", "plot_of", "record_summary", "model_summary", "fit_tables", "fit_summary_of",
-           "diagnosis_summary", "circuit_summary", "correction_summary", "sizing_summary",
-           "design_summary", "comparison_summary", "tolerance_summary", "monte_carlo_summary",
-           "creep_test_summary", "firmware_summary", "verification_summary", "describe_model",
-           "network_table"]
+           "diagnosis_summary", "diagnosis_tables", "circuit_summary", "correction_summary",
+           "correction_table", "sizing_summary", "bom_table", "over_range_summary", "verdict_lines",
+           "network_design_summary", "design_summary", "comparison_table", "comparison_summary", "tolerance_summary",
+           "monte_carlo_summary", "distribution_table", "sensitivity_table", "creep_test_summary",
+           "creep_test_table", "creep_test_tables", "firmware_summary", "verification_summary", "describe_model",
+           "network_table", "SHOWN_ZERO"]
 
 
 def _key(obj) -> str:
@@ -244,7 +246,8 @@ def correction_table(before, after, unit: str, fitted: tuple | None = None) -> T
             ("RMS (of full scale)", format_percent(before.rms_fraction), format_percent(after.rms_fraction))]
     if fitted is not None and fitted[1] is not None:
         rows.append(("RMS, load scaled by least squares", _value(fitted[0], unit), _value(fitted[1], unit)))
-    return Table.of("Creep error against the load reference", ("", "raw signal", "compensated"), rows)
+    return Table.of("Creep error against the load reference", (Column("", "left"), "raw signal", "compensated"),
+                    rows)
 
 
 def correction_summary(c) -> Summary:
@@ -316,6 +319,92 @@ def sizing_summary(report, title: str | None = None) -> Summary:
     return Summary(title or "creepcomp size", lines, (parts, predicted), footer, tuple(report.warnings))
 
 
+def bom_table(rows) -> Table:
+    """The bill of materials (``creepcomp size``)."""
+    from creepcomp.analog.bom import BOM_COLUMNS
+
+    return Table.of("Bill of materials (tc in ppm/K)",
+                    [Column(c, "right" if c in ("value", "tolerance", "tc") else "left") for c in BOM_COLUMNS],
+                    [[getattr(r, c) for c in BOM_COLUMNS] for r in rows])
+
+
+def over_range_summary(comparison) -> Summary:
+    """The designs over a temperature range: the worst cases, the residual at every
+    temperature, the written design's parts (its thermistors), and its warnings."""
+    designs = comparison.designs
+    bare = designs[0].prediction
+    k = max(range(len(bare.uncorrected)), key=bare.uncorrected.__getitem__)
+    worst = Table.of("Worst case over the range",
+                     [Column("design", "left"), "worst peak residual creep", "at", "written"],
+                     [(d.label, format_percent(d.prediction.worst), f"{d.prediction.worst_at:g} °C",
+                       "yes" if d.key == comparison.chosen else "") for d in designs]
+                     + [("uncorrected", format_percent(bare.uncorrected[k]), f"{bare.temperatures[k]:g} °C", "")])
+    per_t = Table.of("Peak residual creep of a full-scale step at each temperature",
+                     ["°C"] + [d.label.split(")")[0] + ")" for d in designs] + ["uncorrected"],
+                     [[f"{t:g}"] + [format_percent(d.prediction.peak_residual[i]) for d in designs]
+                      + [format_percent(bare.uncorrected[i])] for i, t in enumerate(bare.temperatures)])
+    written = comparison.written
+    parts = Table.of(f"Written design: {written.label}",
+                     [Column("part", "left"), "value at 25 °C", Column("made of", "left")],
+                     [(label, format_quantity(v, _part_unit(kind)), _made_of(written.plan, label, kind))
+                      for label, kind, v in written.network.parts()])
+    return Summary(f"Over {comparison.low:g} .. {comparison.high:g} °C", (designs[0].prediction.note,),
+                   (worst, per_t, parts), warnings=tuple(written.warnings))
+
+
+def _made_of(plan, label: str, kind: str) -> str:
+    use = plan.thermistors.get(label)
+    if use is None:
+        return f"{plan.resistor if kind == 'R' else plan.capacitor}"
+    made = f"NTC {use.part} (R25 = {format_quantity(use.r25, 'Ω')}, B = {use.b:g} K)"
+    if use.series:
+        made += f" + {format_quantity(use.series, 'Ω')} in series"
+    if use.parallel is not None:
+        made += f", {format_quantity(use.parallel, 'Ω')} across"
+    return made
+
+
+def verdict_lines(design) -> tuple[str, ...]:
+    """What the verdict on a written design says: practical with its figures (an active
+    stage's op amps and offset too), or each reason it is not."""
+    v, report = design.verdict, design.sizing
+    if not v.practical:
+        why = "ideal values" if design.ideal_values else "--allow-impractical"
+        return tuple(f"impractical ({why}): {reason}" for reason in v.reasons)
+    leak = format_quantity(v.to_dict()["leakage_to_ground"], "Ω")
+    figures = (f"the peak residual creep is {format_percent(v.leakage_peak)}, at the worst tolerance "
+               f"corner {format_percent(v.worst_case_peak)} (uncorrected {format_percent(v.uncorrected_peak)})")
+    if report.chosen.topology != "active":
+        return (f"practical: every part is made; with a {leak} leakage path {figures}",)
+    from creepcomp.analog.active import OP_AMP, output_offset
+
+    temps = design.span if design.span is not None else (25.0,)
+    offset = max(output_offset(report.chosen, report.plan, t) for t in temps)
+    return (f"practical: every part is made; with the capacitors' insulation and a {leak} board path "
+            f"across each {figures}",
+            f"op amps: {OP_AMP.text()}; at those limits their constant output offset is at most "
+            f"{format_quantity(offset, 'V')} over the range (tared, not creep)")
+
+
+def network_design_summary(design) -> Summary:
+    """A network design (``creepcomp size``): the sizing, the designs over the range, the
+    bill of materials and the verdict."""
+    if design.sizing is None:
+        return Summary("creepcomp size: refused", (), (), tuple(design.reasons))
+    sizing = sizing_summary(design.at_reference)
+    tables, warnings = list(sizing.tables), list(sizing.warnings)
+    lines = list(sizing.lines)
+    if design.comparison is not None:
+        over = over_range_summary(design.comparison)
+        lines.append(f"{over.heading}: {over.lines[0]}")
+        tables += over.tables
+        warnings += over.warnings
+    if design.bom:
+        tables.append(bom_table(design.bom))
+    footer = sizing.footer + (verdict_lines(design) if design.verdict is not None else ())
+    return Summary(sizing.heading, tuple(lines), tuple(tables), footer, tuple(warnings))
+
+
 def design_summary(design) -> Summary:
     """A design file: the creep it cancels and the network's parts."""
     net = design.network
@@ -325,23 +414,55 @@ def design_summary(design) -> Summary:
 
 # --- verification ------------------------------------------------------------------------------
 
+def _peak(comparison, which: str) -> str:
+    e = comparison.residual(which)
+    if e is None:
+        return "n/a"
+    k = int(abs(e).argmax())
+    if abs(e[k]) < 1e-12:
+        return format_percent(abs(float(e[k])))
+    return f"{format_percent(abs(float(e[k])))} at {comparison.reference.time[k]:.4g} s"
+
+
+def comparison_table(c) -> Table:
+    """python-control against ngspice (``creepcomp simulate``): the residual creep of a
+    program, or a record's output range and end (V)."""
+    import numpy as np
+
+    ran = c.spice is not None
+    cols = [Column("", "left"), "python-control", "ngspice"]
+    if c.reference.instantaneous is not None:
+        d = c.to_dict()
+        return Table.of("", cols, [
+            ("residual creep, peak (of full scale)", _peak(c, "reference"), _peak(c, "spice") if ran else "not run"),
+            ("residual creep, final", format_percent(d["python_control"]["residual_creep_final"]),
+             format_percent(d["ngspice"].get("residual_creep_final")) if ran else "not run")])
+
+    def volts(w, f):
+        return format_quantity(float(f(w.output)), "V") if w is not None else "not run"
+
+    return Table.of("", cols, [("output range", volts(c.reference, np.ptp), volts(c.spice, np.ptp)),
+                               ("output at the end", volts(c.reference, lambda y: y[-1]),
+                                volts(c.spice, lambda y: y[-1]))])
+
+
 def comparison_summary(c) -> Summary:
     """An ngspice comparison: residual creep and the agreement of the two simulators."""
     ran = c.spice is not None
-    rows = [("residual creep, peak (of full scale)", format_percent(c.residual_creep_peak)),
-            ("residual creep, final (of full scale)", format_percent(c.residual_creep_final)),
-            ("largest |ngspice - python-control| (of full scale)",
-             format_percent(c.agreement_max_abs) if ran else f"not run: {c.unavailable}")]
-    lines = (f"full scale {format_quantity(c.full_scale, 'V')}, H(inf) = {c.hf_gain:.6g}, "
-             f"reference {c.reference_method}",)
+    lines = [f"full scale {format_quantity(c.full_scale, 'V')}, H(inf) = {c.hf_gain:.6g}, "
+             f"reference {c.reference_method}",
+             "largest |ngspice - python-control|: " + (f"{c.agreement_max_abs:.3g} of full scale" if ran
+                                                        else f"not run ({c.unavailable})")]
     return Summary(f"Simulation of {c.drive}" + ("" if c.temperature is None else f" at {c.temperature:g} °C"),
-                   lines, (Table.of("", [Column("", "left"), "value"], rows),))
+                   tuple(lines), (comparison_table(c),))
 
 
 _METRICS = {"peak": "residual creep, peak", "final": "residual creep, final (abs)", "hysteresis": "hysteresis"}
 
 
-def _distribution(result, nominal=None) -> Table:
+def distribution_table(result, nominal=None) -> Table:
+    """Each metric's percentiles over a Monte Carlo run (``nominal``: the nominal design's
+    figures in a first column)."""
     cols = [Column("", "left")] + (["nominal"] if nominal is not None else []) + ["p50", "p95", "p99", "max"]
     rows = []
     for m in ("peak", "final", "hysteresis"):
@@ -357,7 +478,13 @@ def monte_carlo_summary(r) -> Summary:
         y, se = r.yield_against(r.limit, r.limit_metric)
         lines.append(f"yield against {_METRICS[r.limit_metric]} ≤ {format_percent(r.limit)}: "
                      f"{100 * y:.2f} % (± {100 * se:.2f} %)")
-    return Summary("Monte Carlo run", tuple(lines), (_distribution(r),))
+    return Summary("Monte Carlo run", tuple(lines), (distribution_table(r),))
+
+
+def sensitivity_table(sensitivities) -> Table:
+    """Each factor's share of the spread and the p99 when only it varies."""
+    return Table.of("Sensitivity", [Column("factor", "left"), "share of the spread", "p99 when only it varies"],
+                    [(s.factor, f"{100 * s.share:.1f} %", format_percent(s.p99_alone)) for s in sensitivities])
 
 
 def tolerance_summary(report) -> Summary:
@@ -371,18 +498,15 @@ def tolerance_summary(report) -> Summary:
     if report.worst is not None:
         w = report.worst
         lines.append(f"worst case of {_METRICS[w.metric]}: {format_percent(w.value)} ({w.method})")
-    tables = [_distribution(r, report.nominal)]
+    tables = [distribution_table(r, report.nominal)]
     if report.sensitivities:
-        tables.append(Table.of("Sensitivity", [Column("factor", "left"), "share of the spread",
-                                               "p99 when only it varies"],
-                               [(s.factor, f"{100 * s.share:.1f} %", format_percent(s.p99_alone))
-                                for s in report.sensitivities]))
+        tables.append(sensitivity_table(report.sensitivities))
     return Summary("Tolerance analysis", tuple(lines), tuple(tables))
 
 
 #: Names of the readings in the creep test's margin column.
 _SHORT = {"creep_30min": "30 min", "creep_20_30min": "20-30 min", "dr": "DR"}
-#: A reading shown as 0 below this (fraction of FS).
+#: Readings below this (fraction of FS) are round-off, shown as 0.
 SHOWN_ZERO = 1e-12
 
 
@@ -403,7 +527,20 @@ def creep_test_table(title: str, rows: list, limits) -> Table:
                     "pass" if r["pass"] else "FAIL", f"{_SHORT[worst]}: {r['margin'][worst] * limits.n_max:+.3g}"))
     out.append(("limit", *(_v(v, limits.n_max) for v in (limits.creep_30min, limits.creep_20_30min, limits.dr)),
                 "–", "", ""))
-    return Table.of(title, cols, out)
+    return Table.of(title, cols, out, marks={"pass": "green", "FAIL": "red"})
+
+
+def creep_test_tables(result) -> tuple[Table, ...]:
+    """The readings at each temperature, and those of each variant (the corrector fixed at
+    the reference temperature ...)."""
+    lim = result.limits
+    tables = [creep_test_table(f"Readings in verification intervals (1 v = {100 * lim.interval:.4g} % of FS)",
+                               result.rows, lim)]
+    for key, rows in result.variants.items():
+        title = {"corrector_at_reference": "Corrector fixed at the reference temperature "
+                                           f"({result.settings.get('reference_temperature')} °C)"}.get(key, key)
+        tables.append(creep_test_table(title, rows, lim))
+    return tuple(tables)
 
 
 def creep_test_summary(result) -> Summary:
@@ -411,9 +548,7 @@ def creep_test_summary(result) -> Summary:
     lim = result.limits
     lines = (f"target {result.target}; OIML R 60 class {lim.label} (n_max = {lim.n_max}, "
              f"v = {100 * lim.interval:.4g} % of FS); {'pass' if result.passed else 'FAIL'}",)
-    tables = [creep_test_table("Readings", result.rows, lim)]
-    tables += [creep_test_table(key.replace("_", " "), rows, lim) for key, rows in result.variants.items()]
-    return Summary("Creep test", lines, tuple(tables), tuple(result.notes))
+    return Summary("Creep test", lines, creep_test_tables(result), tuple(result.notes))
 
 
 def firmware_summary(fw) -> Summary:
@@ -450,6 +585,7 @@ SUMMARIES = {
     "creepcomp.diagnose.circuit.CircuitDiagnosis": circuit_summary,
     "creepcomp.digital.correction.Correction": correction_summary,
     "creepcomp.analog.sizing.SizingReport": sizing_summary,
+    "creepcomp.analog.network_design.NetworkDesign": network_design_summary,
     "creepcomp.io.jsonfiles.Design": design_summary,
     "creepcomp.verify.compare.Comparison": comparison_summary,
     "creepcomp.verify.montecarlo.MonteCarloResult": monte_carlo_summary,
@@ -468,6 +604,7 @@ PLOTS = {
     "creepcomp.diagnose.circuit.CircuitDiagnosis": "circuit_plot",
     "creepcomp.digital.correction.Correction": "correction_plot",
     "creepcomp.analog.sizing.SizingReport": "sizing_plot",
+    "creepcomp.analog.network_design.NetworkDesign": "network_design_plot",
     "creepcomp.io.jsonfiles.Design": "design_plot",
     "creepcomp.verify.compare.Comparison": "comparison_plot",
     "creepcomp.verify.montecarlo.MonteCarloResult": "monte_carlo_plot",

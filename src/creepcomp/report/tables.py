@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import html
 from dataclasses import dataclass, field
+from typing import Mapping
 
 __all__ = ["Column", "Table", "Summary"]
 
@@ -33,17 +34,21 @@ class Table:
     columns : tuple of Column
     rows : tuple of tuple of str
         Formatted cells, one per column, numbers with their units.
+    marks : mapping of str to str
+        A Rich style for the cells of a given text (``{"FAIL": "red"}``): the terminal's
+        colour; the text is the same everywhere.
     """
 
     title: str
     columns: tuple[Column, ...]
     rows: tuple[tuple[str, ...], ...] = ()
+    marks: Mapping[str, str] = field(default_factory=dict)
 
     @classmethod
-    def of(cls, title: str, columns, rows) -> "Table":
+    def of(cls, title: str, columns, rows, marks: Mapping[str, str] | None = None) -> "Table":
         """A table from column names (or :class:`Column`) and rows of cells (made text)."""
         cols = tuple(c if isinstance(c, Column) else Column(str(c)) for c in columns)
-        return cls(title, cols, tuple(tuple(str(c) for c in row) for row in rows))
+        return cls(title, cols, tuple(tuple(str(c) for c in row) for row in rows), dict(marks or {}))
 
     def to_rich(self):
         """A ``rich.table.Table`` (the terminal's rendering)."""
@@ -53,7 +58,7 @@ class Table:
         for c in self.columns:
             table.add_column(c.name, justify=c.justify)
         for row in self.rows:
-            table.add_row(*row)
+            table.add_row(*(f"[{self.marks[v]}]{v}[/{self.marks[v]}]" if v in self.marks else v for v in row))
         return table
 
     def to_text(self) -> str:

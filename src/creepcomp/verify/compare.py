@@ -17,7 +17,7 @@ import numpy as np
 
 from creepcomp.analog.parts import PartsPlan, network_at
 from creepcomp.analog.quality import corrected_system
-from creepcomp.display import Shown
+from creepcomp.display import Shown, data_frame
 from creepcomp.errors import InputError
 from creepcomp.lti import is_uniform
 from creepcomp.model import CreepModel
@@ -190,6 +190,15 @@ class Comparison(Shown):
                  else "ngspice not run")
         at = "" if self.temperature is None else f" at {self.temperature:g} °C"
         return f"<Comparison {self.drive}{at}: {creep}{agree}>"
+
+    def to_pandas(self):
+        """The waveforms (V) on the common time points (s): python-control's sensor and
+        output, ngspice's output when it ran."""
+        ref = self.reference
+        columns = {"time": ref.time, "sensor": ref.sensor, "output": ref.output}
+        if self.spice is not None:
+            columns["output_ngspice"] = self.spice.output
+        return data_frame(columns)
 
     def to_dict(self) -> dict:
         """JSON form (``simulate --json``): fractions of full scale, seconds, volts."""

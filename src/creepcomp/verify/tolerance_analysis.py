@@ -44,6 +44,10 @@ class ToleranceReport(Shown):
         dominant = f", dominant {self.sensitivities[0].factor}" if self.sensitivities else ""
         return f"<ToleranceReport {r.n:,} samples: {self.metric} p99 {format_percent(p99)} of FS{spec}{dominant}>"
 
+    def to_pandas(self):
+        """The samples kept (:meth:`MonteCarloResult.to_pandas`)."""
+        return self.result.to_pandas()
+
     def to_dict(self) -> dict:
         """``mc --json``: ``n``, ``residual_creep_peak`` percentiles, ``seconds`` and the rest."""
         r = self.result
