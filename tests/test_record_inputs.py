@@ -137,6 +137,18 @@ def test_a_wrong_type_is_named(thing):
         read_record(thing)
 
 
+def test_a_frame_that_gives_no_column_is_named():
+    class Lazy:
+        columns = ["time", "load", "signal"]
+
+        def __getitem__(self, name):
+            raise TypeError("not subscriptable\nuse collect() first")
+
+    with pytest.raises(InputError, match=r"^Lazy: cannot take its column 'time' as an array "
+                                         r"\(TypeError: not subscriptable\)$"):
+        read_record(Lazy())
+
+
 def test_a_delimiter_or_taxel_for_columns_in_memory_is_refused(bundled):
     with pytest.raises(InputError, match="a delimiter is for text"):
         read_record(bundled.columns(), delimiter=";")

@@ -67,7 +67,7 @@ def column_arrays(obj: Any, mapping: Mapping[str, str], source: str,
         column_map = resolve_columns(header, mapping, source, None)
     except InputError as exc:
         raise InputError(f"{exc}{_index_hint(obj, mapping)}") from None
-    arrays = {name: _numbers(get(names[index]), header[index], source)
+    arrays = {name: _numbers(_column(get, names[index], header[index], source), header[index], source)
               for name, index in column_map.read.items()}
     lengths = {len(v) for v in arrays.values()}
     if lengths == {0}:
@@ -80,9 +80,19 @@ def column_arrays(obj: Any, mapping: Mapping[str, str], source: str,
     return finish_arrays(arrays, head, 1.0, duplicate_times), head.metadata
 
 
-def _numbers(column: Any, name: str, source: str) -> np.ndarray:
+def _column(get: Callable[[Any], Any], key: Any, name: str, source: str) -> np.ndarray:
+    """The column ``key`` of the object as a numpy array; an InputError when the object does
+    not give it (a lazy frame, say, that holds no data yet)."""
+    try:
+        return np.asarray(get(key))
+    except Exception as exc:      # (any library's own error: said in one line)
+        first_line = (str(exc).strip().splitlines() or [""])[0]
+        raise InputError(f"{source}: cannot take its column '{name}' as an array "
+                         f"({type(exc).__name__}: {first_line})") from None
+
+
+def _numbers(values: np.ndarray, name: str, source: str) -> np.ndarray:
     """A column as a float array; refused, with its name and type, unless it holds numbers."""
-    values = np.asarray(column)
     if values.ndim != 1:
         shape = "a single value" if values.ndim == 0 else f"of shape {values.shape}"
         raise InputError(f"{source}: column '{name}' is {shape}, not one value per sample")
