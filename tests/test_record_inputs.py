@@ -161,14 +161,34 @@ def test_gzip_bytes_in_an_open_file_are_named():
         read_record(io.BytesIO(b"\x1f\x8b\x08\x00"))
 
 
-def test_the_api_names_are_the_functions_whatever_was_imported_first():
-    import creepcomp.diagnose.sensor  # noqa: F401  (the subpackages are imported ...)
-    import creepcomp.fit.prony  # noqa: F401
+@pytest.mark.parametrize("first", ["import creepcomp.diagnose.sensor, creepcomp.fit.prony",
+                                   "import creepcomp; creepcomp.fit; creepcomp.diagnose",
+                                   "from creepcomp import fit, diagnose"])
+def test_fit_and_diagnose_are_subpackages_that_call_their_functions(first):
+    import subprocess
+    import sys
 
-    from creepcomp.diagnose.fitting import fit
-    from creepcomp.diagnose.sensor import diagnose
-
-    assert creepcomp.fit is fit and creepcomp.diagnose is diagnose   # (... the names stay)
+    check = """
+import inspect
+import creepcomp
+import creepcomp.fit.prony as prony
+import creepcomp.diagnose.sensor as sensor
+from creepcomp import diagnose, fit
+from creepcomp.diagnose.fitting import fit as fit_function
+assert creepcomp.fit is fit and creepcomp.diagnose is diagnose
+assert fit.prony is prony and diagnose.sensor is sensor and diagnose.diagnose is sensor.diagnose
+assert inspect.signature(fit) == inspect.signature(fit_function)
+try:
+    diagnose(7)
+except creepcomp.InputError as exc:
+    assert "builtins.int is not a record" in str(exc)
+else:
+    raise AssertionError("no InputError")
+print("ok")
+"""
+    done = subprocess.run([sys.executable, "-c", first + "\n" + check], capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0 and done.stdout.strip() == "ok", done.stderr
 
 
 def test_fit_takes_a_frame_and_fits_as_the_command_does(bundled, run_cli):

@@ -61,7 +61,15 @@ _API = {
 __all__ = sorted(_API)
 
 
+#: Names that are both a subpackage and a function: ``creepcomp.fit`` is the subpackage (so
+#: ``creepcomp.fit.prony`` and ``import creepcomp.fit.prony as prony`` work), and calling it
+#: calls the function (``creepcomp.fit(record)``), whichever was reached first.
+_CALLABLE_PACKAGES = ("fit", "diagnose")
+
+
 def __getattr__(name: str):
+    if name in _CALLABLE_PACKAGES:
+        return import_module(f"{__name__}.{name}")       # (made callable as it is set here)
     if name in _API:
         value = getattr(import_module(_API[name]), name)
         globals()[name] = value
@@ -73,25 +81,36 @@ def __dir__():
     return sorted(set(globals()) | set(_API))
 
 
-def _function_first(name: str) -> property:
-    """``creepcomp.<name>``: the function, although a subpackage has the same name (importing
-    the subpackage sets the package's attribute to it; this keeps the function, and the
-    subpackage stays where ``import`` finds it, in ``sys.modules``)."""
-    def get(module):
-        return getattr(import_module(_API[name]), name)
+def _function_of(package: ModuleType):
+    """The API function a callable subpackage stands for (``_API``)."""
+    name = package.__name__.rpartition(".")[2]
+    return getattr(import_module(_API[name]), name)
 
-    def keep_function(module, value):
-        pass
 
-    return property(get, keep_function, doc=f"The function :func:`{_API[name]}.{name}`.")
+class _CallablePackage(ModuleType):
+    """A subpackage that is also the API function of its name."""
+
+    def __call__(self, *args, **kwargs):
+        """Call the function of this name: ``creepcomp.fit(record)`` is
+        :func:`creepcomp.diagnose.fitting.fit`, ``creepcomp.diagnose(record)``
+        :func:`creepcomp.diagnose.sensor.diagnose`."""
+        return _function_of(self)(*args, **kwargs)
+
+    @property
+    def __signature__(self):
+        import inspect
+
+        return inspect.signature(_function_of(self))
 
 
 class _Package(ModuleType):
-    """The package's module type: ``creepcomp.fit`` and ``creepcomp.diagnose`` are the
-    functions, whichever of their subpackages was imported first."""
+    """The package's module type: the subpackages ``fit`` and ``diagnose`` become callable as
+    the import system sets them on the package."""
 
-    fit = _function_first("fit")
-    diagnose = _function_first("diagnose")
+    def __setattr__(self, name, value):
+        if name in _CALLABLE_PACKAGES and type(value) is ModuleType:
+            value.__class__ = _CallablePackage
+        super().__setattr__(name, value)
 
 
 sys.modules[__name__].__class__ = _Package
