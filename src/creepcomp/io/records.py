@@ -327,25 +327,30 @@ def _read_object(obj, columns, delimiter, duplicate_times) -> Record:
 
 
 def _read_open_file(fh, columns, delimiter, duplicate_times) -> Record:
-    """:func:`read_record` of an open file of CSV text (text or UTF-8 bytes)."""
+    """:func:`read_record` of an open file of CSV text (text, or bytes of UTF-8 text): its
+    content goes to a temporary file read as any file is (the same readers, checks and
+    messages, naming the open file's name)."""
+    import tempfile
+
+    check_delimiter(delimiter)
     name = getattr(fh, "name", None)
     source = str(name) if isinstance(name, (str, os.PathLike)) else "open file"
     try:
-        text = fh.read()
+        data = fh.read()
     except OSError as exc:
         raise InputError(f"record {source}: cannot read it ({exc.strerror or exc})") from None
-    if isinstance(text, bytes):
-        if text[:2] == b"\x1f\x8b":
-            raise InputError(f"record {source}: gzip-compressed: give its path, or open it "
-                             "with gzip.open(path, 'rt')")
-        try:
-            text = text.decode("utf-8-sig")
-        except UnicodeDecodeError as exc:
-            raise InputError(f"record {source}: not UTF-8 text ({exc.reason} at byte "
-                             f"{exc.start})") from None
-    elif not isinstance(text, str):
-        raise InputError(f"record {source}: read() gave a {type(text).__name__}, not text")
-    return parse_record(text.removeprefix("\ufeff"), source, columns, delimiter, duplicate_times)
+    if isinstance(data, str):
+        data = data.encode("utf-8")
+    elif not isinstance(data, bytes):
+        raise InputError(f"record {source}: read() gave a {type(data).__name__}, not text")
+    if data[:2] == b"\x1f\x8b":
+        raise InputError(f"record {source}: gzip-compressed: give its path, or open it "
+                         "with gzip.open(path, 'rt')")
+    with tempfile.TemporaryDirectory(prefix="creepcomp-record-") as folder:
+        copy = Path(folder) / "record.csv"
+        copy.write_bytes(data)
+        del data
+        return _read_plain(copy, source, columns, delimiter, duplicate_times)
 
 
 def _read_plain(p: Path, source: str, columns, delimiter, duplicate_times) -> Record:
