@@ -3,6 +3,7 @@ object with named columns) or a mapping of arrays, matched and checked as a file
 entries that take a record take each of them; a wrong type is named."""
 
 import io
+import re
 
 import numpy as np
 import pytest
@@ -154,6 +155,17 @@ def test_a_delimiter_or_taxel_for_columns_in_memory_is_refused(bundled):
         read_record(bundled.columns(), delimiter=";")
     with pytest.raises(InputError, match="a taxel or a sheet applies to .mat or .xlsx files only"):
         read_any(bundled.columns(), taxel=3)
+
+
+@pytest.mark.parametrize("content, message", [
+    ("time,load,signal\n0,0,0\n0,1,1\n", "open file, line 3, column 'time': 0 repeats the previous time"),
+    (b"time,load,signal\n0,0,0\n1,1,\xff\n", "record open file: not UTF-8 text (invalid start byte at byte 27)"),
+    ("time,load\n0,0\n", "open file, line 1: missing required column 'signal'"),
+])
+def test_faults_of_an_open_file_are_named_as_a_file_s(content, message):
+    fh = io.BytesIO(content) if isinstance(content, bytes) else io.StringIO(content)
+    with pytest.raises(InputError, match="^" + re.escape(message)):
+        read_record(fh)
 
 
 def test_gzip_bytes_in_an_open_file_are_named():
