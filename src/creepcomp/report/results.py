@@ -301,12 +301,14 @@ def sizing_summary(report, title: str | None = None) -> Summary:
             columns.append((f"nearest values (C = {format_quantity(c_near, 'F')})", report.nearest_quality))
     columns.append(("uncorrected", report.uncorrected_quality))
     qs = [q for _, q in columns]
+    period = report.chosen_quality.sweep_period
     predicted = Table.of("Predicted (exact transfer functions)",
                          [Column("", "left")] + [name for name, _ in columns],
-                         [["residual creep, peak (of a load step)"] + [format_percent(q.residual_creep_peak) for q in qs],
+                         [["residual creep, peak (of a load step)"] + [format_percent(q.residual_creep_peak)
+                                                                       for q in qs],
                           ["  at (s after the step)"] + [_peak_time(q) for q in qs],
                           ["residual creep, final"] + [format_percent(q.residual_creep_final) for q in qs],
-                          [f"hysteresis, ±FS sweep of {report.chosen_quality.sweep_period:.4g} s (of FS)"]
+                          [f"hysteresis, ±FS sweep of {period:.4g} s (of FS)"]
                           + [format_percent(q.hysteresis) for q in qs]])
     footer = ()
     if report.nearest is not None and snapped:
