@@ -107,7 +107,7 @@ def creep_terms(terms: list[str]) -> CreepModel:
         raise InputError(f"--term: {exc}") from None
 
 
-def seriestyper.Option(text: str, option: str) -> str | None:
+def series_option(text: str, option: str) -> str | None:
     """An E-series name, or None for ``none`` (keep ideal values)."""
     return None if text.strip().lower() in ("none", "ideal") else text.strip().upper()
 
@@ -230,8 +230,8 @@ def size_options(rule: str, series: str, cap_series: str, cap_range: str, res_ra
     api = inspect.signature(size).parameters
     return dict(
         rule=rule.strip().lower(),
-        resistor_series=seriestyper.Option(series, "--series"),
-        capacitor_series=seriestyper.Option(cap_series, "--cap-series"),
+        resistor_series=series_option(series, "--series"),
+        capacitor_series=series_option(cap_series, "--cap-series"),
         cap_range=value_range(cap_range, "farad", "--cap-range") if cap_range else api["cap_range"].default,
         res_range=value_range(res_range, "ohm", "--res-range") if res_range else api["res_range"].default,
         capacitance=quantity(capacitance, "farad", "--capacitance", positive=True),
@@ -495,7 +495,7 @@ def temperature_span(text: str | None, tracking: str) -> tuple[float, float] | N
         if tracking.strip().lower() != "none":
             raise InputError("--tracking needs --temperature-range LOW:HIGH (°C)")
         return None
-    return temperature_rangetyper.Option(text)
+    return temperature_range_option(text)
 
 
 def over_temperature_plot_path(plot: Path) -> Path:
