@@ -14,7 +14,7 @@ from creepcomp.report.tables import Column, Summary, Table
 from creepcomp.units import format_percent, format_quantity, format_time
 
 __all__ = ["summary_of", "plot_of", "record_summary", "model_summary", "fit_tables", "fit_summary_of",
-           "diagnosis_summary", "diagnosis_tables", "circuit_summary", "correction_summary",
+           "diagnosis_summary", "diagnosis_tables", "circuit_tables", "circuit_summary", "correction_summary",
            "correction_table", "sizing_summary", "bom_table", "over_range_summary", "verdict_lines",
            "network_design_summary", "design_summary", "comparison_table", "comparison_summary", "tolerance_summary",
            "monte_carlo_summary", "distribution_table", "sensitivity_table", "creep_test_summary",
@@ -208,27 +208,50 @@ def diagnosis_summary(d) -> Summary:
                    diagnosis_tables(d), notes)
 
 
-def circuit_summary(cd) -> Summary:
-    """A circuit diagnosis: the verdict, the findings and the fixes."""
-    tables = []
+def circuit_tables(cd) -> dict:
+    """The circuit side's tables (``creepcomp diagnose --design``) by name: ``findings`` and
+    ``as_built`` (when it found an effect), ``fixes`` (when it has single-part fixes)."""
+    from creepcomp.report.circuit_diagnosis import element_text, elements, quantity
+
+    out = {}
     if cd.findings:
-        cols = [Column("effect", "left"), Column("part", "left"), Column("parameters", "left"), "ΔBIC", "held-out z"]
-        tables.append(Table.of("Circuit findings (most important first)", cols,
-                               [(f.effect, f.part or "-", "; ".join(f"{k} = {v:.4g}" if isinstance(v, float)
-                                                                     else f"{k} = {v}"
-                                                                     for k, v in f.parameters.items()) or "-",
-                                 f"{f.evidence.delta_bic:.1f}", f"{f.evidence.heldout_z:.1f}")
-                                for f in cd.findings]))
+        cols = [Column(c, "right" if c.startswith(("Δ", "held")) else "left")
+                for c in ("effect", "part", "parameters (± 1 sigma)", "ΔBIC", "held-out RMS ratio", "held-out z")]
+        out["findings"] = Table.of("Circuit findings (most important first)", cols, [
+            (f.effect, f.part or "-", "; ".join(f"{k} = {quantity(k, v)} ± {quantity(k, f.uncertainty.get(k))}"
+                                                for k, v in f.parameters.items()),
+             f"{f.evidence.delta_bic:.1f}", f"{f.evidence.heldout_rms_ratio:.3g}", f"{f.evidence.heldout_z:.1f}")
+            for f in cd.findings])
+        design, built = elements(cd.baseline.network), elements(cd.extended.network)
+        out["as_built"] = Table.of("As-built network", [Column("element", "left"), "design", "as built"],
+                                   [(label, element_text(*design[label]), element_text(*built[label]))
+                                    for label in design
+                                    if design[label][1] is not None or built[label][1] is not None])
     if cd.fixes:
-        tables.append(Table.of("Fix: single-part changes, best first",
-                               [Column("fix", "left"), Column("details", "left")],
-                               [(str(i + 1), "; ".join(f"{k} = {v}" for k, v in fx.to_dict().items()))
-                                for i, fx in enumerate(cd.fixes)]))
+        cols = [Column(c, "left" if c in ("part", "note") else "right")
+                for c in ("part", "as built", "replace by", "peak residual creep", "note")]
+        out["fixes"] = Table.of("Fix: single-part changes, best first", cols, [
+            (f.part, format_quantity(f.value_from, _fix_unit(f.part)),
+             f"{format_quantity(f.value_to, _fix_unit(f.part))} ({f.series})", format_percent(f.residual_creep_peak),
+             f.note) for f in cd.fixes])
+    return out
+
+
+def _fix_unit(part: str) -> str:
+    return "F" if part.startswith("C") else "Ω"
+
+
+def circuit_summary(cd) -> Summary:
+    """A circuit diagnosis: the verdict, the fits against the noise floor, the findings, the
+    as-built network and the fixes."""
     fits = Table.of("Fits", [Column("network", "left"), "residual RMS", "misfit ratio (of the noise floor)", "BIC"],
                     [(name, format_quantity(fit.rms, "V"), _ratio(cd.misfit(fit)), f"{fit.bic:.1f}")
                      for name, fit in (("nominal", cd.baseline), ("as built", cd.extended))])
+    rc = cd.residual_creep
     return Summary(f"Circuit diagnosis of {cd.data.source}: cause {cd.cause}", (cd.verdict(),),
-                   (fits,) + tuple(tables))
+                   (fits,) + tuple(circuit_tables(cd).values()),
+                   (f"peak residual creep of a load step: design {format_percent(rc['nominal'])}, "
+                    f"as built {format_percent(rc['as_built'])}",))
 
 
 # --- correction --------------------------------------------------------------------------------
