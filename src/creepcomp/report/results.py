@@ -148,9 +148,10 @@ def fit_summary_of(result) -> Summary:
             "of the signal's range)")
     if fit.heldout is not None:
         line += f"; held-out {fit.heldout.rms:.4g} ({format_percent(fit.heldout.rms / scale)})"
+    # the fitted data carry no units: the signal's are named as such
     return Summary(f"Prony fit of {data.source}",
                    (f"{data.n} samples over {format_time(data.duration)}", line),
-                   fit_tables(result))
+                   fit_tables(result, "signal units"))
 
 
 # --- diagnosis ---------------------------------------------------------------------------------
