@@ -22,17 +22,19 @@ __all__ = ["summary_of", "plot_of", "record_summary", "model_summary", "fit_tabl
            "network_table", "SHOWN_ZERO"]
 
 
-def _key(obj) -> str:
-    return f"{type(obj).__module__}.{type(obj).__qualname__}"
+def _of_type(table: dict, result, what: str):
+    """The entry of ``table`` for the result's type or the nearest of its bases (by module
+    and name, so that no result's module is imported here)."""
+    for cls in type(result).__mro__:
+        found = table.get(f"{cls.__module__}.{cls.__qualname__}")
+        if found is not None:
+            return found
+    raise TypeError(f"{type(result).__name__} has no {what}")
 
 
 def summary_of(result) -> Summary:
     """The :class:`~creepcomp.report.tables.Summary` of any result that shows itself."""
-    try:
-        build = SUMMARIES[_key(result)]
-    except KeyError:
-        raise TypeError(f"{type(result).__name__} has no report") from None
-    return build(result)
+    return _of_type(SUMMARIES, result, "report")(result)
 
 
 def plot_of(result, ax=None, **options):
@@ -40,15 +42,7 @@ def plot_of(result, ax=None, **options):
     return the Axes. ``options``: that function's keywords."""
     from creepcomp.report import plots
 
-    try:
-        name = PLOTS[_key(result)]
-    except KeyError:
-        raise TypeError(f"{type(result).__name__} has no plot") from None
-    return getattr(plots, name)(result, ax=ax, **options)
-
-
-def _unit(text: str, fallback: str) -> str:
-    return text or fallback
+    return getattr(plots, _of_type(PLOTS, result, "plot"))(result, ax=ax, **options)
 
 
 # --- record and model --------------------------------------------------------------------------
