@@ -95,3 +95,57 @@ def test_a_changed_api_default_changes_the_command_line(monkeypatch):
                         sweep_period=None, plan=None: None)
     got = size_module._api_defaults()
     assert (got["rule"], got["series"], got["cap_range"]) == ("paper", "E12", "1n:1u")
+
+
+# --- the other commands: each default that has an API counterpart -------------------------------
+
+def _api(dotted: str):
+    """The default of ``module.function.parameter``."""
+    import importlib
+
+    module, function, parameter = dotted.rsplit(".", 2)
+    return api_defaults(getattr(importlib.import_module(module), function))[parameter]
+
+
+def _volts(text):
+    return quantity(text, "volt", "--signal")
+
+
+def _seconds(text):
+    return quantity(text, "second", "--loading-time")
+
+
+#: (command, option, the API's parameter, how the command reads the option's text)
+COUNTERPARTS = [
+    ("netlist", "program", "creepcomp.verify.compare.compare_program.program", str),
+    ("netlist", "points", "creepcomp.verify.compare.compare_program.points", int),
+    ("netlist", "signal", "creepcomp.verify.compare.compare_program.signal", _volts),
+    ("simulate", "program", "creepcomp.verify.compare.compare_program.program", str),
+    ("simulate", "points", "creepcomp.verify.compare.compare_program.points", int),
+    ("simulate", "signal", "creepcomp.verify.compare.compare_program.signal", _volts),
+    ("mc", "metric", "creepcomp.verify.tolerance_analysis.analyse.metric", str),
+    ("mc", "worst", "creepcomp.verify.tolerance_analysis.analyse.worst", bool),
+    ("mc", "sensitivity_n", "creepcomp.verify.tolerance_analysis.analyse.sensitivity_samples", int),
+    ("mc", "distribution", "creepcomp.verify.tolerances.Tolerance.distribution", str),
+    ("creep-test", "loading_time", "creepcomp.verify.creep_test.CreepTestProgram.loading_time", _seconds),
+    ("creep-test", "rate", "creepcomp.verify.creep_test.digital_test.rate", float),
+    ("correct", "method", "creepcomp.digital.correctors.compensate.method", str),
+    ("correct", "hold", "creepcomp.digital.correctors.compensate.hold", str),
+    ("firmware", "method", "creepcomp.digital.firmware.generate_firmware.method", str),
+    ("firmware", "precision", "creepcomp.digital.firmware.generate_firmware.precision", str),
+    ("firmware", "name", "creepcomp.digital.firmware.generate_firmware.name", str),
+    ("fit", "initial", "creepcomp.fit.data.prepare.initial", str),
+    ("fit", "duplicate_times", "creepcomp.io.records.read_record.duplicate_times", str),
+    pytest.param("fit", "max_terms", "creepcomp.fit.prony.fit_prony.max_terms", int,
+                 marks=pytest.mark.xfail(strict=True, reason="fit --max-terms tries up to 8 terms "
+                                                             "(docs/cli.md), fit_prony up to 6")),
+    ("diagnose", "initial", "creepcomp.diagnose.sensor.diagnose.initial", str),
+    ("diagnose", "duplicate_times", "creepcomp.io.records.read_record.duplicate_times", str),
+    ("diagnose", "spice_check", "creepcomp.diagnose.circuit.diagnose_circuit.spice_check", bool),
+]
+
+
+@pytest.mark.parametrize("command, option, parameter, parse", COUNTERPARTS)
+def test_a_commands_default_is_its_api_counterparts(command, option, parameter, parse):
+    text = command_defaults(command)[option]
+    assert parse(text) == _api(parameter)

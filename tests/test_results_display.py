@@ -249,3 +249,19 @@ def test_a_correction_is_the_compensated_signal_and_its_errors(results):
     assert c.after == creep_error(record.time, c.compensated, record.load, MODEL)
     assert c.reduction == pytest.approx(c.before.peak / c.after.peak)
     assert c.reduction > 3
+
+
+def test_a_long_model_keeps_a_short_repr():
+    model = CreepModel(tuple([0.001] * 20), tuple(np.logspace(0, 5, 20)))
+    text = repr(model)
+    assert len(text) < 200 and "17 more" in text and "beta0 2 %" in text
+
+
+def test_a_subclass_of_a_result_shows_itself_as_its_base(results):
+    from creepcomp.model import CreepModel as Base
+
+    class Mine(Base):
+        pass
+
+    mine = Mine((0.03,), (20.0,), 0.01)
+    assert mine.tables().tables[0].rows == MODEL.tables().tables[0].rows

@@ -228,8 +228,10 @@ class CreepModel(Shown):
     def __repr__(self) -> str:
         from creepcomp.units import format_percent, format_time
 
-        n = self.n_terms
-        terms = ", ".join(f"{format_percent(b)} at {format_time(t)}" for b, t in zip(self.beta, self.tau))
+        n, shown = self.n_terms, 3
+        terms = ", ".join(f"{format_percent(b)} at {format_time(t)}"
+                          for b, t in list(zip(self.beta, self.tau))[:shown])
+        terms += f", {n - shown} more" if n > shown else ""
         more = (f"; temperature law about {self.temperature.reference:g} °C" if self.temperature else "") + \
             (f"; extensions {', '.join(map(str, self.extensions))}" if self.extensions else "")
         return (f"<CreepModel {n} term{'s' if n > 1 else ''}: {terms} (beta0 {format_percent(self.beta0)}), "

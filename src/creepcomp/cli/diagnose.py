@@ -6,12 +6,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Optional
 
 import typer
-from rich.table import Table
 
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_design
 from creepcomp.io.outputs import check_outputs
-from creepcomp.units import format_percent, format_quantity
+from creepcomp.units import format_percent
 from creepcomp.cli.common import app, console, count_option, print_json, progress_bar
 from creepcomp.cli.fit import (COLUMNS_HELP, INITIAL_TEXT, describe_record,
     load_reduced, record_options, SHEET_OPTION, TAXEL_OPTION)
@@ -169,7 +168,7 @@ def render_diagnosis(record, d: Diagnosis) -> None:
 
 def render_circuit(cd: CircuitDiagnosis, su: str) -> None:
     """Print the circuit side of a diagnosis as tables."""
-    from creepcomp.report.circuit_diagnosis import _element, elements, quantity
+    from creepcomp.report.results import circuit_tables
 
     b, e = cd.baseline, cd.extended
     console.print(f"\n[bold]circuit side[/bold]: the nominal network driven by the measured signal against "
@@ -178,38 +177,17 @@ def render_circuit(cd: CircuitDiagnosis, su: str) -> None:
     console.print(f"[bold]circuit cause: {cd.cause}[/bold]")
     for line in cd.explanation():
         console.print(line, markup=False, highlight=False)
+    tables = circuit_tables(cd)
     if cd.findings:
-        t = Table(title="Circuit findings (most important first)", title_justify="left")
-        for col in ("effect", "part", "parameters (± 1 sigma)", "ΔBIC", "held-out RMS ratio", "held-out z"):
-            t.add_column(col, justify="right" if col.startswith(("Δ", "held")) else "left")
-        for f in cd.findings:
-            params = "; ".join(f"{k} = {quantity(k, v)} ± {quantity(k, f.uncertainty.get(k))}"
-                               for k, v in f.parameters.items())
-            t.add_row(f.effect, f.part or "-", params, f"{f.evidence.delta_bic:.1f}",
-                      f"{f.evidence.heldout_rms_ratio:.3g}", f"{f.evidence.heldout_z:.1f}")
-        console.print(t)
-        design, built = elements(b.network), elements(e.network)
-        t = Table(title="As-built network", title_justify="left")
-        for col in ("element", "design", "as built"):
-            t.add_column(col, justify="left" if col == "element" else "right")
-        for label in design:
-            if design[label][1] is not None or built[label][1] is not None:
-                t.add_row(label, _element(*design[label]), _element(*built[label]))
-        console.print(t)
+        console.print(tables["findings"].to_rich())
+        console.print(tables["as_built"].to_rich())
     else:
         console.print("no circuit effect is supported by the evidence: no candidate predicts held-out "
                       "data better than the nominal network (that alone does not show the residual is noise)")
     rc = cd.residual_creep
     console.print(f"peak residual creep of a load step: design {format_percent(rc['nominal'])}, as built {format_percent(rc['as_built'])}")
     if cd.fixes:
-        t = Table(title="Fix: single-part changes, best first", title_justify="left")
-        for col in ("part", "as built", "replace by", "peak residual creep", "note"):
-            t.add_column(col, justify="left" if col in ("part", "note") else "right")
-        for f in cd.fixes:
-            unit = "F" if f.part.startswith("C") else "Ω"
-            t.add_row(f.part, format_quantity(f.value_from, unit), f"{format_quantity(f.value_to, unit)} ({f.series})",
-                      format_percent(f.residual_creep_peak), f.note)
-        console.print(t)
+        console.print(tables["fixes"].to_rich())
     g = cd.gain
     if e is not b:
         console.print(f"gain: held-out residual RMS {b.heldout.rms:.4g} -> {e.heldout.rms:.4g} {su} "

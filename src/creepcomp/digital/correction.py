@@ -14,6 +14,7 @@ import numpy as np
 from creepcomp.digital.correctors import CreepError, compensate, creep_error
 from creepcomp.display import Shown, data_frame
 from creepcomp.io.formats import read_any
+from creepcomp.io.records import Record
 from creepcomp.model import CreepModel
 from creepcomp.units import format_percent
 
@@ -37,7 +38,7 @@ class Correction(Shown):
         The raw and the compensated signal's error against the load reference.
     """
 
-    record: object
+    record: Record
     model: CreepModel
     method: str
     compensated: np.ndarray
@@ -50,7 +51,7 @@ class Correction(Shown):
         return self.before.peak / self.after.peak if self.after.peak > 0 else None
 
     def __repr__(self) -> str:
-        return (f"<Correction {self.method} of {self.record.source}: peak creep error "
+        return (f"<Correction {self.method} of {self.record.source!r}: peak creep error "
                 f"{format_percent(self.before.peak_fraction)} -> {format_percent(self.after.peak_fraction)} of FS>")
 
     def to_dict(self) -> dict:
@@ -66,7 +67,7 @@ class Correction(Shown):
                            "compensated": self.compensated})
 
 
-def correct_record(record, model: CreepModel, method: str = "subtractive", initial=None,
+def correct_record(record: Record, model: CreepModel, method: str = "subtractive", initial=None,
                    hold: str = "zero", temperature=None) -> Correction:
     """Correct a record's creep and measure the error before and after.
 

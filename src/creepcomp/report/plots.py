@@ -15,8 +15,8 @@ import numpy as np
 from creepcomp.report.common import plot_text, thin
 
 __all__ = ["new_axes", "record_plot", "model_plot", "fit_result_plot", "diagnosis_plot", "circuit_plot",
-           "correction_plot", "sizing_plot", "network_design_plot", "design_plot", "comparison_plot", "monte_carlo_plot",
-           "tolerance_plot", "creep_test_plot", "firmware_plot", "verification_plot"]
+           "correction_plot", "sizing_plot", "network_design_plot", "design_plot", "comparison_plot",
+           "monte_carlo_plot", "tolerance_plot", "creep_test_plot", "firmware_plot", "verification_plot"]
 
 
 def new_axes(figsize=(9, 4.5)):

@@ -14,7 +14,7 @@ from creepcomp.report.tables import Column, Summary, Table
 from creepcomp.units import format_percent, format_quantity, format_time
 
 __all__ = ["summary_of", "plot_of", "record_summary", "model_summary", "fit_tables", "fit_summary_of",
-           "diagnosis_summary", "diagnosis_tables", "circuit_summary", "correction_summary",
+           "diagnosis_summary", "diagnosis_tables", "circuit_tables", "circuit_summary", "correction_summary",
            "correction_table", "sizing_summary", "bom_table", "over_range_summary", "verdict_lines",
            "network_design_summary", "design_summary", "comparison_table", "comparison_summary", "tolerance_summary",
            "monte_carlo_summary", "distribution_table", "sensitivity_table", "creep_test_summary",
@@ -22,17 +22,19 @@ __all__ = ["summary_of", "plot_of", "record_summary", "model_summary", "fit_tabl
            "network_table", "SHOWN_ZERO"]
 
 
-def _key(obj) -> str:
-    return f"{type(obj).__module__}.{type(obj).__qualname__}"
+def _of_type(table: dict, result, what: str):
+    """The entry of ``table`` for the result's type or the nearest of its bases (by module
+    and name, so that no result's module is imported here)."""
+    for cls in type(result).__mro__:
+        found = table.get(f"{cls.__module__}.{cls.__qualname__}")
+        if found is not None:
+            return found
+    raise TypeError(f"{type(result).__name__} has no {what}")
 
 
 def summary_of(result) -> Summary:
     """The :class:`~creepcomp.report.tables.Summary` of any result that shows itself."""
-    try:
-        build = SUMMARIES[_key(result)]
-    except KeyError:
-        raise TypeError(f"{type(result).__name__} has no report") from None
-    return build(result)
+    return _of_type(SUMMARIES, result, "report")(result)
 
 
 def plot_of(result, ax=None, **options):
@@ -40,15 +42,7 @@ def plot_of(result, ax=None, **options):
     return the Axes. ``options``: that function's keywords."""
     from creepcomp.report import plots
 
-    try:
-        name = PLOTS[_key(result)]
-    except KeyError:
-        raise TypeError(f"{type(result).__name__} has no plot") from None
-    return getattr(plots, name)(result, ax=ax, **options)
-
-
-def _unit(text: str, fallback: str) -> str:
-    return text or fallback
+    return getattr(plots, _of_type(PLOTS, result, "plot"))(result, ax=ax, **options)
 
 
 # --- record and model --------------------------------------------------------------------------
@@ -148,9 +142,10 @@ def fit_summary_of(result) -> Summary:
             "of the signal's range)")
     if fit.heldout is not None:
         line += f"; held-out {fit.heldout.rms:.4g} ({format_percent(fit.heldout.rms / scale)})"
+    # the fitted data carry no units: the signal's are named as such
     return Summary(f"Prony fit of {data.source}",
                    (f"{data.n} samples over {format_time(data.duration)}", line),
-                   fit_tables(result))
+                   fit_tables(result, "signal units"))
 
 
 # --- diagnosis ---------------------------------------------------------------------------------
@@ -208,27 +203,50 @@ def diagnosis_summary(d) -> Summary:
                    diagnosis_tables(d), notes)
 
 
-def circuit_summary(cd) -> Summary:
-    """A circuit diagnosis: the verdict, the findings and the fixes."""
-    tables = []
+def circuit_tables(cd) -> dict:
+    """The circuit side's tables (``creepcomp diagnose --design``) by name: ``findings`` and
+    ``as_built`` (when it found an effect), ``fixes`` (when it has single-part fixes)."""
+    from creepcomp.report.circuit_diagnosis import element_text, elements, quantity
+
+    out = {}
     if cd.findings:
-        cols = [Column("effect", "left"), Column("part", "left"), Column("parameters", "left"), "ΔBIC", "held-out z"]
-        tables.append(Table.of("Circuit findings (most important first)", cols,
-                               [(f.effect, f.part or "-", "; ".join(f"{k} = {v:.4g}" if isinstance(v, float)
-                                                                     else f"{k} = {v}"
-                                                                     for k, v in f.parameters.items()) or "-",
-                                 f"{f.evidence.delta_bic:.1f}", f"{f.evidence.heldout_z:.1f}")
-                                for f in cd.findings]))
+        cols = [Column(c, "right" if c.startswith(("Δ", "held")) else "left")
+                for c in ("effect", "part", "parameters (± 1 sigma)", "ΔBIC", "held-out RMS ratio", "held-out z")]
+        out["findings"] = Table.of("Circuit findings (most important first)", cols, [
+            (f.effect, f.part or "-", "; ".join(f"{k} = {quantity(k, v)} ± {quantity(k, f.uncertainty.get(k))}"
+                                                for k, v in f.parameters.items()),
+             f"{f.evidence.delta_bic:.1f}", f"{f.evidence.heldout_rms_ratio:.3g}", f"{f.evidence.heldout_z:.1f}")
+            for f in cd.findings])
+        design, built = elements(cd.baseline.network), elements(cd.extended.network)
+        out["as_built"] = Table.of("As-built network", [Column("element", "left"), "design", "as built"],
+                                   [(label, element_text(*design[label]), element_text(*built[label]))
+                                    for label in design
+                                    if design[label][1] is not None or built[label][1] is not None])
     if cd.fixes:
-        tables.append(Table.of("Fix: single-part changes, best first",
-                               [Column("fix", "left"), Column("details", "left")],
-                               [(str(i + 1), "; ".join(f"{k} = {v}" for k, v in fx.to_dict().items()))
-                                for i, fx in enumerate(cd.fixes)]))
+        cols = [Column(c, "left" if c in ("part", "note") else "right")
+                for c in ("part", "as built", "replace by", "peak residual creep", "note")]
+        out["fixes"] = Table.of("Fix: single-part changes, best first", cols, [
+            (f.part, format_quantity(f.value_from, _fix_unit(f.part)),
+             f"{format_quantity(f.value_to, _fix_unit(f.part))} ({f.series})", format_percent(f.residual_creep_peak),
+             f.note) for f in cd.fixes])
+    return out
+
+
+def _fix_unit(part: str) -> str:
+    return "F" if part.startswith("C") else "Ω"
+
+
+def circuit_summary(cd) -> Summary:
+    """A circuit diagnosis: the verdict, the fits against the noise floor, the findings, the
+    as-built network and the fixes."""
     fits = Table.of("Fits", [Column("network", "left"), "residual RMS", "misfit ratio (of the noise floor)", "BIC"],
                     [(name, format_quantity(fit.rms, "V"), _ratio(cd.misfit(fit)), f"{fit.bic:.1f}")
                      for name, fit in (("nominal", cd.baseline), ("as built", cd.extended))])
+    rc = cd.residual_creep
     return Summary(f"Circuit diagnosis of {cd.data.source}: cause {cd.cause}", (cd.verdict(),),
-                   (fits,) + tuple(tables))
+                   (fits,) + tuple(circuit_tables(cd).values()),
+                   (f"peak residual creep of a load step: design {format_percent(rc['nominal'])}, "
+                    f"as built {format_percent(rc['as_built'])}",))
 
 
 # --- correction --------------------------------------------------------------------------------
@@ -301,12 +319,14 @@ def sizing_summary(report, title: str | None = None) -> Summary:
             columns.append((f"nearest values (C = {format_quantity(c_near, 'F')})", report.nearest_quality))
     columns.append(("uncorrected", report.uncorrected_quality))
     qs = [q for _, q in columns]
+    period = report.chosen_quality.sweep_period
     predicted = Table.of("Predicted (exact transfer functions)",
                          [Column("", "left")] + [name for name, _ in columns],
-                         [["residual creep, peak (of a load step)"] + [format_percent(q.residual_creep_peak) for q in qs],
+                         [["residual creep, peak (of a load step)"] + [format_percent(q.residual_creep_peak)
+                                                                       for q in qs],
                           ["  at (s after the step)"] + [_peak_time(q) for q in qs],
                           ["residual creep, final"] + [format_percent(q.residual_creep_final) for q in qs],
-                          [f"hysteresis, ±FS sweep of {report.chosen_quality.sweep_period:.4g} s (of FS)"]
+                          [f"hysteresis, ±FS sweep of {period:.4g} s (of FS)"]
                           + [format_percent(q.hysteresis) for q in qs]])
     footer = ()
     if report.nearest is not None and snapped:
