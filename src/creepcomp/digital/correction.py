@@ -67,7 +67,7 @@ class Correction(Shown):
                            "compensated": self.compensated})
 
 
-def correct_record(record: Record, model: CreepModel, method: str = "subtractive", initial=None,
+def correct_record(record, model: CreepModel, method: str = "subtractive", initial=None,
                    hold: str = "zero", temperature=None) -> Correction:
     """Correct a record's creep and measure the error before and after.
 
