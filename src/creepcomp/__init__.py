@@ -8,7 +8,9 @@ tolerances (:mod:`creepcomp.verify`), diagnosis (:mod:`creepcomp.diagnose`), plo
 (:mod:`creepcomp.report`).
 
 The names below are imported when first used, so that ``import creepcomp`` (and the command
-line's start) costs nothing until a name is needed.
+line's start) costs nothing until a name is needed. ``creepcomp.fit`` and
+``creepcomp.diagnose`` are subpackages and functions at once: ``creepcomp.fit(record)`` fits a
+record, ``creepcomp.fit.prony`` is a module.
 """
 
 import sys
