@@ -29,7 +29,7 @@ def test_getting_started_shows_the_readme_tour():
     config = {"config_file_path": str(ROOT / "mkdocs.yml")}
     shown = hook.on_page_markdown(page, page=None, config=config)
     assert hook.PLACEHOLDER not in shown
-    assert "$ creepcomp data export hidden_effect" in shown and "### A five-minute tour" in shown
+    assert "$ creepcomp data export hidden_effect" in shown and "\n## A five-minute tour\n" in shown
 
 
 def test_every_notebook_is_a_page_of_the_site():

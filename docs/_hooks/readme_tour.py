@@ -12,10 +12,9 @@ START, END = "<!-- tour -->", "<!-- /tour -->"
 
 
 def readme_tour(readme: Path) -> str:
-    """The tour of ``readme``, its headings one level down (they sit under the page's own)."""
+    """The tour of ``readme`` (its heading is a second-level one, as the page's sections)."""
     text = readme.read_text(encoding="utf-8")
-    tour = text.split(START, 1)[1].split(END, 1)[0]
-    return "\n".join("#" + line if line.startswith("## ") else line for line in tour.splitlines())
+    return text.split(START, 1)[1].split(END, 1)[0]
 
 
 def on_page_markdown(markdown: str, page, config, **kwargs) -> str:
