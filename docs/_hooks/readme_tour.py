@@ -7,6 +7,8 @@ site and the README show the same commands and outputs.
 
 from pathlib import Path
 
+from mkdocs.exceptions import PluginError
+
 PLACEHOLDER = "<!-- README tour -->"
 START, END = "<!-- tour -->", "<!-- /tour -->"
 
@@ -14,6 +16,8 @@ START, END = "<!-- tour -->", "<!-- /tour -->"
 def readme_tour(readme: Path) -> str:
     """The tour of ``readme`` (its heading is a second-level one, as the page's sections)."""
     text = readme.read_text(encoding="utf-8")
+    if text.count(START) != 1 or text.count(END) != 1:
+        raise PluginError(f"{readme}: the tour must be between one {START} and one {END} line")
     return text.split(START, 1)[1].split(END, 1)[0]
 
 
