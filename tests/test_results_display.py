@@ -265,3 +265,22 @@ def test_a_subclass_of_a_result_shows_itself_as_its_base(results):
 
     mine = Mine((0.03,), (20.0,), 0.01)
     assert mine.tables().tables[0].rows == MODEL.tables().tables[0].rows
+
+
+def _cells(summary):
+    return [c for t in summary.tables for row in t.rows for c in row if c]
+
+
+def test_the_terminal_prints_the_tables_a_notebook_shows(run_cli, tmp_path):
+    """One place per table: every cell of a result's tables is in its command's output."""
+    from creepcomp.io.jsonfiles import write_model
+    from creepcomp.verify.creep_test import CreepTestProgram, model_test, parse_class
+
+    status, out, _ = run_cli("size", "--beta0", "3%", "--tau", "20s")
+    assert status == 0
+    assert [c for c in _cells(_network_design().tables()) if c not in out] == []
+    model = write_model(tmp_path / "m.json", MODEL)
+    status, out, _ = run_cli("creep-test", model, "--class", "C3", "--temperatures", "20")
+    assert status == 0
+    shown = model_test(MODEL, [20.0], parse_class("C3"), CreepTestProgram()).tables()
+    assert [c for c in _cells(shown) if c not in out] == []

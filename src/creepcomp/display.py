@@ -20,6 +20,25 @@ class Shown:
 
     A class using it gives ``__repr__`` (one line, no arrays) and ``to_dict``; the tables
     and the plot live in ``creepcomp.report.results``.
+
+    Examples
+    --------
+    >>> from creepcomp.model import CreepModel
+    >>> model = CreepModel.voigt(0.03, 45.0)
+    >>> model
+    <CreepModel 1 term: 3 % at 45 s (beta0 3 %), gain 1, offset 0>
+    >>> print(model.report())
+    Creep model
+    1 creep term (3 % at 45 s); beta0 = 3 %
+    gain 1 signal units per load unit, offset 0 signal units
+    <BLANKLINE>
+    Creep terms
+    term  beta   tau
+    ----  ----  ----
+       0   3 %  45 s
+
+    In a notebook the same tables show as HTML (``_repr_html_``), and ``model.plot(ax=ax)``
+    draws the creep of a load step into ``ax``.
     """
 
     __slots__ = ()

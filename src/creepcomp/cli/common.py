@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import inspect
 import os
 import sys
 
@@ -11,7 +12,7 @@ from rich.console import Console
 
 from creepcomp.errors import CreepcompError, InputError
 from creepcomp.io.jsonfiles import to_json
-from creepcomp.units import parse_quantity
+from creepcomp.units import format_quantity, parse_quantity
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
                   help="Remove creep from elastomer-based sensors: size RC correction networks, "
@@ -198,3 +199,14 @@ def print_summary(summary) -> None:
         console.print(line)
     for warning in summary.warnings:
         console.print(f"[yellow]warning:[/yellow] {warning}", soft_wrap=False)
+
+
+def api_default(function, parameter: str):
+    """The default of ``function``'s ``parameter``: an option's default read from the API
+    (written once, there)."""
+    return inspect.signature(function).parameters[parameter].default
+
+
+def si_text(value: float) -> str:
+    """A value as an option takes it, with an SI prefix and no space (``100u``, ``1G``)."""
+    return format_quantity(value, "").replace(" ", "").replace("µ", "u")

@@ -16,8 +16,8 @@ from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_design
 from creepcomp.io.outputs import check_outputs
 from creepcomp.units import format_parameter, format_percent
-from creepcomp.cli.common import (app, console, count_option, err_console, print_json, quantity,
-                                  temperature_range_option, temperatures_option, value_range)
+from creepcomp.cli.common import (api_default, app, console, count_option, err_console, print_json,
+                                  quantity, temperature_range_option, temperatures_option, value_range)
 
 
 def _tolerance(text: str, option: str, distribution: str) -> Tolerance:
@@ -64,7 +64,7 @@ def mc_command(
                                                "block, else 5 % or the dielectric's tightest)."),
     tol: Optional[List[str]] = typer.Option(None, "--tol", metavar="PART=TOL",
                                             help="Tolerance of one part, e.g. C1=1% (repeatable)."),
-    distribution: str = typer.Option("normal", "--dist", metavar="normal|uniform",
+    distribution: str = typer.Option(api_default(Tolerance, "distribution"), "--dist", metavar="normal|uniform",
                                      help="normal: TOL is 3 sigma; uniform: ±TOL."),
     dielectric: Optional[str] = typer.Option(None, "--dielectric",
                                              metavar="polypropylene|polyester|x7r",
@@ -96,12 +96,14 @@ def mc_command(
                                              help="Sensor-to-sensor spread of each tau."),
     spec: Optional[str] = typer.Option(None, "--spec", metavar="LIMIT",
                                        help="Specification limit for the yield, e.g. 0.0245% (OIML R60 C3)."),
-    metric: str = typer.Option("peak", "--metric", metavar="peak|final|hysteresis",
+    metric: str = typer.Option(api_default(analyse, "metric"), "--metric", metavar="peak|final|hysteresis",
                                help="What --spec, the worst case and the sensitivity are about."),
     sweep_period: Optional[str] = typer.Option(None, "--sweep-period", metavar="TIME",
                                                help="Hysteresis sweep period."),
-    worst: bool = typer.Option(True, "--worst-case/--no-worst-case", help="Search the worst case."),
-    sensitivity_n: int = typer.Option(20_000, "--sensitivity-n", metavar="N",
+    worst: bool = typer.Option(api_default(analyse, "worst"), "--worst-case/--no-worst-case",
+                               help="Search the worst case."),
+    sensitivity_n: int = typer.Option(api_default(analyse, "sensitivity_samples"), "--sensitivity-n",
+                                      metavar="N",
                                       parser=count_option("--sensitivity-n", 0, 1_000_000),  # one block
                                       help="Samples for the part-alone and tighter-part runs (0: skip)."),
     spot_check: int = typer.Option(20, "--spot-check", metavar="N",

@@ -12,12 +12,12 @@ from rich.table import Table
 
 from creepcomp.errors import InputError
 from creepcomp.verify.compare import Comparison, compare_program, compare_record, compare_temperatures
-from creepcomp.verify.drive import DEFAULT_POINTS
+from creepcomp.verify.drive import DEFAULT_POINTS, DEFAULT_SIGNAL
 from creepcomp.verify.netlist import write_deck
 from creepcomp.io.outputs import check_outputs
 from creepcomp.units import format_percent, format_quantity
 from creepcomp.cli.common import (app, console, count_option, err_console, print_json, progress_bar,
-                                  temperatures_option)
+                                  si_text, temperatures_option)
 from creepcomp.cli.netlist import PROGRAM_HELP, read_drive
 
 
@@ -62,7 +62,7 @@ def simulate_command(
                                                 "time constants after a final step)."),
     points: int = typer.Option(DEFAULT_POINTS, "--points", metavar="N", parser=count_option("--points"),
                                help="Time points compared (uniform within each program segment)."),
-    signal: str = typer.Option("100u", "--signal", metavar="VOLT",
+    signal: str = typer.Option(si_text(DEFAULT_SIGNAL), "--signal", metavar="VOLT",
                                help="Instantaneous sensor signal at full scale, e.g. 100u or 1V."),
     plot: Optional[Path] = typer.Option(None, "--plot", metavar="FILE.png",
                                         help="Where to save the plot (default: "

@@ -24,33 +24,29 @@ from creepcomp.io.outputs import check_outputs
 from creepcomp.model import CreepModel
 from creepcomp.report.results import sizing_summary
 from creepcomp.temperature import TemperatureLaw
-from creepcomp.units import format_percent, format_quantity
-from creepcomp.cli.common import (app, console, print_json, print_summary, quantity,
+from creepcomp.units import format_percent
+from creepcomp.cli.common import (api_default, app, console, print_json, print_summary, quantity, si_text,
                                   temperature_range_option, value_range, warn_creep)
-
-
-def _eng(value: float) -> str:
-    return format_quantity(value, "").replace(" ", "").replace("µ", "u")
 
 
 def _api_defaults() -> dict:
     """The command line's default text of each option, from the API's defaults."""
     sizing = {k: p.default for k, p in inspect.signature(size).parameters.items()}
-    design = {k: p.default for k, p in inspect.signature(design_network).parameters.items()}
     plan = PartsPlan()
 
-    def series(value):
-        return "none" if value is None else value
+    def text(value):
+        return "none" if value is None else si_text(value) if isinstance(value, float) else value
 
-    return {"rule": sizing["rule"], "series": series(sizing["resistor_series"]),
-            "cap_series": series(sizing["capacitor_series"]),
-            "cap_range": ":".join(_eng(v) for v in sizing["cap_range"]),
-            "res_range": ":".join(_eng(v) for v in sizing["res_range"]),
-            "capacitance": sizing["capacitance"], "source_resistance": _eng(sizing["source_resistance"]),
-            "load_resistance": "none" if sizing["load_resistance"] is None else _eng(sizing["load_resistance"]),
-            "sweep_period": sizing["sweep_period"], "tracking": design["tracking"],
-            "topology": design["topology"], "allow_impractical": design["allow_impractical"],
-            "reference_temperature": f"{inspect.signature(TemperatureLaw.arrhenius).parameters['reference'].default:g}",
+    return {"rule": sizing["rule"], "series": text(sizing["resistor_series"]),
+            "cap_series": text(sizing["capacitor_series"]),
+            "cap_range": ":".join(si_text(v) for v in sizing["cap_range"]),
+            "res_range": ":".join(si_text(v) for v in sizing["res_range"]),
+            "capacitance": sizing["capacitance"], "source_resistance": text(sizing["source_resistance"]),
+            "load_resistance": text(sizing["load_resistance"]), "sweep_period": sizing["sweep_period"],
+            "tracking": api_default(design_network, "tracking"),
+            "topology": api_default(design_network, "topology"),
+            "allow_impractical": api_default(design_network, "allow_impractical"),
+            "reference_temperature": f"{api_default(TemperatureLaw.arrhenius, 'reference'):g}",
             "resistor_technology": plan.resistor, "dielectric": plan.capacitor,
             "resistor_tolerance": plan.resistor_tolerance, "capacitor_tolerance": plan.capacitor_tolerance}
 
@@ -403,9 +399,9 @@ def size_command_line(given: GivenOptions, changes: dict) -> str:
     words = ["creepcomp", "size"] + model_args(given, model)
     replaced = {"--load-resistance": "none" if "load_resistance" in changes else None,
                 "--tracking": changes.get("tracking"),
-                "--cap-range": (f"{_eng(changes['cap_range'][0])}:{_eng(changes['cap_range'][1])}"
+                "--cap-range": (f"{si_text(changes['cap_range'][0])}:{si_text(changes['cap_range'][1])}"
                                 if "cap_range" in changes else None),
-                "--res-range": (f"{_eng(changes['res_range'][0])}:{_eng(changes['res_range'][1])}"
+                "--res-range": (f"{si_text(changes['res_range'][0])}:{si_text(changes['res_range'][1])}"
                                 if "res_range" in changes else None)}
     dropped = {"--capacitance"} if "capacitance" in changes else set()
     for flag, text, default in given.options:

@@ -14,12 +14,13 @@ from creepcomp.report.tables import Column, Summary, Table
 from creepcomp.units import format_percent, format_quantity, format_time
 
 __all__ = ["summary_of", "plot_of", "record_summary", "model_summary", "fit_tables", "fit_summary_of",
-           "diagnosis_summary", "diagnosis_tables", "circuit_tables", "circuit_summary", "correction_summary",
-           "correction_table", "sizing_summary", "bom_table", "over_range_summary", "verdict_lines",
-           "network_design_summary", "design_summary", "comparison_table", "comparison_summary", "tolerance_summary",
-           "monte_carlo_summary", "distribution_table", "sensitivity_table", "creep_test_summary",
-           "creep_test_table", "creep_test_tables", "firmware_summary", "verification_summary", "describe_model",
-           "network_table", "SHOWN_ZERO"]
+           "diagnosis_summary", "diagnosis_tables", "circuit_tables", "circuit_summary",
+           "correction_summary", "correction_table", "sizing_summary", "bom_table", "over_range_summary",
+           "verdict_lines", "network_design_summary", "design_summary", "comparison_table",
+           "comparison_summary", "tolerance_summary", "monte_carlo_summary", "distribution_table",
+           "sensitivity_table", "creep_test_summary", "creep_test_table", "creep_test_tables",
+           "firmware_summary", "bound_table", "verification_summary", "describe_model", "network_table",
+           "SHOWN_ZERO"]
 
 
 def _of_type(table: dict, result, what: str):
@@ -577,13 +578,15 @@ def firmware_summary(fw) -> Summary:
             f"dt step (up to {format_quantity(fw.max_interval, 's')})")
     lines = (f"{fw.method} method, {fw.precision}, {rate}, full scale {fw.full_scale:.6g} signal units; "
              f"files {', '.join(fw.filenames)}",)
-    tables = ()
-    if fw.bound is not None:
-        rows = [(part, f"{value:.3e}") for part, value in fw.bound.terms.items()]
-        rows.append(("bound", f"{fw.bound.total_fs:.3e}"))
-        tables = (Table.of("Proven worst-case error against the float64 corrector",
-                           [Column("part", "left"), "of full scale"], rows),)
-    return Summary(f"Firmware {fw.name}", lines, tables)
+    return Summary(f"Firmware {fw.name}", lines, () if fw.bound is None else (bound_table(fw.bound),))
+
+
+def bound_table(bound) -> Table:
+    """The parts of a firmware's proven error bound and their sum (``creepcomp firmware``)."""
+    rows = [(part, f"{value:.3e}") for part, value in bound.terms.items()]
+    rows.append(("bound", f"{bound.total_fs:.3e}"))
+    return Table.of("Proven worst-case error against the float64 corrector",
+                    [Column("part", "left"), "of full scale"], rows, marks={"bound": "bold"})
 
 
 def verification_summary(v) -> Summary:
