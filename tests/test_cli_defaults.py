@@ -135,7 +135,7 @@ COUNTERPARTS = [
     ("firmware", "precision", "creepcomp.digital.firmware.generate_firmware.precision", str),
     ("firmware", "name", "creepcomp.digital.firmware.generate_firmware.name", str),
     ("fit", "initial", "creepcomp.diagnose.fitting.fit.initial", str),
-    ("fit", "duplicate_times", "creepcomp.io.records.read_record.duplicate_times", str),
+    ("fit", "duplicate_times", "creepcomp.diagnose.fitting.fit.duplicate_times", str),
     ("fit", "max_terms", "creepcomp.diagnose.fitting.fit.max_terms", int),
     ("fit", "flow", "creepcomp.diagnose.fitting.fit.flow", bool),
     ("diagnose", "initial", "creepcomp.diagnose.sensor.diagnose.initial", str),

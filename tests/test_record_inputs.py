@@ -228,3 +228,12 @@ def test_diagnose_correct_and_prepare_take_frames(bundled):
         creepcomp.diagnose(7)
     with pytest.raises(InputError, match="record: a builtins.str is not a record|no such file"):
         creepcomp.fit("no-such-record.csv")
+
+
+def test_fit_takes_the_commands_reader_options(bundled, tmp_path):
+    text = data.path("hidden_effect.csv").read_text().replace(",", ";")
+    (tmp_path / "semicolons.csv").write_text(text)
+    model = creepcomp.fit(tmp_path / "semicolons.csv", delimiter=";", max_terms=1).model()
+    assert model == creepcomp.fit(bundled, max_terms=1).model()
+    with pytest.raises(InputError, match="a taxel applies to insole .mat files only"):
+        creepcomp.fit(tmp_path / "semicolons.csv", taxel=3)

@@ -18,7 +18,9 @@ __all__ = ["fit"]
 
 def fit(record, columns: Mapping[str, str] | None = None, *, initial: str = "free",
         load_step_at: float | None = None, n_terms: int | None = None,
-        max_terms: int = FIT_MAX_TERMS, flow: bool = False) -> PronyResult:
+        max_terms: int = FIT_MAX_TERMS, flow: bool = False, delimiter: str | None = None,
+        duplicate_times: str = "error", taxel: int | None = None,
+        sheet: str | None = None) -> PronyResult:
     """Fit gain, offset and creep terms to a record; the number of terms by evidence.
 
     What ``creepcomp fit RECORD`` does: a record longer than
@@ -42,6 +44,10 @@ def fit(record, columns: Mapping[str, str] | None = None, *, initial: str = "fre
         Most terms tried.
     flow : bool
         Add viscous flow (a dashpot in series, the Burgers model) to every model.
+    delimiter, duplicate_times, taxel, sheet
+        For a file, as :func:`~creepcomp.io.formats.read_any` (``creepcomp fit``'s options of
+        the same names): a text file's delimiter and repeated time stamps, an insole ``.mat``
+        file's taxel, a workbook's sheet.
 
     Returns
     -------
@@ -59,7 +65,8 @@ def fit(record, columns: Mapping[str, str] | None = None, *, initial: str = "fre
     >>> model.n_terms, round(model.tau[0], -1)
     (1, 110.0)
     """
-    [(record, _)] = read_reduced(record, (MAX_FIT_SAMPLES,), columns,
+    [(record, _)] = read_reduced(record, (MAX_FIT_SAMPLES,), columns, delimiter=delimiter,
+                                 duplicate_times=duplicate_times, taxel=taxel, sheet=sheet,
                                  grown_samples=GROWN_FIT_SAMPLES)
     effects = ()
     if flow:
