@@ -284,3 +284,15 @@ def test_the_terminal_prints_the_tables_a_notebook_shows(run_cli, tmp_path):
     assert status == 0
     shown = model_test(MODEL, [20.0], parse_class("C3"), CreepTestProgram()).tables()
     assert [c for c in _cells(shown) if c not in out] == []
+
+
+def test_the_terminal_prints_text_from_a_file_as_written():
+    from rich.console import Console
+
+    from creepcomp.report.tables import Table
+
+    table = Table.of("[red]title", ["[b]column"], [["[bold]x[/bold]"], ["FAIL"]], marks={"FAIL": "red"})
+    console = Console(record=True, width=80, color_system=None)
+    console.print(table.to_rich())
+    text = console.export_text()
+    assert "[red]title" in text and "[b]column" in text and "[bold]x[/bold]" in text and "FAIL" in text

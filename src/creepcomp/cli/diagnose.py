@@ -11,7 +11,8 @@ from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_design
 from creepcomp.io.outputs import check_outputs
 from creepcomp.units import format_percent
-from creepcomp.cli.common import app, console, count_option, print_json, progress_bar
+from creepcomp.cli.common import api_default, app, console, count_option, print_json, progress_bar
+from creepcomp.io.records import read_record
 from creepcomp.cli.fit import (COLUMNS_HELP, INITIAL_TEXT, describe_record,
     load_reduced, record_options, SHEET_OPTION, TAXEL_OPTION)
 
@@ -29,7 +30,8 @@ def diagnose_command(
     columns: Optional[str] = typer.Option(None, "--columns", metavar="MAP", help=COLUMNS_HELP),
     delimiter: Optional[str] = typer.Option(None, "--delimiter", metavar="CHAR",
                                             help="Field delimiter (default: detected; 'tab' for tabs)."),
-    duplicate_times: str = typer.Option("error", "--duplicate-times", metavar="error|mean",
+    duplicate_times: str = typer.Option(api_default(read_record, "duplicate_times"),
+                                        "--duplicate-times", metavar="error|mean",
                                         help="Repeated time stamps: an error, or average the rows."),
     initial: str = typer.Option("free", "--initial", metavar="free|relaxed|settled",
                                 help="Creep state at the first sample: fitted, zero, or settled."),

@@ -11,9 +11,9 @@ import typer
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import write_json
 from creepcomp.io.outputs import check_outputs
-from creepcomp.io.records import Record, parse_columns, reads_whole
+from creepcomp.io.records import Record, parse_columns, read_record, reads_whole
 from creepcomp.units import format_percent, format_quantity
-from creepcomp.cli.common import (app, console, count_option, print_json, progress_bar, quantity,
+from creepcomp.cli.common import (api_default, app, console, count_option, print_json, progress_bar, quantity,
                                   temperatures_option)
 
 if TYPE_CHECKING:
@@ -130,7 +130,8 @@ def fit_command(
     columns: Optional[str] = typer.Option(None, "--columns", metavar="MAP", help=COLUMNS_HELP),
     delimiter: Optional[str] = typer.Option(None, "--delimiter", metavar="CHAR",
                                             help="Field delimiter (default: detected; 'tab' for tabs)."),
-    duplicate_times: str = typer.Option("error", "--duplicate-times", metavar="error|mean",
+    duplicate_times: str = typer.Option(api_default(read_record, "duplicate_times"),
+                                        "--duplicate-times", metavar="error|mean",
                                         help="Repeated time stamps: an error, or average the rows."),
     terms: str = typer.Option("auto", "--terms", metavar="auto|K",
                               help="Number of creep terms: chosen by evidence, or fixed."),

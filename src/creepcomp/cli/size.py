@@ -109,45 +109,46 @@ def series_option(text: str, option: str) -> str | None:
 
 
 Terms = Annotated[Optional[List[str]], typer.Option("--term", metavar="BETA@TAU",
-                                               help="One creep term, e.g. 0.05%@20min (repeatable).")]
+                                                    help="One creep term, e.g. 0.05%@20min (repeatable).")]
 Beta0 = Annotated[Optional[List[str]], typer.Option("--beta0", metavar="FRACTION",
-                                               help="One term's relative creep at infinite time, e.g. 0.03 or 3%.")]
+                                                    help="One term's relative creep at infinite time, "
+                                                         "e.g. 0.03 or 3%.")]
 Tau = Annotated[Optional[List[str]], typer.Option("--tau", metavar="TIME",
-                                             help="One term's retardation time, e.g. 45s or 2min.")]
+                                                  help="One term's retardation time, e.g. 45s or 2min.")]
 ModelFile = Annotated[Optional[Path], typer.Option("--model", metavar="FILE",
-                                              help="Model file with Prony terms (beta, tau lists).")]
+                                                   help="Model file with Prony terms (beta, tau lists).")]
 Rule = Annotated[str, typer.Option("--rule", metavar="exact|paper",
-                              help="exact: pole-zero cancellation; paper: the 2008 paper's eq. 16.")]
+                                   help="exact: pole-zero cancellation; paper: the 2008 paper's eq. 16.")]
 Series = Annotated[str, typer.Option("--series", metavar="SERIES",
-                                help="Resistor E-series (E3 ... E192), or none for ideal values.")]
+                                     help="Resistor E-series (E3 ... E192), or none for ideal values.")]
 CapSeries = Annotated[str, typer.Option("--cap-series", metavar="SERIES", help="Capacitor E-series.")]
 CapRange = Annotated[str, typer.Option("--cap-range", metavar="LOW:HIGH",
-                                  help="Capacitor values to search, e.g. 1u:100u.")]
+                                       help="Capacitor values to search, e.g. 1u:100u.")]
 ResRange = Annotated[str, typer.Option("--res-range", metavar="LOW:HIGH", help="Resistor values allowed.")]
 Capacitance = Annotated[Optional[str], typer.Option("--capacitance", metavar="FARAD",
-                                               help="Fix the largest capacitor instead of searching.")]
+                                                    help="Fix the largest capacitor instead of searching.")]
 SourceResistance = Annotated[str, typer.Option("--source-resistance", metavar="OHM",
-                                          help="Output resistance of the sensor.")]
+                                               help="Output resistance of the sensor.")]
 LoadResistance = Annotated[str, typer.Option("--load-resistance", metavar="OHM",
-                                        help="Input resistance of the next stage (none: infinite).")]
+                                             help="Input resistance of the next stage (none: infinite).")]
 SweepPeriod = Annotated[Optional[str], typer.Option("--sweep-period", metavar="TIME",
-                                               help="Period of the hysteresis sweep "
-                                                    "(default 2*pi*tau of the largest term).")]
+                                                    help="Period of the hysteresis sweep "
+                                                         "(default 2*pi*tau of the largest term).")]
 Output = Annotated[Optional[Path], typer.Option("-o", "--output", metavar="design.json", help="Write the design file.")]
 Plot = Annotated[Optional[Path], typer.Option("--plot", metavar="FILE.png",
-                                         help="Save residual-creep and hysteresis plots.")]
+                                              help="Save residual-creep and hysteresis plots.")]
 AsJson = Annotated[bool, typer.Option("--json", help="Print one JSON object.")]
 TemperatureRange = Annotated[Optional[str], typer.Option(
     "--temperature-range", metavar="LOW:HIGH",
     help="Design over this range (°C, e.g. -10:40): residual creep at every temperature, "
          "fixed parts sized for the range; with --plot also FILE-over-temperature.png.")]
 Tracking = Annotated[str, typer.Option("--tracking", metavar="none|ntc",
-                                  help="With --temperature-range: ntc makes R1 and R2 catalogue "
-                                       "NTC thermistors that follow the creep.")]
+                                       help="With --temperature-range: ntc makes R1 and R2 catalogue "
+                                            "NTC thermistors that follow the creep.")]
 Topology = Annotated[str, typer.Option("--topology", metavar="auto|passive|active",
-                                  help="With --tracking ntc: passive lead network, active stage "
-                                       "(integrators, one NTC per term, fixed gains), or auto: the "
-                                       "passive one when it is practical, else the active one.")]
+                                       help="With --tracking ntc: passive lead network, active stage "
+                                            "(integrators, one NTC per term, fixed gains), or auto: the "
+                                            "passive one when it is practical, else the active one.")]
 ActivationEnergy = Annotated[Optional[str], typer.Option(
     "--activation-energy", metavar="J/mol",
     help="Arrhenius law of the creep for --beta0/--tau, e.g. 43kJ/mol or 43k.")]
@@ -155,11 +156,11 @@ ReferenceTemperature = Annotated[str, typer.Option(
     "--reference-temperature", metavar="°C",
     help="Temperature at which --beta0/--tau hold (with --activation-energy).")]
 ResistorTechnology = Annotated[str, typer.Option("--resistor-technology", metavar="TECH",
-                                            help="Resistor technology: thin film, thick film or "
-                                                 "high-ohmic thick film (values it does not make "
-                                                 "take the next technology that does).")]
+                                                 help="Resistor technology: thin film, thick film or "
+                                                      "high-ohmic thick film (values it does not make "
+                                                      "take the next technology that does).")]
 Dielectric = Annotated[str, typer.Option("--dielectric", metavar="polypropylene|polyester|x7r",
-                                    help="Capacitor technology.")]
+                                         help="Capacitor technology.")]
 ResistorTolerance = Annotated[Optional[str], typer.Option(
     "--resistor-tolerance", metavar="TOL",
     help=f"Resistor tolerance bought (default {format_percent(DEFAULTS['resistor_tolerance'])}).")]
@@ -168,10 +169,10 @@ CapacitorTolerance = Annotated[Optional[str], typer.Option(
     help=f"Capacitor tolerance bought (default {format_percent(DEFAULTS['capacitor_tolerance'])}).")]
 Bom = Annotated[Optional[Path], typer.Option("--bom", metavar="FILE.csv", help="Write the bill of materials (CSV).")]
 Schematic = Annotated[Optional[Path], typer.Option("--schematic", metavar="FILE.svg|.png",
-                                              help="Draw the network with its values.")]
+                                                   help="Draw the network with its values.")]
 AllowImpractical = Annotated[bool, typer.Option("--allow-impractical",
-                                           help="Write a design judged impractical anyway "
-                                                "(the verdict becomes a warning).")]
+                                                help="Write a design judged impractical anyway "
+                                                     "(the verdict becomes a warning).")]
 D = DEFAULTS
 
 
@@ -223,13 +224,12 @@ def size_options(rule: str, series: str, cap_series: str, cap_range: str, res_ra
                  sweep_period: str | None) -> dict:
     """:func:`~creepcomp.analog.sizing.size`'s arguments from the options' text (an empty
     range: the API's default)."""
-    api = inspect.signature(size).parameters
     return dict(
         rule=rule.strip().lower(),
         resistor_series=series_option(series, "--series"),
         capacitor_series=series_option(cap_series, "--cap-series"),
-        cap_range=value_range(cap_range, "farad", "--cap-range") if cap_range else api["cap_range"].default,
-        res_range=value_range(res_range, "ohm", "--res-range") if res_range else api["res_range"].default,
+        cap_range=value_range(cap_range, "farad", "--cap-range") if cap_range else api_default(size, "cap_range"),
+        res_range=value_range(res_range, "ohm", "--res-range") if res_range else api_default(size, "res_range"),
         capacitance=quantity(capacitance, "farad", "--capacitance", positive=True),
         source_resistance=quantity(source_resistance, "ohm", "--source-resistance", non_negative=True),
         load_resistance=quantity(load_resistance, "ohm", "--load-resistance", allow_none=True,

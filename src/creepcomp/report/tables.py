@@ -51,14 +51,17 @@ class Table:
         return cls(title, cols, tuple(tuple(str(c) for c in row) for row in rows), dict(marks or {}))
 
     def to_rich(self):
-        """A ``rich.table.Table`` (the terminal's rendering)."""
+        """A ``rich.table.Table`` (the terminal's rendering): every text taken as written (a
+        ``[`` from a file is no markup), the cells of :attr:`marks` styled."""
+        from rich.markup import escape
         from rich.table import Table as RichTable
 
-        table = RichTable(title=self.title or None, title_justify="left")
+        table = RichTable(title=escape(self.title) if self.title else None, title_justify="left")
         for c in self.columns:
-            table.add_column(c.name, justify=c.justify)
+            table.add_column(escape(c.name), justify=c.justify)
         for row in self.rows:
-            table.add_row(*(f"[{self.marks[v]}]{v}[/{self.marks[v]}]" if v in self.marks else v for v in row))
+            table.add_row(*(f"[{self.marks[v]}]{escape(v)}[/{self.marks[v]}]" if v in self.marks else escape(v)
+                            for v in row))
         return table
 
     def to_text(self) -> str:
