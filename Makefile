@@ -59,7 +59,7 @@ $(STAMP): pyproject.toml
 
 # The documentation site (docs/, mkdocs.yml) into site/; warnings are errors.
 docs: setup
-	@$(PY) -c "import mkdocs, material, mkdocstrings_handlers.python" 2>/dev/null || \
+	@$(PY) -c "import mkdocs, material, mkdocstrings_handlers.python, mkdocs_jupyter" 2>/dev/null || \
 	  $(PY) -m pip install -q -e '.[docs]'
 	NO_MKDOCS_2_WARNING=1 $(PY) -m mkdocs build --strict -d site
 

@@ -38,6 +38,7 @@ os.environ.setdefault("MPLBACKEND", "Agg")  # the plots go to files
 from creepcomp import (Corrector, CreepModel, Record, compensate, creep_error, read_record,
     staircase, write_model, write_record)
 from creepcomp.digital.correctors import reference, uniform_interval
+from creepcomp.report.common import save_axes
 from creepcomp.report.digital import plot_correction
 from creepcomp.units import format_percent, format_quantity
 
@@ -96,11 +97,10 @@ def main(argv: list[str] | None = None) -> int:
             print(f"  {method + ', ' + label:<37}{format_quantity(error.peak, 'V'):>10} "
                   f"{format_percent(error.peak_fraction):>10} {format_quantity(error.rms, 'V'):>10} "
                   f"{format_percent(error.rms_fraction):>10}")
-        plot_correction(record.time, record.signal, corrected[method],
-                        reference(record.load, SENSOR, method),
-                        args.out / f"correction-{method}.png",
-                        title=f"{method} correction", signal_unit="V",
-                        full_scale=error.full_scale)
+        save_axes(plot_correction(record.time, record.signal, corrected[method],
+                                  reference(record.load, SENSOR, method),
+                                  title=f"{method} correction", signal_unit="V",
+                                  full_scale=error.full_scale), args.out / f"correction-{method}.png")
     print("  (subtractive: against offset + gain * load; supplemental: against offset + "
           "(1 + beta0) * gain * load)")
 

@@ -29,6 +29,7 @@ os.environ.setdefault("MPLBACKEND", "Agg")  # the plots go to files
 
 from creepcomp import diagnose, read_record
 from creepcomp.data import path as bundled
+from creepcomp.report.common import save_axes
 from creepcomp.report.diagnosis import plot_fit, write_report
 from creepcomp.units import format_parameter, format_percent, format_quantity
 
@@ -75,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
 
     units = {c: record.unit(c) for c in ("signal", "load")}
     paths = write_report(result, args.out, units)
-    paths["fit_plot"] = plot_fit(result.data, result.extended, args.out / "fit.png", record)
+    paths["fit_plot"] = save_axes(plot_fit(result.data, result.extended, record=record), args.out / "fit.png")
     print()
     for label, p in paths.items():
         print(f"{label.replace('_', ' ')} written to {p}")

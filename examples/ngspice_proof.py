@@ -37,6 +37,7 @@ from pathlib import Path
 os.environ.setdefault("MPLBACKEND", "Agg")  # the plots go to files
 
 from creepcomp import Design, default_sensor, read_design, size
+from creepcomp.report.common import save_axes
 from creepcomp.report.spice import plot_comparison
 from creepcomp.units import format_percent, format_quantity
 from creepcomp.verify.compare import compare_program
@@ -114,7 +115,7 @@ def main(argv: list[str] | None = None) -> int:
             print("  ngspice -b on the netlist alone: "
                   + ", ".join(f"{key.replace('_', ' ')} {format_percent(value)}" for key, value in measured.items()
                               if key != "at"))
-        plot = plot_comparison(comparison, args.out / f"ngspice-{name}.png")
+        plot = save_axes(plot_comparison(comparison), args.out / f"ngspice-{name}.png")
         print(f"  plot written to {plot}")
     return 0
 

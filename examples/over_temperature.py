@@ -37,6 +37,7 @@ os.environ.setdefault("MPLBACKEND", "Agg")  # the plots go to files
 
 from creepcomp import CreepModel, size, write_design
 from creepcomp.analog.over_temperature import compare_over_range
+from creepcomp.report.common import save_axes
 from creepcomp.report.design import plot_over_temperature
 from creepcomp.temperature import TemperatureLaw
 from creepcomp.units import format_percent, format_quantity
@@ -86,7 +87,7 @@ def main(argv: list[str] | None = None) -> int:
     design["over_temperature"] = ntc.prediction.to_dict()
     design.pop("predicted", None)
     write_design(args.out / "design.json", design)
-    plot_over_temperature(comparison, args.out / "over-temperature.png")
+    save_axes(plot_over_temperature(comparison), args.out / "over-temperature.png")
     print(f"design written to {args.out / 'design.json'}")
     print(f"plot written to {args.out / 'over-temperature.png'}")
     return 0

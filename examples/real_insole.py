@@ -32,6 +32,7 @@ os.environ.setdefault("MPLBACKEND", "Agg")  # the plots go to files
 
 from creepcomp import data, diagnose
 from creepcomp.fit import fit_prony, prepare, term_table
+from creepcomp.report.common import save_axes
 from creepcomp.report.diagnosis import plot_fit, write_report
 from creepcomp.units import format_parameter, format_percent, format_quantity
 
@@ -75,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
                   f"tau = {format_quantity(t['tau'], 's')} ± {format_quantity(t['tau_sigma'], 's', 2)}")
         print(f"  residual RMS {fit.residual_rms:.3g} {su} ({format_percent(fit.residual_rms / prony.data.signal_scale)}"
               f" of the signal's range)")
-        plot_fit(prony.data, fit, args.out / f"{name}-fit.png", record)
+        save_axes(plot_fit(prony.data, fit, record=record), args.out / f"{name}-fit.png")
 
         result = diagnose(record, candidates=["extra_retardation"] if args.fast else None)
         d = result.to_dict()

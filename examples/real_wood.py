@@ -34,6 +34,7 @@ from creepcomp import data, diagnose
 from creepcomp.errors import InputError
 from creepcomp.fit import fit_prony, prepare, term_table
 from creepcomp.fit.noise import none_statement
+from creepcomp.report.common import save_axes
 from creepcomp.report.diagnosis import plot_fit, write_report
 from creepcomp.units import format_parameter, format_percent, format_quantity
 
@@ -72,7 +73,7 @@ def main(argv: list[str] | None = None) -> int:
     for level in (0.3, 0.5):
         r = data.wood_creep(level)
         prony = fit_prony(prepare(r, load_step_at=0.0))
-        plot_fit(prony.data, prony.fit, args.out / f"wood-{level}-fit.png", r)
+        save_axes(plot_fit(prony.data, prony.fit, record=r), args.out / f"wood-{level}-fit.png")
         result = diagnose(r, load_step_at=0.0)
         d = result.to_dict()
         b, e, g = d["baseline"], d["extended"], d["gain"]

@@ -30,6 +30,7 @@ from pathlib import Path
 os.environ.setdefault("MPLBACKEND", "Agg")  # the plots go to files
 
 from creepcomp import CreepModel, read_model, size, write_design
+from creepcomp.report.common import save_axes
 from creepcomp.report.design import plot_design_comparison
 from creepcomp.units import format_percent, format_quantity
 
@@ -97,7 +98,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"warning: {warning}")
 
     design = write_design(args.out / "design.json", report.design_dict())
-    plot = plot_design_comparison(model, designs, args.out / "sizing.png", period)
+    plot = save_axes(plot_design_comparison(model, designs, sweep_period=period), args.out / "sizing.png")
     print(f"\ndesign written to {design}")
     print(f"plot written to {plot}")
     return 0

@@ -106,10 +106,11 @@ def test_page_and_table_escape_every_cell():
 
 
 def test_units_are_no_mathtext_in_plots(small_diagnosis, tmp_path):
+    from creepcomp.report.common import save_axes
     from creepcomp.report.diagnosis import plot_fit
 
     rec = one_term_record(signal_unit=MATHTEXT)
-    path = plot_fit(small_diagnosis.data, small_diagnosis.baseline, tmp_path / "f.png", record=rec)
+    path = save_axes(plot_fit(small_diagnosis.data, small_diagnosis.baseline, record=rec), tmp_path / "f.png")
     assert path.stat().st_size > 1000
 
 

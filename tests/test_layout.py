@@ -1,5 +1,7 @@
 """The package's layout: stages import only earlier stages, no import circles, no library
-module imports the command line. Every import counts, including those inside functions."""
+module imports the command line. Every import counts, including those inside functions, but
+one: the results' display mixin (``creepcomp.display``) reaches the report stage inside its
+methods, as python-control's ``plot()`` reaches its plotting module (see ``LATE_IMPORTS``)."""
 
 import ast
 import re
@@ -12,7 +14,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "src" / "creepcomp"
 #: The stages in the order of their dependencies: a module may import its own stage and the
 #: ones before it (``docs/layout.md`` says what each holds).
 STAGES = (
-    ("edges", ("errors", "units", "interrupts")),
+    ("edges", ("errors", "units", "interrupts", "display")),
     ("kernel", ("recursions", "lti", "temperature", "transfer", "model", "network", "active_stage", "programs")),
     ("io", ("io",)),
     ("data", ("data",)),
@@ -38,23 +40,40 @@ def module_name(path: Path) -> str:
 MODULES = {module_name(p): p for p in PACKAGE.rglob("*.py")}
 
 
+#: The one import allowed against the stages: the display mixin of every result reaches the
+#: report stage (tables, plots) inside its methods, never at load time.
+LATE_IMPORTS = {"creepcomp.display": ("creepcomp.report",)}
+
+
+def _late(name: str, target: str, tree: ast.Module, node: ast.AST) -> bool:
+    """An import of ``LATE_IMPORTS`` made inside a function."""
+    allowed = LATE_IMPORTS.get(name, ())
+    in_function = any(node is inner for f in ast.walk(tree)
+                      if isinstance(f, (ast.FunctionDef, ast.AsyncFunctionDef)) for inner in ast.walk(f))
+    return in_function and any(target == a or target.startswith(a + ".") for a in allowed)
+
+
 def imports_of(name: str) -> set[str]:
-    """The project's modules that ``name`` imports anywhere in its text."""
+    """The project's modules that ``name`` imports anywhere in its text (but the late
+    imports of ``LATE_IMPORTS``)."""
     path = MODULES[name]
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     found = set()
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    for node in ast.walk(tree):
         if isinstance(node, ast.Import):
-            found.update(a.name for a in node.names)
+            targets = {a.name for a in node.names}
         elif isinstance(node, ast.ImportFrom):
             if node.level:
                 base = package.split(".")[:len(package.split(".")) - node.level + 1]
                 target = ".".join(base + ([node.module] if node.module else []))
             else:
                 target = node.module
-            for a in node.names:
-                sub = f"{target}.{a.name}"
-                found.add(sub if sub in MODULES else target)
+            targets = {f"{target}.{a.name}" if f"{target}.{a.name}" in MODULES else target
+                       for a in node.names}
+        else:
+            continue
+        found.update(t for t in targets if not _late(name, t, tree, node))
     return {m for m in found if m in MODULES and m != name}
 
 
@@ -127,6 +146,16 @@ def strongly_connected(graph: dict[str, set[str]]) -> list[list[str]]:
 
 def test_no_import_circles():
     assert strongly_connected(GRAPH) == []
+
+
+def test_the_display_mixin_reaches_the_report_stage_only_inside_functions():
+    tree = ast.parse("from creepcomp.report import results\nif True:\n    from creepcomp.report import tables\n"
+                     "def f():\n    from creepcomp.report import plots\n")
+    top, guarded, inner = tree.body[0], tree.body[1].body[0], tree.body[2].body[0]
+    assert not _late("creepcomp.display", "creepcomp.report.results", tree, top)
+    assert not _late("creepcomp.display", "creepcomp.report.tables", tree, guarded)
+    assert _late("creepcomp.display", "creepcomp.report.plots", tree, inner)
+    assert not _late("creepcomp.model", "creepcomp.report.plots", tree, inner)
 
 
 @pytest.mark.parametrize("graph, circles", [

@@ -11,6 +11,7 @@ from typing import Any, Mapping, TYPE_CHECKING
 
 import numpy as np
 
+from creepcomp.display import Shown
 from creepcomp.errors import InputError
 from creepcomp.lti import LagExpansion, varying_lag_states
 from creepcomp.temperature import TemperatureLaw, step_temperatures
@@ -44,7 +45,7 @@ MAX_TERMS = 20
 
 
 @dataclass(frozen=True)
-class CreepModel:
+class CreepModel(Shown):
     """Linear creep of a sensor: raw signal = ``offset + gain * G(s) [load]``.
 
     Parameters
@@ -257,6 +258,18 @@ class CreepModel:
         if self.temperature is not None:
             out["temperature"] = self.temperature.to_dict()
         return out
+
+    def __repr__(self) -> str:
+        from creepcomp.units import format_percent, format_time
+
+        n, shown = self.n_terms, 3
+        terms = ", ".join(f"{format_percent(b)} at {format_time(t)}"
+                          for b, t in list(zip(self.beta, self.tau))[:shown])
+        terms += f", {n - shown} more" if n > shown else ""
+        more = (f"; temperature law about {self.temperature.reference:g} °C" if self.temperature else "") + \
+            (f"; extensions {', '.join(map(str, self.extensions))}" if self.extensions else "")
+        return (f"<CreepModel {n} term{'s' if n > 1 else ''}: {terms} (beta0 {format_percent(self.beta0)}), "
+                f"gain {self.gain:.4g}, offset {self.offset:.4g}{more}>")
 
     def to_dict(self) -> dict:
         """Model-file form: ``beta``, ``tau``, ``gain``, ``offset`` and any extensions."""

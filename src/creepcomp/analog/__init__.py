@@ -1,6 +1,7 @@
 """The analog correction network: sizing (``sizing``), predicted quality (``quality``), E-series
 parts (``eseries``), faults of a built network and their fixes (``faults``); whether a design
-can be built (``practicality``: the verdict and the way out) and its bill of materials (``bom``)."""
+can be built (``practicality``: the verdict and the way out) and its bill of materials (``bom``);
+all of it in one call (``network_design``, imported when used)."""
 
 from creepcomp.analog import quality, eseries, sizing, faults
 from creepcomp.analog.quality import *  # noqa: F401,F403

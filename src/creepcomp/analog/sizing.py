@@ -27,6 +27,7 @@ import numpy as np
 
 from creepcomp.analog import eseries
 from creepcomp.analog.parts import DIELECTRICS, PartsPlan
+from creepcomp.display import Shown, data_frame
 from creepcomp.errors import InputError, NotRealisableError
 from creepcomp.model import CreepModel
 from creepcomp.network import Branch, Cell, Network, modal_form, parallel, state_matrices
@@ -211,7 +212,7 @@ class PartChoice:
 
 
 @dataclass(frozen=True)
-class SizingReport:
+class SizingReport(Shown):
     """Everything ``creepcomp size`` reports: ideal, snapped and nearest designs and their quality."""
 
     model: CreepModel
@@ -229,6 +230,21 @@ class SizingReport:
     candidates_evaluated: int = 0
     warnings: tuple[str, ...] = field(default_factory=tuple)
     plan: PartsPlan = field(default_factory=PartsPlan)
+
+    def __repr__(self) -> str:
+        parts = (f"{self.resistor_series}/{self.capacitor_series} parts" if self.resistor_series
+                 else "ideal values")
+        return (f"<SizingReport {self.rule} rule, {self.chosen.topology} network of {parts}: peak residual "
+                f"creep {format_percent(self.chosen_quality.residual_creep_peak)} (uncorrected "
+                f"{format_percent(self.uncorrected_quality.residual_creep_peak)}), "
+                f"{len(self.warnings)} warning{'' if len(self.warnings) == 1 else 's'}>")
+
+    def to_pandas(self):
+        """The chosen network's parts (label, kind, value in Ω or F) as a pandas DataFrame."""
+        parts = self.chosen.parts()
+        ideal = dict((label, v) for label, _, v in self.ideal.parts())
+        return data_frame({"part": [p[0] for p in parts], "kind": [p[1] for p in parts],
+                           "ideal": [ideal.get(p[0]) for p in parts], "chosen": [p[2] for p in parts]})
 
     def design_dict(self) -> dict:
         """The design file (``docs/design-file.md``) of the chosen parts."""

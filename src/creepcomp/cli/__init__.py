@@ -31,7 +31,8 @@ from creepcomp.cli.common import app, environment_fault, fail, tolerant_streams 
 #: The module of each command; a module registers its command on :data:`app` when imported.
 COMMAND_MODULES = {"size": "size", "netlist": "netlist", "simulate": "simulate", "mc": "mc",
                    "creep-test": "creep_test", "correct": "correct", "firmware": "firmware",
-                   "fit": "fit", "diagnose": "diagnose", "fleet": "fleet", "demo": "demo"}
+                   "fit": "fit", "diagnose": "diagnose", "fleet": "fleet", "demo": "demo",
+                   "data": "data"}
 
 
 def register_commands(argv: list[str] | None = None) -> None:
@@ -49,10 +50,11 @@ def register_commands(argv: list[str] | None = None) -> None:
 COMMAND_GROUPS = {
     "Design": ("size", "netlist"),
     "Prove": ("simulate", "mc", "creep-test"),
-    "Correct": ("correct", "firmware"),
     "Measured data": ("fit", "diagnose"),
+    "Correct": ("correct", "firmware"),
     "Fleet": ("fleet",),
     "Demo": ("demo",),
+    "Bundled data": ("data",),
 }
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import inspect
 import os
 import sys
 
@@ -11,7 +12,7 @@ from rich.console import Console
 
 from creepcomp.errors import CreepcompError, InputError
 from creepcomp.io.jsonfiles import to_json
-from creepcomp.units import parse_quantity
+from creepcomp.units import format_quantity, parse_quantity
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
                   help="Remove creep from elastomer-based sensors: size RC correction networks, "
@@ -183,3 +184,29 @@ def progress_bar(description: str, total: int | None = None, disable: bool = Fal
 def print_json(obj) -> None:
     """Print one JSON object on stdout."""
     sys.stdout.write(to_json(obj) + "\n")
+
+
+def print_summary(summary) -> None:
+    """Print a result's :class:`~creepcomp.report.tables.Summary`: the heading in bold with
+    its first line, the other lines, the tables, the lines after them and the warnings."""
+    first = f": {summary.lines[0]}" if summary.lines else ""
+    console.print(f"[bold]{summary.heading}[/bold]{first}")
+    for line in summary.lines[1:]:
+        console.print(line)
+    for table in summary.tables:
+        console.print(table.to_rich())
+    for line in summary.footer:
+        console.print(line)
+    for warning in summary.warnings:
+        console.print(f"[yellow]warning:[/yellow] {warning}", soft_wrap=False)
+
+
+def api_default(function, parameter: str):
+    """The default of ``function``'s ``parameter``: an option's default read from the API
+    (written once, there)."""
+    return inspect.signature(function).parameters[parameter].default
+
+
+def si_text(value: float) -> str:
+    """A value as an option takes it, with an SI prefix and no space (``100u``, ``1G``)."""
+    return format_quantity(value, "").replace(" ", "").replace("µ", "u")

@@ -6,7 +6,6 @@ from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.table import Table
 
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_json, read_model
@@ -14,7 +13,7 @@ from creepcomp.io.outputs import check_outputs
 from creepcomp.io.records import parse_columns, read_record, write_record
 from creepcomp.units import format_percent, format_quantity
 from creepcomp.cli.common import app, console, print_json, progress_bar
-from creepcomp.cli.size import describe_model
+from creepcomp.report.results import correction_table, describe_model
 
 #: A record "starts loaded" when its first load is above this fraction of its largest load.
 LOADED_START = 1e-3
@@ -180,12 +179,14 @@ def _correct_whole(record_path, model, method, start, hold, output, out_meta, ma
                          metadata=out_meta, progress=update)
     if plot is not None:
         from creepcomp.digital.correctors import reference
+        from creepcomp.report.common import save_axes
         from creepcomp.report.digital import plot_correction
 
-        plot_correction(record.time, record.signal, compensated,
-                        reference(record.load, model, method), plot,
-                        title=f"{record_path.name}: {method} correction",
-                        signal_unit=record.unit("signal"), full_scale=after.full_scale or None)
+        save_axes(plot_correction(record.time, record.signal, compensated,
+                                  reference(record.load, model, method),
+                                  title=f"{record_path.name}: {method} correction",
+                                  signal_unit=record.unit("signal"),
+                                  full_scale=after.full_scale or None), plot)
     return FileCorrection(RecordScan.of(record), uniform_interval(record.time), before, after,
                           source, _fitted_rms(record.signal, record.load),
                           _fitted_rms(compensated, record.load),
@@ -292,19 +293,8 @@ def _render(path, scan, model, result, before, after, dt, unit, notes) -> None:
     console.print(f"reference: {result['reference']} "
                   f"({'instantaneous' if result['method'] == 'subtractive' else 'saturated'} signal); "
                   f"full scale {_value(after.full_scale, unit)}")
-    table = Table(title="Creep error against the load reference", title_justify="left")
-    table.add_column("")
-    table.add_column("raw signal", justify="right")
-    table.add_column("compensated", justify="right")
-    table.add_row("peak", _value(before.peak, unit), _value(after.peak, unit))
-    table.add_row("peak (of full scale)", format_percent(before.peak_fraction), format_percent(after.peak_fraction))
-    table.add_row("  at", format_quantity(before.peak_time, "s"), format_quantity(after.peak_time, "s"))
-    table.add_row("RMS", _value(before.rms, unit), _value(after.rms, unit))
-    table.add_row("RMS (of full scale)", format_percent(before.rms_fraction), format_percent(after.rms_fraction))
     fitted = result["fitted_reference_rms"]
-    if fitted["after"] is not None:
-        table.add_row("RMS, load scaled by least squares", _value(fitted["before"], unit),
-                      _value(fitted["after"], unit))
+    table = correction_table(before, after, unit, (fitted["before"], fitted["after"])).to_rich()
     console.print(table)
     if result["reduction"] is not None:
         console.print(f"peak creep error reduced {result['reduction']:.3g}-fold")

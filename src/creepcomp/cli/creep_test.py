@@ -7,7 +7,6 @@ from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.table import Table
 
 from creepcomp.errors import InputError
 from creepcomp.cli.common import app, console, print_json, quantity, temperatures_option
@@ -73,9 +72,10 @@ def creep_test_command(
     else:
         result = model_test(obj, temps, limits, program)
     if plot is not None:
+        from creepcomp.report.common import save_axes
         from creepcomp.report.creep_test import plot_creep_test
 
-        plot_creep_test(result, plot)
+        save_axes(plot_creep_test(result), plot)
     if as_json:
         out = result.to_dict()
         out["file"] = str(target)
@@ -85,35 +85,6 @@ def creep_test_command(
     render(result, str(target))
     if plot is not None:
         console.print(f"plot written to {plot}")
-
-
-#: Readings below this (fraction of FS) are round-off, shown as 0.
-SHOWN_ZERO = 1e-12
-
-
-def _cell(value: float, n_max: int) -> str:
-    """A reading in verification intervals ``v`` (a fraction of FS times ``n_max``)."""
-    return "0" if abs(value) < SHOWN_ZERO else f"{value * n_max:.3g}"
-
-
-#: Names of the readings in the table's margin column.
-_SHORT = {"creep_30min": "30 min", "creep_20_30min": "20-30 min", "dr": "DR"}
-
-
-def _table(title: str, rows: list, limits) -> Table:
-    table = Table(title=title, title_justify="left")
-    for col in ("°C", "creep 30 min (v)", "creep 20-30 min (v)", "DR (v)", "DR at 30 min (v)",
-                "result", "smallest margin (v)"):
-        table.add_column(col, justify="left" if col == "result" else "right")
-    for r in rows:
-        worst = min(r["margin"], key=lambda k: r["margin"][k] / getattr(limits, k))
-        table.add_row(f"{r['temperature']:g}", *(_cell(r[k], limits.n_max) for k in
-                                                   ("creep_30min", "creep_20_30min", "dr", "dr_30min")),
-                      "[green]pass[/green]" if r["pass"] else "[red]FAIL[/red]",
-                      f"{_SHORT[worst]}: {r['margin'][worst] * limits.n_max:+.3g}")
-    table.add_row("limit", *(_cell(v, limits.n_max) for v in
-                             (limits.creep_30min, limits.creep_20_30min, limits.dr)), "–", "", "")
-    return table
 
 
 def render(result, name: str) -> None:
@@ -132,11 +103,10 @@ def render(result, name: str) -> None:
     if result.target == "digital":
         s = result.settings
         console.print(f"corrector: {s['method']}, {s['hold']} hold, sampled at {s['rate']:g} Hz", markup=False)
-    console.print(_table(f"Readings in verification intervals (1 v = {100 * lim.interval:.4g} % of FS)", result.rows, lim))
-    for key, rows in result.variants.items():
-        title = {"corrector_at_reference": "Corrector fixed at the reference temperature "
-                                           f"({result.settings.get('reference_temperature')} °C)"}.get(key, key)
-        console.print(_table(title, rows, lim))
+    from creepcomp.report.results import creep_test_tables
+
+    for table in creep_test_tables(result):
+        console.print(table.to_rich())
     for note in result.notes:
         console.print(f"note: {note}", markup=False)
     console.print(f"creep test {lim.label}: " + ("[bold green]pass[/bold green] at every temperature"

@@ -19,25 +19,27 @@ from creepcomp.cli.common import app, console
 def step_sizing(out: Path, console: Console) -> None:
     """Size the default sensor by the paper's rule and exactly; snap; compare; write designs."""
     from creepcomp.analog.sizing import size
-    from creepcomp.cli.size import render_sizing
+    from creepcomp.cli.common import print_summary
     from creepcomp.data import default_sensor
     from creepcomp.io.jsonfiles import write_design
+    from creepcomp.report.common import save_axes
     from creepcomp.report.design import plot_design_comparison
+    from creepcomp.report.results import sizing_summary
 
     model = default_sensor()
 
     reports = {rule: size(model, rule=rule) for rule in ("paper", "exact")}
     for rule, report in reports.items():
-        render_sizing(report, title=f"Default sensor, {rule} rule")
+        print_summary(sizing_summary(report, title=f"Default sensor, {rule} rule"))
         path = write_design(out / f"design-{rule}.json", report.design_dict())
         console.print(f"design written to {path}\n")
-    plot = plot_design_comparison(model, {
+    plot = save_axes(plot_design_comparison(model, {
         "uncorrected": None,
         "paper rule, ideal": reports["paper"].ideal,
         "paper rule, E24/E6": reports["paper"].chosen,
         "exact rule, E24/E6": reports["exact"].chosen,
         "exact rule, nearest values": reports["exact"].nearest,
-    }, out / "sizing.png")
+    }), out / "sizing.png")
     console.print(f"plot written to {plot}\n")
 
 
@@ -45,6 +47,7 @@ def step_ngspice(out: Path, console: Console) -> None:
     """ngspice checks the default design (and the paper's rule) against python-control."""
     from creepcomp.cli.simulate import render_comparison
     from creepcomp.io.jsonfiles import read_design
+    from creepcomp.report.common import save_axes
     from creepcomp.report.spice import plot_comparison
     from creepcomp.verify.compare import compare_program
     from creepcomp.verify.netlist import reference_designs
@@ -60,7 +63,7 @@ def step_ngspice(out: Path, console: Console) -> None:
     for stem, design, description in designs:
         comparison = compare_program(design.network, design.model, "step")
         render_comparison(comparison, title=f"ngspice check, {description}")
-        plot = plot_comparison(comparison, Path(out) / f"ngspice-{stem}.png")
+        plot = save_axes(plot_comparison(comparison), Path(out) / f"ngspice-{stem}.png")
         console.print(f"plot written to {plot}\n")
 
 
@@ -97,6 +100,7 @@ def step_digital_correction(out: Path, console: Console) -> None:
     from creepcomp.digital import scenarios
     from creepcomp.io.jsonfiles import write_model
     from creepcomp.io.records import write_record
+    from creepcomp.report.common import save_axes
     from creepcomp.report.digital import plot_step_outcomes, plot_sweep_outcomes
 
     out = Path(out)
@@ -129,7 +133,7 @@ def step_digital_correction(out: Path, console: Console) -> None:
         if record.hold == "linear":
             console.print("the load ramps between samples: --hold linear is exact; --hold zero "
                           "(the paper's held loads) treats the ramp as steps")
-        path = plot(record, results, out / f"{name}.png")
+        path = save_axes(plot(record, results), out / f"{name}.png")
         console.print(f"plot written to {path}")
     write_model(out / "paper-model.json", model)
     csv = write_record(out / "digital-steps.csv", steps.to_record())

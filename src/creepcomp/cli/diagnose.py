@@ -6,13 +6,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Optional
 
 import typer
-from rich.table import Table
 
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_design
 from creepcomp.io.outputs import check_outputs
-from creepcomp.units import format_percent, format_quantity
-from creepcomp.cli.common import app, console, count_option, print_json, progress_bar
+from creepcomp.units import format_percent
+from creepcomp.cli.common import api_default, app, console, count_option, print_json, progress_bar
+from creepcomp.io.records import read_record
 from creepcomp.cli.fit import (COLUMNS_HELP, INITIAL_TEXT, describe_record,
     load_reduced, record_options, SHEET_OPTION, TAXEL_OPTION)
 
@@ -30,7 +30,8 @@ def diagnose_command(
     columns: Optional[str] = typer.Option(None, "--columns", metavar="MAP", help=COLUMNS_HELP),
     delimiter: Optional[str] = typer.Option(None, "--delimiter", metavar="CHAR",
                                             help="Field delimiter (default: detected; 'tab' for tabs)."),
-    duplicate_times: str = typer.Option("error", "--duplicate-times", metavar="error|mean",
+    duplicate_times: str = typer.Option(api_default(read_record, "duplicate_times"),
+                                        "--duplicate-times", metavar="error|mean",
                                         help="Repeated time stamps: an error, or average the rows."),
     initial: str = typer.Option("free", "--initial", metavar="free|relaxed|settled",
                                 help="Creep state at the first sample: fitted, zero, or settled."),
@@ -157,7 +158,7 @@ def split_candidates(text: str | None) -> tuple[list | None, list | None]:
 
 def render_diagnosis(record, d: Diagnosis) -> None:
     """Print a diagnosis as tables."""
-    from creepcomp.fit import BIC_STRONG, HELDOUT_Z
+    from creepcomp.report.results import diagnosis_tables
 
     su = record.unit("signal")
     console.print(f"[bold]creepcomp diagnose[/bold]: {describe_record(record, d.data)}")
@@ -177,15 +178,9 @@ def render_diagnosis(record, d: Diagnosis) -> None:
                       f"{MISFIT_LIMIT:g}); explained share of the excess misfit "
                       f"{'-' if share is None else format_percent(share)}")
     console.print(f"[bold]cause: {d.cause}[/bold]")
+    tables = diagnosis_tables(d, {c: record.unit(c) for c in ("signal", "load")})
     if d.findings:
-        t = Table(title="Findings (most important first)", title_justify="left")
-        for col in ("effect", "parameters (± 1 sigma)", "ΔBIC", "held-out RMS ratio", "held-out z"):
-            t.add_column(col, justify="right" if col.startswith(("Δ", "held")) else "left")
-        units = {c: record.unit(c) for c in ("signal", "load")}
-        for f in d.findings:
-            t.add_row(f.effect, f.parameters_text(units), f"{f.evidence.delta_bic:.1f}",
-                      f"{f.evidence.heldout_rms_ratio:.3g}", f"{f.evidence.heldout_z:.1f}")
-        console.print(t)
+        console.print(tables[0].to_rich())
         for f in d.findings:
             if f.note:
                 console.print(f"{f.effect}: {f.note}")
@@ -193,30 +188,9 @@ def render_diagnosis(record, d: Diagnosis) -> None:
         from creepcomp.fit.noise import none_statement
 
         console.print(none_statement(d.floor))
-    t = Table(title=f"Candidates (accepted: ΔBIC <= -{BIC_STRONG:g} and held-out z >= {HELDOUT_Z:g})",
-              title_justify="left")
-    for col in ("step", "effect", "ΔBIC", "held-out z", "outcome"):
-        t.add_column(col, justify="right" if col in ("step", "ΔBIC", "held-out z") else "left")
-    for tr in d.trials:
-        t.add_row(str(tr.step), tr.effect, "-" if tr.delta_bic is None else f"{tr.delta_bic:.1f}",
-                  f"{tr.evidence.heldout_z:.1f}" if tr.evidence else "-", tr.outcome)
-    console.print(t)
-    e = d.residual_summary(d.extended)
+    for t in tables[1 if d.findings else 0:]:
+        console.print(t.to_rich())
     g = d.gain
-    t = Table(title="Gain", title_justify="left")
-    for col in ("", "baseline", "extended", "ratio"):
-        t.add_column(col, justify="right")
-    t.add_row(f"held-out residual RMS ({su or 'signal units'})", f"{b['heldout_residual_rms']:.4g}",
-              f"{e['heldout_residual_rms']:.4g}", _ratio(g.get("heldout_rms_ratio")))
-    if g.get("correction_error_ratio") is not None:
-        t.add_row(f"corrected signal vs load, RMS error ({su or 'signal units'})",
-                  f"{g['correction_error_baseline']:.4g}",
-                  f"{g['correction_error_extended']:.4g}", _ratio(g["correction_error_ratio"]))
-    elif g.get("correction_unsettled"):
-        t.add_row(f"corrected signal vs load, RMS error ({su or 'signal units'})",
-                  f"{g['correction_error_baseline']:.4g}",
-                  "not measured", "-")
-    console.print(t)
     if g.get("correction_unsettled"):
         console.print(f"The extended model's creep correction finds no load that gives the signal "
                       f"({g['correction_unsettled']}): its error is not measured.")
@@ -224,7 +198,7 @@ def render_diagnosis(record, d: Diagnosis) -> None:
 
 def render_circuit(cd: CircuitDiagnosis, su: str) -> None:
     """Print the circuit side of a diagnosis as tables."""
-    from creepcomp.report.circuit_diagnosis import _element, elements, quantity
+    from creepcomp.report.results import circuit_tables
 
     b, e = cd.baseline, cd.extended
     console.print(f"\n[bold]circuit side[/bold]: the nominal network driven by the measured signal against "
@@ -233,38 +207,17 @@ def render_circuit(cd: CircuitDiagnosis, su: str) -> None:
     console.print(f"[bold]circuit cause: {cd.cause}[/bold]")
     for line in cd.explanation():
         console.print(line, markup=False, highlight=False)
+    tables = circuit_tables(cd)
     if cd.findings:
-        t = Table(title="Circuit findings (most important first)", title_justify="left")
-        for col in ("effect", "part", "parameters (± 1 sigma)", "ΔBIC", "held-out RMS ratio", "held-out z"):
-            t.add_column(col, justify="right" if col.startswith(("Δ", "held")) else "left")
-        for f in cd.findings:
-            params = "; ".join(f"{k} = {quantity(k, v)} ± {quantity(k, f.uncertainty.get(k))}"
-                               for k, v in f.parameters.items())
-            t.add_row(f.effect, f.part or "-", params, f"{f.evidence.delta_bic:.1f}",
-                      f"{f.evidence.heldout_rms_ratio:.3g}", f"{f.evidence.heldout_z:.1f}")
-        console.print(t)
-        design, built = elements(b.network), elements(e.network)
-        t = Table(title="As-built network", title_justify="left")
-        for col in ("element", "design", "as built"):
-            t.add_column(col, justify="left" if col == "element" else "right")
-        for label in design:
-            if design[label][1] is not None or built[label][1] is not None:
-                t.add_row(label, _element(*design[label]), _element(*built[label]))
-        console.print(t)
+        console.print(tables["findings"].to_rich())
+        console.print(tables["as_built"].to_rich())
     else:
         console.print("no circuit effect is supported by the evidence: no candidate predicts held-out "
                       "data better than the nominal network (that alone does not show the residual is noise)")
     rc = cd.residual_creep
     console.print(f"peak residual creep of a load step: design {format_percent(rc['nominal'])}, as built {format_percent(rc['as_built'])}")
     if cd.fixes:
-        t = Table(title="Fix: single-part changes, best first", title_justify="left")
-        for col in ("part", "as built", "replace by", "peak residual creep", "note"):
-            t.add_column(col, justify="left" if col in ("part", "note") else "right")
-        for f in cd.fixes:
-            unit = "F" if f.part.startswith("C") else "Ω"
-            t.add_row(f.part, format_quantity(f.value_from, unit), f"{format_quantity(f.value_to, unit)} ({f.series})",
-                      format_percent(f.residual_creep_peak), f.note)
-        console.print(t)
+        console.print(tables["fixes"].to_rich())
     g = cd.gain
     if e is not b:
         console.print(f"gain: held-out residual RMS {b.heldout.rms:.4g} -> {e.heldout.rms:.4g} {su} "

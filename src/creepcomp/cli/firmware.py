@@ -7,7 +7,6 @@ from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.table import Table
 
 from creepcomp.errors import InputError
 from creepcomp.cli.common import app, console, fail, print_json, quantity
@@ -207,14 +206,9 @@ def _render(result: dict, firmware, check) -> None:
                   + ("" if firmware.temperature_range is None else
                      f"; temperature per update, {firmware.temperature_range[0]:g} to "
                      f"{firmware.temperature_range[1]:g} °C (clamped)"), soft_wrap=True)
-    table = Table(title="Proven worst-case error against the float64 corrector",
-                  title_justify="left")
-    table.add_column("part")
-    table.add_column("of full scale", justify="right")
-    for part, value in firmware.bound.terms.items():
-        table.add_row(part, f"{value:.3e}")
-    table.add_row("[bold]bound[/bold]", f"[bold]{firmware.bound.total_fs:.3e}[/bold]")
-    console.print(table)
+    from creepcomp.report.results import bound_table
+
+    console.print(bound_table(firmware.bound).to_rich())
     if check is not None:
         verdict = "within the bound" if check.passed else "ABOVE THE BOUND"
         if check.switching is not None and "events" in check.switching:

@@ -11,9 +11,9 @@ import typer
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import write_json
 from creepcomp.io.outputs import check_outputs
-from creepcomp.io.records import Record, parse_columns, reads_whole
+from creepcomp.io.records import Record, parse_columns, read_record, reads_whole
 from creepcomp.units import format_percent, format_quantity
-from creepcomp.cli.common import (app, console, count_option, print_json, progress_bar, quantity,
+from creepcomp.cli.common import (api_default, app, console, count_option, print_json, progress_bar, quantity,
                                   temperatures_option)
 
 if TYPE_CHECKING:
@@ -130,7 +130,8 @@ def fit_command(
     columns: Optional[str] = typer.Option(None, "--columns", metavar="MAP", help=COLUMNS_HELP),
     delimiter: Optional[str] = typer.Option(None, "--delimiter", metavar="CHAR",
                                             help="Field delimiter (default: detected; 'tab' for tabs)."),
-    duplicate_times: str = typer.Option("error", "--duplicate-times", metavar="error|mean",
+    duplicate_times: str = typer.Option(api_default(read_record, "duplicate_times"),
+                                        "--duplicate-times", metavar="error|mean",
                                         help="Repeated time stamps: an error, or average the rows."),
     terms: str = typer.Option("auto", "--terms", metavar="auto|K",
                               help="Number of creep terms: chosen by evidence, or fixed."),
@@ -180,25 +181,26 @@ def fit_command(
     [(record, reduction)] = load_reduced(record_path, (MAX_FIT_SAMPLES,), columns, delimiter,
                                          duplicate_times, taxel, sheet, quiet=as_json,
                                          grown_samples=GROWN_FIT_SAMPLES)
-    from creepcomp.fit import Applied, fit_prony, prepare
+    from creepcomp.fit import Applied, fit_record
 
     with progress_bar("fitting", disable=as_json):
-        data = prepare(record, initial=init, load_step_at=step)
         extra = ()
         if flow:        # (the diagnosis's effects are imported only for it)
             from creepcomp.diagnose.effects import flow_effect
 
             extra = (Applied(flow_effect()),)
-        result = fit_prony(data, max_terms=max_terms, n_terms=fixed, effects=extra)
+        result = fit_record(record, init, step, fixed, max_terms, extra)
+    data = result.data
     model = result.to_dict()
     if reduction:
         model["record_reduction"] = reduction
     if output is not None:
         write_json(output, model)
     if plot is not None:
+        from creepcomp.report.common import save_axes
         from creepcomp.report.diagnosis import plot_fit
 
-        plot_fit(data, result.fit, plot, record)
+        save_axes(plot_fit(data, result.fit, record=record), plot, dpi=100)
     if as_json:
         print_json(model)
         return
@@ -349,51 +351,16 @@ def render_temperature_fit(records: list[Record], result: TemperatureFit) -> Non
 
 def render_fit(record: Record, result: PronyResult, fixed: int | None) -> None:
     """Print the order search and the chosen model."""
-    from rich.table import Table
-
-    from creepcomp.fit import BIC_STRONG, HELDOUT_Z, term_table
+    from creepcomp.fit import term_table
+    from creepcomp.report.results import fit_tables
 
     data, fit = result.data, result.fit
     su, lu = record.unit("signal"), record.unit("load")
     console.print(f"[bold]creepcomp fit[/bold]: {describe_record(record, data)}")
     console.print(INITIAL_TEXT[data.initial].format(step=data.load_step_at))
-    table = Table(title=("Number of creep terms (fixed)" if fixed else
-                         f"Number of creep terms: added while BIC drops by {BIC_STRONG:g}+ and "
-                         f"held-out blocks are predicted better by {HELDOUT_Z:g}+ sigma"),
-                  title_justify="left")
-    for col in ("terms", "residual RMS", "held-out RMS", "BIC", "ΔBIC", "held-out z", ""):
-        table.add_column(col, justify="right")
-    for i, s in enumerate(result.steps):
-        ev = s.evidence
-        table.add_row(str(s.n_terms), f"{s.fit.residual_rms:.4g} {su}".strip(),
-                      f"{s.fit.heldout.rms:.4g} {su}".strip() if s.fit.heldout else "-",
-                      f"{s.fit.bic:.1f}", f"{ev.delta_bic:+.1f}" if ev else "-",
-                      f"{ev.heldout_z:.1f}" if ev else "-", "chosen" if i == result.chosen else "")
-    console.print(table)
+    for table in fit_tables(result, su, lu, bool(fixed)):
+        console.print(table.to_rich())
     terms = term_table(fit)
-    t2 = Table(title=f"Model: {fit.structure.n_terms} creep term{'s' if fit.structure.n_terms > 1 else ''}, "
-                     f"beta0 = {format_percent(sum(t['beta'] for t in terms))}", title_justify="left")
-    for col in ("", "value", "± 1 sigma"):
-        t2.add_column(col, justify="right")
-    gain = fit.estimate(lambda v: v["gain"])
-    t2.add_row(f"gain ({su or 'signal'} per {lu or 'load unit'})", f"{gain[0]:.6g}", f"{gain[1]:.2g}")
-    if data.fixed_offset:
-        t2.add_row("offset", "0 (fixed: the load never changes)", "")
-    else:
-        off = fit.estimate(lambda v: v["offset"])
-        t2.add_row(f"offset ({su or 'signal units'})", f"{off[0]:.6g}", f"{off[1]:.2g}")
-    for k, t in enumerate(terms):
-        t2.add_row(f"beta[{k}]", format_percent(t["beta"], 4), format_percent(t["beta_sigma"], 2))
-        t2.add_row(f"tau[{k}]", format_quantity(t["tau"], "s"), format_quantity(t["tau_sigma"], "s", 2))
-    flow = None
-    if fit.structure.effects:
-        from creepcomp.diagnose.effects import flow_effect
-
-        flow = flow_effect()
-    if flow is not None and fit.structure.has(flow.name):
-        rate = flow.rate(fit)
-        t2.add_row("viscous flow rate (1/s, of the instantaneous signal)", f"{rate[0]:.4g}", f"{rate[1]:.2g}")
-    console.print(t2)
     scale = data.signal_scale
     console.print(f"residual RMS {fit.residual_rms:.4g} {su} ({format_percent(fit.residual_rms / scale)} of the signal's "
                   f"range); held-out {fit.heldout.rms:.4g} {su} ({format_percent(fit.heldout.rms / scale)})"

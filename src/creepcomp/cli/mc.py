@@ -16,8 +16,8 @@ from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_design
 from creepcomp.io.outputs import check_outputs
 from creepcomp.units import format_parameter, format_percent
-from creepcomp.cli.common import (app, console, count_option, err_console, print_json, quantity,
-                                  temperature_range_option, temperatures_option, value_range)
+from creepcomp.cli.common import (api_default, app, console, count_option, err_console, print_json,
+                                  quantity, temperature_range_option, temperatures_option, value_range)
 
 
 def _tolerance(text: str, option: str, distribution: str) -> Tolerance:
@@ -64,7 +64,7 @@ def mc_command(
                                                "block, else 5 % or the dielectric's tightest)."),
     tol: Optional[List[str]] = typer.Option(None, "--tol", metavar="PART=TOL",
                                             help="Tolerance of one part, e.g. C1=1% (repeatable)."),
-    distribution: str = typer.Option("normal", "--dist", metavar="normal|uniform",
+    distribution: str = typer.Option(api_default(Tolerance, "distribution"), "--dist", metavar="normal|uniform",
                                      help="normal: TOL is 3 sigma; uniform: ±TOL."),
     dielectric: Optional[str] = typer.Option(None, "--dielectric",
                                              metavar="polypropylene|polyester|x7r",
@@ -96,12 +96,14 @@ def mc_command(
                                              help="Sensor-to-sensor spread of each tau."),
     spec: Optional[str] = typer.Option(None, "--spec", metavar="LIMIT",
                                        help="Specification limit for the yield, e.g. 0.0245% (OIML R60 C3)."),
-    metric: str = typer.Option("peak", "--metric", metavar="peak|final|hysteresis",
+    metric: str = typer.Option(api_default(analyse, "metric"), "--metric", metavar="peak|final|hysteresis",
                                help="What --spec, the worst case and the sensitivity are about."),
     sweep_period: Optional[str] = typer.Option(None, "--sweep-period", metavar="TIME",
                                                help="Hysteresis sweep period."),
-    worst: bool = typer.Option(True, "--worst-case/--no-worst-case", help="Search the worst case."),
-    sensitivity_n: int = typer.Option(20_000, "--sensitivity-n", metavar="N",
+    worst: bool = typer.Option(api_default(analyse, "worst"), "--worst-case/--no-worst-case",
+                               help="Search the worst case."),
+    sensitivity_n: int = typer.Option(api_default(analyse, "sensitivity_samples"), "--sensitivity-n",
+                                      metavar="N",
                                       parser=count_option("--sensitivity-n", 0, 1_000_000),  # one block
                                       help="Samples for the part-alone and tighter-part runs (0: skip)."),
     spot_check: int = typer.Option(20, "--spot-check", metavar="N",
@@ -258,12 +260,9 @@ def render(report: ToleranceReport, design_file: Path | str | None = None) -> No
         capacitors += "; sensor and parts at each temperature, figures the worst of each unit"
     console.print(f"[bold]creepcomp mc[/bold]: {where}{r.n:,} samples, seed {r.seed}, {r.seconds:.2f} s "
                   f"({1e6 * r.seconds / r.n:.2f} µs per sample); {capacitors}", markup=True, highlight=False)
-    table = Table(title="Distribution (% of FS)", title_justify="left")
-    for col in ("", "nominal", "p50", "p95", "p99", "max"):
-        table.add_column(col, justify="right" if col else "left")
-    for m in ("peak", "final", "hysteresis"):
-        table.add_row(names[m], format_percent(report.nominal.get(m)[0]), *[format_percent(v) for v in r.percentiles(m).values()])
-    console.print(table)
+    from creepcomp.report.results import distribution_table, sensitivity_table
+
+    console.print(distribution_table(r, report.nominal).to_rich())
     if r.kept < r.n:
         console.print(f"percentiles from a {r.n:,}-sample streaming histogram, within "
                       f"{format_percent(r.resolution('peak'))} (peak); max exact; sensitivity from "
@@ -279,13 +278,7 @@ def render(report: ToleranceReport, design_file: Path | str | None = None) -> No
         at = ", ".join(f"{k} = {format_parameter(k, v)}" for k, v in w.at.items())
         console.print(f"worst case of {names[w.metric]}: [bold]{format_percent(w.value)}[/bold] at {at} ({w.method})")
     if report.sensitivities:
-        sens = Table(title="Sensitivity", title_justify="left")
-        sens.add_column("factor")
-        sens.add_column("share of the spread", justify="right")
-        sens.add_column("p99 when only it varies", justify="right")
-        for s in report.sensitivities:
-            sens.add_row(s.factor, f"{100 * s.share:.1f} %", format_percent(s.p99_alone))
-        console.print(sens)
+        console.print(sensitivity_table(report.sensitivities).to_rich())
         console.print(f"dominant: {report.sensitivities[0].factor}")
     sc = report.spot_check
     if sc is not None and "error" in sc:

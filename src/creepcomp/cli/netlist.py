@@ -8,7 +8,7 @@ from typing import Optional
 
 import typer
 
-from creepcomp.verify.drive import (DEFAULT_POINTS, PROGRAMS, default_duration,
+from creepcomp.verify.drive import (DEFAULT_POINTS, DEFAULT_SIGNAL, PROGRAMS, default_duration,
                                     synthetic_program)
 from creepcomp.verify.netlist import Deck, program_deck, record_deck, write_deck
 from creepcomp.errors import InputError
@@ -17,7 +17,8 @@ from creepcomp.io.outputs import check_outputs
 from creepcomp.programs import LoadProgram
 from creepcomp.io.records import Record, parse_columns, read_record
 from creepcomp.units import format_quantity
-from creepcomp.cli.common import app, console, count_option, print_json, quantity, temperatures_option
+from creepcomp.cli.common import (app, console, count_option, print_json, quantity, si_text,
+                                  temperatures_option)
 
 #: Most time points of a synthetic drive.
 MAX_POINTS = 1_000_000
@@ -124,7 +125,7 @@ def netlist_command(
                                                 "time constants after a final step)."),
     points: int = typer.Option(DEFAULT_POINTS, "--points", metavar="N", parser=count_option("--points"),
                                help="Output time points; ngspice steps at most half their spacing."),
-    signal: str = typer.Option("100u", "--signal", metavar="VOLT",
+    signal: str = typer.Option(si_text(DEFAULT_SIGNAL), "--signal", metavar="VOLT",
                                help="Instantaneous sensor signal at full scale, e.g. 100u or 1V."),
     temperature: Optional[str] = typer.Option(
         None, "--temperature", metavar="T",

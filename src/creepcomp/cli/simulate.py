@@ -12,27 +12,17 @@ from rich.table import Table
 
 from creepcomp.errors import InputError
 from creepcomp.verify.compare import Comparison, compare_program, compare_record, compare_temperatures
-from creepcomp.verify.drive import DEFAULT_POINTS
+from creepcomp.verify.drive import DEFAULT_POINTS, DEFAULT_SIGNAL
 from creepcomp.verify.netlist import write_deck
 from creepcomp.io.outputs import check_outputs
 from creepcomp.units import format_percent, format_quantity
 from creepcomp.cli.common import (app, console, count_option, err_console, print_json, progress_bar,
-                                  temperatures_option)
+                                  si_text, temperatures_option)
 from creepcomp.cli.netlist import PROGRAM_HELP, read_drive
 
 
 def _sci(x: float | None) -> str:
     return "n/a" if x is None else f"{x:.3g}"
-
-
-def _peak(comparison: Comparison, which: str) -> str:
-    e = comparison.residual(which)
-    if e is None:
-        return "n/a"
-    k = int(abs(e).argmax())
-    if abs(e[k]) < 1e-12:
-        return format_percent(abs(float(e[k])))
-    return f"{format_percent(abs(float(e[k])))} at {comparison.reference.time[k]:.4g} s"
 
 
 def render_comparison(c: Comparison, title: str | None = None) -> None:
@@ -41,30 +31,12 @@ def render_comparison(c: Comparison, title: str | None = None) -> None:
     console.print(f"[bold]{title or 'creepcomp simulate'}[/bold]: {c.drive}; "
                   f"{format_quantity(d['duration'], 's')}, {d['points']} time points, "
                   f"full scale {format_quantity(c.full_scale, 'V')}, H(inf) = {c.hf_gain:.6g}")
-    table = Table(title_justify="left")
-    table.add_column("")
-    table.add_column("python-control", justify="right")
-    table.add_column("ngspice", justify="right")
-    synthetic = c.reference.instantaneous is not None
-    spice_ok = c.spice is not None
-    if synthetic:
-        ref = d["python_control"]
-        ng = d["ngspice"]
-        table.add_row("residual creep, peak (of full scale)", _peak(c, "reference"),
-                      _peak(c, "spice") if spice_ok else "not run")
-        table.add_row("residual creep, final", format_percent(ref["residual_creep_final"]),
-                      format_percent(ng.get("residual_creep_final")) if spice_ok else "not run")
-    else:
-        def volts(w, f):
-            return format_quantity(float(f(w.output)), "V") if w is not None else "not run"
+    from creepcomp.report.results import comparison_table
 
-        table.add_row("output range", volts(c.reference, np.ptp), volts(c.spice, np.ptp))
-        table.add_row("output at the end", volts(c.reference, lambda y: y[-1]),
-                      volts(c.spice, lambda y: y[-1]))
-    console.print(table)
-    if spice_ok:
+    console.print(comparison_table(c).to_rich())
+    if c.spice is not None:
         line = f"agreement, largest |ngspice - python-control|: {_sci(c.agreement_max_abs)} of full scale"
-        if synthetic:
+        if c.reference.instantaneous is not None:
             line += (f" (corrected output {_sci(c.agreement_output)}, "
                      f"sensor {_sci(c.agreement_sensor)})")
         console.print(line)
@@ -90,7 +62,7 @@ def simulate_command(
                                                 "time constants after a final step)."),
     points: int = typer.Option(DEFAULT_POINTS, "--points", metavar="N", parser=count_option("--points"),
                                help="Time points compared (uniform within each program segment)."),
-    signal: str = typer.Option("100u", "--signal", metavar="VOLT",
+    signal: str = typer.Option(si_text(DEFAULT_SIGNAL), "--signal", metavar="VOLT",
                                help="Instantaneous sensor signal at full scale, e.g. 100u or 1V."),
     plot: Optional[Path] = typer.Option(None, "--plot", metavar="FILE.png",
                                         help="Where to save the plot (default: "
@@ -139,9 +111,10 @@ def simulate_command(
         err_console.print(f"creepcomp: note: {comparison.unavailable}; showing the python-control "
                           "result only", markup=False, highlight=False, soft_wrap=True)
     if plot_path is not None:
+        from creepcomp.report.common import save_axes
         from creepcomp.report.spice import plot_comparison
 
-        plot_comparison(comparison, plot_path)
+        save_axes(plot_comparison(comparison), plot_path)
     if netlist is not None:
         from creepcomp.cli.netlist import drive_deck
 
@@ -184,11 +157,12 @@ def _simulate_temperatures(drive, design: Path, temps: list[float], plot_path: P
                           "only", markup=False, highlight=False, soft_wrap=True)
     plots = {}
     if plot_path is not None:
+        from creepcomp.report.common import save_axes
         from creepcomp.report.spice import plot_comparison
 
         for c in comparisons:
             plots[c.temperature] = plot_path if len(temps) == 1 else _at(plot_path, c.temperature)
-            plot_comparison(c, plots[c.temperature])
+            save_axes(plot_comparison(c), plots[c.temperature])
     if netlist is not None:
         from creepcomp.cli.netlist import drive_deck
 

@@ -1,26 +1,58 @@
-"""``creepcomp size``: size the correction network and snap it to E-series parts."""
+"""``creepcomp size``: size the correction network and snap it to E-series parts.
+
+The command parses its options, calls :func:`creepcomp.analog.network_design.design_network`
+and prints the result's tables (:mod:`creepcomp.report.results`). Each option's default is the
+API's own, read from its signature (:data:`DEFAULTS`).
+"""
 
 from __future__ import annotations
 
-import math
+import inspect
 import shlex
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, List, Optional
+from typing import Annotated, List, Optional
 
 import typer
-from rich.table import Table
 
+from creepcomp.analog.network_design import NetworkDesign, design_network
+from creepcomp.analog.parts import PartsPlan
+from creepcomp.analog.sizing import size
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_model, write_design
 from creepcomp.io.outputs import check_outputs
 from creepcomp.model import CreepModel
-from creepcomp.units import format_percent, format_quantity, format_time
-from creepcomp.cli.common import (app, console, print_json, quantity, temperature_range_option, value_range,
-                                  warn_creep)
+from creepcomp.report.results import sizing_summary
+from creepcomp.temperature import TemperatureLaw
+from creepcomp.units import format_percent
+from creepcomp.cli.common import (api_default, app, console, print_json, print_summary, quantity, si_text,
+                                  temperature_range_option, value_range, warn_creep)
 
-if TYPE_CHECKING:
-    from creepcomp.analog.sizing import SizingReport
+
+def _api_defaults() -> dict:
+    """The command line's default text of each option, from the API's defaults."""
+    sizing = {k: p.default for k, p in inspect.signature(size).parameters.items()}
+    plan = PartsPlan()
+
+    def text(value):
+        return "none" if value is None else si_text(value) if isinstance(value, float) else value
+
+    return {"rule": sizing["rule"], "series": text(sizing["resistor_series"]),
+            "cap_series": text(sizing["capacitor_series"]),
+            "cap_range": ":".join(si_text(v) for v in sizing["cap_range"]),
+            "res_range": ":".join(si_text(v) for v in sizing["res_range"]),
+            "capacitance": sizing["capacitance"], "source_resistance": text(sizing["source_resistance"]),
+            "load_resistance": text(sizing["load_resistance"]), "sweep_period": sizing["sweep_period"],
+            "tracking": api_default(design_network, "tracking"),
+            "topology": api_default(design_network, "topology"),
+            "allow_impractical": api_default(design_network, "allow_impractical"),
+            "reference_temperature": f"{api_default(TemperatureLaw.arrhenius, 'reference'):g}",
+            "resistor_technology": plan.resistor, "dielectric": plan.capacitor,
+            "resistor_tolerance": plan.resistor_tolerance, "capacitor_tolerance": plan.capacitor_tolerance}
+
+
+#: Each option's default as the command line shows it, read from the API.
+DEFAULTS = _api_defaults()
 
 
 def model_from_options(beta0: str | list[str] | None, tau: str | list[str] | None,
@@ -76,216 +108,194 @@ def series_option(text: str, option: str) -> str | None:
     return None if text.strip().lower() in ("none", "ideal") else text.strip().upper()
 
 
+Terms = Annotated[Optional[List[str]], typer.Option("--term", metavar="BETA@TAU",
+                                                    help="One creep term, e.g. 0.05%@20min (repeatable).")]
+Beta0 = Annotated[Optional[List[str]], typer.Option("--beta0", metavar="FRACTION",
+                                                    help="One term's relative creep at infinite time, "
+                                                         "e.g. 0.03 or 3%.")]
+Tau = Annotated[Optional[List[str]], typer.Option("--tau", metavar="TIME",
+                                                  help="One term's retardation time, e.g. 45s or 2min.")]
+ModelFile = Annotated[Optional[Path], typer.Option("--model", metavar="FILE",
+                                                   help="Model file with Prony terms (beta, tau lists).")]
+Rule = Annotated[str, typer.Option("--rule", metavar="exact|paper",
+                                   help="exact: pole-zero cancellation; paper: the 2008 paper's eq. 16.")]
+Series = Annotated[str, typer.Option("--series", metavar="SERIES",
+                                     help="Resistor E-series (E3 ... E192), or none for ideal values.")]
+CapSeries = Annotated[str, typer.Option("--cap-series", metavar="SERIES", help="Capacitor E-series.")]
+CapRange = Annotated[str, typer.Option("--cap-range", metavar="LOW:HIGH",
+                                       help="Capacitor values to search, e.g. 1u:100u.")]
+ResRange = Annotated[str, typer.Option("--res-range", metavar="LOW:HIGH", help="Resistor values allowed.")]
+Capacitance = Annotated[Optional[str], typer.Option("--capacitance", metavar="FARAD",
+                                                    help="Fix the largest capacitor instead of searching.")]
+SourceResistance = Annotated[str, typer.Option("--source-resistance", metavar="OHM",
+                                               help="Output resistance of the sensor.")]
+LoadResistance = Annotated[str, typer.Option("--load-resistance", metavar="OHM",
+                                             help="Input resistance of the next stage (none: infinite).")]
+SweepPeriod = Annotated[Optional[str], typer.Option("--sweep-period", metavar="TIME",
+                                                    help="Period of the hysteresis sweep "
+                                                         "(default 2*pi*tau of the largest term).")]
+Output = Annotated[Optional[Path], typer.Option("-o", "--output", metavar="design.json", help="Write the design file.")]
+Plot = Annotated[Optional[Path], typer.Option("--plot", metavar="FILE.png",
+                                              help="Save residual-creep and hysteresis plots.")]
+AsJson = Annotated[bool, typer.Option("--json", help="Print one JSON object.")]
+TemperatureRange = Annotated[Optional[str], typer.Option(
+    "--temperature-range", metavar="LOW:HIGH",
+    help="Design over this range (°C, e.g. -10:40): residual creep at every temperature, "
+         "fixed parts sized for the range; with --plot also FILE-over-temperature.png.")]
+Tracking = Annotated[str, typer.Option("--tracking", metavar="none|ntc",
+                                       help="With --temperature-range: ntc makes R1 and R2 catalogue "
+                                            "NTC thermistors that follow the creep.")]
+Topology = Annotated[str, typer.Option("--topology", metavar="auto|passive|active",
+                                       help="With --tracking ntc: passive lead network, active stage "
+                                            "(integrators, one NTC per term, fixed gains), or auto: the "
+                                            "passive one when it is practical, else the active one.")]
+ActivationEnergy = Annotated[Optional[str], typer.Option(
+    "--activation-energy", metavar="J/mol",
+    help="Arrhenius law of the creep for --beta0/--tau, e.g. 43kJ/mol or 43k.")]
+ReferenceTemperature = Annotated[str, typer.Option(
+    "--reference-temperature", metavar="°C",
+    help="Temperature at which --beta0/--tau hold (with --activation-energy).")]
+ResistorTechnology = Annotated[str, typer.Option("--resistor-technology", metavar="TECH",
+                                                 help="Resistor technology: thin film, thick film or "
+                                                      "high-ohmic thick film (values it does not make "
+                                                      "take the next technology that does).")]
+Dielectric = Annotated[str, typer.Option("--dielectric", metavar="polypropylene|polyester|x7r",
+                                         help="Capacitor technology.")]
+ResistorTolerance = Annotated[Optional[str], typer.Option(
+    "--resistor-tolerance", metavar="TOL",
+    help=f"Resistor tolerance bought (default {format_percent(DEFAULTS['resistor_tolerance'])}).")]
+CapacitorTolerance = Annotated[Optional[str], typer.Option(
+    "--capacitor-tolerance", metavar="TOL",
+    help=f"Capacitor tolerance bought (default {format_percent(DEFAULTS['capacitor_tolerance'])}).")]
+Bom = Annotated[Optional[Path], typer.Option("--bom", metavar="FILE.csv", help="Write the bill of materials (CSV).")]
+Schematic = Annotated[Optional[Path], typer.Option("--schematic", metavar="FILE.svg|.png",
+                                                   help="Draw the network with its values.")]
+AllowImpractical = Annotated[bool, typer.Option("--allow-impractical",
+                                                help="Write a design judged impractical anyway "
+                                                     "(the verdict becomes a warning).")]
+D = DEFAULTS
+
+
 @app.command("size")
 def size_command(
-    terms: Optional[List[str]] = typer.Option(None, "--term", metavar="BETA@TAU",
-                                              help="One creep term, e.g. 0.05%@20min (repeatable)."),
-    beta0: Optional[List[str]] = typer.Option(None, "--beta0", metavar="FRACTION",
-                                              help="One term's relative creep at infinite time, "
-                                                   "e.g. 0.03 or 3%."),
-    tau: Optional[List[str]] = typer.Option(None, "--tau", metavar="TIME",
-                                            help="One term's retardation time, e.g. 45s or 2min."),
-    model_file: Optional[Path] = typer.Option(None, "--model", metavar="FILE",
-                                              help="Model file with Prony terms (beta, tau lists)."),
-    rule: str = typer.Option("exact", "--rule", metavar="exact|paper",
-                             help="exact: pole-zero cancellation; paper: the 2008 paper's eq. 16."),
-    series: str = typer.Option("E24", "--series", metavar="SERIES",
-                               help="Resistor E-series (E3 ... E192), or none for ideal values."),
-    cap_series: str = typer.Option("E6", "--cap-series", metavar="SERIES",
-                                   help="Capacitor E-series."),
-    cap_range: str = typer.Option("1u:100u", "--cap-range", metavar="LOW:HIGH",
-                                  help="Capacitor values to search, e.g. 1u:100u."),
-    res_range: str = typer.Option("10:1G", "--res-range", metavar="LOW:HIGH",
-                                  help="Resistor values allowed."),
-    capacitance: Optional[str] = typer.Option(None, "--capacitance", metavar="FARAD",
-                                              help="Fix the largest capacitor instead of searching."),
-    source_resistance: str = typer.Option("0", "--source-resistance", metavar="OHM",
-                                          help="Output resistance of the sensor."),
-    load_resistance: str = typer.Option("none", "--load-resistance", metavar="OHM",
-                                        help="Input resistance of the next stage (none: infinite)."),
-    sweep_period: Optional[str] = typer.Option(None, "--sweep-period", metavar="TIME",
-                                               help="Period of the hysteresis sweep "
-                                                    "(default 2*pi*tau of the largest term)."),
-    output: Optional[Path] = typer.Option(None, "-o", "--output", metavar="design.json",
-                                          help="Write the design file."),
-    plot: Optional[Path] = typer.Option(None, "--plot", metavar="FILE.png",
-                                        help="Save residual-creep and hysteresis plots."),
-    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
-    # --- over temperature ---
-    temperature_range: Optional[str] = typer.Option(
-        None, "--temperature-range", metavar="LOW:HIGH",
-        help="Design over this range (°C, e.g. -10:40): residual creep at every temperature, "
-             "fixed parts sized for the range; with --plot also FILE-over-temperature.png."),
-    tracking: str = typer.Option("none", "--tracking", metavar="none|ntc",
-                                 help="With --temperature-range: ntc makes R1 and R2 catalogue "
-                                      "NTC thermistors that follow the creep."),
-    topology: str = typer.Option("auto", "--topology", metavar="auto|passive|active",
-                                 help="With --tracking ntc: passive lead network, active stage "
-                                      "(integrators, one NTC per term, fixed gains), or auto: the "
-                                      "passive one when it is practical, else the active one."),
-    activation_energy: Optional[str] = typer.Option(
-        None, "--activation-energy", metavar="J/mol",
-        help="Arrhenius law of the creep for --beta0/--tau, e.g. 43kJ/mol or 43k."),
-    reference_temperature: str = typer.Option(
-        "20", "--reference-temperature", metavar="°C",
-        help="Temperature at which --beta0/--tau hold (with --activation-energy)."),
-    # --- from design to board: the parts bought, the verdict, BOM and schematic ---
-    resistor_technology: str = typer.Option("thin film", "--resistor-technology", metavar="TECH",
-                                            help="Resistor technology: thin film, thick film or "
-                                                 "high-ohmic thick film (values it does not make "
-                                                 "take the next technology that does)."),
-    dielectric: str = typer.Option("polypropylene", "--dielectric",
-                                   metavar="polypropylene|polyester|x7r",
-                                   help="Capacitor technology."),
-    resistor_tolerance: Optional[str] = typer.Option(None, "--resistor-tolerance", metavar="TOL",
-                                                     help="Resistor tolerance bought (default 1 %)."),
-    capacitor_tolerance: Optional[str] = typer.Option(None, "--capacitor-tolerance", metavar="TOL",
-                                                      help="Capacitor tolerance bought (default 5 %)."),
-    bom: Optional[Path] = typer.Option(None, "--bom", metavar="FILE.csv",
-                                       help="Write the bill of materials (CSV)."),
-    schematic: Optional[Path] = typer.Option(None, "--schematic", metavar="FILE.svg|.png",
-                                             help="Draw the network with its values."),
-    allow_impractical: bool = typer.Option(False, "--allow-impractical",
-                                           help="Write a design judged impractical anyway "
-                                                "(the verdict becomes a warning)."),
+    ctx: typer.Context, terms: Terms = None, beta0: Beta0 = None, tau: Tau = None, model_file: ModelFile = None,
+    rule: Rule = D["rule"], series: Series = D["series"], cap_series: CapSeries = D["cap_series"],
+    cap_range: CapRange = D["cap_range"], res_range: ResRange = D["res_range"],
+    capacitance: Capacitance = D["capacitance"], source_resistance: SourceResistance = D["source_resistance"],
+    load_resistance: LoadResistance = D["load_resistance"], sweep_period: SweepPeriod = D["sweep_period"],
+    output: Output = None, plot: Plot = None, as_json: AsJson = False,
+    temperature_range: TemperatureRange = None, tracking: Tracking = D["tracking"],
+    topology: Topology = D["topology"], activation_energy: ActivationEnergy = None,
+    reference_temperature: ReferenceTemperature = D["reference_temperature"],
+    resistor_technology: ResistorTechnology = D["resistor_technology"], dielectric: Dielectric = D["dielectric"],
+    resistor_tolerance: ResistorTolerance = None, capacitor_tolerance: CapacitorTolerance = None,
+    bom: Bom = None, schematic: Schematic = None, allow_impractical: AllowImpractical = D["allow_impractical"],
 ) -> None:
     """Size the RC network that cancels the creep, snap it to E-series parts, predict its quality.
 
     A design that cannot be built, or that leakage or its parts' tolerances leave worse than
     no correction, ends with exit status 3, no files written, and the way out.
     """
-    from creepcomp.analog.sizing import DEFAULT_CAP_RANGE, DEFAULT_RES_RANGE, NoNetworkInRange, size
-
     if schematic is not None and schematic.suffix.lower() not in (".svg", ".png"):
         raise InputError(f"--schematic {schematic}: give a .svg or .png file")
-    check_outputs({"-o": output, "--plot": plot, "--bom": bom, "--schematic": schematic},
-                  inputs=[model_file])
-    model = model_from_options(beta0, tau, model_file, terms)
-    model = with_temperature_law(model, activation_energy, reference_temperature)
+    check_outputs({"-o": output, "--plot": plot, "--bom": bom, "--schematic": schematic}, inputs=[model_file])
+    model = with_temperature_law(model_from_options(beta0, tau, model_file, terms), activation_energy,
+                                 reference_temperature)
     span = temperature_span(temperature_range, tracking)
-    if span is not None:
-        from creepcomp.analog.over_temperature import check_tracking
-
-        from creepcomp.analog.over_temperature import TOPOLOGIES
-
-        if topology.strip().lower() not in TOPOLOGIES:
-            raise InputError(f"--topology '{topology}': expected {', '.join(TOPOLOGIES)}")
-        check_tracking(model, tracking.strip().lower(), topology.strip().lower())
     warn_creep(model, str(model_file) if model_file is not None else "--term" if terms else "--beta0")
-    rule = rule.strip().lower()
-    plan = parts_plan(resistor_technology, dielectric, resistor_tolerance, capacitor_tolerance)
-    options = dict(
-        rule=rule,
+    result = design_network(
+        model, parts_plan(resistor_technology, dielectric, resistor_tolerance, capacitor_tolerance), span,
+        tracking.strip().lower(), topology.strip().lower(), allow_impractical,
+        **size_options(rule, series, cap_series, cap_range, res_range, capacitance, source_resistance,
+                       load_resistance, sweep_period))
+    if result.refused:
+        refuse(result, GivenOptions.of_command(ctx, model, model_file, beta0, tau, output, terms), as_json)
+    written = write_outputs(result, output, bom, schematic, plot)
+    if as_json:
+        print_json(result.to_dict())
+        return
+    render_design(result)
+    for path, what in written:
+        console.print(f"{what} written to {path}")
+
+
+def size_options(rule: str, series: str, cap_series: str, cap_range: str, res_range: str,
+                 capacitance: str | None, source_resistance: str, load_resistance: str,
+                 sweep_period: str | None) -> dict:
+    """:func:`~creepcomp.analog.sizing.size`'s arguments from the options' text (an empty
+    range: the API's default)."""
+    return dict(
+        rule=rule.strip().lower(),
         resistor_series=series_option(series, "--series"),
         capacitor_series=series_option(cap_series, "--cap-series"),
-        cap_range=value_range(cap_range, "farad", "--cap-range") if cap_range else DEFAULT_CAP_RANGE,
-        res_range=value_range(res_range, "ohm", "--res-range") if res_range else DEFAULT_RES_RANGE,
+        cap_range=value_range(cap_range, "farad", "--cap-range") if cap_range else api_default(size, "cap_range"),
+        res_range=value_range(res_range, "ohm", "--res-range") if res_range else api_default(size, "res_range"),
         capacitance=quantity(capacitance, "farad", "--capacitance", positive=True),
         source_resistance=quantity(source_resistance, "ohm", "--source-resistance", non_negative=True),
         load_resistance=quantity(load_resistance, "ohm", "--load-resistance", allow_none=True,
                                  positive=True),
         sweep_period=quantity(sweep_period, "second", "--sweep-period", positive=True),
     )
-    given = GivenOptions(model, model_file, once(beta0, "--beta0"), once(tau, "--tau"), output, [
-        ("--rule", rule, "exact"), ("--series", series, "E24"), ("--cap-series", cap_series, "E6"),
-        ("--cap-range", cap_range, "1u:100u"), ("--res-range", res_range, "10:1G"),
-        ("--capacitance", capacitance, None), ("--source-resistance", source_resistance, "0"),
-        ("--load-resistance", load_resistance, "none"), ("--sweep-period", sweep_period, None),
-        ("--resistor-technology", resistor_technology, "thin film"),
-        ("--dielectric", dielectric, "polypropylene"),
-        ("--resistor-tolerance", resistor_tolerance, None),
-        ("--capacitor-tolerance", capacitor_tolerance, None),
-        ("--activation-energy", activation_energy, None),
-        ("--reference-temperature", reference_temperature, "20"),
-        ("--temperature-range", temperature_range, None), ("--tracking", tracking, "none"),
-        ("--topology", topology, "auto")], terms)
-    try:
-        report = size(model, plan=plan, **options)
-    except NoNetworkInRange as exc:
-        if allow_impractical or exc.fixable:
-            raise
-        refuse(model, options, plan, (str(exc),), None, given, as_json)
-    comparison, at_reference = None, report
-    if span is not None:
-        report, comparison = size_over_range(report, span, tracking.strip().lower(), rule,
-                                             topology.strip().lower())
-    from creepcomp.analog.practicality import judge
 
-    verdict = judge(report)
-    # ideal values (--series none) are a calculation, not parts to order: judged, not refused
-    ideal_values = report.resistor_series is None
-    if not verdict.practical and not allow_impractical and not ideal_values:
-        extra = {}
-        if comparison is not None:
-            # the comparison still tells the engineer what each design would leave
-            extra = {"temperature_designs": comparison.to_dict()}
-            if not as_json:
-                render_over_range(comparison)
-        way = fixed_for_range(comparison, report) if comparison is not None else None
-        refuse(model, options, plan, verdict.reasons, verdict, given, as_json, extra, way)
-    from creepcomp.analog.bom import bom_rows, write_bom
 
-    rows = bom_rows(report.chosen, report.plan, {"R": report.resistor_series,
-                                                 "C": report.capacitor_series}, model)
+def write_outputs(result: NetworkDesign, output: Path | None, bom: Path | None, schematic: Path | None,
+                  plot: Path | None) -> list[tuple[Path, str]]:
+    """Write the files asked for; ``(path, what)`` of each, in the order the command tells them."""
+    from creepcomp.analog.bom import write_bom
+
+    report = result.sizing
     if output is not None:
-        design = report.design_dict()
-        if comparison is not None:
-            design["over_temperature"] = comparison.written.prediction.to_dict()
-        write_design(output, design)
+        write_design(output, result.design_dict())
     if bom is not None:
-        write_bom(bom, rows)
+        write_bom(bom, list(result.bom))
     if schematic is not None:
         from creepcomp.report.schematic import draw_network
 
         draw_network(report.chosen, schematic, report.plan)
-    if comparison is not None and plot is not None:
-        from creepcomp.report.design import plot_over_temperature
-
-        plot_over_temperature(comparison, over_temperature_plot_path(plot))
+    written = []
     if plot is not None:
+        from creepcomp.report.common import save_axes
+        from creepcomp.report.design import plot_design_comparison, plot_over_temperature
+
+        if result.comparison is not None:
+            save_axes(plot_over_temperature(result.comparison), over_temperature_plot_path(plot))
+            written.append((over_temperature_plot_path(plot), "plot"))
         designs = {"uncorrected": None, "ideal": report.ideal, "chosen parts": report.chosen}
         if report.nearest is not None:
             designs["nearest values"] = report.nearest
-        from creepcomp.report.design import plot_design_comparison
+        save_axes(plot_design_comparison(result.model, designs, sweep_period=report.chosen_quality.sweep_period,
+                                         schematic=report.chosen, plan=report.plan), plot)
+    return written + [(path, what) for path, what in ((output, "design"), (bom, "bill of materials"),
+                                                      (schematic, "schematic"), (plot, "plot"))
+                      if path is not None]
 
-        plot_design_comparison(model, designs, plot, report.chosen_quality.sweep_period,
-                               schematic=report.chosen, plan=report.plan)
-    if as_json:
-        out = report.to_dict()
-        out.update(practical=verdict.practical, reasons=list(verdict.reasons), way_out=None,
-                   verdict=verdict.to_dict(), bom=[r.to_dict() for r in rows])
-        if comparison is not None:
-            out["parts"] = report.plan.to_dict()
-            out["over_temperature"] = comparison.written.prediction.to_dict()
-            out["temperature_designs"] = comparison.to_dict()
-        print_json(out)
-        return
-    if comparison is None:
-        render_sizing(report)
-    else:
-        render_sizing(at_reference, "creepcomp size, (a) sized at the reference temperature "
-                      f"{at_reference.model.temperature.reference:g} °C" if at_reference.model.temperature
-                      else None)
-        render_over_range(comparison)
-    render_bom(rows)
-    if verdict.practical and report.chosen.topology == "active":
-        render_active_verdict(verdict, report, span)
-    elif verdict.practical:
-        console.print(f"practical: every part is made; with a {format_quantity(verdict.to_dict()['leakage_to_ground'], 'Ω')} "
-                      f"leakage path the peak residual creep is {format_percent(verdict.leakage_peak)}, "
-                      f"at the worst tolerance corner {format_percent(verdict.worst_case_peak)} "
-                      f"(uncorrected {format_percent(verdict.uncorrected_peak)})")
-    else:
-        for reason in verdict.reasons:
-            why = "ideal values" if ideal_values else "--allow-impractical"
-            console.print(f"[yellow]warning:[/yellow] impractical ({why}): {reason}",
-                          soft_wrap=False)
-    if comparison is not None and plot is not None:
-        console.print(f"plot written to {over_temperature_plot_path(plot)}")
-    for path, what in ((output, "design"), (bom, "bill of materials"), (schematic, "schematic"),
-                       (plot, "plot")):
-        if path is not None:
-            console.print(f"{what} written to {path}")
+
+def render_design(result: NetworkDesign) -> None:
+    """Print a network design: the sizing (at the reference temperature), the designs over
+    the range, the bill of materials and the verdict."""
+    from creepcomp.report.results import bom_table, verdict_lines
+
+    at_reference = result.at_reference
+    law = at_reference.model.temperature
+    title = (f"creepcomp size, (a) sized at the reference temperature {law.reference:g} °C"
+             if result.comparison is not None and law else None)
+    print_summary(sizing_summary(at_reference, title))
+    if result.comparison is not None:
+        render_over_range(result.comparison)
+    console.print(bom_table(result.bom).to_rich())
+    active = result.sizing.chosen.topology == "active"
+    for line in verdict_lines(result):
+        if result.verdict.practical:
+            console.print(line, soft_wrap=active, markup=False)
+        else:
+            console.print(f"[yellow]warning:[/yellow] {line}", soft_wrap=False)
+
+
+def render_over_range(comparison) -> None:
+    """Print the designs over the range: worst cases, residual at every temperature, thermistors."""
+    from creepcomp.report.results import over_range_summary
+
+    print_summary(over_range_summary(comparison))
 
 
 def parts_plan(technology: str, dielectric: str, resistor_tolerance: str | None,
@@ -324,9 +334,23 @@ class GivenOptions:
     options: list          # (flag, text given, default text)
     terms: list | None = None
 
+    @classmethod
+    def of_command(cls, ctx: typer.Context, model: CreepModel, model_file: Path | None, beta0, tau,
+                   output: Path | None, terms) -> "GivenOptions":
+        """The running command's options: each of :data:`COMMAND_LINE_OPTIONS` with the text
+        given and its default (from the command's context)."""
+        by_flag = {flag: p for p in ctx.command.params for flag in p.opts}
+        options = [(flag, ctx.params[by_flag[flag].name], by_flag[flag].default)
+                   for flag in COMMAND_LINE_OPTIONS]
+        return cls(model, model_file, once(beta0, "--beta0"), once(tau, "--tau"), output, options, terms)
 
-def _eng(value: float) -> str:
-    return format_quantity(value, "").replace(" ", "").replace("µ", "u")
+
+#: The options a way out's command repeats (when not at their default), in its order.
+COMMAND_LINE_OPTIONS = ("--rule", "--series", "--cap-series", "--cap-range", "--res-range", "--capacitance",
+                        "--source-resistance", "--load-resistance", "--sweep-period",
+                        "--resistor-technology", "--dielectric", "--resistor-tolerance",
+                        "--capacitor-tolerance", "--activation-energy", "--reference-temperature",
+                        "--temperature-range", "--tracking", "--topology")
 
 
 def _arg(text) -> str:
@@ -375,9 +399,9 @@ def size_command_line(given: GivenOptions, changes: dict) -> str:
     words = ["creepcomp", "size"] + model_args(given, model)
     replaced = {"--load-resistance": "none" if "load_resistance" in changes else None,
                 "--tracking": changes.get("tracking"),
-                "--cap-range": (f"{_eng(changes['cap_range'][0])}:{_eng(changes['cap_range'][1])}"
+                "--cap-range": (f"{si_text(changes['cap_range'][0])}:{si_text(changes['cap_range'][1])}"
                                 if "cap_range" in changes else None),
-                "--res-range": (f"{_eng(changes['res_range'][0])}:{_eng(changes['res_range'][1])}"
+                "--res-range": (f"{si_text(changes['res_range'][0])}:{si_text(changes['res_range'][1])}"
                                 if "res_range" in changes else None)}
     dropped = {"--capacitance"} if "capacitance" in changes else set()
     for flag, text, default in given.options:
@@ -395,31 +419,9 @@ def size_command_line(given: GivenOptions, changes: dict) -> str:
 FIRMWARE_RATE = "10Hz"
 
 
-def fixed_for_range(comparison, report):
-    """The way out of an impractical tracking design: the fixed parts sized for the range,
-    when they are practical (else None)."""
-    import dataclasses
-
-    from creepcomp.analog.practicality import WayOut, judge
-
-    if comparison.chosen != "ntc":
-        return None
-    fixed = comparison.design("range")
-    candidate = dataclasses.replace(report, chosen=fixed.network, plan=fixed.plan)
-    verdict = judge(candidate)
-    if not verdict.practical:
-        return None
-    return WayOut("size", {"tracking": "none"},
-                  f"fixed parts sized for the range (worst {format_percent(fixed.prediction.worst)} "
-                  f"at {fixed.prediction.worst_at:g} °C)", candidate, verdict)
-
-
-def refuse(model: CreepModel, options: dict, plan, reasons, verdict, given: GivenOptions,
-           as_json: bool, extra: dict | None = None, way=None) -> None:
+def refuse(result: NetworkDesign, given: GivenOptions, as_json: bool) -> None:
     """Say why the design is impractical and the way out; exit with status 3."""
-    from creepcomp.analog.practicality import find_way_out
-
-    way = way or find_way_out(model, options, plan)
+    model, way, reasons = result.model, result.way_out, result.reasons
     if way.kind == "size":
         command = size_command_line(given, way.changes)
     else:
@@ -429,15 +431,14 @@ def refuse(model: CreepModel, options: dict, plan, reasons, verdict, given: Give
         command = (f"creepcomp firmware {_arg(model_path)} --rate {FIRMWARE_RATE} --full-scale 1 "
                    f"-o {_arg(folder)}")
     if as_json:
-        out = {"practical": False, "reasons": list(reasons),
-               "way_out": dict(way.to_dict(), command=command)}
+        out = result.refusal_dict()
+        out["way_out"]["command"] = command
         if way.kind == "firmware":
             out["way_out"]["model_file"] = str(model_path)
-        if verdict is not None:
-            out["verdict"] = verdict.to_dict()
-        out.update(extra or {})
         print_json(out)
     else:
+        if result.comparison is not None:
+            render_over_range(result.comparison)
         more = f" (and {len(reasons) - 1} more: see --json)" if len(reasons) > 1 else ""
         console.print(f"impractical: {reasons[0]}{more}", soft_wrap=True, markup=False)
         if way.kind == "size":
@@ -463,86 +464,6 @@ def refuse(model: CreepModel, options: dict, plan, reasons, verdict, given: Give
 #: Exit status of a design judged impractical.
 IMPRACTICAL = 3
 
-
-def render_bom(rows) -> None:
-    """Print the bill of materials as a table."""
-    from creepcomp.analog.bom import BOM_COLUMNS
-
-    table = Table(title="Bill of materials (tc in ppm/K)", title_justify="left")
-    for c in BOM_COLUMNS:
-        table.add_column(c, justify="right" if c in ("value", "tolerance", "tc") else "left")
-    for r in rows:
-        table.add_row(*[getattr(r, c) for c in BOM_COLUMNS])
-    console.print(table)
-
-
-def describe_model(model: CreepModel) -> str:
-    """One line: the creep terms."""
-    terms = ", ".join(f"{format_percent(b)} at {format_time(t)}" for b, t in zip(model.beta, model.tau))
-    return f"{model.n_terms} creep term{'s' if model.n_terms > 1 else ''} ({terms}); beta0 = {format_percent(model.beta0)}"
-
-
-def _peak_time(q) -> str:
-    if q.residual_creep_peak < 1e-12:
-        return "-"
-    return "settled" if math.isinf(q.residual_creep_peak_time) else f"{q.residual_creep_peak_time:.4g} s"
-
-
-def _unit(kind: str) -> str:
-    return "Ω" if kind == "R" else "F"
-
-
-def render_sizing(report: SizingReport, title: str | None = None) -> None:
-    """Print a sizing report as tables."""
-    net = report.chosen
-    console.print(f"[bold]{title or 'creepcomp size'}[/bold]: {report.rule} rule, "
-                  f"{net.topology} network; {describe_model(report.model)}")
-    console.print(f"source resistance {format_quantity(net.source_resistance, 'Ω')}, "
-                  f"load resistance {format_quantity(net.load_resistance, 'Ω')}")
-    snapped = report.resistor_series is not None
-    parts = Table(title="Parts", title_justify="left")
-    parts.add_column("part")
-    parts.add_column("ideal", justify="right")
-    if snapped:
-        parts.add_column(f"chosen ({report.resistor_series} R, {report.capacitor_series} C)", justify="right")
-        parts.add_column("snap error", justify="right")
-        parts.add_column("peak residual creep if only this part snapped", justify="right")
-        for p in report.parts:
-            parts.add_row(p.label, format_quantity(p.ideal, _unit(p.kind)),
-                          format_quantity(p.chosen, _unit(p.kind)), f"{100 * p.deviation:+.2f} %",
-                          format_percent(p.residual_if_only_this))
-    else:
-        for label, kind, v in net.parts():
-            parts.add_row(label, format_quantity(v, _unit(kind)))
-    console.print(parts)
-
-    columns = [("ideal parts", report.ideal_quality)]
-    if snapped:
-        columns.append(("chosen parts", report.chosen_quality))
-        if report.nearest_quality is not None:
-            c_near = max(v for _, k, v in report.nearest.parts() if k == "C")
-            columns.append((f"nearest values (C = {format_quantity(c_near, 'F')})", report.nearest_quality))
-    columns.append(("uncorrected", report.uncorrected_quality))
-    table = Table(title="Predicted (exact transfer functions)", title_justify="left")
-    table.add_column("")
-    for name, _ in columns:
-        table.add_column(name, justify="right")
-    table.add_row("residual creep, peak (of a load step)", *[format_percent(q.residual_creep_peak) for _, q in columns])
-    table.add_row("  at (s after the step)",
-                  *[_peak_time(q) for _, q in columns])
-    table.add_row("residual creep, final", *[format_percent(q.residual_creep_final) for _, q in columns])
-    table.add_row(f"hysteresis, ±FS sweep of {report.chosen_quality.sweep_period:.4g} s (of FS)",
-                  *[format_percent(q.hysteresis) for _, q in columns])
-    console.print(table)
-    if report.nearest is not None and snapped:
-        console.print(f"searched {report.candidates_evaluated} part combinations; nearest-value "
-                      f"parts: " + ", ".join(f"{label} {format_quantity(v, _unit(k))}"
-                                             for label, k, v in report.nearest.parts()))
-    for w in report.warnings:
-        console.print(f"[yellow]warning:[/yellow] {w}", soft_wrap=False)
-
-
-# --- over temperature -------------------------------------------------------------------------
 
 def with_temperature_law(model: CreepModel, activation_energy: str | None,
                          reference_temperature: str) -> CreepModel:
@@ -573,91 +494,6 @@ def temperature_span(text: str | None, tracking: str) -> tuple[float, float] | N
     return temperature_range_option(text)
 
 
-def render_active_verdict(verdict, report: SizingReport, span) -> None:
-    """The verdict line of an active stage: leakage, tolerance corner, the op amps and the
-    constant output offset they give at the range's ends."""
-    from creepcomp.analog.active import OP_AMP, output_offset
-
-    temps = span if span is not None else (25.0,)
-    offset = max(output_offset(report.chosen, report.plan, t) for t in temps)
-    console.print(f"practical: every part is made; with the capacitors' insulation and a "
-                  f"{format_quantity(verdict.to_dict()['leakage_to_ground'], 'Ω')} board path "
-                  f"across each the peak residual creep is {format_percent(verdict.leakage_peak)}, "
-                  f"at the worst tolerance corner {format_percent(verdict.worst_case_peak)} "
-                  f"(uncorrected {format_percent(verdict.uncorrected_peak)})", soft_wrap=True)
-    console.print(f"op amps: {OP_AMP.text()}; at those limits their constant output offset is at "
-                  f"most {format_quantity(offset, 'V')} over the range (tared, not creep)",
-                  soft_wrap=True, markup=False)
-
-
-def size_over_range(report: SizingReport, span: tuple[float, float], tracking: str, rule: str,
-                    topology: str = "auto"):
-    """The comparison over the range, and the sizing report of the design to write."""
-    import dataclasses
-
-    from creepcomp.analog.over_temperature import compare_over_range
-    from creepcomp.analog.quality import predict
-
-    comparison = compare_over_range(report.model, report.chosen, *span, plan=report.plan,
-                                    tracking=tracking, rule=rule,
-                                    resistor_series=report.resistor_series or "E24",
-                                    capacitor_series=report.capacitor_series or "E6",
-                                    reference_warnings=report.warnings, topology=topology)
-    chosen = comparison.written
-    if chosen.key == "reference":
-        return report, comparison
-    quality = predict(report.model, chosen.network, report.chosen_quality.sweep_period)
-    warnings = tuple(w for w in report.warnings if not w.startswith("high impedance")) + chosen.warnings
-    written = dataclasses.replace(report, chosen=chosen.network, chosen_quality=quality, plan=chosen.plan,
-                                  nearest=None, nearest_quality=None, parts=(), warnings=warnings)
-    return written, comparison
-
-
 def over_temperature_plot_path(plot: Path) -> Path:
     """``FILE-over-temperature.png`` next to ``--plot FILE.png``."""
     return plot.with_name(f"{plot.stem}-over-temperature{plot.suffix or '.png'}")
-
-
-def render_over_range(comparison) -> None:
-    """Print the designs over the range: worst cases, residual at every temperature, thermistors."""
-    designs = comparison.designs
-    console.print(f"[bold]Over {comparison.low:g} .. {comparison.high:g} °C[/bold]: "
-                  f"{designs[0].prediction.note}")
-    table = Table(title="Worst case over the range", title_justify="left")
-    for col in ("design", "worst peak residual creep", "at", "written"):
-        table.add_column(col, justify="left" if col == "design" else "right")
-    for d in designs:
-        table.add_row(d.label, format_percent(d.prediction.worst), f"{d.prediction.worst_at:g} °C",
-                      "yes" if d.key == comparison.chosen else "")
-    bare = designs[0].prediction
-    worst_bare = max(range(len(bare.uncorrected)), key=bare.uncorrected.__getitem__)
-    table.add_row("uncorrected", format_percent(bare.uncorrected[worst_bare]),
-                  f"{bare.temperatures[worst_bare]:g} °C", "")
-    console.print(table)
-    per_t = Table(title="Peak residual creep of a full-scale step at each temperature", title_justify="left")
-    per_t.add_column("°C", justify="right")
-    for d in designs:
-        per_t.add_column(d.label.split(")")[0] + ")", justify="right")
-    per_t.add_column("uncorrected", justify="right")
-    for k, t in enumerate(bare.temperatures):
-        per_t.add_row(f"{t:g}", *[format_percent(d.prediction.peak_residual[k]) for d in designs],
-                      format_percent(bare.uncorrected[k]))
-    console.print(per_t)
-    written = comparison.written
-    parts = Table(title=f"Written design: {written.label}", title_justify="left")
-    for col in ("part", "value at 25 °C", "made of"):
-        parts.add_column(col, justify="left" if col != "value at 25 °C" else "right")
-    for label, kind, v in written.network.parts():
-        use = written.plan.thermistors.get(label)
-        if use is None:
-            made = f"{written.plan.resistor if kind == 'R' else written.plan.capacitor}"
-        else:
-            made = f"NTC {use.part} (R25 = {format_quantity(use.r25, 'Ω')}, B = {use.b:g} K)"
-            if use.series:
-                made += f" + {format_quantity(use.series, 'Ω')} in series"
-            if use.parallel is not None:
-                made += f", {format_quantity(use.parallel, 'Ω')} across"
-        parts.add_row(label, format_quantity(v, _unit(kind)), made)
-    console.print(parts)
-    for w in written.warnings:
-        console.print(f"[yellow]warning:[/yellow] {w}", soft_wrap=False)

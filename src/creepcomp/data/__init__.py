@@ -11,11 +11,20 @@ source note in ``real/insole/`` and ``real/wood/``; see ``docs/real-data.md``): 
 each of two capacitive pressure insoles in an air chamber (:func:`insole_left_steps`,
 :func:`insole_right_staircase`; BSD-3-Clause) and tensile creep of spruce slices at two load
 levels (:func:`wood_creep`, :func:`wood_specimens`; MIT).
+
+Every bundled record is also in a registry by name (:data:`RECORDS`, :func:`records`,
+:func:`record`), which ``creepcomp data list`` prints, and :func:`export` writes one as a CSV
+file into a folder (``creepcomp data export NAME [DIR]``), with the files it names and its
+licence, so that the command line can work on it anywhere.
 """
 
 from __future__ import annotations
 
+import gzip
+from dataclasses import dataclass
 from importlib import resources
+from pathlib import Path
+from typing import Callable
 
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import Design, read_design, read_model
@@ -24,7 +33,7 @@ from creepcomp.model import CreepModel
 
 __all__ = ["path", "default_sensor", "hidden_effect", "built_network", "built_network_design",
            "insole_left_steps", "insole_right_staircase", "WOOD_SPECIMENS", "wood_specimens",
-           "wood_creep"]
+           "wood_creep", "BundledRecord", "RECORDS", "records", "record", "export"]
 
 #: The shipped wood specimens (90 % RH) by nominal loading degree; the first of each is the
 #: default of :func:`wood_creep` (the longest record at that level).
@@ -99,3 +108,153 @@ def wood_creep(level: float = 0.3, specimen: str | None = None) -> Record:
         raise InputError(f"wood creep: no specimen '{name}' at loading degree {level}; "
                          f"shipped: {', '.join(names)}")
     return read_record(path(f"real/wood/LR_RH90_{name}.csv"))
+
+
+#: The licence of the records this project made (the project's own).
+PROJECT_LICENCE = "MIT"
+
+
+@dataclass(frozen=True)
+class BundledRecord:
+    """A record shipped with the package, by name.
+
+    Attributes
+    ----------
+    name : str
+        The name ``creepcomp data export`` and :func:`record` take.
+    description : str
+        What it is, in one line.
+    licence : str
+        Its licence (``licence_file`` holds the text of another's).
+    file : str
+        The record's file in the package (:func:`path`); ``.gz``: compressed.
+    read : callable
+        Reads it (:func:`hidden_effect`, ...).
+    companions : tuple of str
+        Files in the package the record names (its design), exported beside it.
+    licence_file : str or None
+        The licence's text in the package, exported beside the record as ``NAME.LICENSE``.
+    """
+
+    name: str
+    description: str
+    licence: str
+    file: str
+    read: Callable[[], Record]
+    companions: tuple[str, ...] = ()
+    licence_file: str | None = None
+
+    @property
+    def csv_name(self) -> str:
+        """The exported record's file name: ``NAME.csv``, or the name its companions expect."""
+        return Path(self.file).name if self.companions else f"{self.name}.csv"
+
+    def export_names(self) -> list[str]:
+        """The files :func:`export` writes, record first."""
+        names = [self.csv_name] + [Path(c).name for c in self.companions]
+        return names + ([f"{self.name}.LICENSE"] if self.licence_file else [])
+
+    def csv_bytes(self) -> bytes:
+        """The record's CSV text as shipped (decompressed when the package holds it gzipped)."""
+        data = path(self.file).read_bytes()
+        return gzip.decompress(data) if self.file.endswith(".gz") else data
+
+
+def _wood_entry(level: float, specimen: str) -> BundledRecord:
+    return BundledRecord(
+        f"wood_{specimen}", f"spruce slice creep test, loading {level} (MPa)", "MIT",
+        f"real/wood/LR_RH90_{specimen}.csv", lambda: wood_creep(level, specimen),
+        licence_file="real/wood/LICENSE")
+
+
+#: Every bundled record by name, the synthetic ones first.
+RECORDS: dict[str, BundledRecord] = {entry.name: entry for entry in (
+    BundledRecord("hidden_effect", "synthetic force sensor (N, V), a hidden effect",
+                  PROJECT_LICENCE, "hidden_effect.csv",
+                  hidden_effect),
+    BundledRecord("built_network", "synthetic sensor and built network, one fault",
+                  PROJECT_LICENCE,
+                  "built_network.csv", built_network, companions=("built_network.design.json",)),
+    BundledRecord("insole_left_steps", "pressure insole taxel, staircase (bar, counts)",
+                  "BSD-3-Clause",
+                  "real/insole/left_steps_taxel128.csv.gz", insole_left_steps,
+                  licence_file="real/insole/LICENSE"),
+    BundledRecord("insole_right_staircase", "pressure insole taxel, 0.2 bar steps",
+                  "BSD-3-Clause",
+                  "real/insole/right_staircase_taxel123.csv.gz", insole_right_staircase,
+                  licence_file="real/insole/LICENSE"),
+    *(_wood_entry(level, specimen) for level, names in WOOD_SPECIMENS.items() for specimen in names),
+)}
+
+
+def records() -> list[BundledRecord]:
+    """The bundled records (:data:`RECORDS`), the synthetic ones first.
+
+    Examples
+    --------
+    >>> from creepcomp import data
+    >>> [r.name for r in data.records()][:3]
+    ['hidden_effect', 'built_network', 'insole_left_steps']
+    >>> len(data.record("hidden_effect").read())
+    3001
+    """
+    return list(RECORDS.values())
+
+
+def record(name: str) -> BundledRecord:
+    """The bundled record called ``name``; an InputError naming the known ones otherwise."""
+    try:
+        return RECORDS[name]
+    except KeyError:
+        raise InputError(f"no bundled record '{name}'; bundled: {', '.join(RECORDS)}") from None
+
+
+def export(name: str, folder: str | Path = ".", force: bool = False) -> list[Path]:
+    """Write a bundled record as a CSV file into ``folder``, with the files it names (a
+    network's design) and another's licence text (``NAME.LICENSE``).
+
+    Parameters
+    ----------
+    name : str
+        A name of :data:`RECORDS`.
+    folder : str or Path
+        Made when missing (its parent must exist).
+    force : bool
+        Replace files of the same names; without it an existing file is never replaced.
+
+    Returns
+    -------
+    list of Path
+        The files written, the record first.
+
+    Raises
+    ------
+    InputError
+        An unknown name, a folder that cannot take the files, or a file there already
+        (without ``force``).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from creepcomp import data, read_record
+    >>> folder = tempfile.mkdtemp()
+    >>> [p.name for p in data.export("built_network", folder)]
+    ['built_network.csv', 'built_network.design.json']
+    >>> len(read_record(data.export("hidden_effect", folder)[0]))
+    3001
+    """
+    from creepcomp.io.atomic import write_bytes_atomic
+    from creepcomp.io.outputs import check_output_dir
+
+    entry = record(name)
+    out = check_output_dir(folder, "DIR", contents=entry.export_names())
+    targets = [out / n for n in entry.export_names()]
+    there = [t for t in targets if t.exists() or t.is_symlink()]
+    if there and not force:
+        raise InputError(f"{there[0]}: exists already; choose another folder, or replace it "
+                         "(--force; force=True from Python)")
+    contents = [entry.csv_bytes()] + [path(c).read_bytes() for c in entry.companions]
+    if entry.licence_file:
+        contents.append(path(entry.licence_file).read_bytes())
+    out.mkdir(parents=True, exist_ok=True)
+    return [write_bytes_atomic(t, data) for t, data in zip(targets, contents)]

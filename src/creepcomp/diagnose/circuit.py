@@ -59,7 +59,9 @@ from creepcomp.fit.noise import (MISFIT_LIMIT, NoiseFloor, autocorrelation, expl
                                  misfit_ratio, rows_for, whiten)
 from creepcomp.fit.structure import Applied
 from creepcomp.io.jsonfiles import Design
+from creepcomp.io.formats import read_any
 from creepcomp.io.records import Record
+from creepcomp.display import Shown
 from creepcomp.units import format_quantity
 
 __all__ = ["MAX_EFFECTS", "EQUIVALENT_BIC", "MISMATCH_RATIO", "PART_FACTOR", "fault_prior", "FAULT_PRIOR",
@@ -160,9 +162,9 @@ class CircuitTrial:
         return out
 
 
-@dataclass(frozen=True)
-class CircuitDiagnosis:
-    """Result of :func:`diagnose_circuit`."""
+@dataclass(frozen=True, eq=False)
+class CircuitDiagnosis(Shown):
+    """Result of :func:`diagnose_circuit` (equal only to itself: it holds arrays)."""
 
     data: CircuitData
     baseline: CircuitFit
@@ -270,6 +272,11 @@ class CircuitDiagnosis:
                 "structure": fit.describe(),
                 "residual_lag1_autocorrelation": float(autocorrelation(fit.residual, 1)[1]),
                 "whitened_ljung_box_p": p}
+
+    def __repr__(self) -> str:
+        return (f"<CircuitDiagnosis of {self.data.source!r}: cause {self.cause}, residual RMS "
+                f"{format_quantity(self.baseline.rms, 'V')} nominal, {format_quantity(self.extended.rms, 'V')} "
+                f"as built, {len(self.fixes)} fix{'' if len(self.fixes) == 1 else 'es'}>")
 
     def to_dict(self) -> dict:
         """The circuit side's JSON (``docs/diagnosis.md`` keys plus the as-built network and fix)."""
@@ -438,15 +445,16 @@ class CircuitConclusion:
     drift: OutputDrift | None = None
 
 
-def diagnose_circuit(record: Record, design: Design, spice_check: bool = True,
+def diagnose_circuit(record, design: Design, spice_check: bool = True,
                      resistor_series: str = "E24", capacitor_series: str = "E6",
                      candidates: list[str] | None = None) -> CircuitDiagnosis:
     """What the simulated network gets wrong against the measured output, and why.
 
     Parameters
     ----------
-    record : Record
-        With ``signal`` and ``corrected``.
+    record : Record, path, open file, data frame or mapping of arrays
+        With ``signal`` and ``corrected``; read by :func:`~creepcomp.io.formats.read_any`
+        unless a :class:`Record`.
     design : Design
         The nominal design of the network that produced ``corrected``.
     spice_check : bool
@@ -464,6 +472,7 @@ def diagnose_circuit(record: Record, design: Design, spice_check: bool = True,
     # by identifier: the order the benchmarks were run with (it orders the trials and breaks ties)
     pool = (sorted(circuit_effects(), key=lambda e: e.name) if candidates is None
             else [effects_pkg.get(c) for c in candidates])
+    record = read_any(record)
     data = prepare(record, design)
     floor = circuit_noise_floor(data)
     baseline = with_heldout(data, fit_model(data, (), [{}]))

@@ -44,6 +44,7 @@ import numpy as np
 from creepcomp.diagnose import effects as effects_pkg
 from creepcomp.diagnose.effects import Effect, UnsettledInverse, compensate_extended
 from creepcomp.diagnose.workers import Workers, last_seconds
+from creepcomp.display import Shown, data_frame
 from creepcomp.errors import InputError
 from creepcomp.fit.blas import one_blas_thread
 from creepcomp.fit.data import Data, prepare
@@ -58,6 +59,7 @@ from creepcomp.fit.starts import one_term_starts, tau_grid
 from creepcomp.fit.prony import model_file_dict
 from creepcomp.fit.reduce import reduce_record
 from creepcomp.lti import compiled_loops, lag_states
+from creepcomp.io.formats import read_any
 from creepcomp.io.records import Record
 from creepcomp.units import format_parameter
 
@@ -178,9 +180,9 @@ class Trial:
         return out
 
 
-@dataclass(frozen=True)
-class Diagnosis:
-    """Result of :func:`diagnose`."""
+@dataclass(frozen=True, eq=False)
+class Diagnosis(Shown):
+    """Result of :func:`diagnose` (equal only to itself: it holds arrays)."""
 
     data: Data
     baseline: Fit
@@ -227,6 +229,19 @@ class Diagnosis:
                 "noise": fit.noise.to_dict(self.data.dt_median),
                 "residual_lag1_autocorrelation": float(acf),
                 "whitened_ljung_box_p": p}
+
+    def __repr__(self) -> str:
+        ratio = self.misfit_ratio(self.extended)
+        misfit = "" if ratio is None else f", misfit ratio {ratio:.3g} (noise floor 1)"
+        return (f"<Diagnosis of {self.data.source!r}: cause {self.cause}, {len(self.findings)} "
+                f"finding{'' if len(self.findings) == 1 else 's'}{misfit}, {self.seconds:.3g} s>")
+
+    def to_pandas(self):
+        """The findings (effect, ΔBIC, held-out z, held-out RMS ratio) as a pandas DataFrame."""
+        return data_frame({"effect": [f.effect for f in self.findings],
+                           "delta_bic": [f.evidence.delta_bic for f in self.findings],
+                           "heldout_z": [f.evidence.heldout_z for f in self.findings],
+                           "heldout_rms_ratio": [f.evidence.heldout_rms_ratio for f in self.findings]})
 
     def to_dict(self) -> dict:
         """The JSON object of ``creepcomp diagnose --json`` (``docs/diagnosis.md``)."""
@@ -922,7 +937,7 @@ def _search(data: Data, pool, max_effects: int, workers: Workers, correction: bo
     return search
 
 
-def diagnose(record: Record, initial: str = "free", load_step_at: float | None = None,
+def diagnose(record, initial: str = "free", load_step_at: float | None = None,
              candidates: list[str] | None = None, max_effects: int = MAX_EFFECTS,
              correction: bool = True, max_samples: int | None = DIAGNOSE_MAX_SAMPLES,
              jobs: int = 1) -> Diagnosis:
@@ -930,7 +945,8 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
 
     Parameters
     ----------
-    record : Record
+    record : Record, path, open file, data frame or mapping of arrays
+        Read by :func:`~creepcomp.io.formats.read_any` unless a :class:`Record`.
     initial : {"free", "relaxed", "settled"}
         Creep state at the first sample (see :func:`creepcomp.fit.data.prepare`).
     load_step_at : float, optional
@@ -965,6 +981,7 @@ def diagnose(record: Record, initial: str = "free", load_step_at: float | None =
     150.0
     """
     t_start = _time.perf_counter()
+    record = read_any(record)
     if isinstance(jobs, bool) or not isinstance(jobs, numbers.Integral) or jobs < 1:
         raise InputError(f"jobs = {jobs}: use a whole number of processes, 1 or more")
     reduced = record.metadata.get("reduced")    # reduced once already, while read (fit.reduce)

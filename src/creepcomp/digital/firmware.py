@@ -52,6 +52,7 @@ from creepcomp.digital.firmware_bound import (DEFAULT_TEMPERATURE_RANGE, FULL_SC
                                               q31_temperature_scheme, stored_coefficients,
                                               temperature_bound, temperature_scheme)
 from creepcomp.digital.firmware_extension import check_extension, extension_parts
+from creepcomp.display import Shown
 from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 
@@ -61,7 +62,7 @@ __all__ = ["PRECISIONS", "FULL_SCALE_WORD", "REFERENCE_ALLOWANCE", "MIN_INTERVAL
 
 
 @dataclass(frozen=True)
-class Firmware:
+class Firmware(Shown):
     """Generated C corrector of one model, method, precision and sample rate.
 
     Attributes
@@ -104,6 +105,22 @@ class Firmware:
     temperature_range: tuple[float, float] | None = None
     extension: dict | None = None
     uses_double: bool = False
+
+    def __repr__(self) -> str:
+        from creepcomp.units import format_quantity
+
+        rate = "dt step" if self.irregular else format_quantity(self.rate, "Hz")
+        bound = "no proven bound" if self.bound is None else f"bound {self.bound.total_fs:.3g} of FS"
+        return f"<Firmware {self.name}: {self.method}, {self.precision}, {rate}, {bound}>"
+
+    def to_dict(self) -> dict:
+        """JSON form without the C text: name, files, method, precision, rate (Hz) or longest
+        interval (s), full scale (signal units), the proven bound and the temperature range."""
+        return {"name": self.name, "files": list(self.filenames), "method": self.method,
+                "precision": self.precision, "rate": None if self.irregular else self.rate,
+                "max_interval": self.max_interval, "full_scale": self.full_scale,
+                "bound": None if self.bound is None else self.bound.to_dict(),
+                "temperature_range": None if self.temperature_range is None else list(self.temperature_range)}
 
     @property
     def irregular(self) -> bool:

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from creepcomp.display import Shown
 from creepcomp.errors import CreepcompError, InputError
 from creepcomp.digital.firmware import TEMPERATURE_STEP_Q, Firmware
 from creepcomp.digital.firmware_target import (STRICT_FLAGS, TARGETS, TargetRun, run_on_target,
@@ -24,7 +25,7 @@ OPTIMISATION = "-O2"
 
 
 @dataclass(frozen=True)
-class Verification:
+class Verification(Shown):
     """The generated corrector run over a record against the float64 corrector.
 
     Attributes
@@ -68,6 +69,12 @@ class Verification:
     def passed(self) -> bool:
         """True when the measured error is within the bound."""
         return self.bound_fs is None or self.max_error_fs <= self.bound_fs
+
+    def __repr__(self) -> str:
+        bound = "no bound" if self.bound_fs is None else (
+            f"{'within' if self.passed else 'ABOVE'} the bound {self.bound_fs:.3g}")
+        return (f"<Verification {self.samples} samples: largest error {self.max_error_fs:.3g} of FS, "
+                f"{bound}; {self.ns_per_sample:.3g} ns per sample, {self.object_bytes} bytes>")
 
     def to_dict(self) -> dict:
         """JSON form."""

@@ -23,7 +23,8 @@ if TYPE_CHECKING:                   # (for type checkers and the API pages)
         slow_noise_ratio)
     from creepcomp.fit.noise import (MAX_AR_ORDER, ARNoise, autocorrelation, fit_noise, gaussian_bic,
         ljung_box, rows_for, spectral_variance, whiten)
-    from creepcomp.fit.prony import (OrderStep, PronyResult, fit_prony, fit_summary, fit_terms,
+    from creepcomp.fit.prony import (FIT_MAX_TERMS, OrderStep, PronyResult, fit_prony, fit_record,
+        fit_summary, fit_terms,
         model_file_dict, term_table)
     from creepcomp.fit.solver import ANCHOR_WEIGHT, Fit, Problem, best_of_starts, fit_structure, with_noise
     from creepcomp.fit.starts import cluster_taus, extra_term_starts, nnls_spectrum, one_term_starts, tau_grid
@@ -40,7 +41,8 @@ __all__ = [
     "slow_noise_ratio",
     "MAX_AR_ORDER", "ARNoise", "autocorrelation", "fit_noise", "gaussian_bic", "ljung_box",
     "rows_for", "spectral_variance", "whiten",
-    "OrderStep", "PronyResult", "fit_prony", "fit_summary", "fit_terms", "model_file_dict",
+    "FIT_MAX_TERMS", "OrderStep", "PronyResult", "fit_prony", "fit_record", "fit_summary",
+    "fit_terms", "model_file_dict",
     "term_table",
     "ANCHOR_WEIGHT", "Fit", "Problem", "best_of_starts", "fit_structure", "with_noise",
     "cluster_taus", "extra_term_starts", "nnls_spectrum", "one_term_starts", "tau_grid",

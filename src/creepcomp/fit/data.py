@@ -9,6 +9,7 @@ from functools import cached_property
 import numpy as np
 
 from creepcomp.errors import InputError
+from creepcomp.io.formats import read_any
 from creepcomp.io.records import Record
 
 __all__ = ["BLOCK_SAMPLES", "BLOCK_VARIANCE", "check_scales", "MAX_TIME", "VALUE_RANGE", "GAP_FACTOR", "CONSTANT_LOAD_TOLERANCE", "Data", "gaps", "MIN_SAMPLES", "prepare",
@@ -271,13 +272,14 @@ def check_scales(record: Record) -> None:
 MIN_SAMPLES = 5
 
 
-def prepare(record: Record, initial: str = "free", load_step_at: float | None = None,
+def prepare(record, initial: str = "free", load_step_at: float | None = None,
             hold: str = "linear", min_samples: int = MIN_SAMPLES) -> Data:
     """Check a record and prepare it for fitting.
 
     Parameters
     ----------
-    record : Record
+    record : Record, path, open file, data frame or mapping of arrays
+        Read by :func:`~creepcomp.io.formats.read_any` unless a :class:`Record`.
     initial : {"free", "relaxed", "settled"}
         Creep state at the first sample: fitted from the data (``free``: the record may start
         loaded or creeping), zero, or settled at the first load.
@@ -292,6 +294,7 @@ def prepare(record: Record, initial: str = "free", load_step_at: float | None = 
     -------
     Data
     """
+    record = read_any(record)
     if len(record) < min_samples:
         why = (": one term's gain, offset, beta and tau, and the noise"
                if min_samples == MIN_SAMPLES else "")

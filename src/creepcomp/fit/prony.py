@@ -10,9 +10,10 @@ from typing import Sequence
 import numpy as np
 from scipy import linalg
 
+from creepcomp.display import Shown, data_frame
 from creepcomp.errors import InputError
 from creepcomp.fit.blas import one_blas_thread
-from creepcomp.fit.data import Data
+from creepcomp.fit.data import Data, prepare
 from creepcomp.fit.evidence import BIC_STRONG, FOLDS, Evidence, compare, heldout
 from creepcomp.fit.noise import ARNoise, ar_order, fit_noise, is_sparse
 from creepcomp.fit.solver import (Fit, Problem, _coarse, _finish, best_of_starts, fit_structure,
@@ -21,7 +22,8 @@ from creepcomp.fit.starts import cluster_taus, extra_term_starts, nnls_spectrum,
 from creepcomp.fit.structure import Applied, Structure
 from creepcomp.model import CreepModel
 
-__all__ = ["OrderStep", "PronyResult", "fit_terms", "spectrum_of", "fit_prony", "term_table", "fit_summary",
+__all__ = ["OrderStep", "PronyResult", "fit_terms", "spectrum_of", "fit_prony", "FIT_MAX_TERMS",
+           "fit_record", "term_table", "fit_summary",
            "model_file_dict"]
 
 
@@ -72,7 +74,7 @@ class OrderStep:
 
 
 @dataclass(frozen=True)
-class PronyResult:
+class PronyResult(Shown):
     """Prony fits for 1, 2, ... terms and the one the evidence chose."""
 
     data: Data
@@ -91,6 +93,21 @@ class PronyResult:
     def to_dict(self) -> dict:
         """Model-file form: the model plus uncertainties and fit statistics."""
         return model_file_dict(self.data, self.fit, self.steps, self.chosen)
+
+    def __repr__(self) -> str:
+        from creepcomp.units import format_percent
+
+        fit, tried = self.fit, [s.n_terms for s in self.steps]
+        n = fit.structure.n_terms
+        return (f"<PronyResult of {self.data.source!r}: {n} term{'s' if n > 1 else ''} chosen of "
+                f"{min(tried)}..{max(tried)} tried, beta0 {format_percent(self.model().beta0)}, "
+                f"residual RMS {format_percent(fit.residual_rms / self.data.signal_scale)} of the signal's range>")
+
+    def to_pandas(self):
+        """The chosen model's terms (``beta``, ``tau`` in s, their standard deviations) as a
+        pandas DataFrame (pandas needed)."""
+        rows = term_table(self.fit)
+        return data_frame({k: [r[k] for r in rows] for k in ("beta", "beta_sigma", "tau", "tau_sigma")})
 
 
 def fit_terms(data: Data, n_terms: int, previous: Fit | None = None, noise: ARNoise | None = None,
@@ -210,6 +227,32 @@ def fit_prony(data: Data, max_terms: int = 6, n_terms: int | None = None,
     """
     with one_blas_thread():     # (small matrices: see creepcomp.fit.blas)
         return _fit_prony(data, max_terms, n_terms, folds, effects)
+
+
+#: Most creep terms tried for a record by :func:`fit_record` (``creepcomp fit --max-terms``).
+FIT_MAX_TERMS = 8
+
+
+def fit_record(record, initial: str = "free", load_step_at: float | None = None,
+               n_terms: int | None = None, max_terms: int = FIT_MAX_TERMS,
+               effects: tuple[Applied, ...] = ()) -> PronyResult:
+    """Prepare a record (:func:`~creepcomp.fit.data.prepare`) and fit it (:func:`fit_prony`):
+    what ``creepcomp fit`` does with one record once it is read (and, when long, reduced).
+
+    Parameters
+    ----------
+    record : Record (or anything :func:`~creepcomp.fit.data.prepare` takes)
+    initial, load_step_at
+        As :func:`~creepcomp.fit.data.prepare`.
+    n_terms, max_terms, effects
+        As :func:`fit_prony`.
+
+    Returns
+    -------
+    PronyResult
+    """
+    data = prepare(record, initial=initial, load_step_at=load_step_at)
+    return fit_prony(data, max_terms=max_terms, n_terms=n_terms, effects=effects)
 
 
 def _fit_prony(data: Data, max_terms: int, n_terms: int | None, folds: int,

@@ -27,6 +27,7 @@ little; the held-out tests, whose spread follows the residual's spectrum, stay t
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import replace
 from pathlib import Path
 from typing import Callable, Mapping, Sequence
@@ -299,7 +300,7 @@ def read_reduced(path: str | Path, max_samples: Sequence[int] = (MAX_FIT_SAMPLES
 
     Parameters
     ----------
-    path : str or Path
+    path : str or Path (or anything :func:`~creepcomp.io.formats.read_any` takes, read whole)
     max_samples : sequence of int
         The reductions wanted.
     columns, delimiter, duplicate_times, taxel, sheet
@@ -319,7 +320,8 @@ def read_reduced(path: str | Path, max_samples: Sequence[int] = (MAX_FIT_SAMPLES
     """
     from creepcomp.io.formats import read_any
 
-    if not reads_whole(path, duplicate_times, taxel, sheet, block_bytes):
+    if isinstance(path, (str, os.PathLike)) and not reads_whole(path, duplicate_times, taxel, sheet,
+                                                                block_bytes):
         reduced = _read_reduced_chunks(path, _targets(max_samples), columns, delimiter, progress,
                                        block_bytes, grown_samples)
         if reduced is not None:

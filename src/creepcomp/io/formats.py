@@ -11,6 +11,7 @@ refused before it is opened.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Mapping
 
@@ -26,9 +27,13 @@ def read_any(path: str | Path, columns: Mapping[str, str] | None = None, delimit
     """Read a record from a CSV/text file, a gzip-compressed one, an insole ``.mat`` file or a
     creep ``.xlsx`` workbook.
 
+    Anything that is not a path (an open file, a data frame, arrays, a :class:`Record`) goes
+    to :func:`~creepcomp.io.records.read_record`: the API's functions that take a record read
+    it here.
+
     Parameters
     ----------
-    path : str or Path
+    path : str, Path, or anything :func:`~creepcomp.io.records.read_record` takes
     columns, delimiter, duplicate_times
         As :func:`creepcomp.io.records.read_record` (text files only).
     taxel : int, optional
@@ -41,6 +46,10 @@ def read_any(path: str | Path, columns: Mapping[str, str] | None = None, delimit
     InputError
         For an option that does not apply to the file's kind, and every reader's own errors.
     """
+    if not isinstance(path, (str, os.PathLike)):
+        if taxel is not None or sheet is not None:
+            raise InputError("a taxel or a sheet applies to .mat or .xlsx files only")
+        return read_record(path, columns, delimiter=delimiter, duplicate_times=duplicate_times)
     p = Path(path)
     check_input_file(p, "record")
     suffix = p.suffix.lower()

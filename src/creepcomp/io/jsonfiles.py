@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from creepcomp.display import Shown, data_frame
 from creepcomp.errors import InputError
 from creepcomp.io.atomic import write_text_atomic
 from creepcomp.io.inputs import MAX_JSON_BYTES, check_input_file
@@ -81,7 +82,7 @@ def write_model(path: str | Path, model: CreepModel) -> Path:
 
 
 @dataclass(frozen=True)
-class Design:
+class Design(Shown):
     """A design file: the creep it was sized for and the network that is built.
 
     Attributes
@@ -95,6 +96,20 @@ class Design:
     model: CreepModel
     network: Network
     extra: dict = field(default_factory=dict)
+
+    def __repr__(self) -> str:
+        from creepcomp.units import format_percent
+
+        parts = self.network.parts()
+        return (f"<Design {self.network.topology} network of {len(parts)} parts for "
+                f"{self.model.n_terms} creep term{'s' if self.model.n_terms > 1 else ''} "
+                f"(beta0 {format_percent(self.model.beta0)})>")
+
+    def to_pandas(self):
+        """The network's parts: label, kind (``R`` or ``C``) and value (Ω or F)."""
+        parts = self.network.parts()
+        return data_frame({"part": [p[0] for p in parts], "kind": [p[1] for p in parts],
+                           "value": [p[2] for p in parts]})
 
     def to_dict(self) -> dict:
         """Design-file form."""

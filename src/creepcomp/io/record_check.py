@@ -149,8 +149,12 @@ def no_header_error(source: str, mapping: Mapping[str, str]) -> InputError:
 
 
 def resolve_columns(header: Sequence[str], mapping: Mapping[str, str], source: str,
-                    header_at: int) -> ColumnMap:
-    """Where each record column is in ``header`` (or its constant); raise for missing ones."""
+                    header_at: int | None) -> ColumnMap:
+    """Where each record column is in ``header`` (or its constant); raise for missing ones.
+    ``header_at`` is the header's line in a file (None: columns held in memory, which the
+    messages then name without a line)."""
+    where = source if header_at is None else f"{source}, line {header_at + 1}"
+    mapping_hint = "--columns" if header_at is not None else "columns={'time': NAME, ...}"
     lowered = [h.lower() for h in header]
     read: dict[str, int] = {}
     constants: dict[str, float] = {}
@@ -160,15 +164,15 @@ def resolve_columns(header: Sequence[str], mapping: Mapping[str, str], source: s
             constants[name] = float(mapping[name])
             continue
         if wanted is not None and wanted.lower() in lowered:
-            read[name] = _only_column(header, wanted, source, header_at)
+            read[name] = _only_column(header, wanted, where)
         elif name in mapping:
-            raise InputError(f"{source}, line {header_at + 1}: mapped column '{mapping[name]}' for "
+            raise InputError(f"{where}: mapped column '{mapping[name]}' for "
                              f"'{name}' not found; columns found: {', '.join(header)}")
     missing = [c for c in REQUIRED if c not in read and c not in constants]
     if missing:
-        raise InputError(f"{source}, line {header_at + 1}: missing required column"
+        raise InputError(f"{where}: missing required column"
                          f"{'s' if len(missing) > 1 else ''} {', '.join(repr(m) for m in missing)}; "
-                         f"columns found: {', '.join(header)} (map others with --columns)")
+                         f"columns found: {', '.join(header)} (map others with {mapping_hint})")
     return ColumnMap(tuple(header), read, constants)
 
 
@@ -291,11 +295,11 @@ def _first_step_not_forward(t: np.ndarray) -> int | None:
     return int(bad[0]) + 1 if bad.size else None
 
 
-def _only_column(header: Sequence[str], wanted: str, source: str, header_at: int) -> int:
+def _only_column(header: Sequence[str], wanted: str, where: str) -> int:
     """The index of the one column named ``wanted`` (in any case); raise when several are."""
     hits = [i for i, h in enumerate(header) if h.lower() == wanted.lower()]
     if len(hits) > 1:
-        raise InputError(f"{source}, line {header_at + 1}: columns "
+        raise InputError(f"{where}: columns "
                          f"{' and '.join(repr(header[i]) for i in hits)} are the same column "
                          f"'{wanted.lower()}' (names are read in any case): rename or drop one")
     return hits[0]

@@ -33,6 +33,7 @@ from typing import Callable, Iterator, Mapping
 
 import numpy as np
 
+from creepcomp.display import Shown, data_frame
 from creepcomp.errors import InputError
 from creepcomp.io.inputs import check_input_file, gunzipped, open_input
 from creepcomp.io.record_check import (COLUMNS, OPTIONAL, REQUIRED, TIME_UNITS_TO_SECONDS,
@@ -84,8 +85,8 @@ def _file_bytes(path) -> int:
     return st.st_size if stat.S_ISREG(st.st_mode) else 0
 
 
-@dataclass(frozen=True)
-class Record:
+@dataclass(frozen=True, eq=False)
+class Record(Shown):
     """A measured record.
 
     Attributes
@@ -117,6 +118,26 @@ class Record:
 
     def __len__(self) -> int:
         return len(self.time)
+
+    def __repr__(self) -> str:
+        from creepcomp.units import format_quantity, format_time
+
+        ranges = ", ".join(f"{c} {format_quantity(float(getattr(self, c).min()), self.unit(c))} to "
+                           f"{format_quantity(float(getattr(self, c).max()), self.unit(c))}"
+                           for c in ("load", "signal"))
+        return f"<Record {self.source!r}: {len(self)} samples over {format_time(self.duration)}; {ranges}>"
+
+    def to_dict(self) -> dict:
+        """JSON form of what the record is (the columns' data: :meth:`to_pandas`): source,
+        samples, duration (s), the columns present, units and metadata."""
+        return {"source": self.source, "samples": len(self), "duration_s": self.duration,
+                "columns": [c for c in COLUMNS if getattr(self, c) is not None],
+                "units": {c: self.unit(c) for c in COLUMNS if self.unit(c)},
+                "metadata": {str(k): str(v) for k, v in self.metadata.items()}}
+
+    def to_pandas(self):
+        """The columns as a pandas DataFrame (pandas needed; imported here)."""
+        return data_frame({c: getattr(self, c) for c in COLUMNS if getattr(self, c) is not None})
 
     @property
     def duration(self) -> float:
@@ -201,27 +222,37 @@ def parse_columns(text: str | None) -> dict[str, str]:
     return out
 
 
-def read_record(path: str | Path, columns: Mapping[str, str] | None = None,
-                delimiter: str | None = None, duplicate_times: str = "error") -> Record:
-    """Read and check a measured record.
+def read_record(path, columns: Mapping[str, str] | None = None,
+                delimiter: str | None = None, duplicate_times: str = "error",
+                metadata: Mapping[str, str] | None = None) -> Record:
+    """Read and check a measured record: from a file, an open file, a data frame or arrays.
 
     A plain file is read by pyarrow; a file whose head or data are not plain (a blank or
     non-numeric cell, a short row, time not increasing ...) by the line reader
-    (:func:`parse_record`), which names the line and column of the first problem.
+    (:func:`parse_record`), which names the line and column of the first problem. Columns
+    held in memory are matched by name in the same way and checked in the same way (numbers,
+    finite, time strictly increasing); nothing is converted or dropped.
 
     Parameters
     ----------
-    path : str or Path
-        CSV file, or a gzip-compressed one (``.gz``: decompressed into a temporary file, with
-        the bound of :func:`creepcomp.io.inputs.gzip_limit`).
+    path : str, Path, file object, data frame, mapping or Record
+        A CSV file, or a gzip-compressed one (``.gz``: decompressed into a temporary file, with
+        the bound of :func:`creepcomp.io.inputs.gzip_limit`); an open file of CSV text (text
+        or bytes); a data frame (pandas, polars, a pyarrow table, or any object with
+        ``columns`` and ``frame[name]``: neither pandas nor polars is needed otherwise) or a
+        numpy structured array; a mapping of column name -> array. A :class:`Record` is
+        returned as it is.
     columns : mapping, optional
-        Record column -> the file's column name (or a constant number).
+        Record column -> the file's (or frame's) column name (or a constant number).
     delimiter : str, optional
         Field delimiter; default: detected from the header (comma, tab or semicolon).
     duplicate_times : {"error", "mean"}
         Repeated time stamps are an error, or (asked for explicitly, e.g. for files whose
         time stamps were rounded) the rows sharing a time are averaged; the number merged is
         kept in ``metadata["merged_duplicate_times"]``.
+    metadata : mapping, optional
+        ``key: value`` pairs added to the record's (``units.load``, ``units.signal`` ...; a
+        key given here wins over the file's).
 
     Returns
     -------
@@ -230,8 +261,9 @@ def read_record(path: str | Path, columns: Mapping[str, str] | None = None,
     Raises
     ------
     InputError
-        Naming the file, line and column of the first problem; or the file and the reason
-        when it cannot be read.
+        Naming the file, line and column of the first problem (the sample of a column in
+        memory); or the file and the reason when it cannot be read; or the type of an object
+        that is none of the above.
 
     Examples
     --------
@@ -243,7 +275,24 @@ def read_record(path: str | Path, columns: Mapping[str, str] | None = None,
     (3001, ['time', 'load', 'signal'])
     >>> record.unit("load"), record.unit("signal"), record.duration
     ('N', 'V', 1500.0)
+
+    Arrays (or a data frame) with the columns' units:
+
+    >>> import numpy as np
+    >>> t = np.arange(5.0)
+    >>> arrays = {"Time": t, "load": [0, 1, 1, 1, 1], "signal": 2.0 * t}
+    >>> read_record(arrays, metadata={"units.signal": "V"}).unit("signal")
+    'V'
+    >>> read_record({"time": [0.0, 2.0, 1.0], "load": [0, 1, 1], "signal": [0, 1, 2]})
+    Traceback (most recent call last):
+    ...
+    creepcomp.errors.InputError: dict: time is not strictly increasing: sample 2 (1 s) goes back from the previous one (2 s)
     """
+    if metadata:
+        record = read_record(path, columns, delimiter, duplicate_times)
+        return replace(record, metadata={**record.metadata, **metadata})
+    if not isinstance(path, (str, os.PathLike)):
+        return _read_object(path, columns, delimiter, duplicate_times)
     p = Path(path)
     check_delimiter(delimiter)
     check_input_file(p, "record")
@@ -251,6 +300,57 @@ def read_record(path: str | Path, columns: Mapping[str, str] | None = None,
         with gunzipped(p, "record") as plain:
             return _read_plain(plain, str(p), columns, delimiter, duplicate_times)
     return _read_plain(p, str(p), columns, delimiter, duplicate_times)
+
+
+def _read_object(obj, columns, delimiter, duplicate_times) -> Record:
+    """:func:`read_record` of what is not a path: a Record, an open file or named columns."""
+    from creepcomp.io.columnar import column_arrays, named_columns
+
+    if isinstance(obj, Record):
+        if columns:
+            raise InputError(f"{obj.source}: a Record's columns are named already; "
+                             "give no column mapping")
+        return obj
+    if hasattr(obj, "read"):
+        return _read_open_file(obj, columns, delimiter, duplicate_times)
+    if named_columns(obj) is None:
+        raise InputError(f"record: a {type(obj).__module__}.{type(obj).__qualname__} is not a "
+                         "record: give a file's path, an open file, a data frame (pandas, "
+                         "polars, or any object with named columns) or a mapping of column "
+                         "name -> array")
+    source = type(obj).__name__
+    if delimiter is not None:
+        raise InputError(f"{source}: a delimiter is for text; columns in memory have none")
+    mapping = {k: str(v) for k, v in lower_keys(columns).items()}
+    arrays, metadata = column_arrays(obj, mapping, source, duplicate_times)
+    return Record(source=source, metadata=metadata, **{name: arrays.get(name) for name in COLUMNS})
+
+
+def _read_open_file(fh, columns, delimiter, duplicate_times) -> Record:
+    """:func:`read_record` of an open file of CSV text (text, or bytes of UTF-8 text): its
+    content goes to a temporary file read as any file is (the same readers, checks and
+    messages, naming the open file's name)."""
+    import tempfile
+
+    check_delimiter(delimiter)
+    name = getattr(fh, "name", None)
+    source = str(name) if isinstance(name, (str, os.PathLike)) else "open file"
+    try:
+        data = fh.read()
+    except OSError as exc:
+        raise InputError(f"record {source}: cannot read it ({exc.strerror or exc})") from None
+    if isinstance(data, str):
+        data = data.encode("utf-8")
+    elif not isinstance(data, bytes):
+        raise InputError(f"record {source}: read() gave a {type(data).__name__}, not text")
+    if data[:2] == b"\x1f\x8b":
+        raise InputError(f"record {source}: gzip-compressed: give its path, or open it "
+                         "with gzip.open(path, 'rt')")
+    with tempfile.TemporaryDirectory(prefix="creepcomp-record-") as folder:
+        copy = Path(folder) / "record.csv"
+        copy.write_bytes(data)
+        del data
+        return _read_plain(copy, source, columns, delimiter, duplicate_times)
 
 
 def _read_plain(p: Path, source: str, columns, delimiter, duplicate_times) -> Record:

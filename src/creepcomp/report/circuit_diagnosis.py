@@ -11,7 +11,7 @@ from creepcomp.diagnose.circuit import fault_prior
 from creepcomp.fit.noise import MISFIT_LIMIT, autocorrelation
 from creepcomp.units import format_quantity
 
-__all__ = ["UNITS", "quantity", "elements", "circuit_figures", "circuit_html"]
+__all__ = ["UNITS", "quantity", "elements", "element_text", "circuit_figures", "circuit_html"]
 
 #: Units of the circuit effects' parameters.
 UNITS = {"C": "F", "R": "Ω", "tau": "s", "fraction": ""}
@@ -95,7 +95,8 @@ def circuit_figures(cd, units: dict) -> list[tuple[str, str]]:
     return figs
 
 
-def _element(kind: str, value) -> str:
+def element_text(kind: str, value) -> str:
+    """An element's value in F or Ω, ``none`` when the network lacks it."""
     return "none" if value is None else format_quantity(value, "F" if kind == "C" else "Ω")
 
 
@@ -119,7 +120,7 @@ def circuit_html(cd, units: dict) -> Markup:
     prior = [{"effect": e, "rate": f"{100 * p['rate']:.3g} %", "plausible": p["plausible"], "why": p["why"]}
              for e, p in fault_prior().items()] if alternatives else []
     design, built = elements(cd.baseline.network), elements(cd.extended.network)
-    parts = [(label, _element(*design[label]), _element(*built[label]))
+    parts = [(label, element_text(*design[label]), element_text(*built[label]))
              for label in design if design[label][1] is not None or built[label][1] is not None]
     rc = cd.residual_creep
 

@@ -19,7 +19,7 @@ import jinja2
 from markupsafe import Markup
 from creepcomp.units import format_parameter, format_percent, format_quantity
 
-__all__ = ["save_figure", "png_base64", "figure_data_uri", "html_page", "html_table", "thin",
+__all__ = ["save_figure", "save_axes", "png_base64", "figure_data_uri", "html_page", "html_table", "thin",
            "format_cell", "format_named", "named_text", "plot_text", "render_template", "MAX_POINTS"]
 
 #: Most points drawn of one curve (longer records are thinned evenly).
@@ -93,6 +93,14 @@ def save_figure(fig, path, dpi: int = 110) -> Path:
     finally:
         plt.close(fig)
     return out
+
+
+def save_axes(ax, path, dpi: int = 110) -> Path:
+    """Save the figure a plot function drew ``ax`` in to ``path`` (laid out tightly,
+    atomically) and close it: the command line's file output of a plot."""
+    fig = ax.figure
+    fig.tight_layout()
+    return save_figure(fig, path, dpi=dpi)
 
 
 def png_base64(fig, dpi: int = 100) -> str:

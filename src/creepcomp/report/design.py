@@ -2,22 +2,20 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import matplotlib.pyplot as plt
 
 from creepcomp.analog.quality import step_residual, sweep_hysteresis
 from creepcomp.model import CreepModel
 from creepcomp.network import Network
-from creepcomp.report.common import save_figure
 
 __all__ = ["plot_design_comparison", "plot_over_temperature"]
 
 
-def plot_design_comparison(model: CreepModel, designs: dict[str, Network | None],
-                           path: str | Path, sweep_period: float | None = None,
-                           schematic: Network | None = None, plan=None) -> Path:
-    """Residual creep after a load step, and the sweep hysteresis loop, of several designs.
+def plot_design_comparison(model: CreepModel, designs: dict[str, Network | None], ax=None,
+                           sweep_period: float | None = None, schematic: Network | None = None,
+                           plan=None):
+    """Residual creep after a load step, and (in a new figure) the sweep hysteresis loop, of
+    several designs.
 
     Parameters
     ----------
@@ -25,19 +23,25 @@ def plot_design_comparison(model: CreepModel, designs: dict[str, Network | None]
         The sensor's creep.
     designs : dict
         Label to network (None for the uncorrected sensor).
-    path : str or Path
-        PNG file to write.
+    ax : matplotlib Axes, optional
+        Where to draw the step's residual creep; None: a new figure with the sweep's loop
+        beside it (and ``schematic`` above).
     sweep_period : float, optional
         Period of the triangular sweep (s).
     schematic : Network, optional
-        A network drawn above the plots (the chosen design), with ``plan``'s thermistors.
+        A network drawn above the plots of a new figure (the chosen design), with ``plan``'s
+        thermistors.
 
     Returns
     -------
-    Path
+    matplotlib Axes
+        The step's Axes (nothing is closed).
     """
-    if schematic is None:
-        fig, (ax_step, ax_loop) = plt.subplots(1, 2, figsize=(12, 4.8))
+    ax_loop = None
+    if ax is not None:
+        ax_step = ax
+    elif schematic is None:
+        _, (ax_step, ax_loop) = plt.subplots(1, 2, figsize=(12, 4.8))
     else:
         fig = plt.figure(figsize=(12, 9.0))
         grid = fig.add_gridspec(2, 2, height_ratios=(1.0, 1.1))
@@ -46,35 +50,38 @@ def plot_design_comparison(model: CreepModel, designs: dict[str, Network | None]
     for label, net in designs.items():
         t, e = step_residual(model, net)
         ax_step.plot(t, 100 * e, label=label)
-        _, load, up, down = sweep_hysteresis(model, net, sweep_period)
-        (line,) = ax_loop.plot(load, 100 * (up - load), label=label)
-        ax_loop.plot(load, 100 * (down - load), color=line.get_color())
+        if ax_loop is not None:
+            _, load, up, down = sweep_hysteresis(model, net, sweep_period)
+            (line,) = ax_loop.plot(load, 100 * (up - load), label=label)
+            ax_loop.plot(load, 100 * (down - load), color=line.get_color())
     ax_step.set_xscale("symlog", linthresh=max(min(model.tau) / 10, 1e-3))
     ax_step.set_xlabel("time after a load step (s)")
     ax_step.set_ylabel("residual creep (% of step)")
     ax_step.set_title("Load step")
     ax_step.axhline(0, color="0.6", lw=0.8)
     ax_step.legend(fontsize=8)
-    ax_loop.set_xlabel("load (fraction of full scale)")
-    ax_loop.set_ylabel("output - ideal output (% of FS)")
-    ax_loop.set_title("Triangular sweep ±FS, up and down branches")
-    ax_loop.axhline(0, color="0.6", lw=0.8)
-    for ax in (ax_step, ax_loop):
-        ax.grid(True, alpha=0.3)
-    fig.tight_layout()
-    return save_figure(fig, path)
+    ax_step.grid(True, alpha=0.3)
+    if ax_loop is not None:
+        ax_loop.set_xlabel("load (fraction of full scale)")
+        ax_loop.set_ylabel("output - ideal output (% of FS)")
+        ax_loop.set_title("Triangular sweep ±FS, up and down branches")
+        ax_loop.axhline(0, color="0.6", lw=0.8)
+        ax_loop.grid(True, alpha=0.3)
+    return ax_step
 
 
-def plot_over_temperature(comparison, path: str | Path) -> Path:
+def plot_over_temperature(comparison, ax=None):
     """Peak residual creep (%) against temperature of the designs compared over a range
     (:class:`creepcomp.analog.over_temperature.RangeComparison`), the uncorrected creep for
     reference, each design's worst case marked.
 
     Returns
     -------
-    Path
+    matplotlib Axes
+        ``ax``, or a new figure's (nothing is closed).
     """
-    fig, ax = plt.subplots(figsize=(8, 4.8))
+    if ax is None:
+        _, ax = plt.subplots(figsize=(8, 4.8))
     bare = comparison.designs[0].prediction
     ax.plot(bare.temperatures, [100 * x for x in bare.uncorrected], color="0.5", ls="--",
             label="uncorrected")
@@ -90,8 +97,7 @@ def plot_over_temperature(comparison, path: str | Path) -> Path:
     ax.set_ylim(bottom=0)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    return save_figure(fig, path)
+    return ax
 
 
 def _draw_schematic(ax, network: Network, plan) -> None:

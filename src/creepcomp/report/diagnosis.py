@@ -14,7 +14,7 @@ from creepcomp.fit.data import Data
 from creepcomp.fit.noise import autocorrelation, none_statement
 from creepcomp.fit.solver import Fit
 from creepcomp.report.common import (format_cell, plot_text, png_base64, render_template,
-                                     save_figure, thin)
+                                     thin)
 
 __all__ = ["plot_fit", "diagnosis_figures", "render_html", "write_report"]
 
@@ -24,14 +24,33 @@ def _labels(data: Data, units: dict) -> tuple[str, str, str]:
     return (f"signal ({su})" if su else "signal"), (f"load ({lu})" if lu else "load"), su
 
 
-def plot_fit(data: Data, fit: Fit, path, record=None) -> Path:
-    """Measured and fitted signal against time, with the load, and the residual."""
+def plot_fit(data: Data, fit: Fit, ax=None, record=None):
+    """Measured and fitted signal against time, with the load, and (in a new figure) the
+    residual below.
+
+    Parameters
+    ----------
+    data : Data
+        The record as fitted.
+    fit : Fit
+    ax : matplotlib Axes, optional
+        Where to draw the signals; None: a new figure with the residual under them.
+    record : Record, optional
+        For the units of the labels.
+
+    Returns
+    -------
+    matplotlib Axes
+        The signals' Axes (nothing is closed).
+    """
     units = {c: record.unit(c) for c in ("signal", "load")} if record is not None else {}
     ylabel, loadlabel, su = _labels(data, units)
     idx = thin(data.n)
     t = data.time[idx] - data.time[0]
-    fig, (ax, axr) = plt.subplots(2, 1, figsize=(11, 7), sharex=True,
-                                  gridspec_kw={"height_ratios": [2, 1]})
+    axr = None
+    if ax is None:
+        _, (ax, axr) = plt.subplots(2, 1, figsize=(11, 7), sharex=True,
+                                    gridspec_kw={"height_ratios": [2, 1]})
     ax.plot(t, data.signal[idx], ".", ms=2, color="0.5", label="measured")
     ax.plot(t, fit.prediction[idx], "-", color="C0", lw=1.2, label=f"fit ({fit.structure.describe()})")
     ax.set_ylabel(ylabel)
@@ -39,21 +58,25 @@ def plot_fit(data: Data, fit: Fit, path, record=None) -> Path:
     axl.plot(t, data.load[idx], color="C2", lw=0.8, alpha=0.6)
     axl.set_ylabel(loadlabel, color="C2")
     ax.legend(loc="upper left", fontsize=8)
-    axr.plot(t, fit.residual[idx], ".", ms=2, color="C0")
-    if fit.heldout is not None:
-        axr.plot(t, fit.heldout.residual[idx], ".", ms=1, color="C1", alpha=0.5, label="held out")
-        axr.legend(loc="upper right", fontsize=8)
-    axr.axhline(0, color="0.4", lw=0.8)
-    axr.set_ylabel(f"residual ({su})" if su else "residual")
-    axr.set_xlabel(f"time since the first sample (s); first sample at {data.time[0]:g} s")
-    if data.load_step_at is not None or data.duration / max(data.dt_small, 1e-300) > 1e4:
-        if data.load_step_at is not None:
-            for a in (ax, axr):
-                a.set_xscale("symlog", linthresh=max(data.dt_small, 1e-6))
-    for a in (ax, axr):
+    xlabel = f"time since the first sample (s); first sample at {data.time[0]:g} s"
+    panels = [ax]
+    if axr is not None:
+        axr.plot(t, fit.residual[idx], ".", ms=2, color="C0")
+        if fit.heldout is not None:
+            axr.plot(t, fit.heldout.residual[idx], ".", ms=1, color="C1", alpha=0.5, label="held out")
+            axr.legend(loc="upper right", fontsize=8)
+        axr.axhline(0, color="0.4", lw=0.8)
+        axr.set_ylabel(f"residual ({su})" if su else "residual")
+        axr.set_xlabel(xlabel)
+        panels.append(axr)
+    else:
+        ax.set_xlabel(xlabel)
+    if data.load_step_at is not None:
+        for a in panels:
+            a.set_xscale("symlog", linthresh=max(data.dt_small, 1e-6))
+    for a in panels:
         a.grid(True, alpha=0.3)
-    fig.tight_layout()
-    return save_figure(fig, path, dpi=100)
+    return ax
 
 
 def diagnosis_figures(diagnosis, units: dict) -> list[tuple[str, str]]:

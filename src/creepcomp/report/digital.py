@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import matplotlib.pyplot as plt
 import numpy as np
 
 from creepcomp.analog.quality import sweep_branches
-from creepcomp.report.common import plot_text, save_figure
+from creepcomp.report.common import plot_text
 
 __all__ = ["ERROR_FLOOR", "plot_correction", "plot_step_outcomes", "plot_sweep_outcomes"]
 
@@ -16,35 +14,44 @@ __all__ = ["ERROR_FLOOR", "plot_correction", "plot_step_outcomes", "plot_sweep_o
 ERROR_FLOOR = 1e-16
 
 
-def _save(fig, path) -> Path:
-    fig.tight_layout()
-    return save_figure(fig, path)
-
-
-def plot_correction(time, signal, compensated, reference, path, title: str = "",
-                    signal_unit: str = "", full_scale: float | None = None) -> Path:
-    """A corrected record: raw, compensated and reference signals; error before and after.
+def plot_correction(time, signal, compensated, reference, ax=None, title: str = "",
+                    signal_unit: str = "", full_scale: float | None = None):
+    """A corrected record: raw, compensated and reference signals; in a new figure also the
+    error before and after below.
 
     Parameters
     ----------
     time, signal, compensated, reference : array_like
         Samples (signal units); ``reference`` is what an exact correction returns.
-    path : str or Path
-        PNG file.
+    ax : matplotlib Axes, optional
+        Where to draw the signals; None: a new figure with the errors under them.
     title, signal_unit : str
         For the labels.
     full_scale : float, optional
         Full-scale output; errors are then drawn as a percentage of it.
+
+    Returns
+    -------
+    matplotlib Axes
+        The signals' Axes (nothing is closed).
     """
     t = np.asarray(time)
     signal_unit, title = plot_text(signal_unit), plot_text(title)
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(11, 7), sharex=True)
+    bottom = None
+    if ax is None:
+        _, (top, bottom) = plt.subplots(2, 1, figsize=(11, 7), sharex=True)
+    else:
+        top = ax
     top.plot(t, signal, label="raw", lw=1.0)
     top.plot(t, compensated, label="compensated", lw=1.0)
     top.plot(t, reference, "k--", label="reference (from load)", lw=0.8)
     top.set_ylabel(f"signal ({signal_unit})" if signal_unit else "signal")
     top.set_title(title)
     top.legend(fontsize=8)
+    top.grid(True, alpha=0.3)
+    if bottom is None:
+        top.set_xlabel("time (s)")
+        return top
     scale, unit = ((100.0 / full_scale, "% of FS") if full_scale else (1.0, signal_unit or "signal units"))
     for values, label in ((signal, "raw"), (compensated, "compensated")):
         err = np.maximum(np.abs(np.asarray(values) - reference) * scale, ERROR_FLOOR)
@@ -52,18 +59,18 @@ def plot_correction(time, signal, compensated, reference, path, title: str = "",
     bottom.set_ylabel(f"|error| ({unit})")
     bottom.set_xlabel("time (s)")
     bottom.legend(fontsize=8)
-    for ax in (top, bottom):
-        ax.grid(True, alpha=0.3)
-    return _save(fig, path)
+    bottom.grid(True, alpha=0.3)
+    return top
 
 
-def plot_step_outcomes(record, outcomes, path) -> Path:
-    """Loading and unloading steps (the paper's figs. 3-5): signals and creep errors."""
+def plot_step_outcomes(record, outcomes):
+    """Loading and unloading steps (the paper's figs. 3-5): signals and creep errors, in a
+    new figure of three panels; returns the first Axes (nothing is closed)."""
     from creepcomp.digital.correctors import reference
 
     t = record.time
     model = record.model
-    fig, axes = plt.subplots(3, 1, figsize=(11, 10), sharex=True)
+    _, axes = plt.subplots(3, 1, figsize=(11, 10), sharex=True)
     for ax, method in zip(axes[:2], ("subtractive", "supplemental")):
         ax.plot(t, record.signal, label="raw signal", lw=1.0)
         for o in outcomes:
@@ -85,16 +92,17 @@ def plot_step_outcomes(record, outcomes, path) -> Path:
     ax.legend(fontsize=7, ncol=2)
     for ax in axes:
         ax.grid(True, alpha=0.3)
-    return _save(fig, path)
+    return axes[0]
 
 
-def plot_sweep_outcomes(record, outcomes, path) -> Path:
-    """Hysteresis loops of the triangular sweep (the paper's fig. 6), last period."""
+def plot_sweep_outcomes(record, outcomes):
+    """Hysteresis loops of the triangular sweep (the paper's fig. 6), last period, in a new
+    figure of two panels; returns the first Axes (nothing is closed)."""
     from creepcomp.digital.correctors import saturation_factor
 
     model, m = record.model, record.quarter_points
     fs = float(np.max(np.abs(record.load)))
-    fig, (loops, detail) = plt.subplots(1, 2, figsize=(13, 5))
+    _, (loops, detail) = plt.subplots(1, 2, figsize=(13, 5))
     styles = ["-", "--", ":", "-."]
     for i, o in enumerate(outcomes):
         full = abs(model.gain) * saturation_factor(model, o.method) * fs
@@ -113,4 +121,4 @@ def plot_sweep_outcomes(record, outcomes, path) -> Path:
         ax.set_ylabel("output - ideal output (% of FS output)")
         ax.legend(fontsize=7)
         ax.grid(True, alpha=0.3)
-    return _save(fig, path)
+    return loops

@@ -2,24 +2,36 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import matplotlib.pyplot as plt
 
-from creepcomp.report.common import save_figure
 from creepcomp.verify.compare import Comparison
 
 __all__ = ["plot_comparison"]
 
 
-def plot_comparison(comparison: Comparison, path: str | Path) -> Path:
-    """Creeping input, corrected output from both simulators, residual creep, and their
-    difference, in one PNG."""
+def plot_comparison(comparison: Comparison, ax=None):
+    """Creeping input and corrected output from both simulators; in a new figure also the
+    residual creep and the simulators' difference below.
+
+    Parameters
+    ----------
+    comparison : Comparison
+    ax : matplotlib Axes, optional
+        Where to draw the signals; None: a new figure of all panels.
+
+    Returns
+    -------
+    matplotlib Axes
+        The signals' Axes (nothing is closed).
+    """
     c = comparison
     ref, sp = c.reference, c.spice
     synthetic = ref.instantaneous is not None
     rows = 3 if synthetic else 2
-    fig, axes = plt.subplots(rows, 1, figsize=(10, 2.9 * rows + 0.6), sharex=True)
+    if ax is None:
+        _, axes = plt.subplots(rows, 1, figsize=(10, 2.9 * rows + 0.6), sharex=True)
+    else:
+        axes = [ax]
     t = ref.time
     ax = axes[0]
     scale = c.full_scale if synthetic else 1.0
@@ -35,6 +47,10 @@ def plot_comparison(comparison: Comparison, path: str | Path) -> Path:
     ax.set_ylabel("fraction of full scale" if synthetic else "signal (V)")
     ax.set_title(f"{c.drive}: sensor and corrected output")
     ax.legend(fontsize=8, loc="best")
+    if len(axes) == 1:
+        ax.set_xlabel("time (s)")
+        ax.grid(True, alpha=0.3)
+        return ax
     if synthetic:
         ax = axes[1]
         ax.plot(t, 100 * c.residual("reference"), color="tab:blue", lw=2.2, alpha=0.6,
@@ -61,5 +77,4 @@ def plot_comparison(comparison: Comparison, path: str | Path) -> Path:
     ax.set_xlabel("time (s)")
     for a in axes:
         a.grid(True, alpha=0.3)
-    fig.tight_layout()
-    return save_figure(fig, path)
+    return axes[0]

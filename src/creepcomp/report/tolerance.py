@@ -10,6 +10,7 @@ from matplotlib.ticker import MaxNLocator
 
 from creepcomp.io.atomic import write_text_atomic
 from creepcomp.report.common import figure_data_uri, format_named, html_page, html_table
+from creepcomp.report.results import distribution_table, sensitivity_table
 from creepcomp.units import format_parameter, format_percent, format_quantity, format_time
 
 __all__ = ["tolerance_report_html", "conditions", "schematic_section", "over_temperature_block"]
@@ -114,11 +115,8 @@ def tolerance_report_html(report, path: str | Path, design_file: str | Path | No
     sens_png = figure_data_uri(fig)
 
     pct = format_percent
-    summary_rows = [[names[m], _percent(report.nominal.get(m)[0])] +
-                    [_percent(v) for v in r.percentiles(m).values()] for m in ("peak", "final", "hysteresis")]
     sections = [("Design and conditions", html_table(["item", "value (with its unit)"], conditions(r, design_file))),
-                ("Summary", html_table(["residual (% of FS)", "nominal (%)", "p50 (%)", "p95 (%)", "p99 (%)",
-                                        "max (%)"], summary_rows) +
+                ("Summary", distribution_table(r, report.nominal).to_html() +
                  f"<p class='note'>{r.n:,} samples, seed {r.seed}, {format_quantity(r.seconds, 's')}; "
                  f"hysteresis of a ±FS triangular sweep of period {format_time(r.sweep_period)}.</p>")]
     if getattr(r, "design", None) is not None:
@@ -131,8 +129,7 @@ def tolerance_report_html(report, path: str | Path, design_file: str | Path | No
         sections.append(("Over temperature", over_temperature_block(report)))
     sections.append(("Distributions", f"<img alt='histograms' src='{hist}'>"))
     sections.append(("Sensitivity", f"<img alt='sensitivity chart' src='{sens_png}'>" +
-                     html_table(["factor", "share of spread (%)", "p99 when only it varies (% of FS)"],
-                                [[s.factor, f"{100 * s.share:.1f}", _percent(s.p99_alone)] for s in sens])))
+                     sensitivity_table(sens).to_html()))
     if getattr(report, "creep_test", None) is not None:
         sections.append(("OIML R 60 creep test", _creep_test_section(report.creep_test, pct)))
     if report.tightenings:

@@ -17,6 +17,7 @@ import numpy as np
 
 from creepcomp.analog.parts import PartsPlan, network_at
 from creepcomp.analog.quality import corrected_system
+from creepcomp.display import Shown, data_frame
 from creepcomp.errors import InputError
 from creepcomp.lti import is_uniform
 from creepcomp.model import CreepModel
@@ -85,8 +86,8 @@ def reference_transient(network: Network, model: CreepModel, program: LoadProgra
     return Waveforms(t, signal * sensor, signal * output, signal * u)
 
 
-@dataclass(frozen=True)
-class Comparison:
+@dataclass(frozen=True, eq=False)
+class Comparison(Shown):
     """One design simulated by python-control and by ngspice on the same time points.
 
     Attributes
@@ -179,6 +180,25 @@ class Comparison:
     def residual_creep_final(self) -> float | None:
         """Residual creep at the end, from ngspice (python-control when it did not run)."""
         return self._residual_figures("spice" if self.spice is not None else "reference")[2]
+
+    def __repr__(self) -> str:
+        from creepcomp.units import format_percent
+
+        peak = self.residual_creep_peak
+        creep = "" if peak is None else f"peak residual creep {format_percent(peak)} of FS, "
+        agree = (f"ngspice agrees to {self.agreement_max_abs:.2g} of FS" if self.spice is not None
+                 else "ngspice not run")
+        at = "" if self.temperature is None else f" at {self.temperature:g} °C"
+        return f"<Comparison {self.drive}{at}: {creep}{agree}>"
+
+    def to_pandas(self):
+        """The waveforms (V) on the common time points (s): python-control's sensor and
+        output, ngspice's output when it ran."""
+        ref = self.reference
+        columns = {"time": ref.time, "sensor": ref.sensor, "output": ref.output}
+        if self.spice is not None:
+            columns["output_ngspice"] = self.spice.output
+        return data_frame(columns)
 
     def to_dict(self) -> dict:
         """JSON form (``simulate --json``): fractions of full scale, seconds, volts."""

@@ -44,6 +44,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from creepcomp.display import Shown, data_frame
 from creepcomp.errors import InputError
 from creepcomp.lti import cascade_lags
 from creepcomp.model import CreepModel
@@ -363,8 +364,8 @@ def lag_readings(rel, q, program: CreepTestProgram, chunk: int = 4096) -> Readin
     return Readings(*out)
 
 
-@dataclass
-class CreepTestResult:
+@dataclass(eq=False)
+class CreepTestResult(Shown):
     """The creep test of one target at several temperatures.
 
     ``rows`` hold, per temperature, the readings (fractions of FS), ``pass`` and the margins
@@ -385,6 +386,16 @@ class CreepTestResult:
     def passed(self) -> bool:
         """Whether every temperature passes."""
         return all(r["pass"] for r in self.rows)
+
+    def __repr__(self) -> str:
+        temps = ", ".join(f"{r['temperature']:g}" for r in self.rows)
+        return (f"<CreepTestResult {self.target}, OIML R 60 class {self.limits.label}: "
+                f"{'pass' if self.passed else 'FAIL'} at {temps} °C>")
+
+    def to_pandas(self):
+        """One row per temperature: readings and margins (fractions of FS) and the verdict."""
+        keys = ("temperature", "creep_30min", "creep_20_30min", "dr", "dr_30min", "pass")
+        return data_frame({k: [r[k] for r in self.rows] for k in keys})
 
     def to_dict(self) -> dict:
         """``creep-test --json``: ``class``, ``n_max``, ``limits``, ``temperatures``, ``pass``."""

@@ -19,6 +19,7 @@ from typing import Callable
 
 import numpy as np
 
+from creepcomp.display import Shown, data_frame
 from creepcomp.errors import CreepcompError, InputError
 from creepcomp.interrupts import interrupts_held
 from creepcomp.io.jsonfiles import Design
@@ -147,8 +148,8 @@ class StreamingPercentiles:
                 "p99": self.percentile(99), "max": self.max}
 
 
-@dataclass(frozen=True)
-class MonteCarloResult:
+@dataclass(frozen=True, eq=False)
+class MonteCarloResult(Shown):
     """Figures of a Monte Carlo run: exact ``n``, min and max, streaming percentiles, exact
     yield against the limit given to the run, and the first block of samples (``values``,
     ``metrics``: every sample when ``n`` fits in one block)."""
@@ -168,6 +169,26 @@ class MonteCarloResult:
     within_limit: int = 0
     within_limit_by_temperature: tuple[int, ...] = ()
     worst_temperature_counts: tuple[int, ...] = ()
+
+    def __repr__(self) -> str:
+        from creepcomp.units import format_percent
+
+        p = self.percentiles("peak")
+        return (f"<MonteCarloResult {self.n:,} samples, seed {self.seed}: peak residual creep "
+                f"p50 {format_percent(p['p50'])}, p99 {format_percent(p['p99'])}, max {format_percent(p['max'])}>")
+
+    def to_dict(self) -> dict:
+        """JSON form: samples, seed, seconds and each metric's percentiles (fractions of FS)."""
+        return {"n": self.n, "seed": self.seed, "seconds": self.seconds, "sweep_period": self.sweep_period,
+                "residual_creep_peak": self.percentiles("peak"),
+                "residual_creep_final": self.percentiles("final"),
+                "hysteresis": self.percentiles("hysteresis"), "limit": self.limit}
+
+    def to_pandas(self):
+        """The samples kept: each factor's value and each metric (fractions of FS) per unit."""
+        columns = {name: np.asarray(v)[:self.kept] for name, v in self.values.items()}
+        columns.update({m: self.metrics.get(m) for m in ("peak", "final", "hysteresis")})
+        return data_frame(columns)
 
     @property
     def temperatures(self) -> tuple[float, ...]:

@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
+from creepcomp.display import Shown
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import Design
 from creepcomp.verify.montecarlo import MonteCarloResult, nominal_metrics, run_monte_carlo, spot_check
@@ -17,8 +18,8 @@ from creepcomp.verify.worstcase import WorstCase, worst_case
 __all__ = ["ToleranceReport", "analyse"]
 
 
-@dataclass(frozen=True)
-class ToleranceReport:
+@dataclass(frozen=True, eq=False)
+class ToleranceReport(Shown):
     """Everything ``creepcomp mc`` reports."""
 
     result: MonteCarloResult
@@ -31,6 +32,21 @@ class ToleranceReport:
     sensitivity_samples: int = 0
     spot_check: dict | None = None
     creep_test: dict | None = None
+
+    def __repr__(self) -> str:
+        from creepcomp.units import format_percent
+
+        r = self.result
+        p99 = r.percentiles(self.metric)["p99"]
+        spec = ""
+        if self.limit is not None:
+            spec = f", yield {100 * r.yield_against(self.limit, self.metric)[0]:.2f} % within {format_percent(self.limit)}"
+        dominant = f", dominant {self.sensitivities[0].factor}" if self.sensitivities else ""
+        return f"<ToleranceReport {r.n:,} samples: {self.metric} p99 {format_percent(p99)} of FS{spec}{dominant}>"
+
+    def to_pandas(self):
+        """The samples kept (:meth:`MonteCarloResult.to_pandas`)."""
+        return self.result.to_pandas()
 
     def to_dict(self) -> dict:
         """``mc --json``: ``n``, ``residual_creep_peak`` percentiles, ``seconds`` and the rest."""
