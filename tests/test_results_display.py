@@ -296,3 +296,12 @@ def test_the_terminal_prints_text_from_a_file_as_written():
     console.print(table.to_rich())
     text = console.export_text()
     assert "[red]title" in text and "[b]column" in text and "[bold]x[/bold]" in text and "FAIL" in text
+
+
+def test_a_corrector_says_what_it_is():
+    from creepcomp.digital.correctors import Corrector
+
+    corrector = Corrector(MODEL, dt=0.5)
+    assert repr(corrector) == "<Corrector subtractive, 1 term, dt 0.5 s, zero hold: not started>"
+    corrector.process([0.0, 1.0])
+    assert repr(corrector).endswith("running>")
