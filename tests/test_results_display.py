@@ -305,3 +305,20 @@ def test_a_corrector_says_what_it_is():
     assert repr(corrector) == "<Corrector subtractive, 1 term, dt 0.5 s, zero hold: not started>"
     corrector.process([0.0, 1.0])
     assert repr(corrector).endswith("running>")
+
+
+def test_a_refused_design_shows_why_and_the_way_out():
+    from creepcomp.analog.network_design import design_network
+
+    design = design_network(CreepModel.voigt(0.03, 45.0), load_resistance=1e6)
+    assert design.refused and "\n" not in repr(design) and "way out" in repr(design)
+    text = design.report()
+    assert "impractical: load resistance 1 MΩ is too low" in text
+    assert f"way out: {design.way_out.description}" in text
+    assert design.to_dict()["practical"] is False
+    json.dumps(design.to_dict())
+    fig, ax = plt.subplots()
+    try:
+        assert design.plot(ax=ax) is ax and ax.lines
+    finally:
+        plt.close("all")

@@ -409,9 +409,13 @@ def verdict_lines(design) -> tuple[str, ...]:
 
 def network_design_summary(design) -> Summary:
     """A network design (``creepcomp size``): the sizing, the designs over the range, the
-    bill of materials and the verdict."""
+    bill of materials and the verdict; a refused design's reasons and the way out."""
+    refusal = ()
+    if design.refused:
+        refusal = tuple(f"impractical: {reason}" for reason in design.reasons) + (
+            f"way out: {design.way_out.description}",)
     if design.sizing is None:
-        return Summary("creepcomp size: refused", (), (), tuple(design.reasons))
+        return Summary("creepcomp size: refused", (describe_model(design.model),), (), refusal)
     sizing = sizing_summary(design.at_reference)
     tables, warnings = list(sizing.tables), list(sizing.warnings)
     lines = list(sizing.lines)
@@ -422,7 +426,7 @@ def network_design_summary(design) -> Summary:
         warnings += over.warnings
     if design.bom:
         tables.append(bom_table(design.bom))
-    footer = sizing.footer + (verdict_lines(design) if design.verdict is not None else ())
+    footer = sizing.footer + (refusal or verdict_lines(design))
     return Summary(sizing.heading, tuple(lines), tuple(tables), footer, tuple(warnings))
 
 
