@@ -267,9 +267,11 @@ class CreepModel(Shown):
                           for b, t in list(zip(self.beta, self.tau))[:shown])
         terms += f", {n - shown} more" if n > shown else ""
         more = (f"; temperature law about {self.temperature.reference:g} °C" if self.temperature else "") + \
-            (f"; extensions {', '.join(map(str, self.extensions))}" if self.extensions else "")
-        return (f"<CreepModel {n} term{'s' if n > 1 else ''}: {terms} (beta0 {format_percent(self.beta0)}), "
-                f"gain {self.gain:.4g}, offset {self.offset:.4g}{more}>")
+            (f"; extensions {', '.join(map(str, self.extensions))}" if self.extensions else "") + \
+            (f"; {self.transfer.describe()}" if self.transfer is not None else "")
+        creep = (f"{n} term{'s' if n > 1 else ''}: {terms} (beta0 {format_percent(self.beta0)})" if n
+                 else "static calibration")
+        return f"<CreepModel {creep}, gain {self.gain:.4g}, offset {self.offset:.4g}{more}>"
 
     def to_dict(self) -> dict:
         """Model-file form: ``beta``, ``tau``, ``gain``, ``offset`` and any extensions."""

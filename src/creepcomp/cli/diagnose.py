@@ -125,24 +125,15 @@ def diagnose_command(
 
 def _render_recommendation(rec, load_unit: str) -> None:
     """The held-out load error of each member, and the model recommended."""
-    import math
-
-    from rich.table import Table
+    from creepcomp.report.results import members_table
 
     if rec.candidates:
-        unit = f" {load_unit}" if load_unit else ""
-        table = Table(title=f"Load given back on the held-out part (from {rec.split_time:.4g} s, each "
-                            f"member fitted before it): RMS error, of the load range "
-                            f"({rec.load_range:.4g}{unit})", title_justify="left")
-        for col, justify in (("member", "left"), ("RMS error", "right"), ("", "left")):
-            table.add_column(col, justify=justify)
-        for c in rec.candidates:
-            err = f"{100 * c.heldout_load_rms:.3g} %" if math.isfinite(c.heldout_load_rms) else "-"
-            table.add_row(c.name, err, "chosen" if c.name == rec.chosen else (c.reason or ""))
-        console.print(table)
+        console.print(members_table(rec.candidates, rec.chosen, rec.split_time, rec.load_range,
+                                    load_unit).to_rich())
     console.print(f"recommended (model.json): the {rec.which} model: {rec.reason}", soft_wrap=True)
     for name, why in rec.refused.items():
-        console.print(f"[yellow]note:[/yellow] not recommended: {name}: {why}", soft_wrap=True)
+        console.print(f"[yellow]note:[/yellow] not recommended: {name}: {why}", soft_wrap=True,
+                      markup=True, highlight=False)
 
 
 def split_candidates(text: str | None) -> tuple[list | None, list | None]:

@@ -13,7 +13,7 @@ from creepcomp.io.jsonfiles import write_json
 from creepcomp.io.outputs import check_outputs
 from creepcomp.io.records import Record, parse_columns, read_record, reads_whole
 from creepcomp.units import format_percent, format_quantity
-from creepcomp.cli.common import (api_default, app, console, count_option, print_json, progress_bar, quantity,
+from creepcomp.cli.common import (api_default, app, console, err_console, count_option, print_json, progress_bar, quantity,
                                   temperatures_option)
 
 if TYPE_CHECKING:
@@ -162,6 +162,10 @@ def fit_command(
         help="Temperature (°C) of the fitted terms (default: the middle record's, or one record's mean)."),
     beta_per_kelvin: bool = typer.Option(False, "--beta-per-kelvin",
                                          help="Fit each creep amplitude's change per kelvin too."),
+    transfer: str = typer.Option("none", "--transfer", metavar="none|auto",
+                                 help="auto: static maps around the creep (power, reciprocal, log, "
+                                      "monotone spline) or a static calibration, chosen by the load "
+                                      "given back on held-out data (soft sensors: docs/soft-sensors.md)."),
 ) -> None:
     """Fit gain, offset and creep terms to a record; the number of terms by evidence. With
     several records (or --law), one model and its temperature law, fitted jointly."""
@@ -170,6 +174,11 @@ def fit_command(
     fixed = terms_option(terms)
     over_temperature = (len(record_paths) > 1 or law is not None or temperature is not None
                         or reference_temperature is not None or beta_per_kelvin)
+    mapped = transfer_option(transfer)
+    if mapped and (over_temperature or flow or fixed is not None or step is not None):
+        raise InputError("--transfer auto chooses the maps and the number of creep terms itself on one "
+                         "record: it does not take --terms K, --flow, --load-step-at, a temperature law "
+                         "or several records")
     if over_temperature:
         fit_over_temperature(record_paths, law or "arrhenius", temperature, reference_temperature,
                              beta_per_kelvin, fixed, max_terms, flow, plot, init, step, output, as_json,
@@ -181,6 +190,9 @@ def fit_command(
     [(record, reduction)] = load_reduced(record_path, (MAX_FIT_SAMPLES,), columns, delimiter,
                                          duplicate_times, taxel, sheet, quiet=as_json,
                                          grown_samples=GROWN_FIT_SAMPLES)
+    if mapped:
+        fit_path(record, reduction, max_terms, init, output, plot, as_json)
+        return
     from creepcomp.fit import Applied, fit_record
 
     with progress_bar("fitting", disable=as_json):
@@ -194,7 +206,8 @@ def fit_command(
     model = result.to_dict()
     if reduction:
         model["record_reduction"] = reduction
-    if output is not None:
+    refused = unusable(model)
+    if output is not None and refused is None:
         write_json(output, model)
     if plot is not None:
         from creepcomp.report.common import save_axes
@@ -202,9 +215,79 @@ def fit_command(
 
         save_axes(plot_fit(data, result.fit, record=record), plot, dpi=100)
     if as_json:
+        print_json(model if refused is None else {**model, "not_written": refused})
+    else:
+        render_fit(record, result, fixed)
+        if reduction:
+            console.print(f"[yellow]note:[/yellow] {reduction}", soft_wrap=True)
+        if output is not None and refused is None:
+            console.print(f"model written to {output}")
+        if plot is not None:
+            console.print(f"plot written to {plot}")
+    if refused is not None:
+        not_written(refused, output)
+
+
+#: Exit status of a fit whose model the creep correction would refuse (nothing written).
+NOT_WRITTEN = 3
+
+
+def transfer_option(text: str) -> bool:
+    """``--transfer``: True for auto, False for none."""
+    value = text.strip().lower()
+    if value not in ("none", "auto"):
+        raise InputError(f"--transfer '{text}': use none or auto")
+    return value == "auto"
+
+
+def unusable(model: dict) -> str | None:
+    """Why ``correct`` and ``firmware`` would refuse the fitted model (None: they take it)."""
+    from creepcomp.diagnose.recommend import usable
+
+    return usable(model)
+
+
+def not_written(why: str, output: Path | None) -> None:
+    """Say that the model is not written, why, and what gives one; exit with status 3."""
+    err_console.print(f"creepcomp fit: the fitted model is not written{' to ' + str(output) if output else ''}: "
+                      f"{why}. A model that creepcomp correct inverts: creepcomp fit RECORD --transfer auto, "
+                      "or the model.json of creepcomp diagnose RECORD -o DIR",
+                      markup=False, highlight=False, soft_wrap=True)
+    raise typer.Exit(NOT_WRITTEN)
+
+
+def fit_path(record: Record, reduction: str | None, max_terms: int, initial: str, output: Path | None,
+             plot: Path | None, as_json: bool) -> None:
+    """``--transfer auto``: the signal path chosen by held-out load error, written and shown."""
+    from creepcomp.fit.signal_path import fit_signal_path
+
+    with progress_bar("fitting the signal path", disable=as_json):
+        path = fit_signal_path(record, max_terms=min(max_terms, 4),
+                               initial="relaxed" if initial == "free" else initial)
+    model = path.model.to_dict()
+    model["signal_path"] = {k: v for k, v in path.to_dict().items() if k != "model"}
+    if reduction:
+        model["record_reduction"] = reduction
+    if output is not None:
+        write_json(output, model)
+    if plot is not None:
+        from creepcomp.report.common import save_axes
+
+        save_axes(path.plot(), plot, dpi=100)
+    if as_json:
         print_json(model)
         return
-    render_fit(record, result, fixed)
+    from creepcomp.report.results import members_table, model_summary
+
+    console.print(f"[bold]creepcomp fit[/bold]: {record.source}, {len(record)} samples; signal path by "
+                  "the load given back on held-out data", soft_wrap=True)
+    console.print(members_table(path.candidates, path.chosen, path.split_time, path.load_range,
+                                record.unit("load")).to_rich())
+    summary = model_summary(path.model)
+    for line in summary.lines:
+        console.print(line, soft_wrap=True, markup=False)
+    for table in summary.tables:
+        console.print(table.to_rich())
     if reduction:
         console.print(f"[yellow]note:[/yellow] {reduction}", soft_wrap=True)
     if output is not None:

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from creepcomp.display import Shown
 from creepcomp.errors import InputError
 
 __all__ = ["Recommendation", "recommend", "usable", "model_load", "refit_structure", "EXTENDED",
@@ -33,8 +34,8 @@ EXTENDED = "extended (diagnosis)"
 MAPPED_EXTENDED = "extended on the static maps (diagnosis)"
 
 
-@dataclass(frozen=True)
-class Recommendation:
+@dataclass(frozen=True, eq=False)
+class Recommendation(Shown):
     """The recommended model and why.
 
     Attributes
@@ -67,6 +68,9 @@ class Recommendation:
     load_range: float
     split_time: float | None
     refused: dict
+
+    def __repr__(self) -> str:
+        return f"<Recommendation the {self.which} model: {self.chosen}>"
 
     def to_dict(self) -> dict:
         """JSON form (``recommended`` in a diagnosis's JSON)."""

@@ -36,6 +36,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from creepcomp.digital.correctors import check_invertible, estimate_load
+from creepcomp.display import Shown
 from creepcomp.errors import InputError
 from creepcomp.io.records import Record
 from creepcomp.model import CreepModel
@@ -114,8 +115,8 @@ class Candidate:
                 "reason": self.reason or None}
 
 
-@dataclass(frozen=True)
-class SignalPathFit:
+@dataclass(frozen=True, eq=False)
+class SignalPathFit(Shown):
     """The chosen signal path and the members it was chosen from.
 
     Attributes
@@ -141,6 +142,11 @@ class SignalPathFit:
     load_range: float
     split_time: float
     seconds: float
+
+    def __repr__(self) -> str:
+        best = self.candidate(self.chosen).heldout_load_rms
+        return (f"<SignalPathFit {self.chosen}: held-out load error {100 * best:.3g} % of the range "
+                f"({self.load_range:.4g}), {len(self.candidates)} members>")
 
     def candidate(self, name: str) -> Candidate:
         """The member of that name."""
@@ -613,13 +619,14 @@ def _earlier_window(record: Record, found: list[Candidate], validation: float, m
         if c.model is None:
             out.append(c)
             continue
+        reason = c.reason
         try:
             model = _structure_fit(early_rec, c, max_terms, initial, SCREEN_SAMPLES)
             rms = _load_rms(model, upto_rec, judged, load_range)
-        except (InputError, ValueError, np.linalg.LinAlgError, FloatingPointError):
-            rms = math.inf
+        except (InputError, ValueError, np.linalg.LinAlgError, FloatingPointError) as exc:
+            rms, reason = math.inf, "earlier window: " + str(exc).splitlines()[0][:180]
         out.append(replace(c, heldout_load_rms=window_score((rms, c.heldout_load_rms)),
-                           windows=(rms, c.heldout_load_rms)))
+                           windows=(rms, c.heldout_load_rms), reason=reason))
     return out
 
 

@@ -50,6 +50,9 @@ def model_plot(model, ax=None):
     from creepcomp.analog.quality import step_residual
 
     ax = ax if ax is not None else new_axes()
+    if model.is_static:
+        ax.text(0.5, 0.5, "static calibration: no creep", ha="center", va="center", transform=ax.transAxes)
+        return ax
     t, creep = step_residual(model, None)
     ax.plot(t, 100 * creep, label=f"beta0 {100 * model.beta0:.3g} %")
     ax.set_xscale("symlog", linthresh=max(min(model.tau) / 10, 1e-3))
@@ -58,6 +61,25 @@ def model_plot(model, ax=None):
     ax.axhline(100 * model.beta0, color="0.6", lw=0.8, ls="--")
     ax.legend(fontsize=8)
     ax.grid(True, alpha=0.3)
+    return ax
+
+
+def members_plot(result, ax=None):
+    """The held-out load error of each member of a signal-path fit or a recommendation (% of
+    the load range, log scale), the chosen one dark."""
+    import math
+
+    ax = ax if ax is not None else new_axes()
+    members = [c for c in result.candidates if math.isfinite(c.heldout_load_rms)]
+    names = [c.name for c in members]
+    values = [100 * c.heldout_load_rms for c in members]
+    colours = ["0.15" if c.name == result.chosen else "0.65" for c in members]
+    ax.barh(range(len(members)), values, color=colours)
+    ax.set_yticks(range(len(members)), [plot_text(n) for n in names], fontsize=7)
+    ax.invert_yaxis()
+    ax.set_xscale("log")
+    ax.set_xlabel("held-out load error (% of the load range, RMS)")
+    ax.grid(True, axis="x", alpha=0.3)
     return ax
 
 

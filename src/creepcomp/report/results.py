@@ -70,10 +70,13 @@ def record_summary(record) -> Summary:
 
 
 def describe_model(model) -> str:
-    """One line: the creep terms."""
+    """One line: the creep terms (and the static maps around them)."""
+    maps = "" if model.transfer is None else f"; {model.transfer.describe()}"
+    if model.is_static:
+        return f"static calibration (no creep terms){maps}"
     terms = ", ".join(f"{format_percent(b)} at {format_time(t)}" for b, t in zip(model.beta, model.tau))
     return (f"{model.n_terms} creep term{'s' if model.n_terms > 1 else ''} ({terms}); "
-            f"beta0 = {format_percent(model.beta0)}")
+            f"beta0 = {format_percent(model.beta0)}{maps}")
 
 
 def model_summary(model) -> Summary:
@@ -81,14 +84,23 @@ def model_summary(model) -> Summary:
     rows = [(f"{k}", format_percent(b, 4), format_quantity(t, "s")) for k, (b, t) in
             enumerate(zip(model.beta, model.tau))]
     lines = [describe_model(model),
-             f"gain {model.gain:.6g} signal units per load unit, offset {model.offset:.6g} signal units"]
+             f"gain {model.gain:.6g} signal units per load unit, offset {model.offset:.6g} signal units"
+             if model.transfer is None else
+             f"gain {model.gain:.6g} per unit of f(load), offset {model.offset:.6g}: both in the signal map's linear domain"]
     if model.temperature is not None:
         law = model.temperature
         lines.append(f"temperature: {law.law} law about {law.reference:g} °C")
     if model.extensions:
         lines.append("extensions: " + ", ".join(str(k) for k in model.extensions))
-    return Summary("Creep model", tuple(lines),
-                   (Table.of("Creep terms", ["term", "beta", "tau"], rows),))
+    tables = (Table.of("Creep terms", ["term", "beta", "tau"], rows),) if rows else ()
+    if model.transfer is not None:
+        maps = [(side, m.form, ", ".join(f"{k} {v:.6g}" for k, v in m.parameters.items() if k not in ("x", "y"))
+                 or f"{len(m.parameters['x'])} knots")
+                for side, m in (("load map f (load -> creep input)", model.transfer.load_map),
+                                ("signal map h (signal -> linear domain)", model.transfer.signal_map))
+                if m is not None]
+        tables += (Table.of("Static maps", ["map", "form", "parameters"], maps),)
+    return Summary("Creep model", tuple(lines), tables)
 
 
 # --- fit ---------------------------------------------------------------------------------------
@@ -604,7 +616,44 @@ def verification_summary(v) -> Summary:
                    (Table.of("", [Column("", "left"), "value"], rows),))
 
 
+# --- signal path and recommendation ---------------------------------------------------------
+
+def members_table(candidates, chosen: str, split_time, load_range: float, load_unit: str = "") -> Table:
+    """Each member of the signal-path family with its held-out load error (``diagnose``'s
+    recommendation, ``fit --transfer auto``)."""
+    def percent(x):
+        return f"{100 * x:.3g} %" if math.isfinite(x) else "-"
+
+    rows = []
+    for c in candidates:
+        windows = " / ".join(percent(w) for w in c.windows) if c.windows else "-"
+        rows.append((c.name, percent(c.heldout_load_rms), windows,
+                     "chosen" if c.name == chosen else (c.reason or "")))
+    unit = f" {load_unit}" if load_unit else ""
+    where = f"from {split_time:.4g} s, " if split_time is not None else ""
+    return Table.of(f"Load given back on held-out data ({where}each member fitted before it): RMS error, "
+                    f"of the load range ({load_range:.4g}{unit})",
+                    [Column("member", "left"), "score", "earlier / last window", Column("", "left")],
+                    rows, marks={"chosen": "bold"})
+
+
+def signal_path_summary(fit) -> Summary:
+    """A signal-path fit: its members and the model chosen."""
+    return Summary(f"Signal path: {fit.chosen}", (f"fitted in {fit.seconds:.3g} s",),
+                   (members_table(fit.candidates, fit.chosen, fit.split_time, fit.load_range),)
+                   + model_summary(fit.model).tables)
+
+
+def recommendation_summary(rec) -> Summary:
+    """A diagnosis's recommendation: the members, the model written and why."""
+    tables = (members_table(rec.candidates, rec.chosen, rec.split_time, rec.load_range),) if rec.candidates else ()
+    notes = tuple(f"not recommended: {name}: {why}" for name, why in rec.refused.items())
+    return Summary(f"Recommended: the {rec.which} model", (rec.reason,), tables, notes)
+
+
 SUMMARIES = {
+    "creepcomp.fit.signal_path.SignalPathFit": signal_path_summary,
+    "creepcomp.diagnose.recommend.Recommendation": recommendation_summary,
     "creepcomp.io.records.Record": record_summary,
     "creepcomp.model.CreepModel": model_summary,
     "creepcomp.fit.prony.PronyResult": fit_summary_of,
@@ -624,6 +673,8 @@ SUMMARIES = {
 
 #: Each result type's function in :mod:`creepcomp.report.plots`.
 PLOTS = {
+    "creepcomp.fit.signal_path.SignalPathFit": "members_plot",
+    "creepcomp.diagnose.recommend.Recommendation": "members_plot",
     "creepcomp.io.records.Record": "record_plot",
     "creepcomp.model.CreepModel": "model_plot",
     "creepcomp.fit.prony.PronyResult": "fit_result_plot",
