@@ -194,3 +194,34 @@ def test_refined_exponents_approach_the_truth():
     start = Transfer(signal_map=StaticMap("power", {"exponent": -0.5, "origin": 0.0}))
     refined = refine_exponents(Record(t, load, signal), start)
     assert refined.signal_map.parameters["exponent"] == pytest.approx(-0.8, abs=0.05)
+
+
+def test_fit_transfer_auto_writes_the_signal_path_that_correct_inverts(run_cli, tmp_path):
+    truth, record = _pad()
+    rec = write_record(tmp_path / "pad.csv", record)
+    out = tmp_path / "m.json"
+    status, stdout, err = run_cli("fit", rec, "--transfer", "auto", "-o", out)
+    assert status == 0, err
+    assert "reciprocal about 0 (signal map), 1 creep term" in stdout and "chosen" in stdout
+    model = read_model(out)
+    assert model.transfer.signal_map.form == "reciprocal"
+    assert json.loads(out.read_text())["signal_path"]["chosen"].startswith("reciprocal")
+    status, stdout, err = run_cli("correct", rec, "--model", out, "--json")
+    assert status == 0, err
+    assert json.loads(stdout)["load_estimate"]["rms"] < 0.01 * 3.0
+    status, _, err = run_cli("fit", rec, "--transfer", "auto", "--terms", "2")
+    assert status == 2 and "--transfer auto" in err
+
+
+def test_fit_writes_no_model_that_correct_refuses(run_cli, tmp_path):
+    from creepcomp.synth.soft import soft_record
+
+    # a saturating pad whose linear fit needs creep below -100 % (as real pads did)
+    rec = write_record(tmp_path / "pad.csv", soft_record("velostat", 1, max_samples=3000).record)
+    out = tmp_path / "m.json"
+    status, stdout, err = run_cli("fit", rec, "-o", out)
+    assert status == 3 and not out.exists()
+    assert "not written" in err and "beta0" in err and "--transfer auto" in err
+    assert "model written" not in stdout
+    status, _, err = run_cli("fit", rec, "--transfer", "auto", "-o", out)
+    assert status == 0 and out.exists(), err
