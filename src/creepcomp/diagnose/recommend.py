@@ -354,6 +354,8 @@ def _versus(members) -> str:
     """The figures of the plain references beside the chosen member's."""
     out = []
     for c in members:
+        if c.model is None or not math.isfinite(c.heldout_load_rms):
+            continue
         if c.name in ("static line", "static monotone", EXTENDED, MAPPED_EXTENDED) or c.name.startswith("linear creep"):
             out.append(f"{c.name} {_percent(c.heldout_load_rms)}")
     return ("; " + ", ".join(out)) if out else ""
