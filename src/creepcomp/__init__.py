@@ -26,6 +26,10 @@ _API = {
     "diagnose": "creepcomp.diagnose.sensor", "CreepModel": "creepcomp.model",
     "Record": "creepcomp.io.records", "read_model": "creepcomp.io.jsonfiles",
     "write_model": "creepcomp.io.jsonfiles",
+    # soft sensors: static maps around the creep, the load given back
+    "fit_signal_path": "creepcomp.fit.signal_path", "recommend": "creepcomp.diagnose.recommend",
+    "estimate_load": "creepcomp.digital.correctors", "model_load": "creepcomp.diagnose.recommend",
+    "StaticMap": "creepcomp.transfer", "Transfer": "creepcomp.transfer",
     # the analog network
     "size": "creepcomp.analog.sizing", "SizingReport": "creepcomp.analog.sizing",
     "design_network": "creepcomp.analog.network_design",
