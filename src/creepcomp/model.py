@@ -68,6 +68,8 @@ class CreepModel(Shown):
         raw signal is then ``h^-1(offset + gain * G(s)[f(load)])``. Without it (or with no
         map) the signal is linear in load.
 
+    Notes
+    -----
     A model with no creep terms (``beta = tau = ()``) is a static calibration: the
     zero-creep member of the family, which a soft sensor's creep model must beat.
     """
