@@ -87,6 +87,11 @@ class Firmware:
     uses_double : bool
         The step computes in ``double`` (a static polynomial's root, a float32 extension map):
         its bound takes ``double`` as IEEE binary64.
+    maps : dict or None
+        For a model with static maps or a static calibration
+        (:mod:`creepcomp.digital.firmware_transfer`): ``bound_signal`` (the compensated
+        signal's bound, signal units), ``bound_load`` (load units), ``bound_corrected``, and the
+        ranges they hold over; None otherwise.
     """
 
     model: CreepModel
@@ -104,6 +109,7 @@ class Firmware:
     temperature_range: tuple[float, float] | None = None
     extension: dict | None = None
     uses_double: bool = False
+    maps: dict | None = None
 
     @property
     def irregular(self) -> bool:
@@ -181,10 +187,12 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
     Firmware
     """
     check_no_extensions(model)
-    model.require_creep("the C corrector")
-    if model.transfer is not None:
-        raise InputError(f"the model has static maps ({model.transfer.describe()}): the C corrector "
-                         "applies no static map; correct its records with creepcomp correct")
+    if model.transfer is not None or model.is_static:
+        from creepcomp.digital.firmware_transfer import check_maps_arguments, maps_firmware
+
+        check_maps_arguments(model, precision, max_interval, temperature_range, output_polynomial,
+                             extension)
+        return maps_firmware(model, method, precision, rate, full_scale, name)
     if extension is not None:
         check_extension(extension, method, precision, max_interval,
                         model.temperature is not None or temperature_range is not None)
@@ -624,7 +632,7 @@ def _template_variables(template: str) -> frozenset[str]:
 
 #: Values a template may go without (tested with ``is defined``): the extension map's, which
 #: only the step of a model with an extension has.
-_OPTIONAL = frozenset({"extension"})
+_OPTIONAL = frozenset({"extension", "maps"})
 
 
 def _render(template: str, **values) -> str:
