@@ -34,8 +34,10 @@ def firmware_command(
                                                     "to TIME (e.g. 40ms) are accepted."),
     full_scale: Optional[str] = typer.Option(None, "--full-scale", metavar="VALUE",
                                              help="Largest |signal - offset| (signal units) the "
-                                                  "bound assumes and q31 scales to. Default with "
-                                                  "--verify: the record's."),
+                                                  "bound assumes and q31 scales to; for a model "
+                                                  "with static maps also LOW:HIGH, the raw "
+                                                  "signal's range. Default with --verify: the "
+                                                  "record's."),
     temperature_range: Optional[str] = typer.Option(None, "--temperature-range", metavar="LOW:HIGH",
                                                     help="For a model with a temperature law: "
                                                          "the range (°C) the step clamps to and "
@@ -85,7 +87,7 @@ def firmware_command(
     model, polynomial, extension = _linear_part(read_model(model_file))
     rate_hz = quantity(rate, "hertz", "--rate", positive=True)
     longest = quantity(max_interval, "second", "--max-interval", positive=True)
-    scale = quantity(full_scale, "number", "--full-scale", positive=True)
+    scale = _full_scale(full_scale)
     record, unit = None, "signal units"
     if verify_record is not None:
         import numpy as np
@@ -98,6 +100,8 @@ def firmware_command(
                 raise InputError(f"{verify_record}: not uniformly sampled; give --max-interval TIME "
                                  "for the dt step (irregular sampling)")
             rate_hz = 1.0 / dt
+        if scale is None and (model.transfer is not None or model.is_static):
+            scale = (float(np.min(record.signal)), float(np.max(record.signal)))
         if scale is None:
             scale = float(np.max(np.abs(record.signal - model.offset)))
             if scale == 0:
@@ -120,6 +124,8 @@ def firmware_command(
               "extensions": sorted(read_model(model_file).extensions or {})}
     if firmware.temperature_range is not None:
         result["temperature_range"] = list(firmware.temperature_range)
+    if firmware.maps is not None:
+        result["maps"] = dict(firmware.maps)
     check = None
     if record is not None:
         from creepcomp.digital.firmware_check import verify_firmware
@@ -146,9 +152,28 @@ def firmware_command(
     else:
         _render(result, firmware, check)
     if check is not None and not check.passed:
+        if check.load is not None and check.load["max_error"] > check.load["bound"]:
+            fail(f"measured load error {check.load['max_error']:.3e} load units at sample "
+                 f"{check.load['worst_sample']} exceeds the proven bound {check.load['bound']:.3e}",
+                 BOUND_EXCEEDED)
+            raise typer.Exit(BOUND_EXCEEDED)
         fail(f"measured error {check.max_error_fs:.3e} of full scale at sample {check.worst_sample} "
              f"exceeds the proven bound {firmware.bound.total_fs:.3e}", BOUND_EXCEEDED)
         raise typer.Exit(BOUND_EXCEEDED)
+
+
+def _full_scale(text: str | None):
+    """``--full-scale``: a number (the largest |signal - offset|), or ``LOW:HIGH`` (a raw range,
+    for a model with static maps)."""
+    if text is None or ":" not in str(text):
+        return quantity(text, "number", "--full-scale", positive=True)
+    parts = str(text).split(":")
+    if len(parts) != 2:
+        raise InputError(f"--full-scale = '{text}': expected VALUE or LOW:HIGH (a raw range)")
+    low, high = (quantity(p, "number", "--full-scale") for p in parts)
+    if not low < high:
+        raise InputError(f"--full-scale = '{text}': LOW must be below HIGH")
+    return low, high
 
 
 def _linear_part(model):
@@ -207,6 +232,13 @@ def _render(result: dict, firmware, check) -> None:
                   + ("" if firmware.temperature_range is None else
                      f"; temperature per update, {firmware.temperature_range[0]:g} to "
                      f"{firmware.temperature_range[1]:g} °C (clamped)"), soft_wrap=True)
+    if firmware.maps is not None:
+        _render_maps(firmware, check)
+        if result["files"]:
+            console.print("written: " + ", ".join(result["files"]), soft_wrap=True)
+        else:
+            console.print("no files written (give -o DIR or --library DIR)")
+        return
     table = Table(title="Proven worst-case error against the float64 corrector",
                   title_justify="left")
     table.add_column("part")
@@ -238,3 +270,29 @@ def _render(result: dict, firmware, check) -> None:
         console.print("written: " + ", ".join(result["files"]), soft_wrap=True)
     else:
         console.print("no files written (give -o DIR or --library DIR)")
+
+
+def _render_maps(firmware, check) -> None:
+    """The bound of a corrector with static maps, stage by stage, and its verification."""
+    maps, unit = firmware.maps, "signal units"
+    low, high = maps["raw_range"]
+    console.print(f"maps: {firmware.model.transfer.describe() if firmware.model.transfer else 'none'}"
+                  f"; raw range {low:.9g} to {high:.9g} {unit}", soft_wrap=True)
+    table = Table(title="Proven worst-case error against the float64 compensate and estimate_load",
+                  title_justify="left")
+    table.add_column("part (in the units of its stage)")
+    table.add_column("error", justify="right")
+    for part, value in maps["terms"].items():
+        table.add_row(part, f"{value:.3e}")
+    table.add_row("[bold]compensated signal[/bold]",
+                  f"[bold]{maps['bound_signal']:.3e} {unit} ({firmware.bound.total_fs:.3e} of full scale)[/bold]")
+    table.add_row("[bold]load[/bold]", f"[bold]{maps['bound_load']:.3e} load units[/bold]")
+    console.print(table)
+    if check is not None:
+        verdict = "within the bounds" if check.passed else "ABOVE A BOUND"
+        console.print(f"verified on {check.samples} samples ({check.load['compared']} compared, "
+                      f"{check.load['outside']} with the exact corrected value outside the bounds' "
+                      f"range): largest error {check.max_error_fs:.3e} of full scale in the compensated "
+                      f"signal, {check.load['max_error']:.3e} load units in the load ({verdict}); "
+                      f"{check.ns_per_sample:.1f} ns per sample on this machine; object "
+                      f"{check.object_bytes} bytes (gcc -O2, text + data)", soft_wrap=True)

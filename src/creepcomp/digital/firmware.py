@@ -158,8 +158,10 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
         scale, above the offset) with 64-bit states.
     rate : float
         Fixed sample rate (Hz).
-    full_scale : float
-        Largest ``|raw - offset|`` (signal units): the bound assumes it, q31 scales by it.
+    full_scale : float or (float, float)
+        Largest ``|raw - offset|`` (signal units): the bound assumes it, q31 scales by it. For
+        a model with static maps, ``|raw - h^-1(offset)|``, or ``(low, high)``: the raw range
+        (:func:`creepcomp.digital.firmware_transfer.raw_range`).
     name : str
         Prefix of the C identifiers and of the file names.
     max_interval : float, optional
@@ -182,6 +184,10 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
         ``reloading``, ``peak``, ``play`` or ``recovery``), written by
         :mod:`creepcomp.digital.firmware_extension`: float32, at a fixed rate, subtractive only.
 
+    A model with static maps (a ``transfer``) or a static calibration (no creep terms) gets
+    the float32 fixed-rate step of :mod:`creepcomp.digital.firmware_transfer`:
+    ``PREFIX_step`` returns the compensated signal, ``PREFIX_step_load`` the load.
+
     Returns
     -------
     Firmware
@@ -193,6 +199,9 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
         check_maps_arguments(model, precision, max_interval, temperature_range, output_polynomial,
                              extension)
         return maps_firmware(model, method, precision, rate, full_scale, name)
+    if isinstance(full_scale, (tuple, list)):
+        raise InputError("a raw range LOW:HIGH as the full scale is for a model with static maps: "
+                         "give this model's largest |signal - offset| as one number")
     if extension is not None:
         check_extension(extension, method, precision, max_interval,
                         model.temperature is not None or temperature_range is not None)

@@ -531,7 +531,7 @@ def maps_firmware(model: CreepModel, method: str, precision: str, rate: float, f
         values["command"] = values["command"].replace(f"--full-scale {full_scale:.9g}",
                                                       f"--full-scale {bound.raw[0]:.9g}:{bound.raw[1]:.9g}")
     values["model_id"] = f"0x{_fnv1a(repr((identity, bound.raw, path and path.to_dict()))):08x}u"
-    error_bound = ErrorBound(total_fs=float(bound_fs), terms={k: v / full_scale for k, v in bound.terms.items()},
+    error_bound = ErrorBound(total_fs=float(bound_fs), terms={"compensated signal, all parts": float(bound_fs)},
                              full_scale=float(full_scale), peak_fs=float(peak), gains=gains)
     bound_lines = _maps_bound_lines(bound, full_scale)
     if bound.linear is not None:
@@ -555,7 +555,7 @@ def _maps_summary(bound: TransferBound) -> dict:
     return {"bound_signal": bound.compensated, "bound_load": bound.load,
             "bound_corrected": bound.corrected, "raw_range": list(bound.raw),
             "corrected_range": list(bound.corrected_range), "load_range": list(bound.load_range),
-            "linear_full_scale": bound.linear_full_scale}
+            "linear_full_scale": bound.linear_full_scale, "terms": dict(bound.terms)}
 
 
 def _maps_lines(model: CreepModel, method: str, rate: float, full_scale: float,

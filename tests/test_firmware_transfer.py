@@ -1,0 +1,156 @@
+"""The C corrector of models with static maps and of static calibrations: it compiles strictly,
+and over synthetic records its compensated signal and its load stay within their proven bounds
+of compensate and estimate_load."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+
+import numpy as np
+import pytest
+
+from creepcomp.digital.correctors import estimate_load
+from creepcomp.digital.firmware import generate_firmware
+from creepcomp.digital.firmware_check import verify_firmware
+from creepcomp.digital.firmware_library import library_files
+from creepcomp.digital.firmware_transfer import evaluation_error, raw_range, spread
+from creepcomp.errors import InputError
+from creepcomp.io.jsonfiles import write_model
+from creepcomp.io.records import Record, write_record
+from creepcomp.model import CreepModel
+from creepcomp.transfer import StaticMap, Transfer
+
+needs_gcc = pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc is not installed")
+
+RATE = 100.0
+#: A resistive pad read as a resistance: conductance linear in load, 20 % of creep at 5 s.
+RECIPROCAL = CreepModel((0.2,), (5.0,), gain=1e-4, offset=1e-4,
+                        transfer=Transfer(signal_map=StaticMap("reciprocal", {"origin": 0.0})))
+#: A spline signal map, a saturating load map, creep of either sign.
+SPLINE = CreepModel((0.15, -0.05), (2.0, 30.0), gain=0.8, offset=0.1, transfer=Transfer(
+    signal_map=StaticMap("spline", {"x": [0.0, 0.5, 1.0, 2.0, 4.0], "y": [0.0, 0.8, 1.3, 1.9, 2.5]}),
+    load_map=StaticMap("saturating", {"limit": 20.0})))
+#: A static calibration: no creep terms, a logarithmic signal map.
+STATIC = CreepModel((), (), gain=2.0, offset=0.5,
+                    transfer=Transfer(signal_map=StaticMap("log", {"origin": -1.0})))
+#: Power maps on both sides (powf in the C).
+POWER = CreepModel((0.1,), (10.0,), gain=0.5, offset=0.2, transfer=Transfer(
+    load_map=StaticMap("power", {"exponent": 0.7, "origin": 0.0}),
+    signal_map=StaticMap("power", {"exponent": 1.5, "origin": -0.1})))
+
+
+def steps_record(model: CreepModel, n: int = 12_000, seed: int = 1):
+    """Load steps between random levels (0 to 3 load units) held 0.5 to 15 s after a relaxed
+    lead-in, and the signal the model gives: ``(time, load, signal)``."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / RATE
+    load = np.zeros(n)
+    i = 300
+    while i < n:
+        hold = int(rng.integers(50, 1500))
+        load[i:i + hold] = rng.uniform(0.0, 3.0)
+        i += hold
+    return t, load, model.response(t, load, hold="zero")
+
+
+@needs_gcc
+@pytest.mark.parametrize("model,method", [(RECIPROCAL, "subtractive"), (SPLINE, "subtractive"),
+                                          (SPLINE, "supplemental"), (STATIC, "subtractive"),
+                                          (POWER, "subtractive")],
+                         ids=["reciprocal", "spline", "spline-supplemental", "static", "power"])
+def test_outputs_match_estimate_load_within_the_bound(model, method):
+    t, load, signal = steps_record(model)
+    fw = generate_firmware(model, method, rate=RATE, full_scale=(signal.min(), signal.max()),
+                           name="pad")
+    check = verify_firmware(fw, t, signal, repeats=1)
+    assert check.passed
+    assert check.load["compared"] > 0.9 * len(t)
+    assert 0 < check.max_error_fs <= check.bound_fs
+    assert 0 < check.load["max_error"] <= check.load["bound"] == fw.maps["bound_load"]
+    # the load the C gives back is the load that made the signal, to float32 precision
+    reference = estimate_load(t, signal, model, method)
+    assert np.max(np.abs(reference - load)) < 1e-9
+    assert check.load["bound"] < 1e-3 * 3.0
+    assert "#define PAD_BOUND_LOAD" in fw.header and f"{fw.maps['bound_load']:.3e}" in fw.header
+
+
+@needs_gcc
+def test_the_code_uses_libm_only_for_power_and_log(tmp_path):
+    from creepcomp.digital.firmware_check import compile_object
+    import subprocess
+
+    for model, libm in ((RECIPROCAL, False), (SPLINE, False), (STATIC, True)):
+        _, _, signal = steps_record(model, n=2000)
+        fw = generate_firmware(model, rate=RATE, full_scale=(signal.min(), signal.max()), name="pad")
+        obj = compile_object(fw, tmp_path, flags=("-O0",))
+        undefined = set(subprocess.run(["nm", "-u", obj], capture_output=True, text=True,
+                                       check=True).stdout.split()) - {"U"}
+        assert bool(undefined & {"logf", "expf", "powf"}) == libm, undefined
+        code = re.sub(r"/\*.*?\*/", "", fw.source, flags=re.S)
+        assert ("math.h" in code) == libm and "double" not in code
+
+
+def test_the_bound_grows_with_the_range_near_a_reciprocal_origin():
+    near = generate_firmware(RECIPROCAL, rate=RATE, full_scale=(200.0, 10000.0)).maps
+    far = generate_firmware(RECIPROCAL, rate=RATE, full_scale=(2000.0, 10000.0)).maps
+    assert near["bound_load"] > far["bound_load"] > 0
+    assert near["bound_signal"] > far["bound_signal"] > 0
+
+
+def test_map_error_parts_bound_what_float32_does():
+    """Each form's float32 evaluation (numpy's float32 arithmetic, the operations of the C)
+    stays within evaluation_error, and an input error moves each map by at most spread."""
+    f32 = np.float32
+    x = np.linspace(300.0, 9000.0, 5001)
+    h = StaticMap("reciprocal", {"origin": 0.0})
+    c = (f32(1.0) / (x.astype(f32) - f32(0.0))).astype(float)
+    assert np.max(np.abs(c - h.forward(x.astype(f32).astype(float)))) <= evaluation_error(h, "forward", 300.0, 9000.0)
+    s = StaticMap("saturating", {"limit": 20.0})
+    q = np.linspace(-1.0, 15.0, 5001).astype(f32)
+    inv = f32(1.0 / 20.0)
+    c = (q / (f32(1.0) + q * inv)).astype(float)
+    assert np.max(np.abs(c - s.inverse(q.astype(float)))) <= evaluation_error(s, "inverse", -1.0, 15.0)
+    moved = np.abs(h.forward(x + 0.5) - h.forward(x))
+    assert np.max(moved) <= spread(h, "forward", 300.0, 9000.0, 0.5)
+
+
+def test_refusals_name_what_to_do():
+    with pytest.raises(InputError, match="float32"):
+        generate_firmware(RECIPROCAL, precision="q31", full_scale=(1000.0, 10000.0))
+    with pytest.raises(InputError, match="--rate instead of --max-interval"):
+        generate_firmware(RECIPROCAL, full_scale=(1000.0, 10000.0), max_interval=0.04)
+    with pytest.raises(InputError, match="leaves the signal map's domain"):
+        generate_firmware(RECIPROCAL, full_scale=(-5.0, 10000.0))
+    with pytest.raises(InputError, match="LOW:HIGH"):
+        raw_range(STATIC, 10.0)                     # log about -1, unloaded at 0.65: symmetric leaves
+    with pytest.raises(InputError, match="static maps"):
+        generate_firmware(CreepModel((0.1,), (5.0,)), full_scale=(0.0, 1.0))
+
+
+def test_library_examples_print_the_load():
+    fw = generate_firmware(RECIPROCAL, rate=80.0, full_scale=(1000.0, 10000.0), name="pad")
+    files = library_files(fw)
+    sketch = files["examples/HX711Scale/HX711Scale.ino"]
+    assert "pad_step_load(&corrector" in sketch and "PAD_RAW_MIN" in sketch
+    assert "load" in sketch.lower()
+
+
+@needs_gcc
+def test_cli_writes_and_verifies_a_static_calibration(run_cli, tmp_path):
+    t, load, signal = steps_record(STATIC, n=3000)
+    rec = write_record(tmp_path / "rec.csv", Record(t, load, signal))
+    model = write_model(tmp_path / "model.json", STATIC)
+    status, out, err = run_cli("firmware", model, "-o", tmp_path / "fw", "--verify", rec, "--json")
+    assert status == 0, err
+    result = json.loads(out)
+    assert result["load"]["max_error"] <= result["load"]["bound"] == result["maps"]["bound_load"]
+    assert result["maps"]["raw_range"] == [pytest.approx(signal.min()), pytest.approx(signal.max())]
+    header = (tmp_path / "fw" / "creep.h").read_text()
+    assert "float creep_step_load(creep_state *s, float raw, float *compensated);" in header
+    status, out, err = run_cli("firmware", model, "--rate", "100", "--full-scale", "0.7:600")
+    assert status == 0, err
+    assert "load units" in out
+    status, out, err = run_cli("firmware", model, "--rate", "100", "--full-scale", "600:0.7")
+    assert status == 2 and "LOW must be below HIGH" in err
