@@ -521,7 +521,7 @@ def maps_firmware(model: CreepModel, method: str, precision: str, rate: float, f
         values = _header_values(linear_model, method, precision, rate, full_scale, name, c, None, None)
         identity = (values["model_id"], model.gain)
         derivation = _derivation(linear_model, method, precision, rate, bound.linear_full_scale, c, st)
-        derivation = [line.replace("signal units", "units of h(raw)") for line in derivation] + lines
+        derivation = [_in_h(line) for line in derivation] + lines
         coefficients = _coefficient_values(precision, st, None)
         table = _coefficient_table(c, st, precision)
         gains, peak = dict(bound.linear.gains), bound.linear.peak_fs
@@ -537,7 +537,7 @@ def maps_firmware(model: CreepModel, method: str, precision: str, rate: float, f
     if bound.linear is not None:
         bound_lines += ["The corrector on the linearised signal (units of h(raw), FS_h = "
                         f"{bound.linear.full_scale:.9g}):"]
-        bound_lines += ["  " + line for line in _bound_lines(bound.linear, bound.linear.full_scale)[:-1]]
+        bound_lines += ["  " + _in_h(line) for line in _bound_lines(bound.linear, bound.linear.full_scale)[:-1]]
     header = _render("fixed_rate.h.j2", **values, maps=maps, derivation=derivation,
                      bound=bound_lines, bound_fs=f"{bound_fs:.3e}")
     source = _render(source_template, name=name, NAME=name.upper(), version=_version(), maps=maps,
@@ -548,6 +548,12 @@ def maps_firmware(model: CreepModel, method: str, precision: str, rate: float, f
                     full_scale=float(full_scale), name=name, header=header, source=source,
                     harness=harness, bound=error_bound, coefficients=table,
                     uses_double=False, maps=_maps_summary(bound))
+
+
+def _in_h(line: str) -> str:
+    """A line of the creep corrector's derivation or bound, in the units it has with a signal
+    map: those of the linearised signal ``h(raw)``."""
+    return line.replace("signal units", "units of h(raw)").replace("|raw - offset|", "|h(raw) - offset|")
 
 
 def _maps_summary(bound: TransferBound) -> dict:
