@@ -9,8 +9,9 @@ A soft sensor's model reads ``signal = h^-1(offset + gain * G(s)[f(load)])``
     compensated = h^-1(c)           what creepcomp.digital.correctors.compensate returns
     load = f^-1((c - offset) / (gain * scale))     what estimate_load returns
 
-This module renders the maps as C (reciprocal, saturating and spline with ``+ - * /`` only;
-power and log with ``powf``/``logf``/``expf``) and bounds their float32 evaluation. The bound
+The C (reciprocal, saturating and spline with ``+ - * /`` only; power and log with
+``powf``/``logf``/``expf``) is rendered by :mod:`creepcomp.digital.firmware` from
+:func:`map_code`; this module bounds its float32 evaluation. The bound
 propagates, in order: the raw sample's rounding through ``h``; the error of ``h``'s evaluation
 into the corrector as an input error (through the corrector's own l1 gains); the corrector's
 bound; the output error through ``h^-1`` and through ``f^-1`` over the range the full scale
@@ -33,11 +34,12 @@ from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 from creepcomp.transfer import StaticMap
 
-__all__ = ["LIBM_ULPS", "MapBound", "TransferBound", "transfer_bound", "map_code", "raw_range"]
+__all__ = ["LIBM_ULPS", "TransferBound", "transfer_bound", "map_code", "raw_range", "range_full_scale",
+           "evaluation_error", "spread", "check_maps_arguments"]
 
 #: Error of ``powf``, ``logf`` and ``expf`` the bound assumes, in units in the last place of
-#: the result (glibc documents at most 1 ulp for them in binary32; newlib and avr-libc are
-#: checked by ``--verify`` on the target).
+#: the result: an assumption about the target's libm, which ``--verify`` checks against the
+#: float64 reference on the libm the code is linked with.
 LIBM_ULPS = 2.0
 _U = 2.0 ** -24                    # unit roundoff of IEEE binary32
 _ULP = 2 * _U                      # ulp(v) <= 2u |v| for a normal v
@@ -46,13 +48,6 @@ _MARGIN = 1.0 + 1e-6               # second-order terms and float64 evaluation o
 
 
 # ---------------------------------------------------------------------------- C of one map
-
-def _stored(value: float) -> tuple[float, str]:
-    """A float32 constant and its C literal."""
-    from creepcomp.digital.firmware import _c_float
-
-    return float32_value(value), _c_float(value)
-
 
 def _spline_table(xs, ys) -> dict:
     """Knots (increasing ``xs``) and slopes of a piecewise-linear map, stored and exact."""
@@ -69,26 +64,25 @@ def map_code(m: StaticMap, direction: str) -> dict:
     Returns
     -------
     dict
-        ``form``, ``direction`` and the C literals of its constants (a spline: its knot table,
-        the inverse's with the roles of ``x`` and ``y`` swapped and sorted increasing).
+        ``form``, ``direction``, ``libm`` (whether it calls libm) and its constants (floats, to
+        be stored as float32): ``origin``, ``exponent`` (the inverse's: ``1/e``), ``inv_limit``,
+        or a spline's knot table ``x``, ``y``, ``s`` (slopes; the inverse's with the roles of
+        ``x`` and ``y`` swapped, sorted increasing) and ``knots``.
     """
-    from creepcomp.digital.firmware import _c_float
-
     p = m.parameters
     out = {"form": m.form, "direction": direction, "libm": m.form in ("power", "log")}
     if m.form in ("power", "reciprocal", "log"):
-        out["origin"] = _stored(p["origin"])[1]
+        out["origin"] = p["origin"]
     if m.form == "power":
-        out["exponent"] = _stored(p["exponent"] if direction == "forward" else 1.0 / p["exponent"])[1]
+        out["exponent"] = p["exponent"] if direction == "forward" else 1.0 / p["exponent"]
     if m.form == "saturating":
-        out["inv_limit"] = _stored(1.0 / p["limit"])[1]
+        out["inv_limit"] = 1.0 / p["limit"]
     if m.form == "spline":
         xs, ys = np.array(p["x"]), np.array(p["y"])
         if direction == "inverse":
             xs, ys = (ys, xs) if ys[-1] > ys[0] else (ys[::-1], xs[::-1])
         table = _spline_table(xs, ys)
-        out.update(knots=str(len(xs)), x=[_c_float(v) for v in xs], y=[_c_float(v) for v in ys],
-                   s=[_c_float(v) for v in table["s"]])
+        out.update(knots=len(xs), x=list(xs), y=list(ys), s=list(table["s"]))
     return out
 
 
@@ -301,16 +295,6 @@ def range_full_scale(model: CreepModel, full_scale) -> float:
 
 
 @dataclass(frozen=True)
-class MapBound:
-    """One stage's error: what it adds and where its input lies."""
-
-    name: str
-    error: float
-    low: float
-    high: float
-
-
-@dataclass(frozen=True)
 class TransferBound:
     """The bound of a corrector with static maps, stage by stage.
 
@@ -458,147 +442,3 @@ def check_maps_arguments(model: CreepModel, precision: str, max_interval, temper
     if output_polynomial is not None or extension is not None:
         raise InputError(f"{what} with an extension map of the diagnosis has no C corrector: "
                          "generate the firmware of its baseline model")
-
-
-def maps_firmware(model: CreepModel, method: str, precision: str, rate: float, full_scale: float,
-                  name: str):
-    """The float32 fixed-rate corrector of a model with static maps or of a static calibration
-    (see the module docstring); called by :func:`creepcomp.digital.firmware.generate_firmware`.
-
-    Returns
-    -------
-    Firmware
-        Its ``bound`` is the compensated signal's (fraction of ``full_scale``); ``maps`` holds
-        the load's bound and the ranges (:meth:`TransferBound` values).
-    """
-    from creepcomp.digital.firmware import (Firmware, _bound_lines, _c_float, _coefficient_table,
-                                            _coefficient_values, _derivation, _fnv1a,
-                                            _header_values, _render, _version)
-    from creepcomp.digital.firmware_bound import check_arguments, stored_coefficients
-
-    linear_model = CreepModel(model.beta, model.tau, model.gain, model.offset)
-    raw = full_scale
-    full_scale = range_full_scale(model, raw)
-    if model.is_static:     # the arguments' checks but the model's (which has no creep to invert)
-        check_arguments(CreepModel((0.1,), (1.0,), model.gain, model.offset), method, precision,
-                        rate, full_scale, name)
-    else:
-        check_arguments(linear_model, method, precision, rate, full_scale, name)
-    bound = transfer_bound(model, method, rate, raw)
-    path = model.transfer
-    h = None if path is None else path.signal_map
-    f = None if path is None else path.load_map
-    sigma = 1.0 + model.beta0 if method == "supplemental" else 1.0
-    maps = {"static": model.is_static, "describe": "linear" if path is None else path.describe(),
-            "h": None if h is None else map_code(h, "forward"),
-            "h_inverse": None if h is None else map_code(h, "inverse"),
-            "f_inverse": None if f is None else map_code(f, "inverse"),
-            "load_scale": _c_float(1.0 / (model.gain * sigma)),
-            "raw_min": repr(float(bound.raw[0])), "raw_max": repr(float(bound.raw[1])),
-            "bound_signal": f"{bound.compensated:.3e}", "bound_load": f"{bound.load:.3e}",
-            "libm_ulps": f"{LIBM_ULPS:g}"}
-    maps["libm"] = any(m is not None and m["libm"] for m in (maps["h"], maps["f_inverse"]))
-    maps["spline"] = any(m is not None and m["form"] == "spline"
-                         for m in (maps["h"], maps["h_inverse"], maps["f_inverse"]))
-    lines = _maps_lines(model, method, rate, full_scale, bound)
-    bound_fs = bound.compensated / full_scale
-    if model.is_static:
-        identity = ((), (), model.offset, model.gain, rate, full_scale, precision, method)
-        values = {"name": name, "NAME": name.upper(), "version": _version(), "method": method,
-                  "precision": precision, "irregular": False, "temperature": False,
-                  "command": (f"creepcomp firmware MODEL --method {method} --precision {precision} "
-                              f"--rate {rate:.9g} --full-scale {full_scale:.9g} --name {name}"),
-                  "terms": "0", "full_scale": repr(float(full_scale)), "rate": repr(float(rate)),
-                  "offset": repr(float(model.offset))}
-        derivation, coefficients, table, gains, peak = lines, {}, {"precision": precision}, {}, 1.0
-        source_template, source_values = "static_float32.c.j2", {"offset": _c_float(model.offset),
-                                                                 "irregular": False}
-    else:
-        from creepcomp.digital.firmware_bound import exact_coefficients as exact
-
-        c = exact(linear_model, rate)
-        st = stored_coefficients(c, precision)
-        values = _header_values(linear_model, method, precision, rate, full_scale, name, c, None, None)
-        identity = (values["model_id"], model.gain)
-        derivation = _derivation(linear_model, method, precision, rate, bound.linear_full_scale, c, st)
-        derivation = [_in_h(line) for line in derivation] + lines
-        coefficients = _coefficient_values(precision, st, None)
-        table = _coefficient_table(c, st, precision)
-        gains, peak = dict(bound.linear.gains), bound.linear.peak_fs
-        source_template, source_values = "float32_maps.c.j2", {"irregular": False, "temperature": False,
-                                                                "method": method, **coefficients}
-    if isinstance(raw, (tuple, list)):
-        values["command"] = values["command"].replace(f"--full-scale {full_scale:.9g}",
-                                                      f"--full-scale {bound.raw[0]:.9g}:{bound.raw[1]:.9g}")
-    values["model_id"] = f"0x{_fnv1a(repr((identity, bound.raw, path and path.to_dict()))):08x}u"
-    error_bound = ErrorBound(total_fs=float(bound_fs), terms={"compensated signal, all parts": float(bound_fs)},
-                             full_scale=float(full_scale), peak_fs=float(peak), gains=gains)
-    bound_lines = _maps_bound_lines(bound, full_scale)
-    if bound.linear is not None:
-        bound_lines += ["The corrector on the linearised signal (units of h(raw), FS_h = "
-                        f"{bound.linear.full_scale:.9g}):"]
-        bound_lines += ["  " + _in_h(line) for line in _bound_lines(bound.linear, bound.linear.full_scale)[:-1]]
-    header = _render("fixed_rate.h.j2", **values, maps=maps, derivation=derivation,
-                     bound=bound_lines, bound_fs=f"{bound_fs:.3e}")
-    source = _render(source_template, name=name, NAME=name.upper(), version=_version(), maps=maps,
-                     **source_values)
-    harness = _render("harness.c.j2", name=name, NAME=name.upper(), precision=precision,
-                      irregular=False, temperature=False, maps=maps)
-    return Firmware(model=model, method=method, precision=precision, rate=float(rate),
-                    full_scale=float(full_scale), name=name, header=header, source=source,
-                    harness=harness, bound=error_bound, coefficients=table,
-                    uses_double=False, maps=_maps_summary(bound))
-
-
-def _in_h(line: str) -> str:
-    """A line of the creep corrector's derivation or bound, in the units it has with a signal
-    map: those of the linearised signal ``h(raw)``."""
-    return line.replace("signal units", "units of h(raw)").replace("|raw - offset|", "|h(raw) - offset|")
-
-
-def _maps_summary(bound: TransferBound) -> dict:
-    """The firmware's ``maps``: bounds and ranges, JSON-ready."""
-    return {"bound_signal": bound.compensated, "bound_load": bound.load,
-            "bound_corrected": bound.corrected, "raw_range": list(bound.raw),
-            "corrected_range": list(bound.corrected_range), "load_range": list(bound.load_range),
-            "linear_full_scale": bound.linear_full_scale, "terms": dict(bound.terms)}
-
-
-def _maps_lines(model: CreepModel, method: str, rate: float, full_scale: float,
-                bound: TransferBound) -> list[str]:
-    """The maps' part of the derivation, as comment lines."""
-    path = model.transfer
-    lines = [f"Static maps: {'none' if path is None else path.describe()}; gain = {model.gain:.9g} "
-             "(linearised signal per unit of the creep's input).",
-             f"Raw range: {bound.raw[0]:.9g} to {bound.raw[1]:.9g} signal units (full scale "
-             f"{full_scale:.9g} about the unloaded raw signal); h(raw) - offset within "
-             f"+-{bound.linear_full_scale:.9g}.",
-             "Maps in float32: reciprocal and saturating by one division, spline by a knot table "
-             "(binary search, y_k + s_k (x - x_k), end slopes continued), power and log by powf/logf/expf "
-             f"(assumed within {LIBM_ULPS:g} ulp)."]
-    if model.is_static:
-        lines.append(f"A static calibration at {_qty_rate(rate)}: no creep terms, the state holds nothing.")
-    return lines
-
-
-def _qty_rate(rate: float) -> str:
-    from creepcomp.units import format_quantity
-
-    return format_quantity(rate, "Hz", digits=6)
-
-
-def _maps_bound_lines(bound: TransferBound, full_scale: float) -> list[str]:
-    lo, hi = bound.corrected_range
-    llo, lhi = bound.load_range
-    lines = [f"Worst-case |compensated - float64 compensate| <= {bound.compensated:.3e} signal units "
-             f"({bound.compensated / full_scale:.3e} x FS);",
-             f"worst-case |load - float64 estimate_load| <= {bound.load:.3e} load units;",
-             f"corrected value c (units of h) within {bound.corrected:.3e} of the exact one,",
-             f"for every raw sample from {bound.raw[0]:.9g} to {bound.raw[1]:.9g}, from a relaxed or "
-             "settled start. The compensated signal's and the load's bounds hold while the exact c",
-             f"stays within {lo:.9g} to {hi:.9g} (the image of the raw range; loads {llo:.6g} to {lhi:.6g}).",
-             "Parts (by cause, in the units of the stage they enter):"]
-    lines += [f"  {name}: {value:.3e}" for name, value in bound.terms.items()]
-    lines.append("Derivation: docs/firmware.md (static maps: each map's float32 evaluation, and each "
-                 "error carried through the next map by its slope over the range).")
-    return lines
