@@ -95,6 +95,8 @@ def firmware_command(
         record = read_record(verify_record, columns=parse_columns(columns))
         unit = record.unit("signal") or unit
         dt = uniform_interval(record.time)
+        if rate_hz is None and longest is None and dt is None and model.is_static:
+            rate_hz = (len(record.time) - 1) / float(record.time[-1] - record.time[0])  # no dynamics
         if rate_hz is None and longest is None:
             if dt is None:
                 raise InputError(f"{verify_record}: not uniformly sampled; give --max-interval TIME "
@@ -233,7 +235,7 @@ def _render(result: dict, firmware, check) -> None:
                      f"; temperature per update, {firmware.temperature_range[0]:g} to "
                      f"{firmware.temperature_range[1]:g} °C (clamped)"), soft_wrap=True)
     if firmware.maps is not None:
-        _render_maps(firmware, check)
+        _render_maps(firmware, check, result["signal_unit"])
         if result["files"]:
             console.print("written: " + ", ".join(result["files"]), soft_wrap=True)
         else:
@@ -272,9 +274,9 @@ def _render(result: dict, firmware, check) -> None:
         console.print("no files written (give -o DIR or --library DIR)")
 
 
-def _render_maps(firmware, check) -> None:
+def _render_maps(firmware, check, unit: str) -> None:
     """The bound of a corrector with static maps, stage by stage, and its verification."""
-    maps, unit = firmware.maps, "signal units"
+    maps = firmware.maps
     low, high = maps["raw_range"]
     console.print(f"maps: {firmware.model.transfer.describe() if firmware.model.transfer else 'none'}"
                   f"; raw range {low:.9g} to {high:.9g} {unit}", soft_wrap=True)

@@ -212,6 +212,8 @@ def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler
         raise InputError("verify needs a record of at least 2 samples (time and signal of equal length)")
     if firmware.irregular:
         return _verify_irregular(firmware, t, x, repeats, compiler, target)
+    if firmware.maps is not None and firmware.model.is_static:   # no dynamics: any sampling
+        return _verify_maps(firmware, t, x, repeats, compiler, target)
     dt = uniform_interval(t)
     if dt is None:
         raise InputError("the record is not uniformly sampled: the generated corrector runs at a "

@@ -435,7 +435,8 @@ def check_maps_arguments(model: CreepModel, precision: str, max_interval, temper
                          "give --precision float32")
     if max_interval is not None:
         raise InputError(f"{what} has a fixed-rate C corrector only: give --rate instead of "
-                         "--max-interval")
+                         "--max-interval" + (" (a static calibration has no dynamics: any rate "
+                                             "serves every sampling)" if model.is_static else ""))
     if model.temperature is not None or temperature_range is not None:
         raise InputError(f"{what} with a temperature law has no C corrector: correct its records "
                          "with creepcomp correct")
