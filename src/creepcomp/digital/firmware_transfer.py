@@ -331,6 +331,15 @@ class TransferBound:
     terms: dict
 
 
+def _through(m: StaticMap, direction: str, lo: float, hi: float, error: float, terms: dict,
+             moved_label: str, own_label: str) -> float:
+    """The error after one map: its input's error carried through it (:func:`spread`) and its
+    own float32 evaluation over the widened range, each recorded in ``terms``."""
+    terms[moved_label] = spread(m, direction, lo, hi, error)
+    terms[own_label] = evaluation_error(m, direction, lo - error, hi + error)
+    return terms[moved_label] + terms[own_label]
+
+
 def transfer_bound(model: CreepModel, method: str, rate: float, full_scale: float) -> TransferBound:
     """The float32 corrector's worst-case error with its maps, in every unit it outputs.
 
@@ -368,11 +377,8 @@ def transfer_bound(model: CreepModel, method: str, rate: float, full_scale: floa
     if h is None:
         z_lo, z_hi, e_z = raw_lo - e_raw, raw_hi + e_raw, e_raw
     else:
-        moved = spread(h, "forward", raw_lo, raw_hi, e_raw)
-        own = evaluation_error(h, "forward", raw_lo - e_raw, raw_hi + e_raw)
-        terms["signal map h: input rounding through h"] = moved
-        terms["signal map h: float32 evaluation"] = own
-        e_z = moved + own
+        e_z = _through(h, "forward", raw_lo, raw_hi, e_raw, terms, "signal map h: input rounding through h",
+                       "signal map h: float32 evaluation")
         z_lo, z_hi = sorted(float(v) for v in h.forward(np.array([raw_lo, raw_hi])))
     fs_lin = max(abs(z_lo - model.offset), abs(z_hi - model.offset))
     sigma = 1.0 + model.beta0 if method == "supplemental" else 1.0
@@ -392,11 +398,9 @@ def transfer_bound(model: CreepModel, method: str, rate: float, full_scale: floa
     if h is None:
         compensated = e_c
     else:
-        moved = spread(h, "inverse", c_lo, c_hi, e_c)
-        own = evaluation_error(h, "inverse", c_lo - e_c, c_hi + e_c)
-        terms["compensated: h^-1 of the corrected value's error"] = moved
-        terms["compensated: h^-1 float32 evaluation"] = own
-        compensated = moved + own
+        compensated = _through(h, "inverse", c_lo, c_hi, e_c, terms,
+                               "compensated: h^-1 of the corrected value's error",
+                               "compensated: h^-1 float32 evaluation")
     scale = 1.0 / (model.gain * sigma)
     k_f, off_f = float32_value(scale), float32_value(model.offset)
     q_span = max(abs(c_lo - model.offset), abs(c_hi - model.offset)) + e_c
@@ -407,11 +411,8 @@ def transfer_bound(model: CreepModel, method: str, rate: float, full_scale: floa
     if f is None:
         load, load_range = e_q, (q_lo, q_hi)
     else:
-        moved = spread(f, "inverse", q_lo, q_hi, e_q)
-        own = evaluation_error(f, "inverse", q_lo - e_q, q_hi + e_q)
-        terms["load: f^-1 of that error"] = moved
-        terms["load: f^-1 float32 evaluation"] = own
-        load = moved + own
+        load = _through(f, "inverse", q_lo, q_hi, e_q, terms, "load: f^-1 of that error",
+                        "load: f^-1 float32 evaluation")
         load_range = tuple(sorted(float(v) for v in f.inverse(np.array([q_lo, q_hi]))))
     allowance = REFERENCE_ALLOWANCE * max(abs(raw_lo), abs(raw_hi))
     return TransferBound(linear=linear, linear_full_scale=float(fs_lin), raw=(raw_lo, raw_hi),
