@@ -154,3 +154,28 @@ def test_cli_writes_and_verifies_a_static_calibration(run_cli, tmp_path):
     assert "load units" in out
     status, out, err = run_cli("firmware", model, "--rate", "100", "--full-scale", "600:0.7")
     assert status == 2 and "LOW must be below HIGH" in err
+
+
+def _toolchain(target: str) -> bool:
+    from creepcomp.digital.firmware_target import find_toolchain
+    from creepcomp.errors import CreepcompError
+
+    try:
+        find_toolchain(target)
+    except CreepcompError:
+        return False
+    return True
+
+
+@pytest.mark.parametrize("target", ["avr", "cortex-m0plus"])
+def test_on_the_chips_the_maps_stay_within_their_bounds(target):
+    """The chips' libm (avr-libc, newlib) with a power and a log map, and the spline's table."""
+    if not _toolchain(target):
+        pytest.skip(f"the {target} toolchain is not installed")
+    for model in (POWER, STATIC, SPLINE):
+        t, _, signal = steps_record(model, n=1500)
+        fw = generate_firmware(model, rate=RATE, full_scale=(signal.min(), signal.max()), name="pad")
+        check = verify_firmware(fw, t, signal, target=target)
+        assert check.passed and check.on_target.target == target
+        assert 0 < check.load["max_error"] <= check.load["bound"]
+        assert check.on_target.flash_bytes > 0

@@ -222,7 +222,6 @@ def _celsius_range(text: str | None) -> tuple[float, float] | None:
 
 
 def _render(result: dict, firmware, check) -> None:
-    from creepcomp.digital.firmware_target import TOOLCHAINS
     from creepcomp.units import format_quantity
 
     console.print(f"[bold]creepcomp firmware[/bold]: {result['model']}, {result['method']} method, "
@@ -259,13 +258,7 @@ def _render(result: dict, firmware, check) -> None:
             console.print(f"mode decisions within the switching margin on this record: "
                           f"{check.switching['steps']}, adding {check.switching['added_fs']:.3e} of full "
                           f"scale: bound on this record {check.bound_fs:.3e}", soft_wrap=True)
-        run = check.on_target
-        cost = (f"{check.ns_per_sample:.1f} ns per sample on this machine; object "
-                f"{check.object_bytes} bytes (gcc -O2, text + data)" if run is None else
-                f"on {TOOLCHAINS[run.target].chip}: {run.per_sample:.0f} {run.counts} per sample "
-                + ("(mean)" if run.largest is None else f"(mean; largest {run.largest})")
-                + f", flash {run.flash_bytes} bytes, RAM {run.ram_bytes} "
-                f"bytes (state {run.state_bytes} bytes, stack {run.stack_bytes} bytes)")
+        cost = _cost(check)
         console.print(f"verified on {result['record']}: {check.samples} samples, largest error "
                       f"{check.max_error_fs:.3e} of full scale ({verdict}); {cost}", soft_wrap=True)
     if result["files"]:
@@ -296,5 +289,18 @@ def _render_maps(firmware, check, unit: str) -> None:
                       f"{check.load['outside']} with the exact corrected value outside the bounds' "
                       f"range): largest error {check.max_error_fs:.3e} of full scale in the compensated "
                       f"signal, {check.load['max_error']:.3e} load units in the load ({verdict}); "
-                      f"{check.ns_per_sample:.1f} ns per sample on this machine; object "
-                      f"{check.object_bytes} bytes (gcc -O2, text + data)", soft_wrap=True)
+                      + _cost(check), soft_wrap=True)
+
+
+def _cost(check) -> str:
+    """The verified step's cost: time and object size on this machine, or on the chip."""
+    from creepcomp.digital.firmware_target import TOOLCHAINS
+
+    run = check.on_target
+    if run is None:
+        return (f"{check.ns_per_sample:.1f} ns per sample on this machine; object "
+                f"{check.object_bytes} bytes (gcc -O2, text + data)")
+    return (f"on {TOOLCHAINS[run.target].chip}: {run.per_sample:.0f} {run.counts} per sample "
+            + ("(mean)" if run.largest is None else f"(mean; largest {run.largest})")
+            + f", flash {run.flash_bytes} bytes, RAM {run.ram_bytes} "
+            f"bytes (state {run.state_bytes} bytes, stack {run.stack_bytes} bytes)")

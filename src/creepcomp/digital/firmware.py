@@ -435,8 +435,10 @@ def _maps_bound_lines(bound: TransferBound, full_scale: float) -> list[str]:
 def render_target_program(firmware: Firmware, template: str) -> str:
     """The program that runs a corrector's step on a simulated chip
     (:mod:`creepcomp.digital.firmware_target`), from its template."""
+    maps = {} if firmware.maps is None else {"maps": firmware.maps}
     return _render(template, name=firmware.name, precision=firmware.precision,
-                   irregular=firmware.irregular, temperature=firmware.temperature_range is not None)
+                   irregular=firmware.irregular, temperature=firmware.temperature_range is not None,
+                   **maps)
 
 
 def check_no_extensions(model: CreepModel) -> None:
