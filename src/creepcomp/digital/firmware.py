@@ -292,12 +292,13 @@ def _maps_firmware(model: CreepModel, method: str, precision: str, rate: float, 
     -------
     Firmware
         Its ``bound`` is the compensated signal's (fraction of ``full_scale``); ``maps`` holds
-        the load's bound and the ranges (:meth:`TransferBound` values).
+        the load's bound and the ranges (from the
+        :class:`~creepcomp.digital.firmware_transfer.TransferBound`).
     """
     linear_model = CreepModel(model.beta, model.tau, model.gain, model.offset)
     raw = full_scale
     full_scale = range_full_scale(model, raw)
-    if model.is_static:     # the arguments' checks but the model's (which has no creep to invert)
+    if model.is_static:     # the arguments checked with a stand-in: no creep terms to check
         check_arguments(CreepModel((0.1,), (1.0,), model.gain, model.offset), method, precision,
                         rate, full_scale, name)
     else:
