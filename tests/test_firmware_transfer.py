@@ -179,3 +179,15 @@ def test_on_the_chips_the_maps_stay_within_their_bounds(target):
         assert check.passed and check.on_target.target == target
         assert 0 < check.load["max_error"] <= check.load["bound"]
         assert check.on_target.flash_bytes > 0
+
+
+def test_cli_keeps_the_maps_of_a_model_with_an_extension(run_cli, tmp_path):
+    """An extension map and static maps have no C corrector together: refused, naming the
+    baseline model, rather than written without the maps."""
+    model = CreepModel(RECIPROCAL.beta, RECIPROCAL.tau, RECIPROCAL.gain, RECIPROCAL.offset,
+                       {"mullins_softening": {"softening": 0.2, "shape": 0.0}},
+                       transfer=RECIPROCAL.transfer)
+    path = write_model(tmp_path / "model.json", model)
+    status, out, err = run_cli("firmware", path, "--rate", "100", "--full-scale", "1000:9000")
+    assert status == 2 and out == "" and err.count("\n") == 1
+    assert "static maps" in err and "baseline model" in err

@@ -188,7 +188,7 @@ def _linear_part(model):
     from creepcomp.model import CreepModel
 
     out = firmware_output(model)
-    linear = CreepModel(model.beta, model.tau, model.gain, model.offset)
+    linear = CreepModel(model.beta, model.tau, model.gain, model.offset, transfer=model.transfer)
     if "polynomial" in out:
         return linear, out["polynomial"], None
     return linear, None, out
