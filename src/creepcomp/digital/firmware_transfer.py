@@ -443,4 +443,6 @@ def check_maps_arguments(model: CreepModel, precision: str, max_interval, temper
                          "with creepcomp correct")
     if output_polynomial is not None or extension is not None:
         raise InputError(f"{what} with an extension map of the diagnosis has no C corrector: "
-                         "generate the firmware of its baseline model")
+                         "generate the firmware of its baseline model (baseline-model.json, which "
+                         "creepcomp diagnose -o writes), or correct records in Python with "
+                         "creepcomp correct")
