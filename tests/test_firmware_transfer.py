@@ -35,6 +35,15 @@ SPLINE = CreepModel((0.15, -0.05), (2.0, 30.0), gain=0.8, offset=0.1, transfer=T
 #: A static calibration: no creep terms, a logarithmic signal map.
 STATIC = CreepModel((), (), gain=2.0, offset=0.5,
                     transfer=Transfer(signal_map=StaticMap("log", {"origin": -1.0})))
+#: A decreasing spline (a pad's counts) with a log load map.
+FALLING = CreepModel((0.3,), (3.0,), 1.0, 0.2, transfer=Transfer(
+    signal_map=StaticMap("spline", {"x": [100.0, 150.0, 200.0, 260.0], "y": [3.0, 1.5, 0.6, 0.1]}),
+    load_map=StaticMap("log", {"origin": -1.0})))
+#: A saturating signal map below a negative limit, a reciprocal load map (its inverse is not
+#: defined at the relaxed start's corrected value).
+SATURATING = CreepModel((0.4,), (8.0,), 0.5, 0.1, transfer=Transfer(
+    signal_map=StaticMap("saturating", {"limit": -5.0}),
+    load_map=StaticMap("reciprocal", {"origin": -2.0})))
 #: Power maps on both sides (powf in the C).
 POWER = CreepModel((0.1,), (10.0,), gain=0.5, offset=0.2, transfer=Transfer(
     load_map=StaticMap("power", {"exponent": 0.7, "origin": 0.0}),
@@ -58,15 +67,17 @@ def steps_record(model: CreepModel, n: int = 12_000, seed: int = 1):
 @needs_gcc
 @pytest.mark.parametrize("model,method", [(RECIPROCAL, "subtractive"), (SPLINE, "subtractive"),
                                           (SPLINE, "supplemental"), (STATIC, "subtractive"),
-                                          (POWER, "subtractive")],
-                         ids=["reciprocal", "spline", "spline-supplemental", "static", "power"])
+                                          (POWER, "subtractive"), (FALLING, "supplemental"),
+                                          (SATURATING, "subtractive")],
+                         ids=["reciprocal", "spline", "spline-supplemental", "static", "power",
+                              "falling-spline", "saturating"])
 def test_outputs_match_estimate_load_within_the_bound(model, method):
     t, load, signal = steps_record(model)
     fw = generate_firmware(model, method, rate=RATE, full_scale=(signal.min(), signal.max()),
                            name="pad")
     check = verify_firmware(fw, t, signal, repeats=1)
     assert check.passed
-    assert check.load["compared"] > 0.9 * len(t)
+    assert check.load["compared"] == len(t)      # every exact corrected value within the range
     assert 0 < check.max_error_fs <= check.bound_fs
     assert 0 < check.load["max_error"] <= check.load["bound"] == fw.maps["bound_load"]
     # the load the C gives back is the load that made the signal, to float32 precision

@@ -425,7 +425,8 @@ def _maps_bound_lines(bound: TransferBound, full_scale: float) -> list[str]:
              f"corrected value c (units of h) within {bound.corrected:.3e} of the exact one,",
              f"for every raw sample from {bound.raw[0]:.9g} to {bound.raw[1]:.9g}, from a relaxed or "
              "settled start. The compensated signal's and the load's bounds hold while the exact c",
-             f"stays within {lo:.9g} to {hi:.9g} (the image of the raw range; loads {llo:.6g} to {lhi:.6g}).",
+             f"stays within {lo:.9g} to {hi:.9g} (the corrector's reach from the raw range; loads "
+             f"{llo:.6g} to {lhi:.6g}).",
              "Parts (by cause, in the units of the stage they enter):"]
     lines += [f"  {name}: {value:.3e}" for name, value in bound.terms.items()]
     lines.append("Derivation: docs/firmware.md (static maps: each map's float32 evaluation, and each "

@@ -313,9 +313,10 @@ class TransferBound:
     load : float
         Bound on the load (load units).
     corrected_range, load_range : tuple of float
-        The range of ``c`` (the image of the raw range under ``h``) and of the load it stands
-        for: the compensated signal's and the load's bounds hold for the samples whose exact
-        ``c`` lies in it (always, for a static calibration).
+        The range of ``c`` (the corrector's reach from the raw range, see
+        :func:`_reachable`) and of the load it stands for: the compensated signal's and the
+        load's bounds hold for the samples whose exact ``c`` lies in it (always, for a static
+        calibration).
     terms : dict
         The parts, by cause, in the units of the stage they enter.
     """
@@ -329,6 +330,41 @@ class TransferBound:
     corrected_range: tuple[float, float]
     load_range: tuple[float, float]
     terms: dict
+
+
+def _reachable(model: CreepModel, method: str, l1: float, z_lo: float, z_hi: float, e_c: float,
+               image: tuple[float, float]) -> tuple[float, float]:
+    """The range of the exact corrected value ``c`` for inputs ``h(raw)`` in ``[z_lo, z_hi]``.
+
+    The corrector is linear: ``S`` is the input's convolution with an impulse response of l1
+    norm ``l1`` and sum ``1 / (1 + beta0)``, so its positive part sums to ``P = (l1 + dc) / 2``
+    and its negative part to ``N = (l1 - dc) / 2``, and ``S`` reaches from
+    ``P x_lo - N x_hi`` to ``P x_hi - N x_lo``, ``x = h(raw) - offset``, with 0 (a relaxed
+    start's past) in the range of ``x``. Where ``h^-1`` or ``f^-1`` is not defined at an end (a
+    reciprocal's at or below zero), the end falls back to the reach without the relaxed past,
+    then to the image of the raw range: the bounds then hold while ``c`` stays within it.
+    """
+    path = model.transfer
+    sigma = 1.0 + model.beta0 if method == "supplemental" else 1.0
+    dc = 1.0 / (1.0 + model.beta0)
+    positive, negative = (l1 + dc) / 2, max((l1 - dc) / 2, 0.0)
+    scale = 1.0 / (model.gain * sigma)
+
+    def reach(x_lo, x_hi):
+        return (model.offset + sigma * (positive * x_lo - negative * x_hi),
+                model.offset + sigma * (positive * x_hi - negative * x_lo))
+
+    def defined(c: float) -> bool:
+        c = np.array([c])
+        return bool(np.all(np.isfinite(path.delinearise(c)))
+                    and np.all(np.isfinite(path.load_out((c - model.offset) * scale))))
+
+    x_lo, x_hi = z_lo - model.offset, z_hi - model.offset
+    candidates = [reach(min(x_lo, 0.0), max(x_hi, 0.0)), reach(x_lo, x_hi), image]
+    ends = []
+    for k, step in ((0, -e_c), (1, e_c)):
+        ends.append(next(c[k] for c in candidates if defined(c[k] + step) or c is image))
+    return ends[0], ends[1]
 
 
 def _through(m: StaticMap, direction: str, lo: float, hi: float, error: float, terms: dict,
@@ -395,6 +431,8 @@ def transfer_bound(model: CreepModel, method: str, rate: float, full_scale: floa
         terms[f"corrector: input error through its gains (x{gains.sample:.4g})"] = through
         e_c = linear.total_fs * (fs_lin + e_z) + through
     c_lo, c_hi = z_lo, z_hi
+    if not model.is_static:
+        c_lo, c_hi = _reachable(model, method, gains.sample, z_lo, z_hi, e_c, (c_lo, c_hi))
     if h is None:
         compensated = e_c
     else:
