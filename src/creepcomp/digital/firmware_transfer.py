@@ -212,8 +212,11 @@ def _spline_error(m: StaticMap, direction: str, lo: float, hi: float) -> float:
         e_x = abs(t["x_f"][k] - t["x"][k])
         e_t = _U * width
         product = abs(s_f) * width * (1 + _U) ** 2
-        kink = max((abs(t["s"][j] - s) * abs(t["x_f"][j] - t["x"][j]) for j in (k, k + 1)
-                    if 0 < j < n - 1), default=0.0)
+        # an input between a knot and its stored value takes this segment's line where the
+        # neighbour's holds: off by the slopes' difference times the knot's error
+        kink = max((abs(t["s"][other] - s) * abs(t["x_f"][knot] - t["x"][knot])
+                    for knot, other in ((k, k - 1), (k + 1, k + 1)) if 0 < knot < n - 1),
+                   default=0.0)
         err = (abs(t["y_f"][k] - t["y"][k]) + abs(s_f - s) * width + abs(s) * (e_x + e_t)
                + _U * product + _U * (abs(t["y_f"][k]) + product) + kink)
         worst = max(worst, err)
