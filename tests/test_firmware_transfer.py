@@ -125,6 +125,18 @@ def test_map_error_parts_bound_what_float32_does():
     assert np.max(np.abs(c - s.inverse(q.astype(float)))) <= evaluation_error(s, "inverse", -1.0, 15.0)
     moved = np.abs(h.forward(x + 0.5) - h.forward(x))
     assert np.max(moved) <= spread(h, "forward", 300.0, 9000.0, 0.5)
+    # a spline with knots no float holds, evaluated as the C does (float32 table, the segment
+    # of the stored knots, y_k + s_k (v - x_k)), over and past its knots
+    knots = np.array([0.1, 1 / 3, 2 / 3, 1.1, 7 / 3])
+    values = np.array([0.0, 0.7, 0.9, 1.7, 1.8])
+    m = StaticMap("spline", {"x": knots, "y": values})
+    v = np.linspace(-0.5, 3.0, 20001).astype(f32)
+    xk, yk = knots.astype(f32), values.astype(f32)
+    sk = (np.diff(values) / np.diff(knots)).astype(f32)
+    seg = np.clip(np.searchsorted(xk, v, side="right") - 1, 0, len(knots) - 2)
+    c = (yk[seg] + sk[seg] * (v - xk[seg])).astype(float)
+    error = np.max(np.abs(c - m.forward(v.astype(float))))
+    assert 0 < error <= evaluation_error(m, "forward", -0.5, 3.0)
 
 
 def test_refusals_name_what_to_do():
