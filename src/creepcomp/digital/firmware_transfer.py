@@ -127,6 +127,15 @@ def evaluation_error(m: StaticMap, direction: str, lo: float, hi: float) -> floa
     -------
     float
         In the output's units.
+
+    Examples
+    --------
+    A conductance ``1/R`` of resistances from 1 to 10 kOhm, in float32:
+
+    >>> from creepcomp.transfer import StaticMap
+    >>> e = evaluation_error(StaticMap("reciprocal", {"origin": 0.0}), "forward", 1000.0, 10000.0)
+    >>> print(f"{e:.3g} S, {e / (1e-3 * 2.0 ** -24):.2f} half-ulps of the largest conductance")
+    1.19e-10 S, 2.00 half-ulps of the largest conductance
     """
     p = m.parameters
     f = _exact(m, direction)
@@ -156,6 +165,9 @@ def evaluation_error(m: StaticMap, direction: str, lo: float, hi: float) -> floa
         crosses = lo < origin < hi
         d_lo, d_hi = (0.0 if crosses else float(np.min(d))), float(np.max(d))
         e_d = _difference_error(origin, d_hi)
+        if m.form in ("reciprocal", "log"):
+            # fl(x - o_f) errs by e_o + u |d|: relative to d, largest nearest the origin
+            e_d = _difference_error(origin, d_lo)
         if m.form == "reciprocal":
             if d_lo <= e_d:
                 raise InputError("the reciprocal map is evaluated too near its origin over the range "
@@ -165,7 +177,7 @@ def evaluation_error(m: StaticMap, direction: str, lo: float, hi: float) -> floa
             if d_lo <= e_d:
                 raise InputError("the log map is evaluated too near its origin over the range the "
                                  "full scale implies: give a smaller --full-scale")
-            logs = max(abs(math.log(d_lo - e_d)), abs(math.log(d_hi + e_d)))
+            logs = max(abs(math.log(d_lo - e_d)), abs(math.log(d_hi + _difference_error(origin, d_hi))))
             return e_d / (d_lo - e_d) + LIBM_ULPS * _ULP * logs + _TINY
         exponent = p["exponent"]                          # power
         if exponent < 0 and d_lo <= e_d:
@@ -267,6 +279,17 @@ def raw_range(model: CreepModel, full_scale) -> tuple[float, float, float]:
     ``full_scale`` is a number (``|raw - raw0| <= full_scale``, ``raw0 = h^-1(offset)`` with a
     signal map, else the offset) or ``(low, high)``, the raw range itself: a sensor whose signal
     moves one way from its unloaded level (a resistance that falls with load) needs it.
+
+    Examples
+    --------
+    A pad unloaded at 10 kOhm (conductance 1e-4 S), read between 2 and 18 kOhm:
+
+    >>> from creepcomp.model import CreepModel
+    >>> from creepcomp.transfer import StaticMap, Transfer
+    >>> pad = CreepModel((0.2,), (5.0,), gain=1e-4, offset=1e-4,
+    ...                  transfer=Transfer(signal_map=StaticMap("reciprocal", {"origin": 0.0})))
+    >>> [round(v) for v in raw_range(pad, 8000.0)]
+    [10000, 2000, 18000]
     """
     h = None if model.transfer is None else model.transfer.signal_map
     raw0 = model.offset if h is None else float(h.inverse(model.offset))
