@@ -319,7 +319,7 @@ def _maps_firmware(model: CreepModel, method: str, precision: str, rate: float, 
     maps["libm"] = any(m is not None and m["libm"] for m in (maps["h"], maps["f_inverse"]))
     maps["spline"] = any(m is not None and m["form"] == "spline"
                          for m in (maps["h"], maps["h_inverse"], maps["f_inverse"]))
-    lines = _maps_lines(model, method, rate, full_scale, bound)
+    lines = _maps_lines(model, rate, full_scale, bound)
     bound_fs = bound.compensated / full_scale
     if model.is_static:
         identity = ((), (), model.offset, model.gain, rate, full_scale, precision, method)
@@ -393,8 +393,7 @@ def _maps_summary(bound: TransferBound) -> dict:
             "linear_full_scale": bound.linear_full_scale, "terms": dict(bound.terms)}
 
 
-def _maps_lines(model: CreepModel, method: str, rate: float, full_scale: float,
-                bound: TransferBound) -> list[str]:
+def _maps_lines(model: CreepModel, rate: float, full_scale: float, bound: TransferBound) -> list[str]:
     """The maps' part of the derivation, as comment lines."""
     path = model.transfer
     lines = [f"Static maps: {'none' if path is None else path.describe()}; gain = {model.gain:.9g} "
@@ -406,14 +405,9 @@ def _maps_lines(model: CreepModel, method: str, rate: float, full_scale: float,
              "(binary search, y_k + s_k (x - x_k), end slopes continued), power and log by powf/logf/expf "
              f"(assumed within {LIBM_ULPS:g} ulp)."]
     if model.is_static:
-        lines.append(f"A static calibration at {_qty_rate(rate)}: no creep terms, the state holds nothing.")
+        lines.append(f"A static calibration: no creep terms, the state holds nothing (the rate, "
+                     f"{_qty(rate, 'Hz')}, changes nothing).")
     return lines
-
-
-def _qty_rate(rate: float) -> str:
-    from creepcomp.units import format_quantity
-
-    return format_quantity(rate, "Hz", digits=6)
 
 
 def _maps_bound_lines(bound: TransferBound, full_scale: float) -> list[str]:
@@ -793,7 +787,8 @@ def _template_variables(template: str) -> frozenset[str]:
 
 
 #: Values a template may go without (tested with ``is defined``): the extension map's, which
-#: only the step of a model with an extension has.
+#: only the step of a model with an extension has, and the static maps' (``maps``), which only
+#: a model with a transfer or a static calibration has.
 _OPTIONAL = frozenset({"extension", "maps"})
 
 
