@@ -209,3 +209,14 @@ def test_cli_keeps_the_maps_of_a_model_with_an_extension(run_cli, tmp_path):
     status, out, err = run_cli("firmware", path, "--rate", "100", "--full-scale", "1000:9000")
     assert status == 2 and out == "" and err.count("\n") == 1
     assert "static maps" in err and "baseline model" in err
+
+
+@pytest.mark.parametrize("model,full_scale,message", [
+    (STATIC, "1:2:3", "expected VALUE or LOW:HIGH"),
+    (STATIC, "-2:600", "leaves the signal map's domain"),
+    (CreepModel((0.1,), (5.0,)), "0:1", "for a model with static maps"),
+])
+def test_cli_bad_raw_range_is_one_line_with_status_2(run_cli, tmp_path, model, full_scale, message):
+    path = write_model(tmp_path / "model.json", model)
+    status, out, err = run_cli("firmware", path, "--rate", "100", "--full-scale", full_scale)
+    assert status == 2 and out == "" and err.count("\n") == 1 and message in err
