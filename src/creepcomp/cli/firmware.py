@@ -188,7 +188,8 @@ def _linear_part(model):
     from creepcomp.model import CreepModel
 
     out = firmware_output(model)
-    linear = CreepModel(model.beta, model.tau, model.gain, model.offset, transfer=model.transfer)
+    linear = CreepModel(model.beta, model.tau, model.gain, model.offset,
+                        temperature=model.temperature, transfer=model.transfer)
     if "polynomial" in out:
         return linear, out["polynomial"], None
     return linear, None, out
