@@ -349,6 +349,12 @@ def test_every_template_file_is_used(monkeypatch):
                       extension={"play": {"ratio": 0.05, "half_width": 0.01}})
     generate_firmware(MODEL, "subtractive", "q31", RATE, 1.0,
                       extension={"recovery": {"term": 0, "tau_recovery": 20.0, "dead_band": 1e-9}})
+    from creepcomp.transfer import StaticMap, Transfer
+
+    pad = Transfer(signal_map=StaticMap("reciprocal", {"origin": 0.0}))
+    for beta, tau in ((MODEL.beta, MODEL.tau), ((), ())):       # with creep, and a static calibration
+        generate_firmware(CreepModel(beta, tau, 1e-4, 1e-4, transfer=pad), rate=RATE,
+                          full_scale=(1000.0, 9000.0))
     for program in ("avr_program.c.j2", "arm_program.c.j2"):
         firmware.render_target_program(generate_firmware(MODEL, rate=RATE), program)
     from creepcomp.digital.firmware_library import library_files

@@ -261,3 +261,16 @@ def test_cli_prints_the_bound_on_the_record(run_cli, tmp_path, key, says):
     text = " ".join(out.split())
     assert status == 0, err
     assert says in text and "bound on this record" in text and "within the bound" in text
+
+
+def test_cli_keeps_the_temperature_law_of_a_model_with_an_extension(run_cli, tmp_path):
+    """An extension map and a temperature law have no C corrector together: refused, not
+    written without the law."""
+    from creepcomp.io.jsonfiles import write_model
+    from creepcomp.temperature import TemperatureLaw
+
+    model = CreepModel((0.01,), (5.0,), 1.0, 0.0, {"mullins_softening": EXTENSIONS["mullins_softening"]},
+                       temperature=TemperatureLaw.arrhenius(43000.0))
+    path = write_model(tmp_path / "model.json", model)
+    status, out, err = run_cli("firmware", path, "--rate", "100", "--full-scale", "1")
+    assert status == 2 and out == "" and err.count("\n") == 1 and "temperature law" in err

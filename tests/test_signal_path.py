@@ -145,9 +145,10 @@ def test_correct_writes_the_load_of_a_model_with_maps(run_cli, tmp_path):
     status, stdout, err = run_cli("correct", rec, "--model", model, "-o", out, "--json")
     assert status == 0, err
     assert json.loads(stdout)["load_estimate"]["rms"] < 1e-9
-    status, _, err = run_cli("firmware", model, "-o", tmp_path / "fw", "--rate", "10Hz",
-                             "--full-scale", "1e4")
-    assert status == 2 and "static map" in err
+    status, out, err = run_cli("firmware", model, "-o", tmp_path / "fw", "--verify", rec, "--json")
+    assert status == 0, err
+    load = json.loads(out)["load"]
+    assert load["compared"] == 2400 and load["max_error"] <= load["bound"]
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

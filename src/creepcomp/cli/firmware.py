@@ -33,8 +33,10 @@ def firmware_command(
                                                     "to TIME (e.g. 40ms) are accepted."),
     full_scale: Optional[str] = typer.Option(None, "--full-scale", metavar="VALUE",
                                              help="Largest |signal - offset| (signal units) the "
-                                                  "bound assumes and q31 scales to. Default with "
-                                                  "--verify: the record's."),
+                                                  "bound assumes and q31 scales to; for a model "
+                                                  "with static maps also LOW:HIGH, the raw "
+                                                  "signal's range. Default with --verify: the "
+                                                  "record's."),
     temperature_range: Optional[str] = typer.Option(None, "--temperature-range", metavar="LOW:HIGH",
                                                     help="For a model with a temperature law: "
                                                          "the range (°C) the step clamps to and "
@@ -84,7 +86,7 @@ def firmware_command(
     model, polynomial, extension = _linear_part(read_model(model_file))
     rate_hz = quantity(rate, "hertz", "--rate", positive=True)
     longest = quantity(max_interval, "second", "--max-interval", positive=True)
-    scale = quantity(full_scale, "number", "--full-scale", positive=True)
+    scale = _full_scale(full_scale)
     record, unit = None, "signal units"
     if verify_record is not None:
         import numpy as np
@@ -92,11 +94,15 @@ def firmware_command(
         record = read_record(verify_record, columns=parse_columns(columns))
         unit = record.unit("signal") or unit
         dt = uniform_interval(record.time)
+        if rate_hz is None and longest is None and dt is None and model.is_static:
+            rate_hz = (len(record.time) - 1) / float(record.time[-1] - record.time[0])  # no dynamics
         if rate_hz is None and longest is None:
             if dt is None:
                 raise InputError(f"{verify_record}: not uniformly sampled; give --max-interval TIME "
                                  "for the dt step (irregular sampling)")
             rate_hz = 1.0 / dt
+        if scale is None and (model.transfer is not None or model.is_static):
+            scale = (float(np.min(record.signal)), float(np.max(record.signal)))
         if scale is None:
             scale = float(np.max(np.abs(record.signal - model.offset)))
             if scale == 0:
@@ -119,6 +125,8 @@ def firmware_command(
               "extensions": sorted(read_model(model_file).extensions or {})}
     if firmware.temperature_range is not None:
         result["temperature_range"] = list(firmware.temperature_range)
+    if firmware.maps is not None:
+        result["maps"] = dict(firmware.maps)
     check = None
     if record is not None:
         from creepcomp.digital.firmware_check import verify_firmware
@@ -145,9 +153,28 @@ def firmware_command(
     else:
         _render(result, firmware, check)
     if check is not None and not check.passed:
+        if check.load is not None and check.load["max_error"] > check.load["bound"]:
+            fail(f"measured load error {check.load['max_error']:.3e} load units at sample "
+                 f"{check.load['worst_sample']} exceeds the proven bound {check.load['bound']:.3e}",
+                 BOUND_EXCEEDED)
+            raise typer.Exit(BOUND_EXCEEDED)
         fail(f"measured error {check.max_error_fs:.3e} of full scale at sample {check.worst_sample} "
              f"exceeds the proven bound {firmware.bound.total_fs:.3e}", BOUND_EXCEEDED)
         raise typer.Exit(BOUND_EXCEEDED)
+
+
+def _full_scale(text: str | None):
+    """``--full-scale``: a number (the largest |signal - offset|), or ``LOW:HIGH`` (a raw range,
+    for a model with static maps)."""
+    if text is None or ":" not in str(text):
+        return quantity(text, "number", "--full-scale", positive=True)
+    parts = str(text).split(":")
+    if len(parts) != 2:
+        raise InputError(f"--full-scale = '{text}': expected VALUE or LOW:HIGH (a raw range)")
+    low, high = (quantity(p, "number", "--full-scale") for p in parts)
+    if not low < high:
+        raise InputError(f"--full-scale = '{text}': LOW must be below HIGH")
+    return low, high
 
 
 def _linear_part(model):
@@ -160,7 +187,8 @@ def _linear_part(model):
     from creepcomp.model import CreepModel
 
     out = firmware_output(model)
-    linear = CreepModel(model.beta, model.tau, model.gain, model.offset)
+    linear = CreepModel(model.beta, model.tau, model.gain, model.offset,
+                        temperature=model.temperature, transfer=model.transfer)
     if "polynomial" in out:
         return linear, out["polynomial"], None
     return linear, None, out
@@ -194,7 +222,6 @@ def _celsius_range(text: str | None) -> tuple[float, float] | None:
 
 
 def _render(result: dict, firmware, check) -> None:
-    from creepcomp.digital.firmware_target import TOOLCHAINS
     from creepcomp.units import format_quantity
 
     console.print(f"[bold]creepcomp firmware[/bold]: {result['model']}, {result['method']} method, "
@@ -206,6 +233,13 @@ def _render(result: dict, firmware, check) -> None:
                   + ("" if firmware.temperature_range is None else
                      f"; temperature per update, {firmware.temperature_range[0]:g} to "
                      f"{firmware.temperature_range[1]:g} °C (clamped)"), soft_wrap=True)
+    if firmware.maps is not None:
+        _render_maps(firmware, check, result["signal_unit"])
+        if result["files"]:
+            console.print("written: " + ", ".join(result["files"]), soft_wrap=True)
+        else:
+            console.print("no files written (give -o DIR or --library DIR)")
+        return
     from creepcomp.report.results import bound_table
 
     console.print(bound_table(firmware.bound).to_rich())
@@ -219,16 +253,49 @@ def _render(result: dict, firmware, check) -> None:
             console.print(f"mode decisions within the switching margin on this record: "
                           f"{check.switching['steps']}, adding {check.switching['added_fs']:.3e} of full "
                           f"scale: bound on this record {check.bound_fs:.3e}", soft_wrap=True)
-        run = check.on_target
-        cost = (f"{check.ns_per_sample:.1f} ns per sample on this machine; object "
-                f"{check.object_bytes} bytes (gcc -O2, text + data)" if run is None else
-                f"on {TOOLCHAINS[run.target].chip}: {run.per_sample:.0f} {run.counts} per sample "
-                + ("(mean)" if run.largest is None else f"(mean; largest {run.largest})")
-                + f", flash {run.flash_bytes} bytes, RAM {run.ram_bytes} "
-                f"bytes (state {run.state_bytes} bytes, stack {run.stack_bytes} bytes)")
+        cost = _cost(check)
         console.print(f"verified on {result['record']}: {check.samples} samples, largest error "
                       f"{check.max_error_fs:.3e} of full scale ({verdict}); {cost}", soft_wrap=True)
     if result["files"]:
         console.print("written: " + ", ".join(result["files"]), soft_wrap=True)
     else:
         console.print("no files written (give -o DIR or --library DIR)")
+
+
+def _render_maps(firmware, check, unit: str) -> None:
+    """The bound of a corrector with static maps, stage by stage, and its verification."""
+    maps = firmware.maps
+    low, high = maps["raw_range"]
+    console.print(f"maps: {firmware.model.transfer.describe() if firmware.model.transfer else 'none'}"
+                  f"; raw range {low:.9g} to {high:.9g} {unit}", soft_wrap=True)
+    table = Table(title="Proven worst-case error against the float64 compensate and estimate_load",
+                  title_justify="left")
+    table.add_column("part (in the units of its stage)")
+    table.add_column("error", justify="right")
+    for part, value in maps["terms"].items():
+        table.add_row(part, f"{value:.3e}")
+    table.add_row("[bold]compensated signal[/bold]",
+                  f"[bold]{maps['bound_signal']:.3e} {unit} ({firmware.bound.total_fs:.3e} of full scale)[/bold]")
+    table.add_row("[bold]load[/bold]", f"[bold]{maps['bound_load']:.3e} load units[/bold]")
+    console.print(table)
+    if check is not None:
+        verdict = "within the bounds" if check.passed else "ABOVE A BOUND"
+        console.print(f"verified on {check.samples} samples ({check.load['compared']} compared, "
+                      f"{check.load['outside']} with the exact corrected value outside the bounds' "
+                      f"range): largest error {check.max_error_fs:.3e} of full scale in the compensated "
+                      f"signal, {check.load['max_error']:.3e} load units in the load ({verdict}); "
+                      + _cost(check), soft_wrap=True)
+
+
+def _cost(check) -> str:
+    """The verified step's cost: time and object size on this machine, or on the chip."""
+    from creepcomp.digital.firmware_target import TOOLCHAINS
+
+    run = check.on_target
+    if run is None:
+        return (f"{check.ns_per_sample:.1f} ns per sample on this machine; object "
+                f"{check.object_bytes} bytes (gcc -O2, text + data)")
+    return (f"on {TOOLCHAINS[run.target].chip}: {run.per_sample:.0f} {run.counts} per sample "
+            + ("(mean)" if run.largest is None else f"(mean; largest {run.largest})")
+            + f", flash {run.flash_bytes} bytes, RAM {run.ram_bytes} "
+            f"bytes (state {run.state_bytes} bytes, stack {run.stack_bytes} bytes)")

@@ -53,6 +53,8 @@ from creepcomp.digital.firmware_bound import (DEFAULT_TEMPERATURE_RANGE, FULL_SC
                                               temperature_bound, temperature_scheme)
 from creepcomp.digital.firmware_extension import check_extension, extension_parts
 from creepcomp.display import Shown
+from creepcomp.digital.firmware_transfer import (LIBM_ULPS, TransferBound, check_maps_arguments,
+                                                 map_code, range_full_scale, transfer_bound)
 from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 
@@ -88,6 +90,11 @@ class Firmware(Shown):
     uses_double : bool
         The step computes in ``double`` (a static polynomial's root, a float32 extension map):
         its bound takes ``double`` as IEEE binary64.
+    maps : dict or None
+        For a model with static maps or a static calibration
+        (:mod:`creepcomp.digital.firmware_transfer`): ``bound_signal`` (the compensated
+        signal's bound, signal units), ``bound_load`` (load units), ``bound_corrected``, and the
+        ranges they hold over; None otherwise.
     """
 
     model: CreepModel
@@ -105,6 +112,7 @@ class Firmware(Shown):
     temperature_range: tuple[float, float] | None = None
     extension: dict | None = None
     uses_double: bool = False
+    maps: dict | None = None
 
     def __repr__(self) -> str:
         from creepcomp.units import format_quantity
@@ -169,8 +177,10 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
         scale, above the offset) with 64-bit states.
     rate : float
         Fixed sample rate (Hz).
-    full_scale : float
-        Largest ``|raw - offset|`` (signal units): the bound assumes it, q31 scales by it.
+    full_scale : float or (float, float)
+        Largest ``|raw - offset|`` (signal units): the bound assumes it, q31 scales by it. For
+        a model with static maps, ``|raw - h^-1(offset)|``, or ``(low, high)``: the raw range
+        (:func:`creepcomp.digital.firmware_transfer.raw_range`).
     name : str
         Prefix of the C identifiers and of the file names.
     max_interval : float, optional
@@ -193,15 +203,22 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
         ``reloading``, ``peak``, ``play`` or ``recovery``), written by
         :mod:`creepcomp.digital.firmware_extension`: float32, at a fixed rate, subtractive only.
 
+    A model with static maps (a ``transfer``) or a static calibration (no creep terms) gets
+    the float32 fixed-rate step of :mod:`creepcomp.digital.firmware_transfer`:
+    ``PREFIX_step`` returns the compensated signal, ``PREFIX_step_load`` the load.
+
     Returns
     -------
     Firmware
     """
     check_no_extensions(model)
-    model.require_creep("the C corrector")
-    if model.transfer is not None:
-        raise InputError(f"the model has static maps ({model.transfer.describe()}): the C corrector "
-                         "applies no static map; correct its records with creepcomp correct")
+    if model.transfer is not None or model.is_static:
+        check_maps_arguments(model, precision, max_interval, temperature_range, output_polynomial,
+                             extension)
+        return _maps_firmware(model, method, precision, rate, full_scale, name)
+    if isinstance(full_scale, (tuple, list)):
+        raise InputError("a raw range LOW:HIGH as the full scale is for a model with static maps: "
+                         "give this model's largest |signal - offset| as one number")
     if extension is not None:
         check_extension(extension, method, precision, max_interval,
                         model.temperature is not None or temperature_range is not None)
@@ -283,11 +300,158 @@ def _extension_firmware(model: CreepModel, rate: float, full_scale: float, name:
                     extension=check, uses_double=precision == "float32")
 
 
+def _maps_firmware(model: CreepModel, method: str, precision: str, rate: float, full_scale,
+                   name: str) -> Firmware:
+    """The float32 fixed-rate corrector of a model with static maps or of a static calibration
+    (:mod:`creepcomp.digital.firmware_transfer` has the step and its bound).
+
+    Returns
+    -------
+    Firmware
+        Its ``bound`` is the compensated signal's (fraction of ``full_scale``); ``maps`` holds
+        the load's bound and the ranges (from the
+        :class:`~creepcomp.digital.firmware_transfer.TransferBound`).
+    """
+    linear_model = CreepModel(model.beta, model.tau, model.gain, model.offset)
+    raw = full_scale
+    full_scale = range_full_scale(model, raw)
+    if model.is_static:     # the arguments checked with a stand-in: no creep terms to check
+        check_arguments(CreepModel((0.1,), (1.0,), model.gain, model.offset), method, precision,
+                        rate, full_scale, name)
+    else:
+        check_arguments(linear_model, method, precision, rate, full_scale, name)
+    bound = transfer_bound(model, method, rate, raw)
+    path = model.transfer
+    h = None if path is None else path.signal_map
+    f = None if path is None else path.load_map
+    sigma = 1.0 + model.beta0 if method == "supplemental" else 1.0
+    maps = {"static": model.is_static, "describe": "linear" if path is None else path.describe(),
+            "h": None if h is None else _map_values(h, "forward"),
+            "h_inverse": None if h is None else _map_values(h, "inverse"),
+            "f_inverse": None if f is None else _map_values(f, "inverse"),
+            "load_scale": _c_float(1.0 / (model.gain * sigma)),
+            "raw_min": repr(float(bound.raw[0])), "raw_max": repr(float(bound.raw[1])),
+            "bound_signal": f"{bound.compensated:.3e}", "bound_load": f"{bound.load:.3e}",
+            "libm_ulps": f"{LIBM_ULPS:g}"}
+    maps["libm"] = any(m is not None and m["libm"] for m in (maps["h"], maps["f_inverse"]))
+    maps["spline"] = any(m is not None and m["form"] == "spline"
+                         for m in (maps["h"], maps["h_inverse"], maps["f_inverse"]))
+    lines = _maps_lines(model, rate, full_scale, bound)
+    bound_fs = bound.compensated / full_scale
+    if model.is_static:
+        identity = ((), (), model.offset, model.gain, rate, full_scale, precision, method)
+        values = {"name": name, "NAME": name.upper(), "version": _version(), "method": method,
+                  "precision": precision, "irregular": False, "temperature": False,
+                  "command": (f"creepcomp firmware MODEL --method {method} --precision {precision} "
+                              f"--rate {rate:.9g} --full-scale {full_scale:.9g} --name {name}"),
+                  "terms": "0", "full_scale": repr(float(full_scale)), "rate": repr(float(rate)),
+                  "offset": repr(float(model.offset))}
+        derivation, coefficients, table, gains, peak = lines, {}, {"precision": precision}, {}, 1.0
+        source_template, source_values = "static_float32.c.j2", {"offset": _c_float(model.offset),
+                                                                 "irregular": False}
+    else:
+        c = exact_coefficients(linear_model, rate)
+        st = stored_coefficients(c, precision)
+        values = _header_values(linear_model, method, precision, rate, full_scale, name, c, None, None)
+        identity = (values["model_id"], model.gain)
+        derivation = _derivation(linear_model, method, precision, rate, bound.linear_full_scale, c, st)
+        derivation = [_in_h(line) for line in derivation] + lines
+        coefficients = _coefficient_values(precision, st, None)
+        table = _coefficient_table(c, st, precision)
+        gains, peak = dict(bound.linear.gains), bound.linear.peak_fs
+        source_template, source_values = "float32_maps.c.j2", {"irregular": False, "temperature": False,
+                                                                "method": method, **coefficients}
+    if isinstance(raw, (tuple, list)):
+        values["command"] = values["command"].replace(f"--full-scale {full_scale:.9g}",
+                                                      f"--full-scale {bound.raw[0]:.9g}:{bound.raw[1]:.9g}")
+    values["model_id"] = f"0x{_fnv1a(repr((identity, bound.raw, path and path.to_dict()))):08x}u"
+    error_bound = ErrorBound(total_fs=float(bound_fs), terms={"compensated signal, all parts": float(bound_fs)},
+                             full_scale=float(full_scale), peak_fs=float(peak), gains=gains)
+    bound_lines = _maps_bound_lines(bound, full_scale)
+    if bound.linear is not None:
+        bound_lines += ["The corrector on the linearised signal (units of h(raw), FS_h = "
+                        f"{bound.linear.full_scale:.9g}):"]
+        bound_lines += ["  " + _in_h(line) for line in _bound_lines(bound.linear, bound.linear.full_scale)[:-1]]
+    header = _render("fixed_rate.h.j2", **values, maps=maps, derivation=derivation,
+                     bound=bound_lines, bound_fs=f"{bound_fs:.3e}")
+    source = _render(source_template, name=name, NAME=name.upper(), version=_version(), maps=maps,
+                     **source_values)
+    harness = _render("harness.c.j2", name=name, NAME=name.upper(), precision=precision,
+                      irregular=False, temperature=False, maps=maps)
+    return Firmware(model=model, method=method, precision=precision, rate=float(rate),
+                    full_scale=float(full_scale), name=name, header=header, source=source,
+                    harness=harness, bound=error_bound, coefficients=table,
+                    uses_double=False, maps=_maps_summary(bound))
+
+
+def _in_h(line: str) -> str:
+    """A line of the creep corrector's derivation or bound, in the units it has with a signal
+    map: those of the linearised signal ``h(raw)``."""
+    return line.replace("signal units", "units of h(raw)").replace("|raw - offset|", "|h(raw) - offset|")
+
+
+def _map_values(m, direction: str) -> dict:
+    """A map's :func:`~creepcomp.digital.firmware_transfer.map_code` with its constants as C
+    float literals."""
+    code = map_code(m, direction)
+    for key in ("origin", "exponent", "inv_limit"):
+        if key in code:
+            code[key] = _c_float(code[key])
+    if code["form"] == "spline":
+        code.update(knots=str(code["knots"]), **{k: [_c_float(v) for v in code[k]] for k in ("x", "y", "s")})
+    return code
+
+
+def _maps_summary(bound: TransferBound) -> dict:
+    """The firmware's ``maps``: bounds and ranges, JSON-ready."""
+    return {"bound_signal": bound.compensated, "bound_load": bound.load,
+            "bound_corrected": bound.corrected, "raw_range": list(bound.raw),
+            "corrected_range": list(bound.corrected_range), "load_range": list(bound.load_range),
+            "linear_full_scale": bound.linear_full_scale, "terms": dict(bound.terms)}
+
+
+def _maps_lines(model: CreepModel, rate: float, full_scale: float, bound: TransferBound) -> list[str]:
+    """The maps' part of the derivation, as comment lines."""
+    path = model.transfer
+    lines = [f"Static maps: {'none' if path is None else path.describe()}; gain = {model.gain:.9g} "
+             "(linearised signal per unit of the creep's input).",
+             f"Raw range: {bound.raw[0]:.9g} to {bound.raw[1]:.9g} signal units (full scale "
+             f"{full_scale:.9g} about the unloaded raw signal); h(raw) - offset within "
+             f"+-{bound.linear_full_scale:.9g}.",
+             "Maps in float32: reciprocal and saturating by one division, spline by a knot table "
+             "(binary search, y_k + s_k (x - x_k), end slopes continued), power and log by powf/logf/expf "
+             f"(assumed within {LIBM_ULPS:g} ulp)."]
+    if model.is_static:
+        lines.append(f"A static calibration: no creep terms, the state holds nothing (the rate, "
+                     f"{_qty(rate, 'Hz')}, changes nothing).")
+    return lines
+
+
+def _maps_bound_lines(bound: TransferBound, full_scale: float) -> list[str]:
+    lo, hi = bound.corrected_range
+    llo, lhi = bound.load_range
+    lines = [f"Worst-case |compensated - float64 compensate| <= {bound.compensated:.3e} signal units "
+             f"({bound.compensated / full_scale:.3e} x FS);",
+             f"worst-case |load - float64 estimate_load| <= {bound.load:.3e} load units;",
+             f"corrected value c (units of h) within {bound.corrected:.3e} of the exact one,",
+             f"for every raw sample from {bound.raw[0]:.9g} to {bound.raw[1]:.9g}, from a relaxed or "
+             "settled start. The compensated signal's and the load's bounds hold while the exact c",
+             f"stays within {lo:.9g} to {hi:.9g} (the corrector's reach from the raw range; loads "
+             f"{llo:.6g} to {lhi:.6g}).",
+             "Parts (by cause, in the units of the stage they enter):"]
+    lines += [f"  {name}: {value:.3e}" for name, value in bound.terms.items()]
+    lines.append("Derivation: docs/firmware.md (static maps: each map's float32 evaluation, and each "
+                 "error carried through the next map by its slope over the range).")
+    return lines
+
+
 def render_target_program(firmware: Firmware, template: str) -> str:
     """The program that runs a corrector's step on a simulated chip
     (:mod:`creepcomp.digital.firmware_target`), from its template."""
+    maps = {} if firmware.maps is None else {"maps": firmware.maps}
     return _render(template, name=firmware.name, precision=firmware.precision,
-                   irregular=firmware.irregular, temperature=firmware.temperature_range is not None)
+                   irregular=firmware.irregular, temperature=firmware.temperature_range is not None,
+                   **maps)
 
 
 def check_no_extensions(model: CreepModel) -> None:
@@ -640,8 +804,9 @@ def _template_variables(template: str) -> frozenset[str]:
 
 
 #: Values a template may go without (tested with ``is defined``): the extension map's, which
-#: only the step of a model with an extension has.
-_OPTIONAL = frozenset({"extension"})
+#: only the step of a model with an extension has, and the static maps' (``maps``), which only
+#: a model with a transfer or a static calibration has.
+_OPTIONAL = frozenset({"extension", "maps"})
 
 
 def _render(template: str, **values) -> str:

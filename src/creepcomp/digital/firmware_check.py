@@ -54,6 +54,10 @@ class Verification(Shown):
     on_target : TargetRun or None
         The run on a simulated chip (flash, RAM, cycles or instructions per sample); None for
         the host.
+    load : dict or None
+        For a corrector with static maps: ``max_error`` and ``bound`` of the load (load units),
+        ``worst_sample``, ``compared`` (samples whose exact corrected value lies in the range
+        the bounds hold over) and ``outside`` (the others, not compared); None otherwise.
     """
 
     samples: int
@@ -64,11 +68,13 @@ class Verification(Shown):
     bound_fs: float | None
     switching: dict | None = None
     on_target: TargetRun | None = None
+    load: dict | None = None
 
     @property
     def passed(self) -> bool:
-        """True when the measured error is within the bound."""
-        return self.bound_fs is None or self.max_error_fs <= self.bound_fs
+        """True when the measured error is within the bound (and the load's within its own)."""
+        within = self.bound_fs is None or self.max_error_fs <= self.bound_fs
+        return within and (self.load is None or self.load["max_error"] <= self.load["bound"])
 
     def __repr__(self) -> str:
         bound = "no bound" if self.bound_fs is None else (
@@ -86,6 +92,8 @@ class Verification(Shown):
             out.update(self.on_target.to_dict())
         if self.switching is not None:
             out.update(switching=dict(self.switching), record_bound_fs=self.bound_fs)
+        if self.load is not None:
+            out["load"] = dict(self.load)
         return out
 
 
@@ -211,6 +219,8 @@ def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler
         raise InputError("verify needs a record of at least 2 samples (time and signal of equal length)")
     if firmware.irregular:
         return _verify_irregular(firmware, t, x, repeats, compiler, target)
+    if firmware.maps is not None and firmware.model.is_static:   # no dynamics: any sampling
+        return _verify_maps(firmware, t, x, repeats, compiler, target)
     dt = uniform_interval(t)
     if dt is None:
         raise InputError("the record is not uniformly sampled: the generated corrector runs at a "
@@ -218,6 +228,8 @@ def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler
     if not math.isclose(dt * firmware.rate, 1.0, rel_tol=1e-6):
         raise InputError(f"the record is sampled at {1 / dt:.6g} Hz and the corrector was generated "
                          f"for {firmware.rate:.6g} Hz: give --rate {1 / dt:.6g}")
+    if firmware.maps is not None:
+        return _verify_maps(firmware, t, x, repeats, compiler, target)
     _check_range(firmware, x)
     start = default_initial(firmware.method)
     temps = _temperatures(firmware, temperature, len(x))
@@ -335,6 +347,47 @@ def _verify_irregular(firmware, t, x, repeats, compiler, target) -> Verification
     y, ns, size, on_target = _execute(firmware, x, start, repeats, compiler, target,
                                       intervals=intervals)
     return _compare(firmware, y, reference, ns, size, on_target=on_target)
+
+
+def _verify_maps(firmware, t, x, repeats, compiler, target) -> Verification:
+    """A corrector with static maps: its compensated signal against :func:`compensate`, its
+    load against :func:`estimate_load`, on the samples whose exact corrected value lies in the
+    range the bounds hold over."""
+    from creepcomp.digital.correctors import compensate, default_initial, load_from_compensated
+
+    model, maps = firmware.model, firmware.maps
+    low, high = maps["raw_range"]
+    if not np.all(np.isfinite(x)):
+        raise InputError(f"signal sample {int(np.flatnonzero(~np.isfinite(x))[0])} is not a finite number")
+    outside = np.flatnonzero((x < low) | (x > high))
+    if outside.size:
+        i = int(outside[0])
+        raise InputError(f"signal sample {i} is {x[i]:.9g}, outside the raw range {low:.9g} to "
+                         f"{high:.9g} that the bound assumes: give a wider --full-scale LOW:HIGH")
+    start = default_initial(firmware.method)
+    compensated = compensate(t, x, model, firmware.method, initial=start, hold="zero")
+    load = load_from_compensated(compensated, model, firmware.method)
+    path = model.transfer
+    corrected = compensated if path is None else path.linearise(compensated)
+    c_lo, c_hi = maps["corrected_range"]
+    slack = 1e-12 * (c_hi - c_lo)
+    inside = np.isfinite(corrected) & (corrected >= c_lo - slack) & (corrected <= c_hi + slack)
+    on_target = None
+    if target == "host":
+        y, ns, size, _ = _execute(firmware, x, start, repeats, compiler, target)
+    else:           # a run per output; the chip's costs are the load's (the whole path)
+        signal_run = run_on_target(firmware, x, start, target)
+        on_target = run_on_target(firmware, x, start, target, load=True)
+        y, ns, size = np.concatenate([signal_run.outputs, on_target.outputs]), None, None
+    n = len(x)
+    signal_error = np.where(inside, np.abs(y[:n] - compensated), 0.0) / firmware.full_scale
+    load_error = np.where(inside, np.abs(y[n:] - load), 0.0)
+    worst, worst_load = int(np.argmax(signal_error)), int(np.argmax(load_error))
+    return Verification(samples=n, max_error_fs=float(signal_error[worst]), worst_sample=worst,
+                        ns_per_sample=ns, object_bytes=size, bound_fs=firmware.bound.total_fs,
+                        on_target=on_target, load={"max_error": float(load_error[worst_load]), "bound": maps["bound_load"],
+                              "worst_sample": worst_load, "compared": int(np.count_nonzero(inside)),
+                              "outside": int(n - np.count_nonzero(inside))})
 
 
 def _compare(firmware, y, reference, ns, size, switching=None, on_target=None) -> Verification:

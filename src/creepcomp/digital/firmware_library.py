@@ -61,6 +61,9 @@ def library_files(firmware) -> dict[str, str]:
     values = {"name": firmware.name, "NAME": firmware.name.upper(), "precision": firmware.precision,
               "temperature": firmware.temperature_range is not None, "timing": timing,
               "full_scale": f"{firmware.full_scale:.9g}", "offset": f"{firmware.model.offset:.9g}"}
+    if firmware.maps is not None:
+        transfer = firmware.model.transfer
+        values["maps"] = "a static calibration" if transfer is None else transfer.describe()
     header, source = firmware.filenames
     files = {f"src/{header}": firmware.header, f"src/{source}": firmware.source,
              "library.properties": _render(

@@ -211,7 +211,8 @@ def _aux_words(firmware, aux) -> np.ndarray | None:
     return values.astype("<u4" if firmware.irregular else "<i4")
 
 
-def run_on_target(firmware, signal, start: str, target: str, aux=None) -> TargetRun:
+def run_on_target(firmware, signal, start: str, target: str, aux=None,
+                  load: bool = False) -> TargetRun:
     """Cross-compile the corrector for a chip, run it over the samples in a simulator.
 
     Parameters
@@ -225,6 +226,9 @@ def run_on_target(firmware, signal, start: str, target: str, aux=None) -> Target
         The step's second argument per sample: the interval of the dt step (seconds for
         float32, ticks for q31), or the temperature of the temperature step (°C for float32,
         1/256 °C for q31).
+    load : bool
+        For a corrector with static maps: output the load (``PREFIX_step_load``) instead of
+        the compensated signal.
 
     Returns
     -------
@@ -247,9 +251,10 @@ def run_on_target(firmware, signal, start: str, target: str, aux=None) -> Target
     extra = _aux_words(firmware, aux)
     with tempfile.TemporaryDirectory(prefix=f"creepcomp-{target}-") as tmp:
         folder = Path(tmp)
+        defines = ["-DTARGET_LOAD"] if load else []
         if target == "avr":
-            return _run_avr(firmware, chain, folder, words, extra, start)
-        return _run_qemu(firmware, chain, folder, words, extra, start)
+            return _run_avr(firmware, chain, folder, words, extra, start, defines)
+        return _run_qemu(firmware, chain, folder, words, extra, start, defines)
 
 
 # ------------------------------------------------------------------------ the ATmega328P
@@ -269,9 +274,10 @@ def _symbol_size(nm_tool: str, elf: Path, symbol: str) -> int:
 
 
 def build_program(firmware, chain: Toolchain, folder: Path, program: str, extra_sources=(),
-                  link_flags=()) -> tuple[Path, Path]:
-    """Compile the corrector strictly and link it with a target program, and the same program
-    without it (``TARGET_BASELINE``). Returns the two linked programs."""
+                  link_flags=(), defines=()) -> tuple[Path, Path]:
+    """Compile the corrector strictly and link it with a target program (``defines``: the
+    program's macros), and the same program without it (``TARGET_BASELINE``). Returns the two
+    linked programs."""
     firmware.write(folder)
     source = folder / firmware.filenames[1]
     (folder / "program.c").write_text(program, encoding="utf-8")
@@ -283,7 +289,7 @@ def build_program(firmware, chain: Toolchain, folder: Path, program: str, extra_
     for label, define in (("program", []), ("baseline", ["-DTARGET_BASELINE"])):
         elf = folder / f"{label}.elf"
         objects = [obj] if not define else []
-        run_tool([chain.compiler, "-std=gnu99", *flags, *define, "-I", folder, folder / "program.c",
+        run_tool([chain.compiler, "-std=gnu99", *flags, *defines, *define, "-I", folder, folder / "program.c",
                   *extra_sources, *objects, "-Wl,--gc-sections", *link_flags, "-lm", "-o", elf],
                  f"linking the {label} for {chain.target}")
         linked.append(elf)
@@ -302,11 +308,11 @@ def _runner() -> Path:
     return exe
 
 
-def _run_avr(firmware, chain, folder, words, aux, start) -> TargetRun:
+def _run_avr(firmware, chain, folder, words, aux, start, defines) -> TargetRun:
     from creepcomp.digital.firmware import render_target_program
 
     program = render_target_program(firmware, "avr_program.c.j2")
-    elf, baseline = build_program(firmware, chain, folder, program)
+    elf, baseline = build_program(firmware, chain, folder, program, defines=defines)
     words.tofile(folder / "in.bin")
     aux_path = "-"
     if aux is not None:
@@ -337,7 +343,7 @@ QEMU_TIMER_HZ = 25e6
 QEMU_TIMEOUT = 600.0
 
 
-def _run_qemu(firmware, chain, folder, words, aux, start) -> TargetRun:
+def _run_qemu(firmware, chain, folder, words, aux, start, defines) -> TargetRun:
     from creepcomp.digital.firmware import render_target_program
 
     targets = resources.files("creepcomp.digital").joinpath("targets")
@@ -345,7 +351,7 @@ def _run_qemu(firmware, chain, folder, words, aux, start) -> TargetRun:
     elf, baseline = build_program(firmware, chain, folder, program,
                                   extra_sources=[str(targets.joinpath("cortex_m_start.c"))],
                                   link_flags=["-nostartfiles", "-T", str(targets.joinpath("cortex_m.ld")),
-                                              "--specs=rdimon.specs"])
+                                              "--specs=rdimon.specs"], defines=defines)
     words.tofile(folder / "in.bin")
     if aux is not None:
         aux.tofile(folder / "aux.bin")
