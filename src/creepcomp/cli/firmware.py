@@ -268,16 +268,9 @@ def _render_maps(firmware, check, unit: str) -> None:
     low, high = maps["raw_range"]
     console.print(f"maps: {firmware.model.transfer.describe() if firmware.model.transfer else 'none'}"
                   f"; raw range {low:.9g} to {high:.9g} {unit}", soft_wrap=True)
-    table = Table(title="Proven worst-case error against the float64 compensate and estimate_load",
-                  title_justify="left")
-    table.add_column("part (in the units of its stage)")
-    table.add_column("error", justify="right")
-    for part, value in maps["terms"].items():
-        table.add_row(part, f"{value:.3e}")
-    table.add_row("[bold]compensated signal[/bold]",
-                  f"[bold]{maps['bound_signal']:.3e} {unit} ({firmware.bound.total_fs:.3e} of full scale)[/bold]")
-    table.add_row("[bold]load[/bold]", f"[bold]{maps['bound_load']:.3e} load units[/bold]")
-    console.print(table)
+    from creepcomp.report.results import maps_bound_table
+
+    console.print(maps_bound_table(firmware, unit).to_rich())
     if check is not None:
         verdict = "within the bounds" if check.passed else "ABOVE A BOUND"
         console.print(f"verified on {check.samples} samples ({check.load['compared']} compared, "

@@ -605,6 +605,19 @@ def bound_table(bound) -> Table:
                     [Column("part", "left"), "of full scale"], rows, marks={"bound": "bold"})
 
 
+def maps_bound_table(firmware, unit: str = "") -> Table:
+    """The proven bound of a corrector with static maps, stage by stage (``firmware``)."""
+    maps = firmware.maps
+    rows = [(part, f"{value:.3e}") for part, value in maps["terms"].items()]
+    unit = unit or "signal units"
+    rows.append(("compensated signal", f"{maps['bound_signal']:.3e} {unit} "
+                                       f"({firmware.bound.total_fs:.3e} of full scale)"))
+    rows.append(("load", f"{maps['bound_load']:.3e} load units"))
+    return Table.of("Proven worst-case error against the float64 compensate and estimate_load",
+                    [Column("part (in the units of its stage)", "left"), "error"], rows,
+                    marks={"compensated signal": "bold", "load": "bold"})
+
+
 def verification_summary(v) -> Summary:
     """A firmware check: the C corrector's largest error against its bound, speed and size."""
     rows = [("samples", f"{v.samples}"),
