@@ -283,9 +283,10 @@ def recommended(record: Record, k: int, extra: dict) -> np.ndarray:
     return np.asarray(recommended_estimate(training_part(record, k), record, extra), float)
 
 
-def model_file_refusal(method: str, extra: dict | None, folder: Path) -> str | None:
+def model_file_refusal(method: str, extra: dict | None, folder: Path, record: Record) -> str | None:
     """Write the method's model file, read it back and check it as ``correct`` does and as
-    ``firmware`` does: the reasons it is refused (naming the command), or None."""
+    ``firmware`` does (at the record's median sample rate, over its signal's range): the
+    reasons it is refused (naming the command), or None."""
     from creepcomp.diagnose.recommend import usable
     from creepcomp.digital.firmware import generate_firmware
     from creepcomp.io.jsonfiles import read_json, read_model, write_json
@@ -298,7 +299,12 @@ def model_file_refusal(method: str, extra: dict | None, folder: Path) -> str | N
         if why is not None:
             reasons.append(f"correct: {why}")
         else:
-            generate_firmware(read_model(path), rate=100.0, full_scale=1.0)
+            model = read_model(path)
+            rate = 1.0 / float(np.median(np.diff(record.time)))
+            low, high = float(np.min(record.signal)), float(np.max(record.signal))
+            full_scale = ((low, high) if model.transfer is not None or model.is_static
+                          else max(abs(low - model.offset), abs(high - model.offset)) or 1.0)
+            generate_firmware(model, rate=rate, full_scale=full_scale)
     except Exception as exc:            # any refusal, worded by creepcomp
         reasons.append(("firmware: " if not reasons else "") + _reason(exc).replace(str(path), path.name))
     return "; ".join(reasons) or None
@@ -333,7 +339,7 @@ def run_record(name: str, record: Record, narx_options: dict | None = None) -> O
             cell.seconds = time.perf_counter() - t0
             if "file" in extra or "model" in extra:
                 # the file creepcomp would write, even when the estimate then failed
-                refused[method] = model_file_refusal(method, extra, Path(tmp))
+                refused[method] = model_file_refusal(method, extra, Path(tmp), record)
             if "lags" in extra and cell.error is not None:
                 cell.note = f"lags (y, u) = {extra['lags']}, block of {extra['block']}"
             cells[method] = cell
@@ -453,7 +459,7 @@ def markdown(outcomes: list[Outcome], summ: dict) -> str:
               f"- recommended <= NARX: {summ['recommended_at_most_narx']} of {summ['records_compared_with_narx']}",
               f"- baseline <= best static calibration: {summ['baseline_at_most_best_static']} of "
               f"{summ['columns']['baseline']['records_with_an_estimate']}",
-              "- model files refused (read back and checked as `correct` does): "
+              "- model files refused (read back and checked as `correct` and `firmware` do): "
               + ", ".join(f"{m} {summ['model_files_refused'][m]} of {summ['model_files_written'][m]} written"
                           for m in ("baseline", "recommended"))]
     return "\n".join(lines)
