@@ -177,23 +177,24 @@ def test_to_dict_is_json(results, name):
 @pytest.mark.parametrize("name", TYPES)
 def test_plot_draws_into_the_given_axes_and_leaves_it_open(results, name):
     fig, ax = plt.subplots()
+    figures = set(plt.get_fignums())
     try:
         got = results[name].plot(ax=ax)
         assert got is ax
         assert ax.lines or ax.patches or ax.collections or ax.texts
         assert plt.fignum_exists(fig.number)
-        assert len(plt.get_fignums()) == 1
+        assert set(plt.get_fignums()) == figures        # no figure made, none closed
     finally:
-        plt.close("all")
+        plt.close(fig)
 
 
 def test_plot_without_axes_makes_a_figure_and_closes_nothing(results):
+    ax = results["CreepModel"].plot()
     try:
-        ax = results["CreepModel"].plot()
         assert plt.fignum_exists(ax.figure.number)
         assert ax.get_xlabel() == "time after a load step (s)"
     finally:
-        plt.close("all")
+        plt.close(ax.figure)
 
 
 def test_the_model_table_is_the_models_terms(results):
@@ -296,3 +297,29 @@ def test_the_terminal_prints_text_from_a_file_as_written():
     console.print(table.to_rich())
     text = console.export_text()
     assert "[red]title" in text and "[b]column" in text and "[bold]x[/bold]" in text and "FAIL" in text
+
+
+def test_a_corrector_says_what_it_is():
+    from creepcomp.digital.correctors import Corrector
+
+    corrector = Corrector(MODEL, dt=0.5)
+    assert repr(corrector) == "<Corrector subtractive, 1 term, dt 0.5 s, zero hold: not started>"
+    corrector.process([0.0, 1.0])
+    assert repr(corrector).endswith("running>")
+
+
+def test_a_refused_design_shows_why_and_the_way_out():
+    from creepcomp.analog.network_design import design_network
+
+    design = design_network(CreepModel.voigt(0.03, 45.0), load_resistance=1e6)
+    assert design.refused and "\n" not in repr(design) and "way out" in repr(design)
+    text = design.report()
+    assert "impractical: load resistance 1 MΩ is too low" in text
+    assert f"way out: {design.way_out.description}" in text
+    assert design.to_dict()["practical"] is False
+    json.dumps(design.to_dict())
+    fig, ax = plt.subplots()
+    try:
+        assert design.plot(ax=ax) is ax and ax.lines
+    finally:
+        plt.close(fig)

@@ -71,10 +71,11 @@ class NetworkDesign(Shown):
         return self.sizing is not None and self.sizing.resistor_series is None
 
     def __repr__(self) -> str:
-        if self.sizing is None or self.verdict is None:
-            return f"<NetworkDesign refused: {self.reasons[0][:120]}>"
+        if self.refused:
+            return (f"<NetworkDesign refused ({len(self.reasons)} reason{'s' if len(self.reasons) > 1 else ''}); "
+                    f"way out: {self.way_out.description[:100]}>")
         v = self.verdict
-        state = "refused" if self.refused else "practical" if v.practical else "impractical"
+        state = "practical" if v.practical else "impractical"
         return (f"<NetworkDesign {state}: {self.sizing.chosen.topology} network, peak residual creep "
                 f"{format_percent(v.leakage_peak)} with leakage, {format_percent(v.worst_case_peak)} at the "
                 f"worst tolerance corner (uncorrected {format_percent(v.uncorrected_peak)})>")

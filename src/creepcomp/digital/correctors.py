@@ -265,6 +265,12 @@ class Corrector:
         self._time = None           # time of the last sample (irregular mode)
         self._temp = None           # temperature at the last sample (°C; temperature law)
 
+    def __repr__(self) -> str:
+        step = "irregular steps" if self.dt is None else f"dt {self.dt:.4g} s"
+        state = "running" if self.started else "not started"
+        return (f"<Corrector {self.method}, {self.model.n_terms} term{'s' if self.model.n_terms > 1 else ''}, "
+                f"{step}, {self.hold} hold: {state}>")
+
     @property
     def started(self) -> bool:
         """True once a sample has been processed."""

@@ -115,7 +115,10 @@ def sizing_plot(report, ax=None):
 
 
 def network_design_plot(design, ax=None):
-    """A network design: residual creep after a load step of its sizing's designs."""
+    """A network design: residual creep after a load step of its sizing's designs (no
+    network in range: the sensor's creep it was asked to cancel)."""
+    if design.sizing is None:
+        return model_plot(design.model, ax=ax)
     return sizing_plot(design.sizing, ax=ax)
 
 

@@ -293,7 +293,7 @@ def _peak_time(q) -> str:
 
 def network_table(network, title: str = "Parts") -> Table:
     """A network's parts and values."""
-    return Table.of(title, ("part", "value"),
+    return Table.of(title, (Column("part", "left"), "value"),
                     [(label, format_quantity(v, _part_unit(kind))) for label, kind, v in network.parts()])
 
 
@@ -303,15 +303,15 @@ def sizing_summary(report, title: str | None = None) -> Summary:
     net = report.chosen
     snapped = report.resistor_series is not None
     if snapped:
-        parts = Table.of("Parts", ("part", "ideal", f"chosen ({report.resistor_series} R, {report.capacitor_series} C)",
+        parts = Table.of("Parts", (Column("part", "left"), "ideal",
+                                   f"chosen ({report.resistor_series} R, {report.capacitor_series} C)",
                                    "snap error", "peak residual creep if only this part snapped"),
                          [(p.label, format_quantity(p.ideal, _part_unit(p.kind)),
                            format_quantity(p.chosen, _part_unit(p.kind)), f"{100 * p.deviation:+.2f} %",
                            format_percent(p.residual_if_only_this)) for p in report.parts])
     else:
-        parts = Table.of("Parts", ("part", "ideal"),
+        parts = Table.of("Parts", (Column("part", "left"), "ideal"),
                          [(label, format_quantity(v, _part_unit(kind))) for label, kind, v in net.parts()])
-    parts = Table(parts.title, (Column("part", "left"),) + parts.columns[1:], parts.rows)
     columns = [("ideal parts", report.ideal_quality)]
     if snapped:
         columns.append(("chosen parts", report.chosen_quality))
@@ -409,9 +409,13 @@ def verdict_lines(design) -> tuple[str, ...]:
 
 def network_design_summary(design) -> Summary:
     """A network design (``creepcomp size``): the sizing, the designs over the range, the
-    bill of materials and the verdict."""
+    bill of materials and the verdict; a refused design's reasons and the way out."""
+    refusal = ()
+    if design.refused:
+        refusal = tuple(f"impractical: {reason}" for reason in design.reasons) + (
+            f"way out: {design.way_out.description}",)
     if design.sizing is None:
-        return Summary("creepcomp size: refused", (), (), tuple(design.reasons))
+        return Summary("creepcomp size: refused", (describe_model(design.model),), (), refusal)
     sizing = sizing_summary(design.at_reference)
     tables, warnings = list(sizing.tables), list(sizing.warnings)
     lines = list(sizing.lines)
@@ -422,7 +426,7 @@ def network_design_summary(design) -> Summary:
         warnings += over.warnings
     if design.bom:
         tables.append(bom_table(design.bom))
-    footer = sizing.footer + (verdict_lines(design) if design.verdict is not None else ())
+    footer = sizing.footer + (refusal or verdict_lines(design))
     return Summary(sizing.heading, tuple(lines), tuple(tables), footer, tuple(warnings))
 
 
