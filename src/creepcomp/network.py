@@ -20,7 +20,7 @@ from typing import Mapping, TYPE_CHECKING
 import numpy as np
 
 from creepcomp.errors import InputError
-from creepcomp.units import format_quantity
+from creepcomp.units import check_number, format_quantity
 from creepcomp.lti import LagExpansion
 
 if TYPE_CHECKING:
@@ -87,17 +87,12 @@ class Branch:
 def _positive(value, name: str, allow_zero: bool = False, allow_none: bool = False):
     if value is None and allow_none:
         return None
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{name} = {value!r} is not a number") from None
-    if math.isnan(x) or (x == 0 and not allow_zero) or x < 0:
+    if allow_none and isinstance(value, float) and value == math.inf:  # no resistor
+        return None
+    x = check_number(value, name)
+    if (x == 0 and not allow_zero) or x < 0:
         need = "zero or positive" if allow_zero else "positive"
         raise InputError(f"{name} = {value!r}: must be {need}")
-    if math.isinf(x):
-        if allow_none:
-            return None
-        raise InputError(f"{name} = {value!r}: must be finite")
     return x
 
 

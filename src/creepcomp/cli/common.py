@@ -54,6 +54,18 @@ def environment_fault(exc: OSError) -> int:
     return fail(message, 1)
 
 
+def read_checked_design(path, active: bool = False):
+    """A design file read and checked whole: its creep, its network
+    (:func:`~creepcomp.io.jsonfiles.read_design`) and its ``parts`` block
+    (:func:`~creepcomp.analog.parts.plan_of`), the same for every command that reads one."""
+    from creepcomp.analog.parts import plan_of
+    from creepcomp.io.jsonfiles import read_design
+
+    design = read_design(path, active=active)
+    plan_of(design, f"design file {path}")
+    return design
+
+
 def quantity(text: str | None, kind: str, option: str, allow_none: bool = False,
              positive: bool = False, non_negative: bool = False) -> float | None:
     """Parse an option value with units; ``none``/``inf`` give None where allowed."""

@@ -9,10 +9,9 @@ import typer
 from rich.table import Table
 
 from creepcomp.errors import InputError
-from creepcomp.io.jsonfiles import read_design
 from creepcomp.io.outputs import check_outputs
 from creepcomp.units import format_percent, format_quantity
-from creepcomp.cli.common import app, console, count_option, print_json, progress_bar
+from creepcomp.cli.common import app, console, count_option, print_json, progress_bar, read_checked_design
 from creepcomp.cli.fit import (COLUMNS_HELP, INITIAL_TEXT, describe_record,
     load_reduced, record_options, SHEET_OPTION, TAXEL_OPTION)
 
@@ -73,7 +72,7 @@ def diagnose_command(
         if record.corrected is None:
             raise InputError(f"{record.source}: --design was given but the record has no "
                              "'corrected' column")
-        nominal = read_design(record.design_path(design))
+        nominal = read_checked_design(record.design_path(design))
         with progress_bar("diagnosing the circuit side", disable=as_json):
             circuit = diagnose_circuit(full, nominal, spice_check=spice_check, candidates=circuit_candidates)
     else:

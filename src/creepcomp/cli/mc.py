@@ -13,11 +13,11 @@ from rich.table import Table
 from creepcomp.verify.tolerance_analysis import ToleranceReport, analyse
 from creepcomp.verify.tolerances import DIELECTRICS, Tolerance, ToleranceSpec
 from creepcomp.errors import InputError
-from creepcomp.io.jsonfiles import read_design
 from creepcomp.io.outputs import check_outputs
 from creepcomp.units import format_parameter, format_percent
 from creepcomp.cli.common import (app, console, count_option, err_console, print_json, quantity,
-                                  temperature_range_option, temperatures_option, value_range)
+                                  temperature_range_option, temperatures_option, value_range,
+                                  read_checked_design)
 
 
 def _tolerance(text: str, option: str, distribution: str) -> Tolerance:
@@ -116,7 +116,7 @@ def mc_command(
 ) -> None:
     """Tolerance Monte Carlo, worst case and sensitivity of a design's residual creep."""
     check_outputs({"--report": report}, inputs=[design_file])
-    design = read_design(design_file)
+    design = read_checked_design(design_file)
     if distribution not in ("normal", "uniform"):
         raise InputError(f"--dist '{distribution}': use normal or uniform")
     if dielectric is not None and dielectric.lower() not in DIELECTRICS:

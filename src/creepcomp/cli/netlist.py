@@ -12,12 +12,13 @@ from creepcomp.verify.drive import (DEFAULT_POINTS, PROGRAMS, default_duration,
                                     synthetic_program)
 from creepcomp.verify.netlist import Deck, program_deck, record_deck, write_deck
 from creepcomp.errors import InputError
-from creepcomp.io.jsonfiles import Design, read_design
+from creepcomp.io.jsonfiles import Design
 from creepcomp.io.outputs import check_outputs
 from creepcomp.programs import LoadProgram
 from creepcomp.io.records import Record, parse_columns, read_record
 from creepcomp.units import format_quantity
-from creepcomp.cli.common import app, console, count_option, print_json, quantity, temperatures_option
+from creepcomp.cli.common import (app, console, count_option, print_json, quantity, read_checked_design,
+                                  temperatures_option)
 
 #: Most time points of a synthetic drive.
 MAX_POINTS = 1_000_000
@@ -57,7 +58,7 @@ class Drive:
 def read_drive(design_path: Path, program: str, record: Path | None, columns: str | None,
                duration: str | None, points: int, signal: str) -> Drive:
     """Check and read the options shared by ``netlist`` and ``simulate``."""
-    design = read_design(design_path, active=True)
+    design = read_checked_design(design_path, active=True)
     name = program.strip().lower()
     if name not in PROGRAMS:
         raise InputError(f"--program '{program}': choose one of {', '.join(PROGRAMS)}")
@@ -198,7 +199,7 @@ def export_network(design_path: Path, subckt: Path | None, asc: Path | None,
     if output is not None or record is not None:
         raise InputError("--subckt and --asc write the network alone: leave out -o and --record")
     check_outputs({"--subckt": subckt, "--asc": asc}, inputs=[design_path])
-    design = read_design(design_path)
+    design = read_checked_design(design_path)
     plan = plan_of(design, str(design_path))
     written = {}
     if subckt is not None:

@@ -1,0 +1,90 @@
+"""Hostile model, design and record files: one check of each kind of file for every command,
+outputs that never replace an input or a file the user did not name, time units honoured."""
+
+import json
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from creepcomp.errors import InputError
+from creepcomp.io.jsonfiles import read_design, read_model
+from creepcomp.model import CreepModel
+
+DATA = Path(__file__).resolve().parents[1] / "src" / "creepcomp" / "data"
+DESIGN = DATA / "built_network.design.json"
+RECORD = DATA / "hidden_effect.csv"
+
+
+def refused(status, out, err, needle):
+    assert status == 2, err
+    assert needle in err, err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+
+
+def write(path, data):
+    path.write_text(json.dumps(data) if not isinstance(data, str) else data)
+    return path
+
+
+@pytest.mark.parametrize("model, needle", [
+    ({"beta": [0.03], "tau": [True]}, "tau = True is not a number"),
+    ({"beta": [0.03], "tau": ["45"]}, "tau = '45' is not a number"),
+    ({"beta": [0.03], "tau": [45], "offset": 1e300}, "offset = 1e+300"),
+    ({"beta": [0.03], "tau": [45], "gain": 1e-40}, "gain = 1e-40"),
+    ({"beta": [1e8], "tau": [45]}, "beta0 = 1e+08"),
+    ({"beta": [0.03], "tau": [1e-300]}, "tau = 1e-300 s"),
+    ({"beta": [0.03], "tau": [45], "extensions": [1, 2]}, "'extensions': expected an object"),
+    ('{"beta": [0.03], "tau": [45], "gain": 1' + "0" * 5000 + "}", "cannot be read"),
+])
+def test_a_model_is_checked_once_for_every_command(tmp_path, run_cli, model, needle):
+    path = write(tmp_path / "m.json", model)
+    with pytest.raises(InputError, match=needle.replace("+", r"\+").replace("(", r"\(")):
+        read_model(path)
+    for args in (["firmware", path, "--rate", "100", "--full-scale", "1", "-o", tmp_path / "fw"],
+                 ["correct", RECORD, "--model", path, "-o", tmp_path / "c.csv"],
+                 ["size", "--model", path]):
+        refused(*run_cli(*args), needle=needle)
+    assert not (tmp_path / "fw").exists() and not (tmp_path / "c.csv").exists()
+
+
+def test_every_model_the_check_accepts_gives_c_that_compiles(tmp_path, run_cli):
+    if shutil.which("gcc") is None:
+        pytest.skip("no gcc")
+    path = write(tmp_path / "m.json", {"beta": [0.03], "tau": [45], "offset": 1e30, "gain": 1e-30})
+    status, out, err = run_cli("firmware", path, "--rate", "100", "--full-scale", "1e30",
+                               "-o", tmp_path / "fw")
+    assert status in (0, 2), err
+    if status == 0:
+        c = (tmp_path / "fw" / "creep.c").read_text()
+        assert "inf" not in c.replace("info", "")
+        done = subprocess.run(["gcc", "-std=c99", "-c", "-o", str(tmp_path / "c.o"),
+                               str(tmp_path / "fw" / "creep.c")], capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr
+
+
+@pytest.mark.parametrize("change, needle", [
+    ({"topology": "foo"}, "topology 'foo'"),
+    ({"topology": "lag"}, "but the network is a lead network"),
+    ({"cells": [{"R": True, "C": 1.5e-5}]}, "cells[0].R = True is not a number"),
+    ({"parts": {"resistors": {"technology": "unobtainium"}}}, "technology 'unobtainium'"),
+    ({"parts": {"capacitors": {"technology": "polypropylene", "tolerance": 5}}}, "tolerance 5.0"),
+    ({"parts": {"thermistors": {"R1": {"R25": 1e4, "B": -3000}}}}, "must be positive"),
+])
+def test_a_design_and_its_parts_are_checked_once_for_every_command(tmp_path, run_cli, change,
+                                                                      needle):
+    path = write(tmp_path / "d.json", dict(json.loads(DESIGN.read_text()), **change))
+    for args in (["netlist", path, "-o", tmp_path / "n.cir"], ["mc", path, "--n", "20"],
+                 ["simulate", path, "--no-plot"], ["creep-test", path]):
+        refused(*run_cli(*args), needle=needle)
+    if "parts" not in change:
+        with pytest.raises(InputError):
+            read_design(path)
+
+
+def test_a_model_from_the_python_api_is_checked_the_same_way():
+    with pytest.raises(InputError, match="tau = True"):
+        CreepModel((0.03,), (True,))
+    with pytest.raises(InputError, match="extensions"):
+        CreepModel((0.03,), (45.0,), extensions=[1])
