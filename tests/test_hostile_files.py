@@ -3,6 +3,7 @@ outputs that never replace an input or a file the user did not name, time units 
 
 import json
 import shutil
+import tempfile
 import subprocess
 from pathlib import Path
 
@@ -88,3 +89,48 @@ def test_a_model_from_the_python_api_is_checked_the_same_way():
         CreepModel((0.03,), (True,))
     with pytest.raises(InputError, match="extensions"):
         CreepModel((0.03,), (45.0,), extensions=[1])
+
+
+def test_a_folder_output_never_replaces_an_input_of_the_run(tmp_path, run_cli):
+    out = tmp_path / "out"
+    out.mkdir()
+    design = out / "as-built-design.json"
+    design.write_text(DESIGN.read_text())
+    record = out / "creep.c"
+    record.write_text(RECORD.read_text())
+    diagnosis = out / "diagnosis.json"
+    diagnosis.write_text("{}")
+    before = {p: p.read_bytes() for p in (design, record, diagnosis)}
+    refused(*run_cli("diagnose", DATA / "built_network.csv", "--design", design, "-o", out),
+            needle="as-built-design.json is an input")
+    refused(*run_cli("diagnose", diagnosis, "-o", out), needle="diagnosis.json is an input")
+    refused(*run_cli("firmware", DATA / "default_sensor.json", "--verify", record, "-o", out),
+            needle="creep.c is an input")
+    assert {p: p.read_bytes() for p in before} == before
+
+
+def test_no_write_replaces_a_file_the_command_read():
+    from creepcomp.io.jsonfiles import write_model
+    from creepcomp.io.outputs import inputs_of_this_run
+
+    folder = Path(tempfile.mkdtemp())
+    path = folder / "m.json"
+    write_model(path, CreepModel((0.03,), (45.0,)))
+    with inputs_of_this_run():
+        model = read_model(path)
+        with pytest.raises(InputError, match="is a file this command reads"):
+            write_model(path, model.with_terms((0.02,), (45.0,)))
+        write_model(folder / "other.json", model)
+    assert read_model(path) == model
+    write_model(path, model.with_terms((0.02,), (45.0,)))  # outside a command: a notebook may
+    assert read_model(path).beta == (0.02,)
+
+
+def test_a_derived_output_name_never_replaces_a_file(tmp_path):
+    from creepcomp.io.outputs import unnamed_output
+
+    first = tmp_path / "creep.model.json"
+    assert unnamed_output(first) == first
+    first.write_text("{}")
+    (tmp_path / "creep.model-2.json").write_text("{}")
+    assert unnamed_output(first) == tmp_path / "creep.model-3.json"

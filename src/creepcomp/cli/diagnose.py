@@ -56,7 +56,9 @@ def diagnose_command(
     from creepcomp.diagnose import combine, diagnose, diagnose_circuit
     from creepcomp.diagnose.workers import available_cores
 
-    check_outputs(dirs={"-o": output}, inputs=[record_path, design])
+    check_outputs(dirs={"-o": output}, inputs=[record_path, design],
+                  contents={"-o": ("report.html", "diagnosis.json", "model.json",
+                                   "baseline-model.json", "as-built-design.json")})
     init, step = record_options(initial, load_step_at)
     from creepcomp.diagnose.sensor import DIAGNOSE_MAX_SAMPLES
     from creepcomp.fit.reduce import MAX_FIT_SAMPLES

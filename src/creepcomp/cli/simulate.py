@@ -93,9 +93,8 @@ def simulate_command(
     signal: str = typer.Option("100u", "--signal", metavar="VOLT",
                                help="Instantaneous sensor signal at full scale, e.g. 100u or 1V."),
     plot: Optional[Path] = typer.Option(None, "--plot", metavar="FILE.png",
-                                        help="Where to save the plot (default: "
-                                             "DESIGN-PROGRAM.png in the current folder)."),
-    no_plot: bool = typer.Option(False, "--no-plot", help="Do not save a plot."),
+                                        help="Save the plot there (default: no plot)."),
+    no_plot: bool = typer.Option(False, "--no-plot", help="Do not save a plot (the default)."),
     netlist: Optional[Path] = typer.Option(None, "--netlist", metavar="FILE.cir",
                                            help="Also write the netlist that ran."),
     temperatures: Optional[str] = typer.Option(
@@ -107,11 +106,10 @@ def simulate_command(
     """Simulate the design with python-control and with ngspice on the same time points.
 
     Reports their agreement (fraction of full scale: the step, for a step program), the
-    residual creep, and ngspice's run time; saves a plot of the creeping input, the
-    corrected output from both simulators, and the residual creep.
+    residual creep, and ngspice's run time; with ``--plot`` saves a plot of the creeping
+    input, the corrected output from both simulators, and the residual creep.
     """
-    plot_path = None if no_plot else (plot or Path(f"{design.stem}-{program.strip().lower()}.png"
-                                                    if record is None else f"{design.stem}-record.png"))
+    plot_path = None if no_plot else plot
     files = {"--plot": plot_path, "--netlist": netlist}
     if netlist is not None and record is not None:
         files["--netlist (its data file)"] = netlist.parent / f"{netlist.stem}-signal.txt"
