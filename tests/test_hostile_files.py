@@ -134,3 +134,46 @@ def test_a_derived_output_name_never_replaces_a_file(tmp_path):
     first.write_text("{}")
     (tmp_path / "creep.model-2.json").write_text("{}")
     assert unnamed_output(first) == tmp_path / "creep.model-3.json"
+
+
+def _in_milliseconds(path):
+    out = []
+    for line in RECORD.read_text().splitlines():
+        if line[:1].isdigit():
+            cells = line.split(",")
+            cells[0] = repr(float(cells[0]) * 1000)
+            line = ",".join(cells)
+        elif line.startswith("time"):
+            out.append("# units.time: ms")
+        out.append(line)
+    path.write_text("\n".join(out) + "\n")
+    return path
+
+
+def test_a_time_unit_in_the_metadata_is_honoured_by_every_reader(tmp_path, run_cli):
+    from creepcomp.io.records import read_record, read_record_chunks, scan_record
+
+    ms = _in_milliseconds(tmp_path / "ms.csv")
+    seconds = read_record(RECORD).time
+    assert read_record(ms).time == pytest.approx(seconds, rel=1e-12)
+    assert read_record(ms).metadata["units.time"] == "s (converted from ms)"
+    pieces = list(read_record_chunks(ms, block_bytes=4096))
+    assert len(pieces) > 1
+    assert __import__("numpy").concatenate([p.time for p in pieces]) == pytest.approx(seconds)
+    assert scan_record(ms).last_time == pytest.approx(seconds[-1])
+    fitted = [json.loads(run_cli("fit", r, "--terms", "1", "--json")[1])["tau"] for r in (RECORD, ms)]
+    assert fitted[1] == pytest.approx(fitted[0], rel=1e-6)
+    # a record written by creepcomp keeps saying where its seconds came from, and reads again
+    status, out, err = run_cli("correct", ms, "--model", DATA / "default_sensor.json", "-o",
+                               tmp_path / "c.csv")
+    assert status == 0, err
+    assert read_record(tmp_path / "c.csv").time == pytest.approx(seconds)
+
+
+def test_an_unknown_time_unit_is_named(tmp_path):
+    from creepcomp.io.records import read_record
+
+    path = tmp_path / "weeks.csv"
+    path.write_text("# units.time: fortnights\ntime,load,signal\n0,0,0\n1,1,1\n2,1,1\n")
+    with pytest.raises(InputError, match="time unit 'fortnights'"):
+        read_record(path)

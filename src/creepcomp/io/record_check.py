@@ -28,7 +28,8 @@ __all__ = ["REQUIRED", "OPTIONAL", "COLUMNS", "TIME_UNITS_TO_SECONDS", "ColumnMa
 REQUIRED = ("time", "load", "signal")
 OPTIONAL = ("temperature", "corrected")
 COLUMNS = REQUIRED + OPTIONAL
-TIME_UNITS_TO_SECONDS = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "min": 60.0, "h": 3600.0, "hr": 3600.0}
+TIME_UNITS_TO_SECONDS = {"s": 1.0, "sec": 1.0, "second": 1.0, "seconds": 1.0, "ms": 1e-3,
+                         "min": 60.0, "minutes": 60.0, "h": 3600.0, "hr": 3600.0, "hours": 3600.0}
 DUPLICATE_TIMES = ("error", "mean")
 
 
@@ -174,19 +175,20 @@ def resolve_columns(header: Sequence[str], mapping: Mapping[str, str], source: s
 
 def apply_units(head: RecordHead) -> float:
     """Put the units row's units into the head's metadata; the factor that converts time to
-    seconds (1 without a units row). Raise for a time unit that is not one of
-    :data:`TIME_UNITS_TO_SECONDS`."""
-    if head.units_row is None:
-        return 1.0
+    seconds, from the units row or the metadata line ``# units.time:`` (1 without either; a
+    unit already converted, ``s (converted from ms)``, is seconds). Raise for a time unit that
+    is not one of :data:`TIME_UNITS_TO_SECONDS`."""
     metadata = head.metadata
-    for name, unit in head.columns.units(head.units_row).items():
-        metadata.setdefault(f"units.{name}", unit)
-    scale = TIME_UNITS_TO_SECONDS.get(metadata.get("units.time", "s").strip().lower())
+    if head.units_row is not None:
+        for name, unit in head.columns.units(head.units_row).items():
+            metadata.setdefault(f"units.{name}", unit)
+    unit = str(metadata.get("units.time", "s")).split("(")[0].strip().lower()
+    scale = TIME_UNITS_TO_SECONDS.get(unit)
     if scale is None:
         raise InputError(f"{head.source}: time unit '{metadata['units.time']}' is not one of "
                          f"{', '.join(TIME_UNITS_TO_SECONDS)}")
     if scale != 1.0:
-        metadata["units.time"] = f"s (converted from {metadata['units.time']})"
+        metadata["units.time"] = f"s (converted from {str(metadata['units.time']).strip()})"
     return scale
 
 
