@@ -177,3 +177,34 @@ def test_an_unknown_time_unit_is_named(tmp_path):
     path.write_text("# units.time: fortnights\ntime,load,signal\n0,0,0\n1,1,1\n2,1,1\n")
     with pytest.raises(InputError, match="time unit 'fortnights'"):
         read_record(path)
+
+
+def _noiseless(path, samples, step):
+    import numpy as np
+
+    t = np.arange(samples) * step
+    load = (t >= 2 * step).astype(float)
+    signal = load * (1 + 0.03 * (1 - np.exp(-np.clip(t - 2 * step, 0, None) / 45.0)))
+    path.write_text("time,load,signal\n" + "\n".join(
+        f"{a!r},{b!r},{c!r}" for a, b, c in zip(t.tolist(), load.tolist(), signal.tolist())) + "\n")
+    return path
+
+
+def test_fit_refuses_more_parameters_than_samples(tmp_path, run_cli):
+    path = _noiseless(tmp_path / "twenty.csv", 20, 5.0)
+    refused(*run_cli("fit", path, "--terms", "20", "-o", tmp_path / "m.json"),
+            needle="usable samples: fewer terms")
+    assert not (tmp_path / "m.json").exists()
+
+
+def test_a_noiseless_record_gets_no_term_below_what_a_sensor_resolves(tmp_path, run_cli):
+    from creepcomp.fit.prony import SMALLEST_BETA
+
+    path = _noiseless(tmp_path / "clean.csv", 2000, 0.5)
+    status, out, err = run_cli("fit", path, "-o", tmp_path / "m.json")
+    assert status == 0, err
+    model = read_model(tmp_path / "m.json")
+    assert min(abs(b) for b in model.beta) >= SMALLEST_BETA
+    assert model.tau[0] == pytest.approx(45.0, rel=1e-6)
+    status, out, err = run_cli("size", "--model", tmp_path / "m.json")
+    assert status == 0, err
