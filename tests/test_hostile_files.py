@@ -208,3 +208,61 @@ def test_a_noiseless_record_gets_no_term_below_what_a_sensor_resolves(tmp_path, 
     assert model.tau[0] == pytest.approx(45.0, rel=1e-6)
     status, out, err = run_cli("size", "--model", tmp_path / "m.json")
     assert status == 0, err
+
+
+def test_a_header_over_the_csv_field_limit_is_one_line(tmp_path, run_cli):
+    lines = RECORD.read_text().splitlines()
+    at = next(k for k, line in enumerate(lines) if line.startswith("time"))
+    lines[at] += ",x" + "y" * 200_000
+    path = tmp_path / "head.csv"
+    path.write_text("\n".join(lines) + "\n")
+    for args in (["fit", path], ["correct", path, "--model", DATA / "default_sensor.json"],
+                 ["diagnose", path], ["fit", path, "--columns", "time=time,load=load,signal=signal"]):
+        refused(*run_cli(*args), needle="field larger than field limit")
+
+
+@pytest.mark.parametrize("entry, needle", [
+    ({}, "missing parameter 'rate'"), ({"rate": "fast"}, "could not convert string to float"),
+    ({"rate": True}, "rate = True is not a number")])
+def test_an_extension_with_wrong_parameters_is_named(tmp_path, run_cli, entry, needle):
+    path = write(tmp_path / "m.json", {"beta": [0.03], "tau": [45], "extensions": {"viscous_flow": entry}})
+    refused(*run_cli("correct", RECORD, "--model", path), needle=needle)
+
+
+def test_creep_test_refuses_a_rate_whose_arrays_do_not_fit(run_cli):
+    for rate in ("1e9", "1e-3"):
+        refused(*run_cli("creep-test", DATA / "default_sensor.json", "--digital", "--rate", rate),
+                needle="Hz: the digital creep test samples")
+
+
+def test_a_sweep_period_far_from_the_creep_is_named(run_cli):
+    for period in ("1e-300", "1e300"):
+        refused(*run_cli("size", "--term", "3%@45s", "--sweep-period", period),
+                needle="sweep period")
+
+
+def test_a_shunt_is_checked_as_the_cells_are(tmp_path, run_cli):
+    design = json.loads(DESIGN.read_text())
+    for shunt, needle in (([{"R": "1e6", "C": 1e-6}], "shunt[0].R = '1e6' is not a number"),
+                          ({"R": 1e6, "C": 1e-6}, "'shunt' must be a list")):
+        path = write(tmp_path / "d.json", dict(design, shunt=shunt))
+        for command in ("simulate", "netlist", "mc"):
+            refused(*run_cli(command, path), needle=needle)
+
+
+@pytest.mark.slow
+def test_sizing_twenty_terms_ends_in_seconds_within_bounded_memory(tmp_path):
+    import resource
+    import sys
+    import time
+
+    path = write(tmp_path / "m20.json", {"beta": [0.002] * 20, "tau": [10 ** (0.3 * k) for k in range(20)]})
+    for extra in ([], ["--allow-impractical", "--series", "none"]):
+        start = time.perf_counter()
+        done = subprocess.run([sys.executable, "-c", "from creepcomp.cli import run; run()", "size",
+                               "--model", str(path), *extra], capture_output=True, text=True,
+                              timeout=120, preexec_fn=lambda: resource.setrlimit(
+                                  resource.RLIMIT_AS, (3 << 30, 3 << 30)))
+        assert done.returncode in (0, 3), done.stderr
+        assert "Traceback" not in done.stderr
+        assert time.perf_counter() - start < 60

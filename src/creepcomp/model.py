@@ -31,6 +31,19 @@ TAU_RANGE = (1e-9, 1e15)
 MAX_BETA = 100.0
 
 
+def _check_parameters(value, name: str) -> None:
+    """Every number in an extension's parameters (nested objects and lists) is a real, finite
+    number; text (a form, a switch) stays text."""
+    if isinstance(value, Mapping):
+        for key, item in value.items():
+            _check_parameters(item, f"{name}.{key}")
+    elif isinstance(value, list):
+        for k, item in enumerate(value):
+            _check_parameters(item, f"{name}[{k}]")
+    elif value is not None and not isinstance(value, str):
+        check_number(value, name)
+
+
 def _without_beta_law(law: TemperatureLaw) -> TemperatureLaw:
     """The same shift law with no per-term amplitude law (for another number of terms)."""
     return TemperatureLaw(law.reference, law.law, law.activation_energy, law.c1, law.c2, (),
@@ -263,6 +276,7 @@ class CreepModel:
             if not isinstance(extensions, Mapping):
                 raise InputError(f"'extensions': expected an object (name -> parameters), found "
                                  f"{type(extensions).__name__}")
+            _check_parameters(extensions, "extensions")
             return cls(tuple(beta), tuple(tau), data.get("gain", 1.0), data.get("offset", 0.0),
                        dict(extensions), law)
         except InputError as exc:

@@ -314,10 +314,13 @@ class Network:
                                    *(_positive(c.get(key), f"cells[{k}].{key}", allow_none=True)
                                      for key in ("leakage", "absorption_R", "absorption_C"))))
             shunt = []
-            for j, b in enumerate(data.get("shunt", []) or []):
+            branches = data.get("shunt", []) or []
+            if not isinstance(branches, list):
+                raise InputError("'shunt' must be a list of {\"R\": ..., \"C\": ...}")
+            for j, b in enumerate(branches):
                 if not isinstance(b, Mapping) or "R" not in b or "C" not in b:
                     raise InputError(f"shunt[{j}] must be an object with 'R' and 'C'")
-                shunt.append(Branch(b["R"], b["C"]))
+                shunt.append(Branch(_positive(b["R"], f"shunt[{j}].R"), _positive(b["C"], f"shunt[{j}].C")))
             return cls(tuple(parsed), data["R2"], tuple(shunt),
                        data.get("source_resistance", 0.0) or 0.0, data.get("load_resistance"))
         except InputError as exc:

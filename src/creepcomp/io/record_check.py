@@ -21,7 +21,7 @@ import numpy as np
 from creepcomp.errors import InputError
 
 __all__ = ["REQUIRED", "OPTIONAL", "COLUMNS", "TIME_UNITS_TO_SECONDS", "ColumnMap", "RecordHead",
-           "check_delimiter", "sniff_delimiter", "lower_keys", "take_header_line",
+           "check_delimiter", "split_fields", "sniff_delimiter", "lower_keys", "take_header_line",
            "no_header_error", "resolve_columns", "apply_units", "row_values", "finish_arrays",
            "check_time_order", "all_finite", "time_increases", "check_arrays"]
 
@@ -105,6 +105,16 @@ def check_delimiter(delimiter: str | None) -> None:
                          "tab ('tab'), not a letter, digit, quote or line break")
 
 
+def split_fields(line: str, delimiter: str, where: str = "record") -> list[str]:
+    """The fields of one line of a record; a csv fault (a field over the csv module's limit
+    of 128 KiB, which cannot be a column name, a unit or a number) as one InputError naming
+    ``where``."""
+    try:
+        return next(csv.reader([line], delimiter=delimiter), [])
+    except csv.Error as exc:
+        raise InputError(f"{where}: {exc}; no column name, unit or number is that long") from None
+
+
 def sniff_delimiter(line: str) -> str:
     """The delimiter of a header line: comma, tab or semicolon (comma when none is there)."""
     for d in (",", "\t", ";"):
@@ -137,7 +147,7 @@ def take_header_line(line: str, mapping: Mapping[str, str], delimiter: str | Non
     if not mapping:
         return True
     d = delimiter or sniff_delimiter(line)
-    fields = [f.strip() for f in next(csv.reader([line], delimiter=d))]
+    fields = [f.strip() for f in split_fields(line, d, "a line before the header")]
     return all(any(f.lower() == w.lower() for f in fields) for w in _mapped_names(mapping))
 
 

@@ -443,6 +443,28 @@ def model_test(model: CreepModel, temperatures: Sequence[float], limits: CreepLi
     return result
 
 
+#: Most samples of one run of the digital creep test: the corrector's arrays of that length
+#: (a few tens of bytes a sample) stay within a few hundred MB.
+MAX_DIGITAL_SAMPLES = 2_000_000
+
+
+def check_digital_rate(rate: float, program: CreepTestProgram) -> None:
+    """Refuse a sampling rate whose test would not fit in memory, or whose samples miss the
+    program's readings (a sample interval longer than the loading ramp).
+
+    Raises
+    ------
+    InputError
+        Naming the rate and the range that works for ``program``.
+    """
+    end = program.dr_time + program.recovery
+    low, high = 1.0 / program.loading_time, MAX_DIGITAL_SAMPLES / end
+    if not (math.isfinite(rate) and low <= rate <= high):
+        raise InputError(f"rate {rate:g} Hz: the digital creep test samples its {end:g} s at "
+                         f"{low:g} Hz (a sample per loading ramp) to {high:.4g} Hz "
+                         f"({MAX_DIGITAL_SAMPLES:,} samples)")
+
+
 def _digital_readings(sensor: CreepModel, corrector_model: CreepModel, program: CreepTestProgram,
                       rate: float) -> tuple[dict, np.ndarray, np.ndarray]:
     """Readings of the digital corrector (``corrector_model``) on ``sensor``'s output sampled at
@@ -477,8 +499,7 @@ def digital_test(model: CreepModel, temperatures: Sequence[float], limits: Creep
     reference temperature (what a corrector without a temperature input does).
     """
     program = program or CreepTestProgram()
-    if not rate > 0:
-        raise InputError(f"rate {rate!r} Hz: must be positive")
+    check_digital_rate(rate, program)
     reference = model.temperature.reference if model.temperature is not None else None
     fixed = model.at_temperature(reference) if reference is not None else model
     rows, fixed_rows, curves = [], [], {}
