@@ -266,3 +266,43 @@ def test_sizing_twenty_terms_ends_in_seconds_within_bounded_memory(tmp_path):
         assert done.returncode in (0, 3), done.stderr
         assert "Traceback" not in done.stderr
         assert time.perf_counter() - start < 60
+
+
+def test_mc_refuses_a_run_longer_than_an_hour_with_the_estimate(run_cli):
+    refused(*run_cli("mc", DESIGN, "--n", "1e12"), needle="more than the 60 minutes a run may take; use --n")
+
+
+def test_the_closed_form_metrics_are_the_same_in_blocks():
+    import numpy as np
+
+    from creepcomp.verify import variants
+
+    rng = np.random.default_rng(0)
+    rel = rng.normal(0, 0.01, (50, 40))
+    q = rng.uniform(1, 100, (50, 40))
+    whole = variants._step_peak(rel, q)
+    saved = variants.BLOCK_VALUES
+    try:
+        variants.BLOCK_VALUES = 40 * 28 * 7
+        assert np.array_equal(variants._in_blocks(variants._step_peak, rel, q), whole)
+    finally:
+        variants.BLOCK_VALUES = saved
+
+
+@pytest.mark.slow
+def test_mc_of_a_twenty_cell_design_ends_within_a_minute(tmp_path):
+    import resource
+    import sys
+    import time
+
+    design = json.loads(DESIGN.read_text())
+    design["cells"] = [{"R": 3e6 * (1 + k % 3), "C": 1.5e-5 / (1 + k)} for k in range(20)]
+    design["creep"] = {"beta": [0.002] * 20, "tau": [45.0 * (1 + k) for k in range(20)]}
+    path = write(tmp_path / "d20.json", design)
+    start = time.perf_counter()
+    done = subprocess.run([sys.executable, "-c", "from creepcomp.cli import run; run()", "mc", str(path),
+                           "--n", "1000", "--spot-check", "0"], capture_output=True, text=True, timeout=180,
+                          preexec_fn=lambda: resource.setrlimit(resource.RLIMIT_AS, (3 << 30, 3 << 30)))
+    assert done.returncode == 0, done.stderr
+    assert time.perf_counter() - start < 60
+    assert "samples each" in done.stdout

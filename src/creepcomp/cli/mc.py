@@ -40,6 +40,9 @@ def _part_tolerances(items: list[str], distribution: str) -> dict:
 
 #: A Monte Carlo expected to take longer than this (s) gets a note with its expected duration.
 LONG_RUN = 600.0
+#: A Monte Carlo expected to take longer than this (s), at the pace of its first samples, is
+#: stopped with the estimate and the --n that fits.
+LONGEST_RUN = 3600.0
 
 
 def _duration(seconds: float) -> str:
@@ -169,6 +172,11 @@ def mc_command(
             if stage == "Monte Carlo" and tasks.get("estimate", 0) is None and done and done < total:
                 expected = (time.perf_counter() - started) * total / done
                 tasks["estimate"] = expected
+                if expected > LONGEST_RUN:
+                    fits = int(total * LONGEST_RUN / expected)
+                    raise InputError(f"--n {total}: about {_duration(expected)} at the pace of the "
+                                     f"first {done} samples, more than the {_duration(LONGEST_RUN)} "
+                                     f"a run may take; use --n {fits:,} or fewer")
                 if expected > LONG_RUN:
                     err_console.print(f"note: --n {total}: about {_duration(expected)} at the pace of "
                                       f"the first {done} samples (Ctrl-C stops it)", markup=False,
