@@ -306,3 +306,18 @@ def test_mc_of_a_twenty_cell_design_ends_within_a_minute(tmp_path):
     assert done.returncode == 0, done.stderr
     assert time.perf_counter() - start < 60
     assert "samples each" in done.stdout
+
+
+def test_a_digital_creep_test_without_a_temperature_law_names_no_reference(run_cli):
+    status, out, err = run_cli("creep-test", DATA / "default_sensor.json", "--digital")
+    assert status == 0, err
+    assert "None" not in out and "fixed at the reference temperature" not in out
+
+
+def test_a_temperature_beyond_the_parts_data_is_named_for_every_command(run_cli):
+    for args, option in ((["size", "--term", "3%@45s", "--temperature-range", "-40:10000"], "--temperature-range"),
+                         (["netlist", DESIGN, "--temperature", "1e6"], "--temperature"),
+                         (["mc", DESIGN, "--n", "100", "--temperature", "1e6"], "--temperature")):
+        refused(*run_cli(*args), needle=f"{option}: ")
+    refused(*run_cli("size", "--term", "3%@45s", "--activation-energy", "1e9", "--temperature-range",
+                     "-40:85"), needle="activation_energy = 1e+09 J/mol; at most")

@@ -126,9 +126,14 @@ def value_range(text: str, kind: str, option: str) -> tuple[float, float]:
 PLAUSIBLE_BETA0 = 0.5
 
 
+#: Hottest temperature an option may give (°C): beyond every part table's range (and an
+#: elastomer's life).
+HOTTEST = 200.0
+
+
 def temperatures_option(text: str | None, option: str = "--temperatures") -> list[float] | None:
     """``-10,20,40`` (°C, a ``°C`` or ``C`` suffix allowed) as numbers, each above absolute
-    zero; None when not given."""
+    zero and at most :data:`HOTTEST`; None when not given."""
     if text is None:
         return None
     out = []
@@ -139,6 +144,8 @@ def temperatures_option(text: str | None, option: str = "--temperatures") -> lis
         out.append(quantity(item.strip().removesuffix("°C").removesuffix("C"), "number", option))
     if any(t <= -273.15 for t in out):
         raise InputError(f"{option} '{text}': a temperature is at or below absolute zero")
+    if max(out) > HOTTEST:
+        raise InputError(f"{option}: {max(out):g} °C is above {HOTTEST:g} °C, beyond any part's data")
     return out
 
 

@@ -508,10 +508,13 @@ def digital_test(model: CreepModel, temperatures: Sequence[float], limits: Creep
         f, hold, back = _digital_readings(sensor, sensor, program, rate)
         rows.append(_row(T, f["creep_30min"], f["creep_20_30min"], f["dr"], f["dr_30min"], limits))
         curves[float(T)] = {"hold_time": hold[0], "change": hold[1], "return_time": back[0], "return": back[1]}
+        if reference is None:
+            continue
         g, _, _ = _digital_readings(sensor, fixed, program, rate)
         fixed_rows.append(_row(T, g["creep_30min"], g["creep_20_30min"], g["dr"], g["dr_30min"], limits))
-    result = CreepTestResult("digital", limits, program, rows, curves,
-                             variants={"corrector_at_reference": fixed_rows},
+    # without a temperature law the corrector at the reference temperature is the same one
+    variants = {"corrector_at_reference": fixed_rows} if reference is not None else {}
+    result = CreepTestResult("digital", limits, program, rows, curves, variants=variants,
                              settings={"rate": rate, "method": "subtractive", "hold": "zero",
                                        "reference_temperature": reference})
     result.notes += _law_note(model)
