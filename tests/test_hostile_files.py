@@ -321,3 +321,14 @@ def test_a_temperature_beyond_the_parts_data_is_named_for_every_command(run_cli)
         refused(*run_cli(*args), needle=f"{option}: ")
     refused(*run_cli("size", "--term", "3%@45s", "--activation-energy", "1e9", "--temperature-range",
                      "-40:85"), needle="activation_energy = 1e+09 J/mol; at most")
+
+
+def test_options_given_twice_or_named_for_another_command_are_clear(tmp_path, run_cli):
+    refused(*run_cli("mc", DESIGN, "--n", "100", "--tol", "C1=1%", "--tol", "C1=2%"),
+            needle="--tol C1: given twice")
+    status, out, err = run_cli("mc", DESIGN, "--n", "100", "--creep-test", "X3")
+    refused(status, out, err, needle="accuracy class 'X3'")
+    assert "--class" not in err
+    status, out, err = run_cli("netlist", DESIGN, "-o", tmp_path / "a b;c.cir")
+    assert status == 0, err
+    assert f"ngspice -b '{tmp_path / 'a b;c.cir'}'" in out

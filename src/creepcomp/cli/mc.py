@@ -34,6 +34,8 @@ def _part_tolerances(items: list[str], distribution: str) -> dict:
         if "=" not in item:
             raise InputError(f"--tol '{item}': expected PART=TOL, e.g. C1=1%")
         label, tol = (s.strip() for s in item.split("=", 1))
+        if label in out:
+            raise InputError(f"--tol {label}: given twice; give each part's tolerance once")
         out[label] = _tolerance(tol, f"--tol {label}", distribution)
     return out
 

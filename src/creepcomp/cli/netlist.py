@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import shlex
+
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
@@ -173,7 +175,7 @@ def netlist_command(
         return
     write_deck(output, deck, data)
     info = {"netlist": str(output), "bytes": output.stat().st_size,
-            "lines": text.count("\n"), "run": f"ngspice -b {output}"}
+            "lines": text.count("\n"), "run": f"ngspice -b {shlex.quote(str(output))}"}
     if deck.data_file is not None:
         data_path = output.parent / deck.data_file
         info.update({"data_file": str(data_path), "data_bytes": data_path.stat().st_size,
@@ -186,7 +188,7 @@ def netlist_command(
     if deck.data_file is not None:
         console.print(f"signal data written to {info['data_file']} ({info['samples']} samples, "
                       f"{format_quantity(info['data_bytes'], 'B')}), read by an XSPICE filesource")
-    console.print(f"run it with: ngspice -b {output}")
+    console.print(f"run it with: ngspice -b {shlex.quote(str(output))}", markup=False)
 
 
 def export_network(design_path: Path, subckt: Path | None, asc: Path | None,

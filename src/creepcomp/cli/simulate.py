@@ -3,6 +3,8 @@ residual creep."""
 
 from __future__ import annotations
 
+import shlex
+
 from pathlib import Path
 from typing import Optional
 
@@ -156,7 +158,8 @@ def simulate_command(
     if plot_path is not None:
         console.print(f"plot written to {plot_path}")
     if netlist is not None:
-        console.print(f"netlist written to {netlist}; run it with: ngspice -b {netlist}")
+        console.print(f"netlist written to {netlist}; run it with: ngspice -b {shlex.quote(str(netlist))}",
+                      markup=False)
 
 
 def _at(path: Path, temperature: float) -> Path:

@@ -151,7 +151,7 @@ def creep_limits(accuracy_class: str, n_max: int | None = None) -> CreepLimits:
     """
     key = str(accuracy_class).strip().upper()
     if key not in ACCURACY_CLASSES:
-        raise InputError(f"--class '{accuracy_class}': use A, B, C or D (e.g. C3: class C, 3000 intervals)")
+        raise InputError(f"accuracy class '{accuracy_class}': use A, B, C or D (e.g. C3: class C, 3000 intervals)")
     cls = ACCURACY_CLASSES[key]
     n = cls.default_n_max if n_max is None else int(n_max)
     low, high = cls.n_max_range
@@ -180,7 +180,7 @@ def parse_class(text: str, n_max: int | None = None) -> CreepLimits:
     default); ``n_max`` overrides the number the designation gives."""
     m = re.fullmatch(r"\s*([A-Da-d])\s*(\d+(?:\.\d+)?)?\s*", str(text))
     if not m:
-        raise InputError(f"--class '{text}': expected a class and thousands of intervals, e.g. C3 "
+        raise InputError(f"accuracy class '{text}': expected a class and thousands of intervals, e.g. C3 "
                          "(class C, 3000 intervals), or a class alone (A, B, C, D)")
     given = None if m.group(2) is None else int(round(float(m.group(2)) * 1000))
     return creep_limits(m.group(1), n_max if n_max is not None else given)
