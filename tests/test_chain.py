@@ -64,7 +64,7 @@ PAIRS = {
 
 
 @pytest.mark.slow
-@settings(max_examples=5, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(drawn=records)
 def test_every_file_written_is_read_by_every_reader(run_cli, drawn):
     text, full_scale = drawn
@@ -79,7 +79,10 @@ def test_every_file_written_is_read_by_every_reader(run_cli, drawn):
             return
         design, corrected, firmware = tmp / "design.json", tmp / "corrected.csv", tmp / "fw"
         # fit -o -> every reader of a model file
-        _accepted(run_cli, "fit -o", "size", "--model", model, "--allow-impractical", "-o", design)
+        # (ideal part values: a network exists for every model; E-series snapping within the
+        # part ranges is not what the chain is about)
+        _accepted(run_cli, "fit -o", "size", "--model", model, "--allow-impractical", "--series", "none",
+                  "-o", design)
         _accepted(run_cli, "fit -o", "correct", record, "--model", model, "-o", corrected)
         _accepted(run_cli, "fit -o", "firmware", model, "--rate", RATE, "--full-scale", full_scale,
                   "-o", firmware)

@@ -364,6 +364,14 @@ def size(model: CreepModel, rule: str = "exact", resistor_series: str | None = "
                             if kind == "R" and not res_range[0] <= v <= res_range[1])
         c0 = max(v for _, k, v in net.parts() if k == "C")
         made = DIELECTRICS[plan.capacitor]
+        if not outside:  # every resistor fits: a smaller cell's capacitor does not
+            low, high = min(cap_range[0], FILM_CAP_RANGE[0]), max(cap_range[1], FILM_CAP_RANGE[1])
+            small = ", ".join(f"{label} = {format_quantity(v, 'F')}" for label, kind, v in net.parts()
+                              if kind == "C" and not low <= v <= high)
+            raise NoNetworkInRange(f"at C = {format_quantity(c0, 'F')} the {rule} rule needs {small}, "
+                                   f"outside the capacitors searched, {format_quantity(low, 'F')} .. "
+                                   f"{format_quantity(high, 'F')}: widen --cap-range, or correct "
+                                   "fewer terms", True)
         advice, fixable = _capacitance_needed(net, c0, res_range, made.value_range, made.name)
         raise NoNetworkInRange(f"at C = {format_quantity(c0, 'F')} the {rule} rule needs {outside}, "
                                f"outside the resistor range {format_quantity(res_range[0], 'Ω')} .. "

@@ -142,11 +142,11 @@ def coalesced(taus) -> bool:
     return bool(np.any(ordered[1:] < COALESCED_RATIO * ordered[:-1]))
 
 
-#: Smallest relative amplitude of a term the fit adds by evidence: below a part per billion
-#: of the instantaneous signal no sensor's converter resolves creep (a 24-bit one resolves
-#: 6e-8 of its full scale), and the network for such a term needs resistances beyond a
-#: petaohm. A noiseless record's rounding errors can otherwise support such a term.
-SMALLEST_BETA = 1e-9
+#: Smallest relative amplitude of a term the fit adds by evidence: below 1e-7 of the
+#: instantaneous signal no sensor's converter resolves creep (a 24-bit one resolves 6e-8 of
+#: its full scale), and the network for such a term needs resistances beyond a petaohm. A
+#: noiseless record's rounding errors can otherwise support such a term.
+SMALLEST_BETA = 1e-7
 
 
 def _undetermined(fit: Fit) -> str | None:
