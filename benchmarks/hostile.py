@@ -3,7 +3,8 @@
 Each case runs the command line in a child process (memory capped at 3 GB, a time limit)
 and is judged by its outcome: ``traceback`` (stderr holds one), ``one line`` (exit 1 or 2 with
 a single error line), ``accepted`` (exit 0 where a refusal is the right answer), ``script``
-(a report that would run the record's script) or ``timeout``.
+(a report that would run the record's script), ``silently wrong`` (exit 0 with a wrong figure,
+or a file written that was not asked for) or ``timeout``.
 
 Usage::
 
@@ -75,6 +76,7 @@ def make_inputs(src: Path, folder: Path) -> dict[str, Path]:
     f["d2000"] = folder / "d2000.json"
     (folder / "model.json").write_text(json.dumps({"beta": [0.03], "tau": [45.0]}))
     f["model"] = folder / "model.json"
+    f.update(_third_pass_inputs(src, folder, t, load, signal))
     from scipy.io import savemat
 
     c = np.full((600, 282), 240.0)
@@ -85,6 +87,93 @@ def make_inputs(src: Path, folder: Path) -> dict[str, Path]:
     savemat(folder / "insole.mat", {"experiment": {"C": c, "P": np.column_stack([p, 100 * p])}})
     f["insole"] = folder / "insole.mat"
     return f
+
+
+def _third_pass_inputs(src: Path, folder: Path, t, load, signal) -> dict[str, Path]:
+    """Models, designs and records of the third pass: values no float32 holds, wrong types,
+    a time unit in the metadata, twenty terms and cells, outputs over inputs."""
+    def dump(name, data):
+        (folder / name).write_text(data if isinstance(data, str) else json.dumps(data))
+        return folder / name
+
+    design = json.loads((src / "creepcomp" / "data" / "built_network.design.json").read_text())
+    f = {
+        "offset_1e300": dump("off.json", {"beta": [0.03], "tau": [45.0], "offset": 1e300}),
+        "tau_true": dump("taut.json", {"beta": [0.03], "tau": [True]}),
+        "int_5000": dump("bigint.json", '{"beta": [0.03], "tau": [45], "gain": 1' + "0" * 5000 + "}"),
+        "ext_list": dump("extlist.json", {"beta": [0.03], "tau": [45.0], "extensions": [1, 2]}),
+        "flow_empty": dump("vf1.json", {"beta": [0.03], "tau": [45.0], "extensions": {"viscous_flow": {}}}),
+        "flow_fast": dump("vf2.json", {"beta": [0.03], "tau": [45.0],
+                                       "extensions": {"viscous_flow": {"rate": "fast"}}}),
+        "m20": dump("m20.json", {"beta": [0.002] * 20, "tau": [10 ** (0.3 * k) for k in range(20)]}),
+        "topology_foo": dump("topo.json", dict(design, topology="foo")),
+        "unobtainium": dump("parts.json", dict(design, parts={"resistors": {"technology": "unobtainium"},
+                                                              "capacitors": {"technology": "polypropylene",
+                                                                             "tolerance": 5}})),
+        "shunt_text": dump("shunt.json", dict(design, shunt=[{"R": "1e6", "C": 1e-6}])),
+        "d20": dump("d20.json", dict(design, cells=[{"R": 3e6 * (1 + k % 3), "C": 1.5e-5 / (1 + k)}
+                                                    for k in range(20)],
+                                     creep={"beta": [0.002] * 20, "tau": [45.0 * (1 + k) for k in range(20)]})),
+    }
+    rows = "\n".join(f"{a * 1000!r},{b!r},{c!r}" for a, b, c in zip(t, load, signal))
+    f["ms"] = dump("ms.csv", "# units.time: ms\ntime,load,signal\n" + rows + "\n")
+    twenty = "\n".join(f"{5.0 * k!r},{float(k >= 2)!r},{float(k >= 2) * (1.03 - 0.03 * np.exp(-5.0 * k / 45))!r}"
+                        for k in range(20))
+    f["twenty"] = dump("twenty.csv", "time,load,signal\n" + twenty + "\n")
+    head = (src / "creepcomp" / "data" / "hidden_effect.csv").read_text().splitlines()
+    at = next(k for k, line in enumerate(head) if line.startswith("time"))
+    head[at] += ",x" + "y" * 200_000
+    f["big_header"] = dump("bighead.csv", "\n".join(head) + "\n")
+    for name, holder in (("asbuilt", "as-built-design.json"), ("fw_record", "creep.c")):
+        (folder / name).mkdir()
+        source = "built_network.design.json" if name == "asbuilt" else "hidden_effect.csv"
+        f[name] = dump(f"{name}/{holder}", (src / "creepcomp" / "data" / source).read_text())
+    f["cwd"] = folder / "cwd"
+    f["cwd"].mkdir()
+    return f
+
+
+def _tau_of_fit_json(text: str) -> str | None:
+    """Why a fit's JSON of the 45 s sensor is wrong (None: its first tau is within 2x of 45 s)."""
+    tau = json.loads(text)["tau"][0]
+    return None if 20 < tau < 100 else f"tau {tau:g} s for a 45 s sensor"
+
+
+def third_pass_cases(f: dict[str, Path], out: Path) -> list[tuple[str, list[str], dict]]:
+    """The third pass's cases (outputs over inputs, units, bounds, types)."""
+    data = HERE / "src" / "creepcomp" / "data"
+    fw = ["--rate", "100", "--full-scale", "1"]
+    return [
+        ("firmware: offset 1e300", ["firmware", f["offset_1e300"], *fw, "-o", out / "fw1"], {"refuse": True}),
+        ("correct: offset 1e300", ["correct", f["constant"], "--model", f["offset_1e300"]], {"refuse": True}),
+        ("diagnose: -o over its --design", ["diagnose", data / "built_network.csv", "--design",
+                                            f["asbuilt"] / "as-built-design.json", "-o", f["asbuilt"]],
+         {"refuse": True}),
+        ("firmware: -o over its --verify", ["firmware", f["model"], *fw, "--verify", f["fw_record"] / "creep.c",
+                                           "-o", f["fw_record"]], {"refuse": True}),
+        ("simulate: no plot unasked", ["simulate", f["design"], "--points", "200"],
+         {"cwd": f["cwd"], "absent": f["cwd"] / "built_network.design-step.png"}),
+        ("fit: time in ms", ["fit", f["ms"], "--json"], {"stdout_check": _tau_of_fit_json}),
+        ("fit: 20 terms on 20 samples", ["fit", f["twenty"], "--terms", "20", "-o", out / "tw.json"],
+         {"refuse": True}),
+        ("fit: header over the CSV limit", ["fit", f["big_header"]], {"refuse": True}),
+        ("correct: header over the CSV limit", ["correct", f["big_header"], "--model", f["model"]], {"refuse": True}),
+        ("diagnose: header over the CSV limit", ["diagnose", f["big_header"]], {"refuse": True}),
+        ("size: integer of 5,000 digits", ["size", "--model", f["int_5000"]], {"refuse": True}),
+        ("size: tau [true]", ["size", "--model", f["tau_true"]], {"refuse": True}),
+        ("correct: extensions as a list", ["correct", f["constant"], "--model", f["ext_list"]], {"refuse": True}),
+        ("correct: viscous_flow {}", ["correct", f["constant"], "--model", f["flow_empty"]], {"refuse": True}),
+        ("correct: viscous_flow rate 'fast'", ["correct", f["constant"], "--model", f["flow_fast"]], {"refuse": True}),
+        ("creep-test: --digital --rate 1e9", ["creep-test", f["model"], "--digital", "--rate", "1e9"], {"refuse": True}),
+        ("size: 20 terms, --series none", ["size", "--model", f["m20"], "--allow-impractical", "--series", "none"], {}),
+        ("size: 20 terms", ["size", "--model", f["m20"]], {}),
+        ("size: --sweep-period 1e-300", ["size", "--term", "3%@45s", "--sweep-period", "1e-300"], {"refuse": True}),
+        ("netlist: topology foo", ["netlist", f["topology_foo"], "-o", out / "t.cir"], {"refuse": True}),
+        ("simulate: parts unobtainium", ["simulate", f["unobtainium"]], {"refuse": True}),
+        ("mc: shunt R as text", ["mc", f["shunt_text"], "--n", "100"], {"refuse": True}),
+        ("mc: 20 cells, 1,000 samples", ["mc", f["d20"], "--n", "1000"], {}),
+        ("mc: --n 1e12", ["mc", f["design"], "--n", "1e12"], {"refuse": True}),
+    ]
 
 
 def cases(f: dict[str, Path], out: Path) -> list[tuple[str, list[str], dict]]:
@@ -118,7 +207,7 @@ def cases(f: dict[str, Path], out: Path) -> list[tuple[str, list[str], dict]]:
                                             "-o", out / "fwi"], {"refuse": True}),
         ("mc: --temperature 1e6", ["mc", f["design"], "--n", "100", "--temperature", "1e6"], {"refuse": True}),
         ("mc: --temperature -300", ["mc", f["design"], "--n", "100", "--temperature", "-300"], {"refuse": True}),
-    ]
+    ] + third_pass_cases(f, out)
 
 
 def _cap():
@@ -130,13 +219,15 @@ def run_case(src: Path, args: list, opts: dict) -> tuple[str, str]:
            **opts.get("env", {})}
     cmd = [sys.executable, "-c", "from creepcomp.cli import run; run()", *map(str, args)]
     stdout = open(opts["stdout"], "w") if "stdout" in opts else subprocess.DEVNULL
+    if "stdout_check" in opts:
+        stdout = subprocess.PIPE
     try:
         done = subprocess.run(cmd, stdout=stdout, stderr=subprocess.PIPE, text=True, env=env,
-                              timeout=TIME_LIMIT, preexec_fn=_cap)
+                              timeout=TIME_LIMIT, preexec_fn=_cap, cwd=opts.get("cwd"))
     except subprocess.TimeoutExpired:
         return "timeout", f"over {TIME_LIMIT} s"
     finally:
-        if stdout is not subprocess.DEVNULL:
+        if stdout not in (subprocess.DEVNULL, subprocess.PIPE):
             stdout.close()
     err = done.stderr.strip().splitlines()
     last = err[-1][:110] if err else ""
@@ -145,6 +236,13 @@ def run_case(src: Path, args: list, opts: dict) -> tuple[str, str]:
     report = opts.get("report")
     if report is not None and Path(report).exists() and "<script" in Path(report).read_text():
         return "script", "the report holds the record's <script>"
+    absent = opts.get("absent")
+    if absent is not None and Path(absent).exists():
+        return "silently wrong", f"wrote {Path(absent).name} unasked"
+    if done.returncode == 0 and "stdout_check" in opts:
+        wrong = opts["stdout_check"](done.stdout)
+        if wrong:
+            return "silently wrong", wrong
     if done.returncode == 0:
         return ("accepted" if opts.get("refuse") else "ok"), "exit 0"
     lines = [line for line in err if line.startswith("creepcomp: error")]

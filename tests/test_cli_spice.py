@@ -71,6 +71,9 @@ def test_simulate_json_has_the_contract_keys_and_saves_a_plot(run_cli, tmp_path,
     monkeypatch.chdir(tmp_path)
     status, out, err = run_cli("simulate", PAPER, "--json", "--netlist", "ran.cir")
     assert status == 0, err
+    assert json.loads(out)["plot"] is None and not list(tmp_path.glob("*.png"))
+    status, out, err = run_cli("simulate", PAPER, "--json", "--plot", "default-paper-step.png")
+    assert status == 0, err
     d = json.loads(out)
     assert d["agreement_max_abs"] < 1e-6
     assert d["residual_creep_peak"] == pytest.approx(9.64e-4, rel=1e-3)

@@ -38,8 +38,8 @@ def test_c3_limits_and_their_derivation():
     assert OIML_C3_CREEP == creep_limits("C", 3000).creep_30min
 
 
-@pytest.mark.parametrize("text,n,needle", [("E3", None, "--class"), ("C20", None, "500 to 10000"),
-                                           ("A", 1000, "at least 50000"), ("C3x", None, "--class")])
+@pytest.mark.parametrize("text,n,needle", [("E3", None, "accuracy class"), ("C20", None, "500 to 10000"),
+                                           ("A", 1000, "at least 50000"), ("C3x", None, "accuracy class")])
 def test_bad_classes_are_refused(text, n, needle):
     with pytest.raises(InputError, match=needle):
         parse_class(text, n)
@@ -162,7 +162,7 @@ def test_creep_test_command_json_and_plot(run_cli, tmp_path):
     assert "0.7 x 0.7 x 1.5 / 3000 = 0.000245" in out and "FAIL" in out
 
 
-@pytest.mark.parametrize("args,needle", [(["--class", "Q3"], "--class"),
+@pytest.mark.parametrize("args,needle", [(["--class", "Q3"], "accuracy class"),
                                          (["--temperatures", "20,,40"], "--temperatures"),
                                          (["--n-max", "20000"], "500 to 10000"),
                                          (["--plot", "x.pdf"], "--plot")])

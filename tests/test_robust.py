@@ -87,7 +87,7 @@ def test_design_without_a_capacitor_or_with_absurd_parts_is_refused(run_cli, tmp
 def test_absurd_options_are_one_line(run_cli, tmp_path):
     one_line_error(*run_cli("mc", DESIGN, "--res-tol", "200%")[::2], "--res-tol '200%'")
     one_line_error(*run_cli("fit", RECORD, "--delimiter", "xx")[::2], "delimiter 'xx'")
-    one_line_error(*run_cli("size", "--beta0", "3%", "--tau", "1e300")[::2], "tau[0] = 1e+300 s")
+    one_line_error(*run_cli("size", "--beta0", "3%", "--tau", "1e300")[::2], "tau = 1e+300 s: its magnitude must be from 1e-09 s")
     one_line_error(*run_cli("simulate", DESIGN, "--points", "10000000")[::2], "--points 10000000")
     status, _, err = run_cli("size", "--beta0", "3%", "--tau", "45", "--cap-range", "1n:2n")
     one_line_error(status, err, "--capacitance 1.5µF")

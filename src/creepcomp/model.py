@@ -5,7 +5,6 @@ See ``docs/physics.md``, section 1.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Any, Mapping, TYPE_CHECKING
 
@@ -13,6 +12,7 @@ import numpy as np
 
 from creepcomp.display import Shown
 from creepcomp.errors import InputError
+from creepcomp.units import check_number
 from creepcomp.lti import LagExpansion, varying_lag_states
 from creepcomp.temperature import TemperatureLaw, step_temperatures
 from creepcomp.transfer import Transfer
@@ -20,17 +20,30 @@ from creepcomp.transfer import Transfer
 if TYPE_CHECKING:
     import control
 
-__all__ = ["CreepModel", "MAX_TERMS"]
+__all__ = ["CreepModel", "MAX_TERMS", "VALUE_RANGE", "TAU_RANGE", "MAX_BETA"]
+
+#: Magnitudes a model's gain and offset may have (signal units): float32, the firmware's type,
+#: holds up to 3.4e38 and down to 1.2e-38 without losing precision, and the corrector's sums
+#: and a record's squared error stay finite in float64 well inside this range.
+VALUE_RANGE = (1e-30, 1e30)
+#: Retardation times a model may have (s): a nanosecond to 31 million years (the longest
+#: record time a fit reads).
+TAU_RANGE = (1e-9, 1e15)
+#: Largest relative amplitude of one creep term: 10,000 %; a measured creep is a few %.
+MAX_BETA = 100.0
 
 
-def _check_number(value, name: str) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{name} = {value!r} is not a number") from None
-    if not math.isfinite(x):
-        raise InputError(f"{name} = {value!r} is not a finite number")
-    return x
+def _check_parameters(value, name: str) -> None:
+    """Every number in an extension's parameters (nested objects and lists) is a real, finite
+    number; text (a form, a switch) stays text."""
+    if isinstance(value, Mapping):
+        for key, item in value.items():
+            _check_parameters(item, f"{name}.{key}")
+    elif isinstance(value, list):
+        for k, item in enumerate(value):
+            _check_parameters(item, f"{name}[{k}]")
+    elif value is not None and not isinstance(value, str):
+        check_number(value, name)
 
 
 def _without_beta_law(law: TemperatureLaw) -> TemperatureLaw:
@@ -92,21 +105,25 @@ class CreepModel(Shown):
         if len(beta) > MAX_TERMS:
             raise InputError(f"{len(beta)} creep terms: at most {MAX_TERMS} (a measured sensor's creep "
                              "needs a few; each term costs a network cell and a corrector state)")
-        b = tuple(_check_number(x, names(k)[0]) for k, x in enumerate(beta))
-        t = tuple(_check_number(x, names(k)[1]) for k, x in enumerate(tau))
+        b = tuple(check_number(x, names(k)[0], high=MAX_BETA) for k, x in enumerate(beta))
+        t = tuple(check_number(x, names(k)[1]) for k, x in enumerate(tau))
         for k, (bk, tk) in enumerate(zip(b, t)):
             if bk == 0:
                 raise InputError(f"{names(k)[0]} = 0: a creep term needs a non-zero amplitude "
                                  "(with no creep there is nothing to correct)")
             if tk <= 0:
                 raise InputError(f"{names(k)[1]} = {tk:g} s: retardation times must be positive")
+            check_number(tk, names(k)[1], *TAU_RANGE, unit=" s")
         if 1.0 + sum(b) <= 0:
             raise InputError(f"beta0 = {sum(b):g}: creep of -100 % or less would reverse the "
                              "signal; beta0 must be greater than -1")
         object.__setattr__(self, "beta", b)
         object.__setattr__(self, "tau", t)
-        object.__setattr__(self, "gain", _check_number(self.gain, "gain"))
-        object.__setattr__(self, "offset", _check_number(self.offset, "offset"))
+        object.__setattr__(self, "gain", check_number(self.gain, "gain", *VALUE_RANGE))
+        object.__setattr__(self, "offset", check_number(self.offset, "offset", high=VALUE_RANGE[1]))
+        if not isinstance(self.extensions, Mapping):
+            raise InputError(f"extensions: expected an object (name -> parameters), found "
+                             f"{type(self.extensions).__name__}")
         if self.gain == 0:
             raise InputError("gain = 0: the sensor would not respond to load")
         law = self.temperature
@@ -311,7 +328,12 @@ class CreepModel(Shown):
         if data.get("transfer") is not None:
             transfer = Transfer.from_dict(data["transfer"], where=f"{where}: 'transfer'")
         try:
+            extensions = data.get("extensions", {}) or {}
+            if not isinstance(extensions, Mapping):
+                raise InputError(f"'extensions': expected an object (name -> parameters), found "
+                                 f"{type(extensions).__name__}")
+            _check_parameters(extensions, "extensions")
             return cls(tuple(beta), tuple(tau), data.get("gain", 1.0), data.get("offset", 0.0),
-                       dict(data.get("extensions", {}) or {}), law, transfer)
+                       dict(extensions), law, transfer)
         except InputError as exc:
             raise InputError(f"{where}: {exc}") from None

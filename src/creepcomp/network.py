@@ -20,7 +20,7 @@ from typing import Mapping, TYPE_CHECKING
 import numpy as np
 
 from creepcomp.errors import InputError
-from creepcomp.units import format_quantity
+from creepcomp.units import check_number, format_quantity
 from creepcomp.lti import LagExpansion
 
 if TYPE_CHECKING:
@@ -87,17 +87,12 @@ class Branch:
 def _positive(value, name: str, allow_zero: bool = False, allow_none: bool = False):
     if value is None and allow_none:
         return None
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{name} = {value!r} is not a number") from None
-    if math.isnan(x) or (x == 0 and not allow_zero) or x < 0:
+    if allow_none and isinstance(value, float) and value == math.inf:  # no resistor
+        return None
+    x = check_number(value, name)
+    if (x == 0 and not allow_zero) or x < 0:
         need = "zero or positive" if allow_zero else "positive"
         raise InputError(f"{name} = {value!r}: must be {need}")
-    if math.isinf(x):
-        if allow_none:
-            return None
-        raise InputError(f"{name} = {value!r}: must be finite")
     return x
 
 
@@ -319,10 +314,13 @@ class Network:
                                    *(_positive(c.get(key), f"cells[{k}].{key}", allow_none=True)
                                      for key in ("leakage", "absorption_R", "absorption_C"))))
             shunt = []
-            for j, b in enumerate(data.get("shunt", []) or []):
+            branches = data.get("shunt", []) or []
+            if not isinstance(branches, list):
+                raise InputError("'shunt' must be a list of {\"R\": ..., \"C\": ...}")
+            for j, b in enumerate(branches):
                 if not isinstance(b, Mapping) or "R" not in b or "C" not in b:
                     raise InputError(f"shunt[{j}] must be an object with 'R' and 'C'")
-                shunt.append(Branch(b["R"], b["C"]))
+                shunt.append(Branch(_positive(b["R"], f"shunt[{j}].R"), _positive(b["C"], f"shunt[{j}].C")))
             return cls(tuple(parsed), data["R2"], tuple(shunt),
                        data.get("source_resistance", 0.0) or 0.0, data.get("load_resistance"))
         except InputError as exc:

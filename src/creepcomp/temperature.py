@@ -21,6 +21,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from creepcomp.errors import InputError
+from creepcomp.units import check_number
 
 __all__ = ["GAS_CONSTANT", "ZERO_CELSIUS", "LAWS", "TemperatureLaw", "step_temperatures",
            "temperature_grid"]
@@ -33,14 +34,16 @@ ZERO_CELSIUS = 273.15
 LAWS = ("arrhenius", "wlf")
 
 
+#: Largest activation energy of a creep law (J/mol): a covalent bond's is about 350 kJ/mol,
+#: an elastomer's creep tens to a few hundred kJ/mol.
+MAX_ACTIVATION_ENERGY = 1e6
+
+
 def _finite(value, name: str, where: str) -> float:
     try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{where}: {name} = {value!r} is not a number") from None
-    if not math.isfinite(x):
-        raise InputError(f"{where}: {name} = {value!r} is not a finite number")
-    return x
+        return check_number(value, name)
+    except InputError as exc:
+        raise InputError(f"{where}: {exc}") from None
 
 
 @dataclass(frozen=True)
@@ -86,6 +89,9 @@ class TemperatureLaw:
             if ea < 0:
                 raise InputError(f"{where}: activation_energy = {ea:g} J/mol; it must be >= 0 "
                                  "(retardation speeds up with temperature)")
+            if ea > MAX_ACTIVATION_ENERGY:
+                raise InputError(f"{where}: activation_energy = {ea:g} J/mol; at most "
+                                 f"{MAX_ACTIVATION_ENERGY:g} J/mol (a covalent bond's is 3.5e+05)")
             object.__setattr__(self, "activation_energy", ea)
         else:
             if self.c1 is None or self.c2 is None:

@@ -43,6 +43,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from creepcomp.errors import InputError
+from creepcomp.units import check_number
 
 __all__ = ["StaticMap", "Transfer", "FORMS", "MAX_KNOTS"]
 
@@ -54,27 +55,18 @@ FORMS = {
     "saturating": ("limit",),
     "spline": ("x", "y"),
 }
+#: Largest magnitude of a map's parameter: float32, the firmware's type, holds it with room for
+#: the map's arithmetic (as a model's gain and offset: :data:`creepcomp.model.VALUE_RANGE`).
+VALUE_LIMIT = 1e30
 #: Most knots of a ``spline`` map: a monotone calibration curve needs tens, and the firmware
 #: carries every knot as a table.
 MAX_KNOTS = 64
 
 
-def _number(value, name: str) -> float:
-    if isinstance(value, bool):
-        raise InputError(f"{name} = {value!r} is not a number")
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{name} = {value!r} is not a number") from None
-    if not math.isfinite(x):
-        raise InputError(f"{name} = {value!r} is not a finite number")
-    return x
-
-
 def _numbers(value, name: str) -> tuple[float, ...]:
     if not isinstance(value, (list, tuple, np.ndarray)):
         raise InputError(f"{name} must be a list of numbers")
-    return tuple(_number(v, f"{name}[{k}]") for k, v in enumerate(value))
+    return tuple(check_number(v, f"{name}[{k}]", high=VALUE_LIMIT) for k, v in enumerate(value))
 
 
 @dataclass(frozen=True)
@@ -113,7 +105,8 @@ class StaticMap:
         p = {}
         for n in names:
             v = self.parameters[n]
-            p[n] = _numbers(v, f"{self.form}.{n}") if self.form == "spline" else _number(v, f"{self.form}.{n}")
+            p[n] = (_numbers(v, f"{self.form}.{n}") if self.form == "spline"
+                    else check_number(v, f"{self.form}.{n}", high=VALUE_LIMIT))
         if self.form == "power" and p["exponent"] == 0:
             raise InputError("power map: exponent 0 is constant, not monotone")
         if self.form == "saturating" and p["limit"] == 0:

@@ -7,13 +7,14 @@ for SPICE habits. RKM notation (``4k7``, ``2M2``, ``4R7``) is accepted for resis
 from __future__ import annotations
 
 import math
+import numbers
 import re
 from decimal import Decimal
 
 from creepcomp.errors import InputError
 
 __all__ = ["PREFIXES", "UNITS", "TIME_UNITS", "parse_quantity", "format_quantity", "format_percent",
-           "format_parameter", "format_time"]
+           "format_parameter", "format_time", "check_number"]
 
 # prefix -> power of ten (decimal arithmetic keeps "2.7%" and "4.7u" exact to the last digit)
 PREFIXES = {
@@ -208,3 +209,39 @@ def format_parameter(name: str, value: float | None, unit: str | None = None) ->
     if name == "rate":
         return f"{value:.4g} /s"
     return f"{value:.4g}"
+
+
+def check_number(value, name: str, low: float | None = None, high: float | None = None,
+                 unit: str = "") -> float:
+    """A model or design value as a float: a real number (not a boolean, not text), finite,
+    and with its magnitude within ``low`` .. ``high`` when they are given (0 is always
+    within).
+
+    Raises
+    ------
+    InputError
+        Naming ``name``, the value and what is allowed.
+
+    Examples
+    --------
+    >>> check_number(45, "tau")
+    45.0
+    >>> check_number(1e300, "offset", high=1e30)
+    Traceback (most recent call last):
+    ...
+    creepcomp.errors.InputError: offset = 1e+300: its magnitude must be at most 1e+30
+    """
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise InputError(f"{name} = {value!r} is not a number")
+    try:
+        x = float(value)
+    except (OverflowError, ValueError):
+        x = math.inf
+    if not math.isfinite(x):
+        raise InputError(f"{name} = {str(value)[:40]} is not a finite number")
+    size = abs(x)
+    if x != 0 and ((low is not None and size < low) or (high is not None and size > high)):
+        span = f"from {low:g}{unit} to {high:g}{unit}" if low and high else (
+            f"at least {low:g}{unit}" if low else f"at most {high:g}{unit}")
+        raise InputError(f"{name} = {x:g}{unit}: its magnitude must be {span}")
+    return x

@@ -23,6 +23,7 @@ import numpy as np
 from creepcomp.errors import InputError
 from creepcomp.network import Network
 from creepcomp.temperature import ZERO_CELSIUS
+from creepcomp.units import check_number
 
 __all__ = ["PART_REFERENCE", "ResistorTechnology", "RESISTORS", "Dielectric", "DIELECTRICS",
            "Thermistor", "NTC_THERMISTORS", "ntc_resistance", "ThermistorUse", "PartsPlan",
@@ -160,13 +161,10 @@ def _choice(data, kind: str, table: Mapping, where: str) -> tuple[str, float, fl
     tech = str(data.get("technology", ""))
     if tech not in table:
         raise InputError(f"{where}: {kind} technology {tech!r}; expected one of {', '.join(table)}")
-    try:
-        tol = float(data.get("tolerance", min(table[tech].tolerances)))
-        tc = float(data.get("tc", table[tech].tc))
-    except (TypeError, ValueError):
-        raise InputError(f"{where}: {kind} 'tolerance' and 'tc' must be numbers") from None
-    if not (math.isfinite(tol) and 0 <= tol < 1 and math.isfinite(tc)):
-        raise InputError(f"{where}: {kind} tolerance {tol!r} must be in [0, 1), tc finite")
+    tol = check_number(data.get("tolerance", min(table[tech].tolerances)), f"{where}: {kind} tolerance")
+    tc = check_number(data.get("tc", table[tech].tc), f"{where}: {kind} tc")
+    if not (0 <= tol < 1):
+        raise InputError(f"{where}: {kind} tolerance {tol!r} must be in [0, 1)")
     return tech, tol, tc
 
 
@@ -228,18 +226,24 @@ class PartsPlan:
         therm = {}
         for label, t in (data.get("thermistors") or {}).items():
             try:
-                therm[str(label)] = ThermistorUse(str(t.get("part", "NTC")), float(t["R25"]), float(t["B"]),
-                                                  float(t.get("series", 0.0) or 0.0),
-                                                  None if t.get("parallel") is None else float(t["parallel"]),
-                                                  float(t.get("tolerance", 0.01)),
-                                                  float(t.get("B_tolerance", 0.01)))
-            except (KeyError, TypeError, ValueError, AttributeError):
+                name = f"{where}: thermistor {str(label)[:40]!r}"
+                therm[str(label)] = ThermistorUse(
+                    str(t.get("part", "NTC")), check_number(t["R25"], f"{name} R25"),
+                    check_number(t["B"], f"{name} B"),
+                    check_number(t.get("series", 0.0) or 0.0, f"{name} series"),
+                    None if t.get("parallel") is None else check_number(t["parallel"], f"{name} parallel"),
+                    check_number(t.get("tolerance", 0.01), f"{name} tolerance"),
+                    check_number(t.get("B_tolerance", 0.01), f"{name} B_tolerance"))
+            except (KeyError, AttributeError):
                 raise InputError(f"{where}: thermistor {label!r} needs numbers 'R25' and 'B' "
                                  "(optional 'series', 'parallel', 'tolerance', 'B_tolerance')") from None
             u = therm[str(label)]
             if not (u.r25 > 0 and u.b > 0 and u.series >= 0 and (u.parallel is None or u.parallel > 0)):
                 raise InputError(f"{where}: thermistor {label!r}: R25, B, parallel must be positive, "
                                  "series zero or positive")
+            if not (0 <= u.tolerance < 1 and 0 <= u.b_tolerance < 1):
+                raise InputError(f"{where}: thermistor {label!r}: tolerance and B_tolerance must be "
+                                 "in [0, 1)")
         return cls(r, c, rtol, ctol, rtc, ctc, therm)
 
 

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from creepcomp.analog.parts import DIELECTRICS, RESISTORS, PART_REFERENCE, PartsPlan
-from creepcomp.analog.quality import screening_deviation, step_peak
+from creepcomp.analog.quality import screening_deviation, screening_times, step_peak
 from creepcomp.analog.sizing import (ASSUMED_LEAKAGE, NoNetworkInRange, SizingReport,
                                      output_resistance, size)
 from creepcomp.errors import NotRealisableError
@@ -43,7 +43,7 @@ from creepcomp.model import CreepModel
 from creepcomp.network import Network, modal_form, parallel, state_matrices
 from creepcomp.units import format_percent, format_quantity
 
-__all__ = ["ASSUMED_BIAS", "MAX_CORNERS", "Verdict", "WayOut", "made_range",
+__all__ = ["ASSUMED_BIAS", "MAX_CORNERS", "CORNER_WORK", "corner_count", "Verdict", "WayOut", "made_range",
            "resistor_technology", "part_tolerance", "judge", "judge_network", "judge_active",
            "find_way_out"]
 
@@ -51,6 +51,17 @@ __all__ = ["ASSUMED_BIAS", "MAX_CORNERS", "Verdict", "WayOut", "made_range",
 ASSUMED_BIAS = 1e-12
 #: Corners of the tolerance box evaluated at most (a random subset beyond).
 MAX_CORNERS = 4096
+#: Values (corners x sensor terms x network lags x screening times) the corners' screening
+#: computes at most: a model of many terms gets fewer random corners, and a bounded time
+#: (a few seconds), instead of minutes.
+CORNER_WORK = 50_000_000
+
+
+def corner_count(model: CreepModel, lags: int) -> int:
+    """How many tolerance corners to screen for ``model`` and a network of ``lags`` lags:
+    :data:`MAX_CORNERS`, fewer when :data:`CORNER_WORK` would be exceeded (at least 64)."""
+    per_corner = model.n_terms * max(1, lags) * len(screening_times(model))
+    return int(min(MAX_CORNERS, max(64, CORNER_WORK // per_corner)))
 
 
 def made_range(kind: str, plan: PartsPlan) -> tuple[float, float]:
@@ -154,16 +165,16 @@ def leaky_network(network: Network, plan: PartsPlan) -> Network:
                    load_resistance=parallel(network.load_resistance, ASSUMED_LEAKAGE))
 
 
-def tolerance_corners(parts, plan: PartsPlan, seed: int = 0) -> np.ndarray:
+def tolerance_corners(parts, plan: PartsPlan, seed: int = 0, most: int = MAX_CORNERS) -> np.ndarray:
     """Part values at the corners of the tolerance box (one row per corner; a random
-    :data:`MAX_CORNERS` of them when there are more), from ``(label, kind, value)`` parts."""
+    ``most`` of them when there are more), from ``(label, kind, value)`` parts."""
     nominal = np.array([v for _, _, v in parts])
     tol = np.array([part_tolerance(label, kind, v, plan) for label, kind, v in parts])
     m = len(parts)
-    if 2 ** m <= MAX_CORNERS:
+    if 2 ** m <= most:
         bits = (np.arange(2 ** m)[:, None] >> np.arange(m)[None, :]) & 1
     else:
-        bits = np.random.default_rng(seed).integers(0, 2, (MAX_CORNERS, m))
+        bits = np.random.default_rng(seed).integers(0, 2, (most, m))
     return nominal * (1.0 + np.where(bits == 1, tol, -tol))
 
 
@@ -173,7 +184,8 @@ def worst_corner(model: CreepModel, network: Network, plan: PartsPlan,
 
     Returns the value and the number of corners evaluated.
     """
-    values = tolerance_corners(network.parts(), plan, seed)
+    lags = len(network.cells) + len(network.shunt)
+    values = tolerance_corners(network.parts(), plan, seed, corner_count(model, lags))
     d, r, p = modal_form(*state_matrices(*network.batch_arrays(values)))
     return float(screening_deviation(model, d, r, p).max()), len(values)
 
@@ -240,7 +252,7 @@ def judge_active(model: CreepModel, stage, plan: PartsPlan | None = None) -> Ver
             f"the capacitors' insulation and a {format_quantity(ASSUMED_LEAKAGE, 'Ω')} board path "
             f"across each leave a peak residual creep of {format_percent(leak)}, no better than "
             f"the uncorrected {format_percent(uncorrected)}")
-    values = tolerance_corners(stage.parts(), plan)
+    values = tolerance_corners(stage.parts(), plan, most=corner_count(model, len(stage.terms)))
     lags = [stage.with_parts(v).lag_expansion() for v in values]
     worst = float(screening_deviation(model, np.array([g.direct for g in lags]),
                                       np.array([g.gains for g in lags]),
@@ -294,6 +306,23 @@ class WayOut:
         return out
 
 
+#: Up to this many creep terms the way out tries every subset of them; beyond, only the
+#: largest terms (the k largest for each k), so the tries grow with the terms, not 2**terms.
+ALL_SUBSETS_TERMS = 4
+
+
+def _term_subsets(model: CreepModel):
+    """The subsets of the model's terms a way out may correct, nearest (most terms, largest
+    first) first."""
+    n = model.n_terms
+    by_size = sorted(range(n), key=lambda k: -abs(model.beta[k]))
+    for keep in range(n - 1, 0, -1):
+        if n <= ALL_SUBSETS_TERMS:
+            yield from itertools.combinations(by_size, keep)
+        else:
+            yield tuple(by_size[:keep])
+
+
 def _candidates(model: CreepModel, options: dict, plan: PartsPlan):
     """Changes to try, nearest first."""
     made = {"cap_range": made_range("C", plan), "res_range": made_range("R", plan),
@@ -308,20 +337,17 @@ def _candidates(model: CreepModel, options: dict, plan: PartsPlan):
     out.append((made, ranges))
     if buffered:
         out.append((dict(made, load_resistance=None), "buffer the output and " + ranges))
-    n = model.n_terms
-    by_size = sorted(range(n), key=lambda k: -abs(model.beta[k]))
-    for keep in range(n - 1, 0, -1):
-        for subset in itertools.combinations(by_size, keep):
-            terms = tuple(sorted(subset))
-            kept = ", ".join(f"{format_percent(model.beta[k])} at {format_quantity(model.tau[k], 's')}"
-                             for k in terms)
-            out.append(({"terms": terms}, f"correct only {kept}"))
-            out.append((dict(made, terms=terms), f"correct only {kept}; {ranges}"))
-            if buffered:
-                out.append(({"terms": terms, "load_resistance": None},
-                            f"correct only {kept}, buffered"))
-                out.append((dict(made, terms=terms, load_resistance=None),
-                            f"correct only {kept}, buffered; {ranges}"))
+    for subset in _term_subsets(model):
+        terms = tuple(sorted(subset))
+        kept = ", ".join(f"{format_percent(model.beta[k])} at {format_quantity(model.tau[k], 's')}"
+                         for k in terms)
+        out.append(({"terms": terms}, f"correct only {kept}"))
+        out.append((dict(made, terms=terms), f"correct only {kept}; {ranges}"))
+        if buffered:
+            out.append(({"terms": terms, "load_resistance": None},
+                        f"correct only {kept}, buffered"))
+            out.append((dict(made, terms=terms, load_resistance=None),
+                        f"correct only {kept}, buffered; {ranges}"))
     return out
 
 

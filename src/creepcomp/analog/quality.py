@@ -26,6 +26,8 @@ import numpy as np
 from creepcomp.lti import cascade_matrices, cascade_step_arrays
 from creepcomp.model import CreepModel
 from creepcomp.network import Network
+from creepcomp.errors import InputError
+from creepcomp.units import check_number, format_quantity
 
 if TYPE_CHECKING:
     import control
@@ -33,7 +35,7 @@ if TYPE_CHECKING:
 __all__ = ["Quality", "SEGMENT_POINTS", "SEGMENT_SPAN", "SWEEP_QUARTER_POINTS",
            "default_sweep_period", "corrected_system", "step_residual", "sweep_hysteresis",
            "sweep_branches", "step_peak", "predict", "screening_times", "residual_curves",
-           "screening_deviation", "step_deviation"]
+           "screening_deviation", "step_deviation", "SWEEP_SPAN", "check_sweep_period"]
 
 #: Points per uniform segment of the step-response grid.
 SEGMENT_POINTS = 801
@@ -83,6 +85,29 @@ def default_sweep_period(model: CreepModel) -> float:
     term's hysteresis (``omega tau = 1``)."""
     k = int(np.argmax(np.abs(model.beta)))
     return 2.0 * math.pi * model.tau[k]
+
+
+#: Sweep periods the hysteresis is computed for, as multiples of the creep's shortest and
+#: longest time constants: far outside, the sweep is a step or a standstill and shows no
+#: hysteresis (and the periodic solution's matrix is singular to float64).
+SWEEP_SPAN = (1e-6, 1e6)
+
+
+def check_sweep_period(model: CreepModel, period) -> float:
+    """``period`` (s) as a float, within :data:`SWEEP_SPAN` of the model's time constants.
+
+    Raises
+    ------
+    InputError
+        Naming the period and the range that suits ``model``.
+    """
+    low, high = SWEEP_SPAN[0] * min(model.tau), SWEEP_SPAN[1] * max(model.tau)
+    value = check_number(period, "sweep period")
+    if not low <= value <= high:
+        raise InputError(f"sweep period {format_quantity(value, 's')}: use "
+                         f"{format_quantity(low, 's')} to {format_quantity(high, 's')} (a "
+                         "millionth to a million times the creep's time constants)")
+    return value
 
 
 def corrected_system(model: CreepModel, network: Network | None) -> "control.StateSpace":
@@ -199,7 +224,7 @@ def sweep_hysteresis(model: CreepModel, network: Network | None = None,
     """
     from scipy import linalg
 
-    period = default_sweep_period(model) if period is None else float(period)
+    period = default_sweep_period(model) if period is None else check_sweep_period(model, period)
     a, b, c, d = _cascade(model, network)
     n = len(a)
     m = SWEEP_QUARTER_POINTS
@@ -292,7 +317,8 @@ def predict(model: CreepModel, network: Network | None = None,
     Quality
     """
     peak, peak_time, final = step_peak(model, network)
-    period = default_sweep_period(model) if sweep_period is None else float(sweep_period)
+    period = (default_sweep_period(model) if sweep_period is None
+              else check_sweep_period(model, sweep_period))
     hyst = sweep_hysteresis(model, network, period)[0]
     return Quality(peak, final, peak_time, hyst, period)
 
@@ -332,6 +358,10 @@ def _lag_arrays(network: Network | None):
     return np.array([lag.direct]), np.array([lag.gains]), np.array([lag.taus])
 
 
+#: Most values the closed-form screening computes at once (8 bytes each).
+SCREENING_VALUES = 4_000_000
+
+
 def screening_deviation(model: CreepModel, direct, gains, taus,
                         reference: Network | None = None) -> np.ndarray:
     """Peak ``|e(t) - e_ref(t)|`` of many networks after a load step (closed form).
@@ -340,6 +370,15 @@ def screening_deviation(model: CreepModel, direct, gains, taus,
     result is the peak residual creep). Evaluated on a log grid plus the settled value.
     """
     t = screening_times(model)
+    # the curves hold (batch, sensor terms, network lags, times) values at once: in pieces of
+    # at most SCREENING_VALUES of them
+    direct, gains, taus = np.asarray(direct), np.asarray(gains), np.asarray(taus)
+    size = max(1, model.n_terms * gains.shape[1] * len(t))
+    step = max(1, SCREENING_VALUES // size)
+    if len(direct) > step:
+        return np.concatenate([screening_deviation(model, direct[i:i + step], gains[i:i + step],
+                                                   taus[i:i + step], reference)
+                               for i in range(0, len(direct), step)])
     curves = residual_curves(model, direct, gains, taus, t)
     g = model.lag_expansion()
     final = g.dc_gain * (direct + gains.sum(axis=1)) / (g.hf_gain * direct) - 1.0

@@ -32,12 +32,12 @@ from creepcomp.errors import InputError, NotRealisableError
 from creepcomp.model import CreepModel
 from creepcomp.network import Branch, Cell, Network, modal_form, parallel, state_matrices
 from creepcomp.analog.quality import (Quality, predict, screening_deviation, step_deviation,
-    step_peak)
+    screening_times, step_peak)
 from creepcomp.units import format_percent, format_quantity
 
 __all__ = ["RULES", "DEFAULT_CAPACITANCE", "DEFAULT_CAP_RANGE", "DEFAULT_RES_RANGE",
            "FILM_CAP_RANGE", "HIGH_IMPEDANCE", "ASSUMED_LEAKAGE", "MAX_COMBINATIONS_PER_LEVEL",
-           "EXACT_RECHECKS", "NoNetworkInRange", "explain_unrealisable", "ideal_network", "PartChoice", "SizingReport",
+           "EXACT_RECHECKS", "SIZING_WORK", "NoNetworkInRange", "explain_unrealisable", "ideal_network", "PartChoice", "SizingReport",
            "size", "TAU_RANGE", "check_time_constants", "nearest_snap", "output_resistance", "design_warnings"]
 
 RULES = ("exact", "paper")
@@ -57,6 +57,10 @@ ASSUMED_LEAKAGE = 10e9
 MAX_COMBINATIONS_PER_LEVEL = 1024
 #: Candidates re-checked with python-control after the closed-form screen.
 EXACT_RECHECKS = 5
+#: Values (candidates x sensor terms x network lags x screening times) the closed-form screen
+#: of one sizing computes at most: a model of many terms gets fewer combinations per
+#: capacitor value, and a sizing of seconds instead of hours.
+SIZING_WORK = 100_000_000
 
 
 class NoNetworkInRange(InputError):
@@ -363,8 +367,11 @@ def size(model: CreepModel, rule: str = "exact", resistor_series: str | None = "
         raise NoNetworkInRange(problems[-1], fixable)
     series_of = {"R": resistor_series, "C": capacitor_series}
     candidates, origin = [], []
+    lags = len(ideals[0].cells) + len(ideals[0].shunt)
+    per_candidate = model.n_terms * lags * len(screening_times(model))
+    most = int(min(MAX_COMBINATIONS_PER_LEVEL, max(16, SIZING_WORK // (len(ideals) * per_candidate))))
     for net in ideals:
-        combos = _combinations(net, series_of, res_range, cap_range)
+        combos = _combinations(net, series_of, res_range, cap_range, most)
         candidates.extend(combos)
         origin.extend([net] * len(combos))
     if not candidates:
@@ -373,6 +380,14 @@ def size(model: CreepModel, rule: str = "exact", resistor_series: str | None = "
                             if kind == "R" and not res_range[0] <= v <= res_range[1])
         c0 = max(v for _, k, v in net.parts() if k == "C")
         made = DIELECTRICS[plan.capacitor]
+        if not outside:  # every resistor fits: a smaller cell's capacitor does not
+            low, high = min(cap_range[0], FILM_CAP_RANGE[0]), max(cap_range[1], FILM_CAP_RANGE[1])
+            small = ", ".join(f"{label} = {format_quantity(v, 'F')}" for label, kind, v in net.parts()
+                              if kind == "C" and not low <= v <= high)
+            raise NoNetworkInRange(f"at C = {format_quantity(c0, 'F')} the {rule} rule needs {small}, "
+                                   f"outside the capacitors searched, {format_quantity(low, 'F')} .. "
+                                   f"{format_quantity(high, 'F')}: widen --cap-range, or correct "
+                                   "fewer terms", True)
         advice, fixable = _capacitance_needed(net, c0, res_range, made.value_range, made.name)
         raise NoNetworkInRange(f"at C = {format_quantity(c0, 'F')} the {rule} rule needs {outside}, "
                                f"outside the resistor range {format_quantity(res_range[0], 'Ω')} .. "
@@ -465,14 +480,17 @@ def nearest_snap(model: CreepModel, rule: str, resistor_series: str, capacitor_s
                              for label, kind, v in ideal.parts()])
 
 
-def _combinations(net: Network, series_of, res_range, cap_range) -> list[tuple[float, ...]]:
-    """Neighbouring series values of every part; the largest capacitor stays as it is."""
+def _combinations(net: Network, series_of, res_range, cap_range,
+                  most: int = MAX_COMBINATIONS_PER_LEVEL) -> list[tuple[float, ...]]:
+    """Neighbouring series values of every part; the largest capacitor stays as it is. When
+    there are more than ``most`` combinations (many parts), the one of each part's nearest
+    value and a fixed random draw of the others, ``most`` in all."""
     ref = _largest_capacitor_label(net)
     parts = net.parts()
     free = sum(1 for label, _, _ in parts if label != ref)
     per_side = 1
     for n in (3, 2):
-        if (2 * n) ** free <= MAX_COMBINATIONS_PER_LEVEL:
+        if (2 * n) ** free <= most:
             per_side = n
             break
     choices = []
@@ -487,7 +505,16 @@ def _combinations(net: Network, series_of, res_range, cap_range) -> list[tuple[f
         if not vals:
             return []
         choices.append(vals)
-    return list(itertools.product(*choices))
+    if math.prod(len(c) for c in choices) <= most:
+        return list(itertools.product(*choices))
+    nearest = tuple(min(c, key=lambda x, v=v: abs(math.log(x / v))) for c, (_, _, v) in zip(choices, parts))
+    rng = np.random.default_rng(0)
+    drawn = {nearest}
+    for _ in range(10 * most):
+        if len(drawn) >= most:
+            break
+        drawn.add(tuple(c[rng.integers(len(c))] for c in choices))
+    return [nearest] + sorted(drawn - {nearest})
 
 
 def _screen(model: CreepModel, template: Network, values: np.ndarray,

@@ -180,10 +180,11 @@ def _stopped() -> int:
 
 
 def _main(argv: list[str] | None) -> int:
-    from creepcomp.io.outputs import release_outputs
+    from creepcomp.io.outputs import inputs_of_this_run, release_outputs
 
     try:
-        return _command(argv)
+        with inputs_of_this_run():
+            return _command(argv)
     finally:
         release_outputs()     # the outputs' locks, taken when they were checked
 

@@ -55,6 +55,18 @@ def environment_fault(exc: OSError) -> int:
     return fail(message, 1)
 
 
+def read_checked_design(path, active: bool = False):
+    """A design file read and checked whole: its creep, its network
+    (:func:`~creepcomp.io.jsonfiles.read_design`) and its ``parts`` block
+    (:func:`~creepcomp.analog.parts.plan_of`), the same for every command that reads one."""
+    from creepcomp.analog.parts import plan_of
+    from creepcomp.io.jsonfiles import read_design
+
+    design = read_design(path, active=active)
+    plan_of(design, f"design file {path}")
+    return design
+
+
 def quantity(text: str | None, kind: str, option: str, allow_none: bool = False,
              positive: bool = False, non_negative: bool = False) -> float | None:
     """Parse an option value with units; ``none``/``inf`` give None where allowed."""
@@ -115,9 +127,14 @@ def value_range(text: str, kind: str, option: str) -> tuple[float, float]:
 PLAUSIBLE_BETA0 = 0.5
 
 
+#: Hottest temperature an option may give (°C): beyond every part table's range (and an
+#: elastomer's life).
+HOTTEST = 200.0
+
+
 def temperatures_option(text: str | None, option: str = "--temperatures") -> list[float] | None:
     """``-10,20,40`` (°C, a ``°C`` or ``C`` suffix allowed) as numbers, each above absolute
-    zero; None when not given."""
+    zero and at most :data:`HOTTEST`; None when not given."""
     if text is None:
         return None
     out = []
@@ -128,6 +145,8 @@ def temperatures_option(text: str | None, option: str = "--temperatures") -> lis
         out.append(quantity(item.strip().removesuffix("°C").removesuffix("C"), "number", option))
     if any(t <= -273.15 for t in out):
         raise InputError(f"{option} '{text}': a temperature is at or below absolute zero")
+    if max(out) > HOTTEST:
+        raise InputError(f"{option}: {max(out):g} °C is above {HOTTEST:g} °C, beyond any part's data")
     return out
 
 

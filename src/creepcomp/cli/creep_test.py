@@ -9,12 +9,12 @@ from typing import Optional
 import typer
 
 from creepcomp.errors import InputError
-from creepcomp.cli.common import app, console, print_json, quantity, temperatures_option
+from creepcomp.cli.common import app, console, print_json, quantity, read_checked_design, temperatures_option
 
 
 def _read_target(target: Path, digital: bool):
     """The design or the model in TARGET: a design file has a network (``cells``)."""
-    from creepcomp.io.jsonfiles import read_design, read_json, read_model
+    from creepcomp.io.jsonfiles import read_json, read_model
 
     from creepcomp.active_stage import is_active
 
@@ -22,7 +22,7 @@ def _read_target(target: Path, digital: bool):
     if "cells" in data or is_active(data):
         if digital:
             raise InputError(f"{target}: --digital needs a model file (beta, tau ...), not a design file")
-        return "design", read_design(target, active=True)
+        return "design", read_checked_design(target, active=True)
     return ("digital" if digital else "sensor"), read_model(target)
 
 

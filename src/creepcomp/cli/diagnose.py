@@ -8,10 +8,10 @@ from typing import TYPE_CHECKING, Optional
 import typer
 
 from creepcomp.errors import InputError
-from creepcomp.io.jsonfiles import read_design
 from creepcomp.io.outputs import check_outputs
 from creepcomp.units import format_percent
-from creepcomp.cli.common import api_default, app, console, count_option, print_json, progress_bar
+from creepcomp.cli.common import (api_default, app, console, count_option, print_json, progress_bar,
+                                  read_checked_design)
 from creepcomp.io.records import read_record
 from creepcomp.cli.fit import (COLUMNS_HELP, INITIAL_TEXT, describe_record,
     load_reduced, record_options, SHEET_OPTION, TAXEL_OPTION)
@@ -58,7 +58,9 @@ def diagnose_command(
     from creepcomp.diagnose import combine, diagnose, diagnose_circuit
     from creepcomp.diagnose.workers import available_cores
 
-    check_outputs(dirs={"-o": output}, inputs=[record_path, design])
+    check_outputs(dirs={"-o": output}, inputs=[record_path, design],
+                  contents={"-o": ("report.html", "diagnosis.json", "model.json",
+                                   "baseline-model.json", "as-built-design.json")})
     init, step = record_options(initial, load_step_at)
     from creepcomp.diagnose.sensor import DIAGNOSE_MAX_SAMPLES
     from creepcomp.fit.reduce import MAX_FIT_SAMPLES
@@ -74,7 +76,7 @@ def diagnose_command(
         if record.corrected is None:
             raise InputError(f"{record.source}: --design was given but the record has no "
                              "'corrected' column")
-        nominal = read_design(record.design_path(design))
+        nominal = read_checked_design(record.design_path(design))
         with progress_bar("diagnosing the circuit side", disable=as_json):
             circuit = diagnose_circuit(full, nominal, spice_check=spice_check, candidates=circuit_candidates)
     else:

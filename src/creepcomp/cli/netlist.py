@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import shlex
+
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
@@ -12,12 +14,12 @@ from creepcomp.verify.drive import (DEFAULT_POINTS, DEFAULT_SIGNAL, PROGRAMS, de
                                     synthetic_program)
 from creepcomp.verify.netlist import Deck, program_deck, record_deck, write_deck
 from creepcomp.errors import InputError
-from creepcomp.io.jsonfiles import Design, read_design
+from creepcomp.io.jsonfiles import Design
 from creepcomp.io.outputs import check_outputs
 from creepcomp.programs import LoadProgram
 from creepcomp.io.records import Record, parse_columns, read_record
 from creepcomp.units import format_quantity
-from creepcomp.cli.common import (app, console, count_option, print_json, quantity, si_text,
+from creepcomp.cli.common import (app, console, count_option, print_json, quantity, read_checked_design, si_text,
                                   temperatures_option)
 
 #: Most time points of a synthetic drive.
@@ -58,7 +60,7 @@ class Drive:
 def read_drive(design_path: Path, program: str, record: Path | None, columns: str | None,
                duration: str | None, points: int, signal: str) -> Drive:
     """Check and read the options shared by ``netlist`` and ``simulate``."""
-    design = read_design(design_path, active=True)
+    design = read_checked_design(design_path, active=True)
     name = program.strip().lower()
     if name not in PROGRAMS:
         raise InputError(f"--program '{program}': choose one of {', '.join(PROGRAMS)}")
@@ -173,7 +175,7 @@ def netlist_command(
         return
     write_deck(output, deck, data)
     info = {"netlist": str(output), "bytes": output.stat().st_size,
-            "lines": text.count("\n"), "run": f"ngspice -b {output}"}
+            "lines": text.count("\n"), "run": f"ngspice -b {shlex.quote(str(output))}"}
     if deck.data_file is not None:
         data_path = output.parent / deck.data_file
         info.update({"data_file": str(data_path), "data_bytes": data_path.stat().st_size,
@@ -186,7 +188,7 @@ def netlist_command(
     if deck.data_file is not None:
         console.print(f"signal data written to {info['data_file']} ({info['samples']} samples, "
                       f"{format_quantity(info['data_bytes'], 'B')}), read by an XSPICE filesource")
-    console.print(f"run it with: ngspice -b {output}")
+    console.print(f"run it with: ngspice -b {shlex.quote(str(output))}", markup=False)
 
 
 def export_network(design_path: Path, subckt: Path | None, asc: Path | None,
@@ -199,7 +201,7 @@ def export_network(design_path: Path, subckt: Path | None, asc: Path | None,
     if output is not None or record is not None:
         raise InputError("--subckt and --asc write the network alone: leave out -o and --record")
     check_outputs({"--subckt": subckt, "--asc": asc}, inputs=[design_path])
-    design = read_design(design_path)
+    design = read_checked_design(design_path)
     plan = plan_of(design, str(design_path))
     written = {}
     if subckt is not None:

@@ -3,6 +3,8 @@ residual creep."""
 
 from __future__ import annotations
 
+import shlex
+
 from pathlib import Path
 from typing import Optional
 
@@ -65,9 +67,8 @@ def simulate_command(
     signal: str = typer.Option(si_text(DEFAULT_SIGNAL), "--signal", metavar="VOLT",
                                help="Instantaneous sensor signal at full scale, e.g. 100u or 1V."),
     plot: Optional[Path] = typer.Option(None, "--plot", metavar="FILE.png",
-                                        help="Where to save the plot (default: "
-                                             "DESIGN-PROGRAM.png in the current folder)."),
-    no_plot: bool = typer.Option(False, "--no-plot", help="Do not save a plot."),
+                                        help="Save the plot there (default: no plot)."),
+    no_plot: bool = typer.Option(False, "--no-plot", help="Do not save a plot (the default)."),
     netlist: Optional[Path] = typer.Option(None, "--netlist", metavar="FILE.cir",
                                            help="Also write the netlist that ran."),
     temperatures: Optional[str] = typer.Option(
@@ -79,11 +80,10 @@ def simulate_command(
     """Simulate the design with python-control and with ngspice on the same time points.
 
     Reports their agreement (fraction of full scale: the step, for a step program), the
-    residual creep, and ngspice's run time; saves a plot of the creeping input, the
-    corrected output from both simulators, and the residual creep.
+    residual creep, and ngspice's run time; with ``--plot`` saves a plot of the creeping
+    input, the corrected output from both simulators, and the residual creep.
     """
-    plot_path = None if no_plot else (plot or Path(f"{design.stem}-{program.strip().lower()}.png"
-                                                    if record is None else f"{design.stem}-record.png"))
+    plot_path = None if no_plot else plot
     files = {"--plot": plot_path, "--netlist": netlist}
     if netlist is not None and record is not None:
         files["--netlist (its data file)"] = netlist.parent / f"{netlist.stem}-signal.txt"
@@ -131,7 +131,8 @@ def simulate_command(
     if plot_path is not None:
         console.print(f"plot written to {plot_path}")
     if netlist is not None:
-        console.print(f"netlist written to {netlist}; run it with: ngspice -b {netlist}")
+        console.print(f"netlist written to {netlist}; run it with: ngspice -b {shlex.quote(str(netlist))}",
+                      markup=False)
 
 
 def _at(path: Path, temperature: float) -> Path:

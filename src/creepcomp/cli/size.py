@@ -359,12 +359,14 @@ def _arg(text) -> str:
 
 def _model_file_beside(given: GivenOptions, model: CreepModel) -> Path:
     """Write ``model`` beside the requested output (``design.model.json`` for ``-o
-    design.json``; ``creep.model.json`` in the current folder without ``-o``), for the
+    design.json``; ``creep.model.json`` in the current folder without ``-o``; the next free
+    ``-2``, ``-3`` ... name when that file exists: it was not named by the user), for the
     firmware command, which reads a model file."""
     from creepcomp.io.jsonfiles import write_model
+    from creepcomp.io.outputs import unnamed_output
 
     base = given.output if given.output is not None else Path("creep.json")
-    path = base.with_name(f"{base.stem}.model.json")
+    path = unnamed_output(base.with_name(f"{base.stem}.model.json"))
     check_outputs({"(model file of the way out)": path}, inputs=[given.model_file])
     write_model(path, model)
     return path

@@ -159,6 +159,21 @@ def coalesced(taus) -> bool:
     return bool(np.any(ordered[1:] < COALESCED_RATIO * ordered[:-1]))
 
 
+#: Smallest relative amplitude of a term the fit adds by evidence: below 1e-7 of the
+#: instantaneous signal no sensor's converter resolves creep (a 24-bit one resolves 6e-8 of
+#: its full scale), and the network for such a term needs resistances beyond a petaohm. A
+#: noiseless record's rounding errors can otherwise support such a term.
+SMALLEST_BETA = 1e-7
+
+
+def _undetermined(fit: Fit) -> str | None:
+    """Why ``fit`` has more parameters than its samples determine, or None."""
+    if fit.n_params - 1 < fit.n_rows:
+        return None
+    return (f"{fit.structure.n_terms} terms, gain and offset are {fit.n_params - 1} parameters "
+            f"for {fit.n_rows} usable samples: fewer terms, or a longer record")
+
+
 def _another_term(data: Data, previous: Fit, fit: Fit, evidence: Evidence) -> bool:
     """Whether ``fit`` (one more term than ``previous``) is supported: strongly by BIC and
     held-out prediction (:attr:`~creepcomp.fit.evidence.Evidence.supported`); on a sparse
@@ -341,11 +356,17 @@ def _orders(data: Data, max_terms: int, n_terms: int | None, folds: int,
             break
         except linalg.LinAlgError:
             break
+        undetermined = _undetermined(fit)
+        if undetermined is not None:
+            if n_terms is not None:
+                raise InputError(f"{data.source}: --terms {n_terms}: {undetermined}")
+            break
         ev = compare(previous, fit) if previous is not None else None
         steps.append(OrderStep(k, fit, ev))
         if n_terms is not None:
             chosen = len(steps) - 1
-        elif ev is None or (_another_term(data, previous, fit, ev) and not coalesced(fit.taus)):
+        elif ev is None or (_another_term(data, previous, fit, ev) and not coalesced(fit.taus)
+                            and np.min(np.abs(fit.betas)) >= SMALLEST_BETA):
             chosen = len(steps) - 1
         else:
             break

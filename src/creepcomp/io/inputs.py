@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Iterator
 
 from creepcomp.errors import InputError
-from creepcomp.io.outputs import file_kind
+from creepcomp.io.outputs import file_kind, note_input
 
 __all__ = ["MAX_JSON_BYTES", "MAX_GZIP_BYTES", "MIN_GZIP_BYTES", "MAX_GZIP_RATIO",
            "check_input_file", "gzip_limit", "open_input", "gunzipped", "format_bytes"]
@@ -79,6 +79,7 @@ def check_input_file(path: str | Path, what: str = "file",
     if max_bytes is not None and st.st_size > max_bytes:
         raise InputError(f"{what} {p}: {format_bytes(st.st_size)}, more than the "
                          f"{format_bytes(max_bytes)} a {what} may have")
+    note_input(st)
     return st
 
 

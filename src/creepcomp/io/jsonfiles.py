@@ -38,6 +38,8 @@ def read_json(path: str | Path, what: str = "file") -> dict:
                          f"{exc.msg}") from None
     except RecursionError:
         raise InputError(f"{what} {p}: nested too deeply to be a model or design file") from None
+    except ValueError as exc:  # an integer of more digits than Python converts
+        raise InputError(f"{what} {p}: a number in it cannot be read ({str(exc)[:80]})") from None
     if not isinstance(data, dict):
         raise InputError(f"{what} {p}: expected one JSON object, found {type(data).__name__}")
     return data
@@ -131,6 +133,10 @@ def read_design(path: str | Path, active: bool = False) -> Design:
     if "creep" not in data:
         raise InputError(f"{where}: missing 'creep' (found keys: {', '.join(data)})")
     model = CreepModel.from_dict(data["creep"], where=f"{where}: 'creep'")
+    topology = data.get("topology")
+    if topology is not None and topology not in ("active", "lead", "lag"):
+        raise InputError(f"{where}: topology {str(topology)[:40]!r}: use 'lead' (cells and R2), "
+                         "'lag' (shunt branches) or 'active', or leave it out")
     if is_active(data):
         if not active:
             raise InputError(f"{where}: an active stage (topology 'active'); this command takes a "
@@ -142,6 +148,9 @@ def read_design(path: str | Path, active: bool = False) -> Design:
         return Design(model, stage, {k: v for k, v in data.items() if k not in known})
     network = Network.from_dict(data, where=where)
     network.check_buildable(where)
+    if topology is not None and topology != network.topology:
+        raise InputError(f"{where}: topology '{topology}', but the network is a "
+                         f"{network.topology} network ({'shunt branches' if network.shunt else 'no shunt branch'})")
     known = {"creep", "cells", "R2", "shunt", "source_resistance", "load_resistance"}
     return Design(model, network, {k: v for k, v in data.items() if k not in known})
 

@@ -9,6 +9,13 @@ A symbolic link to a regular file is accepted and replaced by the new file, as a
 file is: the link's target is left unchanged. The output never lands outside the folder its
 path names.
 
+While a command runs (:func:`inputs_of_this_run`), every file it reads is noted
+(:func:`note_input`, called by :func:`creepcomp.io.inputs.check_input_file`), and no output
+replaces one of them: not at the check, not at the write (:func:`check_replaceable`), also
+for a file found only during the run (a record's ``# design:``, a folder output's contents).
+A file the command derives a name for (not named by the user) never replaces an existing
+file (:func:`unnamed_output`).
+
 Every command that writes files calls :func:`check_outputs` first, so a long run never ends
 in "cannot write" and never overwrites the file it read; the files themselves are then
 written atomically (:mod:`creepcomp.io.atomic`). :func:`check_outputs` also takes each
@@ -31,7 +38,8 @@ from creepcomp.errors import InputError
 
 __all__ = ["PLOT_SUFFIXES", "OUTPUT_SUFFIXES", "check_outputs", "check_output_file",
            "check_output_dir", "check_replaceable", "file_kind", "csv_cell", "hold_lock",
-           "free_lock", "lock_output", "release_outputs", "lock_path"]
+           "free_lock", "lock_output", "release_outputs", "lock_path", "note_input",
+           "inputs_of_this_run", "unnamed_output"]
 
 #: File endings a plot can be saved as (matplotlib's formats); no ending is PNG.
 PLOT_SUFFIXES = ("png", "pdf", "svg", "svgz", "eps", "ps", "jpg", "jpeg", "tif", "tiff", "webp",
@@ -59,15 +67,74 @@ def file_kind(mode: int) -> str:
     return "not a regular file"
 
 
+#: (device, inode) of each file read by the command running (:func:`inputs_of_this_run`);
+#: None outside a command (a notebook may rewrite the file it read).
+_READ: set[tuple[int, int]] | None = None
+
+
+def note_input(st: os.stat_result) -> None:
+    """Note a file the running command reads (its ``os.stat``): no output may replace it."""
+    if _READ is not None:
+        _READ.add((st.st_dev, st.st_ino))
+
+
+@contextlib.contextmanager
+def inputs_of_this_run():
+    """While the block runs, the files read are noted and no output replaces one of them
+    (the command line wraps every command in it)."""
+    global _READ
+    before, _READ = _READ, set()
+    try:
+        yield
+    finally:
+        _READ = before
+
+
+def _read_by_this_run(p: Path) -> bool:
+    if not _READ:
+        return False
+    try:
+        st = os.stat(p)
+    except OSError:
+        return False
+    return (st.st_dev, st.st_ino) in _READ
+
+
+def unnamed_output(path: str | Path) -> Path:
+    """Where to write a file whose name the command derives (not named by the user): ``path``
+    when it is free, else the first free ``STEM-2.EXT``, ``STEM-3.EXT`` ... beside it, so an
+    existing file is never replaced by one the user did not ask for by name.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> _ = (folder / "creep.model.json").write_text("{}")
+    >>> unnamed_output(folder / "creep.model.json").name
+    'creep.model-2.json'
+    """
+    p = Path(path)
+    stem, suffix = p.name[:len(p.name) - len(p.suffix)], p.suffix
+    k = 1
+    while p.exists() or p.is_symlink():
+        k += 1
+        p = p.with_name(f"{stem}-{k}{suffix}")
+    return p
+
+
 def check_replaceable(path: str | Path, option: str = "output") -> None:
     """Refuse an existing ``path`` that is not a regular file (or a symbolic link to one): a
-    new file renamed over it would replace a pipe, a device or a link the user did not mean.
+    new file renamed over it would replace a pipe, a device or a link the user did not mean;
+    and one the running command read (:func:`inputs_of_this_run`).
 
     Raises
     ------
     InputError
         Naming the path and what it is.
     """
+    if _read_by_this_run(Path(path)):
+        raise InputError(f"{option} {path}: is a file this command reads; an output never "
+                         "replaces an input: choose another output path")
     p = Path(path)
     try:
         link = stat.S_ISLNK(os.lstat(p).st_mode)
@@ -192,6 +259,10 @@ def check_output_dir(path: str | Path, option: str = "-o",
             raise InputError(f"{option} {p}: is {what}, not a folder")
         _writable_folder(p, option, p)
         for name in contents:
+            for source in inputs:
+                if source is not None and _same(p / name, Path(source)):
+                    raise InputError(f"{option} {p}: it would get a new {name}, but {source} is an "
+                                     "input of this command; choose another output folder")
             check_replaceable(p / name, option)
     else:
         _writable_folder(p.parent if str(p.parent) else Path("."), option, p)

@@ -21,14 +21,15 @@ import numpy as np
 from creepcomp.errors import InputError
 
 __all__ = ["REQUIRED", "OPTIONAL", "COLUMNS", "TIME_UNITS_TO_SECONDS", "ColumnMap", "RecordHead",
-           "check_delimiter", "sniff_delimiter", "lower_keys", "take_header_line",
+           "check_delimiter", "split_fields", "sniff_delimiter", "lower_keys", "take_header_line",
            "no_header_error", "resolve_columns", "apply_units", "row_values", "finish_arrays",
            "check_time_order", "all_finite", "time_increases", "check_arrays"]
 
 REQUIRED = ("time", "load", "signal")
 OPTIONAL = ("temperature", "corrected")
 COLUMNS = REQUIRED + OPTIONAL
-TIME_UNITS_TO_SECONDS = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "min": 60.0, "h": 3600.0, "hr": 3600.0}
+TIME_UNITS_TO_SECONDS = {"s": 1.0, "sec": 1.0, "second": 1.0, "seconds": 1.0, "ms": 1e-3,
+                         "min": 60.0, "minutes": 60.0, "h": 3600.0, "hr": 3600.0, "hours": 3600.0}
 DUPLICATE_TIMES = ("error", "mean")
 
 
@@ -104,6 +105,16 @@ def check_delimiter(delimiter: str | None) -> None:
                          "tab ('tab'), not a letter, digit, quote or line break")
 
 
+def split_fields(line: str, delimiter: str, where: str = "record") -> list[str]:
+    """The fields of one line of a record; a csv fault (a field over the csv module's limit
+    of 128 KiB, which cannot be a column name, a unit or a number) as one InputError naming
+    ``where``."""
+    try:
+        return next(csv.reader([line], delimiter=delimiter), [])
+    except csv.Error as exc:
+        raise InputError(f"{where}: {exc}; no column name, unit or number is that long") from None
+
+
 def sniff_delimiter(line: str) -> str:
     """The delimiter of a header line: comma, tab or semicolon (comma when none is there)."""
     for d in (",", "\t", ";"):
@@ -136,7 +147,7 @@ def take_header_line(line: str, mapping: Mapping[str, str], delimiter: str | Non
     if not mapping:
         return True
     d = delimiter or sniff_delimiter(line)
-    fields = [f.strip() for f in next(csv.reader([line], delimiter=d))]
+    fields = [f.strip() for f in split_fields(line, d, "a line before the header")]
     return all(any(f.lower() == w.lower() for f in fields) for w in _mapped_names(mapping))
 
 
@@ -178,19 +189,20 @@ def resolve_columns(header: Sequence[str], mapping: Mapping[str, str], source: s
 
 def apply_units(head: RecordHead) -> float:
     """Put the units row's units into the head's metadata; the factor that converts time to
-    seconds (1 without a units row). Raise for a time unit that is not one of
-    :data:`TIME_UNITS_TO_SECONDS`."""
-    if head.units_row is None:
-        return 1.0
+    seconds, from the units row or the metadata line ``# units.time:`` (1 without either; a
+    unit already converted, ``s (converted from ms)``, is seconds). Raise for a time unit that
+    is not one of :data:`TIME_UNITS_TO_SECONDS`."""
     metadata = head.metadata
-    for name, unit in head.columns.units(head.units_row).items():
-        metadata.setdefault(f"units.{name}", unit)
-    scale = TIME_UNITS_TO_SECONDS.get(metadata.get("units.time", "s").strip().lower())
+    if head.units_row is not None:
+        for name, unit in head.columns.units(head.units_row).items():
+            metadata.setdefault(f"units.{name}", unit)
+    unit = str(metadata.get("units.time", "s")).split("(")[0].strip().lower()
+    scale = TIME_UNITS_TO_SECONDS.get(unit)
     if scale is None:
         raise InputError(f"{head.source}: time unit '{metadata['units.time']}' is not one of "
                          f"{', '.join(TIME_UNITS_TO_SECONDS)}")
     if scale != 1.0:
-        metadata["units.time"] = f"s (converted from {metadata['units.time']})"
+        metadata["units.time"] = f"s (converted from {str(metadata['units.time']).strip()})"
     return scale
 
 

@@ -40,7 +40,8 @@ from creepcomp.io.record_check import (COLUMNS, OPTIONAL, REQUIRED, TIME_UNITS_T
                                        RecordHead, all_finite, apply_units, check_arrays,
                                        check_delimiter, check_time_order, finish_arrays,
                                        lower_keys, no_header_error, resolve_columns, row_values,
-                                       sniff_delimiter, take_header_line, time_increases)
+                                       sniff_delimiter, split_fields, take_header_line,
+                                       time_increases)
 
 __all__ = ["REQUIRED", "OPTIONAL", "COLUMNS", "TIME_UNITS_TO_SECONDS", "Record", "check_arrays",
            "parse_columns", "read_record", "parse_record", "write_record", "WRITE_ROWS",
@@ -497,7 +498,7 @@ def _read_head(fh, source: str, mapping: dict, delimiter: str | None) -> RecordH
     if header_at is None:
         return None
     d = delimiter or sniff_delimiter(header_line)
-    header = [h.strip() for h in next(csv.reader([header_line], delimiter=d))]
+    header = [h.strip() for h in split_fields(header_line, d, f"{source}, line {header_at + 1}")]
     column_map = resolve_columns(header, mapping, source, header_at)
     start = fh.tell()
     units_row = None
@@ -505,7 +506,7 @@ def _read_head(fh, source: str, mapping: dict, delimiter: str | None) -> RecordH
         line = _decode(fh.readline(), "utf-8")
         if line is None:
             return None
-        row = next(csv.reader([line], delimiter=d), [])
+        row = split_fields(line, d, f"{source}, line {header_at + 2}")
         if column_map.is_units_row(row):
             units_row, start = row, fh.tell()
     fh.seek(start)

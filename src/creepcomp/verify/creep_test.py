@@ -152,7 +152,7 @@ def creep_limits(accuracy_class: str, n_max: int | None = None) -> CreepLimits:
     """
     key = str(accuracy_class).strip().upper()
     if key not in ACCURACY_CLASSES:
-        raise InputError(f"--class '{accuracy_class}': use A, B, C or D (e.g. C3: class C, 3000 intervals)")
+        raise InputError(f"accuracy class '{accuracy_class}': use A, B, C or D (e.g. C3: class C, 3000 intervals)")
     cls = ACCURACY_CLASSES[key]
     n = cls.default_n_max if n_max is None else int(n_max)
     low, high = cls.n_max_range
@@ -181,7 +181,7 @@ def parse_class(text: str, n_max: int | None = None) -> CreepLimits:
     default); ``n_max`` overrides the number the designation gives."""
     m = re.fullmatch(r"\s*([A-Da-d])\s*(\d+(?:\.\d+)?)?\s*", str(text))
     if not m:
-        raise InputError(f"--class '{text}': expected a class and thousands of intervals, e.g. C3 "
+        raise InputError(f"accuracy class '{text}': expected a class and thousands of intervals, e.g. C3 "
                          "(class C, 3000 intervals), or a class alone (A, B, C, D)")
     given = None if m.group(2) is None else int(round(float(m.group(2)) * 1000))
     return creep_limits(m.group(1), n_max if n_max is not None else given)
@@ -454,6 +454,28 @@ def model_test(model: CreepModel, temperatures: Sequence[float], limits: CreepLi
     return result
 
 
+#: Most samples of one run of the digital creep test: the corrector's arrays of that length
+#: (a few tens of bytes a sample) stay within a few hundred MB.
+MAX_DIGITAL_SAMPLES = 2_000_000
+
+
+def check_digital_rate(rate: float, program: CreepTestProgram) -> None:
+    """Refuse a sampling rate whose test would not fit in memory, or whose samples miss the
+    program's readings (a sample interval longer than the loading ramp).
+
+    Raises
+    ------
+    InputError
+        Naming the rate and the range that works for ``program``.
+    """
+    end = program.dr_time + program.recovery
+    low, high = 1.0 / program.loading_time, MAX_DIGITAL_SAMPLES / end
+    if not (math.isfinite(rate) and low <= rate <= high):
+        raise InputError(f"rate {rate:g} Hz: the digital creep test samples its {end:g} s at "
+                         f"{low:g} Hz (a sample per loading ramp) to {high:.4g} Hz "
+                         f"({MAX_DIGITAL_SAMPLES:,} samples)")
+
+
 def _digital_readings(sensor: CreepModel, corrector_model: CreepModel, program: CreepTestProgram,
                       rate: float) -> tuple[dict, np.ndarray, np.ndarray]:
     """Readings of the digital corrector (``corrector_model``) on ``sensor``'s output sampled at
@@ -488,8 +510,7 @@ def digital_test(model: CreepModel, temperatures: Sequence[float], limits: Creep
     reference temperature (what a corrector without a temperature input does).
     """
     program = program or CreepTestProgram()
-    if not rate > 0:
-        raise InputError(f"rate {rate!r} Hz: must be positive")
+    check_digital_rate(rate, program)
     reference = model.temperature.reference if model.temperature is not None else None
     fixed = model.at_temperature(reference) if reference is not None else model
     rows, fixed_rows, curves = [], [], {}
@@ -498,10 +519,13 @@ def digital_test(model: CreepModel, temperatures: Sequence[float], limits: Creep
         f, hold, back = _digital_readings(sensor, sensor, program, rate)
         rows.append(_row(T, f["creep_30min"], f["creep_20_30min"], f["dr"], f["dr_30min"], limits))
         curves[float(T)] = {"hold_time": hold[0], "change": hold[1], "return_time": back[0], "return": back[1]}
+        if reference is None:
+            continue
         g, _, _ = _digital_readings(sensor, fixed, program, rate)
         fixed_rows.append(_row(T, g["creep_30min"], g["creep_20_30min"], g["dr"], g["dr_30min"], limits))
-    result = CreepTestResult("digital", limits, program, rows, curves,
-                             variants={"corrector_at_reference": fixed_rows},
+    # without a temperature law the corrector at the reference temperature is the same one
+    variants = {"corrector_at_reference": fixed_rows} if reference is not None else {}
+    result = CreepTestResult("digital", limits, program, rows, curves, variants=variants,
                              settings={"rate": rate, "method": "subtractive", "hold": "zero",
                                        "reference_temperature": reference})
     result.notes += _law_note(model)

@@ -15,7 +15,7 @@ from creepcomp.verify.tolerances import ToleranceSpec
 from creepcomp.verify.variants import Metrics
 from creepcomp.verify.worstcase import WorstCase, worst_case
 
-__all__ = ["ToleranceReport", "analyse"]
+__all__ = ["ToleranceReport", "analyse", "sensitivity_count", "SENSITIVITY_WORK", "MIN_SENSITIVITY_SAMPLES"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -116,6 +116,30 @@ class ToleranceReport(Shown):
                 "tracking": over.plan.tracking, "per_temperature": rows, "worst": worst}
 
 
+#: Variant-lags (variants x factors x lags: cells, shunt branches and creep terms) the
+#: sensitivity and tighter-part runs each evaluate at most: a few seconds on one core.
+SENSITIVITY_WORK = 2_000_000
+#: Fewest samples per factor those runs take (a p99 needs some hundreds beyond it).
+MIN_SENSITIVITY_SAMPLES = 1000
+
+
+def sensitivity_count(design: Design, factors: int, asked: int) -> int:
+    """Samples per factor for the sensitivity runs: ``asked``, or fewer (at least
+    :data:`MIN_SENSITIVITY_SAMPLES`) where :data:`SENSITIVITY_WORK` would be exceeded.
+
+    Examples
+    --------
+    >>> from creepcomp.data import built_network_design
+    >>> sensitivity_count(built_network_design(), 3, 20_000)
+    20000
+    """
+    network = design.network
+    lags = design.model.n_terms + len(getattr(network, "cells", ())) + len(getattr(network, "shunt", ()))
+    lags += len(getattr(network, "terms", ()))
+    affordable = SENSITIVITY_WORK // max(1, factors * lags)
+    return int(min(asked, max(MIN_SENSITIVITY_SAMPLES, affordable)))
+
+
 def analyse(design: Design, spec: ToleranceSpec, n: int, seed: int = 0, metric: str = "peak",
             limit: float | None = None, sweep_period: float | None = None, worst: bool = True,
             sensitivity_samples: int = 20_000, progress: Callable[[str, int, int], None] | None = None,
@@ -139,7 +163,8 @@ def analyse(design: Design, spec: ToleranceSpec, n: int, seed: int = 0, metric: 
     worst : bool
         Search the worst case over the tolerance box.
     sensitivity_samples : int
-        Samples per factor for the sensitivity and tighter-part runs (0: skip them).
+        Samples per factor for the sensitivity and tighter-part runs (0: skip them); fewer
+        for a large design (:func:`sensitivity_count`), the report says how many.
     progress : callable, optional
         ``progress(stage, done, total)``.
     workers : int, optional
@@ -161,6 +186,7 @@ def analyse(design: Design, spec: ToleranceSpec, n: int, seed: int = 0, metric: 
     wc = worst_case(design, spec, metric, period) if worst else None
     sens, tight = [], []
     if sensitivity_samples:
+        sensitivity_samples = sensitivity_count(design, len(result.box), sensitivity_samples)
         if progress:
             progress("sensitivity", 0, 1)
         sens = sensitivity(result, metric, sensitivity_samples)

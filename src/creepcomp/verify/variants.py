@@ -88,8 +88,8 @@ def evaluate(design: Design, values: Mapping[str, np.ndarray], sweep_period: flo
     n = len(next(iter(values.values()))) if values else (n or 1)
     rel, q = residual_lags(design, values, dielectric, temperature, n, over)
     final = rel.sum(axis=1)
-    peak = np.maximum(_step_peak(rel, q), np.abs(final))
-    hysteresis = _sweep_peak(rel, q, sweep_period)
+    peak = np.maximum(_in_blocks(_step_peak, rel, q), np.abs(final))
+    hysteresis = _in_blocks(_sweep_peak, rel, q, sweep_period)
     if over is None:
         return Metrics(peak, final, hysteresis)
     shape = (len(over.temperatures), n)
@@ -186,6 +186,22 @@ def variant(design: Design, values: Mapping[str, np.ndarray], i: int, dielectric
                       None if rl is None or not np.isfinite(rl) else float(rl))
     model = design.model if over is None else design.model.at_temperature(over.temperatures[0])
     return Design(model.with_terms(beta[0], tau[0]), network)
+
+
+#: Values (variants x lags x grid points) one block of the closed-form metrics holds at once
+#: (8 bytes each; a few arrays of that size are alive together).
+BLOCK_VALUES = 2_000_000
+
+
+def _in_blocks(metric, rel, q, *args) -> np.ndarray:
+    """``metric(rel, q, *args)`` over blocks of variants (rows), so that its arrays stay within
+    :data:`BLOCK_VALUES` values however many lags (cells and creep terms) a design has."""
+    grid = max(len(STEP_GRID), len(SWEEP_GRID))
+    rows = max(1, BLOCK_VALUES // (max(1, q.shape[1]) * grid))
+    if len(q) <= rows:
+        return metric(rel, q, *args)
+    return np.concatenate([metric(rel[i:i + rows], q[i:i + rows], *args)
+                           for i in range(0, len(q), rows)])
 
 
 def step_residual(rel, q, t, rise: float = 0.0) -> np.ndarray:

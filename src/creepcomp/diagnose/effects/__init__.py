@@ -531,7 +531,13 @@ def model_structure(model: CreepModel, data: Data) -> tuple[Structure, dict]:
         effect = get(name)
         if not isinstance(entry, dict):
             raise InputError(f"model extension '{name}': expected an object of parameters")
-        applied, own = effect.restore(entry, model, data)
+        try:
+            applied, own = effect.restore(entry, model, data)
+        except KeyError as exc:
+            raise InputError(f"model extension '{name}': missing parameter {exc}") from None
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"model extension '{name}': a parameter is not what it should be "
+                             f"({exc})") from None
         structure = structure.with_effect(applied)
         values.update(own)
     return structure, values
