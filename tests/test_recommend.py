@@ -53,3 +53,14 @@ def test_a_linear_load_cell_against_a_noisy_reference_is_linear_creep(reference_
     assert result.cause == "none", [f.effect for f in result.findings]
     assert "reference load's own noise" in result.to_dict()["noise_floor_method"]
     assert result.to_dict()["baseline"]["misfit_ratio"] < 1.5
+
+
+def test_a_model_the_firmware_cannot_write_is_not_usable_for_it():
+    flow = {"beta": [0.03], "tau": [45.0], "extensions": {"viscous_flow": {"rate": 1e-4}}}
+    assert usable(flow) is None
+    assert "no C corrector" in usable(flow, firmware=True)
+    mapped = {"beta": [0.03], "tau": [45.0], "transfer": {"signal_map": {"form": "log", "origin": 0}},
+              "extensions": {"viscous_flow": {"rate": 1e-4}}}
+    assert usable(mapped, firmware=True) is not None
+    assert usable({"beta": [0.03], "tau": [45.0], "transfer": {"signal_map": {"form": "log", "origin": 0}}},
+                  firmware=True) is None

@@ -11,8 +11,8 @@ picks one (a member with more parts must win by its margin). The model written i
 member fitted on the whole record: the diagnosis's own extended or baseline model for those
 members, the signal-path fit otherwise.
 
-Every model recommended is one the creep correction accepts (:func:`usable`): where the
-chosen one is not, the next in the order is taken and the refusal said.
+Every model recommended is one the creep correction and the firmware accept (:func:`usable`):
+where the chosen one is not, the next in the order is taken and the refusal said.
 """
 
 from __future__ import annotations
@@ -79,8 +79,13 @@ class Recommendation(Shown):
                 "candidates": [c.to_dict() for c in self.candidates], "refused": dict(self.refused)}
 
 
-def usable(model_file: dict) -> str | None:
-    """Why the creep correction would refuse this model file, or None when it takes it."""
+def usable(model_file: dict, firmware: bool = False) -> str | None:
+    """Why the creep correction would refuse this model file, or None when it takes it.
+
+    ``firmware``: also why ``creepcomp firmware`` would refuse it for what the model is (an
+    extension it has no C for, static maps together with an extension or a temperature law);
+    the sample rate and the input range it is given are checked when it runs.
+    """
     from creepcomp.digital.correctors import check_invertible
     from creepcomp.model import CreepModel
 
@@ -88,9 +93,14 @@ def usable(model_file: dict) -> str | None:
         model = CreepModel.from_dict(model_file)
         check_invertible(model)
         if model.extensions:
-            from creepcomp.diagnose.effects import extension_inverses
+            from creepcomp.diagnose.effects import extension_inverses, firmware_output
 
             extension_inverses(model)
+            if firmware:
+                firmware_output(model)
+        if firmware and model.transfer is not None and (model.extensions or model.temperature):
+            raise InputError("firmware: the C corrector has no static maps together with "
+                             + ("an extension" if model.extensions else "a temperature law"))
     except InputError as exc:
         return str(exc)
     return None
@@ -316,7 +326,7 @@ def recommend(record, diagnosis, signal_path: bool = True) -> Recommendation:
     versus = _versus(members)
     for member in order or [None]:
         which, model = _model_of(member, diagnosis, path, record)
-        why = usable(model)
+        why = usable(model, firmware=True)
         if why is None:
             name = member.name if member is not None else which
             reason = (f"{name} gives the load back with {_percent(member.heldout_load_rms)} RMS error "
@@ -325,7 +335,7 @@ def recommend(record, diagnosis, signal_path: bool = True) -> Recommendation:
             return Recommendation(which, model, reason, name, tuple(members), load_range, split, refused)
         refused[member.name if member is not None else which] = why
     for which, model in (("extended", diagnosis.extended_model), ("baseline", diagnosis.baseline_model)):
-        if usable(model) is None:
+        if usable(model, firmware=True) is None:
             return Recommendation(which, model, f"the {which} model: no better member can be inverted",
                                   which, tuple(members), load_range, split, refused)
     raise InputError("no model of this record can be inverted by the creep correction: "
