@@ -132,9 +132,13 @@ def test_correct_in_pieces_equals_the_whole_record_correction(tmp_path, irregula
     assert written.metadata == {"compensated.method": "subtractive"}
     np.testing.assert_array_equal(written.temperature, whole.temperature)
     text_columns = out.read_text().splitlines()[1].split(",")
-    assert text_columns == ["time", "load", "signal", "temperature", "compensated"]
-    got = np.loadtxt(out, delimiter=",", skiprows=2)[:, 4]
-    np.testing.assert_allclose(got, compensated, rtol=0, atol=1e-12)
+    assert text_columns == ["time", "load", "signal", "temperature", "compensated", "load_estimate"]
+    got = np.loadtxt(out, delimiter=",", skiprows=2)
+    np.testing.assert_allclose(got[:, 4], compensated, rtol=0, atol=1e-12)
+    from creepcomp.digital.correctors import load_from_compensated
+
+    np.testing.assert_allclose(got[:, 5], load_from_compensated(compensated, MODEL), rtol=0, atol=1e-9)
+    assert done.load_rms == pytest.approx(np.sqrt(np.mean((got[:, 5] - whole.load) ** 2)), rel=1e-6)
     for mine, values in ((done.before, whole.signal), (done.after, compensated)):
         ref = creep_error(whole.time, values, whole.load, MODEL)
         assert mine.rms == pytest.approx(ref.rms, rel=1e-9)

@@ -13,6 +13,7 @@ left out, so that a re-run changes only what the notebook shows.
 
 from __future__ import annotations
 
+import os
 import sys
 import tempfile
 import time
@@ -31,9 +32,16 @@ def execute(path: Path) -> tuple[nbformat.NotebookNode, float]:
     seconds it took."""
     notebook = nbformat.read(path, as_version=4)
     start = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix="creepcomp-notebook-") as folder:
-        NotebookClient(notebook, timeout=CELL_TIMEOUT, kernel_name="python3",
-                       resources={"metadata": {"path": folder}}).execute()
+    # the kernel inherits this process's environment: a file backend chosen here (the command
+    # line sets MPLBACKEND=Agg when it runs in-process) would keep its figures from showing
+    backend = os.environ.pop("MPLBACKEND", None)
+    try:
+        with tempfile.TemporaryDirectory(prefix="creepcomp-notebook-") as folder:
+            NotebookClient(notebook, timeout=CELL_TIMEOUT, kernel_name="python3",
+                           resources={"metadata": {"path": folder}}).execute()
+    finally:
+        if backend is not None:
+            os.environ["MPLBACKEND"] = backend
     return notebook, time.perf_counter() - start
 
 

@@ -19,7 +19,7 @@ from types import ModuleType
 
 __version__ = "0.1.0"
 
-#: Public name -> module that defines it, most used first (the order of ``docs/api/index.md``).
+#: Public name -> module that defines it, most used first (the order of the API index page).
 _API = {
     # measured records in, a creep model out
     "read_record": "creepcomp.io.records", "fit": "creepcomp.diagnose.fitting",

@@ -241,10 +241,21 @@ def transfer_option(text: str) -> bool:
 
 
 def unusable(model: dict) -> str | None:
-    """Why ``correct`` and ``firmware`` would refuse the fitted model (None: they take it)."""
-    from creepcomp.diagnose.recommend import usable
+    """Why ``correct`` would refuse the fitted model (None: it takes it). A model with an
+    extension (``--flow``) is checked by the diagnosis's rule; a plain one here, without
+    loading the diagnosis."""
+    if model.get("extensions"):
+        from creepcomp.diagnose.recommend import usable
 
-    return usable(model)
+        return usable(model)
+    from creepcomp.digital.correctors import check_invertible
+    from creepcomp.model import CreepModel
+
+    try:
+        check_invertible(CreepModel.from_dict(model))
+    except InputError as exc:
+        return str(exc)
+    return None
 
 
 def not_written(why: str, output: Path | None) -> None:

@@ -203,13 +203,15 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
         ``reloading``, ``peak``, ``play`` or ``recovery``), written by
         :mod:`creepcomp.digital.firmware_extension`: float32, at a fixed rate, subtractive only.
 
-    A model with static maps (a ``transfer``) or a static calibration (no creep terms) gets
-    the float32 fixed-rate step of :mod:`creepcomp.digital.firmware_transfer`:
-    ``PREFIX_step`` returns the compensated signal, ``PREFIX_step_load`` the load.
-
     Returns
     -------
     Firmware
+
+    Notes
+    -----
+    A model with static maps (a ``transfer``) or a static calibration (no creep terms) gets
+    the float32 fixed-rate step of :mod:`creepcomp.digital.firmware_transfer`:
+    ``PREFIX_step`` returns the compensated signal, ``PREFIX_step_load`` the load.
     """
     check_no_extensions(model)
     if model.transfer is not None or model.is_static:
