@@ -48,6 +48,7 @@ def test_the_error_is_rms_over_the_held_out_part_in_percent_of_the_whole_load_ra
         bench.heldout_error(r, np.full(len(r), np.nan), k)
 
 
+@pytest.mark.slow
 def test_every_column_of_a_record_and_a_monotone_curve_beating_a_line_on_a_saturating_pad():
     out = bench.run_record("pad", _pad_record(), {"most": 400, "lags": ((0, 1), (1, 1)), "info_values": 4})
     cells = out.cells
@@ -70,6 +71,7 @@ class _FakeFit:
         raise InputError("beta0 = -2: beta0 must be greater than -1")
 
 
+@pytest.mark.slow
 def test_a_failing_creepcomp_call_fills_its_cell_and_a_refused_file_is_counted(monkeypatch):
     import creepcomp.fit.prony
 
@@ -107,6 +109,7 @@ def test_the_command_prints_json_and_writes_one_plot_per_kind(tmp_path, capsys):
     assert len(list((tmp_path / "plots").glob("*.png"))) == 2
 
 
+@pytest.mark.slow
 def test_a_record_file_is_read_as_creepcomp_reads_it(tmp_path, capsys):
     from creepcomp.io.records import write_record
 

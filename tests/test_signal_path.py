@@ -214,6 +214,7 @@ def test_fit_transfer_auto_writes_the_signal_path_that_correct_inverts(run_cli, 
     assert status == 2 and "--transfer auto" in err
 
 
+@pytest.mark.slow
 def test_fit_writes_no_model_that_correct_refuses(run_cli, tmp_path):
     from creepcomp.synth.soft import soft_record
 
