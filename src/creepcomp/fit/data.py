@@ -3,7 +3,7 @@ the segments that gaps in the sampling cut it into."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
@@ -67,6 +67,8 @@ class Data:
         (:meth:`weighted`), in the full record's noise units. None: all samples alike.
     samples : numpy.ndarray or None
         Of a reduced record: the full record's samples each sample holds (:data:`BLOCK_SAMPLES`).
+    units : dict
+        The record's units of ``signal`` and ``load`` (empty where it names none), for reports.
     """
 
     time: np.ndarray
@@ -81,6 +83,7 @@ class Data:
     fixed_offset: bool
     weights: np.ndarray | None = None
     samples: np.ndarray | None = None
+    units: dict = field(default_factory=dict, compare=False)
 
     @property
     def n(self) -> int:
@@ -335,4 +338,5 @@ def prepare(record, initial: str = "free", load_step_at: float | None = None,
     return Data(time=time, load=load, signal=record.signal, temperature=record.temperature,
                 source=record.source, initial=initial, load_step_at=load_step_at, hold=hold,
                 segment=np.cumsum(gaps(record.time, samples)), fixed_offset=constant,
-                weights=weights, samples=samples)
+                weights=weights, samples=samples,
+                units={c: record.unit(c) for c in ("signal", "load") if record.unit(c)})

@@ -151,14 +151,14 @@ def fit_summary_of(result) -> Summary:
     """A Prony fit: the record fitted, the number of terms tried and the chosen model."""
     data, fit = result.data, result.fit
     scale = data.signal_scale
-    line = (f"residual RMS {fit.residual_rms:.4g} signal units ({format_percent(fit.residual_rms / scale)} "
+    su = data.units.get("signal", "signal units")
+    line = (f"residual RMS {fit.residual_rms:.4g} {su} ({format_percent(fit.residual_rms / scale)} "
             "of the signal's range)")
     if fit.heldout is not None:
-        line += f"; held-out {fit.heldout.rms:.4g} ({format_percent(fit.heldout.rms / scale)})"
-    # the fitted data carry no units: the signal's are named as such
+        line += f"; held-out {fit.heldout.rms:.4g} {su} ({format_percent(fit.heldout.rms / scale)})"
     return Summary(f"Prony fit of {data.source}",
                    (f"{data.n} samples over {format_time(data.duration)}", line),
-                   fit_tables(result, "signal units"))
+                   fit_tables(result, su, data.units.get("load", "")))
 
 
 # --- diagnosis ---------------------------------------------------------------------------------
@@ -204,16 +204,18 @@ def diagnosis_tables(d, units: dict | None = None) -> tuple[Table, ...]:
 
 def diagnosis_summary(d) -> Summary:
     """A sensor diagnosis: the cause, the residual against the noise floor, the tables."""
+    units = dict(getattr(d.data, "units", {}))
+    su = units.get("signal", "signal units")
     lines = [f"{d.data.n} samples over {format_time(d.data.duration)}",
-             f"baseline residual RMS {d.baseline.residual_rms:.4g} signal units, extended "
-             f"{d.extended.residual_rms:.4g} signal units"]
+             f"baseline residual RMS {d.baseline.residual_rms:.4g} {su}, extended "
+             f"{d.extended.residual_rms:.4g} {su}"]
     if d.floor is not None:
-        lines.append(f"noise floor {d.floor.rms:.4g} signal units ({d.floor.method}); misfit ratio "
+        lines.append(f"noise floor {d.floor.rms:.4g} {su} ({d.floor.method}); misfit ratio "
                      f"baseline {_ratio(d.misfit_ratio(d.baseline))}, extended "
                      f"{_ratio(d.misfit_ratio(d.extended))}")
     notes = tuple(f"{f.effect}: {f.note}" for f in d.findings if f.note)
     return Summary(f"Diagnosis of {d.data.source}: cause {d.cause}", tuple(lines),
-                   diagnosis_tables(d), notes)
+                   diagnosis_tables(d, units), notes)
 
 
 def circuit_tables(cd) -> dict:
