@@ -265,7 +265,7 @@ def _load_rms(model: CreepModel, record: Record, heldout: np.ndarray, load_range
 
 def _signal_maps(signal: np.ndarray) -> list[StaticMap]:
     """Power (reciprocal) and log maps the signal's sign allows, about zero."""
-    lo, hi = float(np.min(signal)), float(np.max(signal))
+    lo = float(np.min(signal))
     maps = [StaticMap("power", {"exponent": e, "origin": 0.0}) for e in SIGNAL_EXPONENTS if e > 0]
     if lo > 0:
         maps += [StaticMap("log", {"origin": 0.0})]
