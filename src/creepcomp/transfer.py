@@ -145,6 +145,25 @@ class StaticMap:
             return (-math.inf, p["limit"]) if p["limit"] > 0 else (p["limit"], math.inf)
         return (-math.inf, math.inf)
 
+    def within(self, x) -> np.ndarray:
+        """``x`` with the values outside :meth:`domain` moved just inside its edge (by a
+        billionth of the values' span): a reciprocal or logarithmic map is defined on one side
+        of its origin only, and a sample on the other (noise at a converter's rail) would make a
+        corrector's states NaN for the rest of the record."""
+        x = np.asarray(x, dtype=float)
+        lo, hi = self.domain()
+        if not (math.isfinite(lo) or math.isfinite(hi)):
+            return x
+        span = float(np.ptp(x[np.isfinite(x)])) if x.size else 0.0
+        edge = 1e-9 * max(span, abs(lo) if math.isfinite(lo) else 0.0, abs(hi) if math.isfinite(hi) else 0.0, 1e-300)
+        return np.clip(x, lo + edge if math.isfinite(lo) else -np.inf, hi - edge if math.isfinite(hi) else np.inf)
+
+    def outside(self, x) -> int:
+        """How many of ``x`` lie outside :meth:`domain` (those :meth:`within` moves)."""
+        lo, hi = self.domain()
+        x = np.asarray(x, dtype=float)
+        return int(np.count_nonzero(~((x > lo) & (x < hi))))
+
     def forward(self, x) -> np.ndarray:
         """``y = m(x)``; ``x`` outside :meth:`domain` gives NaN."""
         x = np.asarray(x, dtype=float)
@@ -276,6 +295,13 @@ class Transfer:
     def linearise(self, signal) -> np.ndarray:
         """``h(signal)``: the signal where the creep is linear."""
         return np.asarray(signal, float) if self.signal_map is None else self.signal_map.forward(signal)
+
+    def linearise_within(self, signal) -> np.ndarray:
+        """``h(signal)`` with the samples outside the signal map's domain taken at its edge
+        (:meth:`StaticMap.within`): what a correction runs on."""
+        if self.signal_map is None:
+            return np.asarray(signal, float)
+        return self.signal_map.forward(self.signal_map.within(signal))
 
     def delinearise(self, z) -> np.ndarray:
         """``h^-1(z)``: the signal from its linear domain."""

@@ -158,9 +158,8 @@ def _correct_whole(record_path, model, method, start, hold, output, out_meta, ma
     if model.extensions:
         compensated = _compensate_extended(record, model, method, start, hold, temps)
     else:
-        from creepcomp.digital.correctors import samples_outside_map
-
-        outside = samples_outside_map(record.signal, model)
+        outside = 0 if model.transfer is None or model.transfer.signal_map is None else \
+            model.transfer.signal_map.outside(record.signal)
         if outside:
             from creepcomp.cli.common import err_console
 
@@ -209,14 +208,14 @@ def _compensate_extended(record, model, method, start, hold, temps):
     import numpy as np
 
     from creepcomp.diagnose.effects import compensate_extended
-    from creepcomp.digital.correctors import in_map_domain, saturation_factor
+    from creepcomp.digital.correctors import saturation_factor
 
     if temps is not None and np.ndim(temps) == 0:
         temps = np.full(len(record), float(temps))
     if temps is None and record.temperature is not None:
         temps = record.temperature
     path = model.transfer
-    signal = record.signal if path is None else path.linearise(in_map_domain(record.signal, path.signal_map))
+    signal = record.signal if path is None else path.linearise_within(record.signal)
     out = compensate_extended(record.time, signal, model, temps, initial=start, hold=hold, strict=True)
     out = model.offset + saturation_factor(model, method) * (out - model.offset)
     return out if path is None else path.delinearise(out)

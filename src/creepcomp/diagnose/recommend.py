@@ -133,18 +133,14 @@ def model_load(model, time, signal, temperature=None) -> np.ndarray:
     >>> bool(np.allclose(model_load(model, t, model.response(t, load, hold="zero")), load))
     True
     """
-    from creepcomp.digital.correctors import estimate_load, in_map_domain, load_from_compensated
+    from creepcomp.digital.correctors import estimate_load, load_from_linear
 
     if not model.extensions:
         return estimate_load(time, signal, model, temperature=temperature)
     from creepcomp.diagnose.effects import compensate_extended
 
-    path = model.transfer
-    x = np.asarray(signal, float)
-    if path is not None:
-        x = path.linearise(in_map_domain(x, path.signal_map))
-    compensated = compensate_extended(time, x, model, temperature, converge=True)
-    return load_from_compensated(compensated if path is None else path.delinearise(compensated), model)
+    x = np.asarray(signal, float) if model.transfer is None else model.transfer.linearise_within(signal)
+    return load_from_linear(compensate_extended(time, x, model, temperature, converge=True), model)
 
 
 def _percent(x: float) -> str:
@@ -154,7 +150,6 @@ def _percent(x: float) -> str:
 def _mapped(record, transfer, mask=None):
     """The record in the linear domain of the maps (``f(load)``, ``h(signal)``; a part of it),
     or the record itself without maps."""
-    from creepcomp.digital.correctors import in_map_domain
     from creepcomp.io.records import Record
 
     m = slice(None) if mask is None else mask
@@ -162,7 +157,7 @@ def _mapped(record, transfer, mask=None):
         load, signal = record.load[m], record.signal[m]
     else:
         load = transfer.load_in(record.load[m])
-        signal = transfer.linearise(in_map_domain(record.signal[m], transfer.signal_map))
+        signal = transfer.linearise_within(record.signal[m])
     return Record(record.time[m], load, signal,
                   temperature=None if record.temperature is None else record.temperature[m],
                   source=record.source)

@@ -61,12 +61,11 @@ from creepcomp.errors import InputError
 from creepcomp.lti import UNIFORM_RTOL, lag_coefficients
 from creepcomp.model import CreepModel
 
-__all__ = ["ERROR_CHUNK", "METHODS", "HOLDS", "INITIAL_STATES", "BLOCK", "PASS_SAMPLES", "default_initial",
+__all__ = ["ERROR_CHUNK", "CHUNK", "METHODS", "HOLDS", "INITIAL_STATES", "BLOCK", "PASS_SAMPLES", "default_initial",
            "saturation_factor", "Corrector", "check_invertible", "check_temperature", "compensate",
            "uniform_interval", "uniform_interval_of", "reference", "CreepError", "CreepErrorSum",
            "creep_error", "fitted_reference_error",
-           "FittedReferenceSum", "estimate_load", "load_from_compensated", "in_map_domain",
-           "samples_outside_map"]
+           "FittedReferenceSum", "estimate_load", "load_from_compensated", "load_from_linear"]
 
 METHODS = ("subtractive", "supplemental")
 HOLDS = ("zero", "linear")
@@ -77,6 +76,9 @@ INITIAL_STATES = ("relaxed", "settled")
 BLOCK = 16
 #: Largest number of samples handled in one pass (bounds the memory of the banded solver).
 PASS_SAMPLES = 1 << 16
+#: Samples :func:`compensate` feeds the :class:`Corrector` at a time (the result does not
+#: depend on it).
+CHUNK = 1_000_000
 
 
 def default_initial(method: str) -> str:
@@ -439,7 +441,7 @@ def _check_stable(M: np.ndarray, where: str, model: CreepModel) -> None:
 
 
 def compensate(time, signal, model: CreepModel, method: str = "subtractive", initial=None,
-               hold: str = "zero", progress=None, chunk: int = 1_000_000,
+               hold: str = "zero", progress=None, chunk: int = CHUNK,
                temperature=None) -> np.ndarray:
     """Creep-compensated signal of a whole record (uniform or irregular sampling).
 
@@ -491,6 +493,13 @@ def compensate(time, signal, model: CreepModel, method: str = "subtractive", ini
     >>> bool(np.max(np.abs(corrected - load)) < 1e-12)
     True
     """
+    out = _linear_correction(time, signal, model, method, initial, hold, progress, chunk, temperature)
+    return out if model.transfer is None else model.transfer.delinearise(out)
+
+
+def _linear_correction(time, signal, model: CreepModel, method, initial, hold, progress, chunk,
+                       temperature) -> np.ndarray:
+    """:func:`compensate` in the signal map's linear domain (before ``h^-1``)."""
     t = np.asarray(time, dtype=float)
     x = np.asarray(signal, dtype=float)
     if t.ndim != 1 or x.shape != t.shape:
@@ -511,13 +520,13 @@ def compensate(time, signal, model: CreepModel, method: str = "subtractive", ini
         temps = np.broadcast_to(temps, x.shape)
     path = model.transfer
     if path is not None:
-        x = path.linearise(in_map_domain(x, path.signal_map))
+        x = path.linearise_within(x)
     if model.is_static:
         _check_method(method)
         out = x.copy()
         if progress:
             progress(len(x), len(x))
-        return out if path is None else path.delinearise(out)
+        return out
     corrector = Corrector(model, method, dt=dt, initial=initial, hold=hold)
     out = np.empty_like(x)
     for lo in range(0, len(x), max(int(chunk), 1)):
@@ -527,34 +536,7 @@ def compensate(time, signal, model: CreepModel, method: str = "subtractive", ini
                       else corrector.process(x[lo:hi], t[lo:hi], temperature=part))
         if progress:
             progress(hi, len(x))
-    return out if path is None else path.delinearise(out)
-
-
-def in_map_domain(signal, signal_map) -> np.ndarray:
-    """The signal with samples outside a static map's domain moved just inside its edge.
-
-    A reciprocal or logarithmic map is defined on one side of its origin only; a sample on
-    the other side (noise at the converter's rail) would make the creep states NaN for the
-    rest of the record. :func:`samples_outside_map` counts them, for the caller to say so.
-    """
-    x = np.asarray(signal, dtype=float)
-    if signal_map is None:
-        return x
-    lo, hi = signal_map.domain()
-    if math.isfinite(lo) or math.isfinite(hi):
-        span = float(np.ptp(x[np.isfinite(x)])) if x.size else 0.0
-        edge = 1e-9 * max(span, abs(lo) if math.isfinite(lo) else 0.0, abs(hi) if math.isfinite(hi) else 0.0, 1e-300)
-        x = np.clip(x, lo + edge if math.isfinite(lo) else -np.inf, hi - edge if math.isfinite(hi) else np.inf)
-    return x
-
-
-def samples_outside_map(signal, model: CreepModel) -> int:
-    """How many samples lie outside the model's signal map's domain (see :func:`in_map_domain`)."""
-    if model.transfer is None or model.transfer.signal_map is None:
-        return 0
-    lo, hi = model.transfer.signal_map.domain()
-    x = np.asarray(signal, dtype=float)
-    return int(np.count_nonzero(~((x > lo) & (x < hi))))
+    return out
 
 
 def load_from_compensated(compensated, model: CreepModel, method: str = "subtractive") -> np.ndarray:
@@ -565,10 +547,14 @@ def load_from_compensated(compensated, model: CreepModel, method: str = "subtrac
     """
     path = model.transfer
     z = np.asarray(compensated, dtype=float)
-    if path is not None:
-        z = path.linearise(in_map_domain(z, path.signal_map))
-    load = (z - model.offset) / (model.gain * saturation_factor(model, method))
-    return load if path is None else path.load_out(load)
+    return load_from_linear(z if path is None else path.linearise_within(z), model, method)
+
+
+def load_from_linear(corrected, model: CreepModel, method: str = "subtractive") -> np.ndarray:
+    """The load of a corrected value in the signal map's linear domain (the compensated signal
+    before ``h^-1``): ``f^-1( (corrected - offset) / (gain * scale) )``."""
+    load = (np.asarray(corrected, dtype=float) - model.offset) / (model.gain * saturation_factor(model, method))
+    return load if model.transfer is None else model.transfer.load_out(load)
 
 
 def estimate_load(time, signal, model: CreepModel, method: str = "subtractive", initial=None,
@@ -613,9 +599,8 @@ def estimate_load(time, signal, model: CreepModel, method: str = "subtractive", 
     >>> bool(np.max(np.abs(estimate_load(t, resistance, model) - load)) < 1e-9)
     True
     """
-    compensated = compensate(time, signal, model, method=method, initial=initial, hold=hold,
-                             temperature=temperature)
-    return load_from_compensated(compensated, model, method)
+    corrected = _linear_correction(time, signal, model, method, initial, hold, None, CHUNK, temperature)
+    return load_from_linear(corrected, model, method)
 
 
 def uniform_interval(time, steps=None) -> float | None:
