@@ -50,8 +50,7 @@ from creepcomp.fit.blas import one_blas_thread
 from creepcomp.fit.data import Data, prepare
 from creepcomp.fit.structure import Applied, Structure
 from creepcomp.fit.noise import (MISFIT_LIMIT, SPARSE_SAMPLES, NoiseFloor, autocorrelation, explained_share,
-    ljung_box, misfit_ratio as ratio_to_floor, noise_floor, reference_noise, rows_for, whiten,
-    with_reference_noise)
+    ljung_box, misfit_ratio as ratio_to_floor, noise_floor, rows_for, whiten, with_reference_noise)
 from creepcomp.fit.solver import Fit, Problem, fit_structure, screening
 from creepcomp.fit.evidence import (BIC_STRONG, HELDOUT_Z, Evidence, compare, compare_with_halves,
     fold_refit, halves, heldout)
@@ -1059,7 +1058,7 @@ def _noise_floor(data: Data) -> NoiseFloor:
     verdict judges the misfit."""
     floor = noise_floor(data.signal, data.load, data.time, follows_lag=True, weights=data.weights,
                         samples=data.samples)
-    return with_reference_noise(floor, data.signal, data.load, reference_noise(data))
+    return with_reference_noise(floor, data.signal, data.load, data.reference_noise)
 
 
 def _verdict(data: Data, search: Search, correction: bool, reduced, t_start: float,

@@ -13,7 +13,8 @@ from creepcomp.io.formats import read_any
 from creepcomp.io.records import Record
 
 __all__ = ["BLOCK_SAMPLES", "BLOCK_VARIANCE", "check_scales", "MAX_TIME", "VALUE_RANGE", "GAP_FACTOR", "CONSTANT_LOAD_TOLERANCE", "Data", "gaps", "MIN_SAMPLES", "prepare",
-           "ABRUPT_FACTOR", "load_steps", "abrupt_intervals"]
+           "ABRUPT_FACTOR", "load_steps", "abrupt_intervals", "reference_noise", "THIRD_DIFFERENCE",
+           "CHI2_1_MEDIAN"]
 
 #: A time step longer than this many median steps is a gap: the noise model forgets across it.
 GAP_FACTOR = 5.0
@@ -38,6 +39,50 @@ def gaps(time: np.ndarray, samples: np.ndarray | None = None) -> np.ndarray:
     if samples is not None:
         dt = dt / (0.5 * (samples[1:] + samples[:-1]))
     return np.concatenate([[False], dt > GAP_FACTOR * np.median(dt)])
+
+
+#: Weights of the third difference ``x[i] - 3 x[i+1] + 3 x[i+2] - x[i+3]``: it leaves a load's
+#: steps at a few samples and its smooth parts (ramps, sweeps, sines) near zero, and white noise
+#: of variance ``s**2`` with ``sum(c**2) s**2 = 20 s**2``.
+THIRD_DIFFERENCE = np.array([1.0, -3.0, 3.0, -1.0])
+#: Median of a chi-squared variable with one degree of freedom: the median of ``z**2`` for
+#: ``z`` normal with unit variance.
+CHI2_1_MEDIAN = 0.45493642311957283
+
+
+def reference_noise(load, weights=None) -> float:
+    """RMS of a load's own noise, in load units (a reference load cell's, a test machine's):
+    0 for a load program.
+
+    From the third differences of the load, each scaled by the variance it would have from
+    white noise (a reduced record's blocks have ``1 / weight`` of one sample's variance), their
+    median squared over the chi-squared median: steps touch a few differences and do not move
+    the median, smooth loads (ramps, sweeps, sines) leave differences near zero, a load
+    program's held levels exactly zero.
+
+    Parameters
+    ----------
+    load : array_like
+    weights : array_like, optional
+        Of a reduced record (:attr:`Data.weights`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from creepcomp.fit.data import reference_noise
+    >>> t = np.arange(0.0, 600.0, 0.1)
+    >>> program = np.where((t // 60) % 2 == 1, 10.0, 0.0) + np.sin(t / 30)
+    >>> noisy = program + np.random.default_rng(0).normal(0, 0.01, t.size)
+    >>> print(f"{reference_noise(noisy):.3f}", reference_noise(program) < 1e-6)
+    0.010 True
+    """
+    x = np.asarray(load, float)
+    if x.size < 8 or np.ptp(x) == 0:
+        return 0.0
+    d = np.convolve(x, THIRD_DIFFERENCE[::-1], mode="valid")
+    inverse_weight = np.ones_like(x) if weights is None else 1.0 / np.asarray(weights, float)
+    scale = np.convolve(inverse_weight, THIRD_DIFFERENCE[::-1] ** 2, mode="valid")
+    return float(np.sqrt(np.median(d * d / scale) / CHI2_1_MEDIAN))
 
 
 @dataclass(frozen=True)
@@ -111,6 +156,11 @@ class Data:
         """The least load change between two samples that can be a step (:func:`step_floor`,
         found once)."""
         return step_floor(self.load)
+
+    @cached_property
+    def reference_noise(self) -> float:
+        """RMS of the load's own noise in load units (:func:`reference_noise`, found once)."""
+        return reference_noise(self.load, self.weights)
 
     @cached_property
     def abrupt(self) -> np.ndarray:

@@ -18,8 +18,7 @@ __all__ = ["MAX_AR_ORDER", "SPARSE_SAMPLES", "ar_order_for", "ar_order", "is_spa
            "ARNoise", "rows_for", "whiten", "fit_noise", "ljung_box",
            "autocorrelation", "spectral_variance", "gaussian_bic", "FLOOR_WINDOW", "FEW_WINDOWS", "MISFIT_LIMIT",
            "NoiseFloor", "noise_floor", "quantisation_step", "misfit_ratio", "explained_share",
-           "slow_drift", "none_statement", "with_reference_noise", "REFERENCE_SHARE",
-           "reference_noise", "THIRD_DIFFERENCE", "CHI2_1_MEDIAN"]
+           "slow_drift", "none_statement", "with_reference_noise", "REFERENCE_SHARE"]
 
 #: Largest order of the autoregressive noise model.
 MAX_AR_ORDER = 5
@@ -351,51 +350,6 @@ def noise_floor(signal, load=None, time=None, window: int = FLOOR_WINDOW,
 REFERENCE_SHARE = 0.05
 
 
-#: Weights of the third difference ``x[i] - 3 x[i+1] + 3 x[i+2] - x[i+3]``: it leaves a load's
-#: steps at a few samples and its smooth parts (ramps, sweeps, sines) near zero, and white noise
-#: of variance ``s**2`` with ``sum(c**2) s**2 = 20 s**2``.
-THIRD_DIFFERENCE = np.array([1.0, -3.0, 3.0, -1.0])
-#: Median of a chi-squared variable with one degree of freedom: the median of ``z**2`` for
-#: ``z`` normal with unit variance.
-CHI2_1_MEDIAN = 0.45493642311957283
-
-
-def reference_noise(data) -> float:
-    """RMS of a prepared record's load's own noise, in load units (a reference load cell's, a
-    test machine's): 0 for a load program.
-
-    From the third differences of the load, each scaled by the variance it would have from
-    white noise (a reduced record's blocks have ``1 / weight`` of one sample's variance), their
-    median squared over the chi-squared median: steps touch a few differences and do not move
-    the median, smooth loads (ramps, sweeps, sines) leave differences near zero, a load
-    program's held levels exactly zero.
-
-    Parameters
-    ----------
-    data : Data
-        A prepared record (:func:`creepcomp.fit.data.prepare`).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from types import SimpleNamespace
-    >>> from creepcomp.fit.noise import reference_noise
-    >>> t = np.arange(0.0, 600.0, 0.1)
-    >>> program = np.where((t // 60) % 2 == 1, 10.0, 0.0) + np.sin(t / 30)
-    >>> noisy = program + np.random.default_rng(0).normal(0, 0.01, t.size)
-    >>> data = lambda load: SimpleNamespace(load=load, weights=None)
-    >>> print(f"{reference_noise(data(noisy)):.3f}", reference_noise(data(program)) < 1e-6)
-    0.010 True
-    """
-    x = np.asarray(data.load, float)
-    if x.size < 8 or np.ptp(x) == 0:
-        return 0.0
-    d = np.convolve(x, THIRD_DIFFERENCE[::-1], mode="valid")
-    inverse_weight = (np.ones_like(x) if data.weights is None else 1.0 / np.asarray(data.weights, float))
-    scale = np.convolve(inverse_weight, THIRD_DIFFERENCE[::-1] ** 2, mode="valid")
-    return float(np.sqrt(np.median(d * d / scale) / CHI2_1_MEDIAN))
-
-
 def with_reference_noise(floor: NoiseFloor, signal, load, reference: float) -> NoiseFloor:
     """The floor of a model's residual when the load is itself measured (a reference load cell,
     a test machine): the signal's noise and the reference's noise through the sensor's gain.
@@ -403,7 +357,7 @@ def with_reference_noise(floor: NoiseFloor, signal, load, reference: float) -> N
     A model driven by a noisy reference predicts the reference's noise too: its residual
     holds ``gain * load_noise`` beside the signal's own noise, and a misfit judged against
     the signal's floor alone reads that as structure. ``reference`` is the load's noise RMS
-    (:func:`reference_noise`);
+    (:attr:`creepcomp.fit.data.Data.reference_noise`);
     the gain is the least-squares slope of signal against load. ``floor**2 + (gain *
     reference)**2`` is the floor when it adds at least :data:`REFERENCE_SHARE` to it.
 

@@ -26,7 +26,6 @@ import numpy as np
 
 from creepcomp.lti import compiled_active
 from creepcomp.fit.data import Data
-from creepcomp.fit.noise import reference_noise
 from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
 from creepcomp.diagnose.effects import SensorEffect
@@ -131,7 +130,7 @@ class RateIndependentHysteresis(SensorEffect):
     def settings(self, data: Data, base: Fit) -> tuple:
         return (("load_scale", data.load_scale),
                 ("shapes", PlayShapes(data.load, data.load_scale)),
-                ("reference_noise", reference_noise(data)))
+                ("reference_noise", data.reference_noise))
 
     def nonlinear_params(self, data, applied):
         scale = applied.setting("load_scale")
