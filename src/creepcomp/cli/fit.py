@@ -13,8 +13,8 @@ from creepcomp.io.jsonfiles import write_json
 from creepcomp.io.outputs import check_outputs
 from creepcomp.io.records import Record, parse_columns, read_record, reads_whole
 from creepcomp.units import format_percent, format_quantity
-from creepcomp.cli.common import (api_default, app, console, err_console, count_option, print_json, progress_bar, quantity,
-                                  temperatures_option)
+from creepcomp.cli.common import (api_default, app, console, count_option, err_console, print_json,
+                                  print_summary, progress_bar, quantity, temperatures_option)
 
 if TYPE_CHECKING:
     from creepcomp.fit.prony import PronyResult
@@ -288,17 +288,9 @@ def fit_path(record: Record, reduction: str | None, max_terms: int, initial: str
     if as_json:
         print_json(model)
         return
-    from creepcomp.report.results import members_table, model_summary
-
     console.print(f"[bold]creepcomp fit[/bold]: {record.source}, {len(record)} samples; signal path by "
                   "the load given back on held-out data", soft_wrap=True)
-    console.print(members_table(path.candidates, path.chosen, path.split_time, path.load_range,
-                                record.unit("load")).to_rich())
-    summary = model_summary(path.model)
-    for line in summary.lines:
-        console.print(line, soft_wrap=True, markup=False)
-    for table in summary.tables:
-        console.print(table.to_rich())
+    print_summary(path.tables())
     if reduction:
         console.print(f"[yellow]note:[/yellow] {reduction}", soft_wrap=True)
     if output is not None:

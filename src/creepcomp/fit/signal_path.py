@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 import time as _time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -142,6 +142,8 @@ class SignalPathFit(Shown):
         Where the held-out part starts (s).
     seconds : float
         Time the fit took.
+    units : dict
+        The record's units of ``signal`` and ``load`` (for reports).
     """
 
     model: CreepModel
@@ -150,6 +152,7 @@ class SignalPathFit(Shown):
     load_range: float
     split_time: float
     seconds: float
+    units: dict = field(default_factory=dict)
 
     def __repr__(self) -> str:
         best = self.candidate(self.chosen).heldout_load_rms
@@ -182,9 +185,8 @@ def _split(record: Record, validation: float) -> tuple[np.ndarray, float]:
     return t < cut, float(cut)
 
 
-def _part(record: Record, mask: np.ndarray, load=None, signal=None) -> Record:
-    return Record(record.time[mask], record.load[mask] if load is None else load[mask],
-                  record.signal[mask] if signal is None else signal[mask], metadata=dict(record.metadata),
+def _part(record: Record, mask: np.ndarray) -> Record:
+    return Record(record.time[mask], record.load[mask], record.signal[mask], metadata=dict(record.metadata),
                   source=record.source)
 
 
@@ -559,8 +561,8 @@ def fit_signal_path(record: Record, max_terms: int = 3, validation: float = VALI
         # the refit lands worse on the last part than the member held out of it did: its
         # nonlinear fit went elsewhere; the member as judged stands
         model = chosen.model
-    return SignalPathFit(model, chosen.name, tuple(found), load_range, cut,
-                         _time.perf_counter() - start)
+    return SignalPathFit(model, chosen.name, tuple(found), load_range, cut, _time.perf_counter() - start,
+                         {c: record.unit(c) for c in ("signal", "load") if record.unit(c)})
 
 
 def _describe_named(path: Transfer | None, n_terms: int) -> str:

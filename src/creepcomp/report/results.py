@@ -653,10 +653,11 @@ def members_table(candidates, chosen: str, split_time, load_range: float, load_u
 
 
 def signal_path_summary(fit) -> Summary:
-    """A signal-path fit: its members and the model chosen."""
-    return Summary(f"Signal path: {fit.chosen}", (f"fitted in {fit.seconds:.3g} s",),
-                   (members_table(fit.candidates, fit.chosen, fit.split_time, fit.load_range),)
-                   + model_summary(fit.model).tables)
+    """A signal-path fit: its members and the model chosen (``creepcomp fit --transfer auto``)."""
+    model = model_summary(fit.model)
+    return Summary(f"Signal path: {fit.chosen}", (f"fitted in {fit.seconds:.3g} s",) + model.lines,
+                   (members_table(fit.candidates, fit.chosen, fit.split_time, fit.load_range,
+                                  fit.units.get("load", "")),) + model.tables)
 
 
 def recommendation_summary(rec) -> Summary:
