@@ -213,3 +213,19 @@ def test_every_model_file_diagnose_writes_can_be_read(run_cli, tmp_path):
     if "baseline_model" not in files:
         assert "beta" in files["baseline_model_not_written"]
         assert not (tmp_path / "d" / "baseline-model.json").exists()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed,relaxation", [(10, False), (11, True)])
+def test_recovery_switched_by_the_state_magnitude_is_found_on_bipolar_records(seed, relaxation):
+    # unloading is the creep state's magnitude falling, whichever the load's sign: on a
+    # record that crosses zero, loading towards -1 is creep, and coming back towards 0 recovery
+    from creepcomp.diagnose import diagnose
+    s = synth.random_record("asymmetric_recovery", seed, programs=("bipolar",), max_samples=3000,
+                            form="state", relaxation=relaxation)
+    assert np.min(s.record.load) < 0 < np.max(s.record.load)
+    d = diagnose(s.record, correction=False)
+    assert d.cause == "asymmetric_recovery"
+    finding = next(f for f in d.findings if f.effect == "asymmetric_recovery")
+    truth = s.hidden["asymmetric_recovery"]["tau_recovery"]
+    assert finding.parameters["tau_recovery"] == pytest.approx(truth, rel=0.3)
