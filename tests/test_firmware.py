@@ -531,3 +531,46 @@ def test_temperature_step_reuses_its_a_k_only_for_the_same_mid_temperature():
         a, _, _ = run_firmware(fw, signal, "relaxed", 1, temperatures=temperatures)
         b, _, _ = run_firmware(every, signal, "relaxed", 1, temperatures=temperatures)
         assert np.array_equal(a, b)
+
+
+PRODUCT_TEST = r"""
+#include <stdio.h>
+#include "creep.c"
+
+int main(void)
+{
+    static const int64_t v[] = {0, 1, -1, 65535, -65536, 2147483647, -2147483648LL, 4294967295LL,
+                                -4294967295LL, 3000000001LL, -123456789012LL / 100, 1073741825};
+    static const int32_t m[] = {1, -1, 65535, 1073741824, -1073741824, 2147483647, -2147483647,
+                                1518500250, -987654321};
+    unsigned i, j, n;
+    for (i = 0; i < sizeof v / sizeof v[0]; ++i)
+        for (j = 0; j < sizeof m / sizeof m[0]; ++j)
+            for (n = 1; n < 64; ++n) {
+                /* where v m + 2^(n-1) would overflow 64 bits the 64-bit shift cannot be had */
+                const double p = (double)v[i] * (double)m[j];
+                if ((p < 0 ? -p : p) + (double)((uint64_t)1 << (n - 1)) >= 9.2e18)
+                    printf("-\n");
+                else
+                    printf("%lld\n", (long long)creep_product(v[i], m[j], n));
+            }
+    return 0;
+}
+"""
+
+
+@needs_gcc
+def test_q31_product_of_sixteen_bit_parts_equals_the_64_bit_product(tmp_path):
+    # the Cortex-M0+'s product (four 16 x 16 -> 32 products, rounded in two words), forced on the
+    # host, against shift(v m, n) in 64 bits: every shift, signs, the largest magnitudes, ties
+    fw = generate_firmware(MODEL, "subtractive", "q31", RATE, 0.01)
+    fw.write(tmp_path)
+    (tmp_path / "main.c").write_text(PRODUCT_TEST)
+    outputs = []
+    for flags in ([], ["-DCREEP_PRODUCT16"]):
+        exe = tmp_path / f"main{len(flags)}"
+        subprocess.run(["gcc", *STRICT_FLAGS, *flags, "-Wno-unused-function", "-I", tmp_path,
+                        tmp_path / "main.c", "-o", exe], check=True)
+        outputs.append(subprocess.run([exe], capture_output=True, text=True, check=True).stdout.split())
+    assert len(outputs[0]) == 12 * 9 * 63 and outputs[0] == outputs[1]
+    assert outputs[0][:3] == ["0", "0", "0"] and "1" in outputs[0] and outputs[0].count("-") < 400
