@@ -12,8 +12,8 @@ at a high rate ``a_k`` is tiny, and the increment ``a_k (S - c_k)`` is far below
 of a single-precision state. So the state is held wider than the arithmetic:
 
 - ``float32``: each state is an unevaluated sum ``hi + lo`` of two floats; the increment is added
-  with an error-free sum (Dekker's Fast2Sum, the larger magnitude first), its rounding error
-  kept in ``lo`` (error feedback).
+  to ``hi`` and its rounding error, by Dekker's Fast2Sum with ``hi`` first (exact unless the
+  increment passes a state near zero), kept in ``lo`` (error feedback).
 - ``q31``: samples are 32-bit words, ``2**30`` per full scale; the states are 64-bit integers with
   ``2**60`` per full scale; coefficients are 31-bit mantissas with a shift (relative error
   ``2**-31`` however small ``a_k`` is); every product fits a 64-bit integer.

@@ -496,6 +496,27 @@ def _sample_errors(corrector: BoundedCorrector, cmax: float) -> SampleErrors:
     return SampleErrors(per_sample=eps, start=start, output_offset=out_offset, output_scale=out_scale)
 
 
+def _float32_swap_error(a_stored, d: float, c_hi: float, u: float = _U32):
+    """Local error of a float32 state update's error term taken by Fast2Sum with ``hi`` first.
+
+    ``lo = m - (sum - hi)`` is the exact error of ``sum = hi + m`` when ``|hi| >= |m|``; when
+    not (an increment passing a state near zero), ``sum - hi`` rounds by at most ``u |m| (1 +
+    2u)`` and ``m - (sum - hi)``, at most ``u |m| (3 + 2u)`` itself, by ``u`` of that: ``hi +
+    lo`` is then within ``u (1 + 6u) |m|`` of ``hi + m``, and ``|lo| <= 3.1 u |m|``. With
+    ``|m| <= (â d (1+u)^3 + |lo|)(1 + u)`` and ``|lo| <= u max(c_hi, 3.1 |m|)``.
+
+    Parameters
+    ----------
+    a_stored : float or numpy.ndarray
+        The largest ``|a|`` the update multiplies by.
+    d : float
+        Bound of ``|target - hi|`` (fraction of full scale).
+    c_hi : float
+        Bound of ``|hi|`` (fraction of full scale).
+    """
+    return u * (1 + 6 * u) * (a_stored * d * (1 + u) ** 3 + u * (1 + u) * c_hi) / (1 - 4 * u)
+
+
 def _local_terms(corrector: BoundedCorrector, gains: RecursionGains, cmax: float):
     """The local errors times their gains (fractions of full scale; see docs/firmware.md), given
     ``|computed state|, |computed S| <= cmax``. Returns the bound's parts, the bound of the
@@ -509,7 +530,8 @@ def _local_terms(corrector: BoundedCorrector, gains: RecursionGains, cmax: float
     if corrector.precision == "float32":
         u = _U32
         c_hi = cmax * (1 + u)
-        eta = a_err * d * (1 + u) ** 3 + a * d * ((1 + u) ** 3 - 1) + a * u * c_hi + u * u * c_hi
+        eta = (a_err * d * (1 + u) ** 3 + a * d * ((1 + u) ** 3 - 1) + a * u * c_hi + u * u * c_hi
+               + _float32_swap_error(a + a_err, d, c_hi))
         eta_coef = a_err * d * (1 + u) ** 3
     else:
         eta = a_err * d + st.a * _Q_IN + _Q_STATE
@@ -1126,7 +1148,9 @@ def _invariant_bound(c: ExactCoefficients, st: StoredCoefficients, sch: VaryingA
         eps_total = sum(eps.values())
         if precision == "float32":
             coef = sch.rel_a * d * (1 + u) ** 3
-            rounding = d * ((1 + u) ** 3 - 1) + u * cmax * (1 + u) + sch.nu * cmax * (1 + u) / a_min
+            rounding = (d * ((1 + u) ** 3 - 1) + u * cmax * (1 + u) + sch.nu * cmax * (1 + u) / a_min
+                        + _float32_swap_error(1 + sch.rel_a, d, 0.0)
+                        + _float32_swap_error(0.0, d, cmax * (1 + u)) / a_min)
         else:
             coef = sch.rel_a * d
             rounding = sch.extra + sch.nu / a_min
@@ -1458,7 +1482,7 @@ def _loop_bound(model: CreepModel, rate: float, full_scale: float, lip: float, x
         c_hi = cmax * (1 + u)
         if precision == "float32":
             eta = (np.abs(st.a - a) * d * (1 + u) ** 3 + a * d * ((1 + u) ** 3 - 1) + a * u * c_hi
-                   + u * u * c_hi)
+                   + u * u * c_hi + _float32_swap_error(np.maximum(st.a, a), d, c_hi))
             rounding = float(np.max(eta / a)) + u * cmax       # and the target (float)X
         else:                                                  # the target X is a word already
             eta = np.abs(st.a - a) * d + st.a * _Q_IN + _Q_STATE
