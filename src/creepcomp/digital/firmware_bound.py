@@ -769,6 +769,11 @@ def _series_terms(x_max: float, target: float) -> int:
     return n
 
 
+#: Largest relative truncation of the float32 steps' Taylor series (``a_k``'s and ``exp``'s): a
+#: quarter of the unit roundoff, below the roundings of their evaluation.
+_TRUNCATION = 2.0 ** -26
+
+
 def _horner_error(exact: list, stored: list, x_max: float, u: float = _U32) -> float:
     """Bound of the error of the float32 Horner evaluation ``t = c_i + x t`` of
     ``sum_i c_i x^i`` (``|x| <= x_max``, exact) with the stored coefficients, level by level:
@@ -786,7 +791,7 @@ def _horner_error(exact: list, stored: list, x_max: float, u: float = _U32) -> f
 def _float32_a_error(x_hi: np.ndarray, rel_x: np.ndarray, u: float):
     """The float32 computation of ``a = 1 - exp(-x)`` (``x`` up to ``x_hi``, stored with
     relative error ``rel_x``): halvings to ``x <= 1/8``, per term the Taylor terms of
-    ``t = (1 - exp(-x))/x`` its ``x`` needs (truncation below 2^-30), and ``a``'s worst
+    ``t = (1 - exp(-x))/x`` its ``x`` needs (truncation below :data:`_TRUNCATION`), and ``a``'s worst
     relative error.
 
     Returns
@@ -798,7 +803,7 @@ def _float32_a_error(x_hi: np.ndarray, rel_x: np.ndarray, u: float):
     halvings = np.array([max(0, math.ceil(math.log2(x / 0.125))) if x > 0.125 else 0
                          for x in x_hi], dtype=int)
     x_top = np.minimum(x_hi, 0.125)
-    series = np.array([_series_terms(float(x), 2.0 ** -30) for x in x_top], dtype=int)
+    series = np.array([_series_terms(float(x), _TRUNCATION) for x in x_top], dtype=int)
     exact = [(-1) ** j / math.factorial(j + 1) for j in range(int(series.max()))]
     stored = [float32_value(c) for c in exact]
     rel_series = np.empty(len(x_hi))
@@ -935,7 +940,7 @@ def temperature_scheme(model: CreepModel, rate: float, low: float, high: float) 
              + j_max * abs(_LN2_HEAD + ln2_tail - math.log(2.0)))
     f_max += err_f
     n_exp = 2
-    while f_max ** (n_exp + 1) / math.factorial(n_exp + 1) * math.exp(2 * f_max) > 2.0 ** -30:
+    while f_max ** (n_exp + 1) / math.factorial(n_exp + 1) * math.exp(2 * f_max) > _TRUNCATION:
         n_exp += 1
     trunc = f_max ** (n_exp + 1) / math.factorial(n_exp + 1) * math.exp(2 * f_max)
     exp_exact = [1.0 / math.factorial(i) for i in range(n_exp + 1)]
