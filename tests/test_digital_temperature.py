@@ -377,3 +377,30 @@ def test_state_and_temperature_saved_and_restored(tmp_path, precision):
     subprocess.run(["gcc", *STRICT_FLAGS, "-I", tmp_path, tmp_path / "main.c", obj, "-o", exe], check=True)
     out = subprocess.run([exe], capture_output=True, text=True, check=True).stdout.split()
     assert out == ["0", "-2"]          # identical continuation (the temperature is saved too); corrupted
+
+
+@needs_gcc
+def test_a_k_series_of_each_term_is_within_its_stated_error(tmp_path):
+    # each creep term takes only the Taylor terms its range of x = (T/tau_k)/a_T needs: fewer for
+    # the slow terms; the computed a_k within the relative error the bound takes, up to the
+    # range's largest x and down to a tiny one
+    from creepcomp.digital.firmware_bound import temperature_scheme
+
+    model = CreepModel((0.01, 0.01, 0.015), (5.0, 50.0, 500.0), temperature=TemperatureLaw.arrhenius(43000.0))
+    scheme = temperature_scheme(model, 80.0, -40.0, 85.0)
+    assert list(scheme.series) == sorted(scheme.series, reverse=True) and scheme.series[0] > scheme.series[-1]
+    fw = generate_firmware(model, "subtractive", "float32", 80.0, 1.0)
+    fw.write(tmp_path)
+    (tmp_path / "probe.c").write_text(
+        '#include <stdio.h>\n#include "creep.c"\nint main(void) { float x; int n; '
+        'while (scanf("%f %d", &x, &n) == 2) printf("%.9e\\n", (double)creep_a_of(x, n)); return 0; }\n')
+    subprocess.run(["gcc", "-std=c99", "-O2", "-I", tmp_path, tmp_path / "probe.c", "-o",
+                    tmp_path / "probe"], check=True)
+    for k, n in enumerate(scheme.series):
+        x_hi = scheme.dt / scheme.tau_range[1][k]
+        xs = np.geomspace(x_hi * 1e-6, x_hi, 2001).astype(np.float32).astype(float)
+        out = subprocess.run([tmp_path / "probe"], input="\n".join(f"{x:.9g} {n}" for x in xs),
+                             capture_output=True, text=True, check=True).stdout.split()
+        relative = np.abs(np.array(out, dtype=float) / -np.expm1(-xs) - 1.0)
+        assert np.max(relative) <= scheme.rel_a[k]
+        assert np.max(relative) > 1e-8                       # float32's roundings are seen

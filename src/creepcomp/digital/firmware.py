@@ -12,8 +12,8 @@ at a high rate ``a_k`` is tiny, and the increment ``a_k (S - c_k)`` is far below
 of a single-precision state. So the state is held wider than the arithmetic:
 
 - ``float32``: each state is an unevaluated sum ``hi + lo`` of two floats; the increment is added
-  with an error-free sum (Dekker's Fast2Sum, the larger magnitude first), its rounding error
-  kept in ``lo`` (error feedback).
+  to ``hi`` and its rounding error, by Dekker's Fast2Sum with ``hi`` first (exact unless the
+  increment passes a state near zero), kept in ``lo`` (error feedback).
 - ``q31``: samples are 32-bit words, ``2**30`` per full scale; the states are 64-bit integers with
   ``2**60`` per full scale; coefficients are 31-bit mantissas with a shift (relative error
   ``2**-31`` however small ``a_k`` is); every product fits a 64-bit integer.
@@ -600,8 +600,7 @@ def _coefficient_values(precision: str, st: StoredCoefficients, scheme=None) -> 
             values["a"] = [_c_float(x) for x in st.a]
         else:
             values.update(inv_tau=[_c_float(x) for x in scheme.inv_tau],
-                          inv_next=[_c_float(x) for x in scheme.inv_next],
-                          series_terms=str(scheme.n))
+                          **_series_values(scheme))
         return values
     values = {"beta_mantissas": [str(m) for m, _ in st.beta_q],
               "beta_shifts": [str(1 + s) for _, s in st.beta_q],
@@ -641,6 +640,18 @@ def _derivation(model, method, precision, rate, full_scale, c, st) -> list[str]:
     return lines
 
 
+def _series_values(scheme) -> dict:
+    """The float32 series of ``(1 - exp(-x))/x`` as C literals: its coefficients and the terms
+    each creep term takes."""
+    return {"series_c": [_c_float(x) for x in scheme.series_c], "series_terms": str(len(scheme.series_c)),
+            "series": [str(int(n)) for n in scheme.series]}
+
+
+def _series_text(scheme) -> str:
+    """The series' terms per creep term (float32) or of all (q31), for the derivation."""
+    return "/".join(str(int(n)) for n in scheme.series) if hasattr(scheme, "series") else str(scheme.n)
+
+
 def _dt_derivation(model, method, precision, full_scale, c, st, scheme) -> list[str]:
     """The dt step's coefficients and the error of its ``a_k(dt)``, as comment lines."""
     unit = "signal units"
@@ -652,7 +663,7 @@ def _dt_derivation(model, method, precision, full_scale, c, st, scheme) -> list[
              f"Full scale FS = {full_scale:.9g} {unit}: the inputs satisfy |raw - offset| <= FS.",
              "a_k(dt) = 1 - exp(-dt/tau_k) is computed per sample without libm "
              + ("(halving to x <= 1/8, " if precision == "float32" else "(x <= 1/2, ")
-             + f"{scheme.n} Taylor terms of (1 - exp(-x))/x"
+             + f"{_series_text(scheme)} Taylor terms of (1 - exp(-x))/x"
              + (", doubling a <- a(2 - a));" if precision == "float32" else ");"),
              "its worst relative error over the dt range is in the bound:"]
     for k in range(model.n_terms):
@@ -678,8 +689,7 @@ def _temperature_values(precision: str, st: StoredCoefficients, scheme) -> dict:
     if precision == "float32":
         del coefficients["a"]
         return {**coefficients, "dt_over_tau": [_c_float(x) for x in scheme.dt_over_tau],
-                "inv_next": [_c_float(x) for x in scheme.inv_next], "series_terms": str(scheme.n),
-                "exp_next": [_c_float(x) for x in scheme.exp_next],
+                **_series_values(scheme), "exp_c": [_c_float(x) for x in scheme.exp_c],
                 "exp_terms": str(scheme.exp_terms), "curve_c": _c_float(scheme.curve_c),
                 "curve_d": _c_float(scheme.curve_d), "log2e": _c_float(scheme.log2e),
                 "ln2_head": _c_float(scheme.ln2_head), "ln2_tail": _c_float(scheme.ln2_tail)}
@@ -711,8 +721,8 @@ def _temperature_derivation(model, method, precision, rate, full_scale, c, st, s
              "Tm = (T_prev + T)/2; without libm:"]
     if precision == "float32":
         lines += [f"  y = ln(1/a_T) = C d / (D0 + d), d = Tm - T_ref, C = {scheme.curve_c:.9g}, D0 = {scheme.curve_d:.9g};",
-                  f"  1/a_T = 2^j exp(f), j = round(y / ln 2), |f| <= ln2/2, exp(f) by {scheme.exp_terms} Taylor terms;",
-                  f"  a_k = 1 - exp(-x_k), x_k = (T/tau_k) / a_T, as the dt step ({scheme.n} terms of (1 - exp(-x))/x)."]
+                  f"  1/a_T = 2^j exp(f), j = round(y / ln 2), |f| <= ln2/2, exp(f) by its Taylor polynomial of degree {scheme.exp_terms};",
+                  f"  a_k = 1 - exp(-x_k), x_k = (T/tau_k) / a_T, as the dt step ({_series_text(scheme)} terms of (1 - exp(-x))/x)."]
     else:
         lines += ["  temperatures in 1/256 °C (int32_t), so Tm is exact;",
                   f"  y = ln(1/a_T) = C d / (D0 + d) in Q28, d = Tm - T_ref in 2^-19 K, C = {scheme.curve_c_q} * 2^-28, "

@@ -496,6 +496,27 @@ def _sample_errors(corrector: BoundedCorrector, cmax: float) -> SampleErrors:
     return SampleErrors(per_sample=eps, start=start, output_offset=out_offset, output_scale=out_scale)
 
 
+def _float32_swap_error(a_stored, d: float, c_hi: float, u: float = _U32):
+    """Local error of a float32 state update's error term taken by Fast2Sum with ``hi`` first.
+
+    ``lo = m - (sum - hi)`` is the exact error of ``sum = hi + m`` when ``|hi| >= |m|``; when
+    not (an increment passing a state near zero), ``sum - hi`` rounds by at most ``u |m| (1 +
+    2u)`` and ``m - (sum - hi)``, at most ``u |m| (3 + 2u)`` itself, by ``u`` of that: ``hi +
+    lo`` is then within ``u (1 + 6u) |m|`` of ``hi + m``, and ``|lo| <= 3.1 u |m|``. With
+    ``|m| <= (â d (1+u)^3 + |lo|)(1 + u)`` and ``|lo| <= u max(c_hi, 3.1 |m|)``.
+
+    Parameters
+    ----------
+    a_stored : float or numpy.ndarray
+        The largest ``|a|`` the update multiplies by.
+    d : float
+        Bound of ``|target - hi|`` (fraction of full scale).
+    c_hi : float
+        Bound of ``|hi|`` (fraction of full scale).
+    """
+    return u * (1 + 6 * u) * (a_stored * d * (1 + u) ** 3 + u * (1 + u) * c_hi) / (1 - 4 * u)
+
+
 def _local_terms(corrector: BoundedCorrector, gains: RecursionGains, cmax: float):
     """The local errors times their gains (fractions of full scale; see docs/firmware.md), given
     ``|computed state|, |computed S| <= cmax``. Returns the bound's parts, the bound of the
@@ -509,7 +530,8 @@ def _local_terms(corrector: BoundedCorrector, gains: RecursionGains, cmax: float
     if corrector.precision == "float32":
         u = _U32
         c_hi = cmax * (1 + u)
-        eta = a_err * d * (1 + u) ** 3 + a * d * ((1 + u) ** 3 - 1) + a * u * c_hi + u * u * c_hi
+        eta = (a_err * d * (1 + u) ** 3 + a * d * ((1 + u) ** 3 - 1) + a * u * c_hi + u * u * c_hi
+               + _float32_swap_error(a + a_err, d, c_hi))
         eta_coef = a_err * d * (1 + u) ** 3
     else:
         eta = a_err * d + st.a * _Q_IN + _Q_STATE
@@ -562,10 +584,10 @@ class Float32DtScheme(VaryingAErrors):
         The stored ``1/tau_k`` (binary32 values, 1/s).
     halvings : numpy.ndarray
         Per term, the most halvings that bring ``x = dt/tau_k`` to ``x <= 1/8``.
-    n : int
-        Taylor terms of ``(1 - exp(-x))/x``.
-    inv_next : list of float
-        The stored ``1/(j + 1)``, ``j < n``.
+    series : numpy.ndarray
+        Per term, the Taylor terms of ``(1 - exp(-x))/x`` its range of ``x`` needs.
+    series_c : list of float
+        The stored coefficients ``(-1)^j / (j + 1)!``, as many as the most ``series``.
     limit_f, min_f : float
         The longest and shortest interval the step accepts, as binary32 (s).
     """
@@ -574,8 +596,8 @@ class Float32DtScheme(VaryingAErrors):
     dt_max: float
     inv_tau: np.ndarray
     halvings: np.ndarray
-    n: int
-    inv_next: list
+    series: np.ndarray
+    series_c: list
     limit_f: float
     min_f: float
 
@@ -633,8 +655,9 @@ class Float32TemperatureScheme(VaryingAErrors):
     j_max : int
         The largest ``|j|`` of ``1/a_T = 2^j exp(f)``.
     exp_terms : int
-        Taylor terms of ``exp(f)``; ``exp_next`` their stored ``1/(i + 1)``.
-    exp_next : list of float
+        Degree of the Taylor polynomial of ``exp(f)``; ``exp_c`` its stored coefficients
+        ``1/i!``, ``i <= exp_terms``.
+    exp_c : list of float
     y_range : (float, float)
         ``ln(1/a_T)`` at the range's ends.
     rel_shift : float
@@ -647,7 +670,7 @@ class Float32TemperatureScheme(VaryingAErrors):
         ``a_k`` at the range's ends.
     tau_range : (numpy.ndarray, numpy.ndarray)
         ``tau_k`` at the range's ends.
-    halvings, n, inv_next
+    halvings, series, series_c
         As :class:`Float32DtScheme`.
     """
 
@@ -661,7 +684,7 @@ class Float32TemperatureScheme(VaryingAErrors):
     ln2_tail: float
     j_max: int
     exp_terms: int
-    exp_next: list
+    exp_c: list
     y_range: tuple
     rel_shift: float
     dt: float
@@ -670,8 +693,8 @@ class Float32TemperatureScheme(VaryingAErrors):
     a_min: np.ndarray
     tau_range: tuple
     halvings: np.ndarray
-    n: int
-    inv_next: list
+    series: np.ndarray
+    series_c: list
 
 
 @dataclass(frozen=True)
@@ -746,17 +769,51 @@ def _series_terms(x_max: float, target: float) -> int:
     return n
 
 
-def _float32_a_error(x_hi: np.ndarray, rel_x: np.ndarray, u: float) -> tuple[np.ndarray, int, np.ndarray]:
+#: Largest relative truncation of the float32 steps' Taylor series (``a_k``'s and ``exp``'s): a
+#: quarter of the unit roundoff, below the roundings of their evaluation.
+_TRUNCATION = 2.0 ** -26
+
+
+def _horner_error(exact: list, stored: list, x_max: float, u: float = _U32) -> float:
+    """Bound of the error of the float32 Horner evaluation ``t = c_i + x t`` of
+    ``sum_i c_i x^i`` (``|x| <= x_max``, exact) with the stored coefficients, level by level:
+    the inner error times ``x_max``, the product's rounding and the sum's, the stored
+    coefficient's error. Absolute (units of the polynomial)."""
+    mag, err = abs(exact[-1]), abs(stored[-1] - exact[-1])
+    for c, c_f in zip(reversed(exact[:-1]), reversed(stored[:-1])):
+        product = x_max * (mag + err)                      # |fl(x t)| before its rounding
+        err = (abs(c_f - c) + x_max * err + u * product
+               + u * (abs(c) + abs(c_f - c) + product * (1 + u)))
+        mag = abs(c) + x_max * mag
+    return err
+
+
+def _float32_a_error(x_hi: np.ndarray, rel_x: np.ndarray, u: float):
     """The float32 computation of ``a = 1 - exp(-x)`` (``x`` up to ``x_hi``, stored with
-    relative error ``rel_x``): halvings to ``x <= 1/8``, the series' terms and ``a``'s worst
-    relative error."""
+    relative error ``rel_x``): halvings to ``x <= 1/8``, per term the Taylor terms of
+    ``t = (1 - exp(-x))/x`` its ``x`` needs (truncation below :data:`_TRUNCATION`), and ``a``'s worst
+    relative error.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray, list, numpy.ndarray)
+        Halvings and series terms per term, the stored coefficients ``(-1)^j/(j + 1)!``, the
+        relative error of each computed ``a_k``.
+    """
     halvings = np.array([max(0, math.ceil(math.log2(x / 0.125))) if x > 0.125 else 0
                          for x in x_hi], dtype=int)
-    n = _series_terms(0.125, 2.0 ** -30)
-    # Horner with x <= 1/8: relative error <= 18u/14 (each level damps the inner one by
-    # x/(j+1) <= 1/16), then the product x t: 2.5u in all; each doubling adds (1+u)^2.
-    rel_series = 0.125 ** n / math.factorial(n + 1) / (1 - 0.0625) + 2.5 * u
-    return halvings, n, (1 + rel_x) * (1 + rel_series) * (1 + u) ** (2 * halvings) - 1
+    x_top = np.minimum(x_hi, 0.125)
+    series = np.array([_series_terms(float(x), _TRUNCATION) for x in x_top], dtype=int)
+    exact = [(-1) ** j / math.factorial(j + 1) for j in range(int(series.max()))]
+    stored = [float32_value(c) for c in exact]
+    rel_series = np.empty(len(x_hi))
+    for k, (x, n) in enumerate(zip(x_top, series)):
+        # the alternating series' tail is below its first term; t(x) >= 1 - x/2; then a = x t
+        trunc = float(x) ** n / math.factorial(n + 1)
+        t_min = 1 - float(x) / 2
+        rel_series[k] = (1 + (trunc + _horner_error(exact[:n], stored[:n], float(x), u)) / t_min) * (1 + u) - 1
+    # each doubling a <- a (2 - a) adds (1+u)^2 and does not increase a relative error
+    return halvings, series, stored, (1 + rel_x) * (1 + rel_series) * (1 + u) ** (2 * halvings) - 1
 
 
 def dt_scheme(model: CreepModel, precision: str, max_interval: float) -> Float32DtScheme | Q31DtScheme:
@@ -776,9 +833,9 @@ def dt_scheme(model: CreepModel, precision: str, max_interval: float) -> Float32
         inv_tau = np.array([float32_value(1.0 / tau) for tau in taus])
         delta_x = np.abs(inv_tau * taus - 1.0) + u * (1 + 1e-6)        # stored 1/tau, product
         x_hi = dt_max * inv_tau * (1 + u)
-        halvings, n, rel_a = _float32_a_error(x_hi, delta_x, u)
+        halvings, series, series_c, rel_a = _float32_a_error(x_hi, delta_x, u)
         return Float32DtScheme(dt_min=dt_min, dt_max=dt_max, inv_tau=inv_tau, halvings=halvings,
-                n=n, inv_next=[float32_value(1.0 / (j + 1)) for j in range(n)],
+                series=series, series_c=series_c,
                 rel_a=rel_a, extra=np.zeros(len(taus)), nu=np.full(len(taus), u * u),
                 limit_f=float32_value(max_interval), min_f=float32_value(MIN_INTERVAL))
     max_ticks = math.floor(max_interval / TICK + 1e-6)
@@ -832,19 +889,6 @@ def _law_curve(law) -> tuple[float, float]:
     return law.c1 * math.log(10.0), law.c2
 
 
-def _exp_horner_error(f_max: float, n: int) -> float:
-    """Relative rounding error bound of the float32 Horner sum of ``1 + f (1 + f/2 (...))``
-    (``n`` terms, ``|f| <= f_max``, stored ``1/i`` rounded), through the error of each level."""
-    u = _U32
-    top = math.exp(f_max)
-    err = 0.0
-    grow = (1 + u) ** 3                               # stored 1/i, the two products
-    for i in range(n, 0, -1):
-        g = f_max / i
-        err = u * (1 + g * grow * (top + err)) + g * (grow * err + (grow - 1) * top)
-    return err / math.exp(-f_max)
-
-
 def temperature_scheme(model: CreepModel, rate: float, low: float, high: float) -> Float32TemperatureScheme:
     """How the temperature step computes ``a_k = 1 - exp(-(T/tau_k) / a_T)`` per sample in
     float32 without libm, and the worst relative error of the computed ``a_k``.
@@ -896,10 +940,13 @@ def temperature_scheme(model: CreepModel, rate: float, low: float, high: float) 
              + j_max * abs(_LN2_HEAD + ln2_tail - math.log(2.0)))
     f_max += err_f
     n_exp = 2
-    while f_max ** (n_exp + 1) / math.factorial(n_exp + 1) * math.exp(2 * f_max) > 2.0 ** -30:
+    while f_max ** (n_exp + 1) / math.factorial(n_exp + 1) * math.exp(2 * f_max) > _TRUNCATION:
         n_exp += 1
     trunc = f_max ** (n_exp + 1) / math.factorial(n_exp + 1) * math.exp(2 * f_max)
-    rel_r = math.exp(err_y + err_f) * (1 + _exp_horner_error(f_max, n_exp)) * (1 + trunc) - 1
+    exp_exact = [1.0 / math.factorial(i) for i in range(n_exp + 1)]
+    exp_c = [float32_value(c) for c in exp_exact]
+    rel_horner = _horner_error(exp_exact, exp_c, f_max, u) / math.exp(-f_max)
+    rel_r = math.exp(err_y + err_f) * (1 + rel_horner) * (1 + trunc) - 1
     # x_k = stored (T/tau_k) * r, then a_k as in the dt step
     dt = 1.0 / rate
     taus = np.array(model.tau)
@@ -907,14 +954,14 @@ def temperature_scheme(model: CreepModel, rate: float, low: float, high: float) 
     rel_x = (1 + np.abs(dt_over_tau * taus / dt - 1.0)) * (1 + rel_r) * (1 + u) - 1
     r_min, r_max = 1.0 / float(shifts[0]), 1.0 / float(shifts[1])
     x_hi = dt_over_tau * r_max * (1 + rel_x)
-    halvings, n, rel_a = _float32_a_error(x_hi, rel_x, u)
+    halvings, series, series_c, rel_a = _float32_a_error(x_hi, rel_x, u)
     return Float32TemperatureScheme(low=lo_f, high=hi_f, reference=ref_f, curve_c=c_f, curve_d=d_f,
             log2e=log2e_f, ln2_head=_LN2_HEAD, ln2_tail=ln2_tail, j_max=j_max,
-            exp_terms=n_exp, exp_next=[float32_value(1.0 / (i + 1)) for i in range(n_exp)],
+            exp_terms=n_exp, exp_c=exp_c,
             y_range=(y_lo, y_hi), rel_shift=rel_r, dt=dt, dt_over_tau=dt_over_tau,
             a_max=-np.expm1(-dt / taus * r_max), a_min=-np.expm1(-dt / taus * r_min),
-            tau_range=(taus / r_min, taus / r_max), halvings=halvings, n=n,
-            inv_next=[float32_value(1.0 / (j + 1)) for j in range(n)], rel_a=rel_a,
+            tau_range=(taus / r_min, taus / r_max), halvings=halvings, series=series,
+            series_c=series_c, rel_a=rel_a,
             extra=np.zeros(len(taus)), nu=np.full(len(taus), u * u))
 
 
@@ -1126,7 +1173,9 @@ def _invariant_bound(c: ExactCoefficients, st: StoredCoefficients, sch: VaryingA
         eps_total = sum(eps.values())
         if precision == "float32":
             coef = sch.rel_a * d * (1 + u) ** 3
-            rounding = d * ((1 + u) ** 3 - 1) + u * cmax * (1 + u) + sch.nu * cmax * (1 + u) / a_min
+            rounding = (d * ((1 + u) ** 3 - 1) + u * cmax * (1 + u) + sch.nu * cmax * (1 + u) / a_min
+                        + _float32_swap_error(1 + sch.rel_a, d, 0.0)
+                        + _float32_swap_error(0.0, d, cmax * (1 + u)) / a_min)
         else:
             coef = sch.rel_a * d
             rounding = sch.extra + sch.nu / a_min
@@ -1458,7 +1507,7 @@ def _loop_bound(model: CreepModel, rate: float, full_scale: float, lip: float, x
         c_hi = cmax * (1 + u)
         if precision == "float32":
             eta = (np.abs(st.a - a) * d * (1 + u) ** 3 + a * d * ((1 + u) ** 3 - 1) + a * u * c_hi
-                   + u * u * c_hi)
+                   + u * u * c_hi + _float32_swap_error(np.maximum(st.a, a), d, c_hi))
             rounding = float(np.max(eta / a)) + u * cmax       # and the target (float)X
         else:                                                  # the target X is a word already
             eta = np.abs(st.a - a) * d + st.a * _Q_IN + _Q_STATE
