@@ -29,7 +29,7 @@ import math
 
 import numpy as np
 
-from creepcomp.errors import InputError
+from creepcomp.errors import InputError, NotApplicable
 from creepcomp.fit.data import Data
 from creepcomp.fit.noise import noise_floor, quantisation_step
 from creepcomp.fit.structure import Applied
@@ -266,7 +266,7 @@ class DataProblem(SensorEffect):
     def fit_on(self, data: Data, base: Fit, refine: str = "all", start: dict | None = None) -> Fit:
         applied = Applied(self, self.settings(data, base))
         if not applied.setting("jumps"):
-            raise InputError("no signal jump that no load change explains")
+            raise NotApplicable("no signal jump that no load change explains")
         fit = super().fit_on(data, base, refine, start)
         # keep the jumps whose fitted height stands out of its uncertainty
         keep = [j for j, i in enumerate(applied.setting("jumps"))
