@@ -56,3 +56,31 @@ def test_candidates_that_do_not_fit_the_record_do_not_apply_rather_than_fail(run
     assert "fit failed" not in out
     assert "does not apply (no signal jump that no load change explains)" in out
     assert "does not apply (the record has no 'temperature' column)" in out
+
+
+# -- 4. the fleet report's numbers with their units ------------------------------------------
+
+def test_fleet_report_gives_tau_and_every_parameter_with_its_unit():
+    import re
+
+    from creepcomp.fleet.lot import lot_summary
+    from creepcomp.fleet.unit import empty_row
+    from creepcomp.report.fleet import lot_report_html
+
+    rows = []
+    for k in range(6):
+        r = empty_row(f"u{k}.csv", f"u{k}")
+        r.update(status="ok", findings="none", in_spec=True, residual_creep=1e-4, spec=1e-3,
+                 creep_step=0.01, gain=2.0 + 0.01 * k, offset=0.1, beta0=0.03, beta_1=0.03,
+                 tau_1=45.0 * (1 + 0.01 * k) if k < 5 else 4500.0, signal_unit="mV", load_unit="N")
+        rows.append(r)
+    page = lot_report_html(lot_summary(rows), {"spec": 1e-3, "table": "t.parquet", "workers": 1,
+                                               "scheduler": "serial"})
+    section = page[page.index("Fitted parameters across the lot"):page.index("Units out of spec")]
+    row = re.search(r"<td>tau of the largest term</td>(.*?)</tr>", section).group(1)
+    cells = re.findall(r"<td>(.*?)</td>", row)
+    assert all(c.endswith((" s", " min", " h", " d")) for c in cells[:3]), cells
+    gain = re.findall(r"<td>(.*?)</td>", re.search(r"<td>gain</td>(.*?)</tr>", section).group(1))
+    assert all(c.endswith("mV/N") for c in gain[:3]), gain
+    outlier = re.search(r"<td>u5</td><td>tau of the largest term</td><td>(.*?)</td>", section).group(1)
+    assert outlier == "75 min", outlier
