@@ -4,7 +4,7 @@ Each case runs the command line in a child process (memory capped at 3 GB, a tim
 and is judged by its outcome: ``traceback`` (stderr holds one), ``one line`` (exit 1 or 2 with
 a single error line), ``accepted`` (exit 0 where a refusal is the right answer), ``script``
 (a report that would run the record's script), ``silently wrong`` (exit 0 with a wrong figure,
-or a file written that was not asked for) or ``timeout``.
+a file written that was not asked for, or a warning or finding missing) or ``timeout``.
 
 Usage::
 
@@ -130,6 +130,9 @@ def _third_pass_inputs(src: Path, folder: Path, t, load, signal) -> dict[str, Pa
         f[name] = dump(f"{name}/{holder}", (src / "creepcomp" / "data" / source).read_text())
     f["cwd"] = folder / "cwd"
     f["cwd"].mkdir()
+    f["cwd_design"] = folder / "cwd_design"
+    f["cwd_design"].mkdir()
+    shutil.copy(src / "creepcomp" / "data" / "built_network.design.json", f["cwd_design"] / "design.json")
     return f
 
 
@@ -153,6 +156,8 @@ def third_pass_cases(f: dict[str, Path], out: Path) -> list[tuple[str, list[str]
                                            "-o", f["fw_record"]], {"refuse": True}),
         ("simulate: no plot unasked", ["simulate", f["design"], "--points", "200"],
          {"cwd": f["cwd"], "absent": f["cwd"] / "built_network.design-step.png"}),
+        ("simulate design.json: cwd untouched", ["simulate", "design.json", "--points", "200"],
+         {"cwd": f["cwd_design"], "cwd_untouched": True}),
         ("fit: time in ms", ["fit", f["ms"], "--json"], {"stdout_check": _tau_of_fit_json}),
         ("fit: 20 terms on 20 samples", ["fit", f["twenty"], "--terms", "20", "-o", out / "tw.json"],
          {"refuse": True}),
@@ -221,6 +226,7 @@ def run_case(src: Path, args: list, opts: dict) -> tuple[str, str]:
     stdout = open(opts["stdout"], "w") if "stdout" in opts else subprocess.DEVNULL
     if "stdout_check" in opts:
         stdout = subprocess.PIPE
+    before = set(os.listdir(opts["cwd"])) if opts.get("cwd_untouched") else None
     try:
         done = subprocess.run(cmd, stdout=stdout, stderr=subprocess.PIPE, text=True, env=env,
                               timeout=TIME_LIMIT, preexec_fn=_cap, cwd=opts.get("cwd"))
@@ -239,6 +245,10 @@ def run_case(src: Path, args: list, opts: dict) -> tuple[str, str]:
     absent = opts.get("absent")
     if absent is not None and Path(absent).exists():
         return "silently wrong", f"wrote {Path(absent).name} unasked"
+    if before is not None:
+        new = sorted(set(os.listdir(opts["cwd"])) - before)
+        if new:
+            return "silently wrong", f"wrote {', '.join(new)} into the working folder unasked"
     if done.returncode == 0 and "stdout_check" in opts:
         wrong = opts["stdout_check"](done.stdout)
         if wrong:

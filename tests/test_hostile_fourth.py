@@ -84,3 +84,21 @@ def test_fleet_report_gives_tau_and_every_parameter_with_its_unit():
     assert all(c.endswith("mV/N") for c in gain[:3]), gain
     outlier = re.search(r"<td>u5</td><td>tau of the largest term</td><td>(.*?)</td>", section).group(1)
     assert outlier == "75 min", outlier
+
+
+# -- 8. nothing written into the checkout ----------------------------------------------------
+
+def test_tests_run_outside_the_checkout():
+    root = Path(__file__).resolve().parents[1]
+    assert root not in (Path.cwd().resolve(), *Path.cwd().resolve().parents)
+
+
+def test_simulate_writes_no_plot_into_its_working_folder(run_cli, tmp_path, monkeypatch):
+    import shutil
+
+    design = shutil.copy(DATA / "built_network.design.json", tmp_path / "design.json")
+    monkeypatch.chdir(tmp_path)
+    status, out, err = run_cli("simulate", "design.json", "--points", "200")
+    assert status == 0, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["design.json"], list(tmp_path.iterdir())
+    assert Path(design).exists()
