@@ -177,6 +177,10 @@ def third_pass_cases(f: dict[str, Path], out: Path) -> list[tuple[str, list[str]
         ("simulate: parts unobtainium", ["simulate", f["unobtainium"]], {"refuse": True}),
         ("mc: shunt R as text", ["mc", f["shunt_text"], "--n", "100"], {"refuse": True}),
         ("mc: 20 cells, 1,000 samples", ["mc", f["d20"], "--n", "1000"], {}),
+        ("mc: --creep-test X3", ["mc", f["design"], "--n", "100", "--creep-test", "X3"],
+         {"refuse": True, "stderr_has": "--creep-test X3"}),
+        ("creep-test: --class C99", ["creep-test", f["model"], "--class", "C99"],
+         {"refuse": True, "stderr_has": "--class C99"}),
         ("mc: --n 1e12", ["mc", f["design"], "--n", "1e12"], {"refuse": True}),
     ]
 
@@ -256,6 +260,8 @@ def run_case(src: Path, args: list, opts: dict) -> tuple[str, str]:
     if done.returncode == 0:
         return ("accepted" if opts.get("refuse") else "ok"), "exit 0"
     lines = [line for line in err if line.startswith("creepcomp: error")]
+    if opts.get("stderr_has") and not any(opts["stderr_has"] in line for line in lines):
+        return "unclear", f"the error does not name {opts['stderr_has']!r}: {last}"
     return ("one line" if len(lines) == 1 else "several lines"), f"exit {done.returncode}: {last}"
 
 

@@ -102,3 +102,15 @@ def test_simulate_writes_no_plot_into_its_working_folder(run_cli, tmp_path, monk
     assert status == 0, err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["design.json"], list(tmp_path.iterdir())
     assert Path(design).exists()
+
+
+# -- the option named as given ---------------------------------------------------------------
+
+@pytest.mark.parametrize("args, needle", [
+    (["mc", DATA / "built_network.design.json", "--n", "100", "--creep-test", "X3"], "--creep-test X3: "),
+    (["mc", DATA / "built_network.design.json", "--n", "100", "--creep-test", "C99"], "--creep-test C99: "),
+    (["creep-test", MODEL, "--class", "Q"], "--class Q: "),
+])
+def test_an_accuracy_class_error_names_the_option_given(run_cli, args, needle):
+    status, out, err = run_cli(*args)
+    assert status == 2 and needle in err and len(err.strip().splitlines()) == 1, err
