@@ -130,6 +130,8 @@ def _third_pass_inputs(src: Path, folder: Path, t, load, signal) -> dict[str, Pa
         f[name] = dump(f"{name}/{holder}", (src / "creepcomp" / "data" / source).read_text())
     f["cwd"] = folder / "cwd"
     f["cwd"].mkdir()
+    f["demo_parent"] = folder / "demo_parent"
+    f["demo_parent"].mkdir()
     f["cwd_design"] = folder / "cwd_design"
     f["cwd_design"].mkdir()
     shutil.copy(src / "creepcomp" / "data" / "built_network.design.json", f["cwd_design"] / "design.json")
@@ -181,6 +183,8 @@ def third_pass_cases(f: dict[str, Path], out: Path) -> list[tuple[str, list[str]
          {"refuse": True, "stderr_has": "--creep-test X3"}),
         ("creep-test: --class C99", ["creep-test", f["model"], "--class", "C99"],
          {"refuse": True, "stderr_has": "--class C99"}),
+        ("demo -o same, twice at once", ["demo", "-o", f["demo_parent"] / "same"],
+         {"refuse": True, "hold": f["demo_parent"] / "same", "stderr_has": "another creepcomp run"}),
         ("mc: --n 1e12", ["mc", f["design"], "--n", "1e12"], {"refuse": True}),
     ]
 
@@ -223,6 +227,22 @@ def _cap():
     resource.setrlimit(resource.RLIMIT_AS, (MEMORY_CAP, MEMORY_CAP))
 
 
+_HOLDER = ("import sys\n"
+           "from creepcomp.io.outputs import check_outputs\n"
+           "check_outputs(dirs={'-o': sys.argv[1]})\n"
+           "print('held', flush=True)\n"
+           "sys.stdin.read()\n")
+
+
+def _hold(env: dict, folder: Path) -> subprocess.Popen:
+    """A creepcomp process holding the output lock of ``folder`` (as a first ``demo -o`` into
+    it does) until its stdin closes."""
+    proc = subprocess.Popen([sys.executable, "-c", _HOLDER, str(folder)], stdin=subprocess.PIPE,
+                            stdout=subprocess.PIPE, text=True, env=env)
+    proc.stdout.readline()
+    return proc
+
+
 def run_case(src: Path, args: list, opts: dict) -> tuple[str, str]:
     env = {**os.environ, "PYTHONPATH": str(src), "OPENBLAS_NUM_THREADS": "1", "MPLBACKEND": "Agg",
            **opts.get("env", {})}
@@ -231,6 +251,7 @@ def run_case(src: Path, args: list, opts: dict) -> tuple[str, str]:
     if "stdout_check" in opts:
         stdout = subprocess.PIPE
     before = set(os.listdir(opts["cwd"])) if opts.get("cwd_untouched") else None
+    holder = _hold(env, opts["hold"]) if "hold" in opts else None
     try:
         done = subprocess.run(cmd, stdout=stdout, stderr=subprocess.PIPE, text=True, env=env,
                               timeout=TIME_LIMIT, preexec_fn=_cap, cwd=opts.get("cwd"))
@@ -239,6 +260,8 @@ def run_case(src: Path, args: list, opts: dict) -> tuple[str, str]:
     finally:
         if stdout not in (subprocess.DEVNULL, subprocess.PIPE):
             stdout.close()
+        if holder is not None:
+            holder.communicate("")
     err = done.stderr.strip().splitlines()
     last = err[-1][:110] if err else ""
     if "Traceback" in done.stderr:
