@@ -116,6 +116,8 @@ def _third_pass_inputs(src: Path, folder: Path, t, load, signal) -> dict[str, Pa
                                      creep={"beta": [0.002] * 20, "tau": [45.0 * (1 + k) for k in range(20)]})),
     }
     rows = "\n".join(f"{a * 1000!r},{b!r},{c!r}" for a, b, c in zip(t, load, signal))
+    f["extras"] = dump("extras.csv", "time,strain,load,signal,note\n" + "\n".join(
+        f"{float(a)!r},{0.001 * k:.3f},{float(b)!r},{float(c)!r},n{k}" for k, (a, b, c) in enumerate(zip(t, load, signal))) + "\n")
     f["ms"] = dump("ms.csv", "# units.time: ms\ntime,load,signal\n" + rows + "\n")
     twenty = "\n".join(f"{5.0 * k!r},{float(k >= 2)!r},{float(k >= 2) * (1.03 - 0.03 * np.exp(-5.0 * k / 45))!r}"
                         for k in range(20))
@@ -142,6 +144,16 @@ def _tau_of_fit_json(text: str) -> str | None:
     """Why a fit's JSON of the 45 s sensor is wrong (None: its first tau is within 2x of 45 s)."""
     tau = json.loads(text)["tau"][0]
     return None if 20 < tau < 100 else f"tau {tau:g} s for a 45 s sensor"
+
+
+def _extras_kept(path: Path) -> str | None:
+    """Why ``correct -o``'s output of the record with extra columns is wrong (None: it keeps
+    them, cell for cell)."""
+    if not path.exists():
+        return "no output written"
+    header = next(line for line in path.read_text().splitlines() if not line.startswith("#"))
+    missing = [c for c in ("strain", "note") if c not in header.split(",")]
+    return f"extra columns {', '.join(missing)} dropped" if missing else None
 
 
 def third_pass_cases(f: dict[str, Path], out: Path) -> list[tuple[str, list[str], dict]]:
@@ -185,6 +197,9 @@ def third_pass_cases(f: dict[str, Path], out: Path) -> list[tuple[str, list[str]
          {"refuse": True, "stderr_has": "--class C99"}),
         ("demo -o same, twice at once", ["demo", "-o", f["demo_parent"] / "same"],
          {"refuse": True, "hold": f["demo_parent"] / "same", "stderr_has": "another creepcomp run"}),
+        ("correct -o: extra columns kept", ["correct", f["extras"], "--model", f["model"], "-o",
+                                             f["demo_parent"] / "extras-out.csv"],
+         {"file_check": (f["demo_parent"] / "extras-out.csv", _extras_kept)}),
         ("mc: --n 1e12", ["mc", f["design"], "--n", "1e12"], {"refuse": True}),
     ]
 
@@ -276,6 +291,11 @@ def run_case(src: Path, args: list, opts: dict) -> tuple[str, str]:
         new = sorted(set(os.listdir(opts["cwd"])) - before)
         if new:
             return "silently wrong", f"wrote {', '.join(new)} into the working folder unasked"
+    if done.returncode == 0 and "file_check" in opts:
+        path, check = opts["file_check"]
+        wrong = check(Path(path))
+        if wrong:
+            return "silently wrong", wrong
     if done.returncode == 0 and "stdout_check" in opts:
         wrong = opts["stdout_check"](done.stdout)
         if wrong:

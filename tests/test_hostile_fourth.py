@@ -114,3 +114,38 @@ def test_simulate_writes_no_plot_into_its_working_folder(run_cli, tmp_path, monk
 def test_an_accuracy_class_error_names_the_option_given(run_cli, args, needle):
     status, out, err = run_cli(*args)
     assert status == 2 and needle in err and len(err.strip().splitlines()) == 1, err
+
+
+# -- 7. correct -o keeps the record's extra columns ------------------------------------------
+
+def _with_extras(path: Path) -> Path:
+    a = _rows()
+    lines = ["# units.load: N", "# units.signal: V", "time,strain,load,signal,note,compensated"]
+    for k, (t, load, signal) in enumerate(a):
+        note = '"a, ""b"""' if k % 7 == 0 else f"x{k}"
+        lines.append(f"{float(t)!r},{0.001 * k:.3f},{float(load)!r},{float(signal)!r},{note},{k}")
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("whole", [False, True], ids=["in pieces", "whole"])
+def test_correct_output_keeps_the_extra_columns_and_is_read_back(run_cli, tmp_path, whole):
+    import csv
+
+    from creepcomp.io.records import read_record
+
+    record = _with_extras(tmp_path / "r.csv")
+    out = tmp_path / "out.csv"
+    status, text, err = run_cli("correct", record, "--model", MODEL, "-o", out,
+                                *(["--plot", tmp_path / "p.png"] if whole else []))
+    assert status == 0, err
+    assert "extra column 'compensated' is written as 'input.compensated'" in text
+    rows = list(csv.reader(line for line in out.read_text().splitlines() if not line.startswith("#")))
+    assert rows[0] == ["time", "load", "signal", "strain", "note", "input.compensated", "compensated",
+                       "load_estimate"]
+    original = list(csv.reader(line for line in record.read_text().splitlines() if not line.startswith("#")))
+    assert [r[3:6] for r in rows[1:]] == [[r[1], r[4], r[5]] for r in original[1:]]
+    back = read_record(out)
+    assert len(back) == len(_rows())
+    status, _, err = run_cli("fit", out, "-o", tmp_path / "again.json")
+    assert status == 0, err

@@ -19,6 +19,7 @@ from creepcomp.digital.correctors import (CreepError, CreepErrorSum, Corrector, 
                                           default_initial, load_from_compensated, uniform_interval_of,
                                           FittedReferenceSum)
 from creepcomp.errors import InputError
+from creepcomp.io.extra_columns import ExtraColumns, open_extra_columns, output_names
 from creepcomp.io.records import STREAM_BYTES, RecordScan, open_record_stream, record_writer
 from creepcomp.model import CreepModel
 
@@ -88,8 +89,9 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
                         progress: Callable[..., None] | None = None,
                         block_bytes: int = STREAM_BYTES,
                         temperature: float | None = None) -> FileCorrection | None:
-    """Compensate a record file piece by piece; optionally write its columns plus
-    ``compensated`` to ``output`` (atomically).
+    """Compensate a record file piece by piece; optionally write its columns, its extra
+    columns as they are (:mod:`creepcomp.io.extra_columns`), ``compensated`` and
+    ``load_estimate`` to ``output`` (atomically).
 
     Parameters
     ----------
@@ -129,12 +131,17 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
     fitted_before, fitted_after = FittedReferenceSum(), FittedReferenceSum()
     if progress:
         progress(0, scan.samples, "correcting")
-    writing = (record_writer(output, [*scan.names, "compensated", "load_estimate"],
-                             {**scan.metadata, **(output_metadata or {})})
-               if output is not None else contextlib.nullcontext())
+    extras = (open_extra_columns(path, columns) if output is not None
+              else contextlib.nullcontext(ExtraColumns([], [], None)))
     done = 0
     load_square = 0.0
-    with writing as write:
+    with extras as extra, contextlib.ExitStack() as stack:
+        names = output_names(extra.names, [*scan.names, "compensated", "load_estimate"])
+        write = None
+        if output is not None:
+            write = stack.enter_context(record_writer(
+                output, [*scan.names, *names, "compensated", "load_estimate"],
+                {**scan.metadata, **(output_metadata or {})}))
         for piece in stream:
             temps = (None if source is None else
                      piece.temperature if source == "column" else temperature)
@@ -147,7 +154,9 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
             load_estimate = load_from_compensated(compensated, model, method)
             load_square += float(((load_estimate - piece.load) ** 2).sum())
             if write is not None:
-                write({**piece.columns(), "compensated": compensated, "load_estimate": load_estimate})
+                cells = extra.take(len(piece))
+                write({**piece.columns(), **{new: cells[old] for old, new in zip(extra.names, names)},
+                       "compensated": compensated, "load_estimate": load_estimate})
             done += len(piece)
             if progress:
                 progress(done, scan.samples)
