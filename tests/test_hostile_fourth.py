@@ -149,3 +149,82 @@ def test_correct_output_keeps_the_extra_columns_and_is_read_back(run_cli, tmp_pa
     assert len(back) == len(_rows())
     status, _, err = run_cli("fit", out, "-o", tmp_path / "again.json")
     assert status == 0, err
+
+
+# -- 1. a load that toggles at every sample --------------------------------------------------
+
+def _toggling(path: Path) -> Path:
+    n = 600
+    load = (np.arange(n) % 2) * 10.0
+    return _write(path, {"time": 0.5 * np.arange(n), "load": load, "signal": 100.0 + 20.0 * load},
+                  comments=("# units.load: N", "# units.signal: counts"))
+
+
+def test_a_two_valued_signal_is_on_no_grid():
+    from creepcomp.fit.noise import quantisation_step
+
+    assert quantisation_step(np.tile([100.0, 300.0], 300)) == 0.0
+    assert quantisation_step(np.round(np.linspace(0, 50, 600))) == 1.0
+
+
+def test_a_load_that_toggles_at_every_sample_is_named_not_called_quantisation(run_cli, tmp_path):
+    import json
+
+    record = _toggling(tmp_path / "toggle.csv")
+    status, out, err = run_cli("diagnose", record, "-o", tmp_path / "d")
+    assert status == 0, err
+    assert "quantisation" not in out
+    assert "kind = load_toggling" in out
+    findings = json.loads((tmp_path / "d" / "diagnosis.json").read_text())["findings"]
+    kinds = [f["parameters"].get("kind") for f in findings if f["effect"] == "data_problem"]
+    assert kinds == ["load_toggling"], findings
+    assert "nan" not in out.lower().replace("nonlinear", "")
+
+
+# -- 3. a signal stuck at an ADC rail --------------------------------------------------------
+
+def _clipped(path: Path) -> tuple[Path, int]:
+    a = _rows()
+    counts = np.minimum(np.round(a[:, 2] / np.max(a[:, 2]) * 34000), 32767)
+    _write(path, {"time": a[:, 0], "load": a[:, 1], "signal": counts},
+           comments=("# units.load: N", "# units.signal: counts"))
+    return path, int(np.sum(counts == 32767))
+
+
+def test_rails_are_found_whole_or_in_pieces():
+    from creepcomp.io.rails import RailCounter, stuck_at_rail
+
+    y = np.r_[np.arange(10.0), [32767] * 5, np.arange(5.0), [32767] * 3, [1, 1], [-32768] * 4]
+    whole = stuck_at_rail(y)
+    assert [(r.side, r.value, r.samples, r.runs) for r in whole] == [
+        ("largest", 32767.0, 8, 2), ("smallest", -32768.0, 4, 1)]
+    for parts in (3, 7, len(y)):
+        counter = RailCounter()
+        for piece in np.array_split(y, parts):
+            counter.add(piece)
+        assert counter.result() == whole
+    # plateaus everywhere: the top one is no rail; a flat top far longer than any other run is
+    assert stuck_at_rail(np.repeat([240.0, 230, 220, 230, 240, 235], 100)) == []
+    noisy = np.random.default_rng(0).normal(0, 1, 1000)
+    noisy[100:150] = 4.0
+    assert [r.samples for r in stuck_at_rail(noisy)] == [50]
+
+
+def test_a_signal_at_an_adc_rail_is_named_by_diagnose_and_warned_of_by_fit_and_correct(run_cli, tmp_path):
+    import json
+
+    record, stuck = _clipped(tmp_path / "clip.csv")
+    status, out, err = run_cli("diagnose", record, "-o", tmp_path / "d")
+    assert status == 0, err
+    found = [f["parameters"] for f in json.loads((tmp_path / "d" / "diagnosis.json").read_text())["findings"]
+             if f["effect"] == "data_problem" and f["parameters"]["kind"] == "clipping"]
+    assert found and found[0]["value"] == [32767.0] and found[0]["samples"] == [stuck], found
+    for args in (["fit", record], ["correct", record, "--model", MODEL, "-o", tmp_path / "c.csv"],
+                 ["correct", record, "--model", MODEL, "--plot", tmp_path / "c.png"]):
+        status, out, err = run_cli(*args)
+        lines = [line for line in err.splitlines() if "rail" in line]
+        assert len(lines) == 1 and f"{stuck} samples" in lines[0] and "32767 counts" in lines[0], err
+    # kept as they are
+    from creepcomp.io.records import read_record
+
+    assert np.array_equal(read_record(tmp_path / "c.csv").signal, read_record(record).signal)

@@ -98,6 +98,9 @@ def correct_command(
     scan, dt = done.scan, done.dt
     before, after = done.before, done.after
     unit = scan.unit("signal")
+    from creepcomp.cli.fit import warn_rails
+
+    warn_rails(list(done.rails), unit)
     notes = _notes(scan, start, method, model) + _renamed_notes(record_path, parse_columns(columns), scan, output)
     temperature_used = None
     if done.temperature is not None:
@@ -119,6 +122,7 @@ def correct_command(
         "temperature": temperature_used, "extensions": inverses,
         "fitted_reference_rms": {"before": done.fitted_before, "after": done.fitted_after},
         "load_estimate": _load_figures(done.load_rms, scan),
+        "stuck_at_rail": [r.to_dict() for r in done.rails],
     }
     if as_json:
         print_json(result)
@@ -149,6 +153,7 @@ def _correct_whole(record_path, model, method, start, hold, output, out_meta, ma
 
     from creepcomp.digital.correctors import compensate, creep_error, load_from_compensated, uniform_interval
     from creepcomp.digital.record_file import FileCorrection, temperature_source
+    from creepcomp.io.rails import stuck_at_rail
     from creepcomp.io.records import RecordScan
 
     record = read_record(record_path, columns=mapping)
@@ -190,7 +195,8 @@ def _correct_whole(record_path, model, method, start, hold, output, out_meta, ma
     return FileCorrection(RecordScan.of(record), uniform_interval(record.time), before, after,
                           source, _fitted_rms(record.signal, record.load),
                           _fitted_rms(compensated, record.load),
-                          float(np.sqrt(np.mean((load_estimate - record.load) ** 2))))
+                          float(np.sqrt(np.mean((load_estimate - record.load) ** 2))),
+                          tuple(stuck_at_rail(record.signal)))
 
 
 def _renamed_notes(record_path, mapping, scan, output) -> list[str]:

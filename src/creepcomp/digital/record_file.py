@@ -19,6 +19,7 @@ from creepcomp.digital.correctors import (CreepError, CreepErrorSum, Corrector, 
                                           default_initial, load_from_compensated, uniform_interval_of,
                                           FittedReferenceSum)
 from creepcomp.errors import InputError
+from creepcomp.io.rails import RailCounter
 from creepcomp.io.extra_columns import ExtraColumns, open_extra_columns, output_names
 from creepcomp.io.records import STREAM_BYTES, RecordScan, open_record_stream, record_writer
 from creepcomp.model import CreepModel
@@ -48,6 +49,9 @@ class FileCorrection:
     load_rms : float or None
         RMS error of the load estimate (the whole model's inverse) against the record's load,
         in load units.
+    rails : tuple of Rail
+        The signal's samples stuck at a rail (:func:`creepcomp.io.rails.stuck_at_rail`): kept
+        and corrected as they are.
     """
 
     scan: RecordScan
@@ -58,6 +62,7 @@ class FileCorrection:
     fitted_before: float | None = None
     fitted_after: float | None = None
     load_rms: float | None = None
+    rails: tuple = ()
 
 
 def temperature_source(model: CreepModel, has_column: bool, constant: float | None,
@@ -135,6 +140,7 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
               else contextlib.nullcontext(ExtraColumns([], [], None)))
     done = 0
     load_square = 0.0
+    rails = RailCounter()
     with extras as extra, contextlib.ExitStack() as stack:
         names = output_names(extra.names, [*scan.names, "compensated", "load_estimate"])
         write = None
@@ -147,6 +153,7 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
                      piece.temperature if source == "column" else temperature)
             compensated = (corrector.process(piece.signal, temperature=temps) if dt is not None
                            else corrector.process(piece.signal, piece.time, temperature=temps))
+            rails.add(piece.signal)
             before.add(piece.time, piece.signal, piece.load)
             after.add(piece.time, compensated, piece.load)
             fitted_before.add(piece.signal, piece.load)
@@ -165,4 +172,5 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
                 write.discard()
             return None                             # the file changed between the passes
     return FileCorrection(scan, dt, before.result(), after.result(), source, fitted_before.result(),
-                          fitted_after.result(), (load_square / scan.samples) ** 0.5)
+                          fitted_after.result(), (load_square / scan.samples) ** 0.5,
+                          tuple(rails.result()))
