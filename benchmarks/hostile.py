@@ -118,6 +118,13 @@ def _third_pass_inputs(src: Path, folder: Path, t, load, signal) -> dict[str, Pa
     rows = "\n".join(f"{a * 1000!r},{b!r},{c!r}" for a, b, c in zip(t, load, signal))
     f["extras"] = dump("extras.csv", "time,strain,load,signal,note\n" + "\n".join(
         f"{float(a)!r},{0.001 * k:.3f},{float(b)!r},{float(c)!r},n{k}" for k, (a, b, c) in enumerate(zip(t, load, signal))) + "\n")
+    n = 600
+    toggle = (np.arange(n) % 2) * 10.0
+    f["toggle"] = dump("toggle.csv", "# units.load: N\n# units.signal: counts\ntime,load,signal\n" + "\n".join(
+        f"{0.5 * k!r},{float(x)!r},{100.0 + 20.0 * float(x)!r}" for k, x in enumerate(toggle)) + "\n")
+    counts = np.minimum(np.round(signal / np.max(signal) * 34000), 32767)
+    f["rail"] = dump("rail.csv", "# units.load: N\n# units.signal: counts\ntime,load,signal\n" + "\n".join(
+        f"{float(a)!r},{float(b)!r},{float(c)!r}" for a, b, c in zip(t, load, counts)) + "\n")
     f["ms"] = dump("ms.csv", "# units.time: ms\ntime,load,signal\n" + rows + "\n")
     twenty = "\n".join(f"{5.0 * k!r},{float(k >= 2)!r},{float(k >= 2) * (1.03 - 0.03 * np.exp(-5.0 * k / 45))!r}"
                         for k in range(20))
@@ -130,6 +137,10 @@ def _third_pass_inputs(src: Path, folder: Path, t, load, signal) -> dict[str, Pa
         (folder / name).mkdir()
         source = "built_network.design.json" if name == "asbuilt" else "hidden_effect.csv"
         f[name] = dump(f"{name}/{holder}", (src / "creepcomp" / "data" / source).read_text())
+    f["fleet"] = folder / "fleet"
+    f["fleet"].mkdir()
+    for k in range(2):
+        (f["fleet"] / f"u{k}.csv").write_text((src / "creepcomp" / "data" / "hidden_effect.csv").read_text())
     f["cwd"] = folder / "cwd"
     f["cwd"].mkdir()
     f["demo_parent"] = folder / "demo_parent"
@@ -154,6 +165,30 @@ def _extras_kept(path: Path) -> str | None:
     header = next(line for line in path.read_text().splitlines() if not line.startswith("#"))
     missing = [c for c in ("strain", "note") if c not in header.split(",")]
     return f"extra columns {', '.join(missing)} dropped" if missing else None
+
+
+def _words(wanted: tuple = (), unwanted: tuple = ()):
+    """A check of a command's output (stdout and stderr): why it is wrong (None: every wanted
+    text is there, no unwanted one is)."""
+    def check(text: str) -> str | None:
+        missing = [w for w in wanted if w not in text]
+        found = [w for w in unwanted if w in text]
+        if missing:
+            return f"no {missing[0]!r} in the output"
+        return f"{found[0]!r} in the output" if found else None
+    return check
+
+
+def _lot_with_units(folder: Path) -> str | None:
+    """Why the fleet's lot report gives a parameter without its unit (None: tau has one)."""
+    import re
+
+    page = (folder / "report.html").read_text() if (folder / "report.html").exists() else ""
+    row = re.search(r"<td>tau of the largest term</td>(.*?)</tr>", page)
+    if row is None:
+        return "no tau row in the lot report"
+    cells = re.findall(r"<td>(.*?)</td>", row.group(1))[:3]
+    return None if all(c.endswith((" s", " min", " h", " d", "–")) for c in cells) else f"tau without a unit: {cells}"
 
 
 def third_pass_cases(f: dict[str, Path], out: Path) -> list[tuple[str, list[str], dict]]:
@@ -200,6 +235,19 @@ def third_pass_cases(f: dict[str, Path], out: Path) -> list[tuple[str, list[str]
         ("correct -o: extra columns kept", ["correct", f["extras"], "--model", f["model"], "-o",
                                              f["demo_parent"] / "extras-out.csv"],
          {"file_check": (f["demo_parent"] / "extras-out.csv", _extras_kept)}),
+        ("diagnose: load toggling every sample", ["diagnose", f["toggle"]],
+         {"output_check": _words(("load_toggling",), ("quantisation", " nan "))}),
+        ("diagnose: signal at the int16 rail", ["diagnose", f["rail"]],
+         {"output_check": _words(("kind = clipping", "value = 32767 counts"), (" nan ", "fit failed"))}),
+        ("fit: signal at the int16 rail", ["fit", f["rail"]],
+         {"output_check": _words(("stuck at its largest value 32767 counts",))}),
+        ("correct: signal at the int16 rail", ["correct", f["rail"], "--model", f["model"]],
+         {"output_check": _words(("stuck at its largest value 32767 counts",))}),
+        ("diagnose: a candidate that does not apply", ["diagnose", f["design"].parent / "hidden_effect.csv",
+                                                      "--effects", "data_problem,thermal_drift"],
+         {"output_check": _words(("does not apply",), ("fit failed", " nan "))}),
+        ("fleet: tau with its unit", ["fleet", f["fleet"], "-o", f["demo_parent"] / "fleet", "--workers", "1"],
+         {"file_check": (f["demo_parent"] / "fleet", _lot_with_units)}),
         ("mc: --n 1e12", ["mc", f["design"], "--n", "1e12"], {"refuse": True}),
     ]
 
@@ -260,10 +308,10 @@ def _hold(env: dict, folder: Path) -> subprocess.Popen:
 
 def run_case(src: Path, args: list, opts: dict) -> tuple[str, str]:
     env = {**os.environ, "PYTHONPATH": str(src), "OPENBLAS_NUM_THREADS": "1", "MPLBACKEND": "Agg",
-           **opts.get("env", {})}
+           **({"COLUMNS": "400"} if "output_check" in opts else {}), **opts.get("env", {})}
     cmd = [sys.executable, "-c", "from creepcomp.cli import run; run()", *map(str, args)]
     stdout = open(opts["stdout"], "w") if "stdout" in opts else subprocess.DEVNULL
-    if "stdout_check" in opts:
+    if "stdout_check" in opts or "output_check" in opts:
         stdout = subprocess.PIPE
     before = set(os.listdir(opts["cwd"])) if opts.get("cwd_untouched") else None
     holder = _hold(env, opts["hold"]) if "hold" in opts else None
@@ -291,6 +339,10 @@ def run_case(src: Path, args: list, opts: dict) -> tuple[str, str]:
         new = sorted(set(os.listdir(opts["cwd"])) - before)
         if new:
             return "silently wrong", f"wrote {', '.join(new)} into the working folder unasked"
+    if "output_check" in opts and done.returncode in (0, 3):
+        wrong = opts["output_check"](done.stdout + done.stderr)
+        if wrong:
+            return "silently wrong", wrong
     if done.returncode == 0 and "file_check" in opts:
         path, check = opts["file_check"]
         wrong = check(Path(path))
