@@ -26,3 +26,11 @@ def run_cli(capsys):
         return status, out, err
 
     return run
+
+
+@pytest.fixture(autouse=True)
+def _outside_the_checkout(tmp_path_factory, monkeypatch):
+    """Every test runs in a working folder of its own: a command that writes into its working
+    folder (a file named by default) writes there, never into the checkout (a stray
+    ``design-step.png`` was once committed from a test run in the repository)."""
+    monkeypatch.chdir(tmp_path_factory.mktemp("cwd"))

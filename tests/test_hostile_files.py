@@ -327,7 +327,7 @@ def test_options_given_twice_or_named_for_another_command_are_clear(tmp_path, ru
     refused(*run_cli("mc", DESIGN, "--n", "100", "--tol", "C1=1%", "--tol", "C1=2%"),
             needle="--tol C1: given twice")
     status, out, err = run_cli("mc", DESIGN, "--n", "100", "--creep-test", "X3")
-    refused(status, out, err, needle="accuracy class 'X3'")
+    refused(status, out, err, needle="--creep-test X3: expected an accuracy class")
     assert "--class" not in err
     status, out, err = run_cli("netlist", DESIGN, "-o", tmp_path / "a b;c.cir")
     assert status == 0, err

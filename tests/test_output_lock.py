@@ -69,3 +69,21 @@ def test_a_held_folder_is_refused_and_a_lock_left_by_a_dead_process_taken_over(t
     finally:
         release_outputs()
     assert not lock_path(report).exists() and not lock_path(folder).exists()
+
+
+@pytest.mark.parametrize("command", [["demo", "-o"], ["data", "export", "hidden_effect"]])
+def test_a_second_demo_or_export_into_a_held_folder_is_refused_in_one_line(tmp_path, command):
+    folder = tmp_path / "same"
+    first = _holder(tmp_path / "other.html", folder)
+    try:
+        second = subprocess.run([sys.executable, "-c", "from creepcomp.cli import run; run()", *command,
+                                 str(folder)], capture_output=True, text=True, timeout=300,
+                                env={**os.environ, "PYTHONPATH": SRC, "OPENBLAS_NUM_THREADS": "1",
+                                     "MPLBACKEND": "Agg"})
+        assert second.returncode == 2, second.stderr
+        lines = second.stderr.strip().splitlines()
+        assert len(lines) == 1 and "Traceback" not in second.stderr
+        assert f"is being written by another creepcomp run (pid {first.pid})" in lines[0]
+        assert not folder.exists()
+    finally:
+        first.communicate("")

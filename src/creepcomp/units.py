@@ -174,12 +174,15 @@ _PART = re.compile(r"([RC])\d+(?:\.\d+)?")
 def format_parameter(name: str, value: float | None, unit: str | None = None) -> str:
     """A parameter with its unit, by its name: parts (``R1.2``, ``C1``) and resistances
     (``source_resistance``) in Ω and F, times (``tau*``, ``*_tau``, ``delay``) in seconds
-    (instants, ``where``, to 7 digits), ``beta`` and ``absorption`` in percent, ``rate`` per
-    second, others as plain numbers (``unit``: a number with this unit instead); a kind as it
+    (instants, ``where``, to 7 digits), ``beta``, ``absorption`` and ``share`` in percent,
+    ``rate`` per second, ``samples`` as a count, a ``value`` with a unit to 10 digits, others
+    as plain numbers (``unit``: a number with this unit instead); a kind as it
     is, and a list item by item (an interval ``[a, b]`` as ``a to b``). A dotted name
     (``C1.1.absorption``) is read by its last part."""
     if unit is not None and not isinstance(value, (str, list, tuple)):
-        return "n/a" if value is None or not math.isfinite(value) else f"{value:.4g} {unit}"
+        # a value a record holds (a rail a signal is stuck at) to the digit, not to 4 digits
+        digits = 10 if name.split(".")[-1] == "value" else 4
+        return "n/a" if value is None or not math.isfinite(value) else f"{value:.{digits}g} {unit}"
     part = _PART.fullmatch(name)
     if part and isinstance(value, (int, float)) and math.isfinite(value):
         return format_quantity(value, "Ω" if part.group(1) == "R" else "F")
@@ -204,8 +207,10 @@ def format_parameter(name: str, value: float | None, unit: str | None = None) ->
         return f"{value:.5g} K"
     if name.startswith("tau") or name.endswith("_tau") or name in ("delay", "slip"):
         return format_quantity(value, "s")
-    if name.startswith("beta") or name == "absorption":
+    if name.startswith("beta") or name in ("absorption", "share"):
         return format_percent(value)
+    if name == "samples":
+        return f"{value:.0f} samples"
     if name == "rate":
         return f"{value:.4g} /s"
     return f"{value:.4g}"

@@ -98,7 +98,10 @@ def correct_command(
     scan, dt = done.scan, done.dt
     before, after = done.before, done.after
     unit = scan.unit("signal")
-    notes = _notes(scan, start, method, model)
+    from creepcomp.cli.fit import warn_rails
+
+    warn_rails(list(done.rails), unit)
+    notes = _notes(scan, start, method, model) + _renamed_notes(record_path, parse_columns(columns), scan, output)
     temperature_used = None
     if done.temperature is not None:
         temperature_used = {"source": done.temperature, "constant_C": constant}
@@ -119,6 +122,7 @@ def correct_command(
         "temperature": temperature_used, "extensions": inverses,
         "fitted_reference_rms": {"before": done.fitted_before, "after": done.fitted_after},
         "load_estimate": _load_figures(done.load_rms, scan),
+        "stuck_at_rail": [r.to_dict() for r in done.rails],
     }
     if as_json:
         print_json(result)
@@ -149,6 +153,7 @@ def _correct_whole(record_path, model, method, start, hold, output, out_meta, ma
 
     from creepcomp.digital.correctors import compensate, creep_error, load_from_compensated, uniform_interval
     from creepcomp.digital.record_file import FileCorrection, temperature_source
+    from creepcomp.io.rails import stuck_at_rail
     from creepcomp.io.records import RecordScan
 
     record = read_record(record_path, columns=mapping)
@@ -173,8 +178,9 @@ def _correct_whole(record_path, model, method, start, hold, output, out_meta, ma
     after = creep_error(record.time, compensated, record.load, model, method)
     load_estimate = load_from_compensated(compensated, model, method)
     if output is not None:
+        extra = _extra_columns(record_path, mapping, record)
         with progress_bar(f"writing {output.name}", total=len(record), disable=quiet) as update:
-            write_record(output, record, extra={"compensated": compensated, "load_estimate": load_estimate},
+            write_record(output, record, extra={**extra, "compensated": compensated, "load_estimate": load_estimate},
                          metadata=out_meta, progress=update)
     if plot is not None:
         from creepcomp.digital.correctors import reference
@@ -189,7 +195,31 @@ def _correct_whole(record_path, model, method, start, hold, output, out_meta, ma
     return FileCorrection(RecordScan.of(record), uniform_interval(record.time), before, after,
                           source, _fitted_rms(record.signal, record.load),
                           _fitted_rms(compensated, record.load),
-                          float(np.sqrt(np.mean((load_estimate - record.load) ** 2))))
+                          float(np.sqrt(np.mean((load_estimate - record.load) ** 2))),
+                          tuple(stuck_at_rail(record.signal)))
+
+
+def _renamed_notes(record_path, mapping, scan, output) -> list[str]:
+    """Notes for the extra columns ``-o`` writes under another name than the input's."""
+    if output is None:
+        return []
+    from creepcomp.io.extra_columns import open_extra_columns, output_names
+
+    with open_extra_columns(record_path, mapping) as extra:
+        names = output_names(extra.names, [*scan.names, "compensated", "load_estimate"])
+        return [f"the record's extra column '{old}' is written as '{new}' in {output} (the output "
+                f"has a column '{old}' of its own)" for old, new in zip(extra.names, names) if old != new]
+
+
+def _extra_columns(record_path, mapping, record) -> dict:
+    """The record file's extra columns as the file has them, under their output names
+    (:mod:`creepcomp.io.extra_columns`)."""
+    from creepcomp.io.extra_columns import open_extra_columns, output_names
+
+    with open_extra_columns(record_path, mapping) as extra:
+        cells = extra.take(len(record))
+        names = output_names(extra.names, [*dict(record.columns()), "compensated", "load_estimate"])
+    return {new: cells[old] for old, new in zip(extra.names, names)}
 
 
 def _extension_inverses(model) -> dict:

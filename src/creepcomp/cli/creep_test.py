@@ -58,7 +58,7 @@ def creep_test_command(
     if plot is not None and plot.suffix.lower() not in (".png", ".svg"):
         raise InputError(f"--plot {plot}: use a .png or .svg file")
     check_outputs({"--plot": plot}, inputs=[target])
-    limits = parse_class(accuracy_class, n_max)
+    limits = parse_class(accuracy_class, n_max, option="--class")
     program = CreepTestProgram(loading_time=quantity(loading_time, "second", "--loading-time", positive=True))
     kind, obj = _read_target(target, digital)
     model = obj.model if kind == "design" else obj

@@ -208,8 +208,11 @@ def demo_command(
     out: Path = typer.Option(Path("demo-output"), "-o", "--output", "--out", metavar="DIR",
                              help="Folder for the design files, plots and reports."),
 ) -> None:
-    """Size the default sensor's network by both rules, snap it, compare, and write the results."""
-    from creepcomp.io.outputs import check_output_dir
+    """Size the default sensor's network by both rules, snap it, compare, and write the results.
 
-    check_output_dir(out, "-o")
+    The folder is locked while the demo writes it: a second demo into the same folder at the
+    same time is refused (exit 2), as for every output of every command."""
+    from creepcomp.io.outputs import check_outputs
+
+    check_outputs(dirs={"-o": out})
     run_demo(out, console)

@@ -40,11 +40,13 @@ def _reader_options(delimiter: str | None, duplicate_times: str) -> tuple[str | 
 def load_reduced(path: Path, max_samples: tuple[int, ...], columns: str | None,
                  delimiter: str | None, duplicate_times: str, taxel: int | None = None,
                  sheet: str | None = None, quiet: bool = False,
-                 grown_samples: int | None = None) -> list[tuple[Record, str | None]]:
+                 grown_samples: int | None = None, rails: list | None = None
+                 ) -> list[tuple[Record, str | None]]:
     """Read a record with the command line's mapping options (and, for insole ``.mat`` files
     and creep ``.xlsx`` workbooks, their taxel or sheet), reduced to each of ``max_samples``
     (or ``grown_samples`` where blocks grow: :func:`creepcomp.fit.reduce.read_reduced`; a long
-    CSV is never held whole), with a progress bar."""
+    CSV is never held whole), with a progress bar. ``rails``, given, gets the signal's samples
+    stuck at a rail (:func:`creepcomp.io.rails.stuck_at_rail`)."""
     delim, mode = _reader_options(delimiter, duplicate_times)
     mapping = parse_columns(columns)
     from creepcomp.fit.reduce import read_reduced
@@ -53,7 +55,7 @@ def load_reduced(path: Path, max_samples: tuple[int, ...], columns: str | None,
         def read() -> list[tuple[Record, str | None]]:
             return read_reduced(path, max_samples, mapping, delimiter=delim, duplicate_times=mode,
                                 taxel=taxel, sheet=sheet, progress=update,
-                                grown_samples=grown_samples)
+                                grown_samples=grown_samples, rails=rails)
 
         if taxel is None and sheet is None:
             # a text record is parsed and reduced while the fit's modules are imported
@@ -90,6 +92,15 @@ def _read_while_importing(read: Callable[[], list[tuple[Record, str | None]]]
     if "error" in outcome:
         raise outcome["error"]
     return outcome["read"]
+
+
+def warn_rails(rails: list, unit: str = "") -> None:
+    """One warning line on stderr for a signal stuck at a rail (:mod:`creepcomp.io.rails`)."""
+    from creepcomp.io.rails import rail_warning
+
+    text = rail_warning(rails, unit)
+    if text:
+        err_console.print(f"creepcomp: warning: {text}", markup=False, highlight=False, soft_wrap=True)
 
 
 def record_options(initial: str, load_step_at: str | None) -> tuple[str, float | None]:
@@ -187,9 +198,11 @@ def fit_command(
     from creepcomp.fit.reduce import GROWN_FIT_SAMPLES, MAX_FIT_SAMPLES
 
     [record_path] = record_paths
+    rails: list = []
     [(record, reduction)] = load_reduced(record_path, (MAX_FIT_SAMPLES,), columns, delimiter,
                                          duplicate_times, taxel, sheet, quiet=as_json,
-                                         grown_samples=GROWN_FIT_SAMPLES)
+                                         grown_samples=GROWN_FIT_SAMPLES, rails=rails)
+    warn_rails(rails, record.unit("signal"))
     if mapped:
         fit_path(record, reduction, max_terms, init, output, plot, as_json)
         return
@@ -340,7 +353,9 @@ def fit_over_temperature(paths: list[Path], law: str, temperature: str | None, r
 
     records, notes = [], []
     for path in paths:
-        [(record, reduction)] = load_reduced(path, (MAX_FIT_SAMPLES,), *reader, quiet=as_json)
+        rails: list = []
+        [(record, reduction)] = load_reduced(path, (MAX_FIT_SAMPLES,), *reader, quiet=as_json, rails=rails)
+        warn_rails(rails, record.unit("signal"))
         records.append(record)
         if reduction:
             notes.append(f"{record.source}: {reduction}")

@@ -159,7 +159,7 @@ def mc_command(
     if creep_test is not None:
         from creepcomp.verify.creep_test import parse_class
 
-        test_limits = parse_class(creep_test)
+        test_limits = parse_class(creep_test, option="--creep-test")
     period = quantity(sweep_period, "second", "--sweep-period", positive=True)
     with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                   TimeElapsedColumn(), console=err_console, transient=True,

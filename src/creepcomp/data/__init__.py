@@ -244,10 +244,11 @@ def export(name: str, folder: str | Path = ".", force: bool = False) -> list[Pat
     3001
     """
     from creepcomp.io.atomic import write_bytes_atomic
-    from creepcomp.io.outputs import check_output_dir
+    from creepcomp.io.outputs import check_output_dir, lock_output
 
     entry = record(name)
     out = check_output_dir(folder, "DIR", contents=entry.export_names())
+    lock_output(out, "DIR")
     targets = [out / n for n in entry.export_names()]
     there = [t for t in targets if t.exists() or t.is_symlink()]
     if there and not force:

@@ -45,7 +45,7 @@ from creepcomp.diagnose import effects as effects_pkg
 from creepcomp.diagnose.effects import Effect, UnsettledInverse, compensate_extended
 from creepcomp.diagnose.workers import Workers, last_seconds
 from creepcomp.display import Shown, data_frame
-from creepcomp.errors import InputError
+from creepcomp.errors import InputError, NotApplicable
 from creepcomp.fit.blas import one_blas_thread
 from creepcomp.fit.data import Data, prepare
 from creepcomp.fit.structure import Applied, Structure
@@ -518,11 +518,14 @@ def _quick(data: Data, current: Fit, effect: Effect, step: int, trials: list) ->
     reason = effect.applicable(data, current.structure)
     if reason:
         if step == 1:
-            trials.append(Trial(step, effect.name, None, None, f"not tried: {reason}"))
+            trials.append(Trial(step, effect.name, None, None, f"does not apply ({reason})"))
         return None
     try:
         with screening():
             f = effect.fit_on(data, current, refine="own")
+    except NotApplicable as exc:
+        trials.append(Trial(step, effect.name, None, None, f"does not apply ({exc})"))
+        return None
     except (InputError, np.linalg.LinAlgError, ValueError) as exc:
         trials.append(Trial(step, effect.name, None, None, f"fit failed: {exc}"))
         return None

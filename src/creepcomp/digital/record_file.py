@@ -19,6 +19,8 @@ from creepcomp.digital.correctors import (CreepError, CreepErrorSum, Corrector, 
                                           default_initial, load_from_compensated, uniform_interval_of,
                                           FittedReferenceSum)
 from creepcomp.errors import InputError
+from creepcomp.io.rails import RailCounter
+from creepcomp.io.extra_columns import ExtraColumns, open_extra_columns, output_names
 from creepcomp.io.records import STREAM_BYTES, RecordScan, open_record_stream, record_writer
 from creepcomp.model import CreepModel
 
@@ -47,6 +49,9 @@ class FileCorrection:
     load_rms : float or None
         RMS error of the load estimate (the whole model's inverse) against the record's load,
         in load units.
+    rails : tuple of Rail
+        The signal's samples stuck at a rail (:func:`creepcomp.io.rails.stuck_at_rail`): kept
+        and corrected as they are.
     """
 
     scan: RecordScan
@@ -57,6 +62,7 @@ class FileCorrection:
     fitted_before: float | None = None
     fitted_after: float | None = None
     load_rms: float | None = None
+    rails: tuple = ()
 
 
 def temperature_source(model: CreepModel, has_column: bool, constant: float | None,
@@ -88,8 +94,9 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
                         progress: Callable[..., None] | None = None,
                         block_bytes: int = STREAM_BYTES,
                         temperature: float | None = None) -> FileCorrection | None:
-    """Compensate a record file piece by piece; optionally write its columns plus
-    ``compensated`` to ``output`` (atomically).
+    """Compensate a record file piece by piece; optionally write its columns, its extra
+    columns as they are (:mod:`creepcomp.io.extra_columns`), ``compensated`` and
+    ``load_estimate`` to ``output`` (atomically).
 
     Parameters
     ----------
@@ -129,17 +136,24 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
     fitted_before, fitted_after = FittedReferenceSum(), FittedReferenceSum()
     if progress:
         progress(0, scan.samples, "correcting")
-    writing = (record_writer(output, [*scan.names, "compensated", "load_estimate"],
-                             {**scan.metadata, **(output_metadata or {})})
-               if output is not None else contextlib.nullcontext())
+    extras = (open_extra_columns(path, columns) if output is not None
+              else contextlib.nullcontext(ExtraColumns([], [], None)))
     done = 0
     load_square = 0.0
-    with writing as write:
+    rails = RailCounter()
+    with extras as extra, contextlib.ExitStack() as stack:
+        names = output_names(extra.names, [*scan.names, "compensated", "load_estimate"])
+        write = None
+        if output is not None:
+            write = stack.enter_context(record_writer(
+                output, [*scan.names, *names, "compensated", "load_estimate"],
+                {**scan.metadata, **(output_metadata or {})}))
         for piece in stream:
             temps = (None if source is None else
                      piece.temperature if source == "column" else temperature)
             compensated = (corrector.process(piece.signal, temperature=temps) if dt is not None
                            else corrector.process(piece.signal, piece.time, temperature=temps))
+            rails.add(piece.signal)
             before.add(piece.time, piece.signal, piece.load)
             after.add(piece.time, compensated, piece.load)
             fitted_before.add(piece.signal, piece.load)
@@ -147,7 +161,9 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
             load_estimate = load_from_compensated(compensated, model, method)
             load_square += float(((load_estimate - piece.load) ** 2).sum())
             if write is not None:
-                write({**piece.columns(), "compensated": compensated, "load_estimate": load_estimate})
+                cells = extra.take(len(piece))
+                write({**piece.columns(), **{new: cells[old] for old, new in zip(extra.names, names)},
+                       "compensated": compensated, "load_estimate": load_estimate})
             done += len(piece)
             if progress:
                 progress(done, scan.samples)
@@ -156,4 +172,5 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
                 write.discard()
             return None                             # the file changed between the passes
     return FileCorrection(scan, dt, before.result(), after.result(), source, fitted_before.result(),
-                          fitted_after.result(), (load_square / scan.samples) ** 0.5)
+                          fitted_after.result(), (load_square / scan.samples) ** 0.5,
+                          tuple(rails.result()))

@@ -252,13 +252,19 @@ class NoiseFloor:
 
 def quantisation_step(y: np.ndarray) -> float:
     """The step of the grid the values lie on (the smallest change between successive samples,
-    when nearly all changes are whole multiples of it), or 0."""
+    when nearly all changes are whole multiples of it), or 0.
+
+    A grid needs three levels at least: a signal that takes two values only (one that follows
+    a load between two levels at every sample, without noise) changes by its whole range
+    every time, which shows no grid."""
     d = np.abs(np.diff(np.asarray(y, float)))
     scale = float(np.max(np.abs(y))) if len(y) else 0.0
     d = d[d > 1e-9 * max(scale, 1e-300)]
     if len(d) < 10:
         return 0.0
     q = float(np.min(d))
+    if float(np.ptp(y)) < 1.999 * q:
+        return 0.0
     multiples = d / q
     on_grid = np.abs(multiples - np.round(multiples)) <= 1e-3
     return q if np.mean(on_grid) >= 0.99 else 0.0

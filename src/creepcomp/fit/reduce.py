@@ -286,7 +286,8 @@ def read_reduced(path: str | Path, max_samples: Sequence[int] = (MAX_FIT_SAMPLES
                  duplicate_times: str = "error", taxel: int | None = None, sheet: str | None = None,
                  progress: Callable[..., None] | None = None,
                  block_bytes: int = STREAM_BYTES,
-                 grown_samples: int | None = None) -> list[tuple[Record, str | None]]:
+                 grown_samples: int | None = None,
+                 rails: list | None = None) -> list[tuple[Record, str | None]]:
     """Read a record file and reduce it (:func:`reduce_record`) to each of ``max_samples``.
 
     A plain CSV file of more than :data:`~creepcomp.io.records.WHOLE_PIECES` pieces
@@ -312,6 +313,9 @@ def read_reduced(path: str | Path, max_samples: Sequence[int] = (MAX_FIT_SAMPLES
         (:func:`~creepcomp.io.records.open_record_stream`).
     grown_samples : int, optional
         As :func:`reduce_record`, for every reduction.
+    rails : list, optional
+        Given, the signal's samples stuck at a rail (:func:`creepcomp.io.rails.stuck_at_rail`,
+        on every sample of the record, before any reduction) are appended to it.
 
     Returns
     -------
@@ -319,15 +323,21 @@ def read_reduced(path: str | Path, max_samples: Sequence[int] = (MAX_FIT_SAMPLES
         One reduced record and its note per entry of ``max_samples``.
     """
     from creepcomp.io.formats import read_any
+    from creepcomp.io.rails import RailCounter, stuck_at_rail
 
     if isinstance(path, (str, os.PathLike)) and not reads_whole(path, duplicate_times, taxel, sheet,
                                                                 block_bytes):
+        counter = RailCounter()
         reduced = _read_reduced_chunks(path, _targets(max_samples), columns, delimiter, progress,
-                                       block_bytes, grown_samples)
+                                       block_bytes, grown_samples, counter)
         if reduced is not None:
+            if rails is not None:
+                rails.extend(counter.result())
             return reduced
     record = read_any(path, columns, delimiter=delimiter, duplicate_times=duplicate_times,
                       taxel=taxel, sheet=sheet)
+    if rails is not None:
+        rails.extend(stuck_at_rail(record.signal))
     return reduce_all(record, max_samples, grown_samples)
 
 
@@ -342,7 +352,8 @@ def reduce_all(record: Record, max_samples: Sequence[int] = (MAX_FIT_SAMPLES,),
     return [reduce_record(record, m, grown_samples) for m in _targets(max_samples)]
 
 
-def _read_reduced_chunks(path, targets, columns, delimiter, progress, block_bytes, grown_samples):
+def _read_reduced_chunks(path, targets, columns, delimiter, progress, block_bytes, grown_samples,
+                         rails=None):
     """The reductions made while reading the file in pieces, or None for a file to read whole."""
     stream = open_record_stream(path, columns, delimiter, block_bytes)
     scan = stream.scan(max_changes=max(targets) // 4, progress=progress)
@@ -357,6 +368,8 @@ def _read_reduced_chunks(path, targets, columns, delimiter, progress, block_byte
     lo = 0
     for piece in stream:
         hi = lo + len(piece)
+        if rails is not None:
+            rails.add(piece.signal)
         for (starts, _, within, _), total in zip(plans, sums):
             first = int(np.searchsorted(starts, lo, side="right")) - 1
             inner = starts[first + 1:np.searchsorted(starts, hi, side="left")]

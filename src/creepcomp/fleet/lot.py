@@ -69,6 +69,12 @@ def _value(row: dict, key: str, log: bool) -> float:
     return math.log10(v) if log else float(v)
 
 
+def _common(values) -> str | None:
+    """The one non-empty value of ``values``, or None (none, or several)."""
+    seen = {v for v in values if v}
+    return seen.pop() if len(seen) == 1 else None
+
+
 def lot_summary(rows: list[dict], look_first: int = 20) -> dict:
     """What the lot report shows, computed from the table's rows.
 
@@ -86,7 +92,9 @@ def lot_summary(rows: list[dict], look_first: int = 20) -> dict:
         ``none`` included), ``parameters`` (label -> ``values``, ``median``, ``p5``, ``p95``,
         ``unit``, ``log``), ``outliers`` (unit, parameter, value, z; largest first),
         ``out_of_spec`` (rows, worst first), ``not_judged`` (ok rows whose spec verdict was
-        not given), ``look_first`` (unit, reasons, row) and ``z_limit``.
+        not given), ``look_first`` (unit, reasons, row), ``z_limit`` and ``record_units``
+        (``signal`` and ``load``: the unit every processed record gives, or None when they
+        differ or none is given).
     """
     ok = [r for r in rows if r.get("status") == "ok"]
     failed = [r for r in rows if r.get("status") != "ok"]
@@ -141,5 +149,6 @@ def lot_summary(rows: list[dict], look_first: int = 20) -> dict:
             "effects": dict(sorted(effects.items(), key=lambda kv: (-kv[1], kv[0]))),
             "parameters": params, "outliers": outliers, "out_of_spec": out_of_spec,
             "not_judged": not_judged, "z_limit": ROBUST_Z_LIMIT,
+            "record_units": {k: _common(r.get(f"{k}_unit") for r in ok) for k in ("signal", "load")},
             "look_first": [{"unit": u, "reasons": reasons, "row": r}
                            for _, u, reasons, r in ranked[:look_first]]}

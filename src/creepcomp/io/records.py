@@ -894,7 +894,7 @@ def record_writer(path: str | Path, names: list[str], metadata: Mapping[str, str
     p.parent.mkdir(parents=True, exist_ok=True)
     try:
         with atomic_path(p) as tmp, tmp.open("wb") as fh:
-            head = "".join(f"# {key}: {value}\n" for key, value in metadata.items()) + ",".join(names) + "\n"
+            head = "".join(f"# {key}: {value}\n" for key, value in metadata.items()) + _csv_line(names)
             fh.write(head.encode("utf-8"))
             writer = _PieceWriter(fh, list(names), digits)
             yield writer
@@ -902,6 +902,26 @@ def record_writer(path: str | Path, names: list[str], metadata: Mapping[str, str
                 raise _Discarded()        # atomic_path removes its file when the block raises
     except _Discarded:
         pass
+
+
+def _is_text(values) -> bool:
+    """A column of text cells (a list of str, or a numpy array of str or objects)."""
+    if isinstance(values, np.ndarray):
+        return values.dtype.kind in "OUS"
+    return bool(len(values)) and isinstance(values[0], str)
+
+
+def _csv_field(text: str) -> str:
+    """One CSV field: quoted (quotes doubled) when it holds the delimiter, a quote, a line
+    break or leading or trailing blanks; as it is otherwise."""
+    if any(c in text for c in ',"\r\n') or text != text.strip():
+        return '"' + text.replace('"', '""') + '"'
+    return text
+
+
+def _csv_line(names: list[str]) -> str:
+    """A header line of column names."""
+    return ",".join(_csv_field(str(n)) for n in names) + "\n"
 
 
 class _Discarded(Exception):
@@ -923,6 +943,9 @@ class _PieceWriter:
         import pyarrow.csv as pacsv
 
         names = self._names
+        if any(_is_text(columns[k]) for k in names):
+            self._write_with_text(columns)
+            return
         for lo in range(0, len(columns[names[0]]), WRITE_ROWS):
             part = {k: np.asarray(columns[k], dtype=float)[lo:lo + WRITE_ROWS] for k in names}
             if self._digits is None:
@@ -930,6 +953,39 @@ class _PieceWriter:
             else:
                 np.savetxt(self._fh, np.column_stack(list(part.values())), delimiter=",",
                            fmt=f"%.{int(self._digits)}g")
+
+    def _write_with_text(self, columns: Mapping[str, np.ndarray]) -> None:
+        """Rows holding text columns (a record's extra columns passed through as they were
+        written): each run of number columns is written as the other rows are, the text cells
+        quoted where CSV needs it."""
+        names = self._names
+        n = len(columns[names[0]])
+        for lo in range(0, n, WRITE_ROWS):
+            hi = min(lo + WRITE_ROWS, n)
+            parts = []
+            for text, group in itertools.groupby(names, key=lambda k: _is_text(columns[k])):
+                group = list(group)
+                if text:
+                    parts.append([",".join(_csv_field(str(columns[k][i])) for k in group)
+                                  for i in range(lo, hi)])
+                else:
+                    parts.append(self._number_lines({k: columns[k][lo:hi] for k in group}))
+            self._fh.write("".join(",".join(cells) + "\n" for cells in zip(*parts)).encode("utf-8"))
+
+    def _number_lines(self, part: Mapping[str, np.ndarray]) -> list[str]:
+        """The number columns' cells of rows, one text per row, written as :meth:`__call__`
+        writes them."""
+        import pyarrow as pa
+        import pyarrow.csv as pacsv
+
+        buffer = io.BytesIO()
+        part = {k: np.asarray(v, dtype=float) for k, v in part.items()}
+        if self._digits is None:
+            pacsv.write_csv(pa.table(part), buffer, self._options)
+        else:
+            np.savetxt(buffer, np.column_stack(list(part.values())), delimiter=",",
+                       fmt=f"%.{int(self._digits)}g")
+        return buffer.getvalue().decode("ascii").splitlines()
 
     def discard(self) -> None:
         """Leave no file when the writer's block ends."""
@@ -949,7 +1005,9 @@ def write_record(path: str | Path, record: Record, extra: Mapping[str, np.ndarra
     path : str or Path
     record : Record
     extra : mapping, optional
-        More columns, one value per sample.
+        More columns, one value per sample: numbers, or text cells (a list of str, such as
+        a record's extra columns passed through: :mod:`creepcomp.io.extra_columns`), written
+        as they are (quoted where CSV needs it).
     metadata : mapping, optional
         ``# key: value`` lines added to the record's.
     digits : int, optional
@@ -959,9 +1017,10 @@ def write_record(path: str | Path, record: Record, extra: Mapping[str, np.ndarra
     """
     cols = dict(record.columns())
     for name, values in (extra or {}).items():
-        values = np.asarray(values, dtype=float)
-        if values.shape != record.time.shape:
-            raise InputError(f"column '{name}' has {values.size} values for {len(record)} samples")
+        if not _is_text(values):
+            values = np.asarray(values, dtype=float)
+        if len(values) != len(record) or (isinstance(values, np.ndarray) and values.ndim != 1):
+            raise InputError(f"column '{name}' has {np.size(values)} values for {len(record)} samples")
         cols[name] = values
     meta = dict(record.metadata)
     meta.update(metadata or {})

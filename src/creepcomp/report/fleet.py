@@ -15,10 +15,10 @@ from matplotlib.ticker import MaxNLocator
 import numpy as np
 
 from creepcomp.io.atomic import write_text_atomic
-from creepcomp.report.common import figure_data_uri, format_cell, render_template
-from creepcomp.units import format_percent
+from creepcomp.report.common import figure_data_uri, render_template
+from creepcomp.units import format_percent, format_time
 
-__all__ = ["parameter_figure", "effect_figure", "lot_report_html", "write_lot_report"]
+__all__ = ["value_text", "parameter_figure", "effect_figure", "lot_report_html", "write_lot_report"]
 
 
 def _label(name: str, unit: str) -> str:
@@ -75,6 +75,28 @@ def effect_figure(effects: dict, n_ok: int):
     return fig
 
 
+def value_text(value, unit: str, record_units: dict | None = None) -> str:
+    """A parameter's value with its unit (``PARAMETERS``' units): ``s`` as a time, ``FS`` as
+    percent of full scale, a fraction as percent, ``signal`` and ``signal/load`` in the
+    records' own units when the lot shares them (else "signal units", "load unit");
+    ``–`` for a missing value."""
+    if value is None or not math.isfinite(value):
+        return "–"
+    if unit == "s":
+        return format_time(value)
+    if unit == "FS":
+        return f"{format_percent(value)} of full scale"
+    if unit in ("", "fraction"):
+        return format_percent(value)
+    record_units = record_units or {}
+    su = record_units.get("signal") or "signal units"
+    if unit == "signal/load":
+        return f"{value:.4g} {su}/{record_units.get('load') or 'load unit'}"
+    if unit == "signal":
+        return f"{value:.4g} {su}"
+    return f"{value:.4g} {unit}".strip()
+
+
 def _unit_row(r: dict) -> list:
     return [r["unit"], r.get("cause") or "–", r.get("findings") or "–",
             format_percent(r.get("residual_creep")), format_percent(r.get("creep_step")),
@@ -96,6 +118,7 @@ def lot_report_html(summary: dict, meta: dict) -> str:
     n_in = ok - len(summary["out_of_spec"]) - len(summary["not_judged"])
     effects = summary["effects"]
     parameters = summary["parameters"]
+    record_units = summary.get("record_units")
     return render_template(
         "fleet.html.j2", title="creepcomp fleet: lot report",
         overview=[summary["n"], ok, len(summary["failed"]), n_in, len(summary["out_of_spec"]),
@@ -104,11 +127,12 @@ def lot_report_html(summary: dict, meta: dict) -> str:
         look_first=[[u["unit"], "; ".join(u["reasons"]), u["row"]["file"]] for u in summary["look_first"]],
         effects=[[k, v, format_percent(v / max(ok, 1))] for k, v in effects.items()],
         effects_png=figure_data_uri(effect_figure(effects, ok)) if effects else "",
-        parameters=[[k, format_cell(p["median"]), format_cell(p["p5"]), format_cell(p["p95"]), len(p["values"])]
-                    for k, p in parameters.items()],
+        parameters=[[k] + [value_text(p[q], p["unit"], record_units) for q in ("median", "p5", "p95")]
+                    + [len(p["values"])] for k, p in parameters.items()],
         parameters_png=figure_data_uri(parameter_figure(parameters, spec)) if parameters else "",
         z_limit=f"{summary['z_limit']:g}",
-        outliers=[[o["unit"], o["parameter"], format_cell(o["value"]), f"{o['z']:+.1f}"]
+        outliers=[[o["unit"], o["parameter"], value_text(o["value"], o["unit_of_value"], record_units),
+                   f"{o['z']:+.1f}"]
                   for o in summary["outliers"]],
         units_header=["unit", "cause", "findings", "residual creep", "creep uncorrected", "beta0", "file"],
         out_of_spec=[_unit_row(r) for r in summary["out_of_spec"]],

@@ -163,8 +163,19 @@ def fit_summary_of(result) -> Summary:
 
 # --- diagnosis ---------------------------------------------------------------------------------
 
+#: What a table prints for a number that is missing or not finite (the JSON's null): one mark
+#: for the terminal and the HTML tables alike (:func:`creepcomp.report.common.format_cell`).
+MISSING = "–"
+
+
+def _num(x, spec: str) -> str:
+    """``x`` formatted by ``spec``, or :data:`MISSING` for None and non-finite values (never
+    ``nan``)."""
+    return MISSING if x is None or not math.isfinite(x) else format(x, spec)
+
+
 def _ratio(x) -> str:
-    return "-" if x is None or not math.isfinite(x) else f"{x:.3g}"
+    return _num(x, ".3g")
 
 
 def diagnosis_tables(d, units: dict | None = None) -> tuple[Table, ...]:
@@ -178,26 +189,26 @@ def diagnosis_tables(d, units: dict | None = None) -> tuple[Table, ...]:
         cols = [Column(c, "right" if c.startswith(("Δ", "held")) else "left")
                 for c in ("effect", "parameters (± 1 sigma)", "ΔBIC", "held-out RMS ratio", "held-out z")]
         tables.append(Table.of("Findings (most important first)", cols,
-                               [(f.effect, f.parameters_text(units), f"{f.evidence.delta_bic:.1f}",
-                                 f"{f.evidence.heldout_rms_ratio:.3g}", f"{f.evidence.heldout_z:.1f}")
+                               [(f.effect, f.parameters_text(units), _num(f.evidence.delta_bic, ".1f"),
+                                 _num(f.evidence.heldout_rms_ratio, ".3g"), _num(f.evidence.heldout_z, ".1f"))
                                 for f in d.findings]))
     cols = [Column(c, "right" if c in ("step", "ΔBIC", "held-out z") else "left")
             for c in ("step", "effect", "ΔBIC", "held-out z", "outcome")]
     tables.append(Table.of(f"Candidates (accepted: ΔBIC <= -{BIC_STRONG:g} and held-out z >= {HELDOUT_Z:g})",
-                           cols, [(str(t.step), t.effect, "-" if t.delta_bic is None else f"{t.delta_bic:.1f}",
-                                   f"{t.evidence.heldout_z:.1f}" if t.evidence else "-", t.outcome)
+                           cols, [(str(t.step), t.effect, _num(t.delta_bic, ".1f"),
+                                   _num(t.evidence.heldout_z, ".1f") if t.evidence else MISSING, t.outcome)
                                   for t in d.trials]))
     b, e, g = d.baseline, d.extended, d.gain
     rows = [(f"held-out residual RMS ({su or 'signal units'})",
-             f"{b.heldout.rms:.4g}" if b.heldout else "-", f"{e.heldout.rms:.4g}" if e.heldout else "-",
+             _num(b.heldout.rms, ".4g") if b.heldout else MISSING, _num(e.heldout.rms, ".4g") if e.heldout else MISSING,
              _ratio(g.get("heldout_rms_ratio")))]
     if g.get("correction_error_ratio") is not None:
         rows.append((f"corrected signal vs load, RMS error ({su or 'signal units'})",
-                     f"{g['correction_error_baseline']:.4g}", f"{g['correction_error_extended']:.4g}",
+                     _num(g['correction_error_baseline'], ".4g"), _num(g['correction_error_extended'], ".4g"),
                      _ratio(g["correction_error_ratio"])))
     elif g.get("correction_unsettled"):
         rows.append((f"corrected signal vs load, RMS error ({su or 'signal units'})",
-                     f"{g['correction_error_baseline']:.4g}", "not measured", "-"))
+                     _num(g['correction_error_baseline'], ".4g"), "not measured", MISSING))
     tables.append(Table.of("Gain", ("", "baseline", "extended", "ratio"), rows))
     return tuple(tables)
 
@@ -228,9 +239,10 @@ def circuit_tables(cd) -> dict:
         cols = [Column(c, "right" if c.startswith(("Δ", "held")) else "left")
                 for c in ("effect", "part", "parameters (± 1 sigma)", "ΔBIC", "held-out RMS ratio", "held-out z")]
         out["findings"] = Table.of("Circuit findings (most important first)", cols, [
-            (f.effect, f.part or "-", "; ".join(f"{k} = {quantity(k, v)} ± {quantity(k, f.uncertainty.get(k))}"
+            (f.effect, f.part or MISSING, "; ".join(f"{k} = {quantity(k, v)} ± {quantity(k, f.uncertainty.get(k))}"
                                                 for k, v in f.parameters.items()),
-             f"{f.evidence.delta_bic:.1f}", f"{f.evidence.heldout_rms_ratio:.3g}", f"{f.evidence.heldout_z:.1f}")
+             _num(f.evidence.delta_bic, ".1f"), _num(f.evidence.heldout_rms_ratio, ".3g"),
+             _num(f.evidence.heldout_z, ".1f"))
             for f in cd.findings])
         design, built = elements(cd.baseline.network), elements(cd.extended.network)
         out["as_built"] = Table.of("As-built network", [Column("element", "left"), "design", "as built"],
@@ -637,11 +649,11 @@ def members_table(candidates, chosen: str, split_time, load_range: float, load_u
     """Each member of the signal-path family with its held-out load error (``diagnose``'s
     recommendation, ``fit --transfer auto``)."""
     def percent(x):
-        return f"{100 * x:.3g} %" if math.isfinite(x) else "-"
+        return f"{100 * x:.3g} %" if math.isfinite(x) else MISSING
 
     rows = []
     for c in candidates:
-        windows = " / ".join(percent(w) for w in c.windows) if c.windows else "-"
+        windows = " / ".join(percent(w) for w in c.windows) if c.windows else MISSING
         rows.append((c.name, percent(c.heldout_load_rms), windows,
                      "chosen" if c.name == chosen else (c.reason or "")))
     unit = f" {load_unit}" if load_unit else ""

@@ -176,15 +176,22 @@ def creep_limits(accuracy_class: str, n_max: int | None = None) -> CreepLimits:
     return CreepLimits(key, n, mpe, creep, late, dr, derivation)
 
 
-def parse_class(text: str, n_max: int | None = None) -> CreepLimits:
+def parse_class(text: str, n_max: int | None = None, option: str | None = None) -> CreepLimits:
     """Limits from a designation such as ``C3`` (class C, 3 000 intervals) or ``C`` (the class's
-    default); ``n_max`` overrides the number the designation gives."""
+    default); ``n_max`` overrides the number the designation gives. ``option`` (e.g.
+    ``--creep-test``) is the command-line option that gave ``text``: an error names it."""
+    where = f"accuracy class '{text}'" if option is None else f"{option} {text}"
     m = re.fullmatch(r"\s*([A-Da-d])\s*(\d+(?:\.\d+)?)?\s*", str(text))
     if not m:
-        raise InputError(f"accuracy class '{text}': expected a class and thousands of intervals, e.g. C3 "
+        raise InputError(f"{where}: expected an accuracy class and thousands of intervals, e.g. C3 "
                          "(class C, 3000 intervals), or a class alone (A, B, C, D)")
     given = None if m.group(2) is None else int(round(float(m.group(2)) * 1000))
-    return creep_limits(m.group(1), n_max if n_max is not None else given)
+    try:
+        return creep_limits(m.group(1), n_max if n_max is not None else given)
+    except InputError as exc:
+        if option is None:
+            raise
+        raise InputError(f"{where}: {exc}") from None
 
 
 #: The OIML R 60 class C3 creep limit (fraction of full scale), used as ``fleet --spec``'s default.

@@ -1,6 +1,6 @@
 """``data_problem``: the record itself is at fault.
 
-Four kinds, each found with ``where`` it is (times, s):
+Five kinds, each found with ``where`` it is (times, s):
 
 - ``jump``: the signal steps where no load change explains it (a connector, a range switch,
   a re-zeroed amplifier). Fitted: candidate times are found in the current model's residual
@@ -18,8 +18,16 @@ Four kinds, each found with ``where`` it is (times, s):
 - ``quantisation``: the signal's value grid is coarser than its noise (the quantisation's
   step^2/12 is at least half the noise floor's variance): creep and effects smaller than a step are not measured.
   ``where``: the record's span; ``step``: the grid step.
+- ``load_toggling``: the load changes at (nearly) every sample, back and forth: there is no
+  hold for creep to show in (two channels interleaved, a flag or clock read as the load).
+  ``where``: the record's span; ``share``: the share of the load's changes that reverse the
+  one before.
 
-The last three are screened from the record and the fitted model (:func:`screen`), not
+Clipping also counts samples stuck at a converter's rail, or in a flat run at the extreme
+far longer than any other (:mod:`creepcomp.io.rails`): ``value`` and ``samples`` then give
+each rail's value (signal units) and its samples.
+
+The last four are screened from the record and the fitted model (:func:`screen`), not
 fitted: no column of a model can undo them.
 """
 
@@ -29,9 +37,10 @@ import math
 
 import numpy as np
 
-from creepcomp.errors import InputError
+from creepcomp.errors import InputError, NotApplicable
 from creepcomp.fit.data import Data
 from creepcomp.fit.noise import noise_floor, quantisation_step
+from creepcomp.io.rails import stuck_at_rail
 from creepcomp.fit.structure import Applied
 from creepcomp.fit.solver import Fit
 from creepcomp.diagnose.effects import SensorEffect
@@ -116,10 +125,24 @@ def screen(data: Data, fit: Fit, base: Fit | None = None) -> list[dict]:
     (before any effect: one that follows a delay, fitted to a record whose delay changes,
     takes up part of the change)."""
     out = []
+    toggling = _load_toggling(data)
+    if toggling:
+        out.append(toggling)
     floor = noise_floor(data.signal, data.load, data.time, follows_lag=True)
     clip = _clipping(data, fit, floor)
+    rails = stuck_at_rail(data.signal)
+    for rail in rails:
+        t = data.time
+        for a, b in rail.spans:
+            span = [float(t[a]), float(t[b - 1])]
+            if not any(c[0] <= span[0] and span[1] <= c[1] for c in clip):
+                clip.append(span)
     if clip:
-        out.append({"kind": "clipping", "where": clip})
+        problem = {"kind": "clipping", "where": sorted(clip)}
+        if rails:
+            problem["value"] = [r.value for r in rails]
+            problem["samples"] = [r.samples for r in rails]
+        out.append(problem)
     slip = _out_of_step(data, fit)
     if slip is None and base is not None and base is not fit:
         slip = _out_of_step(data, base)
@@ -129,6 +152,30 @@ def screen(data: Data, fit: Fit, base: Fit | None = None) -> list[dict]:
     if q > 0 and q * q / 12.0 >= QUANTISATION_SHARE * floor.rms ** 2:
         out.append({"kind": "quantisation", "where": [data.t0, float(data.time[-1])], "step": q})
     return out
+
+
+#: A load toggles when it reverses at least this share of its successive changes, each more
+#: than :data:`LOAD_QUIET` of its range ...
+TOGGLE_SHARE = 0.9
+#: ... over at least this many samples.
+TOGGLE_SAMPLES = 20
+
+
+def _load_toggling(data: Data) -> dict | None:
+    """The load changing at (nearly) every sample, back and forth: no hold for creep to show
+    in (two channels interleaved, a flag or clock read as the load, the load and another
+    column swapped). ``where``: the record's span; ``share``: the share of the successive
+    load changes that reverse the one before."""
+    x = np.asarray(data.load, float)
+    if len(x) < TOGGLE_SAMPLES:
+        return None
+    dx = np.diff(x)
+    big = np.abs(dx) > LOAD_QUIET * max(float(np.ptp(x)), 1e-300)
+    reverses = big[1:] & big[:-1] & (np.sign(dx[1:]) == -np.sign(dx[:-1]))
+    share = float(np.mean(reverses))
+    if share < TOGGLE_SHARE:
+        return None
+    return {"kind": "load_toggling", "where": [data.t0, float(data.time[-1])], "share": share}
 
 
 #: Quantisation dominates when its variance step^2/12 is at least this share of the noise floor's.
@@ -251,8 +298,9 @@ class DataProblem(SensorEffect):
     unloads = True
     record_problem = True
     parameters = ("kind", "where")
-    parameter_units = {"size": "signal", "step": "signal"}
-    summary = "the record itself is at fault (signal jumps no load explains, clipping, channels out of step, coarse quantisation)"
+    parameter_units = {"size": "signal", "step": "signal", "value": "signal"}
+    summary = ("the record itself is at fault (signal jumps no load explains, clipping, channels out of "
+               "step, coarse quantisation, a load that toggles at every sample)")
     describes_record = True
 
     _override = None
@@ -266,7 +314,7 @@ class DataProblem(SensorEffect):
     def fit_on(self, data: Data, base: Fit, refine: str = "all", start: dict | None = None) -> Fit:
         applied = Applied(self, self.settings(data, base))
         if not applied.setting("jumps"):
-            raise InputError("no signal jump that no load change explains")
+            raise NotApplicable("no signal jump that no load change explains")
         fit = super().fit_on(data, base, refine, start)
         # keep the jumps whose fitted height stands out of its uncertainty
         keep = [j for j, i in enumerate(applied.setting("jumps"))
