@@ -189,6 +189,23 @@ def test_cli_reads_a_workbook_sheet(run_cli, tmp_path):
     assert status == 2 and "a taxel applies to insole .mat files only" in err
 
 
+def test_correct_reads_an_insole_taxel(run_cli, tmp_path):
+    path = insole_mat(tmp_path / "i.mat")
+    model = tmp_path / "static.json"
+    model.write_text('{"beta": [], "tau": [], "gain": -10.0, "offset": 240.0}')
+    status, _, err = run_cli("correct", path, "--model", model)
+    assert status == 2 and "--taxel" in err
+    out = tmp_path / "c.csv"
+    status, stdout, err = run_cli("correct", path, "--taxel", "3", "--model", model, "-o", out)
+    assert status == 0, err
+    assert "static calibration" in stdout
+    corrected = read_any(out)
+    assert corrected.metadata["insole.taxel"] == "3"
+    header, *rows = [line.split(",") for line in out.read_text().splitlines() if not line.startswith("#")]
+    estimate = np.array([float(row[header.index("load_estimate")]) for row in rows])
+    np.testing.assert_allclose(estimate, corrected.load, atol=0.1)
+
+
 # ----------------------------------------------------------------------------- shipped copies
 
 SHIPPED = {

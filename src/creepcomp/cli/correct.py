@@ -13,6 +13,7 @@ from creepcomp.io.outputs import check_outputs
 from creepcomp.io.records import parse_columns, read_record, write_record
 from creepcomp.units import format_percent, format_quantity
 from creepcomp.cli.common import app, console, print_json, progress_bar
+from creepcomp.cli.fit import SHEET_OPTION, TAXEL_OPTION
 from creepcomp.report.results import correction_table, describe_model
 
 #: A record "starts loaded" when its first load is above this fraction of its largest load.
@@ -59,6 +60,8 @@ def correct_command(
                                                    "'temperature' column."),
     columns: Optional[str] = typer.Option(None, "--columns", metavar="MAP",
                                           help="Column mapping, e.g. time=tR,load=P,signal=Ri."),
+    taxel: Optional[int] = TAXEL_OPTION,
+    sheet: Optional[str] = SHEET_OPTION,
     output: Optional[Path] = typer.Option(None, "-o", "--output", metavar="out.csv",
                                           help="Write the record's columns plus 'compensated' and "
                                                "'load_estimate' (the load, in load units)."),
@@ -89,19 +92,22 @@ def correct_command(
         out_meta["compensated.temperature"] = f"{constant:g} °C"
     inverses = _extension_inverses(model)
     done = None
-    if plot is None and not inverses and model.transfer is None and not model.is_static:
+    text = not _measured_file(record_path, taxel, sheet)
+    if text and plot is None and not inverses and model.transfer is None and not model.is_static:
         done = _correct_in_pieces(record_path, model, method, start, hold, output, out_meta,
                                   parse_columns(columns), as_json, constant)
     if done is None:
         done = _correct_whole(record_path, model, method, start, hold, output, out_meta,
-                              parse_columns(columns), plot, as_json, constant)
+                              parse_columns(columns), plot, as_json, constant, taxel, sheet)
     scan, dt = done.scan, done.dt
     before, after = done.before, done.after
     unit = scan.unit("signal")
     from creepcomp.cli.fit import warn_rails
 
     warn_rails(list(done.rails), unit)
-    notes = _notes(scan, start, method, model) + _renamed_notes(record_path, parse_columns(columns), scan, output)
+    notes = _notes(scan, start, method, model)
+    if text:
+        notes += _renamed_notes(record_path, parse_columns(columns), scan, output)
     temperature_used = None
     if done.temperature is not None:
         temperature_used = {"source": done.temperature, "constant_C": constant}
@@ -146,8 +152,14 @@ def _correct_in_pieces(record_path, model, method, start, hold, output, out_meta
                                    progress=update, temperature=constant)
 
 
+def _measured_file(record_path, taxel, sheet) -> bool:
+    """An insole ``.mat`` file or an ``.xlsx`` workbook (read whole, one taxel or sheet, no
+    extra columns), not a text record."""
+    return taxel is not None or sheet is not None or Path(record_path).suffix.lower() in (".mat", ".xlsx")
+
+
 def _correct_whole(record_path, model, method, start, hold, output, out_meta, mapping, plot, quiet,
-                   constant):
+                   constant, taxel=None, sheet=None):
     """The correction of a record held whole (other files, and for the plot)."""
     import numpy as np
 
@@ -156,7 +168,9 @@ def _correct_whole(record_path, model, method, start, hold, output, out_meta, ma
     from creepcomp.io.rails import stuck_at_rail
     from creepcomp.io.records import RecordScan
 
-    record = read_record(record_path, columns=mapping)
+    from creepcomp.io.formats import read_any
+
+    record = read_any(record_path, columns=mapping, taxel=taxel, sheet=sheet)
     record.require(n_samples=2, what="creep correction")
     source = temperature_source(model, record.temperature is not None, constant, str(record_path))
     temps = (None if source is None else record.temperature if source == "column" else constant)
@@ -178,7 +192,7 @@ def _correct_whole(record_path, model, method, start, hold, output, out_meta, ma
     after = creep_error(record.time, compensated, record.load, model, method)
     load_estimate = load_from_compensated(compensated, model, method)
     if output is not None:
-        extra = _extra_columns(record_path, mapping, record)
+        extra = {} if _measured_file(record_path, taxel, sheet) else _extra_columns(record_path, mapping, record)
         with progress_bar(f"writing {output.name}", total=len(record), disable=quiet) as update:
             write_record(output, record, extra={**extra, "compensated": compensated, "load_estimate": load_estimate},
                          metadata=out_meta, progress=update)
@@ -325,7 +339,10 @@ def _render(path, scan, model, result, before, after, dt, unit, notes) -> None:
     fitted = result["fitted_reference_rms"]
     table = correction_table(before, after, unit, (fitted["before"], fitted["after"])).to_rich()
     console.print(table)
-    if result["reduction"] is not None:
+    if model.is_static:
+        console.print("a static calibration: it has no creep to remove; the load comes back "
+                      "through its map")
+    elif result["reduction"] is not None:
         console.print(f"peak creep error reduced {result['reduction']:.3g}-fold")
     load = result["load_estimate"]
     if load["rms"] is not None:
