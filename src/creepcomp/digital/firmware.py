@@ -127,7 +127,8 @@ class Firmware(Shown):
 
         rate = "dt step" if self.irregular else format_quantity(self.rate, "Hz")
         bound = "no proven bound" if self.bound is None else f"bound {self.bound.total_fs:.3g} of FS"
-        return f"<Firmware {self.name}: {self.method}, {self.precision}, {rate}, {bound}>"
+        states = ", plain states" if self.state == "plain" else ""
+        return f"<Firmware {self.name}: {self.method}, {self.precision}{states}, {rate}, {bound}>"
 
     def to_dict(self) -> dict:
         """JSON form without the C text: name, files, method, precision, rate (Hz) or longest

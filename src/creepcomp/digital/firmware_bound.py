@@ -396,15 +396,16 @@ def firmware_bound(model: CreepModel, method: str = "subtractive", precision: st
     peak = gains.sample                               # max |S| / FS of the exact corrector
     sigma = corrector.output_scale
     # Everything below is in units of full scale. C bounds |computed state| and |computed S|;
-    # it is checked (and raised if needed) after the error is known: when it fails, the excess
-    # over the exact peak is doubled (the excess, not the peak: a plain state's error, u/a_k,
-    # can pass the first guess's margin by little).
+    # it is checked (and raised if needed) after the error is known.
     cmax = peak * (1.0 + 1e-3)
     for _ in range(8):
         terms, b_s, eta_over_a = _local_terms(corrector, gains, cmax)
-        if cmax >= peak + b_s + eta_over_a:
+        need = peak + b_s + eta_over_a
+        if cmax >= need:
             break
-        cmax = peak + 2 * (b_s + eta_over_a)
+        # Plain states' error, u/a_k, passes the first guess's margin by little: twice the
+        # excess over the exact peak, not twice the whole, which would double their bound.
+        cmax = peak + 2 * (need - peak) if corrector.state == "plain" else 2 * need
     else:  # pragma: no cover - only for a corrector whose error is of the order of its signal
         raise InputError("the corrector's rounding error is of the order of its signal at this "
                          "rate and precision: no useful bound")
