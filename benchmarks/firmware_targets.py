@@ -9,7 +9,8 @@ record: ``--samples`` samples at ``--rate`` (an HX711 at 80 samples/s): a relaxe
 steps between full scale and minus half scale every 5 s, sample-to-sample full-scale swings at
 the end; the temperature swings between 5 and 45 °C, a new value every sample (and, in its own
 column, read once a second to 0.1 °C and held in between: the float32 step keeps its ``a_k``
-while the temperature holds). Each row is ``creepcomp firmware --verify
+while the temperature holds). float32 without a temperature law has a row for each form of the
+states: ``compensated`` (the default) and ``plain`` (``--state plain``). Each row is ``creepcomp firmware --verify
 --target`` through the Python API (subtractive method, the method's relaxed start):
 ``avr`` the ATmega328P at 16 MHz on simavr (``avr-gcc -Os``, clock cycles per step, its call
 included), ``cortex-m0plus`` and ``cortex-m4f`` on QEMU's mps2 boards (``arm-none-eabi-gcc
@@ -58,6 +59,15 @@ def held(temperature, rate: float):
     return np.repeat(np.round(temperature[::every], 1), every)[: len(temperature)]
 
 
+def rows(precision: str):
+    """The temperature laws and state forms of a precision's rows: without a law and with
+    one; float32 without a law also with plain states."""
+    law = TemperatureLaw.arrhenius(43000.0)
+    if precision == "float32":
+        return [(None, "compensated"), (None, "plain"), (law, "compensated")]
+    return [(None, "compensated"), (law, "compensated")]
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--samples", type=int, default=2000)
@@ -65,19 +75,20 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     print(f"{args.samples} samples at {args.rate:g} Hz; subtractive; error and bound as fractions "
           "of full scale.\n")
-    print("| target | precision | terms | temperature law | flash (bytes) | RAM (bytes) | "
+    print("| target | precision | states | terms | temperature law | flash (bytes) | RAM (bytes) | "
           "state (bytes) | cost per sample | temperature read once a second | bound | "
           "measured error | within |")
-    print("|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---|")
+    print("|---|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---|")
     failed = 0
     for target in TARGETS:
         for precision in ("float32", "q31"):
             for terms in (1, 2, 3):
-                for law in (None, TemperatureLaw.arrhenius(43000.0)):
+                for law, state in rows(precision):
                     model = CreepModel(BETA[:terms], TAU[:terms], 1.0, OFFSET, temperature=law)
                     t, signal, temperature = record(model, args.samples, args.rate)
                     fs = float(np.max(np.abs(signal - OFFSET)))
-                    fw = generate_firmware(model, "subtractive", precision, args.rate, fs)
+                    fw = generate_firmware(model, "subtractive", precision, args.rate, fs,
+                                           state=state)
                     check = verify_firmware(fw, t, signal, target=target,
                                             temperature=temperature if law is not None else None)
                     run = check.on_target
@@ -88,7 +99,9 @@ def main(argv=None) -> int:
                                                 temperature=held(temperature, args.rate))
                         failed += not again.passed
                         slow = f"{again.on_target.per_sample:.0f} {run.counts}"
-                    print(f"| {target} | {precision} | {terms} | {'Arrhenius' if law else 'none'} | "
+                    print(f"| {target} | {precision} | {state if precision == 'float32' else '-'} | "
+                          f"{terms} | "
+                          f"{'Arrhenius' if law else 'none'} | "
                           f"{run.flash_bytes} | {run.ram_bytes} | {run.state_bytes} | "
                           f"{run.per_sample:.0f} {run.counts} | {slow} | {fw.bound.total_fs:.2e} | "
                           f"{check.max_error_fs:.2e} | {'yes' if check.passed else 'NO'} |",

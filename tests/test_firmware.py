@@ -269,9 +269,10 @@ int main(void)
 
 
 @needs_gcc
-@pytest.mark.parametrize("precision", ["float32", "q31"])
-def test_state_saved_and_restored_across_a_power_cycle(tmp_path, precision):
-    fw = generate_firmware(MODEL, "subtractive", precision, RATE, 0.01)
+@pytest.mark.parametrize("precision,state", [("float32", "compensated"), ("float32", "plain"),
+                                             ("q31", "compensated")])
+def test_state_saved_and_restored_across_a_power_cycle(tmp_path, precision, state):
+    fw = generate_firmware(MODEL, "subtractive", precision, RATE, 0.01, state=state)
     obj = compile_object(fw, tmp_path)
     kind, value = ("float", "0.009f") if precision == "float32" else ("int32_t", "900000000")
     (tmp_path / "main.c").write_text(SAVE_RESTORE_TEST.replace("creep_input", kind)

@@ -126,9 +126,12 @@ def test_library_examples_compile_for_the_uno_and_correct_on_simavr(tmp_path, ex
 def test_library_examples_of_every_kind_compile_for_the_uno(tmp_path, precision):
     law = CreepModel(MODEL.beta, MODEL.tau, MODEL.gain, MODEL.offset,
                      temperature=TemperatureLaw.arrhenius(43000.0))
-    for model in (MODEL, law):
-        fw = generate_firmware(model, "subtractive", precision, 10.0, FULL_SCALE)
-        lib = tmp_path / f"lib-{model.temperature is not None}"
+    kinds = [(MODEL, "compensated"), (law, "compensated")]
+    if precision == "float32":
+        kinds.append((MODEL, "plain"))
+    for model, state in kinds:
+        fw = generate_firmware(model, "subtractive", precision, 10.0, FULL_SCALE, state=state)
+        lib = tmp_path / f"lib-{model.temperature is not None}-{state}"
         write_library(fw, lib)
         for example, _, _ in LIBRARY_EXAMPLES:
             assert build_example(tmp_path, lib, example, fw.name).stat().st_size > 0

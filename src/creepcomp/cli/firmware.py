@@ -24,6 +24,10 @@ def firmware_command(
                                help="Output the instantaneous signal, or the saturated one."),
     precision: str = typer.Option("float32", "--precision", metavar="float32|q31",
                                   help="Single-precision floats, or 32-bit words with 64-bit states."),
+    state: str = typer.Option("compensated", "--state", metavar="compensated|plain",
+                              help="float32 at a fixed rate: each creep state a float with its "
+                                   "rounding error carried (compensated), or one float (plain: "
+                                   "fewer operations, a bound larger by about u tau/T)."),
     rate: Optional[str] = typer.Option(None, "--rate", metavar="HZ",
                                        help="Sample rate, e.g. 100Hz, 1k. Default with --verify: "
                                             "the record's."),
@@ -64,7 +68,7 @@ def firmware_command(
 ) -> None:
     """Write the creep corrector of a model as C99 with its proven error bound; verify it."""
     from creepcomp.digital.correctors import uniform_interval
-    from creepcomp.digital.firmware import PRECISIONS, generate_firmware
+    from creepcomp.digital.firmware import PRECISIONS, STATES, generate_firmware
     from creepcomp.digital.firmware_library import library_contents
     from creepcomp.digital.firmware_target import TARGETS
     from creepcomp.io.jsonfiles import read_model
@@ -78,6 +82,9 @@ def firmware_command(
     precision = precision.strip().lower()
     if precision not in PRECISIONS:
         raise InputError(f"--precision '{precision}': use float32 or q31")
+    state = state.strip().lower()
+    if state not in STATES:
+        raise InputError(f"--state '{state}': use compensated or plain")
     target = target.strip().lower()
     if target not in TARGETS:
         raise InputError(f"--target '{target}': use {', '.join(TARGETS)}")
@@ -117,8 +124,10 @@ def firmware_command(
     firmware = generate_firmware(model, method, precision, rate_hz or 1.0, scale, name,
                                  max_interval=longest,
                                  temperature_range=_celsius_range(temperature_range),
-                                 output_polynomial=polynomial, extension=extension)
+                                 output_polynomial=polynomial, extension=extension,
+                                 state=state)
     result = {"model": str(model_file), "method": method, "precision": precision,
+              "state": firmware.state,
               "rate": firmware.rate, "max_interval": firmware.max_interval, "full_scale": firmware.full_scale, "name": name,
               "signal_unit": unit, "files": [], "bound_fs": firmware.bound.total_fs,
               "bound": firmware.bound.to_dict(),
@@ -226,6 +235,7 @@ def _render(result: dict, firmware, check) -> None:
 
     console.print(f"[bold]creepcomp firmware[/bold]: {result['model']}, {result['method']} method, "
                   f"{result['precision']}, "
+                  + ("plain states, " if firmware.state == "plain" else "")
                   + (format_quantity(result['rate'], 'Hz') if result["rate"] is not None else
                      f"dt step (irregular sampling, up to {format_quantity(result['max_interval'], 's')})")
                   + ", full scale "

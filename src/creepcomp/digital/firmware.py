@@ -13,7 +13,10 @@ of a single-precision state. So the state is held wider than the arithmetic:
 
 - ``float32``: each state is an unevaluated sum ``hi + lo`` of two floats; the increment is added
   to ``hi`` and its rounding error, by Dekker's Fast2Sum with ``hi`` first (exact unless the
-  increment passes a state near zero), kept in ``lo`` (error feedback).
+  increment passes a state near zero), kept in ``lo`` (error feedback). With ``state="plain"``
+  each state is one float instead (the fixed-rate step only): fewer operations per sample, and
+  a bound larger by about ``u tau_k / T``, the rounding of each update carried by the
+  recursion's memory.
 - ``q31``: samples are 32-bit words, ``2**30`` per full scale; the states are 64-bit integers with
   ``2**60`` per full scale; coefficients are 31-bit mantissas with a shift (relative error
   ``2**-31`` however small ``a_k`` is); every product fits a 64-bit integer.
@@ -44,6 +47,7 @@ from jinja2 import meta
 
 from creepcomp.digital.firmware_bound import (DEFAULT_TEMPERATURE_RANGE, FULL_SCALE_WORD,
                                               MIN_INTERVAL, PRECISIONS, REFERENCE_ALLOWANCE,
+                                              STATES, check_state,
                                               ExactCoefficients, StoredCoefficients,
                                               ROOT_STEPS, TEMPERATURE_STEP_Q, TICK, ErrorBound,
                                               check_arguments, check_interval, dt_scheme,
@@ -58,7 +62,7 @@ from creepcomp.digital.firmware_transfer import (LIBM_ULPS, TransferBound, check
 from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
 
-__all__ = ["PRECISIONS", "FULL_SCALE_WORD", "REFERENCE_ALLOWANCE", "MIN_INTERVAL", "TICK",
+__all__ = ["PRECISIONS", "STATES", "FULL_SCALE_WORD", "REFERENCE_ALLOWANCE", "MIN_INTERVAL", "TICK",
            "DEFAULT_TEMPERATURE_RANGE", "TEMPERATURE_STEP_Q", "ErrorBound", "Firmware", "firmware_bound", "generate_firmware", "naive_float32",
            "check_no_extensions", "render_target_program"]
 
@@ -95,6 +99,9 @@ class Firmware(Shown):
         (:mod:`creepcomp.digital.firmware_transfer`): ``bound_signal`` (the compensated
         signal's bound, signal units), ``bound_load`` (load units), ``bound_corrected``, and the
         ranges they hold over; None otherwise.
+    state : str
+        float32: ``compensated`` (each state a float and its carried rounding error) or
+        ``plain`` (one float); :data:`~creepcomp.digital.firmware_bound.STATES`.
     """
 
     model: CreepModel
@@ -113,20 +120,24 @@ class Firmware(Shown):
     extension: dict | None = None
     uses_double: bool = False
     maps: dict | None = None
+    state: str = "compensated"
 
     def __repr__(self) -> str:
         from creepcomp.units import format_quantity
 
         rate = "dt step" if self.irregular else format_quantity(self.rate, "Hz")
         bound = "no proven bound" if self.bound is None else f"bound {self.bound.total_fs:.3g} of FS"
-        return f"<Firmware {self.name}: {self.method}, {self.precision}, {rate}, {bound}>"
+        states = ", plain states" if self.state == "plain" else ""
+        return f"<Firmware {self.name}: {self.method}, {self.precision}{states}, {rate}, {bound}>"
 
     def to_dict(self) -> dict:
         """JSON form without the C text: name, files, method, precision, rate (Hz) or longest
-        interval (s), full scale (signal units), the proven bound and the temperature range."""
+        interval (s), full scale (signal units), the states' form, the proven bound and the
+        temperature range."""
         return {"name": self.name, "files": list(self.filenames), "method": self.method,
                 "precision": self.precision, "rate": None if self.irregular else self.rate,
                 "max_interval": self.max_interval, "full_scale": self.full_scale,
+                "state": self.state,
                 "bound": None if self.bound is None else self.bound.to_dict(),
                 "temperature_range": None if self.temperature_range is None else list(self.temperature_range)}
 
@@ -163,7 +174,7 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
                       max_interval: float | None = None,
                       temperature_range: tuple[float, float] | None = None,
                       output_polynomial: tuple[float, float] | None = None,
-                      extension: dict | None = None) -> Firmware:
+                      extension: dict | None = None, state: str = "compensated") -> Firmware:
     """Generate the C99 corrector of a model, with its derivation and error bound in comments.
 
     Parameters
@@ -202,6 +213,11 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
         Another extension map of the diagnosis (:func:`creepcomp.diagnose.effects.firmware_output`:
         ``reloading``, ``peak``, ``play`` or ``recovery``), written by
         :mod:`creepcomp.digital.firmware_extension`: float32, at a fixed rate, subtractive only.
+    state : {"compensated", "plain"}
+        How the float32 step holds each creep state: a float and the rounding error of its
+        last update, carried to the next (``compensated``, the default), or one float
+        (``plain``: fewer operations per sample, a bound larger by about ``u tau_k / T``; the
+        float32 fixed-rate step of the creep terms alone, refused otherwise).
 
     Returns
     -------
@@ -214,6 +230,9 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
     ``PREFIX_step`` returns the compensated signal, ``PREFIX_step_load`` the load.
     """
     check_no_extensions(model)
+    check_state(state, precision, max_interval is None and temperature_range is None
+                and model.temperature is None and model.transfer is None and not model.is_static
+                and output_polynomial is None and extension is None)
     if model.transfer is not None or model.is_static:
         check_maps_arguments(model, precision, max_interval, temperature_range, output_polynomial,
                              extension)
@@ -237,7 +256,7 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
         check_interval(max_interval)
         rate = 1.0 / max_interval
     check_arguments(model, method, precision, rate, full_scale, name)
-    bound = firmware_bound(model, method, precision, rate, full_scale, max_interval)
+    bound = firmware_bound(model, method, precision, rate, full_scale, max_interval, state)
     polynomial = None
     if output_polynomial is not None:
         bound, reach = polynomial_bound(bound, *output_polynomial, offset=model.offset)
@@ -254,16 +273,23 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
             f"Static response: the output is offset + X, X the root of X + c2 X^2 + c3 X^3 = S "
             f"(c2 = {polynomial['c2']}, c3 = {polynomial['c3']} per signal unit), bracketed in "
             f"|X| <= {float(polynomial['reach']):.6g} where it rises, by {ROOT_STEPS} bisection steps in double."]
-    header = _render(f"{precision}_dt.h.j2" if irregular else "fixed_rate.h.j2",
-                     **_header_values(model, method, precision, rate, full_scale, name, c, scheme,
-                                      max_interval),
+    values = _header_values(model, method, precision, rate, full_scale, name, c, scheme, max_interval)
+    plain = {"plain": True} if state == "plain" else {}
+    if plain:
+        values["command"] += " --state plain"
+        values["model_id"] = f"0x{_fnv1a(repr((values['model_id'], state))):08x}u"
+        derivation = derivation + [
+            "Plain states: each c_k is one float, updated as c_k + a_k (S - c_k) rounded to float; "
+            "the rounding of the new state, u |c_k|, is not proportional to a_k, so the recursion "
+            "carries it over about tau_k/T samples (the bound's 'state updates rounding')."]
+    header = _render(f"{precision}_dt.h.j2" if irregular else "fixed_rate.h.j2", **values,
                      derivation=derivation, bound=_bound_lines(bound, full_scale),
-                     bound_fs=f"{bound.total_fs:.3e}")
+                     bound_fs=f"{bound.total_fs:.3e}", **plain)
     extra = {"polynomial": polynomial} if precision == "float32" and not irregular else {}
     source = _render(f"{precision}_dt.c.j2" if irregular else f"{precision}.c.j2",
                      name=name, NAME=name.upper(), version=_version(), method=method,
                      irregular=irregular, temperature=False,
-                     **_coefficient_values(precision, st, scheme), **extra)
+                     **_coefficient_values(precision, st, scheme), **extra, **plain)
     harness = _render("harness.c.j2", name=name, NAME=name.upper(), precision=precision,
                       irregular=irregular, temperature=False)
     return Firmware(model=model, method=method, precision=precision,
@@ -271,7 +297,7 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
                     full_scale=float(full_scale), name=name, header=header, source=source,
                     harness=harness, bound=bound, coefficients=_coefficient_table(c, st, precision),
                     max_interval=float(scheme.dt_max) if irregular else None,
-                    uses_double=polynomial is not None)
+                    uses_double=polynomial is not None, state=state)
 
 
 def _extension_firmware(model: CreepModel, rate: float, full_scale: float, name: str,
@@ -816,9 +842,10 @@ def _template_variables(template: str) -> frozenset[str]:
 
 
 #: Values a template may go without (tested with ``is defined``): the extension map's, which
-#: only the step of a model with an extension has, and the static maps' (``maps``), which only
-#: a model with a transfer or a static calibration has.
-_OPTIONAL = frozenset({"extension", "maps"})
+#: only the step of a model with an extension has, the static maps' (``maps``), which only
+#: a model with a transfer or a static calibration has, and ``plain``, which only the float32
+#: step with plain states has.
+_OPTIONAL = frozenset({"extension", "maps", "plain"})
 
 
 def _render(template: str, **values) -> str:

@@ -30,9 +30,13 @@ __all__ = ["PRECISIONS", "FULL_SCALE_WORD", "REFERENCE_ALLOWANCE", "MIN_INTERVAL
            "float32_value", "temperature_scheme", "q31_temperature_scheme", "temperature_bound",
            "TEMPERATURE_STEP_Q", "ROOT_STEPS", "polynomial_bound", "EXP_RELATIVE_ERROR",
            "reloading_bound", "peak_bound", "play_bound", "recovery_bound", "overshoot_bound",
-           "OVERSHOOT_EVENTS"]
+           "OVERSHOOT_EVENTS", "STATES", "check_state"]
 
 PRECISIONS = ("float32", "q31")
+#: How a float32 corrector holds each creep state: ``compensated``, a float and the rounding
+#: error of its last update carried in a second float; ``plain``, one float (fewer operations,
+#: a bound larger by about ``u tau / T``).
+STATES = ("compensated", "plain")
 #: q31: the input word of a full-scale signal (the words keep one bit of headroom).
 FULL_SCALE_WORD = 2 ** 30
 #: Allowance (fraction of full scale) for the float64 reference corrector's own rounding; it is
@@ -158,6 +162,17 @@ def check_arguments(model: CreepModel, method: str, precision: str, rate: float,
         raise InputError(f"name '{name[:70]}': a C identifier is needed (letters, digits, '_'; "
                          "not starting with a digit; at most 63 characters)")
     check_invertible(model)
+
+
+def check_state(state: str, precision: str, fixed_linear: bool) -> None:
+    """Refuse (InputError) a state form that is not one of :data:`STATES`, or ``plain`` for
+    any corrector but the float32 fixed-rate step of a model's creep terms alone."""
+    if state not in STATES:
+        raise InputError(f"state '{state}': use {' or '.join(STATES)}")
+    if state == "plain" and (precision != "float32" or not fixed_linear):
+        raise InputError("plain states are for the float32 corrector at a fixed rate without a "
+                         "temperature law, static maps, a static polynomial response or an "
+                         "extension map: use the compensated states (the default) for this one")
 
 
 def check_interval(max_interval: float) -> None:
@@ -343,7 +358,7 @@ def stored_coefficients(c: ExactCoefficients, precision: str) -> StoredCoefficie
 
 def firmware_bound(model: CreepModel, method: str = "subtractive", precision: str = "float32",
                    rate: float = 100.0, full_scale: float = 1.0,
-                   max_interval: float | None = None) -> ErrorBound:
+                   max_interval: float | None = None, state: str = "compensated") -> ErrorBound:
     """Proven worst-case difference between the generated C corrector and the exact one.
 
     Parameters
@@ -359,6 +374,8 @@ def firmware_bound(model: CreepModel, method: str = "subtractive", precision: st
     max_interval : float, optional
         The dt step (irregular sampling): the bound holds for every sequence of intervals
         ``MIN_INTERVAL <= dt <= max_interval`` (s); ``rate`` is then not used.
+    state : {"compensated", "plain"}
+        How the float32 states are held (:data:`STATES`); ``plain`` at a fixed rate only.
 
     Returns
     -------
@@ -367,13 +384,14 @@ def firmware_bound(model: CreepModel, method: str = "subtractive", precision: st
         sequence in the range, from a relaxed or a settled start. float32 assumes IEEE binary32
         rounding to nearest with no excess precision (the C code refuses to compile otherwise).
     """
+    check_state(state, precision, max_interval is None)
     if max_interval is not None:
         check_interval(max_interval)
         check_arguments(model, method, precision, 1.0 / max_interval, full_scale, "x")
         return _irregular_bound(model, method, precision, max_interval, full_scale)
     check_arguments(model, method, precision, rate, full_scale, "x")
     c = exact_coefficients(model, rate)
-    corrector = BoundedCorrector(method, c, stored_coefficients(c, precision), full_scale)
+    corrector = BoundedCorrector(method, c, stored_coefficients(c, precision), full_scale, state)
     gains = _gains(c.a, c.beta)
     peak = gains.sample                               # max |S| / FS of the exact corrector
     sigma = corrector.output_scale
@@ -382,9 +400,12 @@ def firmware_bound(model: CreepModel, method: str = "subtractive", precision: st
     cmax = peak * (1.0 + 1e-3)
     for _ in range(8):
         terms, b_s, eta_over_a = _local_terms(corrector, gains, cmax)
-        if cmax >= peak + b_s + eta_over_a:
+        need = peak + b_s + eta_over_a
+        if cmax >= need:
             break
-        cmax = 2 * (peak + b_s + eta_over_a)
+        # Plain states' error, u/a_k, passes the first guess's margin by little: twice the
+        # excess over the exact peak, not twice the whole, which would double their bound.
+        cmax = peak + 2 * (need - peak) if corrector.state == "plain" else 2 * need
     else:  # pragma: no cover - only for a corrector whose error is of the order of its signal
         raise InputError("the corrector's rounding error is of the order of its signal at this "
                          "rate and precision: no useful bound")
@@ -411,12 +432,16 @@ class BoundedCorrector:
         What its C code stores (and so its precision).
     full_scale : float
         The input range the bound assumes, ``|raw - offset| <= full_scale`` (signal units).
+    state : str
+        float32: ``compensated`` (each state a float and its carried rounding error) or
+        ``plain`` (one float); :data:`STATES`.
     """
 
     method: str
     exact: ExactCoefficients
     stored: StoredCoefficients
     full_scale: float
+    state: str = "compensated"
 
     @property
     def precision(self) -> str:
@@ -517,6 +542,35 @@ def _float32_swap_error(a_stored, d: float, c_hi: float, u: float = _U32):
     return u * (1 + 6 * u) * (a_stored * d * (1 + u) ** 3 + u * (1 + u) * c_hi) / (1 - 4 * u)
 
 
+def _float32_plain_update_error(a, a_err, d: float, cmax: float, u: float = _U32):
+    """Local error of a plain float32 state update ``c = c + a (S - c)``, one float per state.
+
+    The computed ``fl(c + fl(â fl(S - c)))`` is ``c + â (S - c)(1 + d1)(1 + d2)`` with the sum
+    rounded by ``(1 + d3)``, ``|d_i| <= u``; against the exact update ``c + a (S - c)`` of the
+    same ``c`` and ``S`` it is off by at most ``|â - a| d (1 + u)^2 + a d ((1 + u)^2 - 1) + u (|c|
+    + â d (1 + u)^2)``. The last part, the rounding of the new state, is not proportional to
+    ``a``: through the recursion's state gain (about ``beta_k / a_k``) it is the bound's
+    largest part, about ``u cmax beta_k tau_k / T``.
+
+    Parameters
+    ----------
+    a, a_err : numpy.ndarray
+        The exact ``a_k`` and ``|stored a_k - a_k|``.
+    d : float
+        Bound of ``|S - c|`` (fraction of full scale).
+    cmax : float
+        Bound of ``|c|`` (fraction of full scale).
+
+    Returns
+    -------
+    total, coefficient : numpy.ndarray
+        The local error of each state's update, and its part due to the stored ``a_k``.
+    """
+    coefficient = a_err * d * (1 + u) ** 2
+    rounding = a * d * ((1 + u) ** 2 - 1) + u * (cmax + (a + a_err) * d * (1 + u) ** 2)
+    return coefficient + rounding, coefficient
+
+
 def _local_terms(corrector: BoundedCorrector, gains: RecursionGains, cmax: float):
     """The local errors times their gains (fractions of full scale; see docs/firmware.md), given
     ``|computed state|, |computed S| <= cmax``. Returns the bound's parts, the bound of the
@@ -527,7 +581,9 @@ def _local_terms(corrector: BoundedCorrector, gains: RecursionGains, cmax: float
     d = 2 * cmax                                            # |S - c_k|
     local = _sample_errors(corrector, cmax)
     eps, start = local.per_sample, local.start
-    if corrector.precision == "float32":
+    if corrector.precision == "float32" and corrector.state == "plain":
+        eta, eta_coef = _float32_plain_update_error(a, a_err, d, cmax)
+    elif corrector.precision == "float32":
         u = _U32
         c_hi = cmax * (1 + u)
         eta = (a_err * d * (1 + u) ** 3 + a * d * ((1 + u) ** 3 - 1) + a * u * c_hi + u * u * c_hi
