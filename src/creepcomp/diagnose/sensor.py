@@ -296,7 +296,7 @@ class CatchAll(Effect):
         grid = [g for g in grid if np.min(np.abs(np.log(taus / g))) > np.log(1.5)]
         out = {}
         if grid:
-            extra = lag_states(t, s, grid, hold=data.hold)
+            extra = lag_states(data.sampling, s, grid, hold=data.hold)
             for j, g in enumerate(grid):
                 out[f"lag_{g:.3g}s"] = extra[:, j]
         square = s * np.abs(s) / scale
@@ -307,7 +307,7 @@ class CatchAll(Effect):
         out["even"] = even
         out["cube"] = s ** 3 / scale ** 2
         for name, x in (("square", square), ("even", even), ("rising", rising)):
-            lx = lag_states(t, x, taus, hold=data.hold)
+            lx = lag_states(data.sampling, x, taus, hold=data.hold)
             for k in range(len(taus)):
                 out[f"lag_{name}_{k}"] = lx[:, k]
         out["integral"] = np.concatenate([[0.0], np.cumsum(0.5 * (s[:-1] + s[1:]) * np.diff(t))])
@@ -317,7 +317,7 @@ class CatchAll(Effect):
             out["temperature"] = dT
             out["temperature_squared"] = dT ** 2
             for g in (data.span / 20, data.span / 5):
-                out[f"temperature_lag_{g:.3g}s"] = lag_states(t, dT, [g], hold=data.hold)[:, 0]
+                out[f"temperature_lag_{g:.3g}s"] = lag_states(data.sampling, dT, [g], hold=data.hold)[:, 0]
             out["temperature_load"] = dT * s
             for k in range(lags.shape[1]):
                 out[f"temperature_creep_{k}"] = dT * lags[:, k]

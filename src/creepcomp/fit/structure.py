@@ -205,7 +205,7 @@ def _lags(data: Data, h, taus, init, dynamic, values, cache) -> np.ndarray:
     t = data.time
     static = [a for a in dynamic if not a.effect.state_dependent]
     if not dynamic or static:
-        lags = lag_states(t, h, taus, hold=data.hold, initial=init)
+        lags = lag_states(data.sampling, h, taus, hold=data.hold, initial=init)
         if not dynamic:
             return lags
     factor = np.ones((len(t) - 1, len(taus)))
@@ -214,7 +214,7 @@ def _lags(data: Data, h, taus, init, dynamic, values, cache) -> np.ndarray:
     states = [a for a in dynamic if a.effect.state_dependent]
     if states:
         return _state_dependent_lags(data, h, taus, init, factor, states, values, cache)[0]
-    return varying_lag_states(t, h, taus[None, :] * factor, hold=data.hold, initial=init)
+    return varying_lag_states(data.sampling, h, taus[None, :] * factor, hold=data.hold, initial=init)
 
 
 def _same_array(kept: np.ndarray, given: np.ndarray) -> bool:
@@ -442,7 +442,7 @@ def _step_time_block(data: Data, h: np.ndarray, taus: np.ndarray, cache: dict | 
     kept = cache.setdefault("step_decay_columns", {})
     unit = kept.get(key)
     if unit is None:
-        unit = decay_columns(t, later + 1, middles, taus, np.ones((len(later), len(taus))))
+        unit = decay_columns(data.sampling, later + 1, middles, taus, np.ones((len(later), len(taus))))
         while len(kept) >= _STEP_DECAYS_KEPT:
             kept.pop(next(iter(kept)))
         kept[key] = unit
@@ -516,7 +516,7 @@ def basis_derivatives(data: Data, structure: Structure, values: dict, b: Basis, 
     plain_lags = not dynamic
     slope = _initial_slope(data, h, taus)
     needs_tau = plain_lags and any(p.name.startswith("tau[") for p in params)
-    dtau = lag_tau_derivatives(t, h, taus, b.lags, data.hold, slope) if needs_tau else None
+    dtau = lag_tau_derivatives(data.sampling, h, taus, b.lags, data.hold, slope) if needs_tau else None
     steps: dict[int, list[tuple[int, float]]] = {}
     for (col, k, _), mid in zip(b.step_bounds, b.step_mids):
         steps.setdefault(k, []).append((col, mid))
@@ -646,7 +646,7 @@ def _state_dependent_derivatives(data: Data, structure: Structure, values: dict,
             if is_tau and slope is not None:
                 k = int(p.name[4:-1])
                 initial[k] = slope[k] * taus[k]
-        lags = varying_lag_derivatives(t, h, step_taus, b.lags, tau_slopes, data.hold, initial)
+        lags = varying_lag_derivatives(data.sampling, h, step_taus, b.lags, tau_slopes, data.hold, initial)
         moves = [(col, lags[:, k]) for k, col in enumerate(lag_columns)
                  if (lags[:, k] != 0.0).any()]
         if is_tau:

@@ -160,7 +160,7 @@ def _shrinking(h: np.ndarray, c: np.ndarray) -> np.ndarray:
 def _switches_differ(data: Data, tau: float) -> bool:
     """Whether the two switches put a creep term of time constant ``tau``, driven by the
     load, in different modes on more than :data:`_DIFFERENT_STEPS` of the steps."""
-    c = lag_states(data.time, data.load, [tau], hold=data.hold, initial="settled")[:, 0]
+    c = lag_states(data.sampling, data.load, [tau], hold=data.hold, initial="settled")[:, 0]
     by_state = _shrinking(data.load, c)
     return float(np.mean(by_state != _after_fall(data.load, by_state))) > _DIFFERENT_STEPS
 
