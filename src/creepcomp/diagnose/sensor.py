@@ -53,7 +53,7 @@ from creepcomp.fit.noise import (MISFIT_LIMIT, SPARSE_SAMPLES, NoiseFloor, autoc
     ljung_box, misfit_ratio as ratio_to_floor, noise_floor, rows_for, whiten, with_reference_noise)
 from creepcomp.fit.solver import Fit, Problem, fit_structure, screening
 from creepcomp.fit.evidence import (BIC_STRONG, HELDOUT_Z, Evidence, compare, compare_with_halves,
-    fold_refit, halves, heldout)
+    FoldRefits, fold_refit, halves, heldout)
 from creepcomp.fit.starts import one_term_starts, tau_grid
 from creepcomp.fit.prony import model_file_dict
 from creepcomp.fit.reduce import reduce_record
@@ -396,7 +396,7 @@ def _heldout_side_by_side(data: Data, fit: Fit, workers: Workers) -> Fit:
     ``workers`` (when it has processes side by side): the same prediction."""
     if workers.width == 1:
         return heldout(data, fit)
-    return heldout(data, fit, refit_all=lambda keeps: workers.map(fold_refit, fit, keeps))
+    return heldout(data, fit, refit_all=lambda keeps: workers.map(fold_refit, FoldRefits(fit), keeps))
 
 
 #: Candidates refined fully at each step (the best by the quick fit, plus any that already
