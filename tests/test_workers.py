@@ -408,9 +408,9 @@ def test_fits_with_a_fresh_creep_term_run_beside_the_baseline_are_those_the_scre
     fitted = []
     fresh_term_fit = effects_pkg.SensorEffect.fresh_term_fit
 
-    def fitting(self, data_, base, refine, settings, quick):
+    def fitting(self, data_, base, refine, settings, quick, quick_fit=None):
         fitted.append((self.name, base is None, settings))
-        return fresh_term_fit(self, data_, base, refine, settings, quick)
+        return fresh_term_fit(self, data_, base, refine, settings, quick, quick_fit)
 
     monkeypatch.setattr(effects_pkg, "fresh_fits_ahead", counted)
     monkeypatch.setattr(effects_pkg.SensorEffect, "fresh_term_fit", fitting)

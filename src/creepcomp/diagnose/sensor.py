@@ -51,7 +51,7 @@ from creepcomp.fit.data import Data, prepare
 from creepcomp.fit.structure import Applied, Structure
 from creepcomp.fit.noise import (MISFIT_LIMIT, SPARSE_SAMPLES, NoiseFloor, autocorrelation, explained_share,
     ljung_box, misfit_ratio as ratio_to_floor, noise_floor, rows_for, whiten, with_reference_noise)
-from creepcomp.fit.solver import Fit, Problem, fit_structure, screening
+from creepcomp.fit.solver import Fit, Problem, fit_structure
 from creepcomp.fit.evidence import (BIC_STRONG, HELDOUT_Z, Evidence, compare, compare_with_halves,
     FoldRefits, fold_refit, halves, heldout)
 from creepcomp.fit.starts import one_term_starts, tau_grid
@@ -512,17 +512,18 @@ def _no_evidence() -> Evidence:
     return Evidence(float("nan"), float("nan"), float("nan"))
 
 
-def _quick(data: Data, current: Fit, effect: Effect, step: int, trials: list) -> Candidate | None:
-    """The effect on top of ``current``, its own parameters fitted (the current model's held);
-    None when it cannot be tried (the trial says why)."""
+def _quick(data: Data, current: Fit, effect: Effect, step: int, trials: list,
+           fresh: dict | None = None) -> Candidate | None:
+    """The effect on top of ``current``, its own parameters fitted (the current model's held)
+    by a quick fit that only ranks it (:class:`~creepcomp.diagnose.effects.QuickFit`, with the
+    fits ``fresh`` that ran ahead); None when it cannot be tried (the trial says why)."""
     reason = effect.applicable(data, current.structure)
     if reason:
         if step == 1:
             trials.append(Trial(step, effect.name, None, None, f"not tried: {reason}"))
         return None
     try:
-        with screening():
-            f = effect.fit_on(data, current, refine="own")
+        f = effect.fit_on(data, current, refine="own", quick_fit=effects_pkg.QuickFit(fresh or {}))
     except (InputError, np.linalg.LinAlgError, ValueError) as exc:
         trials.append(Trial(step, effect.name, None, None, f"fit failed: {exc}"))
         return None
@@ -559,7 +560,7 @@ def _screen(data: Data, current: Fit, pool, step: int, trials: list, workers: Wo
     tested, the step likely ends here: the verdict's parts (:func:`_verdict_part`) for
     ``current``, and the catch-all on top of it, run beside those refinements. ``fresh``:
     fits with the creep term started afresh, run ahead
-    (:func:`~creepcomp.diagnose.effects.fresh_fits`).
+    (:attr:`~creepcomp.diagnose.effects.QuickFit.fresh`).
 
     Returns
     -------
@@ -623,11 +624,10 @@ def _quick_task(data: Data, common: tuple, effect: Effect) -> tuple:
     """:func:`_quick` as a task of :class:`Workers`: the candidate, its refinement when it is
     refined ahead of its rank (:func:`_refined_ahead`; else None), and the trials it adds.
     ``common``: the current model, the step, whether to refine ahead, the fits with a creep
-    term started afresh that ran ahead (:func:`~creepcomp.diagnose.effects.fresh_fits`)."""
+    term started afresh that ran ahead (:attr:`~creepcomp.diagnose.effects.QuickFit.fresh`)."""
     current, step, ahead, fresh = common
     tried = []
-    with effects_pkg.fresh_fits(fresh):
-        candidate = _quick(data, current, effect, step, tried)
+    candidate = _quick(data, current, effect, step, tried, fresh)
     full = None
     if candidate is not None and _refined_ahead(current, candidate, ahead):
         full = _refined(data, current, candidate)

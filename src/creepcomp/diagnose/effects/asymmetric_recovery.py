@@ -47,13 +47,13 @@ class AsymmetricRecovery(SensorEffect):
     def settings(self, data: Data, base: Fit) -> tuple:
         return (("term", int(np.argmax(np.abs(base.betas)))),)
 
-    def fit_on(self, data, base, refine="all", start=None, settings=None):
+    def fit_on(self, data, base, refine="all", start=None, settings=None, quick_fit=None):
         if settings is not None:
-            return super().fit_on(data, base, refine, start, settings)
+            return super().fit_on(data, base, refine, start, settings, quick_fit)
         term = self.settings(data, base)
         switches = _SWITCHES if _switches_differ(data, float(base.taus[term[0][1]])) else _SWITCHES[:1]
         fit = SensorEffect.fit_on
-        return min((fit(self, data, base, refine, start, term + (("switch", switch),)) for switch in switches),
+        return min((fit(self, data, base, refine, start, term + (("switch", switch),), quick_fit) for switch in switches),
                    key=lambda f: f.bic)
 
     def nonlinear_params(self, data, applied):

@@ -89,12 +89,12 @@ class TransitionOvershoot(SensorEffect):
     def plain_settings(self, data: Data, base: Fit) -> tuple:
         return (("load_scale", data.load_scale),)
 
-    def fit_on(self, data, base, refine="all", start=None, settings=None):
+    def fit_on(self, data, base, refine="all", start=None, settings=None, quick_fit=None):
         if refine == "own" and settings is None:
             # the screening fits the plain exponential (a stretched decay costs a dozen lags
             # per evaluation); the full fit starts from it with the exponent free
             settings = self.plain_settings(data, base)
-        return super().fit_on(data, base, refine, start, settings)
+        return super().fit_on(data, base, refine, start, settings, quick_fit)
 
     def nonlinear_params(self, data, applied):
         lo, hi = data.tau_limits()
