@@ -340,6 +340,10 @@ def _zeroed(values: np.ndarray, rows: np.ndarray) -> np.ndarray:
 
 #: Points whose projection a :class:`Problem` keeps.
 _PROJECTIONS_KEPT = 3
+#: Most values (samples times columns) of the bases of the projections a :class:`Problem` keeps
+#: in all, that of the last point included (a record of many load steps has hundreds of
+#: step-time columns): beyond it fewer points are kept, down to the last one.
+_PROJECTIONS_KEPT_VALUES = 10_000_000
 
 
 class Problem:
@@ -429,6 +433,11 @@ class Problem:
         kept = self.cache.setdefault("project", {})
         if key in kept:
             return kept[key][0]
+        if kept:
+            # room for this point's basis (about as large as the last) before it is made
+            room = next(reversed(kept.values()))[0][0].columns.size
+            while kept and sum(v[0][0].columns.size for v in kept.values()) + room > _PROJECTIONS_KEPT_VALUES:
+                kept.pop(next(iter(kept)))
         b = self.basis(x)
         straddled = self.straddled(b)
         a = self.on_fitted(b.columns, straddled)
@@ -973,7 +982,7 @@ def _covariance(problem: Problem, x, coef, noise: ARNoise) -> np.ndarray | None:
         bp = problem.basis(xp).columns @ coef
         bm = problem.basis(xm).columns @ coef
         cols.append((bp - bm) / (2 * h))
-    full = np.column_stack(cols + [b.columns]) if cols else b.columns
+    full = np.column_stack(cols + [b.columns]) if cols else b.columns.copy()
     # a step time held at its bound moves with the creep amplitude that sets the bound
     for col, k, half in b.step_bounds:
         amplitude = b.names.index(f"a[{k}]")
@@ -982,8 +991,12 @@ def _covariance(problem: Problem, x, coef, noise: ARNoise) -> np.ndarray | None:
                                            * b.columns[:, col])
     # coefficients held at given values or at a step time's bound are not estimated
     full[:, len(x) + np.flatnonzero(~free)] = 0.0
-    z = np.zeros_like(full)
-    z[rows] = problem.data.weighted(full)[rows]
+    weighted = problem.data.weighted(full)
+    if isinstance(problem.take, slice):
+        z = weighted                  # (every row fitted: no copy of the basis's size besides)
+    else:
+        z = np.zeros_like(full)
+        z[rows] = weighted[rows]
     z[rows[problem.straddled(b)]] = 0.0          # (each fitted by its own parameter)
     return sandwich_covariance([z], [noise])
 
@@ -1006,7 +1019,8 @@ def sandwich_covariance(jacobians, noises) -> np.ndarray | None:
     numpy.ndarray or None
         None when the normal matrix cannot be inverted.
     """
-    jac = np.vstack(jacobians)
+    # (of one record: its Jacobian and the scaled one are the only arrays of its size made)
+    jac = jacobians[0] if len(jacobians) == 1 else np.vstack(jacobians)
     norms = np.sqrt(np.sum(jac ** 2, axis=0))
     norms[norms == 0] = 1.0
     jn = jac / norms
@@ -1016,6 +1030,6 @@ def sandwich_covariance(jacobians, noises) -> np.ndarray | None:
         return None
     meat = np.zeros_like(bread)
     for block, noise in zip(jacobians, noises):
-        zt = _inverse_ar_transpose(block / norms, noise)
+        zt = _inverse_ar_transpose(jn if len(jacobians) == 1 else block / norms, noise)
         meat += noise.sigma ** 2 * (zt.T @ zt)
     return (bread @ meat @ bread) / np.outer(norms, norms)

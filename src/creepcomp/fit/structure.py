@@ -440,19 +440,32 @@ def _step_time_block(data: Data, h: np.ndarray, taus: np.ndarray, cache: dict | 
     # the decays of these time constants (kept: an effect's own parameters move the creep
     # input's steps, not the time constants), each column scaled by its step
     kept = cache.setdefault("step_decay_columns", {})
+    scales = (-dh[:, None] / np.asarray(taus, float)[None, :]).reshape(-1)
+    size = len(t) * len(later) * len(taus)
+    small = size <= _STEP_DECAYS_KEPT_VALUES
     unit = kept.get(key)
-    if unit is None:
+    if unit is not None:
+        cols = unit * scales
+    else:
         unit = decay_columns(data.sampling, later + 1, middles, taus, np.ones((len(later), len(taus))))
-        while len(kept) >= _STEP_DECAYS_KEPT:
-            kept.pop(next(iter(kept)))
-        kept[key] = unit
-    cols = unit * (-dh[:, None] / np.asarray(taus, float)[None, :]).reshape(-1)
+        if small:
+            while kept and (len(kept) >= _STEP_DECAYS_KEPT
+                            or sum(u.size for u in kept.values()) + size > _STEP_DECAYS_KEPT_VALUES):
+                kept.pop(next(iter(kept)))
+            kept[key] = unit
+            cols = unit * scales
+        else:
+            cols = unit                     # (not kept: scaled in place)
+            cols *= scales
     labels = cache.get(("step_time_labels", len(taus)))
     if labels is None:
         labels = _step_time_labels(t, steps, middles, len(taus))
         cache[("step_time_labels", len(taus))] = labels
     block = (cols,) + labels
-    cache["step_times"] = (key, h, block)
+    if small:
+        cache["step_times"] = (key, h, block)
+    else:
+        cache.pop("step_times", None)
     return block
 
 
@@ -471,6 +484,12 @@ def _step_time_labels(t: np.ndarray, steps: np.ndarray, middles: np.ndarray, n_t
 
 #: Sets of time constants whose step-time decays a fitting problem keeps (:func:`_step_time_block`).
 _STEP_DECAYS_KEPT = 4
+#: Most values (samples times columns) of the step-time decays a fitting problem keeps in all:
+#: a record of many load steps has hundreds of step-time columns per term, its largest arrays
+#: (a reduced record of 50,000 samples and 200 steps: 80 MB per term), and decays kept for
+#: several sets of time constants, and the last block besides, multiplied a fit's memory. Larger
+#: ones are made again when asked for.
+_STEP_DECAYS_KEPT_VALUES = 5_000_000
 
 
 def basis_derivatives(data: Data, structure: Structure, values: dict, b: Basis, params,
@@ -532,10 +551,7 @@ def basis_derivatives(data: Data, structure: Structure, values: dict, b: Basis, 
         if p.name.startswith("tau["):
             lag = dtau[:, k] * taus[k]          # search coordinate: log tau
             moves = [(column, lag)]
-            for col, mid in steps.get(k, ()):
-                # a step column -dh/tau exp(-(t - mid)/tau) (zero before its step): by log tau
-                # it is the column times ((t - mid)/tau - 1)
-                moves.append((col, b.columns[:, col] * ((t - mid) / taus[k] - 1.0)))
+            moves += [_StepTimeMove(col, b.columns[:, col], t, mid, taus[k]) for col, mid in steps.get(k, ())]
         else:
             lag = decay(t - t[0], taus[k]) * p.scale
             moves = [(column, lag)]
@@ -545,6 +561,22 @@ def basis_derivatives(data: Data, structure: Structure, values: dict, b: Basis, 
             moves += _lag_reading_moves(data, structure, values, b, lags)
         out.append(moves)
     return out
+
+
+class _StepTimeMove:
+    """A step-time column and its derivative by log tau, the derivative made when the pair
+    is unpacked (``col, d = move``): a record of many load steps has hundreds of them per term,
+    made all at once a copy of the basis's step-time columns. The column is ``-dh/tau exp(-(t
+    - mid)/tau)`` (zero before its step): by log tau it is the column times ``(t - mid)/tau - 1``."""
+
+    __slots__ = ("col", "column", "t", "mid", "tau")
+
+    def __init__(self, col: int, column: np.ndarray, t: np.ndarray, mid: float, tau: float):
+        self.col, self.column, self.t, self.mid, self.tau = col, column, t, mid, tau
+
+    def __iter__(self):
+        yield self.col
+        yield self.column * ((self.t - self.mid) / self.tau - 1.0)
 
 
 def _initial_slope(data: Data, h: np.ndarray, taus: np.ndarray) -> np.ndarray | None:
