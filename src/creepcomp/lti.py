@@ -383,19 +383,21 @@ class Sampling:
 
     def runs(self, u: np.ndarray, changes: np.ndarray) -> "_Runs":
         """The :class:`_Runs` of the input ``u`` (``changes``: its changing intervals), kept
-        for the last :data:`_RUNS_KEPT` inputs (by their values) of records up to
-        :data:`_RUNS_KEPT_SAMPLES` samples: a fit evaluates the lags of one input for many
-        time constants."""
+        for the last :data:`_RUNS_KEPT` inputs of records up to :data:`_RUNS_KEPT_SAMPLES`
+        samples: a fit evaluates the lags of one input for many time constants. An input's
+        runs are known by what they are made of, its changing intervals and its levels (a
+        comparison of a few values per run, not per sample)."""
         with self._lock:
-            for kept, runs in self._runs:
-                if np.array_equal(kept, u):
-                    return runs
+            kept = list(self._runs)
+        for runs in kept:
+            if np.array_equal(runs.last[:-1], changes) and np.array_equal(runs.levels, u[runs.first]):
+                return runs
         runs = _Runs(self.time, u, changes)
         if len(self.time) <= _RUNS_KEPT_SAMPLES:
             with self._lock:
                 if len(self._runs) >= _RUNS_KEPT:
                     self._runs.pop(0)
-                self._runs.append((u.copy(), runs))
+                self._runs.append(runs)
         return runs
 
 
