@@ -313,25 +313,21 @@ def test_a_time_offsets_width_at_zero_is_held_out_alike_with_either_lags():
     np.testing.assert_allclose(compiled.heldout.residual, plain.heldout.residual, rtol=0, atol=1e-9)
 
 
-def test_prepared_times_are_a_frozen_copy_whose_kept_results_are_used_without_comparing(monkeypatch):
-    """A prepared record's times are its own read-only copy (the record's array stays as it
-    was): what is kept for them is used again without comparing the values; for times that can
-    change, the values are compared every time."""
+def test_a_prepared_records_sampling_is_its_own_frozen_copy():
+    """A prepared record's times, and the :class:`~creepcomp.lti.Sampling` that keeps what the
+    lags compute from them, are read-only copies: the record's array changed afterwards changes
+    nothing kept; a copy of the record with another signal shares its sampling."""
     t = np.arange(0.0, 200.0, 0.5)
     load = np.where(t > 20.0, 1.0, 0.0)
     record = Record(t, load, load + 0.01 * np.exp(-t / 30.0))
     data = prepare(record)
     assert data.time is not record.time and record.time.flags.writeable
-    assert not data.time.flags.writeable
-    compared = []
-    real = np.array_equal
-    monkeypatch.setattr(lti.np, "array_equal", lambda a, b, **k: compared.append(b) or real(a, b, **k))
-    t2 = t.copy()
-    for times in (data.time, t2):
-        lti.lag_states(times, load, [3.0])
-        compared.clear()
-        lti.lag_states(times, load, [3.0])
-        assert any(b is times for b in compared) == (times is t2)   # compared when writeable
+    assert not data.time.flags.writeable and not data.sampling.time.flags.writeable
+    u = np.sin(t)
+    before = lti.lag_states(data.sampling, u, [3.0])
+    record.time[:] *= 2.0
+    np.testing.assert_array_equal(lti.lag_states(data.sampling, u, [3.0]), before)
+    assert data.with_signal(load).sampling is data.sampling
 
 
 def test_a_delay_kept_for_a_fitting_problem_gives_the_basis_bit_for_bit():

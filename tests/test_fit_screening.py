@@ -1,7 +1,5 @@
-"""Fits that only rank candidates (``solver.screening``) stop at the likelihood tolerance;
-every other fit, and the held-out refits, keep theirs."""
-
-import threading
+"""Fits that only rank candidates (``screening`` of ``fit_structure``, a diagnosis's quick fits)
+stop at the likelihood tolerance; every other fit, and the held-out refits, keep theirs."""
 
 import numpy as np
 import pytest
@@ -9,7 +7,7 @@ import pytest
 from creepcomp.diagnose import sensor
 from creepcomp.fit import solver
 from creepcomp.fit.data import prepare
-from creepcomp.fit.solver import Problem, fit_structure, refined_ftol, screening
+from creepcomp.fit.solver import Problem, fit_structure, refined_ftol
 from creepcomp.fit.starts import one_term_starts
 from creepcomp.fit.structure import Structure
 from creepcomp.io.records import Record
@@ -43,28 +41,37 @@ def test_only_a_screening_fit_stops_at_the_likelihood_tolerance(monkeypatch):
     plain = fit_structure(data, Structure(1), one_term_starts(data), n_refine=1)
     assert seen and set(seen) == {1e-8}
     seen.clear()
-    with screening():
-        quick = fit_structure(data, Structure(1), one_term_starts(data), n_refine=1)
+    quick = fit_structure(data, Structure(1), one_term_starts(data), n_refine=1, screening=True)
     assert set(seen) == {0.01 / data.n} and 0.01 / data.n > 1e-8
     # a stop that far from the optimum costs well under the 0.005 of log-likelihood it allows
     assert abs(quick.loglik - plain.loglik) < 0.005
     seen.clear()
     fit_structure(data, Structure(1), one_term_starts(data), n_refine=1)
-    assert set(seen) == {1e-8}                      # left with the block
+    assert set(seen) == {1e-8}
 
 
-def test_screening_ends_with_its_block_on_an_error_and_stays_in_its_thread():
-    with pytest.raises(RuntimeError):
-        with screening():
-            assert solver._SCREENING.get()
-            raise RuntimeError("inside")
-    assert not solver._SCREENING.get()
-    other = []
-    with screening():
-        worker = threading.Thread(target=lambda: other.append(solver._SCREENING.get()))
-        worker.start()
-        worker.join()
-    assert other == [False]          # a fleet worker's other units are not screening
+def test_a_quick_fit_screens_every_fit_it_makes_and_a_full_fit_none(monkeypatch):
+    """The mode is the fit's own argument: a quick fit (:class:`QuickFit`) passes it on to the
+    fits an effect makes besides its own (restarts from a grid of time constants), a full fit
+    to none."""
+    from creepcomp.diagnose import effects
+
+    data = _data()
+    base = fit_structure(data, Structure(1), one_term_starts(data))
+    flags = []
+    fit = solver.fit_structure
+
+    def spy(*args, **kwargs):
+        flags.append(kwargs.get("screening", False))
+        return fit(*args, **kwargs)
+
+    monkeypatch.setattr(effects, "fit_structure", spy)
+    effect = effects.get("rate_independent_hysteresis")
+    effect.fit_on(data, base, refine="own", quick_fit=effects.QuickFit())
+    assert len(flags) > 1 and all(flags)
+    flags.clear()
+    effect.fit_on(data, base, refine="all")
+    assert flags and not any(flags)
 
 
 def test_the_diagnosis_screens_its_quick_fits_only(monkeypatch):
@@ -75,7 +82,7 @@ def test_the_diagnosis_screens_its_quick_fits_only(monkeypatch):
     fit = solver.fit_structure
 
     def spy(*args, **kwargs):
-        flags.append((solver._SCREENING.get(), kwargs.get("mask") is not None))
+        flags.append((kwargs.get("screening", False), kwargs.get("mask") is not None))
         return fit(*args, **kwargs)
 
     monkeypatch.setattr(solver, "fit_structure", spy)
@@ -118,11 +125,8 @@ def test_a_quick_fit_refines_its_best_start_only(monkeypatch):
 
     def refinements(name, refine):
         calls.clear()
-        if refine == "own":
-            with screening():
-                effects.get(name).fit_on(data, base, refine=refine)
-        else:
-            effects.get(name).fit_on(data, base, refine=refine)
+        quick_fit = effects.QuickFit() if refine == "own" else None
+        effects.get(name).fit_on(data, base, refine=refine, quick_fit=quick_fit)
         assert calls and all(starts > 1 for starts, _ in calls)
         return [refined for _, refined in calls]
 
@@ -141,8 +145,8 @@ def test_candidates_that_raise_the_likelihood_too_little_are_not_refined(monkeyp
     quick, refined = [], []
     quick_fit, refine = sensor._quick, sensor._refined
 
-    def spy_quick(data, current, effect, step, trials):
-        c = quick_fit(data, current, effect, step, trials)
+    def spy_quick(data, current, effect, step, trials, fresh=None):
+        c = quick_fit(data, current, effect, step, trials, fresh)
         if c is not None:
             quick.append((step, effect.name, c.fit.loglik - current.loglik, c.delta_bic))
         return c

@@ -187,3 +187,29 @@ def test_times_changed_in_place_are_checked_again(compiled):
             lag_states(t, u, [2.0])
         with pytest.raises(InputError, match="strictly increasing"):
             varying_lag_states(t, u, np.full((len(t) - 1, 1), 2.0))
+
+
+def test_a_sampling_keeps_what_its_times_give_and_agrees_with_plain_times():
+    """Lags on a :class:`~creepcomp.lti.Sampling` are those on its times; it keeps the plans
+    of its last time constants and the runs of its last inputs, by their values (an input
+    changed in place is a new input), and pickles as its times only."""
+    import pickle
+
+    from creepcomp.lti import Sampling, lag_states, lag_tau_derivatives
+
+    t = np.cumsum(np.random.default_rng(4).uniform(0.5, 1.5, 600))
+    sampling = Sampling(t)
+    u = np.where(np.arange(600) > 300, 2.0, 1.0)
+    for _ in range(2):
+        states = lag_states(sampling, u, [3.0, 40.0])
+        np.testing.assert_array_equal(states, lag_states(t, u, [3.0, 40.0]))
+    np.testing.assert_array_equal(lag_tau_derivatives(sampling, u, [3.0, 40.0], states),
+                                  lag_tau_derivatives(t, u, [3.0, 40.0], states))
+    np.testing.assert_array_equal(lag_states(sampling, np.sin(t), [3.0]), lag_states(t, np.sin(t), [3.0]))
+    assert sampling._plans and sampling._runs
+    changed = u.copy()
+    changed[400:] = 5.0
+    np.testing.assert_array_equal(lag_states(sampling, changed, [3.0, 40.0]), lag_states(t, changed, [3.0, 40.0]))
+    again = pickle.loads(pickle.dumps(sampling))
+    np.testing.assert_array_equal(again.time, t)
+    assert not again._plans and not again.time.flags.writeable

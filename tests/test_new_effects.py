@@ -239,13 +239,18 @@ def test_held_out_halves_each_hold_a_load_change(name, seed, effect, form):
     assert d.cause == effect, [t.to_dict() for t in d.trials]
 
 
-def test_the_kept_total_variation_follows_a_load_changed_in_place():
-    """The total variation of the load seen is kept by the array's identity: a load changed
-    in place is a new load."""
+def test_the_kept_total_variation_is_the_records_and_follows_another_load():
+    """The total variation of the record's own load is kept on the record; a load another
+    effect changed is its own."""
     from creepcomp.diagnose.effects.transition_overshoot import _total_variation_of, total_variation
+    from creepcomp.fit.data import prepare
+    from creepcomp.io.records import Record
 
-    s = np.concatenate([np.zeros(10), np.ones(10), np.zeros(10)])
-    assert _total_variation_of(s, 0.0)[-1] == 2.0
+    load = np.concatenate([np.zeros(10), np.ones(10), np.zeros(10)])
+    data = prepare(Record(np.arange(30.0), load, load.copy()))
+    assert _total_variation_of(data, data.load, 0.0)[-1] == 2.0
+    assert _total_variation_of(data, data.load, 0.0) is _total_variation_of(data, data.load.copy(), 0.0)
+    s = data.load.copy()
     s[15:] = 3.0
-    assert np.array_equal(_total_variation_of(s, 0.0), total_variation(s, 0.0))
-    assert _total_variation_of(s, 0.0)[-1] == 3.0
+    assert np.array_equal(_total_variation_of(data, s, 0.0), total_variation(s, 0.0))
+    assert _total_variation_of(data, s, 0.0)[-1] == 3.0

@@ -144,7 +144,7 @@ def test_the_diagnosis_runs_its_lags_compiled(monkeypatch):
 
 def test_a_reduced_records_few_step_lengths_are_solved_by_kind():
     t, _ = _record(5, 3000, False, "many", kinds=True)
-    lengths, kind = lti._step_kinds(t, np.diff(t))
+    lengths, kind = lti.Sampling(t).kinds
     # three lengths, and the few that summing the times rounds them to: each step's own exactly
     assert 3 <= len(lengths) < 50
     np.testing.assert_array_equal(lengths[kind], np.diff(t))

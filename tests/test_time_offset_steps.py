@@ -138,7 +138,6 @@ def test_the_fresh_term_search_over_the_best_offsets_finds_what_the_whole_cross_
     with only the best few of its 21 offset starts (ranked at a few time constants): it lands
     where crossing all of them does."""
     import creepcomp.diagnose.effects as effects
-    from creepcomp.fit.solver import screening
     from creepcomp.fit.starts import one_term_starts
 
     data = prepare(_offset_record("staircase", 2, delay=0.43))
@@ -149,8 +148,7 @@ def test_the_fresh_term_search_over_the_best_offsets_finds_what_the_whole_cross_
 
     def fresh():
         counted.clear()
-        with screening():
-            fit = to.EFFECT.fit_on(data, base, refine="own")
+        fit = to.EFFECT.fit_on(data, base, refine="own", quick_fit=effects.QuickFit())
         return fit, len(counted)
 
     few, ranked = fresh()

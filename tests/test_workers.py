@@ -298,7 +298,9 @@ def test_refining_ahead_of_the_ranks_changes_no_candidate(monkeypatch):
 
 
 def test_held_out_refits_side_by_side_are_those_made_one_after_the_other():
-    from creepcomp.fit.evidence import fold_refit, heldout
+    import pickle
+
+    from creepcomp.fit.evidence import FoldRefits, fold_refit, heldout
 
     fitted = prepare(data.hidden_effect())
     fit = fit_terms(fitted, 1)
@@ -306,7 +308,9 @@ def test_held_out_refits_side_by_side_are_those_made_one_after_the_other():
 
     def refit_all(keeps):
         calls.append(len(keeps))
-        return [fold_refit(fitted, fit, keep) for keep in keeps[::-1]][::-1]
+        refits = FoldRefits(fit)
+        return [fold_refit(fitted, refits if i % 2 else pickle.loads(pickle.dumps(refits)), keep)
+                for i, keep in enumerate(keeps[::-1])][::-1]
 
     side = heldout(fitted, fit, refit_all=refit_all)
     assert calls == [5]
@@ -404,9 +408,9 @@ def test_fits_with_a_fresh_creep_term_run_beside_the_baseline_are_those_the_scre
     fitted = []
     fresh_term_fit = effects_pkg.SensorEffect.fresh_term_fit
 
-    def fitting(self, data_, base, refine, settings, quick):
+    def fitting(self, data_, base, refine, settings, quick, quick_fit=None):
         fitted.append((self.name, base is None, settings))
-        return fresh_term_fit(self, data_, base, refine, settings, quick)
+        return fresh_term_fit(self, data_, base, refine, settings, quick, quick_fit)
 
     monkeypatch.setattr(effects_pkg, "fresh_fits_ahead", counted)
     monkeypatch.setattr(effects_pkg.SensorEffect, "fresh_term_fit", fitting)

@@ -13,6 +13,7 @@ import contextvars
 import math
 import threading
 from contextlib import contextmanager
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 from dataclasses import dataclass
@@ -28,7 +29,7 @@ __all__ = ["LagExpansion", "UNIFORM_RTOL", "lag_coefficients", "is_uniform", "la
            "cascade_matrices", "cascade_step", "cascade_step_arrays", "triangle_lag_gap",
            "cascade_lags", "varying_lag_states", "lag_tau_derivatives", "first_order_filter",
            "decay", "DECAY_FLOOR", "decay_columns", "varying_lag_derivatives", "compiled_loops", "compiled_active",
-           "kept_for", "keep_for"]
+           "Sampling"]
 
 #: Relative spread of time steps below which sampling counts as uniform (then a recursion
 #: with constant coefficients runs, :func:`first_order_filter`; the coefficient error this
@@ -213,8 +214,9 @@ def lag_states(time, u, taus, hold: str = "linear", initial="relaxed", u_before=
 
     Parameters
     ----------
-    time : array_like
-        Strictly increasing times (s).
+    time : array_like or Sampling
+        Strictly increasing times (s); a :class:`Sampling` keeps what is computed from
+        them for the next call.
     u : array_like
         Input samples (for a step at a sample time: the value after the step).
     taus : array_like
@@ -232,7 +234,8 @@ def lag_states(time, u, taus, hold: str = "linear", initial="relaxed", u_before=
     numpy.ndarray
         Shape ``(len(time), len(taus))``.
     """
-    t = np.asarray(time, dtype=float)
+    sampling = Sampling.of(time)
+    t = sampling.time
     u = np.asarray(u, dtype=float)
     taus = np.atleast_1d(np.asarray(taus, dtype=float))
     if t.ndim != 1 or u.shape != t.shape:
@@ -246,17 +249,17 @@ def lag_states(time, u, taus, hold: str = "linear", initial="relaxed", u_before=
     out[0] = c0
     if n == 1 or k == 0:
         return out
-    dt = _steps(t)
+    sampling.steps                          # (checks the times)
     if _COMPILED.get():
         from creepcomp import recursions
 
-        recursions.lag_recursion(*_compiled_plan(t, dt, taus, hold), u, ub, c0, out)
+        recursions.lag_recursion(*_compiled_plan(sampling, taus, hold), u, ub, c0, out)
         return out
     changes = _input_changes(u, hold) if u_before is None else None
     if changes is not None:
-        _held_runs(t, u, taus, changes, c0, out)
+        _held_runs(sampling, u, taus, changes, c0, out)
         return out
-    plan = _lag_plan(t, dt, taus, hold)
+    plan = _lag_plan(sampling, taus, hold)
     if plan.uniform:
         for j, (e, b0, b1) in enumerate(plan.coefficients):
             out[1:, j] = first_order_filter(e, b0 * u[:-1] + b1 * ub[1:], c0[j])
@@ -278,155 +281,168 @@ class _LagPlan:
     blocks: tuple | None = None
 
 
-#: Plans of the last few (sample times, time constants) of :func:`lag_states`: a fit evaluates
-#: the lags of many inputs for the same time constants (an effect's own parameters move the
-#: input only). Only up to :data:`_PLAN_KEPT_VALUES` samples times lags (a diagnosis's record;
-#: a plan holds four such arrays).
+#: Plans a :class:`Sampling` keeps (the last few sets of time constants of :func:`lag_states`):
+#: a fit evaluates the lags of many inputs for the same time constants (an effect's own
+#: parameters move the input only). Only up to :data:`_PLAN_KEPT_VALUES` samples times lags (a
+#: diagnosis's record; a plan holds four such arrays).
 _PLANS_KEPT = 4
 _PLAN_KEPT_VALUES = 120_000
-_PLANS: dict = {}
-_PLANS_LOCK = threading.Lock()
 
 
-def kept_for(store: dict, key, t: np.ndarray):
-    """What ``store`` keeps under ``key`` for the array ``t`` (:func:`keep_for`), or None:
-    nothing kept, or kept for an array whose values have changed since.
+class Sampling:
+    """Strictly increasing sample times and what the lag recursions of this module compute
+    from them alone: their steps, the kinds of step, the coefficients of the last few sets of
+    time constants (:data:`_PLANS_KEPT`) and the runs of the last few inputs
+    (:data:`_RUNS_KEPT`), each computed once and kept on it.
 
-    Parameters
-    ----------
-    store : dict
-        The module's store of kept results.
-    key : hashable
-        Usually ``id(t)``, with whatever else the result depends on.
-    t : numpy.ndarray
-        The array the result was made for.
-    """
-    with _PLANS_LOCK:
-        hit = store.get(key)
-    if hit is None or hit[0] is not t:
-        return None
-    # an array that owns its values and is read-only has not changed (a record's prepared times)
-    return hit[2] if _frozen(t) or np.array_equal(hit[1], t) else None
-
-
-def _frozen(t: np.ndarray) -> bool:
-    """``t`` is read-only and owns its values: nothing changes them."""
-    return not t.flags.writeable and t.base is None
-
-
-def keep_for(store: dict, key, t: np.ndarray, value, most: int) -> None:
-    """Keep ``value``, made for the array ``t`` (sample times, a load), under ``key`` (by the
-    array's identity, with a copy of its values), dropping the oldest beyond ``most``.
+    Whoever owns a record's times holds one (a prepared record:
+    :attr:`creepcomp.fit.data.Data.sampling`) and passes it wherever a function here takes
+    ``time``: a fit evaluates the lags of one record's times thousands of times. An array
+    passed instead serves that call only (:meth:`of`).
 
     Parameters
     ----------
-    store : dict
-    key : hashable
-    t : numpy.ndarray
-    value : object
-        Read-only where it is an array: every caller gets the same one.
-    most : int
-        Most results kept in ``store``.
+    time : array_like
+        Strictly increasing times (s); copied, read-only.
     """
-    with _PLANS_LOCK:
-        while len(store) >= most:
-            store.pop(next(iter(store)))
-        store[key] = (t, t.copy(), value)
 
+    def __init__(self, time):
+        t = np.array(time, dtype=float)
+        t.flags.writeable = False
+        self._start(t)
 
-#: Steps of the last few arrays of sample times (:func:`_steps`).
-_STEPS: dict = {}
-_STEPS_KEPT = 4
+    def _start(self, t: np.ndarray) -> None:
+        self.time = t
+        self._plans: dict = {}
+        self._runs: list = []
+        self._lock = threading.Lock()       # (a fleet's worker runs units on several threads)
 
+    @classmethod
+    def of(cls, time) -> "Sampling":
+        """``time`` itself when it is a :class:`Sampling`, else one for a single call (not
+        copied, kept by nobody)."""
+        if isinstance(time, Sampling):
+            return time
+        one = cls.__new__(cls)
+        one._start(np.asarray(time, dtype=float))
+        return one
 
-def _steps(t: np.ndarray) -> np.ndarray:
-    """``np.diff(t)`` of strictly increasing times (else :class:`InputError`), kept for the
-    last few arrays by identity (read-only): a fit evaluates the lags of one record's times
-    thousands of times."""
-    hit = kept_for(_STEPS, id(t), t)
-    if hit is not None:
-        return hit
-    dt = np.diff(t)
-    if not np.all(dt > 0):
-        raise InputError("time must be strictly increasing")
-    if len(t) <= _RUNS_KEPT_SAMPLES:           # (a long record's arrays are not held after use)
+    def __len__(self) -> int:
+        return len(self.time)
+
+    def __reduce__(self):
+        # the times only: what it keeps is made again where it is unpickled
+        return (Sampling, (self.time,))
+
+    @cached_property
+    def steps(self) -> np.ndarray:
+        """``np.diff(time)``, read-only (:class:`InputError` unless strictly increasing)."""
+        dt = np.diff(self.time)
+        if not np.all(dt > 0):
+            raise InputError("time must be strictly increasing")
         dt.flags.writeable = False
-        keep_for(_STEPS, id(t), t, dt, _STEPS_KEPT)
-    return dt
+        return dt
+
+    @cached_property
+    def uniform(self) -> bool:
+        """:func:`is_uniform` of the times."""
+        return is_uniform(self.time)
+
+    @cached_property
+    def kinds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The lengths of the distinct kinds of step and the kind of each step (read-only):
+        one kind (the mean step) when sampling is uniform, the distinct lengths when there are
+        few (a reduced record's blocks take a few lengths), else every step its own. The
+        coefficients of a new time constant are then computed once per kind."""
+        dt = self.steps
+        if self.uniform:
+            lengths, kind = np.array([float(np.mean(dt))]), np.zeros(len(dt), np.intp)
+        else:
+            lengths, kind = np.unique(dt, return_inverse=True)
+            if len(lengths) > _KINDS_SHARE * len(dt):
+                lengths, kind = dt.copy(), np.arange(len(dt))
+        kinds = (lengths, kind.astype(np.intp))
+        for a in kinds:
+            a.flags.writeable = False
+        return kinds
+
+    def plan(self, key: tuple, make, keep: bool):
+        """What ``make()`` gives for ``key`` (time constants, hold and way of solving), kept
+        among the last :data:`_PLANS_KEPT` when ``keep``."""
+        with self._lock:
+            hit = self._plans.get(key)
+        if hit is not None:
+            return hit
+        value = make()
+        if keep:
+            with self._lock:
+                while len(self._plans) >= _PLANS_KEPT:
+                    self._plans.pop(next(iter(self._plans)))
+                self._plans[key] = value
+        return value
+
+    def runs(self, u: np.ndarray, changes: np.ndarray) -> "_Runs":
+        """The :class:`_Runs` of the input ``u`` (``changes``: its changing intervals), kept
+        for the last :data:`_RUNS_KEPT` inputs of records up to :data:`_RUNS_KEPT_SAMPLES`
+        samples: a fit evaluates the lags of one input for many time constants. An input's
+        runs are known by what they are made of, its changing intervals and its levels (a
+        comparison of a few values per run, not per sample)."""
+        with self._lock:
+            kept = list(self._runs)
+        for runs in kept:
+            if np.array_equal(runs.last[:-1], changes) and np.array_equal(runs.levels, u[runs.first]):
+                return runs
+        runs = _Runs(self.time, u, changes)
+        if len(self.time) <= _RUNS_KEPT_SAMPLES:
+            with self._lock:
+                if len(self._runs) >= _RUNS_KEPT:
+                    self._runs.pop(0)
+                self._runs.append(runs)
+        return runs
 
 
-def _lag_plan(t: np.ndarray, dt: np.ndarray, taus: np.ndarray, hold: str) -> _LagPlan:
-    """The :class:`_LagPlan` of these sample times and time constants (kept by the times'
-    identity, and used again only while their values are those it was made for)."""
-    key = (id(t), taus.tobytes(), hold)
-    hit = kept_for(_PLANS, key, t)
-    if hit is not None:
-        return hit
-    kept = len(t) * len(taus) <= _PLAN_KEPT_VALUES
-    if is_uniform(t):
-        step = float(np.mean(dt))
-        plan = _LagPlan(True, tuple(tuple(float(c) for c in lag_coefficients(step, tau, hold)) for tau in taus))
-    else:
+def _lag_plan(sampling: Sampling, taus: np.ndarray, hold: str) -> _LagPlan:
+    """The :class:`_LagPlan` of these sample times and time constants (kept on ``sampling``)."""
+    keep = len(sampling) * len(taus) <= _PLAN_KEPT_VALUES
+
+    def make() -> _LagPlan:
+        t, dt = sampling.time, sampling.steps
+        if sampling.uniform:
+            step = float(np.mean(dt))
+            return _LagPlan(True, tuple(tuple(float(c) for c in lag_coefficients(step, tau, hold))
+                                        for tau in taus))
         coefficients = lag_coefficients(dt[:, None], taus[None, :], hold)
         for c in coefficients:
             c.flags.writeable = False           # (shared by every call with this plan)
         # (a plan not kept grows its blocks one at a time, as the scan reaches them)
-        plan = _LagPlan(False, coefficients, tuple(_scan_blocks(t, taus)) if kept else None)
-    if kept:
-        keep_for(_PLANS, key, t, plan, _PLANS_KEPT)
-    return plan
+        return _LagPlan(False, coefficients, tuple(_scan_blocks(t, taus)) if keep else None)
+
+    return sampling.plan((taus.tobytes(), hold), make, keep)
 
 
-def _compiled_plan(t: np.ndarray, dt: np.ndarray, taus: np.ndarray, hold: str) -> tuple:
+def _compiled_plan(sampling: Sampling, taus: np.ndarray, hold: str) -> tuple:
     """The coefficients ``(e, b0, b1)`` of :func:`creepcomp.recursions.lag_recursion` for these
-    sample times and time constants, one row per kind of step (:func:`_step_kinds`), and the
+    sample times and time constants, one row per kind of step (:attr:`Sampling.kinds`), and the
     kinds (kept as :func:`_lag_plan` keeps its plans)."""
-    key = (id(t), taus.tobytes(), hold, "compiled")
-    hit = kept_for(_PLANS, key, t)
-    if hit is not None:
-        return hit
-    from creepcomp import recursions
+    keep = len(sampling) * len(taus) <= _PLAN_KEPT_VALUES
 
-    lengths, kind = _step_kinds(t, dt)
-    plan = tuple(np.empty((len(lengths), len(taus))) for _ in range(3))
-    recursions.step_coefficients(lengths, taus, _linear_hold(hold), *plan)
-    plan += (kind,)
-    if len(t) * len(taus) <= _PLAN_KEPT_VALUES:
-        for c in plan:
-            c.flags.writeable = False
-        keep_for(_PLANS, key, t, plan, _PLANS_KEPT)
-    return plan
+    def make() -> tuple:
+        from creepcomp import recursions
+
+        lengths, kind = sampling.kinds
+        plan = tuple(np.empty((len(lengths), len(taus))) for _ in range(3))
+        recursions.step_coefficients(lengths, taus, _linear_hold(hold), *plan)
+        if keep:
+            for c in plan:
+                c.flags.writeable = False
+        return plan + (kind,)
+
+    return sampling.plan((taus.tobytes(), hold, "compiled"), make, keep)
 
 
-#: Kinds of step of the last few arrays of sample times (:func:`_step_kinds`).
-_KINDS: dict = {}
-_KINDS_KEPT = 4
 #: Steps of a few lengths (a reduced record's blocks) are solved by kind when there are at
 #: most this share as many kinds as steps.
 _KINDS_SHARE = 0.25
-
-
-def _step_kinds(t: np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The lengths of the distinct kinds of step of ``t`` and the kind of each step: one
-    kind (the mean step) when sampling is uniform (:func:`is_uniform`), the distinct lengths
-    when there are few (a reduced record's blocks take a few lengths), else every step its
-    own. Kept for the last few arrays (by identity): the coefficients of a new time constant
-    are then computed once per kind."""
-    hit = kept_for(_KINDS, id(t), t)
-    if hit is not None:
-        return hit
-    if is_uniform(t):
-        kinds = (np.array([float(np.mean(dt))]), np.zeros(len(dt), np.intp))
-    else:
-        lengths, kind = np.unique(dt, return_inverse=True)
-        if len(lengths) > _KINDS_SHARE * len(dt):
-            lengths, kind = dt.copy(), np.arange(len(dt))
-        kinds = (lengths, kind.astype(np.intp))
-    if len(t) <= _RUNS_KEPT_SAMPLES:           # (a long record's arrays are not held after use)
-        for a in kinds:
-            a.flags.writeable = False
-        keep_for(_KINDS, id(t), t, kinds, _KINDS_KEPT)
-    return kinds
 
 
 #: Most load changes, as a share of the samples, for which lags are solved run by run
@@ -444,12 +460,13 @@ def _input_changes(u: np.ndarray, hold: str) -> np.ndarray | None:
     return changes if len(changes) <= _RUNS_SHARE * len(u) else None
 
 
-def _held_runs(t, u, taus, changes, c0, out) -> None:
+def _held_runs(sampling: Sampling, u, taus, changes, c0, out) -> None:
     """Lag states for an input that is constant but over a few sample intervals (``changes``,
     linear hold): within a run of constant input ``U`` the exact solution
     ``U + (c - U) exp(-(t - t_start) / tau)``, the changing intervals by the recursion of
     :func:`lag_states`. Fills ``out`` (N, K)."""
-    runs = _runs(t, u, changes)
+    t = sampling.time
+    runs = sampling.runs(u, changes)
     e, b0, b1 = lag_coefficients((t[changes + 1] - t[changes])[:, None], taus[None, :], "linear")
     levels = runs.levels.tolist()
     before, after = u[changes].tolist(), u[changes + 1].tolist()
@@ -466,11 +483,12 @@ def _held_runs(t, u, taus, changes, c0, out) -> None:
         column += runs.level
 
 
-def _held_runs_derivatives(t, u, taus, states, changes, slope0, out) -> None:
+def _held_runs_derivatives(sampling: Sampling, u, taus, states, changes, slope0, out) -> None:
     """``d c_k / d tau_k`` of :func:`_held_runs`: within a run ``exp(-s / tau) (d_start +
     (c_start - U) s / tau^2)`` (``s`` the time since the run's start), the changing
     intervals by the differentiated recursion (:func:`lag_tau_derivatives`)."""
-    runs = _runs(t, u, changes)
+    t = sampling.time
+    runs = sampling.runs(u, changes)
     x = (t[changes + 1] - t[changes])[:, None] / taus[None, :]
     e, de, db0, db1 = _coefficient_slopes(x, taus[None, :], "linear")
     before, after = u[changes].tolist(), u[changes + 1].tolist()
@@ -519,27 +537,10 @@ class _Runs:
         return head
 
 
-#: The runs of the last few inputs (:func:`_runs`): a fit evaluates the lags of one input
-#: for many time constants. Only of records up to :data:`_RUNS_KEPT_SAMPLES` samples (a fit's
-#: reduced record), so that a long record's arrays are not held after use.
+#: Runs a :class:`Sampling` keeps (of its last few inputs: :meth:`Sampling.runs`), only of
+#: records up to :data:`_RUNS_KEPT_SAMPLES` samples (a fit's reduced record).
 _RUNS_KEPT = 4
 _RUNS_KEPT_SAMPLES = 200_000
-_RUNS: dict = {}
-
-
-def _runs(t: np.ndarray, u: np.ndarray, changes: np.ndarray) -> _Runs:
-    """The :class:`_Runs` of ``u`` on ``t``, kept for the last few arrays (by identity, as
-    :func:`keep_for` keeps: used again only while the times and the input's runs are the same)."""
-    if len(t) > _RUNS_KEPT_SAMPLES:
-        return _Runs(t, u, changes)
-    key = (id(t), id(u))
-    hit = kept_for(_RUNS, key, t)
-    if (hit is not None and hit[0] is u and np.array_equal(hit[1].last[:-1], changes)
-            and np.array_equal(hit[1].levels, u[hit[1].first])):
-        return hit[1]
-    runs = _Runs(t, u, changes)
-    keep_for(_RUNS, key, t, (u, runs), _RUNS_KEPT)
-    return runs
 
 
 #: Decay (e-foldings) beyond which :func:`decay` is zero: far below rounding of anything
@@ -563,9 +564,10 @@ def decay_columns(time, first, mids, taus, scales) -> np.ndarray:
     and ``k`` in that order (``j`` major), column-major.
 
     Inside :func:`compiled_loops` each column is the recursion of the lags' decays
-    (:func:`creepcomp.recursions.decay_columns`, with the coefficients :func:`lag_states`
-    keeps for these times and time constants), else one :func:`decay` per column."""
-    t = np.asarray(time, dtype=float)
+    (:func:`creepcomp.recursions.decay_columns`, with the coefficients of these time constants,
+    kept on ``time`` when it is a :class:`Sampling`), else one :func:`decay` per column."""
+    sampling = Sampling.of(time)
+    t = sampling.time
     first = np.asarray(first, dtype=np.intp)
     mids = np.asarray(mids, dtype=float)
     taus = np.atleast_1d(np.asarray(taus, dtype=float))
@@ -574,7 +576,8 @@ def decay_columns(time, first, mids, taus, scales) -> np.ndarray:
     if _COMPILED.get() and len(t) > 1:
         from creepcomp import recursions
 
-        e, _, _, kind = _compiled_plan(t, _steps(t), taus, "linear")
+        sampling.steps                      # (checks the times)
+        e, _, _, kind = _compiled_plan(sampling, taus, "linear")
         ends = np.searchsorted(t, mids[:, None] + DECAY_FLOOR * taus[None, :], side="left")
         recursions.decay_columns(t, first, ends.astype(np.intp), mids, taus, scales, e, kind, out)
         return out
@@ -792,7 +795,7 @@ def varying_lag_states(time, u, taus, hold: str = "linear", initial="relaxed") -
 
     Parameters
     ----------
-    time : array_like, shape (N,)
+    time : array_like, shape (N,), or Sampling
         Strictly increasing times (s).
     u : array_like, shape (N,)
         Input samples.
@@ -808,10 +811,10 @@ def varying_lag_states(time, u, taus, hold: str = "linear", initial="relaxed") -
     numpy.ndarray
         Shape ``(N, K)``.
     """
-    t = np.asarray(time, dtype=float)
+    sampling = Sampling.of(time)
     u = np.asarray(u, dtype=float)
     taus = np.asarray(taus, dtype=float)
-    n = len(t)
+    n = len(sampling)
     if taus.ndim != 2 or taus.shape[0] != max(n - 1, 0):
         raise InputError(f"varying time constants need shape (N-1, K); got {taus.shape} for N = {n}")
     k = taus.shape[1]
@@ -822,7 +825,7 @@ def varying_lag_states(time, u, taus, hold: str = "linear", initial="relaxed") -
     out[0] = c0
     if n == 1 or k == 0:
         return out
-    dt = _steps(t)
+    dt = sampling.steps
     if not np.all(taus > 0):
         raise InputError("time constants must be positive")
     if _COMPILED.get():
@@ -875,7 +878,8 @@ def varying_lag_derivatives(time, u, taus, states, tau_slopes, hold: str = "line
 
     Parameters
     ----------
-    time, u : array_like, shape (N,)
+    time : array_like, shape (N,), or Sampling
+    u : array_like, shape (N,)
     taus, tau_slopes : array_like, shape (N-1, K)
         The time constants of each lag over each step, and their derivatives.
     states : numpy.ndarray, shape (N, K)
@@ -889,7 +893,7 @@ def varying_lag_derivatives(time, u, taus, states, tau_slopes, hold: str = "line
     numpy.ndarray
         Shape ``(N, K)``.
     """
-    t = np.asarray(time, dtype=float)
+    sampling = Sampling.of(time)
     u = np.asarray(u, dtype=float)
     taus = np.asarray(taus, dtype=float)
     n, k = states.shape
@@ -897,7 +901,7 @@ def varying_lag_derivatives(time, u, taus, states, tau_slopes, hold: str = "line
     out[0] = 0.0 if initial_slope is None else np.asarray(initial_slope, float)
     if n < 2 or k == 0:
         return out
-    dt = _steps(t)
+    dt = sampling.steps
     if _COMPILED.get():
         from creepcomp import recursions
 
@@ -952,7 +956,8 @@ def lag_tau_derivatives(time, u, taus, states, hold: str = "linear", initial_slo
 
     Parameters
     ----------
-    time, u : array_like, shape (N,)
+    time : array_like, shape (N,), or Sampling
+    u : array_like, shape (N,)
     taus : array_like, shape (K,)
     states : numpy.ndarray, shape (N, K)
         The lags' states (:func:`lag_states` with the same arguments).
@@ -965,7 +970,8 @@ def lag_tau_derivatives(time, u, taus, states, hold: str = "linear", initial_slo
     numpy.ndarray
         Shape ``(N, K)``.
     """
-    t = np.asarray(time, dtype=float)
+    sampling = Sampling.of(time)
+    t = sampling.time
     u = np.asarray(u, dtype=float)
     taus = np.atleast_1d(np.asarray(taus, dtype=float))
     n, k = len(t), len(taus)
@@ -976,17 +982,18 @@ def lag_tau_derivatives(time, u, taus, states, hold: str = "linear", initial_slo
     if _COMPILED.get():
         from creepcomp import recursions
 
-        lengths, kind = _step_kinds(t, _steps(t))
+        sampling.steps                      # (checks the times)
+        lengths, kind = sampling.kinds
         slopes = tuple(np.empty((len(lengths), k)) for _ in range(4))
         recursions.step_coefficient_slopes(lengths, taus, _linear_hold(hold), *slopes)
         recursions.derivative_recursion(*slopes, kind, np.ones((1, k)), states, u, out[0].copy(), out)
         return out
     changes = _input_changes(u, hold)
     if changes is not None:
-        _held_runs_derivatives(t, u, taus, states, changes, out[0].copy(), out)
+        _held_runs_derivatives(sampling, u, taus, states, changes, out[0].copy(), out)
         return out
-    dt = np.diff(t)
-    uniform = is_uniform(t)
+    dt = sampling.steps
+    uniform = sampling.uniform
     step = np.full((1, 1), float(np.mean(dt))) if uniform else dt[:, None]
     e, de, db0, db1 = _coefficient_slopes(step / taus[None, :], taus[None, :], hold)
     drive = de * states[:-1] + db0 * u[:-1, None] + db1 * u[1:, None]

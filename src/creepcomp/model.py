@@ -224,7 +224,7 @@ class CreepModel(Shown):
 
         Parameters
         ----------
-        time : array_like
+        time : array_like or creepcomp.lti.Sampling
             Strictly increasing sample times (s), uniform or irregular.
         load : array_like
             Load at those times.

@@ -51,9 +51,9 @@ from creepcomp.fit.data import Data, prepare
 from creepcomp.fit.structure import Applied, Structure
 from creepcomp.fit.noise import (MISFIT_LIMIT, SPARSE_SAMPLES, NoiseFloor, autocorrelation, explained_share,
     ljung_box, misfit_ratio as ratio_to_floor, noise_floor, rows_for, whiten, with_reference_noise)
-from creepcomp.fit.solver import Fit, Problem, fit_structure, screening
+from creepcomp.fit.solver import Fit, Problem, fit_structure
 from creepcomp.fit.evidence import (BIC_STRONG, HELDOUT_Z, Evidence, compare, compare_with_halves,
-    fold_refit, halves, heldout)
+    FoldRefits, fold_refit, halves, heldout)
 from creepcomp.fit.starts import one_term_starts, tau_grid
 from creepcomp.fit.prony import model_file_dict
 from creepcomp.fit.reduce import reduce_record
@@ -296,7 +296,7 @@ class CatchAll(Effect):
         grid = [g for g in grid if np.min(np.abs(np.log(taus / g))) > np.log(1.5)]
         out = {}
         if grid:
-            extra = lag_states(t, s, grid, hold=data.hold)
+            extra = lag_states(data.sampling, s, grid, hold=data.hold)
             for j, g in enumerate(grid):
                 out[f"lag_{g:.3g}s"] = extra[:, j]
         square = s * np.abs(s) / scale
@@ -307,7 +307,7 @@ class CatchAll(Effect):
         out["even"] = even
         out["cube"] = s ** 3 / scale ** 2
         for name, x in (("square", square), ("even", even), ("rising", rising)):
-            lx = lag_states(t, x, taus, hold=data.hold)
+            lx = lag_states(data.sampling, x, taus, hold=data.hold)
             for k in range(len(taus)):
                 out[f"lag_{name}_{k}"] = lx[:, k]
         out["integral"] = np.concatenate([[0.0], np.cumsum(0.5 * (s[:-1] + s[1:]) * np.diff(t))])
@@ -317,7 +317,7 @@ class CatchAll(Effect):
             out["temperature"] = dT
             out["temperature_squared"] = dT ** 2
             for g in (data.span / 20, data.span / 5):
-                out[f"temperature_lag_{g:.3g}s"] = lag_states(t, dT, [g], hold=data.hold)[:, 0]
+                out[f"temperature_lag_{g:.3g}s"] = lag_states(data.sampling, dT, [g], hold=data.hold)[:, 0]
             out["temperature_load"] = dT * s
             for k in range(lags.shape[1]):
                 out[f"temperature_creep_{k}"] = dT * lags[:, k]
@@ -396,7 +396,7 @@ def _heldout_side_by_side(data: Data, fit: Fit, workers: Workers) -> Fit:
     ``workers`` (when it has processes side by side): the same prediction."""
     if workers.width == 1:
         return heldout(data, fit)
-    return heldout(data, fit, refit_all=lambda keeps: workers.map(fold_refit, fit, keeps))
+    return heldout(data, fit, refit_all=lambda keeps: workers.map(fold_refit, FoldRefits(fit), keeps))
 
 
 #: Candidates refined fully at each step (the best by the quick fit, plus any that already
@@ -512,17 +512,18 @@ def _no_evidence() -> Evidence:
     return Evidence(float("nan"), float("nan"), float("nan"))
 
 
-def _quick(data: Data, current: Fit, effect: Effect, step: int, trials: list) -> Candidate | None:
-    """The effect on top of ``current``, its own parameters fitted (the current model's held);
-    None when it cannot be tried (the trial says why)."""
+def _quick(data: Data, current: Fit, effect: Effect, step: int, trials: list,
+           fresh: dict | None = None) -> Candidate | None:
+    """The effect on top of ``current``, its own parameters fitted (the current model's held)
+    by a quick fit that only ranks it (:class:`~creepcomp.diagnose.effects.QuickFit`, with the
+    fits ``fresh`` that ran ahead); None when it cannot be tried (the trial says why)."""
     reason = effect.applicable(data, current.structure)
     if reason:
         if step == 1:
             trials.append(Trial(step, effect.name, None, None, f"does not apply ({reason})"))
         return None
     try:
-        with screening():
-            f = effect.fit_on(data, current, refine="own")
+        f = effect.fit_on(data, current, refine="own", quick_fit=effects_pkg.QuickFit(fresh or {}))
     except NotApplicable as exc:
         trials.append(Trial(step, effect.name, None, None, f"does not apply ({exc})"))
         return None
@@ -562,7 +563,7 @@ def _screen(data: Data, current: Fit, pool, step: int, trials: list, workers: Wo
     tested, the step likely ends here: the verdict's parts (:func:`_verdict_part`) for
     ``current``, and the catch-all on top of it, run beside those refinements. ``fresh``:
     fits with the creep term started afresh, run ahead
-    (:func:`~creepcomp.diagnose.effects.fresh_fits`).
+    (:attr:`~creepcomp.diagnose.effects.QuickFit.fresh`).
 
     Returns
     -------
@@ -626,11 +627,10 @@ def _quick_task(data: Data, common: tuple, effect: Effect) -> tuple:
     """:func:`_quick` as a task of :class:`Workers`: the candidate, its refinement when it is
     refined ahead of its rank (:func:`_refined_ahead`; else None), and the trials it adds.
     ``common``: the current model, the step, whether to refine ahead, the fits with a creep
-    term started afresh that ran ahead (:func:`~creepcomp.diagnose.effects.fresh_fits`)."""
+    term started afresh that ran ahead (:attr:`~creepcomp.diagnose.effects.QuickFit.fresh`)."""
     current, step, ahead, fresh = common
     tried = []
-    with effects_pkg.fresh_fits(fresh):
-        candidate = _quick(data, current, effect, step, tried)
+    candidate = _quick(data, current, effect, step, tried, fresh)
     full = None
     if candidate is not None and _refined_ahead(current, candidate, ahead):
         full = _refined(data, current, candidate)

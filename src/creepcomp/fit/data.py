@@ -11,6 +11,7 @@ import numpy as np
 from creepcomp.errors import InputError
 from creepcomp.io.formats import read_any
 from creepcomp.io.records import Record
+from creepcomp.lti import Sampling
 
 __all__ = ["BLOCK_SAMPLES", "BLOCK_VARIANCE", "check_scales", "MAX_TIME", "VALUE_RANGE", "GAP_FACTOR", "CONSTANT_LOAD_TOLERANCE", "Data", "gaps", "MIN_SAMPLES", "prepare",
            "ABRUPT_FACTOR", "load_steps", "abrupt_intervals", "reference_noise", "THIRD_DIFFERENCE",
@@ -152,6 +153,25 @@ class Data:
         return float(self.time[-1] - start)
 
     @cached_property
+    def sampling(self) -> Sampling:
+        """The sample times with what the lag recursions compute from them alone
+        (:class:`creepcomp.lti.Sampling`): pass it for ``time`` to every lag of this record."""
+        return Sampling(self.time)
+
+    def derived(self, key: tuple, make):
+        """What ``make()`` computes from this record alone, computed once per record and kept
+        on it (read-only where it is an array): ``key`` names what it is and every argument it
+        depends on besides the record (e.g. ``("total_variation", dead_band)``)."""
+        kept = self.__dict__.setdefault("_derived", {})
+        hit = kept.get(key)
+        if hit is None:
+            hit = make()
+            if isinstance(hit, np.ndarray):
+                hit.flags.writeable = False
+            kept[key] = hit
+        return hit
+
+    @cached_property
     def step_floor(self) -> float:
         """The least load change between two samples that can be a step (:func:`step_floor`,
         found once)."""
@@ -231,7 +251,10 @@ class Data:
 
     def with_signal(self, signal) -> "Data":
         """A copy with another signal (e.g. a simulated one)."""
-        return replace(self, signal=np.asarray(signal, float))
+        copy = replace(self, signal=np.asarray(signal, float))
+        if "sampling" in self.__dict__:         # (the same times)
+            copy.__dict__["sampling"] = self.sampling
+        return copy
 
 
 #: A load change between two samples is a step when it is this many times larger than the
@@ -381,8 +404,7 @@ def prepare(record, initial: str = "free", load_step_at: float | None = None,
         weights = 1.0 / np.asarray(variance, float)
     else:
         samples = None
-    # a copy nobody can change: results kept for these times are used again without comparing
-    # them (:func:`creepcomp.lti.kept_for`)
+    # a copy nobody can change
     time = np.array(record.time, dtype=float)
     time.flags.writeable = False
     return Data(time=time, load=load, signal=record.signal, temperature=record.temperature,

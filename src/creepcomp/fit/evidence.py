@@ -28,7 +28,7 @@ from creepcomp.fit.structure import basis, basis_derivatives
 
 __all__ = ["BIC_STRONG", "HELDOUT_Z", "FOLDS", "BLOCKS", "MIN_BLOCK_SAMPLES",
            "UNDETERMINED_VARIANCE_RATIO", "SLOW_NOISE_RATIO", "HeldOut", "block_index",
-           "half_blocks", "load_halves", "predict_held_out", "jacobian", "halves", "heldout", "fold_refit", "Evidence",
+           "half_blocks", "load_halves", "predict_held_out", "jacobian", "halves", "heldout", "fold_refit", "FoldRefits", "Evidence",
            "compare", "slow_noise_ratio", "BLOCK_MEMORY", "block_memory", "compare_with_halves"]
 
 #: BIC difference that counts as strong evidence (Kass & Raftery 1995: 2 ln B > 10 is
@@ -267,34 +267,52 @@ def heldout(data: Data, fit: Fit, folds: int = FOLDS, refine: bool = True,
     samples it reads across a step are left free).
 
     ``refit_all``: refits a list of ``keep`` masks side by side, each as
-    :func:`fold_refit` gives it (default: one after the other here).
+    :func:`fold_refit` gives it with a :class:`FoldRefits` of ``fit`` (default: one after the
+    other here).
     """
     blocks = block_index(data) if blocks is None else blocks
     refit = None if refit_all is not None else _refitter(data, fit, refine, linearised)
     return replace(fit, heldout=predict_held_out(blocks, folds, refit, refit_all))
 
 
-#: The refitters of the last few fits (:func:`fold_refit`), by identity, with the fit held.
-_REFITTERS: dict = {}
-_REFITTERS_KEPT = 2
-_REFITTERS_LOCK = threading.Lock()          # (a fleet's worker runs units on several threads)
+class FoldRefits:
+    """The refits of :func:`heldout`'s folds of one fit on one record, wherever they run
+    (:func:`fold_refit`): what the folds share (the fit's Jacobian) is computed at the first
+    refit and kept on the object. A copy sent to another process carries the fit only, and
+    computes its own there.
+
+    Parameters
+    ----------
+    fit : Fit
+    refine, linearised : bool
+        As :func:`heldout` takes them.
+    """
+
+    def __init__(self, fit: Fit, refine: bool = True, linearised: bool = False):
+        self.fit, self.refine, self.linearised = fit, refine, linearised
+        self._refit: Callable[[np.ndarray], np.ndarray] | None = None
+        self._lock = threading.Lock()          # (a fleet's worker runs units on several threads)
+
+    def __getstate__(self) -> dict:
+        return {"fit": self.fit, "refine": self.refine, "linearised": self.linearised}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__init__(**state)
+
+    def __call__(self, data: Data, keep: np.ndarray) -> np.ndarray:
+        """The fit refitted on the samples ``keep`` of ``data`` (its record); its residual on
+        every sample."""
+        with self._lock:
+            if self._refit is None:
+                self._refit = _refitter(data, self.fit, self.refine, self.linearised)
+        return self._refit(keep)
 
 
-def fold_refit(data: Data, fit: Fit, keep: np.ndarray, refine: bool = True,
-               linearised: bool = False) -> np.ndarray:
+def fold_refit(data: Data, refits: FoldRefits, keep: np.ndarray) -> np.ndarray:
     """One refit of :func:`heldout` (the fit refitted on the samples ``keep``; its residual on
-    every sample): the same as there, wherever it runs. What the folds share (the fit's
-    Jacobian) is computed once per fit."""
-    key = (id(fit), refine, linearised)
-    with _REFITTERS_LOCK:
-        hit = _REFITTERS.get(key)
-    if hit is None or hit[0] is not fit:
-        hit = (fit, _refitter(data, fit, refine, linearised))
-        with _REFITTERS_LOCK:
-            while len(_REFITTERS) >= _REFITTERS_KEPT:
-                _REFITTERS.pop(next(iter(_REFITTERS)))
-            _REFITTERS[key] = hit
-    return hit[1](keep)
+    every sample), as a task of :class:`~creepcomp.diagnose.workers.Workers` (``refits``: the
+    task's common part): the same as there, wherever it runs."""
+    return refits(data, keep)
 
 
 def _refitter(data: Data, fit: Fit, refine: bool, linearised: bool) -> Callable[[np.ndarray], np.ndarray]:

@@ -10,10 +10,8 @@ covariance; p = 0 ... 5 chosen by BIC, its memory broken at gaps).
 
 from __future__ import annotations
 
-import contextvars
 import copy
 import math
-from contextlib import contextmanager
 from dataclasses import dataclass, field, fields, replace
 from typing import Callable, Sequence
 
@@ -30,7 +28,7 @@ from creepcomp.fit.structure import (DIFF_STEP, Basis, Param, Structure, basis, 
 from creepcomp.model import CreepModel
 
 __all__ = ["Fit", "DeferredCovariance", "ANCHOR_WEIGHT", "Problem", "best_of_starts", "fit_structure", "refined_ftol",
-           "screening", "with_noise", "with_covariance", "sandwich_covariance", "small_sample_inflation", "unit_scaled"]
+           "with_noise", "with_covariance", "sandwich_covariance", "small_sample_inflation", "unit_scaled"]
 
 
 def best_of_starts(residual: Callable[[np.ndarray], np.ndarray], starts: Sequence[np.ndarray],
@@ -342,6 +340,10 @@ def _zeroed(values: np.ndarray, rows: np.ndarray) -> np.ndarray:
 
 #: Points whose projection a :class:`Problem` keeps.
 _PROJECTIONS_KEPT = 3
+#: Most values (samples times columns) of the bases of the projections a :class:`Problem` keeps
+#: in all, that of the last point included (a record of many load steps has hundreds of
+#: step-time columns): beyond it fewer points are kept, down to the last one.
+_PROJECTIONS_KEPT_VALUES = 10_000_000
 
 
 class Problem:
@@ -431,6 +433,11 @@ class Problem:
         kept = self.cache.setdefault("project", {})
         if key in kept:
             return kept[key][0]
+        if kept:
+            # room for this point's basis (about as large as the last) before it is made
+            room = next(reversed(kept.values()))[0][0].columns.size
+            while kept and sum(v[0][0].columns.size for v in kept.values()) + room > _PROJECTIONS_KEPT_VALUES:
+                kept.pop(next(iter(kept)))
         b = self.basis(x)
         straddled = self.straddled(b)
         a = self.on_fitted(b.columns, straddled)
@@ -693,7 +700,8 @@ def fit_structure(data: Data, structure: Structure, starts: Sequence[dict], nois
                   mask: np.ndarray | None = None, max_nfev: int | None = None,
                   n_refine: int = 2, with_cov: bool = True, fixed: dict | None = None,
                   anchor: dict | None = None, refine: bool = True, frozen: dict | None = None,
-                  ftol: float = 1e-8, coarse_ftol: float | None = None) -> Fit:
+                  ftol: float = 1e-8, coarse_ftol: float | None = None,
+                  screening: bool = False) -> Fit:
     """Fit a structure by least squares (variable projection); likelihood, BIC and
     uncertainties with an AR noise model.
 
@@ -733,10 +741,14 @@ def fit_structure(data: Data, structure: Structure, starts: Sequence[dict], nois
         Nonlinear parameters held at given values (not searched).
     ftol : float
         Relative change of the cost at which a refinement stops (looser after a coarse
-        search and while :func:`screening`: :func:`refined_ftol`).
+        search and when ``screening``: :func:`refined_ftol`).
     coarse_ftol : float, optional
         The same for the search of a long record's starts on its coarse record (default
         :data:`COARSE_FTOL`).
+    screening : bool
+        The fit only ranks candidates: every refinement stops at :func:`refined_ftol`. (A fit
+        whose held-out prediction is measured is refined to ``ftol``: the held-out refit, a
+        few evaluations from the fit's values, follows where the fit stopped.)
     """
     problem = Problem(data, structure, mask, fixed=fixed, anchor=anchor, frozen=frozen)
     starts = [problem.start_vector(s) for s in starts]
@@ -748,7 +760,7 @@ def fit_structure(data: Data, structure: Structure, starts: Sequence[dict], nois
         coarse_ftol = max(ftol, coarse_ftol or COARSE_FTOL)
         starts = [best_of_starts(coarse.residual, starts, n_refine,
                                  lambda x0: coarse.refine(x0, max_nfev, coarse_ftol))]
-    if coarse is not None or _SCREENING.get():
+    if coarse is not None or screening:
         ftol = refined_ftol(problem, ftol)
     x = best_of_starts(problem.residual, starts, n_refine,
                        (lambda x0: problem.refine(x0, max_nfev, ftol)) if refine else None)
@@ -757,26 +769,11 @@ def fit_structure(data: Data, structure: Structure, starts: Sequence[dict], nois
 
 def refined_ftol(problem: Problem, ftol: float = 1e-8) -> float:
     """The tolerance of the refinement on all samples from the best point of a coarse search,
-    and of every refinement while :func:`screening`: ``ftol``, or converged until the cost
+    and of every refinement of a fit that is ``screening``: ``ftol``, or converged until the cost
     moves the log-likelihood by under 0.005 when that is looser (a change of the cost of 0.01
     noise variances: each parameter within about a tenth of its standard deviation of the
     optimum)."""
     return max(ftol, 0.01 / len(problem.rows))
-
-
-_SCREENING = contextvars.ContextVar("screening", default=False)
-
-
-@contextmanager
-def screening():
-    """Within it, fits rank candidates only: every refinement stops at :func:`refined_ftol`.
-    A fit whose held-out prediction is measured is refined to ``ftol`` (the held-out refit,
-    a few evaluations from the fit's values, follows where the fit stopped)."""
-    token = _SCREENING.set(True)
-    try:
-        yield
-    finally:
-        _SCREENING.reset(token)
 
 
 #: Samples of the coarse record on which the starts of a long record's fit are searched.
@@ -985,7 +982,7 @@ def _covariance(problem: Problem, x, coef, noise: ARNoise) -> np.ndarray | None:
         bp = problem.basis(xp).columns @ coef
         bm = problem.basis(xm).columns @ coef
         cols.append((bp - bm) / (2 * h))
-    full = np.column_stack(cols + [b.columns]) if cols else b.columns
+    full = np.column_stack(cols + [b.columns]) if cols else b.columns.copy()
     # a step time held at its bound moves with the creep amplitude that sets the bound
     for col, k, half in b.step_bounds:
         amplitude = b.names.index(f"a[{k}]")
@@ -994,8 +991,12 @@ def _covariance(problem: Problem, x, coef, noise: ARNoise) -> np.ndarray | None:
                                            * b.columns[:, col])
     # coefficients held at given values or at a step time's bound are not estimated
     full[:, len(x) + np.flatnonzero(~free)] = 0.0
-    z = np.zeros_like(full)
-    z[rows] = problem.data.weighted(full)[rows]
+    weighted = problem.data.weighted(full)
+    if isinstance(problem.take, slice):
+        z = weighted                  # (every row fitted: no copy of the basis's size besides)
+    else:
+        z = np.zeros_like(full)
+        z[rows] = weighted[rows]
     z[rows[problem.straddled(b)]] = 0.0          # (each fitted by its own parameter)
     return sandwich_covariance([z], [noise])
 
@@ -1018,7 +1019,8 @@ def sandwich_covariance(jacobians, noises) -> np.ndarray | None:
     numpy.ndarray or None
         None when the normal matrix cannot be inverted.
     """
-    jac = np.vstack(jacobians)
+    # (of one record: its Jacobian and the scaled one are the only arrays of its size made)
+    jac = jacobians[0] if len(jacobians) == 1 else np.vstack(jacobians)
     norms = np.sqrt(np.sum(jac ** 2, axis=0))
     norms[norms == 0] = 1.0
     jn = jac / norms
@@ -1028,6 +1030,6 @@ def sandwich_covariance(jacobians, noises) -> np.ndarray | None:
         return None
     meat = np.zeros_like(bread)
     for block, noise in zip(jacobians, noises):
-        zt = _inverse_ar_transpose(block / norms, noise)
+        zt = _inverse_ar_transpose(jn if len(jacobians) == 1 else block / norms, noise)
         meat += noise.sigma ** 2 * (zt.T @ zt)
     return (bread @ meat @ bread) / np.outer(norms, norms)

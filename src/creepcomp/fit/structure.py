@@ -205,7 +205,7 @@ def _lags(data: Data, h, taus, init, dynamic, values, cache) -> np.ndarray:
     t = data.time
     static = [a for a in dynamic if not a.effect.state_dependent]
     if not dynamic or static:
-        lags = lag_states(t, h, taus, hold=data.hold, initial=init)
+        lags = lag_states(data.sampling, h, taus, hold=data.hold, initial=init)
         if not dynamic:
             return lags
     factor = np.ones((len(t) - 1, len(taus)))
@@ -214,7 +214,7 @@ def _lags(data: Data, h, taus, init, dynamic, values, cache) -> np.ndarray:
     states = [a for a in dynamic if a.effect.state_dependent]
     if states:
         return _state_dependent_lags(data, h, taus, init, factor, states, values, cache)[0]
-    return varying_lag_states(t, h, taus[None, :] * factor, hold=data.hold, initial=init)
+    return varying_lag_states(data.sampling, h, taus[None, :] * factor, hold=data.hold, initial=init)
 
 
 def _same_array(kept: np.ndarray, given: np.ndarray) -> bool:
@@ -440,19 +440,32 @@ def _step_time_block(data: Data, h: np.ndarray, taus: np.ndarray, cache: dict | 
     # the decays of these time constants (kept: an effect's own parameters move the creep
     # input's steps, not the time constants), each column scaled by its step
     kept = cache.setdefault("step_decay_columns", {})
+    scales = (-dh[:, None] / np.asarray(taus, float)[None, :]).reshape(-1)
+    size = len(t) * len(later) * len(taus)
+    small = size <= _STEP_DECAYS_KEPT_VALUES
     unit = kept.get(key)
-    if unit is None:
-        unit = decay_columns(t, later + 1, middles, taus, np.ones((len(later), len(taus))))
-        while len(kept) >= _STEP_DECAYS_KEPT:
-            kept.pop(next(iter(kept)))
-        kept[key] = unit
-    cols = unit * (-dh[:, None] / np.asarray(taus, float)[None, :]).reshape(-1)
+    if unit is not None:
+        cols = unit * scales
+    else:
+        unit = decay_columns(data.sampling, later + 1, middles, taus, np.ones((len(later), len(taus))))
+        if small:
+            while kept and (len(kept) >= _STEP_DECAYS_KEPT
+                            or sum(u.size for u in kept.values()) + size > _STEP_DECAYS_KEPT_VALUES):
+                kept.pop(next(iter(kept)))
+            kept[key] = unit
+            cols = unit * scales
+        else:
+            cols = unit                     # (not kept: scaled in place)
+            cols *= scales
     labels = cache.get(("step_time_labels", len(taus)))
     if labels is None:
         labels = _step_time_labels(t, steps, middles, len(taus))
         cache[("step_time_labels", len(taus))] = labels
     block = (cols,) + labels
-    cache["step_times"] = (key, h, block)
+    if small:
+        cache["step_times"] = (key, h, block)
+    else:
+        cache.pop("step_times", None)
     return block
 
 
@@ -471,6 +484,12 @@ def _step_time_labels(t: np.ndarray, steps: np.ndarray, middles: np.ndarray, n_t
 
 #: Sets of time constants whose step-time decays a fitting problem keeps (:func:`_step_time_block`).
 _STEP_DECAYS_KEPT = 4
+#: Most values (samples times columns) of the step-time decays a fitting problem keeps in all:
+#: a record of many load steps has hundreds of step-time columns per term, its largest arrays
+#: (a reduced record of 50,000 samples and 200 steps: 80 MB per term), and decays kept for
+#: several sets of time constants, and the last block besides, multiplied a fit's memory. Larger
+#: ones are made again when asked for.
+_STEP_DECAYS_KEPT_VALUES = 5_000_000
 
 
 def basis_derivatives(data: Data, structure: Structure, values: dict, b: Basis, params,
@@ -516,7 +535,7 @@ def basis_derivatives(data: Data, structure: Structure, values: dict, b: Basis, 
     plain_lags = not dynamic
     slope = _initial_slope(data, h, taus)
     needs_tau = plain_lags and any(p.name.startswith("tau[") for p in params)
-    dtau = lag_tau_derivatives(t, h, taus, b.lags, data.hold, slope) if needs_tau else None
+    dtau = lag_tau_derivatives(data.sampling, h, taus, b.lags, data.hold, slope) if needs_tau else None
     steps: dict[int, list[tuple[int, float]]] = {}
     for (col, k, _), mid in zip(b.step_bounds, b.step_mids):
         steps.setdefault(k, []).append((col, mid))
@@ -532,10 +551,7 @@ def basis_derivatives(data: Data, structure: Structure, values: dict, b: Basis, 
         if p.name.startswith("tau["):
             lag = dtau[:, k] * taus[k]          # search coordinate: log tau
             moves = [(column, lag)]
-            for col, mid in steps.get(k, ()):
-                # a step column -dh/tau exp(-(t - mid)/tau) (zero before its step): by log tau
-                # it is the column times ((t - mid)/tau - 1)
-                moves.append((col, b.columns[:, col] * ((t - mid) / taus[k] - 1.0)))
+            moves += [_StepTimeMove(col, b.columns[:, col], t, mid, taus[k]) for col, mid in steps.get(k, ())]
         else:
             lag = decay(t - t[0], taus[k]) * p.scale
             moves = [(column, lag)]
@@ -545,6 +561,22 @@ def basis_derivatives(data: Data, structure: Structure, values: dict, b: Basis, 
             moves += _lag_reading_moves(data, structure, values, b, lags)
         out.append(moves)
     return out
+
+
+class _StepTimeMove:
+    """A step-time column and its derivative by log tau, the derivative made when the pair
+    is unpacked (``col, d = move``): a record of many load steps has hundreds of them per term,
+    made all at once a copy of the basis's step-time columns. The column is ``-dh/tau exp(-(t
+    - mid)/tau)`` (zero before its step): by log tau it is the column times ``(t - mid)/tau - 1``."""
+
+    __slots__ = ("col", "column", "t", "mid", "tau")
+
+    def __init__(self, col: int, column: np.ndarray, t: np.ndarray, mid: float, tau: float):
+        self.col, self.column, self.t, self.mid, self.tau = col, column, t, mid, tau
+
+    def __iter__(self):
+        yield self.col
+        yield self.column * ((self.t - self.mid) / self.tau - 1.0)
 
 
 def _initial_slope(data: Data, h: np.ndarray, taus: np.ndarray) -> np.ndarray | None:
@@ -646,7 +678,7 @@ def _state_dependent_derivatives(data: Data, structure: Structure, values: dict,
             if is_tau and slope is not None:
                 k = int(p.name[4:-1])
                 initial[k] = slope[k] * taus[k]
-        lags = varying_lag_derivatives(t, h, step_taus, b.lags, tau_slopes, data.hold, initial)
+        lags = varying_lag_derivatives(data.sampling, h, step_taus, b.lags, tau_slopes, data.hold, initial)
         moves = [(col, lags[:, k]) for k, col in enumerate(lag_columns)
                  if (lags[:, k] != 0.0).any()]
         if is_tau:

@@ -137,12 +137,12 @@ class _Joint:
         if not d.fixed_offset:
             cols.append(np.ones(d.n))
             names.append("offset")
-        cols.append(model.response(d.time, d.load, hold=d.hold, initial=initial, temperature=temp))
+        cols.append(model.response(d.sampling, d.load, hold=d.hold, initial=initial, temperature=temp))
         names.append("gain")
         if d.initial == "free":
             zero = np.zeros(d.n)
             for k in range(self.n_terms):
-                cols.append(model.response(d.time, zero, hold=d.hold, initial=np.eye(self.n_terms)[k],
+                cols.append(model.response(d.sampling, zero, hold=d.hold, initial=np.eye(self.n_terms)[k],
                                            temperature=temp))
                 names.append(f"c0[{k}]")
         return np.column_stack(cols), names

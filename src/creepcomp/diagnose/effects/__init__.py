@@ -33,13 +33,13 @@ An effect defined elsewhere (a plug-in, a test) joins at run time through :func:
 from __future__ import annotations
 
 import abc
-import contextvars
 import importlib
 import math
 import pkgutil
 import re
 import warnings
-from contextlib import contextmanager
+from dataclasses import dataclass, field
+from typing import Mapping
 
 import numpy as np
 
@@ -54,7 +54,7 @@ from creepcomp.diagnose.effects._sensor import Scales, SignalPath, Simulated
 __all__ = ["Effect", "SensorEffect", "Scales", "SignalPath", "Simulated", "REGISTRY", "register",
            "unregister", "effects_on", "sensor_effects", "flow_effect", "get", "arrays_data", "model_structure",
            "simulate_extended", "compensate_extended", "UnsettledInverse", "extension_inverses", "BASELINE_ADVICE",
-           "firmware_output", "in_record_units", "fresh_fits", "fresh_fits_ahead"]
+           "firmware_output", "in_record_units", "QuickFit", "fresh_fits_ahead"]
 
 
 #: Most evaluations of each refinement of a quick fit (``refine="own"``) whose creep term starts
@@ -66,6 +66,23 @@ SCREEN_ITERATIONS = 20
 #: term starts afresh (:meth:`SensorEffect.with_fresh_term`): the best at a few time constants
 #: across the grid (a time offset has 21: 111 evaluations on a 30-minute record instead of 252).
 FRESH_OWN_STARTS = 4
+
+
+@dataclass(frozen=True)
+class QuickFit:
+    """How a diagnosis's quick fit, which only ranks candidates, runs (the ``quick_fit`` of
+    :meth:`Effect.fit_on`): every refinement stops at the likelihood tolerance
+    (``screening`` of :func:`~creepcomp.fit.solver.fit_structure`), and the fits with the creep
+    term started afresh that ran ahead (:func:`fresh_fits_ahead`) are taken from ``fresh``
+    instead of fitted again.
+
+    Parameters
+    ----------
+    fresh : mapping
+        Fits that ran ahead, by what :meth:`SensorEffect.with_fresh_term` asks for.
+    """
+
+    fresh: Mapping = field(default_factory=dict)
 
 
 class Effect(abc.ABC):
@@ -149,7 +166,7 @@ class Effect(abc.ABC):
         return [{}]
 
     def fit_on(self, data: Data, base: Fit, refine: str = "all", start: dict | None = None,
-               settings: tuple | None = None) -> Fit:
+               settings: tuple | None = None, quick_fit: QuickFit | None = None) -> Fit:
         """Fit the base model extended by this effect (its likelihood with its own AR noise).
 
         ``refine``: ``all`` (every nonlinear parameter refined together), ``own`` (the
@@ -159,6 +176,8 @@ class Effect(abc.ABC):
         ``start``: start values of every nonlinear parameter (default: the base's values and
         the effect's own start grid).
         ``settings``: other than :meth:`settings` (e.g. :meth:`SensorEffect.plain_settings`).
+        ``quick_fit``: the fit only ranks candidates (a diagnosis's quick fit, :class:`QuickFit`);
+        an override passes it on to every fit it makes.
         """
         applied, structure = self._on(data, base, settings)
         known = {p.name: base.values[p.name] for p in base.params}
@@ -168,7 +187,8 @@ class Effect(abc.ABC):
             s.update({self._key(applied, k): v for k, v in own.items()})
             starts.append(s)
         return fit_structure(data, structure, starts, n_refine=1, refine=refine != "none",
-                             frozen=known if refine == "own" else None, with_cov=refine == "all")
+                             frozen=known if refine == "own" else None, with_cov=refine == "all",
+                             screening=quick_fit is not None)
 
     def _on(self, data: Data, base: Fit, settings: tuple | None) -> tuple:
         """This effect applied to ``base`` (its :meth:`settings` unless ``settings`` is given)
@@ -309,7 +329,7 @@ class SensorEffect(Effect, Simulated):
         return None
 
     def with_tau_restarts(self, data: Data, base: Fit, fit: Fit, own: list[dict],
-                          settings: tuple | None = None) -> Fit:
+                          settings: tuple | None = None, quick_fit: QuickFit | None = None) -> Fit:
         """``fit`` (this effect on ``base``), or a better one started from a log grid of each
         retardation time (2 per decade) crossed with the effect's own start values ``own``
         (names without prefix), screened by their linear fit alone and the best refined: the
@@ -324,12 +344,13 @@ class SensorEffect(Effect, Simulated):
                        **{self._key(applied, name): v for name, v in values.items()})
                   for k in range(base.structure.n_terms) for tau in tau_grid(data, per_decade=2)
                   for values in own]
-        screened = fit_structure(data, structure, starts, refine=False, with_cov=False)
+        screened = fit_structure(data, structure, starts, refine=False, with_cov=False,
+                                 screening=quick_fit is not None)
         if screened.bic >= fit.bic:
             return fit
         # every parameter refined, with its covariance: it may be kept as the candidate's full fit
         alt = fit_structure(data, structure, [{p.name: screened.values[p.name] for p in screened.params}],
-                            n_refine=1)
+                            n_refine=1, screening=quick_fit is not None)
         return alt if alt.bic < fit.bic else fit
 
     #: The refinement (``own`` or ``all``) of the quick fit's fit with the creep term started
@@ -339,28 +360,30 @@ class SensorEffect(Effect, Simulated):
     fresh_ahead: str | None = None
 
     def with_fresh_term(self, data: Data, base: Fit, fit: Fit, refine: str, start: dict | None,
-                        settings: tuple | None, screening: bool | None = None) -> Fit:
+                        settings: tuple | None, screening: bool | None = None,
+                        quick_fit: QuickFit | None = None) -> Fit:
         """``fit`` (this effect on a one-term ``base``), or the effect fitted with the creep term
         started afresh (:meth:`fresh_term_fit`) when that fits better: for effects that the
         base's one term may have mimicked (a delay by a fast term of large beta, flow by a term
         longer than the record), whose fit from the base's values then stays there.
         ``screening``: a quick fit, whose refinements stop after :data:`SCREEN_ITERATIONS`
-        (default: when ``refine`` is ``own``)."""
+        (default: when ``refine`` is ``own``). ``quick_fit``: the quick fit's (:meth:`fit_on`), whose
+        fits that ran ahead are taken instead of fitted again."""
         if refine == "none" or start is not None or base.structure.n_terms != 1 or base.structure.effects:
             return fit
         quick = screening or (screening is None and refine == "own")
         key = (self.name, refine, settings, bool(quick))
-        ahead = _FRESH_AHEAD.get()
-        alt = ahead[key] if key in ahead else self.fresh_term_fit(data, base, refine, settings, quick)
+        ahead = quick_fit.fresh if quick_fit is not None else {}
+        alt = ahead[key] if key in ahead else self.fresh_term_fit(data, base, refine, settings, quick, quick_fit)
         return alt if alt is not None and alt.bic < fit.bic else fit
 
     def fresh_term_fit(self, data: Data, base: Fit | None, refine: str, settings: tuple | None,
-                       quick: bool) -> Fit | None:
+                       quick: bool, quick_fit: QuickFit | None = None) -> Fit | None:
         """The effect on a one-term ``base`` (None: the one-term structure, for an effect whose
         fit reads the record only, :attr:`fresh_ahead`) with the creep term started afresh from
         a grid of time constants, crossed with the effect's own start values (or the
         :data:`FRESH_OWN_STARTS` best of them); None when it cannot be fitted. ``quick``: its
-        refinement stops after :data:`SCREEN_ITERATIONS`."""
+        refinement stops after :data:`SCREEN_ITERATIONS`; ``quick_fit``: as :meth:`fit_on`'s."""
         from creepcomp.fit.starts import one_term_starts
 
         if base is None:
@@ -379,7 +402,8 @@ class SensorEffect(Effect, Simulated):
                 owns = [owns[i] for i in np.argsort(cost, kind="stable")[:FRESH_OWN_STARTS]]
             fresh = [dict(t, **own) for t in grid for own in owns]
             return fit_structure(data, structure, fresh, n_refine=1, with_cov=refine == "all",
-                                 max_nfev=SCREEN_ITERATIONS if quick else None)
+                                 max_nfev=SCREEN_ITERATIONS if quick else None,
+                                 screening=quick_fit is not None)
         except (InputError, np.linalg.LinAlgError, ValueError):
             return None
 
@@ -408,33 +432,16 @@ class SensorEffect(Effect, Simulated):
         return math.inf, None
 
 
-_FRESH_AHEAD: contextvars.ContextVar = contextvars.ContextVar("fresh_ahead", default={})
-
-
-@contextmanager
-def fresh_fits(ahead: dict):
-    """Within it, :meth:`SensorEffect.with_fresh_term` takes the fits with the creep term
-    started afresh from ``ahead`` (:func:`fresh_fits_ahead`) instead of fitting them."""
-    token = _FRESH_AHEAD.set(ahead)
-    try:
-        yield
-    finally:
-        _FRESH_AHEAD.reset(token)
-
-
 def fresh_fits_ahead(data: Data, effect: "SensorEffect") -> dict:
     """The quick fit's fit of ``effect`` with the creep term started afresh on the one-term
     baseline (:attr:`SensorEffect.fresh_ahead`), before the baseline is fitted, for
-    :func:`fresh_fits` (empty when the effect has none, or when its settings or starts fail:
+    :attr:`QuickFit.fresh` (empty when the effect has none, or when its settings or starts fail:
     the quick fit then meets the failure itself, and its trial says why)."""
-    from creepcomp.fit.solver import screening
-
     refine = getattr(effect, "fresh_ahead", None)
     if refine is None:
         return {}
     try:
-        with screening():
-            return {(effect.name, refine, None, True): effect.fresh_term_fit(data, None, refine, None, True)}
+        return {(effect.name, refine, None, True): effect.fresh_term_fit(data, None, refine, None, True, QuickFit())}
     except (InputError, np.linalg.LinAlgError, ValueError):
         return {}
 

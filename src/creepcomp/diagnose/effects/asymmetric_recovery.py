@@ -47,13 +47,13 @@ class AsymmetricRecovery(SensorEffect):
     def settings(self, data: Data, base: Fit) -> tuple:
         return (("term", int(np.argmax(np.abs(base.betas)))),)
 
-    def fit_on(self, data, base, refine="all", start=None, settings=None):
+    def fit_on(self, data, base, refine="all", start=None, settings=None, quick_fit=None):
         if settings is not None:
-            return super().fit_on(data, base, refine, start, settings)
+            return super().fit_on(data, base, refine, start, settings, quick_fit)
         term = self.settings(data, base)
         switches = _SWITCHES if _switches_differ(data, float(base.taus[term[0][1]])) else _SWITCHES[:1]
         fit = SensorEffect.fit_on
-        return min((fit(self, data, base, refine, start, term + (("switch", switch),)) for switch in switches),
+        return min((fit(self, data, base, refine, start, term + (("switch", switch),), quick_fit) for switch in switches),
                    key=lambda f: f.bic)
 
     def nonlinear_params(self, data, applied):
@@ -160,7 +160,7 @@ def _shrinking(h: np.ndarray, c: np.ndarray) -> np.ndarray:
 def _switches_differ(data: Data, tau: float) -> bool:
     """Whether the two switches put a creep term of time constant ``tau``, driven by the
     load, in different modes on more than :data:`_DIFFERENT_STEPS` of the steps."""
-    c = lag_states(data.time, data.load, [tau], hold=data.hold, initial="settled")[:, 0]
+    c = lag_states(data.sampling, data.load, [tau], hold=data.hold, initial="settled")[:, 0]
     by_state = _shrinking(data.load, c)
     return float(np.mean(by_state != _after_fall(data.load, by_state))) > _DIFFERENT_STEPS
 

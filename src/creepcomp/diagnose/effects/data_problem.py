@@ -43,7 +43,7 @@ from creepcomp.fit.noise import noise_floor, quantisation_step
 from creepcomp.io.rails import stuck_at_rail
 from creepcomp.fit.structure import Applied
 from creepcomp.fit.solver import Fit
-from creepcomp.diagnose.effects import SensorEffect
+from creepcomp.diagnose.effects import QuickFit, SensorEffect
 
 __all__ = ["JUMP_Z", "JUMP_WINDOW", "find_jumps", "screen", "DataProblem", "EFFECT"]
 
@@ -311,11 +311,12 @@ class DataProblem(SensorEffect):
         jumps = tuple(find_jumps(data, base.residual, sensitivity=_sensitivity(base)))
         return (("jumps", jumps), ("times", tuple(float(data.time[i]) for i in jumps)))
 
-    def fit_on(self, data: Data, base: Fit, refine: str = "all", start: dict | None = None) -> Fit:
+    def fit_on(self, data: Data, base: Fit, refine: str = "all", start: dict | None = None,
+               quick_fit: QuickFit | None = None) -> Fit:
         applied = Applied(self, self.settings(data, base))
         if not applied.setting("jumps"):
             raise NotApplicable("no signal jump that no load change explains")
-        fit = super().fit_on(data, base, refine, start)
+        fit = super().fit_on(data, base, refine, start, quick_fit=quick_fit)
         # keep the jumps whose fitted height stands out of its uncertainty
         keep = [j for j, i in enumerate(applied.setting("jumps"))
                 if abs(fit.values[f"data_problem.jump[{j}]"]) >= JUMP_Z * fit.uncertainty(
@@ -325,7 +326,7 @@ class DataProblem(SensorEffect):
         jumps = tuple(applied.setting("jumps")[j] for j in keep)
         self._override = (("jumps", jumps), ("times", tuple(float(data.time[i]) for i in jumps)))
         try:
-            return super().fit_on(data, base, refine, start)
+            return super().fit_on(data, base, refine, start, quick_fit=quick_fit)
         finally:
             self._override = None
 

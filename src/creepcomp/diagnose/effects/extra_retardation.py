@@ -12,7 +12,7 @@ from creepcomp.fit.prony import COALESCED_RATIO, coalesced
 from creepcomp.fit.structure import Applied, Structure
 from creepcomp.fit.solver import Fit, fit_structure
 from creepcomp.fit.starts import extra_term_starts
-from creepcomp.diagnose.effects import SensorEffect
+from creepcomp.diagnose.effects import QuickFit, SensorEffect
 
 __all__ = ["ExtraRetardation", "EFFECT"]
 
@@ -34,7 +34,8 @@ class ExtraRetardation(SensorEffect):
         grown = Structure(structure.n_terms + 1, structure.effects)
         return grown.with_effect(applied)
 
-    def fit_on(self, data: Data, base: Fit, refine: str = "all", start: dict | None = None) -> Fit:
+    def fit_on(self, data: Data, base: Fit, refine: str = "all", start: dict | None = None,
+               quick_fit: QuickFit | None = None) -> Fit:
         applied = Applied(self, self.settings(data, base))
         structure = self.extend(base.structure, applied)
         known = {p.name: base.values[p.name] for p in base.params}
@@ -42,7 +43,7 @@ class ExtraRetardation(SensorEffect):
         return fit_structure(data, structure, starts,
                              n_refine=2 if refine == "all" else 1,
                              refine=refine != "none", frozen=known if refine == "own" else None,
-                             with_cov=refine == "all")
+                             with_cov=refine == "all", screening=quick_fit is not None)
 
     def added_term(self, fit: Fit, applied: Applied) -> int:
         """The term the base did not have: the one left over when the others are matched to

@@ -94,15 +94,15 @@ class MullinsSoftening(SensorEffect):
     def settings(self, data, base):
         return (("shaped", True),)
 
-    def fit_on(self, data, base, refine="all", start=None, settings=None):
+    def fit_on(self, data, base, refine="all", start=None, settings=None, quick_fit=None):
         if settings is not None or not _new_peaks(data.load):
-            return super().fit_on(data, base, refine, start, settings)
+            return super().fit_on(data, base, refine, start, settings, quick_fit)
         peak = (("form", "peak"), ("load_scale", data.load_scale))
         forms = (self.settings(data, base), peak)
         if start is not None:
             # a refinement from a fit of one form (the shaped one has a shape): that form only
             forms = forms[:1] if f"{self.name}.shape" in start else forms[1:]
-        return min((super(MullinsSoftening, self).fit_on(data, base, refine, start, s) for s in forms),
+        return min((super(MullinsSoftening, self).fit_on(data, base, refine, start, s, quick_fit) for s in forms),
                    key=lambda f: f.bic)
 
     def plain_settings(self, data, base):

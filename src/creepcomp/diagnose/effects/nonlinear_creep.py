@@ -64,18 +64,18 @@ class NonlinearCreep(SensorEffect):
         return [p for p in (Param("growth", -0.95, 50.0, scale=0.1), Param("acceleration", -0.9, 20.0, scale=0.1))
                 if p.name in free]
 
-    def fit_on(self, data, base, refine="all", start=None, settings=None):
+    def fit_on(self, data, base, refine="all", start=None, settings=None, quick_fit=None):
         if refine == "own" and start is None:
             # the base's time constants sit where the loaded speeds average: faster creep
             # under load is found only with them free (its starts move them, see starts)
             refine = "all"
-        fit = super().fit_on(data, base, refine, start, settings)
+        fit = super().fit_on(data, base, refine, start, settings, quick_fit)
         if settings is not None or start is None or refine != "all":
             return fit
         scale = self.settings(data, base)
         for free in _SHAPES[1:]:
             try:
-                nested = super().fit_on(data, base, refine, start, scale + (("free", free),))
+                nested = super().fit_on(data, base, refine, start, scale + (("free", free),), quick_fit)
             except (InputError, np.linalg.LinAlgError, ValueError):
                 continue
             if nested.bic < fit.bic:

@@ -140,14 +140,14 @@ class RateIndependentHysteresis(SensorEffect):
         scale = applied.setting("load_scale")
         return [{"width": f * scale} for f in (0.02, 0.05, 0.1, 0.2, 0.4, 0.8)]
 
-    def fit_on(self, data, base, refine="all", start=None, settings=None):
-        fit = super().fit_on(data, base, refine, start, settings)
+    def fit_on(self, data, base, refine="all", start=None, settings=None, quick_fit=None):
+        fit = super().fit_on(data, base, refine, start, settings, quick_fit)
         if start is not None or refine == "none" or base.structure.effects:
             return fit
         # on the baseline alone: its one term may have taken the hysteresis's place (a play of
         # negative weight on a sweep looks like a fast relaxing term)
         own = self.starts(data, base, Applied(self, (("load_scale", data.load_scale),)))
-        return self.with_tau_restarts(data, base, fit, own, settings)
+        return self.with_tau_restarts(data, base, fit, own, settings, quick_fit)
 
     columns_from_lags = False
 

@@ -59,7 +59,7 @@ class ThermalDrift(SensorEffect):
         dT = data.temperature - applied.setting("reference_temperature")
         lag = p.get("lag", 0.0)
         if lag > 0:
-            dT = lag_states(data.time, dT, [lag], hold=data.hold, initial="settled")[:, 0]
+            dT = lag_states(data.sampling, dT, [lag], hold=data.hold, initial="settled")[:, 0]
         return {"coefficient": dT}
 
     def report(self, fit: Fit, applied: Applied) -> dict:

@@ -60,11 +60,11 @@ class ThermalRetardation(SensorEffect):
     def starts(self, data, base, applied):
         return [{"kappa": k} for k in (0.005, 0.02, 0.06, 0.15)]
 
-    def fit_on(self, data, base, refine="all", start=None, settings=None):
-        fit = super().fit_on(data, base, refine, start, settings)
+    def fit_on(self, data, base, refine="all", start=None, settings=None, quick_fit=None):
+        fit = super().fit_on(data, base, refine, start, settings, quick_fit)
         if start is not None or refine == "none":
             return fit
-        return self.with_tau_restarts(data, base, fit, [{"kappa": k} for k in RESTART_KAPPAS], settings)
+        return self.with_tau_restarts(data, base, fit, [{"kappa": k} for k in RESTART_KAPPAS], settings, quick_fit)
 
     def tau_factor(self, data, h, lags, taus, p, applied):
         temp = 0.5 * (data.temperature[:-1] + data.temperature[1:])

@@ -99,11 +99,11 @@ class TimeOffset(SensorEffect):
         boxes = [{"delay": 0.5 * k * dt, "width": k * dt} for k in (2, 4, 7) if k * dt < limit]
         return plain + boxes
 
-    def fit_on(self, data, base, refine="all", start=None, settings=None):
+    def fit_on(self, data, base, refine="all", start=None, settings=None, quick_fit=None):
         # a delay of a few samples is mimicked by a fast creep term of large beta, which the
         # baseline may have fitted: fit the effect with the creep term started afresh as well
-        fit = super().fit_on(data, base, refine, start, settings)
-        return self.with_fresh_term(data, base, fit, refine, start, settings)
+        fit = super().fit_on(data, base, refine, start, settings, quick_fit)
+        return self.with_fresh_term(data, base, fit, refine, start, settings, quick_fit=quick_fit)
 
     def load_transform(self, data, x, p, applied):
         return averaged(data.time, x, p["delay"], p.get("width", 0.0))

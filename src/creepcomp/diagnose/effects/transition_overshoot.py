@@ -25,7 +25,7 @@ from creepcomp.errors import InputError
 from creepcomp.fit.data import Data
 from creepcomp.fit.structure import Applied, Param
 from creepcomp.fit.solver import Fit
-from creepcomp.lti import keep_for, kept_for, lag_states
+from creepcomp.lti import lag_states
 from creepcomp.diagnose.effects import SensorEffect
 from creepcomp.diagnose.effects.rate_independent_hysteresis import one_way_reason, play
 
@@ -59,23 +59,13 @@ def stretched_weights(exponent: float) -> np.ndarray:
     return w
 
 
-#: The total variations of the last few load histories (:func:`_total_variation_of`).
-_VARIATIONS: dict = {}
-_VARIATIONS_KEPT = 4
-
-
-def _total_variation_of(s: np.ndarray, dead_band: float) -> np.ndarray:
-    """:func:`total_variation` of ``s``, kept for the last few arrays (by identity, used again
-    while their values are the same: :func:`~creepcomp.lti.kept_for`): the load seen is the
-    same array at every evaluation of a fit unless another effect changes it."""
-    key = (id(s), dead_band)
-    hit = kept_for(_VARIATIONS, key, s)
-    if hit is not None:
-        return hit
-    v = total_variation(s, dead_band)
-    v.flags.writeable = False
-    keep_for(_VARIATIONS, key, s, v, _VARIATIONS_KEPT)
-    return v
+def _total_variation_of(data: Data, s: np.ndarray, dead_band: float) -> np.ndarray:
+    """:func:`total_variation` of the load seen ``s``: of the record's own load (no effect
+    before this one changed it) computed once per record (:meth:`~creepcomp.fit.data.Data.derived`),
+    as every evaluation of a fit asks for it."""
+    if np.array_equal(s, data.load):
+        return data.derived(("total_variation", dead_band), lambda: total_variation(data.load, dead_band))
+    return total_variation(s, dead_band)
 
 
 class TransitionOvershoot(SensorEffect):
@@ -99,12 +89,12 @@ class TransitionOvershoot(SensorEffect):
     def plain_settings(self, data: Data, base: Fit) -> tuple:
         return (("load_scale", data.load_scale),)
 
-    def fit_on(self, data, base, refine="all", start=None, settings=None):
+    def fit_on(self, data, base, refine="all", start=None, settings=None, quick_fit=None):
         if refine == "own" and settings is None:
             # the screening fits the plain exponential (a stretched decay costs a dozen lags
             # per evaluation); the full fit starts from it with the exponent free
             settings = self.plain_settings(data, base)
-        return super().fit_on(data, base, refine, start, settings)
+        return super().fit_on(data, base, refine, start, settings, quick_fit)
 
     def nonlinear_params(self, data, applied):
         lo, hi = data.tau_limits()
@@ -122,15 +112,15 @@ class TransitionOvershoot(SensorEffect):
     columns_from_lags = False
 
     def columns(self, data, s, h, lags, p, applied):
-        v = _total_variation_of(s, DEAD_BAND * applied.setting("load_scale"))
+        v = _total_variation_of(data, s, DEAD_BAND * applied.setting("load_scale"))
         b = p.get("exponent", 1.0)
         if b >= 1.0:
-            decay = v - lag_states(data.time, v, [p["tau"]], hold=data.hold, initial="settled")[:, 0]
+            decay = v - lag_states(data.sampling, v, [p["tau"]], hold=data.hold, initial="settled")[:, 0]
         else:
             w = stretched_weights(b)
             used = w > 1e-9
             taus = p["tau"] * STRETCH_GRID[used]
-            decay = (v[:, None] - lag_states(data.time, v, taus, hold=data.hold, initial="settled")) @ w[used]
+            decay = (v[:, None] - lag_states(data.sampling, v, taus, hold=data.hold, initial="settled")) @ w[used]
         return {"amplitude": decay}
 
     def report(self, fit: Fit, applied: Applied) -> dict:

@@ -50,14 +50,15 @@ class ViscousFlow(SensorEffect):
     def settings(self, data: Data, base: Fit) -> tuple:
         return (("span", data.span), ("load_scale", data.load_scale))
 
-    def fit_on(self, data, base, refine="all", start=None, settings=None):
+    def fit_on(self, data, base, refine="all", start=None, settings=None, quick_fit=None):
         screening = refine == "own"
         if screening and start is None:
             # a long creep term of the base absorbs flow (and its exponent costs a parameter):
             # the screening frees the base's time constants too, or flow never ranks
             refine = "all"
-        fit = super().fit_on(data, base, refine, start, settings)
-        return self.with_fresh_term(data, base, fit, refine, start, settings, screening=screening)
+        fit = super().fit_on(data, base, refine, start, settings, quick_fit)
+        return self.with_fresh_term(data, base, fit, refine, start, settings, screening=screening,
+                                    quick_fit=quick_fit)
 
     def plain_settings(self, data, base):
         return (("span", data.span),)
