@@ -385,7 +385,11 @@ def main() -> None:
         for name, args, opts in cases(files, tmp / "out"):
             if a.only and not any(s in name for s in a.only.split(",")):
                 continue
-            outcome, detail = run_case(src, args, opts)
+            # a case without a working folder of its own runs in a scratch one: the code under
+            # test (an older checkout's too) writes nothing into the folder this is run from
+            scratch = tmp / "scratch"
+            scratch.mkdir(exist_ok=True)
+            outcome, detail = run_case(src, args, {"cwd": scratch, **opts})
             counts[outcome] = counts.get(outcome, 0) + 1
             print(f"{outcome:<10} {name:<38} {detail}", flush=True)
         print("totals: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
