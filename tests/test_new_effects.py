@@ -203,15 +203,16 @@ def test_jumps_that_worsen_the_correction_stay_the_cause_and_say_why():
 
 
 def test_an_extension_that_worsens_the_correction_is_never_the_cause():
-    from creepcomp.diagnose.sensor import Finding, _ordered
+    from creepcomp.diagnose.decision import order
+    from creepcomp.diagnose.sensor import Finding
     from creepcomp.fit.evidence import Evidence
     nan = Evidence(float("nan"), float("nan"), float("nan"))
     worse_flow = Finding("viscous_flow", {}, {}, nan, 10.0, correction_error_ratio=0.8)
     worse_jump = Finding("data_problem", {"kind": "jump"}, {}, nan, 5.0, correction_error_ratio=0.8)
     rest = Finding("unexplained", {}, {}, nan, 1.0)
-    assert [f.effect for f in _ordered([worse_flow, worse_jump], rest)] == \
+    assert [f.effect for f in order([worse_flow, worse_jump], rest)] == \
         ["data_problem", "unexplained", "viscous_flow"]
-    assert [f.effect for f in _ordered([worse_flow], rest)] == ["unexplained", "viscous_flow"]
+    assert [f.effect for f in order([worse_flow], rest)] == ["unexplained", "viscous_flow"]
 
 
 def test_effects_below_half_a_quantisation_step_leave_the_grid_the_cause():

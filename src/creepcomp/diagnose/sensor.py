@@ -31,6 +31,10 @@ the gain.
 4. The gain: held-out residual RMS, and the error of the creep-corrected signal (digital
    correction, :func:`creepcomp.diagnose.effects.compensate_extended`) against the load, baseline model /
    extended model.
+
+The rule of steps 2 and 3 (which figure against which threshold) is in
+:mod:`creepcomp.diagnose.decision`; this module plans the fits it needs: which run, in what
+order, side by side in worker processes, and which run ahead.
 """
 
 from __future__ import annotations
@@ -42,6 +46,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from creepcomp.diagnose import effects as effects_pkg
+from creepcomp.diagnose.decision import CORRECTION_WORSE, REMAINING_LIMIT, correction_is_worse, gate, judge, order
+from creepcomp.diagnose.decision import unexplained as _unexplained_reason
 from creepcomp.diagnose.effects import Effect, UnsettledInverse, compensate_extended
 from creepcomp.diagnose.workers import Workers, last_seconds
 from creepcomp.display import Shown, data_frame
@@ -76,16 +82,6 @@ MAX_EFFECTS = 4
 #: record at 10 Hz (4,500 samples after reduction) diagnosed within 10 s (a search of four
 #: steps over 10,000 samples took up to 23 s).
 DIAGNOSE_MAX_SAMPLES = 6_000
-#: A correction-error ratio below this: the extension makes the creep-corrected signal worse
-#: (the ratio of two RMS errors of the same record moves by a percent or so without any change).
-CORRECTION_WORSE = 0.98
-#: Named findings that leave a misfit ratio above this get ``unexplained`` added when the
-#: catch-all lowers BIC strongly (structure it follows in the fitted samples, even if it does
-#: not predict held-out blocks): tighter than ``MISFIT_LIMIT``, which must also allow for the
-#: floor's miss of strongly coloured noise on its own; with a named finding whose template
-#: only approximates the record (creep that ages, fitted as further terms) the rest is
-#: structure (``docs/diagnosis.md``, "The verdict").
-REMAINING_LIMIT = 1.3
 
 
 @dataclass(frozen=True)
@@ -797,17 +793,6 @@ def _test_batch(data: Data, current: Fit, candidates: list[Candidate], catch_all
     return [judged for _, judged in done], generic, current
 
 
-def _not_tested(candidate: Candidate, accepted: Candidate | None, current: Fit) -> str | None:
-    """Why a candidate is not tested on held-out data (its BIC), or None."""
-    if candidate.delta_bic > -BIC_STRONG:
-        return "not supported (BIC)"
-    # a simpler alternative to the accepted one, if it explains at least half as much
-    if accepted is not None and not (candidate.fit.n_params < accepted.fit.n_params and
-                                     candidate.delta_bic <= 0.5 * (accepted.fit.bic - current.bic)):
-        return "weaker than the accepted one"
-    return None
-
-
 def _generic_better(data: Data, search: Search, fit: Fit) -> bool:
     """The catch-all on top of the current model predicts held-out data clearly better than
     ``fit`` (then the structure is not what the candidate says)."""
@@ -837,16 +822,16 @@ def _choose(data: Data, search: Search, fitted: list[Candidate], step: int,
     tested: dict[int, Candidate] = {}
     for at, candidate in enumerate(fitted):
         name = candidate.effect.name
-        why_not = _not_tested(candidate, accepted, current)
+        why_not = gate(candidate, accepted, current)
         if why_not:
             trials.append(Trial(step, name, candidate.delta_bic, None, why_not))
             continue
         if at not in tested:
             more = [] if search.has_catch_all() else [None]
             batch = [k for k in range(at, len(fitted))
-                     if k not in tested and not _not_tested(fitted[k], accepted, current)]
+                     if k not in tested and not gate(fitted[k], accepted, current)]
             if more:    # (the step's first: the first candidate and what its acceptance would test)
-                ahead = [k for k in batch[1:] if not _not_tested(fitted[k], fitted[at], current)]
+                ahead = [k for k in batch[1:] if not gate(fitted[k], fitted[at], current)]
                 batch = [at] + ahead[:workers.width - 1]
             else:
                 batch = batch[:workers.width]
@@ -860,25 +845,19 @@ def _choose(data: Data, search: Search, fitted: list[Candidate], step: int,
                 search.catch_all_on = (current, generic)
             tested.update(zip(batch, done))
         candidate = tested[at]
-        ev = candidate.evidence
-        if not ev.supported:
-            trials.append(Trial(step, name, candidate.delta_bic, ev, "not supported (held-out)"))
-            continue
-        if accepted is None:
-            if _generic_better(data, search, candidate.fit):
-                trials.append(Trial(step, name, candidate.delta_bic, ev,
-                                    "the generic extension predicts clearly better"))
-                break
-        elif compare(candidate.fit, accepted.fit).supported_heldout:
-            # parsimony: the richer one must predict held-out data better than this simpler one
-            trials.append(Trial(step, name, candidate.delta_bic, ev,
-                                f"supported, but {accepted.effect.name} predicts better"))
-            continue
-        else:
+        # (the catch-all and the comparison with the accepted one cost fits: asked only when
+        # the rule needs them)
+        judged = judge(candidate, accepted,
+                       generic_better=lambda: _generic_better(data, search, candidate.fit),
+                       richer_predicts_better=lambda: compare(candidate.fit, accepted.fit).supported_heldout)
+        if judged.demoted is not None:
             trials[accepted.trial] = Trial(step, accepted.effect.name, accepted.delta_bic, accepted.evidence,
-                                           f"supported, but not better on held-out data than the simpler {name}")
-        accepted = replace(candidate, trial=len(trials))
-        trials.append(Trial(step, name, candidate.delta_bic, ev, "accepted"))
+                                           judged.demoted)
+        if judged.accept:
+            accepted = replace(candidate, trial=len(trials))
+        trials.append(Trial(step, name, candidate.delta_bic, candidate.evidence, judged.outcome))
+        if judged.stop:
+            break
     return accepted
 
 
@@ -1006,18 +985,14 @@ def _unexplained(data: Data, search: Search, floor: NoiseFloor) -> tuple:
     current, findings = search.current, search.findings
     generic = search.catch_all(data)
     catch = generic.evidence if generic is not None else None
-    unexplained = None
-    if generic is not None and catch.supported:
-        unexplained = Finding("unexplained", _remaining(current, floor), {}, catch,
+    reason = _unexplained_reason(current.residual_rms, catch, bool(findings), floor.rms)
+    if reason == "catch-all":
+        return catch, Finding("unexplained", _remaining(current, floor), {}, catch,
                               _heldout_sse(current) - _heldout_sse(generic.fit), generic.fit)
-    limit = MISFIT_LIMIT
-    if findings and catch is not None and catch.delta_bic <= -BIC_STRONG:
-        limit = REMAINING_LIMIT
-    if unexplained is None and current.residual_rms > limit * floor.rms:
-        # the floor says the misfit is not noise, whatever the evidence for a candidate
-        unexplained = Finding("unexplained", _remaining(current, floor), {}, catch or _no_evidence(), 0.0, None,
+    if reason == "misfit":
+        return catch, Finding("unexplained", _remaining(current, floor), {}, catch or _no_evidence(), 0.0, None,
                               note=_misfit_note(current, floor))
-    return catch, unexplained
+    return catch, None
 
 
 def _faults(data: Data, current: Fit, base: Fit) -> list[tuple[str, dict]]:
@@ -1090,9 +1065,9 @@ def _verdict(data: Data, search: Search, correction: bool, reduced, t_start: flo
         gain["correction_error_extended"] = corr["extended_rms"]
         if "unsettled" in corr:
             gain["correction_unsettled"] = corr["unsettled"]
-        if "unsettled" in corr or (corr["ratio"] is not None and corr["ratio"] < CORRECTION_WORSE):
+        if correction_is_worse(corr):
             findings = _correction_notes(data, base, findings)
-    findings = _ordered(_screened(faults, current, base, findings), unexplained)
+    findings = order(_screened(faults, current, base, findings), unexplained)
     return Diagnosis(data, base, current, tuple(findings), tuple(search.trials), catch, gain,
                      _time.perf_counter() - t_start, extended_model, baseline_model, corr, floor,
                      reduced)
@@ -1168,25 +1143,6 @@ def _worse_note(data: Data, before: Fit, finding: Finding, corr: dict) -> str:
         if fixed and fixed.get("extended_rms"):
             without = corr["baseline_rms"] / fixed["extended_rms"]
     return effect.worse_correction_note(corr["ratio"], without)
-
-
-def _ordered(findings: list[Finding], unexplained: Finding | None) -> list[Finding]:
-    """Named findings by importance, extensions that make the correction worse after the
-    others; ``unexplained`` last (first when no named finding improves the correction). A fault
-    of the record (``describes_record``) keeps its place whatever it does to the correction:
-    it is a statement about the record, and its note says what the correction makes of it."""
-    named = [f for f in findings if f.effect != "unexplained"]
-
-    def demoted(f: Finding) -> bool:
-        return f.worsens_correction and not effects_pkg.get(f.effect).describes_record
-
-    good = sorted((f for f in named if not demoted(f)), key=lambda f: -f.importance)
-    worse = sorted((f for f in named if demoted(f)), key=lambda f: -f.importance)
-    if unexplained is None:
-        return good + worse
-    if not good:
-        return [unexplained] + worse
-    return good + [unexplained] + worse
 
 
 def _evidence(data: Data, current: Fit, rich: Fit, refine: bool = True,
