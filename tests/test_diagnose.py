@@ -233,3 +233,31 @@ def test_a_candidate_its_quick_fit_ranks_low_is_refined_and_can_be_the_best():
     d = diagnose(record, correction=False)
     assert d.cause == "static_nonlinearity"
     assert "rate_independent_hysteresis" not in [f.effect for f in d.findings]
+
+
+def test_the_decision_rule_asks_for_costly_inputs_only_when_it_needs_them():
+    from types import SimpleNamespace as NS
+
+    from creepcomp.diagnose.decision import gate, judge
+    from creepcomp.fit.evidence import Evidence
+
+    def never():
+        raise AssertionError("asked, but not needed")
+
+    current = NS(bic=0.0)
+    rich = NS(effect=NS(name="rich"), delta_bic=-100.0, fit=NS(n_params=6, bic=-100.0),
+              evidence=Evidence(-100.0, 1.2, 5.0))
+    simple = NS(effect=NS(name="simple"), delta_bic=-60.0, fit=NS(n_params=5, bic=-60.0),
+                evidence=Evidence(-60.0, 1.1, 4.0))
+    weak = NS(effect=NS(name="weak"), delta_bic=-40.0, fit=NS(n_params=5, bic=-40.0),
+              evidence=Evidence(-40.0, 1.01, 1.0))
+    assert gate(NS(delta_bic=-5.0), None, current) == "not supported (BIC)"
+    assert gate(simple, rich, current) is None                       # simpler, over half the ΔBIC
+    assert gate(weak, rich, current) == "weaker than the accepted one"
+    assert judge(weak, None, never, never).outcome == "not supported (held-out)"
+    assert judge(rich, None, lambda: True, never).stop
+    first = judge(rich, None, lambda: False, never)
+    assert first.accept and first.outcome == "accepted"
+    assert not judge(simple, rich, never, lambda: True).accept       # the richer one predicts better
+    replaced = judge(simple, rich, never, lambda: False)
+    assert replaced.accept and replaced.demoted.endswith("than the simpler simple")
