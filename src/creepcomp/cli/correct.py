@@ -10,7 +10,7 @@ import typer
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import read_json, read_model
 from creepcomp.io.outputs import check_outputs
-from creepcomp.io.records import parse_columns, read_record, write_record
+from creepcomp.io.records import parse_columns, write_record
 from creepcomp.units import format_percent, format_quantity
 from creepcomp.cli.common import app, console, print_json, progress_bar
 from creepcomp.cli.fit import SHEET_OPTION, TAXEL_OPTION
@@ -165,10 +165,9 @@ def _correct_whole(record_path, model, method, start, hold, output, out_meta, ma
 
     from creepcomp.digital.correctors import compensate, creep_error, load_from_compensated, uniform_interval
     from creepcomp.digital.record_file import FileCorrection, temperature_source
+    from creepcomp.io.formats import read_any
     from creepcomp.io.rails import stuck_at_rail
     from creepcomp.io.records import RecordScan
-
-    from creepcomp.io.formats import read_any
 
     record = read_any(record_path, columns=mapping, taxel=taxel, sheet=sheet)
     record.require(n_samples=2, what="creep correction")
