@@ -38,7 +38,7 @@ from creepcomp.fit.evidence import BIC_STRONG
 from creepcomp.fit.noise import MISFIT_LIMIT
 
 __all__ = ["CORRECTION_WORSE", "REMAINING_LIMIT", "Judgement", "gate", "judge", "unexplained",
-           "correction_is_worse", "order"]
+           "correction_is_worse", "ratio_is_worse", "order"]
 
 #: A correction-error ratio below this: the extension makes the creep-corrected signal worse
 #: (the ratio of two RMS errors of the same record moves by a percent or so without any change).
@@ -185,7 +185,14 @@ def correction_is_worse(corr: dict) -> bool:
     """
     if not corr:
         return False
-    return "unsettled" in corr or (corr["ratio"] is not None and corr["ratio"] < CORRECTION_WORSE)
+    return "unsettled" in corr or ratio_is_worse(corr["ratio"])
+
+
+def ratio_is_worse(ratio: float | None) -> bool:
+    """A correction-error ratio (the baseline's corrected RMS error over the extended one's)
+    below :data:`CORRECTION_WORSE`: the extension makes the correction worse (None: not
+    measured, not worse)."""
+    return ratio is not None and ratio < CORRECTION_WORSE
 
 
 def order(findings: list, unexplained: "object | None") -> list:

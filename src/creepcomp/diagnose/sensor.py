@@ -46,7 +46,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from creepcomp.diagnose import effects as effects_pkg
-from creepcomp.diagnose.decision import CORRECTION_WORSE, REMAINING_LIMIT, correction_is_worse, gate, judge, order
+from creepcomp.diagnose.decision import (CORRECTION_WORSE, REMAINING_LIMIT, correction_is_worse, gate, judge,
+                                        order, ratio_is_worse)
 from creepcomp.diagnose.decision import unexplained as _unexplained_reason
 from creepcomp.diagnose.effects import Effect, UnsettledInverse, compensate_extended
 from creepcomp.diagnose.workers import Workers, last_seconds
@@ -123,7 +124,7 @@ class Finding:
     @property
     def worsens_correction(self) -> bool:
         """It makes the creep-corrected signal worse (ratio below :data:`CORRECTION_WORSE`)."""
-        return self.correction_error_ratio is not None and self.correction_error_ratio < CORRECTION_WORSE
+        return ratio_is_worse(self.correction_error_ratio)
 
     def parameters_text(self, record_units: dict | None = None) -> str:
         """The parameters as a line of text, each with its unit (``record_units``: the

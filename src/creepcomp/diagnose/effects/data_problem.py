@@ -40,7 +40,7 @@ import numpy as np
 from creepcomp.errors import InputError, NotApplicable
 from creepcomp.fit.data import Data
 from creepcomp.fit.noise import noise_floor, quantisation_step
-from creepcomp.io.rails import stuck_at_rail
+from creepcomp.io.rails import CLIP_RUN, RAIL_LONGER, stuck_at_rail
 from creepcomp.fit.structure import Applied
 from creepcomp.fit.solver import Fit
 from creepcomp.diagnose.effects import QuickFit, SensorEffect
@@ -180,11 +180,6 @@ def _load_toggling(data: Data) -> dict | None:
 
 #: Quantisation dominates when its variance step^2/12 is at least this share of the noise floor's.
 QUANTISATION_SHARE = 0.5
-#: Least run of samples at the signal's extreme that can be a clipped stretch.
-CLIP_RUN = 3
-#: On a coarse value grid, a run at the extreme is clipping when it is this many times longer
-#: than the longest run of one value elsewhere.
-CLIP_LONGER = 5.0
 
 
 def _longest_run(y: np.ndarray, tol: float) -> int:
@@ -197,12 +192,13 @@ def _longest_run(y: np.ndarray, tol: float) -> int:
 
 
 def _clipping(data: Data, fit: Fit, floor) -> list:
-    """[first, last] times of runs of :data:`CLIP_RUN` or more samples at the signal's largest
-    or smallest value. A signal on no value grid does not repeat its extreme by chance. On a
-    grid (however fine: noise correlated over a few samples repeats grid values) a run counts
-    where the model goes beyond the extreme by more than 3 noise floors on average, or where
-    it is :data:`CLIP_LONGER` times longer than any run of one value elsewhere in the record
-    (a signal that dithers between grid values elsewhere does not sit on one by chance)."""
+    """[first, last] times of runs of :data:`~creepcomp.io.rails.CLIP_RUN` or more samples at
+    the signal's largest or smallest value. A signal on no value grid does not repeat its
+    extreme by chance. On a grid (however fine: noise correlated over a few samples repeats
+    grid values) a run counts where the model goes beyond the extreme by more than 3 noise
+    floors on average, or where it is :data:`~creepcomp.io.rails.RAIL_LONGER` times longer than
+    any run of one value elsewhere in the record (a signal that dithers between grid values
+    elsewhere does not sit on one by chance)."""
     y = data.signal
     tol = 1e-9 * max(float(np.max(np.abs(y))), 1e-300)
     on_grid = floor.quantisation_step > 0
@@ -217,7 +213,7 @@ def _clipping(data: Data, fit: Fit, floor) -> list:
             if b - a < CLIP_RUN:
                 continue
             beyond = np.mean(sign * (fit.prediction[a:b] - level)) > 3.0 * floor.rms
-            unlikely = b - a > CLIP_LONGER * max(longest, 1)
+            unlikely = b - a > RAIL_LONGER * max(longest, 1)
             if not on_grid or beyond or unlikely:
                 runs.append([float(data.time[a]), float(data.time[b - 1])])
     return sorted(runs)
