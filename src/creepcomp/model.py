@@ -13,6 +13,7 @@ import numpy as np
 from creepcomp.display import Shown
 from creepcomp.errors import InputError
 from creepcomp.units import check_number
+from creepcomp.load_filter import LoadFilter
 from creepcomp.lti import LagExpansion, varying_lag_states
 from creepcomp.temperature import TemperatureLaw, step_temperatures
 from creepcomp.transfer import Transfer
@@ -80,6 +81,10 @@ class CreepModel(Shown):
         Static monotone maps on either side of the creep (:mod:`creepcomp.transfer`): the
         raw signal is then ``h^-1(offset + gain * G(s)[f(load)])``. Without it (or with no
         map) the signal is linear in load.
+    load_filter : LoadFilter, optional
+        A moving average of the load estimate (:mod:`creepcomp.load_filter`): noise traded
+        against lag, chosen on held-out data. It acts on the load only, not on the
+        compensated signal.
 
     Notes
     -----
@@ -94,6 +99,7 @@ class CreepModel(Shown):
     extensions: Mapping[str, Any] = field(default_factory=dict, compare=False)
     temperature: TemperatureLaw | None = None
     transfer: Transfer | None = None
+    load_filter: LoadFilter | None = None
 
     def __post_init__(self):
         beta = self.beta if isinstance(self.beta, (list, tuple, np.ndarray)) else [self.beta]
@@ -136,6 +142,10 @@ class CreepModel(Shown):
             raise InputError("transfer must be a creepcomp.transfer.Transfer")
         if self.transfer is not None and self.transfer.is_identity:
             object.__setattr__(self, "transfer", None)
+        if self.load_filter is not None and not isinstance(self.load_filter, LoadFilter):
+            raise InputError("load_filter must be a creepcomp.load_filter.LoadFilter")
+        if self.load_filter is not None and self.load_filter.samples == 1:
+            object.__setattr__(self, "load_filter", None)
 
     @classmethod
     def voigt(cls, beta0: float, tau: float) -> "CreepModel":
@@ -201,7 +211,8 @@ class CreepModel(Shown):
         a_t = float(law.shift(temperature))
         factor = law.beta_factor(float(temperature), self.n_terms)
         return CreepModel(tuple(np.array(self.beta) * factor), tuple(np.array(self.tau) * a_t),
-                          self.gain, self.offset, dict(self.extensions), None, self.transfer)
+                          self.gain, self.offset, dict(self.extensions), None, self.transfer,
+                          self.load_filter)
 
     def step_lags(self, temperature) -> tuple[np.ndarray, np.ndarray]:
         """Retardation times over each sample step and amplitudes at each sample.
@@ -269,7 +280,7 @@ class CreepModel(Shown):
         if law is not None and law.beta_per_kelvin and len(law.beta_per_kelvin) != len(beta):
             law = _without_beta_law(law)
         return CreepModel(tuple(beta), tuple(tau), self.gain, self.offset, dict(self.extensions), law,
-                          self.transfer)
+                          self.transfer, self.load_filter)
 
     def creep_block(self) -> dict:
         """A design file's ``creep`` block: ``beta``, ``tau`` and the temperature law if any."""
@@ -287,7 +298,8 @@ class CreepModel(Shown):
         terms += f", {n - shown} more" if n > shown else ""
         more = (f"; temperature law about {self.temperature.reference:g} °C" if self.temperature else "") + \
             (f"; extensions {', '.join(map(str, self.extensions))}" if self.extensions else "") + \
-            (f"; {self.transfer.describe()}" if self.transfer is not None else "")
+            (f"; {self.transfer.describe()}" if self.transfer is not None else "") + \
+            (f"; {self.load_filter.describe()}" if self.load_filter is not None else "")
         creep = (f"{n} term{'s' if n > 1 else ''}: {terms} (beta0 {format_percent(self.beta0)})" if n
                  else "static calibration")
         return f"<CreepModel {creep}, gain {self.gain:.4g}, offset {self.offset:.4g}{more}>"
@@ -301,6 +313,8 @@ class CreepModel(Shown):
             out["extensions"] = dict(self.extensions)
         if self.transfer is not None:
             out["transfer"] = self.transfer.to_dict()
+        if self.load_filter is not None:
+            out["load_filter"] = self.load_filter.to_dict()
         return out
 
     @classmethod
@@ -327,6 +341,9 @@ class CreepModel(Shown):
         transfer = None
         if data.get("transfer") is not None:
             transfer = Transfer.from_dict(data["transfer"], where=f"{where}: 'transfer'")
+        load_filter = None
+        if data.get("load_filter") is not None:
+            load_filter = LoadFilter.from_dict(data["load_filter"], where=f"{where}: 'load_filter'")
         try:
             extensions = data.get("extensions", {}) or {}
             if not isinstance(extensions, Mapping):
@@ -334,6 +351,6 @@ class CreepModel(Shown):
                                  f"{type(extensions).__name__}")
             _check_parameters(extensions, "extensions")
             return cls(tuple(beta), tuple(tau), data.get("gain", 1.0), data.get("offset", 0.0),
-                       dict(extensions), law, transfer)
+                       dict(extensions), law, transfer, load_filter)
         except InputError as exc:
             raise InputError(f"{where}: {exc}") from None

@@ -163,7 +163,8 @@ def _correct_whole(record_path, model, method, start, hold, output, out_meta, ma
     """The correction of a record held whole (other files, and for the plot)."""
     import numpy as np
 
-    from creepcomp.digital.correctors import compensate, creep_error, load_from_compensated, uniform_interval
+    from creepcomp.digital.correctors import (compensate, creep_error, filter_load, load_from_compensated,
+                                             uniform_interval)
     from creepcomp.digital.record_file import FileCorrection, temperature_source
     from creepcomp.io.formats import read_any
     from creepcomp.io.rails import stuck_at_rail
@@ -189,7 +190,7 @@ def _correct_whole(record_path, model, method, start, hold, output, out_meta, ma
                                      hold=hold, progress=update, temperature=temps)
     before = creep_error(record.time, record.signal, record.load, model, method)
     after = creep_error(record.time, compensated, record.load, model, method)
-    load_estimate = load_from_compensated(compensated, model, method)
+    load_estimate = filter_load(load_from_compensated(compensated, model, method), model, record.time)
     if output is not None:
         extra = {} if _measured_file(record_path, taxel, sheet) else _extra_columns(record_path, mapping, record)
         with progress_bar(f"writing {output.name}", total=len(record), disable=quiet) as update:

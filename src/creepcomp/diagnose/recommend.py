@@ -133,14 +133,15 @@ def model_load(model, time, signal, temperature=None) -> np.ndarray:
     >>> bool(np.allclose(model_load(model, t, model.response(t, load, hold="zero")), load))
     True
     """
-    from creepcomp.digital.correctors import estimate_load, load_from_linear
+    from creepcomp.digital.correctors import estimate_load, filter_load, load_from_linear
 
     if not model.extensions:
         return estimate_load(time, signal, model, temperature=temperature)
     from creepcomp.diagnose.effects import compensate_extended
 
     x = np.asarray(signal, float) if model.transfer is None else model.transfer.linearise_within(signal)
-    return load_from_linear(compensate_extended(time, x, model, temperature, converge=True), model)
+    return filter_load(load_from_linear(compensate_extended(time, x, model, temperature, converge=True), model),
+                       model, time)
 
 
 def _percent(x: float) -> str:

@@ -65,7 +65,8 @@ __all__ = ["ERROR_CHUNK", "CHUNK", "METHODS", "HOLDS", "INITIAL_STATES", "BLOCK"
            "saturation_factor", "Corrector", "check_invertible", "check_temperature", "compensate",
            "uniform_interval", "uniform_interval_of", "reference", "CreepError", "CreepErrorSum",
            "creep_error", "fitted_reference_error",
-           "FittedReferenceSum", "estimate_load", "load_from_compensated", "load_from_linear"]
+           "FittedReferenceSum", "estimate_load", "load_from_compensated", "load_from_linear",
+           "filter_load", "mean_interval"]
 
 METHODS = ("subtractive", "supplemental")
 HOLDS = ("zero", "linear")
@@ -600,7 +601,34 @@ def estimate_load(time, signal, model: CreepModel, method: str = "subtractive", 
     True
     """
     corrected = _linear_correction(time, signal, model, method, initial, hold, None, CHUNK, temperature)
-    return load_from_linear(corrected, model, method)
+    return filter_load(load_from_linear(corrected, model, method), model, time)
+
+
+def filter_load(load, model: CreepModel, time=None, history=None) -> np.ndarray:
+    """The model's load filter (:mod:`creepcomp.load_filter`) applied to a load estimate: the
+    estimate itself for a model without one.
+
+    Parameters
+    ----------
+    load : array_like
+        The load estimate of every sample, unfiltered.
+    model : CreepModel
+    time : array_like, optional
+        The sample times (s): the filter averages over the time it was chosen for, at the
+        record's mean interval (without them: its own number of samples).
+    history : array_like, optional
+        The unfiltered estimates just before these (a record corrected piece by piece).
+    """
+    if model.load_filter is None:
+        return np.asarray(load, dtype=float)
+    return model.load_filter.apply(load, mean_interval(time), history)
+
+
+def mean_interval(time) -> float | None:
+    """A record's mean sample interval (s), or None for fewer than two samples."""
+    if time is None or len(time) < 2:
+        return None
+    return float((time[-1] - time[0]) / (len(time) - 1))
 
 
 def uniform_interval(time, steps=None) -> float | None:

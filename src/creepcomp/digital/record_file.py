@@ -19,6 +19,7 @@ from creepcomp.digital.correctors import (CreepError, CreepErrorSum, Corrector, 
                                           default_initial, load_from_compensated, uniform_interval_of,
                                           FittedReferenceSum)
 from creepcomp.errors import InputError
+from creepcomp.load_filter import moving_average
 from creepcomp.io.rails import RailCounter
 from creepcomp.io.extra_columns import ExtraColumns, open_extra_columns, output_names
 from creepcomp.io.records import STREAM_BYTES, RecordScan, open_record_stream, record_writer
@@ -141,6 +142,10 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
     done = 0
     load_square = 0.0
     rails = RailCounter()
+    load_filter = model.load_filter
+    filter_samples = (1 if load_filter is None else
+                      load_filter.samples_at((scan.last_time - scan.first_time) / (scan.samples - 1)))
+    history = None
     with extras as extra, contextlib.ExitStack() as stack:
         names = output_names(extra.names, [*scan.names, "compensated", "load_estimate"])
         write = None
@@ -159,6 +164,8 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
             fitted_before.add(piece.signal, piece.load)
             fitted_after.add(compensated, piece.load)
             load_estimate = load_from_compensated(compensated, model, method)
+            if filter_samples > 1:
+                load_estimate, history = moving_average(load_estimate, filter_samples, history)
             load_square += float(((load_estimate - piece.load) ** 2).sum())
             if write is not None:
                 cells = extra.take(len(piece))
