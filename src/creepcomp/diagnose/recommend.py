@@ -101,6 +101,9 @@ def usable(model_file: dict, firmware: bool = False) -> str | None:
         if firmware and model.transfer is not None and (model.extensions or model.temperature):
             raise InputError("firmware: the C corrector has no static maps together with "
                              + ("an extension" if model.extensions else "a temperature law"))
+        if firmware and model.load_filter is not None and (model.extensions or model.temperature):
+            raise InputError("firmware: the C corrector has no load filter together with "
+                             + ("an extension" if model.extensions else "a temperature law"))
     except InputError as exc:
         return str(exc)
     return None
@@ -322,11 +325,15 @@ def recommend(record, diagnosis, signal_path: bool = True) -> Recommendation:
     versus = _versus(members)
     for member in order or [None]:
         which, model = _model_of(member, diagnosis, path, record)
+        filtered = _with_load_filter(model, member, path)
+        if filtered is not None and usable(filtered, firmware=True) is None:
+            model = filtered
         why = usable(model, firmware=True)
         if why is None:
             name = member.name if member is not None else which
             reason = (f"{name} gives the load back with {_percent(member.heldout_load_rms)} RMS error "
-                      f"of the load range on the held-out last part of the record{versus}"
+                      f"of the load range on the held-out last part of the record"
+                      f"{_filtered(model, path)}{versus}"
                       if member is not None else f"the {which} model (the load error was not measured)")
             return Recommendation(which, model, reason, name, tuple(members), load_range, split, refused)
         refused[member.name if member is not None else which] = why
@@ -354,6 +361,24 @@ def _model_of(member, diagnosis, path, record) -> tuple[str, dict]:
     if member.name == path.chosen:
         return "signal path", path.model.to_dict()
     return "signal path", member.model.to_dict()
+
+
+def _with_load_filter(model: dict, member, path) -> dict | None:
+    """The model file with the signal path's load filter, where the member is the path's
+    chosen one (the filter was chosen for it) and the model has neither extensions nor a
+    temperature law; None otherwise."""
+    if (member is None or path is None or member.name != path.chosen or path.model.load_filter is None
+            or model.get("extensions") or model.get("temperature")):
+        return None
+    return {**model, "load_filter": path.model.load_filter.to_dict()}
+
+
+def _filtered(model: dict, path) -> str:
+    """The held-out error with the load filter, where the model has one."""
+    if not model.get("load_filter") or path is None:
+        return ""
+    return (f"; with {path.model.load_filter.describe()}, chosen on the same windows, "
+            f"{_percent(path.filtered_load_rms)}")
 
 
 def _versus(members) -> str:
