@@ -558,9 +558,11 @@ def check_filter_arguments(model: CreepModel, precision: str, state: str, max_in
     """Refuse, naming what to use, what the corrector with a load filter does not have: it is
     the float32 fixed-rate step with compensated states, without a temperature law or an
     extension map."""
-    what = f"a model with a load filter ({model.load_filter.describe()})"
-    instead = ("; without the filter (remove 'load_filter' from the model file) the corrector "
-               "of the compensated signal has it")
+    what = f"a model with a load filter (a moving average over {model.load_filter.window:.3g} s)"
+    instead = ""
+    if model.transfer is None and not model.is_static:
+        instead = ("; without the filter (remove 'load_filter' from the model file) its corrector "
+                   "of the compensated signal has it")
     if precision != "float32":
         raise InputError(f"{what} has a C corrector in float32 only: give --precision float32"
                          + instead)
@@ -570,9 +572,12 @@ def check_filter_arguments(model: CreepModel, precision: str, state: str, max_in
     if state != "compensated":
         raise InputError(f"{what} has a C corrector with compensated states only: leave out "
                          "--state plain" + instead)
-    if model.temperature is not None or temperature_range is not None:
-        raise InputError(f"{what} with a temperature law has no C corrector: correct its records "
+    if model.temperature is None and temperature_range is not None:
+        raise InputError("a temperature range was given but the model has no temperature law "
+                         "(no 'temperature' block): its corrector takes no temperature")
+    if model.temperature is not None:
+        raise InputError(f"{what} and a temperature law has no C corrector: correct its records "
                          "with creepcomp correct" + instead)
     if output_polynomial is not None or extension is not None or model.extensions:
-        raise InputError(f"{what} with an extension map of the diagnosis has no C corrector: "
+        raise InputError(f"{what} and an extension map of the diagnosis has no C corrector: "
                          "correct its records with creepcomp correct")
