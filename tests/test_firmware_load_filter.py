@@ -13,9 +13,10 @@ import subprocess
 import numpy as np
 import pytest
 
-from creepcomp.digital.correctors import estimate_load
+from creepcomp.digital.correctors import default_initial, estimate_load
 from creepcomp.digital.firmware import generate_firmware
-from creepcomp.digital.firmware_check import STRICT_FLAGS, compile_object, verify_firmware
+from creepcomp.digital.firmware_check import (STRICT_FLAGS, compile_object, run_firmware,
+                                              verify_firmware)
 from creepcomp.digital.firmware_transfer import filter_rounding
 from creepcomp.errors import InputError
 from creepcomp.io.jsonfiles import write_model
@@ -64,9 +65,13 @@ def test_step_load_is_the_filtered_load_within_the_bound(model, method):
     # the unfiltered estimate (the noise), within the bound of the filtered one
     term = fw.maps["terms"]["load filter: float32 mean of 16 loads"]
     assert 0 < term < fw.maps["bound_load"]
-    unfiltered = estimate_load(t, signal, dataclasses.replace(model, load_filter=None), method)
-    reference = estimate_load(t, signal, model, method)
+    start = default_initial(method)
+    unfiltered = estimate_load(t, signal, dataclasses.replace(model, load_filter=None), method,
+                               initial=start)
+    reference = estimate_load(t, signal, model, method, initial=start)
     assert np.max(np.abs(reference - unfiltered)) > 100 * check.load["bound"]
+    loads = run_firmware(fw, signal, start, repeats=1)[0][len(t):]
+    assert np.max(np.abs(loads - reference)) == pytest.approx(check.load["max_error"])
 
 
 @needs_gcc

@@ -1,4 +1,5 @@
-"""The C corrector of a model with static maps (a ``transfer``) or of a static calibration.
+"""The C corrector of a model with static maps (a ``transfer``), of a static calibration, or
+of a model with a load filter.
 
 A soft sensor's model reads ``signal = h^-1(offset + gain * G(s)[f(load)])``
 (:mod:`creepcomp.transfer`). Its float32 step, per raw sample::
@@ -7,7 +8,8 @@ A soft sensor's model reads ``signal = h^-1(offset + gain * G(s)[f(load)])``
     c = corrector(z)                the exact corrector of creepcomp.digital.firmware (none for
                                     a static calibration: c = z)
     compensated = h^-1(c)           what creepcomp.digital.correctors.compensate returns
-    load = f^-1((c - offset) / (gain * scale))     what estimate_load returns
+    load = f^-1((c - offset) / (gain * scale))     what estimate_load returns without a load filter
+    load_out = mean of the last N loads            with one (creepcomp.load_filter): estimate_load's
 
 The C (reciprocal, saturating and spline with ``+ - * /`` only; power and log with
 ``powf``/``logf``/``expf``) is rendered by :mod:`creepcomp.digital.firmware` from
@@ -15,7 +17,8 @@ The C (reciprocal, saturating and spline with ``+ - * /`` only; power and log wi
 propagates, in order: the raw sample's rounding through ``h``; the error of ``h``'s evaluation
 into the corrector as an input error (through the corrector's own l1 gains); the corrector's
 bound; the output error through ``h^-1`` and through ``f^-1`` over the range the full scale
-implies, plus their own evaluation. ``docs/firmware.md`` has the derivation.
+implies, plus their own evaluation; with a load filter, the float32 rounding of the mean
+(:func:`filter_rounding`). ``docs/firmware.md`` has the derivation.
 
 With a signal map, ``full_scale`` is a range of the raw signal around the unloaded raw signal
 ``h^-1(offset)``: ``|raw - h^-1(offset)| <= full_scale``, inside the map's domain.
@@ -440,7 +443,9 @@ def transfer_bound(model: CreepModel, method: str, rate: float, full_scale: floa
     Parameters
     ----------
     model : CreepModel
-        With a ``transfer`` or with no creep terms (a static calibration).
+        With a ``transfer``, with no creep terms (a static calibration) or with a
+        ``load_filter`` (:func:`load_filter_samples` loads at ``rate``: the load's bound is the
+        filtered load's).
     method : {"subtractive", "supplemental"}
     rate : float
         Sample rate (Hz).
