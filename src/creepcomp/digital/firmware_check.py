@@ -220,7 +220,7 @@ def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler
     if firmware.irregular:
         return _verify_irregular(firmware, t, x, repeats, compiler, target)
     if firmware.maps is not None and firmware.model.is_static:   # no dynamics: any sampling
-        return _verify_maps(firmware, t, x, repeats, compiler, target)   # (a filter: its N checked)
+        return _verify_maps(firmware, t, x, repeats, compiler, target)   # (a load filter's N is checked)
     dt = uniform_interval(t)
     if dt is None:
         raise InputError("the record is not uniformly sampled: the generated corrector runs at a "

@@ -575,8 +575,8 @@ def check_filter_arguments(model: CreepModel, precision: str, state: str, max_in
         raise InputError(f"{what} has a fixed-rate C corrector only (its window is a number of "
                          "samples): give --rate instead of --max-interval" + instead)
     if state != "compensated":
-        raise InputError(f"{what} has a C corrector with compensated states only: leave out "
-                         "--state plain" + instead)
+        raise InputError(f"{what} has a C corrector with compensated states only (not "
+                         f"'{state}'): leave out --state" + instead)
     if model.temperature is None and temperature_range is not None:
         raise InputError("a temperature range was given but the model has no temperature law "
                          "(no 'temperature' block): its corrector takes no temperature")
