@@ -274,10 +274,16 @@ def _render(result: dict, firmware, check) -> None:
 
 def _render_maps(firmware, check, unit: str) -> None:
     """The bound of a corrector with static maps, stage by stage, and its verification."""
+    from creepcomp.units import format_quantity
+
     maps = firmware.maps
     low, high = maps["raw_range"]
+    window = maps.get("load_filter")
     console.print(f"maps: {firmware.model.transfer.describe() if firmware.model.transfer else 'none'}"
-                  f"; raw range {low:.9g} to {high:.9g} {unit}", soft_wrap=True)
+                  f"; raw range {low:.9g} to {high:.9g} {unit}"
+                  + ("" if window is None else
+                     f"; load filter: the mean of the last {window['samples']} loads "
+                     f"({format_quantity(window['window'], 's')})"), soft_wrap=True)
     from creepcomp.report.results import maps_bound_table
 
     console.print(maps_bound_table(firmware, unit).to_rich())

@@ -57,7 +57,8 @@ from creepcomp.digital.firmware_bound import (DEFAULT_TEMPERATURE_RANGE, FULL_SC
                                               temperature_bound, temperature_scheme)
 from creepcomp.digital.firmware_extension import check_extension, extension_parts
 from creepcomp.display import Shown
-from creepcomp.digital.firmware_transfer import (LIBM_ULPS, TransferBound, check_maps_arguments,
+from creepcomp.digital.firmware_transfer import (LIBM_ULPS, TransferBound, check_filter_arguments,
+                                                 check_maps_arguments, load_filter_samples,
                                                  map_code, range_full_scale, transfer_bound)
 from creepcomp.errors import InputError
 from creepcomp.model import CreepModel
@@ -227,8 +228,15 @@ def generate_firmware(model: CreepModel, method: str = "subtractive", precision:
     -----
     A model with static maps (a ``transfer``) or a static calibration (no creep terms) gets
     the float32 fixed-rate step of :mod:`creepcomp.digital.firmware_transfer`:
-    ``PREFIX_step`` returns the compensated signal, ``PREFIX_step_load`` the load.
+    ``PREFIX_step`` returns the compensated signal, ``PREFIX_step_load`` the load. So does a
+    model with a load filter that averages more than one load at ``rate``: its
+    ``PREFIX_step_load`` returns the mean of the last ``N`` loads.
     """
+    if model.load_filter is not None and (max_interval is not None
+                                          or load_filter_samples(model, rate) > 1):
+        check_filter_arguments(model, precision, state, max_interval, temperature_range,
+                               output_polynomial, extension)
+        return _maps_firmware(model, method, precision, rate, full_scale, name)
     check_no_extensions(model)
     check_state(state, precision, max_interval is None and temperature_range is None
                 and model.temperature is None and model.transfer is None and not model.is_static
@@ -330,8 +338,9 @@ def _extension_firmware(model: CreepModel, rate: float, full_scale: float, name:
 
 def _maps_firmware(model: CreepModel, method: str, precision: str, rate: float, full_scale,
                    name: str) -> Firmware:
-    """The float32 fixed-rate corrector of a model with static maps or of a static calibration
-    (:mod:`creepcomp.digital.firmware_transfer` has the step and its bound).
+    """The float32 fixed-rate corrector of a model with static maps, of a static calibration or
+    of a model with a load filter (:mod:`creepcomp.digital.firmware_transfer` has the step and
+    its bound).
 
     Returns
     -------
@@ -361,6 +370,10 @@ def _maps_firmware(model: CreepModel, method: str, precision: str, rate: float, 
             "raw_min": repr(float(bound.raw[0])), "raw_max": repr(float(bound.raw[1])),
             "bound_signal": f"{bound.compensated:.3e}", "bound_load": f"{bound.load:.3e}",
             "libm_ulps": f"{LIBM_ULPS:g}"}
+    load_filter = {}
+    if bound.filter_samples > 1:
+        load_filter = {"load_filter": {"samples": str(bound.filter_samples),
+                                       "window": _qty(bound.filter_samples / rate, "s")}}
     maps["libm"] = any(m is not None and m["libm"] for m in (maps["h"], maps["f_inverse"]))
     maps["spline"] = any(m is not None and m["form"] == "spline"
                          for m in (maps["h"], maps["h_inverse"], maps["f_inverse"]))
@@ -392,6 +405,8 @@ def _maps_firmware(model: CreepModel, method: str, precision: str, rate: float, 
     if isinstance(raw, (tuple, list)):
         values["command"] = values["command"].replace(f"--full-scale {full_scale:.9g}",
                                                       f"--full-scale {bound.raw[0]:.9g}:{bound.raw[1]:.9g}")
+    if load_filter:
+        identity = (identity, bound.filter_samples)
     values["model_id"] = f"0x{_fnv1a(repr((identity, bound.raw, path and path.to_dict()))):08x}u"
     error_bound = ErrorBound(total_fs=float(bound_fs), terms={"compensated signal, all parts": float(bound_fs)},
                              full_scale=float(full_scale), peak_fs=float(peak), gains=gains)
@@ -401,15 +416,15 @@ def _maps_firmware(model: CreepModel, method: str, precision: str, rate: float, 
                         f"{bound.linear.full_scale:.9g}):"]
         bound_lines += ["  " + _in_h(line) for line in _bound_lines(bound.linear, bound.linear.full_scale)[:-1]]
     header = _render("fixed_rate.h.j2", **values, maps=maps, derivation=derivation,
-                     bound=bound_lines, bound_fs=f"{bound_fs:.3e}")
+                     bound=bound_lines, bound_fs=f"{bound_fs:.3e}", **load_filter)
     source = _render(source_template, name=name, NAME=name.upper(), version=_version(), maps=maps,
-                     **source_values)
+                     **source_values, **load_filter)
     harness = _render("harness.c.j2", name=name, NAME=name.upper(), precision=precision,
                       irregular=False, temperature=False, maps=maps)
     return Firmware(model=model, method=method, precision=precision, rate=float(rate),
                     full_scale=float(full_scale), name=name, header=header, source=source,
                     harness=harness, bound=error_bound, coefficients=table,
-                    uses_double=False, maps=_maps_summary(bound))
+                    uses_double=False, maps=_maps_summary(bound, rate))
 
 
 def _in_h(line: str) -> str:
@@ -430,12 +445,17 @@ def _map_values(m, direction: str) -> dict:
     return code
 
 
-def _maps_summary(bound: TransferBound) -> dict:
-    """The firmware's ``maps``: bounds and ranges, JSON-ready."""
-    return {"bound_signal": bound.compensated, "bound_load": bound.load,
-            "bound_corrected": bound.corrected, "raw_range": list(bound.raw),
-            "corrected_range": list(bound.corrected_range), "load_range": list(bound.load_range),
-            "linear_full_scale": bound.linear_full_scale, "terms": dict(bound.terms)}
+def _maps_summary(bound: TransferBound, rate: float) -> dict:
+    """The firmware's ``maps``: bounds and ranges, JSON-ready; with a load filter,
+    ``load_filter``: its ``samples`` and ``window`` (s) at the firmware's rate."""
+    summary = {"bound_signal": bound.compensated, "bound_load": bound.load,
+               "bound_corrected": bound.corrected, "raw_range": list(bound.raw),
+               "corrected_range": list(bound.corrected_range), "load_range": list(bound.load_range),
+               "linear_full_scale": bound.linear_full_scale, "terms": dict(bound.terms)}
+    if bound.filter_samples > 1:
+        summary["load_filter"] = {"samples": bound.filter_samples,
+                                  "window": bound.filter_samples / rate}
+    return summary
 
 
 def _maps_lines(model: CreepModel, rate: float, full_scale: float, bound: TransferBound) -> list[str]:
@@ -449,9 +469,20 @@ def _maps_lines(model: CreepModel, rate: float, full_scale: float, bound: Transf
              "Maps in float32: reciprocal and saturating by one division, spline by a knot table "
              "(binary search, y_k + s_k (x - x_k), end slopes continued), power and log by powf/logf/expf "
              f"(assumed within {LIBM_ULPS:g} ulp)."]
-    if model.is_static:
+    if model.is_static and bound.filter_samples > 1:
+        lines.append("A static calibration: no creep terms, the state holds the load filter's "
+                     "window only.")
+    elif model.is_static:
         lines.append(f"A static calibration: no creep terms, the state holds nothing (the rate, "
                      f"{_qty(rate, 'Hz')}, changes nothing).")
+    if bound.filter_samples > 1:
+        n = bound.filter_samples
+        lines.append(f"Load filter: {model.load_filter.describe()}; at {_qty(rate, 'Hz')}, the mean "
+                     f"of the last N = {n} loads ({_qty(n / rate, 's')}), fewer while the window "
+                     "fills. The loads are held in the state, summed afresh each sample in float32 "
+                     "and divided by their count; init, settle and restore empty the window, as "
+                     "the Python filter starts from an empty history. The compensated signal is "
+                     "not filtered.")
     return lines
 
 
@@ -460,7 +491,9 @@ def _maps_bound_lines(bound: TransferBound, full_scale: float) -> list[str]:
     llo, lhi = bound.load_range
     lines = [f"Worst-case |compensated - float64 compensate| <= {bound.compensated:.3e} signal units "
              f"({bound.compensated / full_scale:.3e} x FS);",
-             f"worst-case |load - float64 estimate_load| <= {bound.load:.3e} load units;",
+             f"worst-case |load - float64 estimate_load| <= {bound.load:.3e} load units"
+             + (f" (both the mean of the last {bound.filter_samples} loads)" if bound.filter_samples > 1
+                else "") + ";",
              f"corrected value c (units of h) within {bound.corrected:.3e} of the exact one,",
              f"for every raw sample from {bound.raw[0]:.9g} to {bound.raw[1]:.9g}, from a relaxed or "
              "settled start. The compensated signal's and the load's bounds hold while the exact c",
@@ -843,9 +876,9 @@ def _template_variables(template: str) -> frozenset[str]:
 
 #: Values a template may go without (tested with ``is defined``): the extension map's, which
 #: only the step of a model with an extension has, the static maps' (``maps``), which only
-#: a model with a transfer or a static calibration has, and ``plain``, which only the float32
-#: step with plain states has.
-_OPTIONAL = frozenset({"extension", "maps", "plain"})
+#: a model with a transfer or a static calibration has, ``plain``, which only the float32
+#: step with plain states has, and ``load_filter``, which only a model with a load filter has.
+_OPTIONAL = frozenset({"extension", "maps", "plain", "load_filter"})
 
 
 def _render(template: str, **values) -> str:

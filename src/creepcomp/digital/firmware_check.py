@@ -220,7 +220,7 @@ def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler
     if firmware.irregular:
         return _verify_irregular(firmware, t, x, repeats, compiler, target)
     if firmware.maps is not None and firmware.model.is_static:   # no dynamics: any sampling
-        return _verify_maps(firmware, t, x, repeats, compiler, target)
+        return _verify_maps(firmware, t, x, repeats, compiler, target)   # (a load filter's N is checked)
     dt = uniform_interval(t)
     if dt is None:
         raise InputError("the record is not uniformly sampled: the generated corrector runs at a "
@@ -351,9 +351,11 @@ def _verify_irregular(firmware, t, x, repeats, compiler, target) -> Verification
 
 def _verify_maps(firmware, t, x, repeats, compiler, target) -> Verification:
     """A corrector with static maps: its compensated signal against :func:`compensate`, its
-    load against :func:`estimate_load`, on the samples whose exact corrected value lies in the
-    range the bounds hold over."""
-    from creepcomp.digital.correctors import compensate, default_initial, load_from_compensated
+    load against :func:`estimate_load` (with the model's load filter), on the samples whose
+    exact corrected value lies in the range the bounds hold over (with a filter: the values
+    of every sample the filtered load averages)."""
+    from creepcomp.digital.correctors import (compensate, default_initial, filter_load,
+                                              load_from_compensated, mean_interval)
 
     model, maps = firmware.model, firmware.maps
     low, high = maps["raw_range"]
@@ -366,12 +368,19 @@ def _verify_maps(firmware, t, x, repeats, compiler, target) -> Verification:
                          f"{high:.9g} that the bound assumes: give a wider --full-scale LOW:HIGH")
     start = default_initial(firmware.method)
     compensated = compensate(t, x, model, firmware.method, initial=start, hold="zero")
-    load = load_from_compensated(compensated, model, firmware.method)
+    samples = maps.get("load_filter", {}).get("samples", 1)
+    if samples > 1 and model.load_filter.samples_at(mean_interval(t)) != samples:
+        raise InputError(f"the record's mean sample interval gives its load filter "
+                         f"{model.load_filter.samples_at(mean_interval(t))} samples, the corrector's "
+                         f"{samples} at {firmware.rate:.6g} Hz: give --rate {1 / mean_interval(t):.6g}")
+    load = filter_load(load_from_compensated(compensated, model, firmware.method), model, t)
     path = model.transfer
     corrected = compensated if path is None else path.linearise(compensated)
     c_lo, c_hi = maps["corrected_range"]
     slack = 1e-12 * (c_hi - c_lo)
     inside = np.isfinite(corrected) & (corrected >= c_lo - slack) & (corrected <= c_hi + slack)
+    # a filtered load is bounded where every load it averages is
+    load_inside = np.convolve(~inside, np.ones(samples, dtype=int))[:len(x)] == 0
     on_target = None
     if target == "host":
         y, ns, size, _ = _execute(firmware, x, start, repeats, compiler, target)
@@ -381,13 +390,13 @@ def _verify_maps(firmware, t, x, repeats, compiler, target) -> Verification:
         y, ns, size = np.concatenate([signal_run.outputs, on_target.outputs]), None, None
     n = len(x)
     signal_error = np.where(inside, np.abs(y[:n] - compensated), 0.0) / firmware.full_scale
-    load_error = np.where(inside, np.abs(y[n:] - load), 0.0)
+    load_error = np.where(load_inside, np.abs(y[n:] - load), 0.0)
     worst, worst_load = int(np.argmax(signal_error)), int(np.argmax(load_error))
     return Verification(samples=n, max_error_fs=float(signal_error[worst]), worst_sample=worst,
                         ns_per_sample=ns, object_bytes=size, bound_fs=firmware.bound.total_fs,
                         on_target=on_target, load={"max_error": float(load_error[worst_load]), "bound": maps["bound_load"],
-                              "worst_sample": worst_load, "compared": int(np.count_nonzero(inside)),
-                              "outside": int(n - np.count_nonzero(inside))})
+                              "worst_sample": worst_load, "compared": int(np.count_nonzero(load_inside)),
+                              "outside": int(n - np.count_nonzero(load_inside))})
 
 
 def _compare(firmware, y, reference, ns, size, switching=None, on_target=None) -> Verification:

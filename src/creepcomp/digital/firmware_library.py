@@ -62,8 +62,11 @@ def library_files(firmware) -> dict[str, str]:
               "temperature": firmware.temperature_range is not None, "timing": timing,
               "full_scale": f"{firmware.full_scale:.9g}", "offset": f"{firmware.model.offset:.9g}"}
     if firmware.maps is not None:
-        transfer = firmware.model.transfer
-        values["maps"] = "a static calibration" if transfer is None else transfer.describe()
+        transfer, window = firmware.model.transfer, firmware.maps.get("load_filter")
+        values["maps"] = ("a static calibration" if firmware.model.is_static else "none"
+                          if transfer is None else transfer.describe())
+        if window is not None:
+            values["maps"] += f"; a load filter, the mean of the last {window['samples']} loads"
     header, source = firmware.filenames
     files = {f"src/{header}": firmware.header, f"src/{source}": firmware.source,
              "library.properties": _render(

@@ -1,4 +1,5 @@
-"""The C corrector of a model with static maps (a ``transfer``) or of a static calibration.
+"""The C corrector of a model with static maps (a ``transfer``), of a static calibration, or
+of a model with a load filter.
 
 A soft sensor's model reads ``signal = h^-1(offset + gain * G(s)[f(load)])``
 (:mod:`creepcomp.transfer`). Its float32 step, per raw sample::
@@ -7,7 +8,8 @@ A soft sensor's model reads ``signal = h^-1(offset + gain * G(s)[f(load)])``
     c = corrector(z)                the exact corrector of creepcomp.digital.firmware (none for
                                     a static calibration: c = z)
     compensated = h^-1(c)           what creepcomp.digital.correctors.compensate returns
-    load = f^-1((c - offset) / (gain * scale))     what estimate_load returns
+    load = f^-1((c - offset) / (gain * scale))     what estimate_load returns without a load filter
+    load_out = mean of the last N loads            with one (creepcomp.load_filter): estimate_load's
 
 The C (reciprocal, saturating and spline with ``+ - * /`` only; power and log with
 ``powf``/``logf``/``expf``) is rendered by :mod:`creepcomp.digital.firmware` from
@@ -15,7 +17,8 @@ The C (reciprocal, saturating and spline with ``+ - * /`` only; power and log wi
 propagates, in order: the raw sample's rounding through ``h``; the error of ``h``'s evaluation
 into the corrector as an input error (through the corrector's own l1 gains); the corrector's
 bound; the output error through ``h^-1`` and through ``f^-1`` over the range the full scale
-implies, plus their own evaluation. ``docs/firmware.md`` has the derivation.
+implies, plus their own evaluation; with a load filter, the float32 rounding of the mean
+(:func:`filter_rounding`). ``docs/firmware.md`` has the derivation.
 
 With a signal map, ``full_scale`` is a range of the raw signal around the unloaded raw signal
 ``h^-1(offset)``: ``|raw - h^-1(offset)| <= full_scale``, inside the map's domain.
@@ -35,7 +38,8 @@ from creepcomp.model import CreepModel
 from creepcomp.transfer import StaticMap
 
 __all__ = ["LIBM_ULPS", "TransferBound", "transfer_bound", "map_code", "raw_range", "range_full_scale",
-           "evaluation_error", "spread", "check_maps_arguments"]
+           "evaluation_error", "spread", "check_maps_arguments", "load_filter_samples",
+           "filter_rounding", "check_filter_arguments"]
 
 #: Error of ``powf``, ``logf`` and ``expf`` the bound assumes, in units in the last place of
 #: the result: an assumption about the target's libm, which ``--verify`` checks against the
@@ -345,6 +349,9 @@ class TransferBound:
         calibration).
     terms : dict
         The parts, by cause, in the units of the stage they enter.
+    filter_samples : int
+        ``N``, the loads the load filter averages at this rate (1: no filter); ``load`` is the
+        filtered load's bound, against ``estimate_load`` with the filter.
     """
 
     linear: ErrorBound | None
@@ -356,6 +363,32 @@ class TransferBound:
     corrected_range: tuple[float, float]
     load_range: tuple[float, float]
     terms: dict
+    filter_samples: int = 1
+
+
+def load_filter_samples(model: CreepModel, rate: float) -> int:
+    """``N``, the loads the model's load filter averages at a sample rate (Hz): 1 without one."""
+    return 1 if model.load_filter is None else model.load_filter.samples_at(1.0 / rate)
+
+
+def filter_rounding(samples: int, largest: float) -> float:
+    """Bound on the float32 rounding of the mean of ``n <= samples`` floats each within
+    ``largest`` of 0, summed one after another and divided by ``n``.
+
+    The sum's ``n - 1`` roundings err by at most ``gamma_(n-1) sum |y_j| <= gamma_(n-1) n L``
+    (``gamma_m = m u / (1 - m u)``); divided by ``n`` that is ``gamma_(n-1) L``, and the
+    division adds ``u`` times the computed mean, at most ``(1 + gamma_(n-1)) L``. It grows
+    with ``n``: the full window is the worst.
+
+    Examples
+    --------
+    >>> u = 2.0 ** -24
+    >>> bool(abs(filter_rounding(16, 1.0) - 16 * u) < 1e-12)
+    True
+    """
+    m = (samples - 1) * _U
+    gamma = m / (1.0 - m)
+    return largest * (gamma * (1.0 + _U) + _U) + _TINY
 
 
 def _reachable(model: CreepModel, method: str, l1: float, z_lo: float, z_hi: float, e_c: float,
@@ -381,6 +414,8 @@ def _reachable(model: CreepModel, method: str, l1: float, z_lo: float, z_hi: flo
                 model.offset + sigma * (positive * x_hi - negative * x_lo))
 
     def defined(c: float) -> bool:
+        if path is None:            # no maps: every value has a load
+            return True
         c = np.array([c])
         return bool(np.all(np.isfinite(path.delinearise(c)))
                     and np.all(np.isfinite(path.load_out((c - model.offset) * scale))))
@@ -408,7 +443,9 @@ def transfer_bound(model: CreepModel, method: str, rate: float, full_scale: floa
     Parameters
     ----------
     model : CreepModel
-        With a ``transfer`` or with no creep terms (a static calibration).
+        With a ``transfer``, with no creep terms (a static calibration) or with a
+        ``load_filter`` (:func:`load_filter_samples` loads at ``rate``: the load's bound is the
+        filtered load's).
     method : {"subtractive", "supplemental"}
     rate : float
         Sample rate (Hz).
@@ -433,6 +470,7 @@ def transfer_bound(model: CreepModel, method: str, rate: float, full_scale: floa
     h = None if path is None else path.signal_map
     f = None if path is None else path.load_map
     _, raw_lo, raw_hi = raw_range(model, full_scale)
+    samples = load_filter_samples(model, rate)
     terms: dict = {}
     e_raw = _U * max(abs(raw_lo), abs(raw_hi))                # the sample rounded to float
     terms["raw sample to float"] = e_raw
@@ -479,12 +517,20 @@ def transfer_bound(model: CreepModel, method: str, rate: float, full_scale: floa
                         "load: f^-1 float32 evaluation")
         load_range = tuple(sorted(float(v) for v in f.inverse(np.array([q_lo, q_hi]))))
     allowance = REFERENCE_ALLOWANCE * max(abs(raw_lo), abs(raw_hi))
+    load = load * _MARGIN + REFERENCE_ALLOWANCE * max(map(abs, load_range))
+    if samples > 1:
+        # the mean of loads each within `load` of the exact ones is within `load` of their
+        # mean; its float32 sum and division add their rounding, the loads within the range
+        # widened by their own error
+        mean = filter_rounding(samples, max(map(abs, load_range)) + load)
+        terms[f"load filter: float32 mean of {samples} loads"] = mean
+        load += mean * _MARGIN
     return TransferBound(linear=linear, linear_full_scale=float(fs_lin), raw=(raw_lo, raw_hi),
                          corrected=float(e_c * _MARGIN),
                          compensated=float(compensated * _MARGIN + allowance),
-                         load=float(load * _MARGIN + REFERENCE_ALLOWANCE * max(map(abs, load_range))),
-                         corrected_range=(c_lo, c_hi),
-                         load_range=load_range, terms={k: float(v) for k, v in terms.items()})
+                         load=float(load), corrected_range=(c_lo, c_hi),
+                         load_range=load_range, terms={k: float(v) for k, v in terms.items()},
+                         filter_samples=samples)
 
 
 # ---------------------------------------------------------------------------- the generator
@@ -510,3 +556,33 @@ def check_maps_arguments(model: CreepModel, precision: str, max_interval, temper
                          "generate the firmware of its baseline model (baseline-model.json, which "
                          "creepcomp diagnose -o writes), or correct records in Python with "
                          "creepcomp correct")
+
+
+def check_filter_arguments(model: CreepModel, precision: str, state: str, max_interval,
+                           temperature_range, output_polynomial, extension) -> None:
+    """Refuse, naming what to use, what the corrector with a load filter does not have: it is
+    the float32 fixed-rate step with compensated states, without a temperature law or an
+    extension map."""
+    what = f"a model with a load filter (a moving average over {model.load_filter.window:.3g} s)"
+    instead = ""
+    if model.transfer is None and not model.is_static:
+        instead = ("; without the filter (remove 'load_filter' from the model file) its corrector "
+                   "of the compensated signal has it")
+    if precision != "float32":
+        raise InputError(f"{what} has a C corrector in float32 only: give --precision float32"
+                         + instead)
+    if max_interval is not None:
+        raise InputError(f"{what} has a fixed-rate C corrector only (its window is a number of "
+                         "samples): give --rate instead of --max-interval" + instead)
+    if state != "compensated":
+        raise InputError(f"{what} has a C corrector with compensated states only (not "
+                         f"'{state}'): leave out --state" + instead)
+    if model.temperature is None and temperature_range is not None:
+        raise InputError("a temperature range was given but the model has no temperature law "
+                         "(no 'temperature' block): its corrector takes no temperature")
+    if model.temperature is not None:
+        raise InputError(f"{what} and a temperature law has no C corrector: correct its records "
+                         "with creepcomp correct" + instead)
+    if output_polynomial is not None or extension is not None or model.extensions:
+        raise InputError(f"{what} and an extension map of the diagnosis has no C corrector: "
+                         "correct its records with creepcomp correct")
