@@ -15,7 +15,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "src" / "creepcomp"
 #: ones before it (``docs/layout.md`` says what each holds).
 STAGES = (
     ("edges", ("errors", "units", "interrupts", "display")),
-    ("kernel", ("recursions", "lti", "temperature", "transfer", "model", "network", "active_stage", "programs")),
+    ("kernel", ("recursions", "lti", "temperature", "transfer", "load_filter", "model", "network", "active_stage", "programs")),
     ("io", ("io",)),
     ("data", ("data",)),
     ("analog", ("analog",)),
