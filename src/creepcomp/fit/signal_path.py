@@ -58,11 +58,12 @@ VALIDATION = 0.25
 #: A member with more parts is kept only when its held-out load error is at most this share of
 #: the simpler member's (5 % better): a spline or a map that wins by less is noise.
 MARGIN = 0.95
-#: A member with creep and static maps or extensions is kept only when its held-out load error
-#: is at most this share of the best static calibration's (20 % better): the windows held out
-#: of a record of a few minutes are short, and such a model that won them narrowly lost to the
+#: A member with creep (linear creep included) is kept only when its held-out load error is at
+#: most this share of the best static calibration's (20 % better): the windows held out of a
+#: record of a few minutes are short, and a creep model that won them narrowly lost to the
 #: static calibration on the record's later part as often as it won (generated soft sensors,
-#: ``benchmarks/real_load_error.py``).
+#: ``benchmarks/real_load_error.py``: a liquid-metal sensor's single step, linear creep 1.09 %
+#: against a monotone calibration's 1.11 % on the windows, 3.7 % against 0.77 % later).
 STATIC_MARGIN = 0.8
 #: Knots of the monotone spline signal map fitted with creep (fewer on short records: 20
 #: samples a knot at least).
@@ -613,9 +614,7 @@ def _grown(fit_rec: Record, model: CreepModel, max_terms: int, initial: str) -> 
 
 def choose(found) -> Candidate:
     """The lowest held-out load error; more parts must win by :data:`MARGIN`, and a member
-    with creep and static maps or extensions must also beat the best static calibration by
-    :data:`STATIC_MARGIN` (linear creep, the paper's model, by :data:`MARGIN` as any member
-    with a part more)."""
+    with creep must also beat the best static calibration by :data:`STATIC_MARGIN`."""
     usable = sorted((c for c in found if c.model is not None), key=lambda c: (c.parts, c.heldout_load_rms))
     if not usable:
         reasons = "; ".join(f"{c.name}: {c.reason}" for c in found)
@@ -624,8 +623,7 @@ def choose(found) -> Candidate:
     floor = min(statics) if statics else math.inf
     chosen = usable[0]
     for c in usable[1:]:
-        shaped = c.model.transfer is not None or bool(c.model.extensions)
-        if shaped and not c.model.is_static and not c.heldout_load_rms < STATIC_MARGIN * floor:
+        if not c.model.is_static and not c.heldout_load_rms < STATIC_MARGIN * floor:
             continue
         if c.heldout_load_rms < MARGIN * chosen.heldout_load_rms:
             chosen = c
