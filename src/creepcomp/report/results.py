@@ -92,6 +92,8 @@ def model_summary(model) -> Summary:
         lines.append(f"temperature: {law.law} law about {law.reference:g} °C")
     if model.extensions:
         lines.append("extensions: " + ", ".join(str(k) for k in model.extensions))
+    if model.load_filter is not None:
+        lines.append(f"load filter: {model.load_filter.describe()}; the compensated signal is not filtered")
     tables = (Table.of("Creep terms", ["term", "beta", "tau"], rows),) if rows else ()
     if model.transfer is not None:
         maps = [(side, m.form, ", ".join(f"{k} {v:.6g}" for k, v in m.parameters.items() if k not in ("x", "y"))
@@ -667,7 +669,11 @@ def members_table(candidates, chosen: str, split_time, load_range: float, load_u
 def signal_path_summary(fit) -> Summary:
     """A signal-path fit: its members and the model chosen (``creepcomp fit --transfer auto``)."""
     model = model_summary(fit.model)
-    return Summary(f"Signal path: {fit.chosen}", (f"fitted in {fit.seconds:.3g} s",) + model.lines,
+    filtered = ()
+    if fit.model.load_filter is not None:
+        filtered = (f"held-out score with the load filter: {100 * fit.filtered_load_rms:.3g} % of the load "
+                    f"range (without: {100 * fit.candidate(fit.chosen).heldout_load_rms:.3g} %)",)
+    return Summary(f"Signal path: {fit.chosen}", (f"fitted in {fit.seconds:.3g} s",) + model.lines + filtered,
                    (members_table(fit.candidates, fit.chosen, fit.split_time, fit.load_range,
                                   fit.units.get("load", "")),) + model.tables)
 
