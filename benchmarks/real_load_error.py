@@ -474,24 +474,35 @@ def to_json(outcomes: list[Outcome], summ: dict) -> dict:
 
 
 def plot(record: Record, outcome: Outcome, path: Path) -> None:
-    """Measured load and each estimate on the held-out part."""
+    """Measured load and each estimate on the held-out part (the static calibrations and the
+    baseline faint, NARX and the recommended model on top), and below a stretch of an eighth of
+    it around its largest load change, where noise and lag show."""
     import matplotlib.pyplot as plt
 
     k = split_index(record)
     t = record.time[k:] - record.time[0]
-    fig, ax = plt.subplots(figsize=(9, 4))
-    for method in METHODS:
-        c = outcome.cells[method]
-        if c.estimate is not None:
-            ax.plot(t, c.estimate[k:], lw=0.7, alpha=0.8, label=f"{method} ({c.error:.3g} %)")
-    ax.plot(t, record.load[k:], color="black", lw=1.2, label="measured load")
+    load = record.load[k:]
+    fig, (whole, zoom) = plt.subplots(2, 1, figsize=(9, 6.5), gridspec_kw={"height_ratios": [3, 2]})
     lo, hi = np.min(record.load), np.max(record.load)
     pad = 0.25 * (hi - lo)
-    ax.set_ylim(lo - pad, hi + pad)       # a diverging estimate leaves the frame, not the scale
-    ax.set_xlabel("time since the record's start (s)")
-    ax.set_ylabel(f"load ({record.unit('load') or 'load units'})")
-    ax.set_title(outcome.name, fontsize=9)
-    ax.legend(fontsize=7, loc="best")
+    centre = t[int(np.argmax(np.abs(np.diff(load))))] if load.size > 1 else t[0]
+    half = (t[-1] - t[0]) / 16
+    shown = (t >= centre - half) & (t <= centre + half)
+    for ax, part in ((whole, slice(None)), (zoom, shown)):
+        for method in METHODS:
+            c = outcome.cells[method]
+            if c.estimate is None:
+                continue
+            front = method in ("NARX", "recommended")
+            ax.plot(t[part], c.estimate[k:][part], lw=1.0 if front else 0.6, alpha=0.95 if front else 0.35,
+                    zorder=3 if front else 2, label=f"{method} ({c.error:.3g} %)")
+        ax.plot(t[part], load[part], color="black", lw=1.2, zorder=4, label="measured load")
+        ax.set_ylim(lo - pad, hi + pad)       # a diverging estimate leaves the frame, not the scale
+        ax.set_ylabel(f"load ({record.unit('load') or 'load units'})")
+    zoom.set_xlabel("time since the record's start (s)")
+    whole.set_title(f"{outcome.name}: the held-out 40 % (below: an eighth of it, about its largest load change)",
+                    fontsize=9)
+    whole.legend(fontsize=7, loc="best")
     fig.tight_layout()
     fig.savefig(path, dpi=90)
     plt.close(fig)
