@@ -76,8 +76,9 @@ def test_correct_filters_the_load_estimate_not_the_compensated_signal_whole_and_
     record = write_record(tmp_path / "rec.csv", Record(t, load, signal))
     model_path = write_model(tmp_path / "model.json", model)
     out = tmp_path / "whole.csv"
-    status, _, err = run_cli("correct", record, "--model", model_path, "-o", out)
+    status, stdout, err = run_cli("correct", record, "--model", model_path, "-o", out)
     assert status == 0, err
+    assert "then a moving average of 8 load estimates (0.4 s" in stdout
     outputs = {"whole": read_record(out, columns={"signal": "compensated", "load": "load_estimate"})}
     done = correct_record_file(record, model, output=tmp_path / "pieces.csv", block_bytes=4096)
     assert done is not None

@@ -127,7 +127,8 @@ def correct_command(
         "output": None if output is None else str(output), "plot": None if plot is None else str(plot),
         "temperature": temperature_used, "extensions": inverses,
         "fitted_reference_rms": {"before": done.fitted_before, "after": done.fitted_after},
-        "load_estimate": _load_figures(done.load_rms, scan),
+        "load_estimate": {**_load_figures(done.load_rms, scan),
+                          "load_filter": None if model.load_filter is None else model.load_filter.describe()},
         "stuck_at_rail": [r.to_dict() for r in done.rails],
     }
     if as_json:
@@ -347,7 +348,8 @@ def _render(path, scan, model, result, before, after, dt, unit, notes) -> None:
     load = result["load_estimate"]
     if load["rms"] is not None:
         share = f" ({format_percent(load['rms_fraction'])} of full scale)" if load["rms_fraction"] else ""
-        console.print(f"load estimate (the model's inverse, in load units): RMS error "
+        filtered = f", then {load['load_filter']}" if load["load_filter"] else ""
+        console.print(f"load estimate (the model's inverse{filtered}, in load units): RMS error "
                       f"{_value(load['rms'], load['unit'])}{share}", soft_wrap=True)
     for note in notes:
         console.print(f"[yellow]note:[/yellow] {note}")
