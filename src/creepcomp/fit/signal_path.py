@@ -658,12 +658,10 @@ def _earlier_window(record: Record, found: list[Candidate], validation: float, m
     """Each member also fitted on the first ``1 - 2 validation`` of the record and judged on the
     next ``validation``: its score is the two windows' :func:`window_score` (one window alone
     chose members that failed on later data)."""
-    t = record.time
-    span = t[-1] - t[0]
-    early = t < t[0] + (1.0 - 2.0 * validation) * span
-    upto = t < t[0] + (1.0 - validation) * span
-    if early.sum() < 20 or (upto & ~early).sum() < 5:
+    parts = _window_parts(record, validation)
+    if parts is None:
         return found
+    early, upto = parts
     early_rec, upto_rec = _part(record, early), _part(record, upto)
     judged = ~early[upto]
     out = []
