@@ -75,9 +75,9 @@ def moving_average(values, samples: int, history=None) -> tuple[np.ndarray, np.n
     True
     """
     x = np.asarray(values, dtype=float)
-    before = np.zeros(0) if history is None else np.asarray(history, dtype=float)[-(samples - 1):]
     if samples <= 1:
         return x.copy(), np.zeros(0)
+    before = np.zeros(0) if history is None else np.asarray(history, dtype=float)[-(samples - 1):]
     joined = np.concatenate([before, x])
     centre = float(np.mean(joined)) if joined.size else 0.0
     # running sums about the mean: their rounding stays at the scale of the load's variation

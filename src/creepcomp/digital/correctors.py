@@ -66,7 +66,7 @@ __all__ = ["ERROR_CHUNK", "CHUNK", "METHODS", "HOLDS", "INITIAL_STATES", "BLOCK"
            "uniform_interval", "uniform_interval_of", "reference", "CreepError", "CreepErrorSum",
            "creep_error", "fitted_reference_error",
            "FittedReferenceSum", "estimate_load", "load_from_compensated", "load_from_linear",
-           "filter_load", "mean_interval"]
+           "filter_load", "mean_interval", "mean_interval_of"]
 
 METHODS = ("subtractive", "supplemental")
 HOLDS = ("zero", "linear")
@@ -628,7 +628,12 @@ def mean_interval(time) -> float | None:
     """A record's mean sample interval (s), or None for fewer than two samples."""
     if time is None or len(time) < 2:
         return None
-    return float((time[-1] - time[0]) / (len(time) - 1))
+    return mean_interval_of(time[0], time[-1], len(time))
+
+
+def mean_interval_of(first: float, last: float, samples: int) -> float:
+    """The mean sample interval (s) of ``samples`` samples from ``first`` to ``last`` (s)."""
+    return float((last - first) / (samples - 1))
 
 
 def uniform_interval(time, steps=None) -> float | None:

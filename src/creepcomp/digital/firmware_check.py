@@ -220,7 +220,7 @@ def verify_firmware(firmware: Firmware, time, signal, repeats: int = 5, compiler
     if firmware.irregular:
         return _verify_irregular(firmware, t, x, repeats, compiler, target)
     if firmware.maps is not None and firmware.model.is_static:   # no dynamics: any sampling
-        return _verify_maps(firmware, t, x, repeats, compiler, target)   # (a load filter's N is checked)
+        return _verify_maps(firmware, t, x, repeats, compiler, target)
     dt = uniform_interval(t)
     if dt is None:
         raise InputError("the record is not uniformly sampled: the generated corrector runs at a "
@@ -369,10 +369,10 @@ def _verify_maps(firmware, t, x, repeats, compiler, target) -> Verification:
     start = default_initial(firmware.method)
     compensated = compensate(t, x, model, firmware.method, initial=start, hold="zero")
     samples = maps.get("load_filter", {}).get("samples", 1)
-    if samples > 1 and model.load_filter.samples_at(mean_interval(t)) != samples:
-        raise InputError(f"the record's mean sample interval gives its load filter "
-                         f"{model.load_filter.samples_at(mean_interval(t))} samples, the corrector's "
-                         f"{samples} at {firmware.rate:.6g} Hz: give --rate {1 / mean_interval(t):.6g}")
+    if samples > 1 and (record_samples := model.load_filter.samples_at(mean_interval(t))) != samples:
+        raise InputError(f"the record's mean sample interval gives its load filter {record_samples} "
+                         f"samples, the corrector's {samples} at {firmware.rate:.6g} Hz: give --rate "
+                         f"{1 / mean_interval(t):.6g}")
     load = filter_load(load_from_compensated(compensated, model, firmware.method), model, t)
     path = model.transfer
     corrected = compensated if path is None else path.linearise(compensated)

@@ -16,7 +16,8 @@ from pathlib import Path
 from typing import Callable, Mapping
 
 from creepcomp.digital.correctors import (CreepError, CreepErrorSum, Corrector, check_temperature,
-                                          default_initial, load_from_compensated, uniform_interval_of,
+                                          default_initial, load_from_compensated, mean_interval_of,
+                                          uniform_interval_of,
                                           FittedReferenceSum)
 from creepcomp.errors import InputError
 from creepcomp.load_filter import moving_average
@@ -144,7 +145,7 @@ def correct_record_file(path: str | Path, model: CreepModel, method: str = "subt
     rails = RailCounter()
     load_filter = model.load_filter
     filter_samples = (1 if load_filter is None else
-                      load_filter.samples_at((scan.last_time - scan.first_time) / (scan.samples - 1)))
+                      load_filter.samples_at(mean_interval_of(scan.first_time, scan.last_time, scan.samples)))
     history = None
     with extras as extra, contextlib.ExitStack() as stack:
         names = output_names(extra.names, [*scan.names, "compensated", "load_estimate"])

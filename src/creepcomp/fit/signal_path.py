@@ -575,7 +575,7 @@ def fit_signal_path(record: Record, max_terms: int = 3, validation: float = VALI
             grown = replace(grown, name=_describe_named(grown.model.transfer, grown.model.n_terms),
                             parts=best.parts + grown.model.n_terms - 1)
             found.append(grown)
-    found = _earlier_window(record, found, validation, max_terms, initial, load_range)
+    found, early_models = _earlier_window(record, found, validation, max_terms, initial, load_range)
     chosen = choose(found)
     model = _refit(record, chosen, max_terms, initial)
     try:
@@ -586,7 +586,9 @@ def fit_signal_path(record: Record, max_terms: int = 3, validation: float = VALI
         # the refit lands worse on the last part than the member held out of it did: its
         # nonlinear fit went elsewhere; the member as judged stands
         model = chosen.model
-    load_filter, filter_scores = choose_load_filter(record, chosen, validation, max_terms, initial, load_range)
+    early_model = next(m for c, m in zip(found, early_models) if c is chosen)
+    load_filter, filter_scores = choose_load_filter(record, chosen, validation, max_terms, initial, load_range,
+                                                    early_model)
     model = replace(model, load_filter=load_filter)
     return SignalPathFit(model, chosen.name, tuple(found), load_range, cut, _time.perf_counter() - start,
                          {c: record.unit(c) for c in ("signal", "load") if record.unit(c)}, filter_scores)
@@ -654,22 +656,24 @@ def _refit(record: Record, chosen: Candidate, max_terms: int, initial: str) -> C
 
 
 def _earlier_window(record: Record, found: list[Candidate], validation: float, max_terms: int,
-                    initial: str, load_range: float) -> list[Candidate]:
+                    initial: str, load_range: float) -> tuple[list[Candidate], list[CreepModel | None]]:
     """Each member also fitted on the first ``1 - 2 validation`` of the record and judged on the
     next ``validation``: its score is the two windows' :func:`window_score` (one window alone
-    chose members that failed on later data)."""
+    chose members that failed on later data). Returns the members so scored and, beside each,
+    its fit on that window (None where there is none), which the load filter is judged on."""
     parts = _window_parts(record, validation)
     if parts is None:
-        return found
+        return found, [None] * len(found)
     early, upto = parts
     early_rec, upto_rec = _part(record, early), _part(record, upto)
     judged = ~early[upto]
-    out = []
+    out, models = [], []
     for c in found:
         if c.model is None:
             out.append(c)
+            models.append(None)
             continue
-        reason = c.reason
+        reason, model = c.reason, None
         try:
             model = _structure_fit(early_rec, c, max_terms, initial, SCREEN_SAMPLES)
             rms = _load_rms(model, upto_rec, judged, load_range)
@@ -677,7 +681,8 @@ def _earlier_window(record: Record, found: list[Candidate], validation: float, m
             rms, reason = math.inf, "earlier window: " + str(exc).splitlines()[0][:180]
         out.append(replace(c, heldout_load_rms=window_score((rms, c.heldout_load_rms)),
                            windows=(rms, c.heldout_load_rms), reason=reason))
-    return out
+        models.append(model)
+    return out, models
 
 
 def window_score(errors) -> float:
@@ -704,7 +709,8 @@ def _window_parts(record: Record, validation: float) -> tuple[np.ndarray, np.nda
 
 def choose_load_filter(record: Record, chosen: Candidate, validation: float = VALIDATION,
                        max_terms: int = 3, initial: str = "relaxed",
-                       load_range: float | None = None) -> tuple[LoadFilter | None, dict]:
+                       load_range: float | None = None,
+                       early_model: CreepModel | None = None) -> tuple[LoadFilter | None, dict]:
     """The moving average of the load estimate that gives a member's load back best.
 
     The member's load estimate on each of its two windows (:func:`fit_signal_path`, steps 1 and
@@ -725,6 +731,9 @@ def choose_load_filter(record: Record, chosen: Candidate, validation: float = VA
         As for :func:`fit_signal_path`.
     load_range : float, optional
         The scale of the errors (default: the record's load range).
+    early_model : CreepModel, optional
+        The member fitted on the earlier window, where the caller has it (else it is fitted
+        here).
 
     Returns
     -------
@@ -759,7 +768,8 @@ def choose_load_filter(record: Record, chosen: Candidate, validation: float = VA
         if parts is not None:
             early, upto = parts
             try:
-                model = _structure_fit(_part(record, early), chosen, max_terms, initial, SCREEN_SAMPLES)
+                model = (early_model if early_model is not None else
+                         _structure_fit(_part(record, early), chosen, max_terms, initial, SCREEN_SAMPLES))
                 upto_rec = _part(record, upto)
                 estimates.append((estimate_load(upto_rec.time, upto_rec.signal, model), upto_rec, ~early[upto]))
             except (InputError, ValueError, np.linalg.LinAlgError, FloatingPointError):
