@@ -78,7 +78,7 @@ def test_correct_filters_the_load_estimate_not_the_compensated_signal_whole_and_
     out = tmp_path / "whole.csv"
     status, stdout, err = run_cli("correct", record, "--model", model_path, "-o", out)
     assert status == 0, err
-    assert "then a moving average of 8 load estimates (0.4 s" in stdout
+    assert "then a moving average of 8 load estimates (0.4 s at 0.05 s a sample)" in stdout
     outputs = {"whole": read_record(out, columns={"signal": "compensated", "load": "load_estimate"})}
     done = correct_record_file(record, model, output=tmp_path / "pieces.csv", block_bytes=4096)
     assert done is not None
@@ -115,3 +115,15 @@ def test_the_recommended_model_of_a_noisy_taxel_carries_its_filter_which_correct
     err = model_load(model, record.time, record.signal)[held] - record.load[held]
     err0 = model_load(unfiltered, record.time, record.signal)[held] - record.load[held]
     assert np.sqrt(np.mean(err ** 2)) < 0.6 * np.sqrt(np.mean(err0 ** 2))
+
+
+def test_correct_names_the_samples_it_averages_at_the_records_own_interval(run_cli, tmp_path):
+    plain = CreepModel((0.2,), (5.0,), gain=2.0, offset=0.1)
+    t = np.arange(0.0, 60.0, 0.025)
+    load = np.where(t >= 10.0, 1.0, 0.0)
+    record = write_record(tmp_path / "rec.csv", Record(t, load, plain.response(t, load, hold="zero")))
+    model = write_model(tmp_path / "model.json",
+                        CreepModel((0.2,), (5.0,), gain=2.0, offset=0.1, load_filter=LoadFilter(4, 0.05)))
+    status, stdout, err = run_cli("correct", record, "--model", model)
+    assert status == 0, err
+    assert "then a moving average of 8 load estimates (0.2 s at 0.025 s a sample)" in stdout

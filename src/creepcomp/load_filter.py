@@ -130,10 +130,20 @@ class LoadFilter:
         """The filtered load estimate (``history``: see :func:`moving_average`)."""
         return moving_average(load, self.samples_at(interval), history)[0]
 
-    def describe(self) -> str:
-        """One line: what it averages."""
-        return (f"a moving average of {self.samples} load estimates ({self.window:.3g} s at "
-                f"{self.interval:.3g} s a sample)")
+    def describe(self, interval: float | None = None) -> str:
+        """One line: what it averages; at another sample interval (s), what it averages there.
+
+        Examples
+        --------
+        >>> from creepcomp.load_filter import LoadFilter
+        >>> LoadFilter(12, 0.06).describe()
+        'a moving average of 12 load estimates (0.72 s at 0.06 s a sample)'
+        >>> LoadFilter(12, 0.06).describe(0.02)
+        'a moving average of 36 load estimates (0.72 s at 0.02 s a sample)'
+        """
+        at = self.interval if interval is None or not interval > 0 else interval
+        return (f"a moving average of {self.samples_at(at)} load estimates ({self.window:.3g} s at "
+                f"{at:.3g} s a sample)")
 
     def to_dict(self) -> dict:
         """Model-file ``load_filter`` block."""

@@ -70,7 +70,7 @@ def correct_command(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ) -> None:
     """Remove creep from a record sample by sample, and report the creep error left."""
-    from creepcomp.digital.correctors import default_initial, saturation_factor
+    from creepcomp.digital.correctors import default_initial, mean_interval_of, saturation_factor
 
     if model_file is None:
         raise InputError("give the sensor's creep model: --model FILE (a JSON object with 'beta' "
@@ -128,7 +128,8 @@ def correct_command(
         "temperature": temperature_used, "extensions": inverses,
         "fitted_reference_rms": {"before": done.fitted_before, "after": done.fitted_after},
         "load_estimate": {**_load_figures(done.load_rms, scan),
-                          "load_filter": None if model.load_filter is None else model.load_filter.describe()},
+                          "load_filter": None if model.load_filter is None else model.load_filter.describe(
+                              mean_interval_of(scan.first_time, scan.last_time, scan.samples))},
         "stuck_at_rail": [r.to_dict() for r in done.rails],
     }
     if as_json:
